@@ -1,0 +1,250 @@
+"""Harmonic balance: the linear system [A]{S} = {F} of paper eq. (5)-(6), generalised.
+
+For every record and every harmonic n = 0..H the equation of motion, expanded in Fourier
+series, gives one complex equation that is linear in the unknowns; its real part (cosine,
+``X_n``) and imaginary part (sine, ``-X_n*``) are two real rows (n = 0 gives one).
+Stacking rows over harmonics, frequencies and amplitudes gives an over-determined system
+solved by (weighted) least squares in :mod:`identify.solve`.
+
+Two forms:
+
+* equivalent one-degree-of-freedom (paper eq. 10-11): relative angle ``phi = phi1 - phi2``,
+
+      Je phi'' + M_v(phi, phi') = s T(t),   Je = J1 J2 / (J1 + J2),   s = J2 / (J1 + J2)
+
+  unknowns ``{Je, theta}``; the torque share ``s`` is a known design ratio.
+* direct two-degree-of-freedom: both flywheel equations,
+
+      J1 phi1'' + M_v = T(t),     J2 phi2'' - M_v = 0
+
+  unknowns ``{J1, J2, theta}``; needs no inertia ratio.
+
+The inertia column is ``(i n omega) R_n`` with ``R_n`` the coefficients of the measured
+rate (one exact spectral derivative) or ``(i n omega)^2 Phi_n`` if the record has no rates.
+Law columns are the Fourier coefficients of the basis terms evaluated on the samples
+(paper eq. 4 and 9); the rows are exact for exact samples, so the harmonic count H only
+chooses how much of the data is used.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional, Sequence
+
+import numpy as np
+
+from .basis import Term
+from .harmonics import fourier_coefficients, max_harmonic, synthesize
+from .records import RecordError, SteadyStateRecord
+
+__all__ = [
+    "LinearSystem",
+    "harmonic_rows",
+    "equivalent_system",
+    "two_dof_system",
+    "single_dof_system",
+    "spectral_rate",
+]
+
+
+@dataclass(frozen=True)
+class LinearSystem:
+    """A real over-determined system ``A S = F``.
+
+    Attributes:
+      A: shape ``(n_rows, n_params)``.
+      F: shape ``(n_rows,)``.
+      names: parameter names with units, length ``n_params``.
+      row_record: index of the record each row comes from, ``(n_rows,)``.
+      row_harmonic: harmonic number n of each row, ``(n_rows,)``.
+      row_part: 0 for the cosine (real) row, 1 for the sine (imaginary) row, ``(n_rows,)``.
+      row_equation: which equation of motion the row balances (0: relative / flywheel 1,
+        1: flywheel 2), ``(n_rows,)``.
+    """
+
+    A: np.ndarray
+    F: np.ndarray
+    names: tuple[str, ...]
+    row_record: np.ndarray
+    row_harmonic: np.ndarray
+    row_part: np.ndarray
+    row_equation: np.ndarray
+
+    def __post_init__(self):
+        if self.A.ndim != 2 or self.F.shape != (self.A.shape[0],):
+            raise ValueError(f"LinearSystem: A {self.A.shape} and F {self.F.shape} do not match")
+        if len(self.names) != self.A.shape[1]:
+            raise ValueError(f"LinearSystem: {len(self.names)} names for {self.A.shape[1]} columns")
+
+    @staticmethod
+    def stack(systems: Sequence["LinearSystem"]) -> "LinearSystem":
+        if not systems:
+            raise ValueError("LinearSystem.stack: nothing to stack")
+        names = systems[0].names
+        for s in systems[1:]:
+            if s.names != names:
+                raise ValueError(f"LinearSystem.stack: parameter names differ: {names} vs {s.names}")
+        cat = lambda attr: np.concatenate([getattr(s, attr) for s in systems])  # noqa: E731
+        return LinearSystem(np.vstack([s.A for s in systems]), cat("F"), names, cat("row_record"),
+                            cat("row_harmonic"), cat("row_part"), cat("row_equation"))
+
+
+def spectral_rate(x: np.ndarray, omega_rad_s: float, n_periods: int) -> np.ndarray:
+    """Time derivative of a periodic record by FFT (all harmonics below Nyquist), (n_samples,)."""
+    n = x.shape[-1]
+    per = n // n_periods
+    coeffs = fourier_coefficients(x, n_periods, max_harmonic(per))
+    harm = np.arange(coeffs.shape[-1])
+    return synthesize(1j * harm * omega_rad_s * coeffs, n, n_periods)
+
+
+def _check_harmonics(record: SteadyStateRecord, n_harmonics: int) -> None:
+    top = max_harmonic(record.samples_per_period)
+    if not 0 <= n_harmonics <= top:
+        raise RecordError(
+            f"{record.source}: n_harmonics={n_harmonics} needs more than the record's "
+            f"{record.samples_per_period} samples per period (at most {top} harmonics)"
+        )
+
+
+def harmonic_rows(
+    columns: np.ndarray,
+    rhs: np.ndarray,
+    n_harmonics: int,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Real rows of the harmonic balance of one record and one equation.
+
+    Args:
+      columns: complex Fourier coefficients of every column signal, ``(n_params, H + 1)``.
+      rhs: complex Fourier coefficients of the right-hand side, ``(H + 1,)``.
+
+    Returns:
+      ``A (n_rows, n_params)``, ``F (n_rows,)``, harmonic ``(n_rows,)`` and part ``(n_rows,)``:
+      harmonic 0 gives its cosine row only; harmonics 1..H give cosine and sine rows.
+    """
+    harm = np.concatenate([[0], np.repeat(np.arange(1, n_harmonics + 1), 2)])
+    part = np.concatenate([[0], np.tile([0, 1], n_harmonics)])
+    sel = columns[:, harm]
+    A = np.where(part == 0, sel.real, sel.imag).T
+    F = np.where(part == 0, rhs[harm].real, rhs[harm].imag)
+    return A, F, harm, part
+
+
+def _term_coeffs(terms: Sequence[Term], phi: np.ndarray, rate: np.ndarray, n_periods: int,
+                 n_harmonics: int) -> np.ndarray:
+    signals = np.vstack([np.broadcast_to(np.asarray(t(phi, rate), dtype=float), phi.shape)
+                         for t in terms])
+    return fourier_coefficients(signals, n_periods, n_harmonics)
+
+
+def _rate_or_spectral(rate: Optional[np.ndarray], x: np.ndarray, rec: SteadyStateRecord) -> np.ndarray:
+    return rate if rate is not None else spectral_rate(x, rec.omega_rad_s, rec.n_periods)
+
+
+def _acceleration_coeffs(x: np.ndarray, rate: Optional[np.ndarray], rec: SteadyStateRecord,
+                         n_harmonics: int) -> np.ndarray:
+    jw = 1j * np.arange(n_harmonics + 1) * rec.omega_rad_s
+    if rate is not None:
+        return jw * fourier_coefficients(rate, rec.n_periods, n_harmonics)
+    return jw**2 * fourier_coefficients(x, rec.n_periods, n_harmonics)
+
+
+def single_dof_system(
+    *,
+    omega_rad_s: float,
+    n_periods: int,
+    x: np.ndarray,
+    rate: Optional[np.ndarray],
+    forcing: np.ndarray,
+    terms: Sequence[Term],
+    n_harmonics: int,
+    inertia_name: Optional[str] = "Je_kgm2",
+    record_index: int = 0,
+) -> LinearSystem:
+    """Rows of ``J x'' + sum_j theta_j b_j(x, x') = forcing`` for one periodic record.
+
+    Use this for a transformed problem (e.g. the paper's shifted variable alpha = phi + 1);
+    :func:`equivalent_system` builds it from rig records. ``inertia_name=None`` leaves the
+    inertia out of the unknowns (then ``forcing`` must already hold ``-J x''``).
+    """
+    rec = SteadyStateRecord(omega_rad_s, np.arange(x.size) * 2 * np.pi * n_periods / (omega_rad_s * x.size),
+                            forcing, x, None, rate, None, n_periods, source="single_dof_system")
+    return _single(rec, rec.phi1_rad, rec.rate1_rad_s, rec.torque_Nm, terms, n_harmonics,
+                   inertia_name, record_index, equation=0, law_sign=1.0)
+
+
+def _single(rec, x, rate, forcing, terms, n_harmonics, inertia_name, record_index, equation,
+            law_sign) -> LinearSystem:
+    _check_harmonics(rec, n_harmonics)
+    r = _rate_or_spectral(rate, x, rec)
+    cols = [law_sign * _term_coeffs(terms, x, r, rec.n_periods, n_harmonics)]
+    names = [t.name for t in terms]
+    if inertia_name is not None:
+        cols.insert(0, _acceleration_coeffs(x, rate, rec, n_harmonics)[None, :])
+        names.insert(0, inertia_name)
+    rhs = fourier_coefficients(forcing, rec.n_periods, n_harmonics)
+    A, F, harm, part = harmonic_rows(np.vstack(cols), rhs, n_harmonics)
+    n = F.size
+    return LinearSystem(A, F, tuple(names), np.full(n, record_index), harm, part, np.full(n, equation))
+
+
+def equivalent_system(
+    records: Sequence[SteadyStateRecord],
+    terms: Sequence[Term],
+    *,
+    n_harmonics: int,
+    torque_share: float,
+) -> LinearSystem:
+    """Equivalent one-degree-of-freedom form: unknowns ``(Je_kgm2, theta...)``.
+
+    ``torque_share`` is ``J2 / (J1 + J2)``: the part of the drive torque that strains the
+    joint (1 for a record whose torque already acts on the relative coordinate).
+    """
+    if not 0 < torque_share <= 1:
+        raise ValueError(f"torque_share must be in (0, 1], got {torque_share}")
+    _check_records(records)
+    systems = [
+        _single(rec, rec.phi_rad, rec.rate_rad_s, torque_share * rec.torque_Nm, terms, n_harmonics,
+                "Je_kgm2", i, equation=0, law_sign=1.0)
+        for i, rec in enumerate(records)
+    ]
+    return LinearSystem.stack(systems)
+
+
+def two_dof_system(
+    records: Sequence[SteadyStateRecord],
+    terms: Sequence[Term],
+    *,
+    n_harmonics: int,
+) -> LinearSystem:
+    """Direct two-degree-of-freedom form: unknowns ``(J1_kgm2, J2_kgm2, theta...)``."""
+    _check_records(records)
+    systems = []
+    for i, rec in enumerate(records):
+        if rec.phi2_rad is None:
+            raise RecordError(f"{rec.source}: the two-degree-of-freedom form needs 'phi2_rad'")
+        _check_harmonics(rec, n_harmonics)
+        phi = rec.phi_rad
+        rate = _rate_or_spectral(rec.rate_rad_s, phi, rec)
+        law = _term_coeffs(terms, phi, rate, rec.n_periods, n_harmonics)
+        acc1 = _acceleration_coeffs(rec.phi1_rad, rec.rate1_rad_s, rec, n_harmonics)
+        acc2 = _acceleration_coeffs(rec.phi2_rad, rec.rate2_rad_s, rec, n_harmonics)
+        zero = np.zeros_like(acc1)
+        torque = fourier_coefficients(rec.torque_Nm, rec.n_periods, n_harmonics)
+        for eq, (cols, rhs) in enumerate((
+            (np.vstack([acc1, zero, law]), torque),
+            (np.vstack([zero, acc2, -law]), np.zeros_like(torque)),
+        )):
+            A, F, harm, part = harmonic_rows(cols, rhs, n_harmonics)
+            n = F.size
+            systems.append(LinearSystem(A, F, ("J1_kgm2", "J2_kgm2") + tuple(t.name for t in terms),
+                                        np.full(n, i), harm, part, np.full(n, eq)))
+    return LinearSystem.stack(systems)
+
+
+def _check_records(records: Sequence[SteadyStateRecord]) -> None:
+    if len(records) == 0:
+        raise ValueError("no records to identify from")
+    for r in records:
+        if not isinstance(r, SteadyStateRecord):
+            raise TypeError(f"expected SteadyStateRecord, got {type(r).__name__}")

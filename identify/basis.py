@@ -1,0 +1,298 @@
+"""The joint law, written once as a linear combination of basis terms (paper eq. 1-2, 8-9).
+
+The torque the joint transmits (positive torque opposes a positive relative angle) is
+
+    M_v(phi, phi') = sum_j theta_j * b_j(phi, phi')
+
+with ``phi = phi1 - phi2`` in rad and ``phi'`` in rad/s. The same :class:`JointLaw` is
+evaluated by the rig's MuJoCo passive callback (ground truth) and supplies the columns
+of the harmonic-balance regression (identification), so the law lives in one place.
+
+Terms:
+  * :class:`Viscous`     ``b = phi'``                  -> ``c_Nms_per_rad``
+  * :class:`Power`       ``b = phi**p``                -> ``constant_Nm`` (p=0), ``k_Nm_per_rad``
+                                                          (1), ``a_Nm_per_rad2`` (2),
+                                                          ``gamma_Nm_per_rad3`` (3), ...
+  * :class:`AngleHat`    ``b = hat_i(phi)``  (eq. 8)   -> ``g{i}_Nm``: restoring torque at knot i
+  * :class:`RateHat`     ``b = hat_i(phi')`` (eq. 9 f) -> ``f{i}_Nm``: damping torque at knot i
+
+Hat functions are the cardinal basis of piecewise-linear interpolation on sorted knots,
+extended linearly beyond the end knots (so a hat law continues its end slopes rather
+than dropping to zero outside the knot range).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Sequence, Union
+
+import numpy as np
+
+__all__ = [
+    "Term",
+    "Viscous",
+    "Power",
+    "AngleHat",
+    "RateHat",
+    "JointLaw",
+    "hat_matrix",
+    "polynomial_law",
+    "hat_law",
+    "angle_hats",
+    "rate_hats",
+]
+
+ArrayLike = Union[float, np.ndarray]
+
+_POWER_NAMES = {0: "constant_Nm", 1: "k_Nm_per_rad", 2: "a_Nm_per_rad2", 3: "gamma_Nm_per_rad3"}
+
+
+def _check_knots(knots: Sequence[float], what: str) -> tuple[float, ...]:
+    k = tuple(float(v) for v in knots)
+    if len(k) < 2:
+        raise ValueError(f"{what}: need at least 2 knots, got {len(k)}")
+    if not all(math.isfinite(v) for v in k):
+        raise ValueError(f"{what}: knots must be finite, got {k}")
+    if any(b <= a for a, b in zip(k, k[1:])):
+        raise ValueError(f"{what}: knots must be strictly increasing, got {k}")
+    return k
+
+
+def _segment(x: np.ndarray, knots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Segment index j (end segments extended) and local coordinate s in x_j..x_{j+1}."""
+    j = np.clip(np.searchsorted(knots, x, side="right") - 1, 0, len(knots) - 2)
+    s = (x - knots[j]) / (knots[j + 1] - knots[j])
+    return j, s
+
+
+def hat_matrix(x: np.ndarray, knots: Sequence[float]) -> np.ndarray:
+    """All hat functions at once: shape ``(len(x), len(knots))``; rows sum to 1."""
+    kn = np.asarray(_check_knots(knots, "hat_matrix"))
+    x = np.atleast_1d(np.asarray(x, dtype=float))
+    j, s = _segment(x, kn)
+    out = np.zeros((x.size, kn.size))
+    rows = np.arange(x.size)
+    out[rows, j] = 1.0 - s
+    out[rows, j + 1] += s
+    return out
+
+
+def _hat_scalar(x: float, knots: tuple[float, ...], i: int) -> float:
+    # Pure-Python path for the per-step MuJoCo callback (numpy costs ~us per call).
+    n = len(knots)
+    j = 0
+    while j < n - 2 and x >= knots[j + 1]:
+        j += 1
+    s = (x - knots[j]) / (knots[j + 1] - knots[j])
+    if i == j:
+        return 1.0 - s
+    if i == j + 1:
+        return s
+    return 0.0
+
+
+def _hat(x: ArrayLike, knots: tuple[float, ...], i: int) -> ArrayLike:
+    if isinstance(x, float):
+        return _hat_scalar(x, knots, i)
+    kn = np.asarray(knots)
+    xa = np.asarray(x, dtype=float)
+    j, s = _segment(xa, kn)
+    return np.where(j == i, 1.0 - s, 0.0) + np.where(j + 1 == i, s, 0.0)
+
+
+@dataclass(frozen=True)
+class Term:
+    """One basis function ``b(phi, phi')`` of the joint torque, in N m per unit parameter."""
+
+    @property
+    def name(self) -> str:  # parameter name with unit
+        raise NotImplementedError
+
+    @property
+    def elastic(self) -> bool:
+        """True if the term depends on the angle only (part of the restoring force g(phi))."""
+        raise NotImplementedError
+
+    def __call__(self, phi: ArrayLike, rate: ArrayLike) -> ArrayLike:
+        raise NotImplementedError
+
+
+@dataclass(frozen=True)
+class Viscous(Term):
+    """Viscous damping ``c * phi'``."""
+
+    @property
+    def name(self) -> str:
+        return "c_Nms_per_rad"
+
+    @property
+    def elastic(self) -> bool:
+        return False
+
+    def __call__(self, phi, rate):
+        return rate if isinstance(rate, float) else np.asarray(rate, dtype=float)
+
+
+@dataclass(frozen=True)
+class Power(Term):
+    """Polynomial stiffness term ``phi**power`` (power 0 is a constant preload torque)."""
+
+    power: int
+
+    def __post_init__(self):
+        if not isinstance(self.power, int) or self.power < 0:
+            raise ValueError(f"Power.power must be an int >= 0, got {self.power!r}")
+
+    @property
+    def name(self) -> str:
+        return _POWER_NAMES.get(self.power, f"p{self.power}_Nm_per_rad{self.power}")
+
+    @property
+    def elastic(self) -> bool:
+        return True
+
+    def __call__(self, phi, rate):
+        if isinstance(phi, float):
+            return phi**self.power
+        return np.asarray(phi, dtype=float) ** self.power
+
+
+@dataclass(frozen=True)
+class AngleHat(Term):
+    """Hat function ``hat_i(phi)`` on ``knots`` (rad): the restoring torque at knot i (eq. 8)."""
+
+    knots: tuple[float, ...]
+    index: int
+
+    def __post_init__(self):
+        object.__setattr__(self, "knots", _check_knots(self.knots, "AngleHat.knots"))
+        if not 0 <= self.index < len(self.knots):
+            raise ValueError(f"AngleHat.index {self.index} outside 0..{len(self.knots) - 1}")
+
+    @property
+    def name(self) -> str:
+        return f"g{self.index}_Nm"
+
+    @property
+    def elastic(self) -> bool:
+        return True
+
+    def __call__(self, phi, rate):
+        return _hat(phi, self.knots, self.index)
+
+
+@dataclass(frozen=True)
+class RateHat(Term):
+    """Hat function ``hat_i(phi')`` on ``knots`` (rad/s): the damping torque at knot i (eq. 9)."""
+
+    knots: tuple[float, ...]
+    index: int
+
+    def __post_init__(self):
+        object.__setattr__(self, "knots", _check_knots(self.knots, "RateHat.knots"))
+        if not 0 <= self.index < len(self.knots):
+            raise ValueError(f"RateHat.index {self.index} outside 0..{len(self.knots) - 1}")
+
+    @property
+    def name(self) -> str:
+        return f"f{self.index}_Nm"
+
+    @property
+    def elastic(self) -> bool:
+        return False
+
+    def __call__(self, phi, rate):
+        return _hat(rate, self.knots, self.index)
+
+
+def angle_hats(knots: Sequence[float]) -> tuple[AngleHat, ...]:
+    k = _check_knots(knots, "angle knots")
+    return tuple(AngleHat(k, i) for i in range(len(k)))
+
+
+def rate_hats(knots: Sequence[float]) -> tuple[RateHat, ...]:
+    k = _check_knots(knots, "rate knots")
+    return tuple(RateHat(k, i) for i in range(len(k)))
+
+
+@dataclass(frozen=True)
+class JointLaw:
+    """A joint law: basis terms and their parameter values (SI, names carry the units)."""
+
+    terms: tuple[Term, ...]
+    values: tuple[float, ...]
+
+    def __post_init__(self):
+        terms = tuple(self.terms)
+        values = tuple(float(v) for v in self.values)
+        if not terms:
+            raise ValueError("JointLaw needs at least one term")
+        if len(terms) != len(values):
+            raise ValueError(f"JointLaw: {len(terms)} terms but {len(values)} values")
+        if not all(math.isfinite(v) for v in values):
+            raise ValueError(f"JointLaw: values must be finite, got {values}")
+        names = [t.name for t in terms]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise ValueError(f"JointLaw: duplicate parameter names {dup}")
+        object.__setattr__(self, "terms", terms)
+        object.__setattr__(self, "values", values)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(t.name for t in self.terms)
+
+    def as_dict(self) -> dict[str, float]:
+        return dict(zip(self.names, self.values))
+
+    def torque(self, phi: ArrayLike, rate: ArrayLike) -> ArrayLike:
+        """Joint torque ``M_v`` in N m at relative angle ``phi`` (rad) and rate (rad/s).
+
+        Accepts Python floats (the callback's fast path) or arrays of equal shape.
+        """
+        total = 0.0
+        for term, value in zip(self.terms, self.values):
+            total = total + value * term(phi, rate)
+        return total
+
+    def elastic_torque(self, phi: ArrayLike) -> ArrayLike:
+        """Restoring torque g(phi): the angle-only terms, in N m."""
+        total = 0.0 * np.asarray(phi, dtype=float)
+        for term, value in zip(self.terms, self.values):
+            if term.elastic:
+                total = total + value * term(np.asarray(phi, dtype=float), 0.0 * total)
+        return total
+
+
+def polynomial_law(
+    *, c_Nms_per_rad: float, k_Nm_per_rad: float, a_Nm_per_rad2: float = 0.0,
+    gamma_Nm_per_rad3: float = 0.0,
+) -> JointLaw:
+    """``c phi' + k phi + a phi^2 + gamma phi^3`` (paper eq. 11 with the even term of eq. 2).
+
+    Terms with a zero coefficient other than c and k are left out.
+    """
+    terms: list[Term] = [Viscous(), Power(1)]
+    values = [c_Nms_per_rad, k_Nm_per_rad]
+    for p, v in ((2, a_Nm_per_rad2), (3, gamma_Nm_per_rad3)):
+        if v != 0.0:
+            terms.append(Power(p))
+            values.append(v)
+    return JointLaw(tuple(terms), tuple(values))
+
+
+def hat_law(
+    *, knots_rad: Sequence[float], g_Nm: Sequence[float], c_Nms_per_rad: float = 0.0
+) -> JointLaw:
+    """Piecewise-linear restoring torque through ``(knots_rad, g_Nm)`` (eq. 8) plus
+    viscous damping (left out when ``c_Nms_per_rad`` is 0)."""
+    hats = angle_hats(knots_rad)
+    if len(g_Nm) != len(hats):
+        raise ValueError(f"hat_law: {len(hats)} knots but {len(g_Nm)} values in g_Nm")
+    terms: list[Term] = list(hats)
+    values = list(g_Nm)
+    if c_Nms_per_rad != 0.0:
+        terms.insert(0, Viscous())
+        values.insert(0, c_Nms_per_rad)
+    return JointLaw(tuple(terms), tuple(values))

@@ -1,0 +1,183 @@
+"""Loading a rig model: the MJCF file says everything (bodies, drive, sensors, joint law)."""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Union
+
+import mujoco
+import numpy as np
+
+from identify.basis import JointLaw, Power, Term, Viscous, angle_hats, rate_hats
+
+__all__ = ["RigModel", "RigModelError", "load_rig", "law_from_model", "DEFAULT_MODEL"]
+
+DEFAULT_MODEL = Path(__file__).resolve().parent.parent / "models" / "two_flywheels.xml"
+
+#: Names every jointrig model must have (joints, actuator, sensors).
+JOINTS = ("phi1", "phi2")
+ACTUATOR = "drive"
+SENSORS = {"phi1": "jointpos", "phi2": "jointpos", "rate1": "jointvel", "rate2": "jointvel",
+           "drive_torque": "actuatorfrc"}
+_SENSOR_TYPES = {"jointpos": mujoco.mjtSensor.mjSENS_JOINTPOS,
+                 "jointvel": mujoco.mjtSensor.mjSENS_JOINTVEL,
+                 "actuatorfrc": mujoco.mjtSensor.mjSENS_ACTUATORFRC}
+
+PREFIX = "jointrig_"
+_SCALAR_FIELDS: dict[str, Term] = {
+    "c_Nms_per_rad": Viscous(),
+    "constant_Nm": Power(0),
+    "k_Nm_per_rad": Power(1),
+    "a_Nm_per_rad2": Power(2),
+    "gamma_Nm_per_rad3": Power(3),
+}
+_ARRAY_FIELDS = ("knots_rad", "g_Nm", "rate_knots_rad_s", "f_Nm")
+
+
+class RigModelError(ValueError):
+    """The MJCF file is not a usable jointrig model (names the file and what is missing)."""
+
+
+@dataclass(frozen=True, eq=False)
+class RigModel:
+    """A compiled rig with the addresses the callback and the logger need.
+
+    Attributes:
+      path: the MJCF file.
+      model: the compiled ``mujoco.MjModel`` (compiled once, before any callback is installed).
+      law: the joint law read from the file's ``jointrig_*`` numeric fields.
+      J1_kgm2, J2_kgm2: flywheel inertias about the hinge axis (from the compiled mass matrix).
+      qpos_adr, dof_adr: addresses of phi1 and phi2 in qpos and qvel.
+      actuator_id: the drive motor.
+      sensor_adr: sensor name -> address in sensordata.
+      digest: SHA-256 of the file (ties stored sweep results to the model that made them).
+    """
+
+    path: Path
+    model: mujoco.MjModel
+    law: JointLaw
+    J1_kgm2: float
+    J2_kgm2: float
+    qpos_adr: tuple[int, int]
+    dof_adr: tuple[int, int]
+    actuator_id: int
+    sensor_adr: dict
+    digest: str
+
+    @property
+    def Je_kgm2(self) -> float:
+        """Equivalent inertia ``J1 J2 / (J1 + J2)`` (paper eq. 11)."""
+        return self.J1_kgm2 * self.J2_kgm2 / (self.J1_kgm2 + self.J2_kgm2)
+
+    @property
+    def torque_share(self) -> float:
+        """``J2 / (J1 + J2)``: the part of the drive torque that strains the joint."""
+        return self.J2_kgm2 / (self.J1_kgm2 + self.J2_kgm2)
+
+
+def _numeric_fields(model: mujoco.MjModel) -> dict[str, np.ndarray]:
+    return {model.numeric(i).name: np.array(model.numeric(i).data, dtype=float)
+            for i in range(model.nnumeric)}
+
+
+def law_from_model(model: mujoco.MjModel, source: str = "model") -> JointLaw:
+    """The joint law a model declares in its ``jointrig_*`` ``<custom><numeric>`` fields."""
+    fields = {k[len(PREFIX):]: v for k, v in _numeric_fields(model).items() if k.startswith(PREFIX)}
+    unknown = sorted(set(fields) - set(_SCALAR_FIELDS) - set(_ARRAY_FIELDS))
+    if unknown:
+        raise RigModelError(
+            f"{source}: unknown joint-law field(s) {[PREFIX + u for u in unknown]}; expected "
+            f"{[PREFIX + f for f in list(_SCALAR_FIELDS) + list(_ARRAY_FIELDS)]}"
+        )
+    terms: list[Term] = []
+    values: list[float] = []
+    for name, term in _SCALAR_FIELDS.items():
+        if name in fields:
+            data = fields[name]
+            if data.size != 1:
+                raise RigModelError(f"{source}: {PREFIX}{name} must hold one number, got {data.size}")
+            terms.append(term)
+            values.append(float(data[0]))
+    for knots_name, values_name, make in (("knots_rad", "g_Nm", angle_hats),
+                                          ("rate_knots_rad_s", "f_Nm", rate_hats)):
+        if (knots_name in fields) != (values_name in fields):
+            raise RigModelError(f"{source}: {PREFIX}{knots_name} and {PREFIX}{values_name} go together")
+        if knots_name in fields:
+            knots, vals = fields[knots_name], fields[values_name]
+            if knots.size != vals.size:
+                raise RigModelError(f"{source}: {PREFIX}{knots_name} has {knots.size} entries but "
+                                    f"{PREFIX}{values_name} has {vals.size}")
+            try:
+                hats = make(knots)
+            except ValueError as err:
+                raise RigModelError(f"{source}: {PREFIX}{knots_name}: {err}") from None
+            terms.extend(hats)
+            values.extend(float(v) for v in vals)
+    if not terms:
+        raise RigModelError(f"{source}: no joint law: add <custom><numeric name=\"{PREFIX}...\"> fields "
+                            f"(e.g. {PREFIX}k_Nm_per_rad)")
+    if any(isinstance(t, Power) and t.power == 1 for t in terms) and "knots_rad" in fields:
+        raise RigModelError(f"{source}: {PREFIX}k_Nm_per_rad and {PREFIX}knots_rad both set the "
+                            f"linear stiffness; keep one")
+    return JointLaw(tuple(terms), tuple(values))
+
+
+def _find(model, obj, name, what, source):
+    i = mujoco.mj_name2id(model, obj, name)
+    if i < 0:
+        raise RigModelError(f"{source}: no {what} named '{name}'; a jointrig model needs hinge joints "
+                            f"{list(JOINTS)}, motor '{ACTUATOR}' on 'phi1' and sensors {SENSORS}")
+    return i
+
+
+def load_rig(path: Union[str, os.PathLike] = DEFAULT_MODEL) -> RigModel:
+    """Compile and check a rig model.
+
+    Raises:
+      RigModelError: missing file, MJCF that does not compile, missing or mistyped joints,
+        drive or sensors, or an invalid joint law; the message names the file and the item.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise RigModelError(f"{path}: no such model file")
+    text = path.read_bytes()
+    try:
+        model = mujoco.MjModel.from_xml_path(str(path))
+    except ValueError as err:
+        raise RigModelError(f"{path}: MuJoCo could not compile it: {err}") from None
+    src = str(path)
+    joint_ids = [_find(model, mujoco.mjtObj.mjOBJ_JOINT, j, "joint", src) for j in JOINTS]
+    for name, jid in zip(JOINTS, joint_ids):
+        if model.jnt_type[jid] != mujoco.mjtJoint.mjJNT_HINGE:
+            raise RigModelError(f"{src}: joint '{name}' must be a hinge, got {mujoco.mjtJoint(model.jnt_type[jid]).name}")
+    if not np.allclose(model.jnt_axis[joint_ids[0]], model.jnt_axis[joint_ids[1]]):
+        raise RigModelError(f"{src}: joints 'phi1' and 'phi2' must share their axis (coaxial flywheels)")
+    act = _find(model, mujoco.mjtObj.mjOBJ_ACTUATOR, ACTUATOR, "actuator", src)
+    if model.actuator_trnid[act, 0] != joint_ids[0]:
+        raise RigModelError(f"{src}: actuator '{ACTUATOR}' must drive joint 'phi1'")
+    if model.actuator_ctrllimited[act]:
+        raise RigModelError(f"{src}: actuator '{ACTUATOR}' must not be ctrllimited (the drive "
+                            f"torque would be clipped silently)")
+    sensor_adr = {}
+    for name, kind in SENSORS.items():
+        sid = _find(model, mujoco.mjtObj.mjOBJ_SENSOR, name, "sensor", src)
+        if model.sensor_type[sid] != _SENSOR_TYPES[kind]:
+            raise RigModelError(f"{src}: sensor '{name}' must be a {kind} sensor")
+        sensor_adr[name] = int(model.sensor_adr[sid])
+    law = law_from_model(model, src)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    mass = np.zeros((model.nv, model.nv))
+    mujoco.mj_fullM(model, data, mass)
+    dofs = tuple(int(model.jnt_dofadr[j]) for j in joint_ids)
+    if abs(mass[dofs[0], dofs[1]]) > 1e-12 * mass[dofs[0], dofs[0]]:
+        raise RigModelError(f"{src}: flywheels must not be inertially coupled (bodies in a chain?)")
+    return RigModel(
+        path=path, model=model, law=law,
+        J1_kgm2=float(mass[dofs[0], dofs[0]]), J2_kgm2=float(mass[dofs[1], dofs[1]]),
+        qpos_adr=tuple(int(model.jnt_qposadr[j]) for j in joint_ids), dof_adr=dofs,
+        actuator_id=int(act), sensor_adr=sensor_adr, digest=hashlib.sha256(text).hexdigest(),
+    )

@@ -1,0 +1,280 @@
+"""Driving the rig to steady state and logging whole periods.
+
+The joint law and the drive act through one MuJoCo passive-force callback:
+
+* joint: ``qfrc_passive[phi1] -= M_v(phi, phi')`` and ``qfrc_passive[phi2] += M_v``;
+* drive: ``ctrl[drive] = M0 cos(omega t)`` with ``t = d.time``. MuJoCo calls the passive
+  callback at every force evaluation, before actuation, with ``d.time`` at the stage time
+  (RK4 evaluates at t, t + h/2, t + h/2, t + h), so the drive is evaluated at continuous
+  time, with no zero-order hold; the ``drive_torque`` sensor records what was applied.
+
+The callback is global MuJoCo state. :func:`passive_callback` installs it only around a
+simulation (models are compiled before, never while it is installed), refuses to replace a
+callback somebody else installed, and restores the previous one afterwards.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import math
+import threading
+import time as _time
+from dataclasses import dataclass
+from typing import Callable, Iterator, Optional
+
+import mujoco
+import numpy as np
+
+from identify.basis import JointLaw
+from identify.records import SteadyStateRecord
+
+from .model import RigModel
+
+__all__ = [
+    "SimulationConfig",
+    "SettleInfo",
+    "SimulationError",
+    "SteadyStateNotReached",
+    "passive_callback",
+    "make_callback",
+    "simulate_steady_state",
+]
+
+log = logging.getLogger(__name__)
+
+_lock = threading.Lock()
+
+
+class SimulationError(RuntimeError):
+    """The simulation diverged or MuJoCo warned (warnings are errors in a test rig)."""
+
+
+class SteadyStateNotReached(SimulationError):
+    """The period-to-period change did not fall below the tolerance in time."""
+
+
+@dataclass(frozen=True)
+class SimulationConfig:
+    """How the rig integrates and logs.
+
+    Attributes:
+      max_step_s: largest integrator step; the step is ``T / (samples_per_period * k)`` with
+        the smallest integer k that respects it, so every period holds whole steps.
+      samples_per_period: logged samples per period (uniform).
+      settle_tol: steady state is declared when, for every logged channel, the largest
+        change between two consecutive periods is below ``settle_tol`` times that channel's
+        peak-to-peak swing. A residual transient of relative size eps perturbs the
+        harmonic-balance rows by about eps, so 1e-9 keeps it 5 decades below the 1e-4
+        identification target; transients decay exponentially, so this costs a few periods.
+      min_periods: periods simulated before the first comparison.
+      max_periods: give up (SteadyStateNotReached) after this many periods.
+      n_periods: steady periods logged into the record.
+      integrator: MuJoCo integrator name ("RK4" or "Euler"...).
+    """
+
+    max_step_s: float = 1e-4
+    samples_per_period: int = 256
+    settle_tol: float = 1e-9
+    min_periods: int = 2
+    max_periods: int = 2000
+    n_periods: int = 1
+    integrator: str = "RK4"
+
+    def __post_init__(self):
+        if not (self.max_step_s > 0 and math.isfinite(self.max_step_s)):
+            raise ValueError(f"max_step_s must be > 0, got {self.max_step_s}")
+        if self.samples_per_period < 8:
+            raise ValueError(f"samples_per_period must be >= 8, got {self.samples_per_period}")
+        if not 0 < self.settle_tol < 1:
+            raise ValueError(f"settle_tol must be in (0, 1), got {self.settle_tol}")
+        if self.min_periods < 2 or self.max_periods < self.min_periods:
+            raise ValueError(f"need 2 <= min_periods <= max_periods, got {self.min_periods}, {self.max_periods}")
+        if self.n_periods < 1:
+            raise ValueError(f"n_periods must be >= 1, got {self.n_periods}")
+        if self.integrator not in mujoco.mjtIntegrator.__members__ and \
+                f"mjINT_{self.integrator}" not in mujoco.mjtIntegrator.__members__:
+            raise ValueError(f"unknown integrator {self.integrator!r}; expected one of "
+                             f"{[n[6:] for n in mujoco.mjtIntegrator.__members__]}")
+
+    def steps_per_sample(self, omega_rad_s: float) -> int:
+        period = 2 * math.pi / omega_rad_s
+        return max(1, math.ceil(period / (self.samples_per_period * self.max_step_s) - 1e-9))
+
+    def timestep_s(self, omega_rad_s: float) -> float:
+        period = 2 * math.pi / omega_rad_s
+        return period / (self.samples_per_period * self.steps_per_sample(omega_rad_s))
+
+
+@dataclass(frozen=True)
+class SettleInfo:
+    """How a run reached steady state: periods simulated, last relative change, wall time."""
+
+    periods_simulated: int
+    last_change: float
+    timestep_s: float
+    wall_time_s: float
+
+
+def make_callback(rig: RigModel, law: JointLaw, omega_rad_s: float, amplitude_Nm: float,
+                  errors: list) -> Callable:
+    """The passive callback: joint law between the flywheels plus the drive at ``d.time``.
+
+    Exceptions raised inside are stored in ``errors`` (MuJoCo cannot propagate them) and the
+    caller raises them after the step.
+    """
+    q1, q2 = rig.qpos_adr
+    v1, v2 = rig.dof_adr
+    act = rig.actuator_id
+    torque = law.torque
+    cos = math.cos
+
+    def callback(m, d):
+        try:
+            qpos, qvel = d.qpos, d.qvel
+            tau = torque(float(qpos[q1] - qpos[q2]), float(qvel[v1] - qvel[v2]))
+            frc = d.qfrc_passive
+            frc[v1] -= tau
+            frc[v2] += tau
+            d.ctrl[act] = amplitude_Nm * cos(omega_rad_s * d.time)
+        except Exception as err:  # noqa: BLE001 - re-raised by the caller after the step
+            if not errors:
+                errors.append(err)
+
+    return callback
+
+
+@contextlib.contextmanager
+def passive_callback(callback: Callable) -> Iterator[None]:
+    """Install ``callback`` as MuJoCo's global passive callback for the duration of the block.
+
+    Raises:
+      RuntimeError: another passive callback is already installed (another rig, in this
+        thread or another, or foreign code): sharing it would silently mix two models' forces.
+    """
+    if not _lock.acquire(blocking=False):
+        raise RuntimeError("another jointrig simulation holds MuJoCo's passive callback; "
+                           "run rigs one after another (or use separate processes)")
+    try:
+        previous = mujoco.get_mjcb_passive()
+        if previous is not None:
+            raise RuntimeError(f"a MuJoCo passive callback is already installed ({previous!r}); "
+                               f"jointrig will not replace or share it")
+        mujoco.set_mjcb_passive(callback)
+        try:
+            yield
+        finally:
+            mujoco.set_mjcb_passive(previous)
+    finally:
+        _lock.release()
+
+
+def _check_warnings(d: mujoco.MjData, where: str) -> None:
+    raised = [(mujoco.mjtWarning(i).name, w.number, w.lastinfo) for i, w in enumerate(d.warning)
+              if w.number > 0]
+    if raised:
+        desc = ", ".join(f"{name} x{n} (info {info})" for name, n, info in raised)
+        raise SimulationError(f"{where}: MuJoCo warned: {desc}; the simulation diverged or is "
+                              f"invalid (reduce max_step_s or the drive amplitude)")
+
+
+def simulate_steady_state(
+    rig: RigModel,
+    omega_rad_s: float,
+    amplitude_Nm: float,
+    config: SimulationConfig = SimulationConfig(),
+    *,
+    law: Optional[JointLaw] = None,
+) -> tuple[SteadyStateRecord, SettleInfo]:
+    """Drive flywheel 1 with ``amplitude_Nm * cos(omega_rad_s * t)`` from rest at t = 0 until
+    steady state, then log ``config.n_periods`` whole periods.
+
+    Starting from rest with a cosine drive makes the rigid-body rotation periodic too
+    (its velocity is ``M0 sin(omega t) / (omega (J1 + J2))``), so both absolute angles are.
+
+    Args:
+      law: joint law to simulate; default the model's own.
+
+    Returns:
+      The record (angles, rates and applied torque at the sample times) and settle info.
+
+    Raises:
+      SimulationError: MuJoCo warned, values went non-finite, or the callback failed.
+      SteadyStateNotReached: no steady state within ``config.max_periods``.
+    """
+    if not (math.isfinite(omega_rad_s) and omega_rad_s > 0):
+        raise ValueError(f"omega_rad_s must be a finite number > 0, got {omega_rad_s}")
+    if not math.isfinite(amplitude_Nm):
+        raise ValueError(f"amplitude_Nm must be finite, got {amplitude_Nm}")
+    law = rig.law if law is None else law
+    where = f"{rig.path.name} at omega = {omega_rad_s:g} rad/s, M0 = {amplitude_Nm:g} N m"
+    t_start = _time.perf_counter()
+    m = rig.model
+    # Per-run settings on a private copy: the shared MjModel stays untouched.
+    m = _copy_model(m)
+    name = config.integrator if config.integrator.startswith("mjINT_") else f"mjINT_{config.integrator}"
+    m.opt.integrator = mujoco.mjtIntegrator.__members__[name]
+    m.opt.timestep = config.timestep_s(omega_rad_s)
+    k = config.steps_per_sample(omega_rad_s)
+    n = config.samples_per_period
+    d = mujoco.MjData(m)
+    adr = rig.sensor_adr
+    channels = ("phi1", "phi2", "rate1", "rate2", "drive_torque")
+    idx = np.array([adr[c] for c in channels])
+    errors: list = []
+    periods: list[np.ndarray] = []
+    times: list[np.ndarray] = []
+    change = math.inf
+    settled_at = None
+    with passive_callback(make_callback(rig, law, omega_rad_s, amplitude_Nm, errors)):
+        p = 0
+        while True:
+            buf = np.empty((n, len(channels)))
+            tbuf = np.empty(n)
+            for i in range(n):
+                tbuf[i] = d.time
+                mujoco.mj_step(m, d)  # sensordata now hold the state at tbuf[i]
+                buf[i] = d.sensordata[idx]
+                if k > 1:
+                    mujoco.mj_step(m, d, nstep=k - 1)
+            p += 1
+            if errors:
+                raise SimulationError(f"{where}: the joint-law callback failed: {errors[0]!r}") from errors[0]
+            _check_warnings(d, where)
+            if not np.all(np.isfinite(buf)):
+                raise SimulationError(f"{where}: non-finite state in period {p}")
+            if settled_at is None:
+                if periods:
+                    swing = np.ptp(buf[:, :4], axis=0)
+                    diff = np.max(np.abs(buf[:, :4] - periods[-1][:, :4]), axis=0)
+                    change = float(np.max(diff / np.where(swing > 0, swing, 1.0)))
+                    if p >= config.min_periods and change < config.settle_tol:
+                        settled_at = p
+                periods = [buf]
+                times = [tbuf]
+                if settled_at is None and p >= config.max_periods:
+                    raise SteadyStateNotReached(
+                        f"{where}: no steady state after {p} periods: period-to-period change "
+                        f"{change:.3g} > settle_tol {config.settle_tol:g}")
+            else:
+                periods.append(buf)
+                times.append(tbuf)
+            if settled_at is not None and len(periods) == config.n_periods:
+                break
+    data = np.vstack(periods)
+    record = SteadyStateRecord(
+        omega_rad_s=float(omega_rad_s), time_s=np.concatenate(times), torque_Nm=data[:, 4],
+        phi1_rad=data[:, 0], phi2_rad=data[:, 1], rate1_rad_s=data[:, 2], rate2_rad_s=data[:, 3],
+        n_periods=config.n_periods, drive_amplitude_Nm=float(amplitude_Nm), source=where,
+    )
+    info = SettleInfo(periods_simulated=p, last_change=change, timestep_s=m.opt.timestep,
+                      wall_time_s=_time.perf_counter() - t_start)
+    log.debug("%s: steady after %d periods (change %.2g), dt %.3g s, %.2f s wall", where,
+              settled_at, change, m.opt.timestep, info.wall_time_s)
+    return record, info
+
+
+def _copy_model(model: mujoco.MjModel) -> mujoco.MjModel:
+    import copy
+
+    return copy.copy(model)

@@ -1,0 +1,195 @@
+"""Frequency x amplitude sweeps on the rig, resumable, with results written atomically.
+
+A sweep store is a directory: ``manifest.json`` (model digest, joint law, simulation
+config, plan) and one ``.npz`` file per finished point (arrays named with their units,
+metadata in a JSON string ``meta``; loaded with ``allow_pickle=False``). Every file is
+written to a temporary name in the same directory and renamed into place, so an
+interrupted sweep leaves only whole files, and re-running the same sweep skips the points
+already done.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import json
+import logging
+import math
+import os
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Optional, Sequence
+
+import numpy as np
+
+from identify.records import SteadyStateRecord
+
+from .model import RigModel
+from .simulate import SettleInfo, SimulationConfig, simulate_steady_state
+
+__all__ = ["SweepPlan", "SweepPoint", "SweepStoreMismatch", "run_sweep", "DEFAULT_PLAN",
+           "records_of", "write_atomic", "write_json_atomic"]
+
+log = logging.getLogger(__name__)
+
+FORMAT_VERSION = 1
+
+
+@dataclass(frozen=True)
+class SweepPlan:
+    """Drive settings: every ``omega_rad_s`` at every ``amplitude_Nm`` (torque on flywheel 1)."""
+
+    omegas_rad_s: tuple[float, ...]
+    amplitudes_Nm: tuple[float, ...]
+
+    def __post_init__(self):
+        om = tuple(float(w) for w in self.omegas_rad_s)
+        am = tuple(float(a) for a in self.amplitudes_Nm)
+        if not om or not am:
+            raise ValueError("a sweep needs at least one frequency and one amplitude")
+        if any(not (math.isfinite(w) and w > 0) for w in om):
+            raise ValueError(f"omegas_rad_s must be finite and > 0, got {om}")
+        if any(not (math.isfinite(a) and a > 0) for a in am):
+            raise ValueError(f"amplitudes_Nm must be finite and > 0, got {am}")
+        object.__setattr__(self, "omegas_rad_s", om)
+        object.__setattr__(self, "amplitudes_Nm", am)
+
+    def points(self) -> list[tuple[float, float]]:
+        return [(w, a) for a in self.amplitudes_Nm for w in self.omegas_rad_s]
+
+
+#: Default sweep for the paper's joint (undamped natural frequency sqrt(k/Je) = 44.7 rad/s):
+#: from far below (1 rad/s, the paper's case) through the natural frequency to twice it,
+#: at the paper's drive (M0 = 400 N m on flywheel 1, eq. 12) and at 10x, where the cubic
+#: term reaches ~7% of the linear one (at 400 N m it is ~0.1%, nearly invisible).
+DEFAULT_PLAN = SweepPlan(omegas_rad_s=(1.0, 10.0, 20.0, 30.0, 40.0, 45.0, 50.0, 60.0, 90.0),
+                         amplitudes_Nm=(400.0, 4000.0))
+
+
+@dataclass(frozen=True)
+class SweepPoint:
+    record: SteadyStateRecord
+    settle: SettleInfo
+    from_store: bool
+
+
+class SweepStoreMismatch(ValueError):
+    """The store directory holds a sweep of another model, law or configuration."""
+
+
+def write_atomic(path: Path, write: Callable[[Path], None]) -> None:
+    """Call ``write(tmp)`` on a temporary file beside ``path``, then rename it into place."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        write(Path(tmp))
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+def write_json_atomic(path: Path, obj) -> None:
+    write_atomic(path, lambda tmp: tmp.write_text(json.dumps(obj, indent=2, sort_keys=False) + "\n"))
+
+
+def _manifest(rig: RigModel, config: SimulationConfig) -> dict:
+    return {
+        "format": FORMAT_VERSION,
+        "units": "SI: time_s in s, angles in rad, rates in rad/s, torque in N m",
+        "model": str(rig.path),
+        "model_sha256": rig.digest,
+        "law": rig.law.as_dict(),
+        "simulation": dataclasses.asdict(config),
+    }
+
+
+def _point_path(store: Path, omega: float, amplitude: float) -> Path:
+    return store / f"w{omega:.9g}_M{amplitude:.9g}.npz"
+
+
+def _save_point(path: Path, point: SweepPoint) -> None:
+    r = point.record
+    meta = {"omega_rad_s": r.omega_rad_s, "drive_amplitude_Nm": r.drive_amplitude_Nm,
+            "n_periods": r.n_periods, "source": r.source, "settle": dataclasses.asdict(point.settle)}
+
+    def write(tmp: Path) -> None:
+        with open(tmp, "wb") as f:
+            np.savez(f, time_s=r.time_s, torque_Nm=r.torque_Nm, phi1_rad=r.phi1_rad,
+                     phi2_rad=r.phi2_rad, rate1_rad_s=r.rate1_rad_s, rate2_rad_s=r.rate2_rad_s,
+                     meta=np.array(json.dumps(meta)))
+
+    write_atomic(path, write)
+
+
+def _load_point(path: Path) -> SweepPoint:
+    with np.load(path, allow_pickle=False) as z:
+        meta = json.loads(str(z["meta"]))
+        record = SteadyStateRecord(
+            omega_rad_s=meta["omega_rad_s"], time_s=z["time_s"], torque_Nm=z["torque_Nm"],
+            phi1_rad=z["phi1_rad"], phi2_rad=z["phi2_rad"], rate1_rad_s=z["rate1_rad_s"],
+            rate2_rad_s=z["rate2_rad_s"], n_periods=meta["n_periods"],
+            drive_amplitude_Nm=meta["drive_amplitude_Nm"], source=meta["source"])
+    return SweepPoint(record, SettleInfo(**meta["settle"]), from_store=True)
+
+
+def run_sweep(
+    rig: RigModel,
+    plan: SweepPlan = DEFAULT_PLAN,
+    config: SimulationConfig = SimulationConfig(),
+    *,
+    store: Optional[Path] = None,
+    progress: Optional[Callable[[int, int, SweepPoint], None]] = None,
+) -> list[SweepPoint]:
+    """Simulate every point of ``plan`` (amplitude-major order), reusing finished points.
+
+    Args:
+      store: directory to keep finished points in (created if missing); None keeps nothing.
+      progress: called as ``progress(i, n, point)`` after each point.
+
+    Raises:
+      SweepStoreMismatch: ``store`` holds points of another model, law or configuration.
+    """
+    manifest = _manifest(rig, config)
+    if store is not None:
+        store = Path(store)
+        mpath = store / "manifest.json"
+        if mpath.exists():
+            old = json.loads(mpath.read_text())
+            if old != manifest:
+                diff = sorted(k for k in set(old) | set(manifest) if old.get(k) != manifest.get(k))
+                raise SweepStoreMismatch(
+                    f"{store}: holds a sweep with different {diff}; use another store directory "
+                    f"(or delete this one) to start afresh")
+        else:
+            write_json_atomic(mpath, manifest)
+    points = plan.points()
+    out: list[SweepPoint] = []
+    t0 = time.perf_counter()
+    for i, (omega, amp) in enumerate(points):
+        path = _point_path(store, omega, amp) if store is not None else None
+        if path is not None and path.exists():
+            point = _load_point(path)
+        else:
+            record, info = simulate_steady_state(rig, omega, amp, config)
+            point = SweepPoint(record, info, from_store=False)
+            if path is not None:
+                _save_point(path, point)
+        out.append(point)
+        elapsed = time.perf_counter() - t0
+        log.info("point %d/%d: omega %6.2f rad/s, M0 %7.1f N m: %s, %d periods, change %.1e "
+                 "(%.1f s elapsed)", i + 1, len(points), omega, amp,
+                 "from store" if point.from_store else f"simulated in {point.settle.wall_time_s:.1f} s",
+                 point.settle.periods_simulated, point.settle.last_change, elapsed)
+        if progress is not None:
+            progress(i, len(points), point)
+    return out
+
+
+def records_of(points: Sequence[SweepPoint]) -> list[SteadyStateRecord]:
+    return [p.record for p in points]
