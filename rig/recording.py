@@ -1,0 +1,134 @@
+"""Rerun recordings of a sweep and its identification (one ``log_*`` function per view).
+
+Entities (all SI; the unit is in the entity name):
+
+* ``runs/<run>/phi_rad``, ``runs/<run>/torque_Nm``: relative angle and drive torque over the
+  logged period(s), timeline ``t_s`` (time since the first logged sample).
+* ``phase_portrait/<run>``: ``(phi, phi'/omega)`` as a 2D line (both in rad, so a linear
+  response is an ellipse of aspect ~1 at every frequency).
+* ``restoring_force/true_Nm``, ``restoring_force/identified_Nm``: g(phi) of the true and the
+  identified law over the measured range, timeline ``phi_urad`` (angle in micro-radians as
+  the x axis).
+* ``harmonics/<run>``: bar chart of |Phi_n|, n = 0..H (rad).
+* ``frf/M<amplitude>/h<n>_rad``: |Phi_n| against the drive frequency, timeline ``omega_mrad_s``.
+* ``parameters``: markdown table true / identified / relative error / standard error.
+
+``<run>`` is ``w<omega>_M<amplitude>`` (rad/s, N m).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+from pathlib import Path
+from typing import Iterator, Optional, Sequence
+
+import numpy as np
+import rerun as rr
+
+from identify.basis import JointLaw
+from identify.harmonics import fourier_coefficients
+from identify.records import SteadyStateRecord
+
+__all__ = ["open_recording", "run_label", "log_run", "log_restoring_force", "log_harmonics",
+           "log_parameter_table", "expected_entities"]
+
+APP_ID = "jointrig"
+
+
+def run_label(omega_rad_s: float, amplitude_Nm: float) -> str:
+    return f"w{omega_rad_s:g}_M{amplitude_Nm:g}".replace(".", "p")
+
+
+def _label(record: SteadyStateRecord) -> str:
+    return run_label(record.omega_rad_s, record.drive_amplitude_Nm)
+
+
+def expected_entities(run_labels: Sequence[str]) -> set[str]:
+    """Entity paths a sweep recording holds for these runs (see the module docstring)."""
+    out = {"/parameters", "/restoring_force/true_Nm", "/restoring_force/identified_Nm"}
+    for lab in run_labels:
+        out |= {f"/runs/{lab}/phi_rad", f"/runs/{lab}/torque_Nm", f"/phase_portrait/{lab}",
+                f"/harmonics/{lab}"}
+    return out
+
+
+@contextlib.contextmanager
+def open_recording(rrd_path: Optional[Path], *, spawn: bool = False,
+                   connect: Optional[str] = None) -> Iterator[rr.RecordingStream]:
+    """A recording stream that writes ``rrd_path`` atomically (temp file, renamed on success)
+    and optionally streams to a live viewer (``spawn``: start one; ``connect``: gRPC URL)."""
+    rec = rr.RecordingStream(APP_ID)
+    sinks = []
+    tmp = None
+    if rrd_path is not None:
+        rrd_path = Path(rrd_path)
+        rrd_path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{rrd_path.name}.", suffix=".tmp", dir=rrd_path.parent)
+        os.close(fd)
+        sinks.append(rr.FileSink(tmp))
+    if spawn:
+        rr.spawn(connect=False)
+        sinks.append(rr.GrpcSink())
+    elif connect is not None:
+        sinks.append(rr.GrpcSink(connect))
+    if sinks:
+        rec.set_sinks(*sinks)
+    ok = False
+    try:
+        yield rec
+        ok = True
+    finally:
+        rec.flush()
+        rec.disconnect()
+        if tmp is not None:
+            if ok:
+                os.replace(tmp, rrd_path)
+            else:
+                with contextlib.suppress(OSError):
+                    os.unlink(tmp)
+
+
+def log_run(rec: rr.RecordingStream, record: SteadyStateRecord) -> None:
+    """Time series and phase portrait of one steady-state record."""
+    lab = _label(record)
+    t = rr.TimeColumn("t_s", duration=record.time_s - record.time_s[0])
+    rec.send_columns(f"runs/{lab}/phi_rad", indexes=[t], columns=rr.Scalars.columns(scalars=record.phi_rad))
+    rec.send_columns(f"runs/{lab}/torque_Nm", indexes=[t],
+                     columns=rr.Scalars.columns(scalars=record.torque_Nm))
+    rate = record.rate_rad_s
+    if rate is not None:
+        pts = np.column_stack([record.phi_rad, rate / record.omega_rad_s])
+        rec.log(f"phase_portrait/{lab}", rr.LineStrips2D([np.vstack([pts, pts[:1]])]), static=True)
+
+
+def log_harmonics(rec: rr.RecordingStream, records: Sequence[SteadyStateRecord], n_harmonics: int) -> None:
+    """|Phi_n| per run (bar charts) and against frequency per amplitude (scalars)."""
+    for r in records:
+        amp = np.abs(fourier_coefficients(r.phi_rad, r.n_periods, n_harmonics))
+        rec.log(f"harmonics/{_label(r)}", rr.BarChart(amp), static=True)
+    for a in sorted({r.drive_amplitude_Nm for r in records}):
+        group = sorted((r for r in records if r.drive_amplitude_Nm == a), key=lambda r: r.omega_rad_s)
+        amps = np.array([np.abs(fourier_coefficients(r.phi_rad, r.n_periods, n_harmonics)) for r in group])
+        idx = [rr.TimeColumn("omega_mrad_s", sequence=[round(1000 * r.omega_rad_s) for r in group])]
+        for n in range(1, n_harmonics + 1, 2 if n_harmonics > 1 else 1):
+            rec.send_columns(f"frf/M{a:g}/h{n}_rad", indexes=idx, columns=rr.Scalars.columns(scalars=amps[:, n]))
+
+
+def log_restoring_force(rec: rr.RecordingStream, true_law: Optional[JointLaw], identified: JointLaw,
+                        phi_range_rad: tuple[float, float], n_points: int = 401) -> None:
+    """g(phi) of the identified law, and of the true law when known."""
+    phi = np.linspace(*phi_range_rad, n_points)
+    idx = [rr.TimeColumn("phi_urad", sequence=np.round(phi * 1e6).astype(np.int64))]
+    laws = {"identified_Nm": identified}
+    if true_law is not None:
+        laws["true_Nm"] = true_law
+    for name, law in laws.items():
+        rec.send_columns(f"restoring_force/{name}", indexes=idx,
+                         columns=rr.Scalars.columns(scalars=np.asarray(law.elastic_torque(phi), dtype=float)))
+
+
+def log_parameter_table(rec: rr.RecordingStream, markdown: str) -> None:
+    rec.log("parameters", rr.TextDocument(markdown, media_type=rr.MediaType.MARKDOWN), static=True)
+

@@ -1,0 +1,29 @@
+"""Shared fixtures: rigs and sweeps are simulated once per test session."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from rig import DEFAULT_MODEL, SimulationConfig, load_rig
+from rig.sweep import DEFAULT_PLAN, records_of, run_sweep
+
+MODELS_DIR = Path(DEFAULT_MODEL).parent
+ALL_MODELS = sorted(MODELS_DIR.glob("*.xml"))
+
+
+@pytest.fixture(scope="session")
+def rig():
+    return load_rig(DEFAULT_MODEL)
+
+
+@pytest.fixture(scope="session")
+def hat_rig():
+    return load_rig(MODELS_DIR / "two_flywheels_hat.xml")
+
+
+@pytest.fixture(scope="session")
+def default_sweep(rig):
+    """The default sweep of the paper's joint (18 runs, ~3 s)."""
+    return records_of(run_sweep(rig, DEFAULT_PLAN, SimulationConfig()))

@@ -1,0 +1,58 @@
+"""The joint law's basis terms: closed forms, scalar vs array paths, validation."""
+
+import numpy as np
+import pytest
+
+from identify.basis import (AngleHat, JointLaw, Power, Viscous, angle_hats, hat_law, hat_matrix,
+                            polynomial_law, rate_hats)
+
+KNOTS = (-0.6, -0.3, -0.1, 0.0, 0.1, 0.3, 0.6)
+
+
+def test_hat_matrix_partition_of_unity_and_linear_reproduction():
+    x = np.linspace(-1.0, 1.0, 201)  # beyond the end knots too
+    H = hat_matrix(x, KNOTS)
+    np.testing.assert_allclose(H.sum(axis=1), 1.0, atol=1e-15)
+    # Piecewise-linear interpolation with linear end extrapolation reproduces any line exactly.
+    np.testing.assert_allclose(H @ (2.0 * np.asarray(KNOTS) - 0.5), 2.0 * x - 0.5, atol=1e-13)
+
+
+def test_hat_law_equals_numpy_interp_inside_and_extends_end_slopes():
+    g = np.array([-2400, -900, -200, 0, 200, 900, 2400.0])
+    law = hat_law(knots_rad=KNOTS, g_Nm=g)
+    x = np.linspace(-0.6, 0.6, 97)
+    np.testing.assert_allclose(law.elastic_torque(x), np.interp(x, KNOTS, g), atol=1e-12)
+    slope = (g[-1] - g[-2]) / (KNOTS[-1] - KNOTS[-2])
+    assert law.torque(0.8, 0.0) == pytest.approx(2400 + 0.2 * slope, rel=1e-14)
+
+
+@pytest.mark.parametrize("term", [Viscous(), Power(0), Power(1), Power(3), *angle_hats(KNOTS),
+                                  *rate_hats((-2.0, 0.0, 2.0))])
+def test_scalar_path_equals_array_path(term):
+    # The MuJoCo callback evaluates with Python floats; the identifier with arrays: same numbers.
+    rng = np.random.default_rng(1)
+    phi = rng.uniform(-1, 1, 50)
+    rate = rng.uniform(-3, 3, 50)
+    arr = np.broadcast_to(term(phi, rate), phi.shape)
+    scal = np.array([term(float(p), float(r)) for p, r in zip(phi, rate)])
+    np.testing.assert_allclose(scal, arr, rtol=1e-15, atol=1e-15)
+
+
+def test_polynomial_law_names_and_values():
+    law = polynomial_law(c_Nms_per_rad=100, k_Nm_per_rad=2000, gamma_Nm_per_rad3=200)
+    assert law.as_dict() == {"c_Nms_per_rad": 100.0, "k_Nm_per_rad": 2000.0, "gamma_Nm_per_rad3": 200.0}
+    assert law.torque(0.1, 2.0) == pytest.approx(100 * 2 + 2000 * 0.1 + 200 * 0.001, rel=1e-15)
+
+
+@pytest.mark.parametrize("make, match", [
+    (lambda: JointLaw((Viscous(),), (1.0, 2.0)), "1 terms but 2 values"),
+    (lambda: JointLaw((Viscous(), Viscous()), (1.0, 2.0)), "duplicate"),
+    (lambda: JointLaw((Viscous(),), (float("nan"),)), "finite"),
+    (lambda: AngleHat((0.0, 0.0, 1.0), 0), "strictly increasing"),
+    (lambda: AngleHat((0.0, 1.0), 2), "outside"),
+    (lambda: Power(-1), "power"),
+    (lambda: hat_law(knots_rad=KNOTS, g_Nm=[1.0, 2.0]), "7 knots but 2 values"),
+])
+def test_invalid_laws_raise(make, match):
+    with pytest.raises(ValueError, match=match):
+        make()

@@ -1,0 +1,130 @@
+"""Layer 1-2: identification from analytic steady states (no simulation), and record checks."""
+
+import numpy as np
+import pytest
+
+from identify import (Power, RecordError, SteadyStateRecord, Viscous, equivalent_system, identify, solve,
+                      spectral_rate)
+
+J1, J2, C, K = 2.0, 3.0, 40.0, 1500.0
+JE = J1 * J2 / (J1 + J2)
+N = 128
+
+
+def linear_record(omega, M0, n_periods=1, with_rates=True):
+    """Exact steady state of two flywheels and a linear joint under M0 cos(omega t) on flywheel 1.
+
+    Relative coordinate: Je phi'' + c phi' + k phi = s M0 cos wt (FRF H = 1/(k - Je w^2 + i c w));
+    rigid mode: (J1 + J2) theta'' = M0 cos wt, theta = -M0 cos wt / (w^2 (J1 + J2)).
+    """
+    t = np.arange(N * n_periods) * 2 * np.pi / (omega * N)
+    s = J2 / (J1 + J2)
+    H = 1.0 / (K - JE * omega**2 + 1j * C * omega)
+    z = s * M0 * H * np.exp(1j * omega * t)
+    phi, rate = z.real, (1j * omega * z).real
+    theta = -M0 * np.cos(omega * t) / (omega**2 * (J1 + J2))
+    theta_rate = M0 * np.sin(omega * t) / (omega * (J1 + J2))
+    phi1, phi2 = theta + J2 / (J1 + J2) * phi, theta - J1 / (J1 + J2) * phi
+    r1, r2 = theta_rate + J2 / (J1 + J2) * rate, theta_rate - J1 / (J1 + J2) * rate
+    return SteadyStateRecord(omega, t, M0 * np.cos(omega * t), phi1, phi2,
+                             r1 if with_rates else None, r2 if with_rates else None, n_periods, M0)
+
+
+OMEGAS = (5.0, 20.0, 27.0, 40.0)
+
+
+@pytest.mark.parametrize("with_rates", [True, False])
+def test_linear_joint_recovered_exactly_from_frf_equivalent_form(with_rates):
+    recs = [linear_record(w, 100.0, with_rates=with_rates) for w in OMEGAS]
+    res = identify(recs, (Viscous(), Power(1)), form="equivalent", n_harmonics=3, torque_share=J2 / (J1 + J2))
+    # rtol 1e-10: exact data, only floating-point round-off (cond ~ 10) separates us from the truth.
+    np.testing.assert_allclose(res.values, [JE, C, K], rtol=1e-10)
+    assert res.success and res.message == "ok"
+
+
+def test_linear_joint_recovered_exactly_two_dof_form():
+    recs = [linear_record(w, 100.0, n_periods=2) for w in OMEGAS]
+    res = identify(recs, (Viscous(), Power(1)), form="two_dof", n_harmonics=3)
+    np.testing.assert_allclose(res.values, [J1, J2, C, K], rtol=1e-10)  # as above: exact data
+
+
+def test_single_frequency_linear_is_rank_deficient():
+    # One frequency, linear joint: only k - Je w^2 is determined, Je and k are not separable.
+    res = identify([linear_record(20.0, 100.0)], (Viscous(), Power(1)), form="equivalent", n_harmonics=3,
+                   torque_share=J2 / (J1 + J2))
+    assert not res.success
+    assert "rank-deficient" in res.message
+
+
+def test_spectral_rate_of_analytic_signal():
+    rec = linear_record(20.0, 100.0)
+    # rtol 1e-12: band-limited signal, the FFT derivative is exact up to round-off.
+    np.testing.assert_allclose(spectral_rate(rec.phi_rad, 20.0, 1), rec.rate_rad_s,
+                               rtol=0, atol=1e-12 * np.abs(rec.rate_rad_s).max())
+
+
+def test_weighted_least_squares_uses_weights():
+    recs = [linear_record(w, 100.0) for w in OMEGAS]
+    system = equivalent_system(recs, (Viscous(), Power(1)), n_harmonics=2, torque_share=J2 / (J1 + J2))
+    F = system.F.copy()
+    F[system.row_record == 0] *= 1.01  # corrupt one record's forcing by 1%
+    corrupted = type(system)(system.A, F, system.names, system.row_record, system.row_harmonic,
+                             system.row_part, system.row_equation)
+    w = np.where(system.row_record == 0, 1e-12, 1.0)
+    plain = solve(corrupted)
+    weighted = solve(corrupted, row_weights=w)
+    assert np.max(np.abs(plain.values / [JE, C, K] - 1)) > 1e-3
+    # rtol 1e-6: the corrupted record keeps a weight of 1e-12, i.e. ~1e-6 influence on the solution.
+    np.testing.assert_allclose(weighted.values, [JE, C, K], rtol=1e-6)
+
+
+def test_standard_errors_match_monte_carlo_spread():
+    # Noise on the torque only (enters F): OLS standard errors are the true spread.
+    rng = np.random.default_rng(7)
+    clean = [linear_record(w, 100.0) for w in OMEGAS]
+    estimates, ses = [], []
+    for _ in range(200):
+        recs = [SteadyStateRecord(r.omega_rad_s, r.time_s, r.torque_Nm + rng.normal(0, 0.5, N), r.phi1_rad,
+                                  r.phi2_rad, r.rate1_rad_s, r.rate2_rad_s, 1, 100.0) for r in clean]
+        res = identify(recs, (Viscous(), Power(1)), form="equivalent", n_harmonics=5,
+                       torque_share=J2 / (J1 + J2))
+        estimates.append(res.values)
+        ses.append(res.std_errors)
+    spread = np.std(estimates, axis=0)
+    # 200 runs: the sample std has ~5% relative uncertainty (1/sqrt(2*200)); 25% leaves room for that.
+    np.testing.assert_allclose(np.mean(ses, axis=0), spread, rtol=0.25)
+
+
+@pytest.mark.parametrize("change, match", [
+    (dict(torque_Nm=np.full(N, np.nan)), "'torque_Nm' holds 128 non-finite"),
+    (dict(phi1_rad=np.zeros(N - 1)), "'phi1_rad' has 127 samples, expected 128"),
+    (dict(time_s=np.arange(N) * 0.01), "not uniform"),
+    (dict(n_periods=3), "whole periods"),
+    (dict(omega_rad_s=-1.0), "omega_rad_s"),
+    (dict(rate2_rad_s=None), "both 'rate1_rad_s' and 'rate2_rad_s'"),
+])
+def test_bad_records_raise_clear_errors(change, match):
+    r = linear_record(20.0, 100.0)
+    fields = dict(omega_rad_s=r.omega_rad_s, time_s=r.time_s, torque_Nm=r.torque_Nm, phi1_rad=r.phi1_rad,
+                  phi2_rad=r.phi2_rad, rate1_rad_s=r.rate1_rad_s, rate2_rad_s=r.rate2_rad_s, n_periods=1,
+                  source="bench.csv")
+    fields.update(change)
+    with pytest.raises(RecordError, match=match) as err:
+        SteadyStateRecord(**fields)
+    assert "bench.csv" in str(err.value)
+
+
+def test_too_short_record_raises():
+    t = np.arange(4) * 2 * np.pi / 4
+    with pytest.raises(RecordError, match="too short"):
+        SteadyStateRecord(1.0, t, np.cos(t), np.cos(t), None)
+
+
+def test_identify_rejects_unknown_form_and_keywords():
+    rec = linear_record(20.0, 100.0)
+    with pytest.raises(ValueError, match="unknown form"):
+        identify([rec], (Viscous(),), form="three_dof")
+    with pytest.raises(TypeError):
+        identify([rec], (Viscous(),), form="equivalent", torque_share=0.6, harmonics=3)
+    with pytest.raises(ValueError, match="torque_share"):
+        identify([rec], (Viscous(),), form="equivalent")
