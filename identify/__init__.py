@@ -7,14 +7,14 @@ Pipeline: :mod:`harmonics` (Fourier coefficients of periodic records) -> :mod:`b
 
 from .balance import LinearSystem, equivalent_system, single_dof_system, spectral_rate, two_dof_system
 from .compare import ParameterComparison, compare, format_table
-from .basis import (AngleHat, JointLaw, Power, RateHat, Term, Viscous, angle_hats, hat_law, hat_matrix,
+from .basis import (AngleHat, JointLaw, Monomial, Power, RateHat, Term, Viscous, angle_hats, hat_law, hat_matrix,
                     polynomial_law, rate_hats)
 from .harmonics import fourier_coefficients, max_harmonic, synthesize, to_sine_cosine
 from .records import RecordError, SteadyStateRecord
 from .solve import FORMS, IdentificationResult, IllConditionedWarning, identify, solve
 
 __all__ = [
-    "AngleHat", "ParameterComparison", "compare", "format_table", "IdentificationResult", "IllConditionedWarning", "JointLaw", "LinearSystem", "Power",
+    "AngleHat", "ParameterComparison", "compare", "format_table", "IdentificationResult", "IllConditionedWarning", "JointLaw", "LinearSystem", "Monomial", "Power",
     "RateHat", "RecordError", "SteadyStateRecord", "Term", "Viscous", "angle_hats",
     "FORMS", "equivalent_system", "fourier_coefficients", "identify", "hat_law", "hat_matrix", "max_harmonic",
     "polynomial_law", "rate_hats", "single_dof_system", "solve", "spectral_rate", "synthesize",

@@ -13,6 +13,9 @@ Terms:
   * :class:`Power`       ``b = phi**p``                -> ``constant_Nm`` (p=0), ``k_Nm_per_rad``
                                                           (1), ``a_Nm_per_rad2`` (2),
                                                           ``gamma_Nm_per_rad3`` (3), ...
+  * :class:`Monomial`    ``b = phi**p * phi'**q``      -> ``c_p{p}_q{q}`` (N m / (rad^p (rad/s)^q)),
+                                                          e.g. cubic damping (0, 3), amplitude-
+                                                          dependent damping (2, 1)
   * :class:`AngleHat`    ``b = hat_i(phi)``  (eq. 8)   -> ``g{i}_Nm``: restoring torque at knot i
   * :class:`RateHat`     ``b = hat_i(phi')`` (eq. 9 f) -> ``f{i}_Nm``: damping torque at knot i
 
@@ -34,6 +37,7 @@ __all__ = [
     "Viscous",
     "Power",
     "AngleHat",
+    "Monomial",
     "RateHat",
     "JointLaw",
     "hat_matrix",
@@ -156,6 +160,35 @@ class Power(Term):
         if isinstance(phi, float):
             return phi**self.power
         return np.asarray(phi, dtype=float) ** self.power
+
+
+@dataclass(frozen=True)
+class Monomial(Term):
+    """Mixed term ``phi**angle_power * phi'**rate_power`` (rate_power >= 1; use :class:`Power`
+    for pure stiffness terms and :class:`Viscous` for ``phi'``)."""
+
+    angle_power: int
+    rate_power: int
+
+    def __post_init__(self):
+        if not (isinstance(self.angle_power, int) and isinstance(self.rate_power, int)
+                and self.angle_power >= 0 and self.rate_power >= 1
+                and (self.angle_power, self.rate_power) != (0, 1)):
+            raise ValueError(f"Monomial needs ints angle_power >= 0, rate_power >= 1, not (0, 1) "
+                             f"(that is Viscous); got ({self.angle_power!r}, {self.rate_power!r})")
+
+    @property
+    def name(self) -> str:
+        return f"c_p{self.angle_power}_q{self.rate_power}"
+
+    @property
+    def elastic(self) -> bool:
+        return False
+
+    def __call__(self, phi, rate):
+        if isinstance(phi, float) and isinstance(rate, float):
+            return phi**self.angle_power * rate**self.rate_power
+        return np.asarray(phi, dtype=float) ** self.angle_power * np.asarray(rate, dtype=float) ** self.rate_power
 
 
 @dataclass(frozen=True)

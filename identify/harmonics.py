@@ -74,9 +74,15 @@ def synthesize(coeffs: np.ndarray, n_samples: int, n_periods: int = 1) -> np.nda
     """
     coeffs = np.asarray(coeffs, dtype=complex)
     n_harm = coeffs.shape[-1] - 1
-    phase = 2.0 * np.pi * n_periods * np.arange(n_samples) / n_samples
-    basis = np.exp(1j * np.outer(np.arange(n_harm + 1), phase))  # (H+1, n_samples)
-    return np.real(coeffs @ basis)
+    n_bins = n_samples // 2 + 1
+    if n_harm * n_periods >= n_bins:
+        raise ValueError(f"{n_harm} harmonics over {n_periods} period(s) need more than {n_samples} samples")
+    spectrum = np.zeros(coeffs.shape[:-1] + (n_bins,), dtype=complex)
+    spectrum[..., 0] = coeffs[..., 0].real * n_samples
+    spectrum[..., n_periods: (n_harm + 1) * n_periods: n_periods] = coeffs[..., 1:] * (n_samples / 2)
+    if n_samples % 2 == 0 and n_harm * n_periods == n_bins - 1:  # a Nyquist line holds Re(C) only
+        spectrum[..., -1] = coeffs[..., -1].real * n_samples
+    return np.fft.irfft(spectrum, n=n_samples, axis=-1)
 
 
 def to_sine_cosine(coeffs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

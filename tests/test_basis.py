@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from identify.basis import (AngleHat, JointLaw, Power, Viscous, angle_hats, hat_law, hat_matrix,
+from identify.basis import (AngleHat, JointLaw, Monomial, Power, Viscous, angle_hats, hat_law, hat_matrix,
                             polynomial_law, rate_hats)
 
 KNOTS = (-0.6, -0.3, -0.1, 0.0, 0.1, 0.3, 0.6)
@@ -26,7 +26,8 @@ def test_hat_law_equals_numpy_interp_inside_and_extends_end_slopes():
     assert law.torque(0.8, 0.0) == pytest.approx(2400 + 0.2 * slope, rel=1e-14)
 
 
-@pytest.mark.parametrize("term", [Viscous(), Power(0), Power(1), Power(3), *angle_hats(KNOTS),
+@pytest.mark.parametrize("term", [Viscous(), Power(0), Power(1), Power(3), Monomial(0, 3), Monomial(2, 1),
+                                  *angle_hats(KNOTS),
                                   *rate_hats((-2.0, 0.0, 2.0))])
 def test_scalar_path_equals_array_path(term):
     # The MuJoCo callback evaluates with Python floats; the identifier with arrays: same numbers.
@@ -51,6 +52,7 @@ def test_polynomial_law_names_and_values():
     (lambda: AngleHat((0.0, 0.0, 1.0), 0), "strictly increasing"),
     (lambda: AngleHat((0.0, 1.0), 2), "outside"),
     (lambda: Power(-1), "power"),
+    (lambda: Monomial(0, 1), "Viscous"),
     (lambda: hat_law(knots_rad=KNOTS, g_Nm=[1.0, 2.0]), "7 knots but 2 values"),
 ])
 def test_invalid_laws_raise(make, match):

@@ -1,0 +1,236 @@
+"""What the nominal model gets wrong on periodic one-coordinate data, and the smallest physical
+extension that fixes it.
+
+* :func:`residual_analysis`: where the simulation error sits, by line group (excited, odd and
+  even non-excited, DC), and the phase trend of simulated vs measured response over frequency
+  (a slope is a delay).
+* :func:`score_candidates`: rank candidate effects by the score (Lagrange-multiplier) test: the
+  part of the output-error residual that the candidate's sensitivity explains after the present
+  parameters' sensitivities are projected out; ``reduction / sigma^2`` is chi-square(1) under
+  "no such effect", with sigma^2 the residual variance (conservative: it holds model error too).
+* :func:`extend_model`: greedy forward selection: fit the best-ranked candidate by output error
+  on training records and keep it only if the simulation error on held-out records drops by at
+  least ``min_gain``; re-rank and repeat; stop at the first rejection. Ranking by evidence, acceptance by validation, never by order.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from typing import Optional, Sequence
+
+import numpy as np
+from scipy.stats import chi2
+
+from .basis import JointLaw, Monomial, Power, Term
+from .output_error import OutputErrorResult, refine_output_error, simulate_periods
+
+__all__ = ["Candidate", "CANDIDATES", "CandidateScore", "ResidualAnalysis", "ExtensionResult",
+           "residual_analysis", "score_candidates", "extend_model"]
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """A physical effect the nominal law lacks: a basis term (None: the input delay)."""
+
+    effect: str
+    term: Optional[Term]
+    meaning: str
+
+
+CANDIDATES: tuple[Candidate, ...] = (
+    Candidate("quadratic_stiffness", Power(2), "asymmetric restoring force: even lines and a DC shift"),
+    Candidate("quintic_stiffness", Power(5), "stiffening beyond cubic: odd lines growing with amplitude"),
+    Candidate("cubic_damping", Monomial(0, 3), "damping growing with the rate, x'^3"),
+    Candidate("amplitude_damping", Monomial(2, 1), "damping growing with the amplitude, x^2 x'"),
+    Candidate("input_delay", None, "the input acts late: phase lag growing linearly with frequency"),
+)
+
+
+@dataclass(frozen=True)
+class ResidualAnalysis:
+    """Simulation residual ``y_sim - y`` by line group (power summed over lines and records, V^2
+    in data units), the measured output's power in the same groups, and the phase trend.
+
+    Attributes:
+      groups: names of the line groups.
+      residual_power, measured_power: ``(len(groups),)``.
+      phase_slope_s: slope of arg(Y_sim / Y) over the excited lines against omega (s); a pure
+        delay tau of the model relative to the data gives -tau.
+      dc_residual: mean residual (data units).
+    """
+
+    groups: tuple[str, ...]
+    residual_power: np.ndarray
+    measured_power: np.ndarray
+    phase_slope_s: float
+    dc_residual: float
+
+
+def residual_analysis(y_sim: np.ndarray, y: np.ndarray, fs_Hz: float, excited: np.ndarray,
+                      band_max_bin: int) -> ResidualAnalysis:
+    """Split the residual of ``(R, N)`` periodic records into line groups within the band."""
+    n = y.shape[-1]
+    R = np.fft.rfft(y_sim - y, axis=-1) / n
+    Y = np.fft.rfft(y, axis=-1) / n
+    Ys = np.fft.rfft(y_sim, axis=-1) / n
+    k = np.arange(R.shape[-1])
+    exc = np.zeros(k.size, bool)
+    exc[excited] = True
+    inband = (k > 0) & (k <= band_max_bin)
+    masks = {"excited": exc, "odd_not_excited": inband & (k % 2 == 1) & ~exc, "even": inband & (k % 2 == 0),
+             "dc": k == 0, "above_band": k > band_max_bin}
+    rp = np.array([np.sum(np.abs(R[:, m]) ** 2) for m in masks.values()])
+    mp = np.array([np.sum(np.abs(Y[:, m]) ** 2) for m in masks.values()])
+    w = 2 * np.pi * fs_Hz * k[exc] / n
+    ph = np.angle(np.sum(Ys[:, exc] * np.conj(Y[:, exc]), axis=0))
+    weights = np.sum(np.abs(Y[:, exc]) ** 2, axis=0)
+    slope = float(np.sum(weights * w * ph) / np.sum(weights * w * w))
+    return ResidualAnalysis(tuple(masks), rp, mp, slope, float(np.mean(y_sim - y)))
+
+
+@dataclass(frozen=True)
+class CandidateScore:
+    effect: str
+    meaning: str
+    reduction: float          # residual sum of squares the candidate can remove (data units^2)
+    predicted_rms: float      # RMS residual after that removal
+    chi2: float               # reduction / sigma^2
+    p_value: float
+    step: float               # one Gauss-Newton step for its coefficient (start value)
+
+
+def _simulate(inertia, law, delay, u, fs, initial):
+    return simulate_periods(inertia, law, u, fs, delay_s=delay, initial=initial)
+
+
+def score_candidates(u: np.ndarray, y: np.ndarray, fs_Hz: float, *, inertia: float, law: JointLaw,
+                     delay_s: float = 0.0, candidates: Sequence[Candidate] = CANDIDATES) -> tuple[CandidateScore, ...]:
+    """Score test of each candidate at the present fit, best first (largest reduction)."""
+    y0, Y0 = _simulate(inertia, law, delay_s, u, fs_Hz, None)
+    r = (y0 - y).ravel()
+    n = r.size
+
+    def sens(J, lw, tau, step):
+        ys, _ = _simulate(J, lw, tau, u, fs_Hz, Y0)
+        return ((ys - y0) / step).ravel()
+
+    cols = []
+    h = 1e-6 * abs(inertia)
+    cols.append(sens(inertia + h, law, delay_s, h))
+    for i, v in enumerate(law.values):
+        hv = 1e-6 * abs(v) if v != 0 else 1e-6
+        vals = list(law.values)
+        vals[i] += hv
+        cols.append(sens(inertia, JointLaw(law.terms, tuple(vals)), delay_s, hv))
+    S = np.column_stack(cols)
+    Q, _ = np.linalg.qr(S / np.linalg.norm(S, axis=0))
+    rss = float(r @ r)
+    sigma2 = rss / (n - S.shape[1])
+    scores = []
+    for cand in candidates:
+        if cand.term is None:
+            hd = 1e-3 / fs_Hz
+            s = sens(inertia, law, delay_s + hd, hd)
+        elif cand.term.name in law.names:
+            continue
+        else:
+            # sensitivity to a small coefficient of the new term (size set from the data's scale)
+            probe = JointLaw(law.terms + (cand.term,), law.values + (0.0,))
+            xs = np.std(y)
+            vs = xs * 2 * np.pi * fs_Hz / 8
+            tscale = abs(law.values[law.names.index("k_Nm_per_rad")]) * xs if "k_Nm_per_rad" in law.names else 1.0
+            mag = float(np.std(cand.term(y.ravel(), np.full(y.size, vs)))) or 1.0
+            hc = 1e-6 * tscale / mag
+            probe = JointLaw(probe.terms, law.values + (hc,))
+            s = sens(inertia, probe, delay_s, hc)
+        s_perp = s - Q @ (Q.T @ s)
+        ss = float(s_perp @ s_perp)
+        if ss <= 0:
+            continue
+        proj = float(s_perp @ r)
+        red = proj * proj / ss
+        stat = red / sigma2
+        scores.append(CandidateScore(cand.effect, cand.meaning, red, float(np.sqrt(max(rss - red, 0) / n)), stat,
+                                     float(chi2.sf(stat, 1)), -proj / ss))
+    return tuple(sorted(scores, key=lambda c: -c.reduction))
+
+
+@dataclass(frozen=True)
+class ExtensionStep:
+    effect: str
+    accepted: bool
+    validation_rms_before: float
+    validation_rms_after: float
+
+
+@dataclass(frozen=True)
+class ExtensionResult:
+    """Selected effects, the steps tried, and the final fit on all records."""
+
+    effects: tuple[str, ...]
+    steps: tuple[ExtensionStep, ...]
+    fit: OutputErrorResult
+    scores: tuple[CandidateScore, ...]
+
+
+def _fit(u, y, fs, inertia, law, delay, estimate_delay):
+    return refine_output_error(u, y, fs, inertia=inertia, law=law, estimate_delay=estimate_delay, delay_s=delay)
+
+
+def _val_rms(fit: OutputErrorResult, u, y, fs):
+    ys, _ = simulate_periods(fit.inertia, fit.law, u, fs, delay_s=fit.delay_s)
+    return float(np.sqrt(np.mean((ys - y) ** 2)))
+
+
+def extend_model(u: np.ndarray, y: np.ndarray, fs_Hz: float, *, inertia: float, law: JointLaw,
+                 train: np.ndarray, validate: np.ndarray, candidates: Sequence[Candidate] = CANDIDATES,
+                 min_gain: float = 0.02, max_effects: int = 3) -> ExtensionResult:
+    """Greedy forward selection of candidate effects (see the module docstring).
+
+    Args:
+      u, y: periodic records ``(R, N)``; train, validate: record indices.
+      inertia, law: the nominal model (a starting point; refitted here).
+      min_gain: relative drop of the held-out simulation RMS required to keep an effect.
+    """
+    by_name = {c.effect: c for c in candidates}
+    ut, yt, uv, yv = u[train], y[train], u[validate], y[validate]
+    delay_on = False
+    fit = _fit(ut, yt, fs_Hz, inertia, law, 0.0, False)
+    val = _val_rms(fit, uv, yv, fs_Hz)
+    effects: list[str] = []
+    steps: list[ExtensionStep] = []
+    first_scores: Optional[tuple] = None
+    tried: set[str] = set()
+    while len(effects) < max_effects:
+        scores = score_candidates(ut, yt, fs_Hz, inertia=fit.inertia, law=fit.law, delay_s=fit.delay_s,
+                                  candidates=[c for c in candidates if c.effect not in tried])
+        first_scores = first_scores or scores
+        accepted = False
+        for sc in scores:
+            tried.add(sc.effect)
+            cand = by_name[sc.effect]
+            if cand.term is None:
+                trial = _fit(ut, yt, fs_Hz, fit.inertia, fit.law, fit.delay_s, True)
+            else:
+                trial_law = JointLaw(fit.law.terms + (cand.term,), fit.law.values + (sc.step,))
+                trial = _fit(ut, yt, fs_Hz, fit.inertia, trial_law, fit.delay_s, delay_on)
+            new_val = _val_rms(trial, uv, yv, fs_Hz)
+            ok = new_val < (1 - min_gain) * val
+            steps.append(ExtensionStep(sc.effect, ok, val, new_val))
+            log.info("candidate %s: held-out RMS %.4g -> %.4g (%s)", sc.effect, val, new_val,
+                     "kept" if ok else "rejected")
+            if ok:
+                effects.append(sc.effect)
+                fit, val = trial, new_val
+                delay_on = delay_on or cand.term is None
+                accepted = True
+            # Only the best-evidenced candidate is tried per round: if it does not generalise,
+            # weaker evidence will not either (and each trial is a full output-error fit).
+            break
+        if not accepted:
+            break
+    final = _fit(u, y, fs_Hz, fit.inertia, fit.law, fit.delay_s, delay_on)
+    return ExtensionResult(tuple(effects), tuple(steps), final, first_scores or ())
