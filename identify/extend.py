@@ -102,6 +102,10 @@ class CandidateScore:
     step: float               # one Gauss-Newton step for its coefficient (start value)
 
 
+def _rms(x) -> float:
+    return float(np.sqrt(np.mean(np.square(x))))
+
+
 def _simulate(inertia, law, delay, u, fs, initial):
     return simulate_periods(inertia, law, u, fs, delay_s=delay, initial=initial)
 
@@ -111,6 +115,10 @@ def score_candidates(u: np.ndarray, y: np.ndarray, fs_Hz: float, *, inertia: flo
     """Score test of each candidate at the present fit, best first (largest reduction)."""
     y0, Y0 = _simulate(inertia, law, delay_s, u, fs_Hz, None)
     r = (y0 - y).ravel()
+    n_per = y.shape[-1]
+    x0 = y0.ravel()
+    v0 = np.fft.irfft(Y0 * 1j * 2 * np.pi * fs_Hz / n_per * np.arange(Y0.shape[-1]), n=n_per, axis=-1).ravel()
+    torque_rms = _rms(law.torque(x0, v0))
     n = r.size
 
     def sens(J, lw, tau, step):
@@ -137,14 +145,9 @@ def score_candidates(u: np.ndarray, y: np.ndarray, fs_Hz: float, *, inertia: flo
         elif cand.term.name in law.names:
             continue
         else:
-            # sensitivity to a small coefficient of the new term (size set from the data's scale)
-            probe = JointLaw(law.terms + (cand.term,), law.values + (0.0,))
-            xs = np.std(y)
-            vs = xs * 2 * np.pi * fs_Hz / 8
-            tscale = abs(law.values[law.names.index("k_Nm_per_rad")]) * xs if "k_Nm_per_rad" in law.names else 1.0
-            mag = float(np.std(cand.term(y.ravel(), np.full(y.size, vs)))) or 1.0
-            hc = 1e-6 * tscale / mag
-            probe = JointLaw(probe.terms, law.values + (hc,))
+            # sensitivity to a small coefficient of the new term: its torque is 1e-6 of the law's
+            hc = 1e-6 * torque_rms / max(_rms(cand.term(x0, v0)), 1e-300)
+            probe = JointLaw(law.terms + (cand.term,), law.values + (hc,))
             s = sens(inertia, probe, delay_s, hc)
         s_perp = s - Q @ (Q.T @ s)
         ss = float(s_perp @ s_perp)

@@ -102,6 +102,12 @@ def periodic_response(
     jw = 1j * w
     scale = np.max(np.abs(Ue / np.where(L != 0, L, np.inf))) or 1.0
     eps = 1e-6
+    with np.errstate(over="ignore", invalid="ignore"):  # divergence is reported as SteadyStateError
+        return _iterate(X, Ue, L, jw, rest, n_samples, n_bins, oversample, scale, eps, tol, max_iter)
+
+
+def _iterate(X, Ue, L, jw, rest, n_samples, n_bins, oversample, scale, eps, tol, max_iter):
+    change = float("inf")
     for it in range(max_iter):
         x = _upsampled(X, n_samples, oversample)
         v = _upsampled(jw * X, n_samples, oversample)
@@ -115,7 +121,7 @@ def periodic_response(
         denom = L + dK
         X_new = (Ue - G + dK * X) / np.where(denom != 0, denom, np.inf)
         if not np.all(np.isfinite(X_new)):
-            raise SteadyStateError(f"non-finite response at iteration {it}")
+            raise SteadyStateError(f"non-finite response at iteration {it}: the model diverges under this input")
         change = float(np.max(np.abs(X_new - X))) / scale
         X = X_new
         if change < tol:
