@@ -136,6 +136,11 @@ def main(argv=None) -> int:
     print(f"  {'effect':20s} {'RSS removable':>13s} {'pred. RMS':>10s} {'chi2':>9s}  meaning")
     for s in scores:
         print(f"  {s.effect:20s} {s.reduction:13.3e} {1e3 * s.predicted_rms:8.4f}mV {s.chi2:9.0f}  {s.meaning}")
+    if len(scores) > 1 and scores[1].reduction > 0.9 * scores[0].reduction:
+        print(f"  note: {scores[0].effect} and {scores[1].effect} explain nearly the same part of the residual "
+              f"(within {100 * (1 - scores[1].reduction / scores[0].reduction):.0f}%): these data cannot tell "
+              f"them apart; multisines at several amplitude levels (the damping of one grows with rate, of "
+              f"the other with amplitude) would")
     ext = extend_model(u, y, fs, inertia=oe.inertia, law=oe.law, train=TRAIN, validate=VALIDATE)
     print("\nExtension, each step kept only if the simulation error on held-out realisations 9-10 drops >= 2%:")
     for st in ext.steps:

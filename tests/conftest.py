@@ -10,6 +10,8 @@ from rig import DEFAULT_MODEL, SimulationConfig, load_rig
 from rig.sweep import DEFAULT_PLAN, records_of, run_sweep
 
 MODELS_DIR = Path(DEFAULT_MODEL).parent
+#: Two-flywheel rig models (checked by rig.load_rig); the one-coordinate oscillator is separate.
+RIG_MODELS = sorted(MODELS_DIR.glob("two_flywheels*.xml"))
 ALL_MODELS = sorted(MODELS_DIR.glob("*.xml"))
 
 
