@@ -192,16 +192,20 @@ class Monomial(Term):
 
 
 @dataclass(frozen=True)
-class AngleHat(Term):
-    """Hat function ``hat_i(phi)`` on ``knots`` (rad): the restoring torque at knot i (eq. 8)."""
-
+class _Hat(Term):
     knots: tuple[float, ...]
     index: int
 
     def __post_init__(self):
-        object.__setattr__(self, "knots", _check_knots(self.knots, "AngleHat.knots"))
+        what = type(self).__name__
+        object.__setattr__(self, "knots", _check_knots(self.knots, f"{what}.knots"))
         if not 0 <= self.index < len(self.knots):
-            raise ValueError(f"AngleHat.index {self.index} outside 0..{len(self.knots) - 1}")
+            raise ValueError(f"{what}.index {self.index} outside 0..{len(self.knots) - 1}")
+
+
+@dataclass(frozen=True)
+class AngleHat(_Hat):
+    """Hat function ``hat_i(phi)`` on ``knots`` (rad): the restoring torque at knot i (eq. 8)."""
 
     @property
     def name(self) -> str:
@@ -216,16 +220,8 @@ class AngleHat(Term):
 
 
 @dataclass(frozen=True)
-class RateHat(Term):
+class RateHat(_Hat):
     """Hat function ``hat_i(phi')`` on ``knots`` (rad/s): the damping torque at knot i (eq. 9)."""
-
-    knots: tuple[float, ...]
-    index: int
-
-    def __post_init__(self):
-        object.__setattr__(self, "knots", _check_knots(self.knots, "RateHat.knots"))
-        if not 0 <= self.index < len(self.knots):
-            raise ValueError(f"RateHat.index {self.index} outside 0..{len(self.knots) - 1}")
 
     @property
     def name(self) -> str:
