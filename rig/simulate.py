@@ -16,6 +16,7 @@ callback somebody else installed, and restores the previous one afterwards.
 from __future__ import annotations
 
 import contextlib
+import copy
 import logging
 import math
 import threading
@@ -212,9 +213,8 @@ def simulate_steady_state(
     law = rig.law if law is None else law
     where = f"{rig.path.name} at omega = {omega_rad_s:g} rad/s, M0 = {amplitude_Nm:g} N m"
     t_start = _time.perf_counter()
-    m = rig.model
     # Per-run settings on a private copy: the shared MjModel stays untouched.
-    m = _copy_model(m)
+    m = copy.copy(rig.model)
     m.opt.integrator = mujoco.mjtIntegrator.__members__[config.mj_integrator_name]
     m.opt.timestep = config.timestep_s(omega_rad_s)
     k = config.steps_per_sample(omega_rad_s)
@@ -280,8 +280,3 @@ def simulate_steady_state(
               settled_at, change, m.opt.timestep, info.wall_time_s)
     return record, info
 
-
-def _copy_model(model: mujoco.MjModel) -> mujoco.MjModel:
-    import copy
-
-    return copy.copy(model)
