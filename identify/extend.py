@@ -25,7 +25,7 @@ from scipy.stats import chi2
 from .basis import JointLaw, Monomial, Power, Term
 from .output_error import OutputErrorResult, refine_output_error, simulate_periods
 
-__all__ = ["Candidate", "CANDIDATES", "CandidateScore", "ResidualAnalysis", "ExtensionResult",
+__all__ = ["Candidate", "CANDIDATES", "CandidateScore", "ResidualAnalysis", "ExtensionStep", "ExtensionResult",
            "residual_analysis", "score_candidates", "extend_model"]
 
 log = logging.getLogger(__name__)
@@ -106,14 +106,10 @@ def _rms(x) -> float:
     return float(np.sqrt(np.mean(np.square(x))))
 
 
-def _simulate(inertia, law, delay, u, fs, initial):
-    return simulate_periods(inertia, law, u, fs, delay_s=delay, initial=initial)
-
-
 def score_candidates(u: np.ndarray, y: np.ndarray, fs_Hz: float, *, inertia: float, law: JointLaw,
                      delay_s: float = 0.0, candidates: Sequence[Candidate] = CANDIDATES) -> tuple[CandidateScore, ...]:
     """Score test of each candidate at the present fit, best first (largest reduction)."""
-    y0, Y0 = _simulate(inertia, law, delay_s, u, fs_Hz, None)
+    y0, Y0 = simulate_periods(inertia, law, u, fs_Hz, delay_s=delay_s)
     r = (y0 - y).ravel()
     n_per = y.shape[-1]
     x0 = y0.ravel()
@@ -122,7 +118,7 @@ def score_candidates(u: np.ndarray, y: np.ndarray, fs_Hz: float, *, inertia: flo
     n = r.size
 
     def sens(J, lw, tau, step):
-        ys, _ = _simulate(J, lw, tau, u, fs_Hz, Y0)
+        ys, _ = simulate_periods(J, lw, u, fs_Hz, delay_s=tau, initial=Y0)
         return ((ys - y0) / step).ravel()
 
     cols = []
@@ -206,34 +202,30 @@ def extend_model(u: np.ndarray, y: np.ndarray, fs_Hz: float, *, inertia: float, 
     effects: list[str] = []
     steps: list[ExtensionStep] = []
     first_scores: Optional[tuple] = None
-    tried: set[str] = set()
     while len(effects) < max_effects:
         scores = score_candidates(ut, yt, fs_Hz, inertia=fit.inertia, law=fit.law, delay_s=fit.delay_s,
-                                  candidates=[c for c in candidates if c.effect not in tried])
+                                  candidates=[c for c in candidates if c.effect not in effects])
         first_scores = first_scores or scores
-        accepted = False
-        for sc in scores:
-            tried.add(sc.effect)
-            cand = by_name[sc.effect]
-            if cand.term is None:
-                trial = _fit(ut, yt, fs_Hz, fit.inertia, fit.law, fit.delay_s, True)
-            else:
-                trial_law = JointLaw(fit.law.terms + (cand.term,), fit.law.values + (sc.step,))
-                trial = _fit(ut, yt, fs_Hz, fit.inertia, trial_law, fit.delay_s, delay_on)
-            new_val = _val_rms(trial, uv, yv, fs_Hz)
-            ok = new_val < (1 - min_gain) * val
-            steps.append(ExtensionStep(sc.effect, ok, val, new_val))
-            log.info("candidate %s: held-out RMS %.4g -> %.4g (%s)", sc.effect, val, new_val,
-                     "kept" if ok else "rejected")
-            if ok:
-                effects.append(sc.effect)
-                fit, val = trial, new_val
-                delay_on = delay_on or cand.term is None
-                accepted = True
-            # Only the best-evidenced candidate is tried per round: if it does not generalise,
-            # weaker evidence will not either (and each trial is a full output-error fit).
+        if not scores:
             break
-        if not accepted:
+        # Only the best-evidenced candidate is tried per round: if it does not generalise,
+        # weaker evidence will not either (and each trial is a full output-error fit).
+        best = scores[0]
+        cand = by_name[best.effect]
+        if cand.term is None:
+            trial = _fit(ut, yt, fs_Hz, fit.inertia, fit.law, fit.delay_s, True)
+        else:
+            trial_law = JointLaw(fit.law.terms + (cand.term,), fit.law.values + (best.step,))
+            trial = _fit(ut, yt, fs_Hz, fit.inertia, trial_law, fit.delay_s, delay_on)
+        new_val = _val_rms(trial, uv, yv, fs_Hz)
+        ok = new_val < (1 - min_gain) * val
+        steps.append(ExtensionStep(best.effect, ok, val, new_val))
+        log.info("candidate %s: held-out RMS %.4g -> %.4g (%s)", best.effect, val, new_val,
+                 "kept" if ok else "rejected")
+        if not ok:
             break
+        effects.append(best.effect)
+        fit, val = trial, new_val
+        delay_on = delay_on or cand.term is None
     final = _fit(u, y, fs_Hz, fit.inertia, fit.law, fit.delay_s, delay_on)
     return ExtensionResult(tuple(effects), tuple(steps), final, first_scores or ())

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from identify import JointLaw, LinearSystem, Power, Viscous, single_dof_system, solve
-from identify.extend import CANDIDATES, extend_model, residual_analysis, score_candidates
+from identify.extend import extend_model, residual_analysis, score_candidates
 from identify.output_error import refine_output_error, simulate_periods
 from identify.signals import BandlimitedInput
 from measured.silverbox import EXCITED_MAX_BIN, PERIOD, SilverboxData, load_silverbox

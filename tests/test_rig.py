@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from identify.basis import hat_law
+from identify.basis import JointLaw, Term, hat_law
 from rig import (DEFAULT_MODEL, RigModelError, SimulationConfig, SimulationError, SteadyStateNotReached, load_rig,
                  make_callback, passive_callback, simulate_steady_state)
 from rig.model import ACTUATOR
@@ -93,9 +93,18 @@ def test_callback_is_scoped_and_refuses_to_share(rig):
     assert mujoco.get_mjcb_passive() is None
 
 
-def test_callback_exception_becomes_simulation_error(rig, monkeypatch):
-    bad = hat_law(knots_rad=(0.0, 1.0), g_Nm=(0.0, 1.0))
-    monkeypatch.setattr(type(bad), "torque", lambda self, phi, rate: 1 / 0)
+class _Failing(Term):
+    """A basis term whose evaluation raises, as a user's broken law would."""
+
+    name = "failing_Nm"
+    elastic = False
+
+    def __call__(self, phi, rate):
+        return 1 / 0
+
+
+def test_callback_exception_becomes_simulation_error(rig):
+    bad = JointLaw((_Failing(),), (1.0,))
     with pytest.raises(SimulationError, match="callback failed: ZeroDivisionError"):
         simulate_steady_state(rig, 40.0, 100.0, SimulationConfig(samples_per_period=16), law=bad)
     assert mujoco.get_mjcb_passive() is None
