@@ -216,8 +216,14 @@ def two_dof_system(
     terms: Sequence[Term],
     *,
     n_harmonics: int,
+    bearings: bool = False,
 ) -> LinearSystem:
-    """Direct two-degree-of-freedom form: unknowns ``(J1_kgm2, J2_kgm2, theta...)``."""
+    """Direct two-degree-of-freedom form: unknowns ``(J1_kgm2, J2_kgm2, theta...)``.
+
+    ``bearings=True`` adds viscous drag of each flywheel to ground (bearing friction), unknowns
+    ``bearing1_damping_Nms_per_rad`` and ``bearing2_damping_Nms_per_rad`` at the end:
+    ``J1 phi1'' + M_v + b1 phi1' = T``, ``J2 phi2'' - M_v + b2 phi2' = 0``.
+    """
     _check_records(records)
     systems = []
     for i, rec in enumerate(records):
@@ -231,14 +237,20 @@ def two_dof_system(
         acc2 = _acceleration_coeffs(rec.phi2_rad, rec.rate2_rad_s, rec, n_harmonics)
         zero = np.zeros_like(acc1)
         torque = fourier_coefficients(rec.torque_Nm, rec.n_periods, n_harmonics)
-        for eq, (cols, rhs) in enumerate((
-            (np.vstack([acc1, zero, law]), torque),
-            (np.vstack([zero, acc2, -law]), np.zeros_like(torque)),
-        )):
+        eq_cols = [[acc1, zero, law], [zero, acc2, -law]]
+        names = ("J1_kgm2", "J2_kgm2") + tuple(t.name for t in terms)
+        if bearings:
+            jw = 1j * np.arange(n_harmonics + 1) * rec.omega_rad_s
+            v1 = jw * fourier_coefficients(rec.phi1_rad, rec.n_periods, n_harmonics)
+            v2 = jw * fourier_coefficients(rec.phi2_rad, rec.n_periods, n_harmonics)
+            eq_cols[0] += [v1, zero]
+            eq_cols[1] += [zero, v2]
+            names += ("bearing1_damping_Nms_per_rad", "bearing2_damping_Nms_per_rad")
+        for eq, (cols, rhs) in enumerate(((np.vstack(eq_cols[0]), torque),
+                                          (np.vstack(eq_cols[1]), np.zeros_like(torque)))):
             A, F, harm, part = harmonic_rows(cols, rhs, n_harmonics)
             n = F.size
-            systems.append(LinearSystem(A, F, ("J1_kgm2", "J2_kgm2") + tuple(t.name for t in terms),
-                                        np.full(n, i), harm, part, np.full(n, eq)))
+            systems.append(LinearSystem(A, F, names, np.full(n, i), harm, part, np.full(n, eq)))
     return LinearSystem.stack(systems)
 
 

@@ -36,6 +36,11 @@ __all__ = [
     "Term",
     "Viscous",
     "Power",
+    "Coulomb",
+    "QuadraticDamping",
+    "Jenkins",
+    "dead_zone",
+    "play",
     "AngleHat",
     "Monomial",
     "RateHat",
@@ -109,6 +114,9 @@ def _hat(x: ArrayLike, knots: tuple[float, ...], i: int) -> ArrayLike:
 class Term:
     """One basis function ``b(phi, phi')`` of the joint torque, in N m per unit parameter."""
 
+    #: True for a term with memory (:class:`Jenkins`): no scalar ``__call__``.
+    stateful = False
+
     @property
     def name(self) -> str:  # parameter name with unit
         raise NotImplementedError
@@ -138,15 +146,40 @@ class Viscous(Term):
         return rate if isinstance(rate, float) else np.asarray(rate, dtype=float)
 
 
+def dead_zone(phi: ArrayLike, gap_rad: float) -> ArrayLike:
+    """Backlash: the angle the elastic element feels when it has a free play of
+    ``+-gap_rad`` (rad) about zero: ``phi - gap`` above, ``phi + gap`` below, 0 inside."""
+    if isinstance(phi, float):
+        if phi > gap_rad:
+            return phi - gap_rad
+        if phi < -gap_rad:
+            return phi + gap_rad
+        return 0.0
+    x = np.asarray(phi, dtype=float)
+    return x - np.clip(x, -gap_rad, gap_rad)
+
+
 @dataclass(frozen=True)
 class Power(Term):
-    """Polynomial stiffness term ``phi**power`` (power 0 is a constant preload torque)."""
+    """Polynomial stiffness term ``phi**power`` (power 0 is a constant preload torque).
+
+    With ``gap_rad > 0`` (backlash, power >= 1) the element engages only beyond the free
+    play: ``dead_zone(phi, gap_rad)**power``. The parameter keeps its name: a law with
+    backlash has the same ``k`` and ``gamma``, acting on the engaged angle.
+    """
 
     power: int
+    gap_rad: float = 0.0
 
     def __post_init__(self):
         if not isinstance(self.power, int) or self.power < 0:
             raise ValueError(f"Power.power must be an int >= 0, got {self.power!r}")
+        gap = float(self.gap_rad)
+        if not (math.isfinite(gap) and gap >= 0):
+            raise ValueError(f"Power.gap_rad must be a finite number >= 0, got {self.gap_rad!r}")
+        if gap > 0 and self.power == 0:
+            raise ValueError("Power.gap_rad needs power >= 1 (a preload has no free play)")
+        object.__setattr__(self, "gap_rad", gap)
 
     @property
     def name(self) -> str:
@@ -157,9 +190,106 @@ class Power(Term):
         return True
 
     def __call__(self, phi, rate):
+        if self.gap_rad > 0:
+            phi = dead_zone(phi, self.gap_rad)
         if isinstance(phi, float):
             return phi**self.power
         return np.asarray(phi, dtype=float) ** self.power
+
+
+@dataclass(frozen=True)
+class Coulomb(Term):
+    """Dry (Coulomb) friction in the joint: ``sign(phi')`` -> ``coulomb_torque_Nm``."""
+
+    @property
+    def name(self) -> str:
+        return "coulomb_torque_Nm"
+
+    @property
+    def elastic(self) -> bool:
+        return False
+
+    def __call__(self, phi, rate):
+        if isinstance(rate, float):
+            return (rate > 0.0) - (rate < 0.0) + 0.0
+        return np.sign(np.asarray(rate, dtype=float))
+
+
+@dataclass(frozen=True)
+class QuadraticDamping(Term):
+    """Quadratic (turbulent) damping ``phi' |phi'|`` -> ``quadratic_damping_Nms2_per_rad2``."""
+
+    @property
+    def name(self) -> str:
+        return "quadratic_damping_Nms2_per_rad2"
+
+    @property
+    def elastic(self) -> bool:
+        return False
+
+    def __call__(self, phi, rate):
+        if isinstance(rate, float):
+            return rate * abs(rate)
+        r = np.asarray(rate, dtype=float)
+        return r * np.abs(r)
+
+
+def play(phi: float, state_rad: float, slip_rad: float) -> float:
+    """The play operator (rate-independent memory): the slider position after the angle
+    moved to ``phi``, given its position ``state_rad`` before; it follows ``phi`` at a lag of
+    at most ``slip_rad``."""
+    return min(max(state_rad, phi - slip_rad), phi + slip_rad)
+
+
+@dataclass(frozen=True)
+class Jenkins(Term):
+    """Hysteresis: a Jenkins element (the one-element Iwan model), a spring in series with a
+    dry-friction slider, in parallel with the rest of the joint.
+
+    The slider sits at ``z`` (rad) and moves only when the spring torque reaches the slip
+    torque ``F`` (the parameter, ``hysteresis_slip_torque_Nm``); the spring stiffness is
+    ``F / slip_rad``. Unit-parameter torque: ``(phi - z) / slip_rad`` in [-1, 1] with
+    ``z = play(phi, z_before, slip_rad)``. Below ``slip_rad`` amplitude it is a stiffness;
+    above, it traces a parallelogram loop whose area is the energy lost per cycle.
+
+    The term has state: the rig keeps ``z`` between steps (:meth:`torque` from the state at
+    the start of the step, :func:`play` to commit it); on a periodic record the array path
+    runs the operator over the record twice and returns the second, periodic pass.
+    """
+
+    slip_rad: float
+
+    def __post_init__(self):
+        slip = float(self.slip_rad)
+        if not (math.isfinite(slip) and slip > 0):
+            raise ValueError(f"Jenkins.slip_rad must be a finite number > 0, got {self.slip_rad!r}")
+        object.__setattr__(self, "slip_rad", slip)
+
+    stateful = True
+
+    @property
+    def name(self) -> str:
+        return "hysteresis_slip_torque_Nm"
+
+    @property
+    def elastic(self) -> bool:
+        return False
+
+    def torque(self, phi: float, state_rad: float) -> float:
+        """Unit-parameter torque at angle ``phi`` with the slider at ``state_rad`` before."""
+        return (phi - play(phi, state_rad, self.slip_rad)) / self.slip_rad
+
+    def __call__(self, phi, rate):
+        if isinstance(phi, float):
+            raise TypeError("Jenkins has state: the rig evaluates it with Jenkins.torque(phi, state)")
+        x = np.asarray(phi, dtype=float)
+        out = np.empty_like(x)
+        z, s = 0.0, self.slip_rad
+        for _ in range(2):  # the first pass reaches the periodic state (amplitude > slip)
+            for i, v in enumerate(x.tolist()):
+                z = min(max(z, v - s), v + s)
+                out[i] = (v - z) / s
+        return out
 
 
 @dataclass(frozen=True)

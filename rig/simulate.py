@@ -22,12 +22,13 @@ import math
 import threading
 import time as _time
 from dataclasses import dataclass
-from typing import Callable, Iterator, Optional
+from typing import Callable, Iterator, Optional, Union
 
 import mujoco
 import numpy as np
 
-from identify.basis import JointLaw
+from identify.basis import JointLaw, play
+from identify.plant import PeriodicDrive, Plant
 from identify.records import SteadyStateRecord
 
 from .model import RigModel
@@ -39,6 +40,7 @@ __all__ = [
     "SteadyStateNotReached",
     "passive_callback",
     "make_callback",
+    "commit_state",
     "simulate_steady_state",
 ]
 
@@ -120,32 +122,58 @@ class SettleInfo:
     wall_time_s: float
 
 
-def make_callback(rig: RigModel, law: JointLaw, omega_rad_s: float, amplitude_Nm: float,
-                  errors: list) -> Callable:
-    """The passive callback: joint law between the flywheels plus the drive at ``d.time``.
+def make_callback(rig: RigModel, plant: Union[Plant, JointLaw], drive: PeriodicDrive, errors: list,
+                  slider_state: Optional[list] = None) -> Callable:
+    """The passive callback: joint law between the flywheels, bearing drag, and the drive.
 
-    Exceptions raised inside are stored in ``errors`` (MuJoCo cannot propagate them) and the
-    caller raises them after the step.
+    The drive is ``drive(d.time - plant.drive_delay_s)``. Stateful law terms
+    (:class:`identify.basis.Jenkins`) take their state from ``slider_state`` (one float per
+    stateful term, in law order), which the caller commits after every step with
+    :func:`commit_state`. Exceptions raised inside are stored in ``errors`` (MuJoCo cannot
+    propagate them) and the caller raises them after the step.
     """
+    plant = Plant.of(plant)
+    law = plant.law
+    stateless = [(t, v) for t, v in zip(law.terms, law.values) if not t.stateful]
+    stateful = [(t, v) for t, v in zip(law.terms, law.values) if t.stateful]
+    if stateful and (slider_state is None or len(slider_state) != len(stateful)):
+        raise ValueError(f"the law has {len(stateful)} stateful term(s): pass slider_state with one float each")
+    torque = JointLaw(tuple(t for t, _ in stateless), tuple(v for _, v in stateless)).torque \
+        if stateless else (lambda phi, rate: 0.0)
     q1, q2 = rig.qpos_adr
     v1, v2 = rig.dof_adr
     act = rig.actuator_id
-    torque = law.torque
-    cos = math.cos
+    b1, b2 = plant.bearing1_damping_Nms_per_rad, plant.bearing2_damping_Nms_per_rad
+    drive_at = drive.evaluator(plant.drive_delay_s)
+    hyst = [(t.torque, v, i) for i, (t, v) in enumerate(stateful)]
 
     def callback(m, d):
         try:
             qpos, qvel = d.qpos, d.qvel
-            tau = torque(float(qpos[q1] - qpos[q2]), float(qvel[v1] - qvel[v2]))
+            phi = float(qpos[q1] - qpos[q2])
+            tau = torque(phi, float(qvel[v1] - qvel[v2]))
+            for f, v, i in hyst:
+                tau += v * f(phi, slider_state[i])
             frc = d.qfrc_passive
             frc[v1] -= tau
             frc[v2] += tau
-            d.ctrl[act] = amplitude_Nm * cos(omega_rad_s * d.time)
+            if b1:
+                frc[v1] -= b1 * qvel[v1]
+            if b2:
+                frc[v2] -= b2 * qvel[v2]
+            d.ctrl[act] = drive_at(d.time)
         except Exception as err:  # noqa: BLE001 - re-raised by the caller after the step
             if not errors:
                 errors.append(err)
 
     return callback
+
+
+def commit_state(plant: Union[Plant, JointLaw], slider_state: list, phi_rad: float) -> None:
+    """Advance the stateful terms' memory to the accepted angle ``phi_rad`` (after a step)."""
+    stateful = [t for t in Plant.of(plant).law.terms if t.stateful]
+    for i, t in enumerate(stateful):
+        slider_state[i] = play(phi_rad, slider_state[i], t.slip_rad)
 
 
 @contextlib.contextmanager
@@ -188,16 +216,28 @@ def simulate_steady_state(
     amplitude_Nm: float,
     config: SimulationConfig = SimulationConfig(),
     *,
-    law: Optional[JointLaw] = None,
+    law: Optional[Union[JointLaw, Plant]] = None,
+    drive: Optional[PeriodicDrive] = None,
+    inertias_kgm2: Optional[tuple[float, float]] = None,
 ) -> tuple[SteadyStateRecord, SettleInfo]:
     """Drive flywheel 1 with ``amplitude_Nm * cos(omega_rad_s * t)`` from rest at t = 0 until
     steady state, then log ``config.n_periods`` whole periods.
 
     Starting from rest with a cosine drive makes the rigid-body rotation periodic too
     (its velocity is ``M0 sin(omega t) / (omega (J1 + J2))``), so both absolute angles are.
+    For any other drive (or a delay) both flywheels start with the common velocity
+    :meth:`PeriodicDrive.mean_free_impulse` / (J1 + J2) that keeps the rotation periodic.
 
     Args:
-      law: joint law to simulate; default the model's own.
+      law: joint law, or a :class:`identify.plant.Plant` (law + bearing drag + drive delay),
+        to simulate; default the model's own.
+      drive: a general periodic drive (its fundamental must be ``omega_rad_s``) instead of the
+        cosine; ``amplitude_Nm`` is then only a label.
+      inertias_kgm2: (J1, J2) to simulate instead of the model's (each body's inertia tensor
+        is scaled, so the moment about the hinge becomes the given value).
+
+    The record's torque is the drive as recorded: with a drive delay it is the torque before
+    the delay (what a torque cell upstream of the delay reads), otherwise the actuator force.
 
     Returns:
       The record (angles, rates and applied torque at the sample times) and settle info.
@@ -210,16 +250,33 @@ def simulate_steady_state(
         raise ValueError(f"omega_rad_s must be a finite number > 0, got {omega_rad_s}")
     if not math.isfinite(amplitude_Nm):
         raise ValueError(f"amplitude_Nm must be finite, got {amplitude_Nm}")
-    law = rig.law if law is None else law
+    plant = Plant.of(rig.law if law is None else law)
+    if drive is None:
+        drive = PeriodicDrive.cosine(omega_rad_s, amplitude_Nm)
+    elif abs(drive.omega_rad_s - omega_rad_s) > 1e-12 * omega_rad_s:
+        raise ValueError(f"drive fundamental {drive.omega_rad_s} rad/s differs from omega_rad_s {omega_rad_s}")
     where = f"{rig.path.name} at omega = {omega_rad_s:g} rad/s, M0 = {amplitude_Nm:g} N m"
     t_start = _time.perf_counter()
     # Per-run settings on a private copy: the shared MjModel stays untouched.
     m = copy.copy(rig.model)
+    if inertias_kgm2 is not None:
+        for j, (name, target, now) in enumerate(zip(("J1", "J2"), inertias_kgm2, (rig.J1_kgm2, rig.J2_kgm2))):
+            if not (math.isfinite(target) and target > 0):
+                raise ValueError(f"inertias_kgm2: {name} must be a finite number > 0, got {target}")
+            body = m.jnt_bodyid[m.dof_jntid[rig.dof_adr[j]]]
+            m.body_inertia[body] *= target / now
+    stateful = [t for t in plant.law.terms if t.stateful]
+    slider = [0.0] * len(stateful)
+    q1, q2 = rig.qpos_adr
     m.opt.integrator = mujoco.mjtIntegrator.__members__[config.mj_integrator_name]
     m.opt.timestep = config.timestep_s(omega_rad_s)
     k = config.steps_per_sample(omega_rad_s)
     n = config.samples_per_period
     d = mujoco.MjData(m)
+    # Start the rigid-body rotation with the velocity that keeps it periodic (0 for a cosine).
+    v_rigid = drive.mean_free_impulse(0.0, plant.drive_delay_s) / (rig.J1_kgm2 + rig.J2_kgm2
+                                                                   if inertias_kgm2 is None else sum(inertias_kgm2))
+    d.qvel[list(rig.dof_adr)] = v_rigid
     adr = rig.sensor_adr
     channels = ("phi1", "phi2", "rate1", "rate2", "drive_torque")
     idx = np.array([adr[c] for c in channels])
@@ -229,7 +286,7 @@ def simulate_steady_state(
     change = math.inf
     worst = "?"
     settled_at = None
-    with passive_callback(make_callback(rig, law, omega_rad_s, amplitude_Nm, errors)):
+    with passive_callback(make_callback(rig, plant, drive, errors, slider)):
         p = 0
         while True:
             buf = np.empty((n, len(channels)))
@@ -238,7 +295,12 @@ def simulate_steady_state(
                 tbuf[i] = d.time
                 mujoco.mj_step(m, d)  # sensordata now hold the state at tbuf[i]
                 buf[i] = d.sensordata[idx]
-                if k > 1:
+                if stateful:  # commit the memory at every accepted state
+                    commit_state(plant, slider, float(d.qpos[q1] - d.qpos[q2]))
+                    for _ in range(k - 1):
+                        mujoco.mj_step(m, d)
+                        commit_state(plant, slider, float(d.qpos[q1] - d.qpos[q2]))
+                elif k > 1:
                     mujoco.mj_step(m, d, nstep=k - 1)
             p += 1
             if errors:
@@ -269,8 +331,10 @@ def simulate_steady_state(
             if settled_at is not None and len(periods) == config.n_periods:
                 break
     data = np.vstack(periods)
+    t_rec = np.concatenate(times)
+    torque = data[:, 4] if plant.drive_delay_s == 0 else drive(t_rec)
     record = SteadyStateRecord(
-        omega_rad_s=float(omega_rad_s), time_s=np.concatenate(times), torque_Nm=data[:, 4],
+        omega_rad_s=float(omega_rad_s), time_s=t_rec, torque_Nm=torque,
         phi1_rad=data[:, 0], phi2_rad=data[:, 1], rate1_rad_s=data[:, 2], rate2_rad_s=data[:, 3],
         n_periods=config.n_periods, drive_amplitude_Nm=float(amplitude_Nm), source=where,
     )

@@ -8,6 +8,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from identify.basis import JointLaw, Term, hat_law
+from identify.plant import PeriodicDrive
 from rig import (DEFAULT_MODEL, RigModelError, SimulationConfig, SimulationError, SteadyStateNotReached, load_rig,
                  make_callback, passive_callback, simulate_steady_state)
 from rig.model import ACTUATOR
@@ -59,7 +60,7 @@ def test_callback_torque_equals_law_evaluated_independently(path):
         t = rng.uniform(0, 10)
         d = _state(rig, phi1, phi2, v1, v2, t)
         errors = []
-        with passive_callback(make_callback(rig, rig.law, omega, M0, errors)):
+        with passive_callback(make_callback(rig, rig.law, PeriodicDrive.cosine(omega, M0), errors)):
             mujoco.mj_forward(rig.model, d)
         assert not errors
         tau = independent(phi1 - phi2, v1 - v2)

@@ -1,0 +1,596 @@
+"""What the nominal model gets wrong: rank physical causes by evidence and extend the model.
+
+Pure functions (records in, frozen dataclasses out); the rig simulations that measure the
+gain on held-out runs live in :mod:`rig.validate`.
+
+1. **Prepare** every run (:func:`prepare_runs`): average its P periods in the frequency
+   domain, estimate the noise variance of every Fourier coefficient from period-to-period
+   variation (pooled over neighbouring harmonics), and keep harmonics 0..band (the band the
+   harmonic balance uses). The law columns (sign, dead zone, play operator, ...) are
+   evaluated on these averaged, band-limited angles, which cuts the noise entering [A]
+   (errors in variables) by sqrt(P * N / (2 band + 1)); rates are exact spectral derivatives
+   of the band.
+2. **Weights**: each harmonic-balance row's noise variance is the period-to-period variance
+   of that row's residual at the current parameters (``F_p - A_p theta`` over periods p,
+   divided by P; cosine and sine rows pooled), so noise in [A] is counted too. With
+   ``nu = 2 (P - 1)`` degrees of freedom per weight, a correct model has
+   ``E[chi2] = dof * nu / (nu - 2)``; chi-square values are reported corrected by that factor.
+3. **Nominal fit**: Je (or J1, J2) and ``c phi' + k phi + gamma phi^3`` (paper eq. 11) by
+   weighted least squares.
+4. **Causes** (:data:`CAUSES`): each adds columns to the nominal model (and, for backlash,
+   hysteresis and drive delay, one nonlinear parameter found by a profile search). Its
+   evidence is the drop in chi-square ``D``; it is *significant* when ``D`` exceeds the
+   chi-square(q) quantile at ``alpha / n_causes`` (Bonferroni), and causes are ranked by
+   ``score = D - q ln(n_rows)`` (BIC: twice the log Bayes factor against the nominal model),
+   so an extra parameter must pay for itself.
+5. **Extension**: the best significant cause is added; the rest are scored again on top of
+   it; repeat until nothing significant is left. Two causes that each explain away the
+   other (neither significant given the other) are reported as indistinguishable, with the
+   excitation that would separate them.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass, field, replace
+from typing import Callable, Optional, Sequence
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+from scipy.stats import chi2 as chi2_dist
+
+from .balance import LinearSystem, equivalent_system, two_dof_system
+from .basis import Coulomb, Jenkins, JointLaw, Power, QuadraticDamping, Term, Viscous
+from .harmonics import fourier_coefficients, max_harmonic, synthesize
+from .plant import Plant
+from .records import RecordError, SteadyStateRecord
+from .solve import IllConditionedWarning, solve
+
+__all__ = [
+    "PreparedRun", "prepare_runs", "ModelSpec", "NOMINAL", "Cause", "CAUSES", "Fit", "CauseScore",
+    "Diagnosis", "diagnose", "fit", "plant_of", "EFFECT_MAGNITUDE", "SEPARATING_EXCITATION",
+]
+
+
+# --------------------------------------------------------------------------------------------
+# 1. Preparation: averaging, noise, denoising
+
+
+@dataclass(frozen=True)
+class PreparedRun:
+    """One run after averaging and denoising.
+
+    Attributes:
+      average: one period, the mean of the run's periods restricted to harmonics 0..band.
+      periods: each period alone, restricted to the same band (noise estimation).
+      kept: channel -> the harmonics within the band that stand out of the noise.
+      noise_std: channel -> noise standard deviation of one raw sample (same unit).
+      raw_average: the period average with all harmonics (what validation compares with).
+    """
+
+    average: SteadyStateRecord
+    periods: tuple[SteadyStateRecord, ...]
+    kept: dict
+    noise_std: dict
+    raw_average: SteadyStateRecord
+
+    @property
+    def n_periods(self) -> int:
+        return len(self.periods)
+
+
+def _pooled(var: np.ndarray, half_width: int = 4) -> np.ndarray:
+    """Moving average of a per-harmonic variance over +-half_width harmonics (n >= 1)."""
+    out = var.copy()
+    v = var[1:]
+    if v.size:
+        kernel = np.ones(2 * half_width + 1)
+        num = np.convolve(v, kernel, mode="same")
+        den = np.convolve(np.ones_like(v), kernel, mode="same")
+        out[1:] = num / den
+    return out
+
+
+def prepare_runs(records: Sequence[SteadyStateRecord], *, band: int = 20,
+                 significance_sigma: float = 4.0) -> list[PreparedRun]:
+    """Average, estimate noise and band-limit every record (see the module docstring).
+
+    Args:
+      band: harmonics 0..band are kept (the diagnosis balances the same band). Keeping only
+        the harmonics that stand out of the noise would be less noisy but biased: a law column
+        evaluated on a signal stripped of its weak harmonics predicts harmonics the data then
+        lack (the cubic term becomes invisible, dry friction collapses onto viscous damping).
+      significance_sigma: a harmonic counts as significant (listed in ``kept``, for the report)
+        when its magnitude exceeds this many noise standard errors; 4 keeps a pure-noise
+        harmonic out with probability about exp(-8) (complex Gaussian) each.
+
+    Raises:
+      RecordError: a record with fewer than 2 periods or too few samples for the band.
+    """
+    out = []
+    for rec in records:
+        P = rec.n_periods
+        if P < 2:
+            raise RecordError(f"{rec.source}: {P} period(s); the diagnosis needs at least 2 to estimate "
+                              f"the noise from period-to-period variation")
+        N = rec.samples_per_period
+        H = N // 2
+        if band > max_harmonic(N):
+            raise RecordError(f"{rec.source}: {N} samples per period hold at most {max_harmonic(N)} harmonics; "
+                              f"the diagnosis band is {band}")
+        chans = {"torque": rec.torque_Nm, "phi1": rec.phi1_rad}
+        if rec.phi2_rad is not None:
+            chans["phi2"] = rec.phi2_rad
+        avg, per, kept, noise, raw = {}, {}, {}, {}, {}
+        for name, x in chans.items():
+            X = np.fft.rfft(x.reshape(P, N), axis=1) / N  # per-period spectra, (P, H + 1)
+            mean = X.mean(axis=0)
+            var_mean = _pooled(np.sum(np.abs(X - mean) ** 2, axis=0) / (P * (P - 1)))
+            keep = np.arange(H + 1) <= band
+            sig = np.abs(mean) > significance_sigma * np.sqrt(var_mean)
+            kept[name] = np.flatnonzero(sig & keep)
+            noise[name] = float(np.sqrt(np.median(var_mean[1:H]) * P * N / 2))  # per raw sample
+            avg[name] = np.fft.irfft(np.where(keep, mean, 0) * N, n=N)
+            per[name] = np.fft.irfft(np.where(keep, X, 0) * N, n=N, axis=1)
+            raw[name] = np.fft.irfft(mean * N, n=N)
+        t1 = rec.time_s[:N]
+        two = "phi2" in chans
+
+        def make(src, get, label):
+            return SteadyStateRecord(rec.omega_rad_s, t1, get(src["torque"]), get(src["phi1"]),
+                                     get(src["phi2"]) if two else None, n_periods=1,
+                                     drive_amplitude_Nm=rec.drive_amplitude_Nm, source=f"{rec.source} {label}")
+
+        out.append(PreparedRun(
+            average=make(avg, lambda a: a, "(period average, denoised)"),
+            periods=tuple(make(per, lambda a, p=p: a[p], f"(period {p + 1}, denoised)") for p in range(P)),
+            kept=kept, noise_std=noise,
+            raw_average=make(raw, lambda a: a, "(period average)"),
+        ))
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# 2. Models and fits
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    """A model structure: joint terms, bearing drag columns, a drive delay."""
+
+    terms: tuple[Term, ...]
+    bearings: bool = False
+    drive_delay_s: float = 0.0
+
+
+NOMINAL = ModelSpec((Viscous(), Power(1), Power(3)))
+
+
+def _delayed(rec: SteadyStateRecord, delay_s: float) -> SteadyStateRecord:
+    """The torque that acted: the recorded one delayed by ``delay_s`` (exact for whole periods)."""
+    if delay_s == 0:
+        return rec
+    N = rec.samples_per_period
+    C = fourier_coefficients(rec.torque_Nm, rec.n_periods, max_harmonic(N))
+    n = np.arange(C.size)
+    return replace(rec, torque_Nm=synthesize(C * np.exp(-1j * n * rec.omega_rad_s * delay_s), rec.n_samples,
+                                             rec.n_periods))
+
+
+def build_system(records: Sequence[SteadyStateRecord], spec: ModelSpec, *, form: str, n_harmonics: int,
+                 torque_share: float) -> LinearSystem:
+    recs = [_delayed(r, spec.drive_delay_s) for r in records]
+    if form == "two_dof":
+        return two_dof_system(recs, spec.terms, n_harmonics=n_harmonics, bearings=spec.bearings)
+    if spec.bearings:
+        raise ValueError("bearing drag needs both flywheel angles (form 'two_dof')")
+    return equivalent_system(recs, spec.terms, n_harmonics=n_harmonics, torque_share=torque_share)
+
+
+@dataclass(frozen=True)
+class Fit:
+    """A weighted least-squares fit of one model structure.
+
+    ``chi2`` is corrected for the estimated weights (module docstring, step 2).
+    """
+
+    spec: ModelSpec
+    names: tuple[str, ...]
+    values: np.ndarray
+    std_errors: np.ndarray
+    chi2: float
+    n_rows: int
+    condition_number: float
+    row_chi2: np.ndarray = field(repr=False)  # corrected per-row contributions (n_rows,)
+    row_harmonic: np.ndarray = field(repr=False)
+    row_record: np.ndarray = field(repr=False)
+
+    @property
+    def dof(self) -> int:
+        return self.n_rows - len(self.names)
+
+    def as_dict(self) -> dict[str, float]:
+        return dict(zip(self.names, (float(v) for v in self.values)))
+
+    def effect_parameters(self) -> dict[str, float]:
+        """All parameters, with the nonlinear ones (free play, slip angle, delay) added."""
+        out = self.as_dict()
+        gaps = {t.gap_rad for t in self.spec.terms if isinstance(t, Power) and t.gap_rad > 0}
+        if gaps:
+            out["backlash_half_gap_rad"] = gaps.pop()
+        for t in self.spec.terms:
+            if isinstance(t, Jenkins):
+                out["hysteresis_slip_angle_rad"] = t.slip_rad
+                out["hysteresis_stiffness_Nm_per_rad"] = out[t.name] / t.slip_rad
+        if self.spec.drive_delay_s:
+            out["drive_delay_s"] = self.spec.drive_delay_s
+        return out
+
+
+@dataclass(frozen=True)
+class _Problem:
+    runs: tuple[PreparedRun, ...]
+    form: str
+    n_harmonics: int
+    torque_share: float
+    nu: float  # degrees of freedom of each row weight
+
+    def system(self, spec: ModelSpec) -> LinearSystem:
+        return build_system([r.average for r in self.runs], spec, form=self.form,
+                            n_harmonics=self.n_harmonics, torque_share=self.torque_share)
+
+    def row_variance(self, spec: ModelSpec, theta: np.ndarray, like: LinearSystem) -> np.ndarray:
+        """Noise variance of every averaged row from period-to-period residual variation."""
+        var = np.empty(like.F.size)
+        for i, run in enumerate(self.runs):
+            res = []
+            for p in run.periods:
+                s = build_system([p], spec, form=self.form, n_harmonics=self.n_harmonics,
+                                 torque_share=self.torque_share)
+                res.append(s.F - s.A @ theta)
+            res = np.array(res)
+            v = res.var(axis=0, ddof=1) / len(run.periods)
+            rows = np.flatnonzero(like.row_record == i)
+            sub_h, sub_e = like.row_harmonic[rows], like.row_equation[rows]
+            pooled = v.copy()
+            for h in np.unique(sub_h):
+                for e in np.unique(sub_e):
+                    sel = (sub_h == h) & (sub_e == e)
+                    pooled[sel] = v[sel].mean()
+            var[rows] = pooled
+        scale = np.max(np.abs(like.F)) if like.F.size else 1.0
+        return np.maximum(var, (1e-12 * scale) ** 2)
+
+
+def _solve(problem: _Problem, spec: ModelSpec, weights: np.ndarray) -> Fit:
+    system = problem.system(spec)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IllConditionedWarning)
+        res = solve(system, row_weights=weights)
+    r = system.F - system.A @ res.values
+    corr = (problem.nu - 2) / problem.nu if problem.nu > 2 else 1.0
+    row = weights * r**2 * corr
+    chi2 = float(row.sum())
+    # Standard errors sqrt(diag((A'WA)^-1)) (what ``solve`` returns divided by its residual
+    # scale), scaled by chi2/dof when the fit is worse than the noise (model error).
+    dof = max(res.dof, 1)
+    s2_raw = float(np.sum(weights * r**2)) / dof
+    se = res.std_errors / math.sqrt(max(s2_raw, 1e-300)) * math.sqrt(max(1.0, chi2 / dof))
+    return Fit(spec, tuple(system.names), np.array(res.values), np.array(se), chi2, system.F.size,
+               res.condition_number, row, system.row_harmonic, system.row_record)
+
+
+def fit(problem: _Problem, spec: ModelSpec, weights: Optional[np.ndarray] = None, *, iterations: int = 2
+        ) -> tuple[Fit, np.ndarray]:
+    """Fit ``spec``; without weights, estimate them (ordinary LS, then re-weighted ``iterations`` times)."""
+    if weights is not None:
+        return _solve(problem, spec, weights), weights
+    system = problem.system(spec)
+    w = np.ones(system.F.size)
+    f = _solve(problem, spec, w)
+    for _ in range(iterations):
+        w = 1.0 / problem.row_variance(spec, f.values, system)
+        f = _solve(problem, spec, w)
+    return f, w
+
+
+# --------------------------------------------------------------------------------------------
+# 3. Causes
+
+
+@dataclass(frozen=True)
+class Cause:
+    """A physical cause: how it extends a model, with at most one nonlinear parameter.
+
+    ``extend(spec, h)`` returns the extended structure for nonlinear parameter ``h`` (ignored
+    when ``bounds`` is None); ``bounds(runs)`` gives its search interval; ``magnitude`` names
+    the parameter that says how strong the effect is.
+    """
+
+    name: str
+    description: str
+    extend: Callable[[ModelSpec, float], ModelSpec]
+    magnitude: str
+    n_linear: int
+    bounds: Optional[Callable[[Sequence[PreparedRun]], tuple[float, float]]] = None
+    log_scale: bool = False
+    needs_two_angles: bool = False
+
+
+def _amplitude(runs) -> float:
+    """Smallest relative-angle amplitude over the runs (rad)."""
+    return min(float(np.max(np.abs(r.average.phi_rad - r.average.phi_rad.mean()))) for r in runs)
+
+
+def _with_terms(spec: ModelSpec, extra: tuple[Term, ...]) -> ModelSpec:
+    have = {t.name for t in spec.terms}
+    return replace(spec, terms=spec.terms + tuple(t for t in extra if t.name not in have))
+
+
+def _with_gap(spec: ModelSpec, gap: float) -> ModelSpec:
+    terms = tuple(Power(t.power, gap) if isinstance(t, Power) and t.power >= 1 else t for t in spec.terms)
+    return replace(spec, terms=terms)
+
+
+def _with_jenkins(spec: ModelSpec, slip: float) -> ModelSpec:
+    terms = tuple(t for t in spec.terms if not isinstance(t, Jenkins)) + (Jenkins(slip),)
+    return replace(spec, terms=terms)
+
+
+CAUSES: tuple[Cause, ...] = (
+    Cause("coulomb_friction", "dry friction in the joint: a torque of constant size opposing the relative rate",
+          lambda s, h: _with_terms(s, (Coulomb(),)), "coulomb_torque_Nm", 1),
+    Cause("backlash", "free play in the elastic element: no stiffness within +-half gap",
+          _with_gap, "backlash_half_gap_rad", 0, bounds=lambda runs: (1e-4 * _amplitude(runs), 0.8 * _amplitude(runs))),
+    Cause("asymmetric_stiffness", "a preload and an even stiffness term: DC shift and even harmonics",
+          lambda s, h: _with_terms(s, (Power(0), Power(2))), "a_Nm_per_rad2", 2),
+    Cause("hysteresis", "a Jenkins (one-element Iwan) element: spring and dry-friction slider in series",
+          _with_jenkins, "hysteresis_slip_torque_Nm", 1,
+          bounds=lambda runs: (1e-3 * _amplitude(runs), 0.9 * _amplitude(runs)), log_scale=True),
+    Cause("quadratic_damping", "damping torque proportional to the rate squared",
+          lambda s, h: _with_terms(s, (QuadraticDamping(),)), "quadratic_damping_Nms2_per_rad2", 1),
+    Cause("drive_delay", "the drive torque reaches flywheel 1 later than it is recorded",
+          lambda s, h: replace(s, drive_delay_s=float(h)), "drive_delay_s", 0,
+          bounds=lambda runs: (0.0, 0.1 * min(2 * math.pi / r.average.omega_rad_s for r in runs))),
+    Cause("bearing_friction", "viscous drag of a flywheel to ground (not through the joint)",
+          lambda s, h: replace(s, bearings=True), "bearing_damping_Nms_per_rad", 2, needs_two_angles=True),
+)
+
+#: The parameter that states each cause's size (bearing: the larger of the two flywheels').
+EFFECT_MAGNITUDE = {c.name: c.magnitude for c in CAUSES}
+
+#: What excitation separates two causes the data cannot tell apart.
+SEPARATING_EXCITATION = {
+    frozenset({"coulomb_friction", "hysteresis"}): "runs at small amplitude (below the slip angle a Jenkins "
+    "element is a pure spring while dry friction still dissipates): add a low-amplitude run",
+    frozenset({"coulomb_friction", "quadratic_damping"}): "an amplitude sweep at one frequency (dry friction "
+    "dissipates per cycle in proportion to amplitude, quadratic damping to amplitude cubed)",
+    frozenset({"drive_delay", "quadratic_damping"}): "a frequency sweep at constant amplitude (a delay's "
+    "phase grows linearly with frequency)",
+    frozenset({"backlash", "asymmetric_stiffness"}): "runs at several amplitudes around the free play and a "
+    "static preload test (free play is symmetric and vanishes in relative terms at large amplitude)",
+    frozenset({"coulomb_friction", "backlash"}): "a low-amplitude run (inside the free play the joint "
+    "transmits no elastic torque but still rubs)",
+    frozenset({"bearing_friction", "drive_delay"}): "record both flywheel angles and add low-frequency runs "
+    "(bearing drag acts on the absolute rate, a delay on the drive's phase)",
+}
+_DEFAULT_SEPARATION = ("a sweep over amplitude at fixed frequency and over frequency at fixed amplitude, "
+                       "with both flywheel angles recorded")
+
+
+@dataclass(frozen=True)
+class CauseScore:
+    """Evidence for one cause on top of a base model.
+
+    Attributes:
+      delta_chi2: drop in (corrected) chi-square when the cause is added.
+      n_params: parameters it adds (nonlinear one included).
+      score: ``delta_chi2 - n_params * ln(n_rows)``, the ranking (BIC evidence).
+      p_value: of ``delta_chi2`` under chi-square(n_params) if the cause were absent.
+      significant: ``p_value < alpha / n_causes`` and score > 0.
+      fit: the extended fit; magnitude: the size parameter and its value; signature: share of
+        the chi-square drop by harmonic class (mean, fundamental, even, odd >= 3).
+    """
+
+    effect: str
+    delta_chi2: float
+    n_params: int
+    score: float
+    p_value: float
+    significant: bool
+    fit: Optional[Fit]
+    magnitude: tuple[str, float, float]
+    signature: dict
+    note: str = ""
+
+    def as_json(self) -> dict:
+        return {"effect": self.effect, "score": self.score, "significant": self.significant,
+                "delta_chi2": self.delta_chi2, "n_params": self.n_params, "p_value": self.p_value,
+                "magnitude": {"name": self.magnitude[0], "value": self.magnitude[1], "std_error": self.magnitude[2]},
+                "signature": self.signature, "note": self.note,
+                "parameters": self.fit.effect_parameters() if self.fit else {}}
+
+
+def _signature(base: Fit, ext: Fit) -> dict:
+    d = base.row_chi2 - ext.row_chi2
+    h = base.row_harmonic
+    classes = {"mean": h == 0, "fundamental": h == 1, "even": (h % 2 == 0) & (h > 0), "odd>=3": (h % 2 == 1) & (h > 1)}
+    total = float(d.sum()) or 1.0
+    return {k: float(d[m].sum() / total) for k, m in classes.items()}
+
+
+def _magnitude(cause: Cause, f: Fit) -> tuple[str, float, float]:
+    params = f.effect_parameters()
+    if cause.name == "bearing_friction":
+        i1, i2 = f.names.index("bearing1_damping_Nms_per_rad"), f.names.index("bearing2_damping_Nms_per_rad")
+        i = i1 if abs(f.values[i1]) >= abs(f.values[i2]) else i2
+        return f.names[i], float(f.values[i]), float(f.std_errors[i])
+    name = cause.magnitude
+    se = float(f.std_errors[f.names.index(name)]) if name in f.names else math.nan
+    return name, float(params.get(name, 0.0)), se
+
+
+def _profile(problem, cause: Cause, base: ModelSpec, weights) -> Fit:
+    lo, hi = cause.bounds(problem.runs)
+    if cause.log_scale:
+        to, back = math.log, math.exp
+        lo_t, hi_t = to(lo), to(hi)
+    else:
+        to = back = (lambda v: v)
+        lo_t, hi_t = lo, hi
+    cache: dict[float, Fit] = {}
+
+    def obj(u):
+        h = back(u)
+        if h not in cache:
+            cache[h] = _solve(problem, cause.extend(base, h), weights)
+        return cache[h].chi2
+
+    grid = np.linspace(lo_t, hi_t, 17)
+    vals = [obj(u) for u in grid]
+    k = int(np.argmin(vals))
+    a, b = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
+    res = minimize_scalar(obj, bounds=(a, b), method="bounded", options={"xatol": 1e-6 * (hi_t - lo_t)})
+    best = min(cache.values(), key=lambda f: f.chi2)
+    if res.success and obj(res.x) <= best.chi2:
+        best = cache[back(res.x)]
+    return best
+
+
+def score_cause(problem: _Problem, cause: Cause, base: Fit, weights: np.ndarray, n_causes: int,
+                alpha: float) -> CauseScore:
+    if cause.needs_two_angles and problem.form != "two_dof":
+        return CauseScore(cause.name, 0.0, cause.n_linear, -math.inf, 1.0, False, None, (cause.magnitude, math.nan,
+                          math.nan), {}, note="not testable: needs both flywheel angles (phi1, phi2)")
+    if cause.bounds is None:
+        ext = _solve(problem, cause.extend(base.spec, 0.0), weights)
+    else:
+        ext = _profile(problem, cause, base.spec, weights)
+    q = len(ext.names) - len(base.names) + (1 if cause.bounds is not None else 0)
+    delta = base.chi2 - ext.chi2
+    p = float(chi2_dist.sf(max(delta, 0.0), q))
+    score = delta - q * math.log(base.n_rows)
+    significant = bool(p < alpha / n_causes and score > 0)
+    return CauseScore(cause.name, float(delta), q, float(score), p, significant, ext, _magnitude(cause, ext),
+                      _signature(base, ext))
+
+
+@dataclass(frozen=True)
+class Ambiguity:
+    """Two causes the data cannot tell apart, and what would."""
+
+    effects: tuple[str, str]
+    excitation: str
+
+    def as_json(self) -> dict:
+        return {"effects": list(self.effects), "excitation": self.excitation}
+
+
+@dataclass(frozen=True)
+class Diagnosis:
+    """The whole diagnosis.
+
+    Attributes:
+      nominal: fit of the nominal model; causes: first-round scores against it, ranked;
+      steps: (cause score) added in order; extended: the final fit;
+      ambiguous: pairs the data cannot tell apart; form: "two_dof" or "equivalent";
+      noise_std: channel -> median noise standard deviation per raw sample over the runs;
+      chi2_per_dof: nominal and extended goodness of fit (about 1 when only noise is left).
+    """
+
+    nominal: Fit
+    causes: tuple[CauseScore, ...]
+    steps: tuple[CauseScore, ...]
+    extended: Fit
+    ambiguous: tuple[Ambiguity, ...]
+    form: str
+    torque_share: float
+    n_harmonics: int
+    noise_std: dict
+    notes: tuple[str, ...] = ()
+
+    @property
+    def effects(self) -> tuple[str, ...]:
+        return tuple(s.effect for s in self.steps)
+
+
+def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmonics: int = 20,
+             torque_share: float = 0.5, alpha: float = 1e-3, max_effects: int = 3,
+             causes: Sequence[Cause] = CAUSES) -> Diagnosis:
+    """Fit the nominal model, rank causes by evidence, extend greedily (module docstring).
+
+    Args:
+      form: ``"two_dof"`` (default when every run has both angles) or ``"equivalent"``.
+      n_harmonics: harmonics 0..H balanced per run (capped by the samples per period).
+      torque_share: J2 / (J1 + J2), used only by the equivalent form.
+      alpha: family-wise false-alarm probability over the causes of one round.
+    """
+    runs = tuple(runs)
+    if not runs:
+        raise ValueError("no runs to diagnose")
+    two = all(r.average.phi2_rad is not None for r in runs)
+    form = form or ("two_dof" if two else "equivalent")
+    if form == "two_dof" and not two:
+        raise ValueError("form 'two_dof' needs phi1 and phi2 in every run")
+    H = min(n_harmonics, min(max_harmonic(r.average.samples_per_period) for r in runs))
+    nu = 2.0 * (min(r.n_periods for r in runs) - 1)
+    problem = _Problem(runs, form, H, torque_share, nu)
+    notes = []
+    if nu <= 4:
+        notes.append(f"only {int(nu / 2 + 1)} periods per run: the noise estimates are rough (more periods "
+                     f"sharpen the significance tests)")
+    nominal, w = fit(problem, NOMINAL)
+    current, wcur = nominal, w
+    first: list[CauseScore] = []
+    steps: list[CauseScore] = []
+    remaining = list(causes)
+    ambiguous: list[Ambiguity] = []
+    for rnd in range(max_effects):
+        scores = sorted((score_cause(problem, c, current, wcur, len(remaining), alpha) for c in remaining),
+                        key=lambda s: -s.score)
+        if rnd == 0:
+            first = scores
+        best = scores[0] if scores and scores[0].significant else None
+        if best is None:
+            break
+        steps.append(best)
+        # Re-estimate the weights with the extended structure, then refit.
+        current, wcur = fit(problem, best.fit.spec)
+        remaining = [c for c in remaining if c.name != best.effect]
+        # Rivals: significant on the previous base, close in evidence; are they still needed?
+        for rival in scores[1:]:
+            if not rival.significant or rival.score < best.score - 10.0:
+                continue
+            cause_r = next(c for c in causes if c.name == rival.effect)
+            cause_b = next(c for c in causes if c.name == best.effect)
+            r_given_b = score_cause(problem, cause_r, current, wcur, len(remaining), alpha)
+            rival_fit, wr = fit(problem, rival.fit.spec)
+            b_given_r = score_cause(problem, cause_b, rival_fit, wr, len(remaining), alpha)
+            if not r_given_b.significant and not b_given_r.significant:
+                pair = frozenset({best.effect, rival.effect})
+                ambiguous.append(Ambiguity((best.effect, rival.effect),
+                                           SEPARATING_EXCITATION.get(pair, _DEFAULT_SEPARATION)))
+    noise = {}
+    for ch in runs[0].noise_std:
+        noise[ch] = float(np.median([r.noise_std[ch] for r in runs]))
+    return Diagnosis(nominal, tuple(first), tuple(steps), current, tuple(ambiguous), form, torque_share, H,
+                     noise, tuple(notes))
+
+
+def plant_of(f: Fit, torque_share: float = 0.5) -> tuple[Plant, tuple[float, float]]:
+    """The identified plant and flywheel inertias (J1, J2) in kg m^2, ready for the rig.
+
+    For the equivalent form J1 = Je / s and J2 = Je / (1 - s) with s the torque share.
+    """
+    p = f.as_dict()
+    law_terms = [t for t in f.spec.terms]
+    law = JointLaw(tuple(law_terms), tuple(p[t.name] for t in law_terms))
+    plant = Plant(law, bearing1_damping_Nms_per_rad=max(p.get("bearing1_damping_Nms_per_rad", 0.0), 0.0),
+                  bearing2_damping_Nms_per_rad=max(p.get("bearing2_damping_Nms_per_rad", 0.0), 0.0),
+                  drive_delay_s=f.spec.drive_delay_s)
+    if "J1_kgm2" in p:
+        J = (p["J1_kgm2"], p["J2_kgm2"])
+    else:
+        J = (p["Je_kgm2"] / torque_share, p["Je_kgm2"] / (1 - torque_share))
+    return plant, J
