@@ -64,8 +64,11 @@ class PreparedRun:
     Attributes:
       average: one period, the mean of the run's periods restricted to harmonics 0..band.
       periods: each period alone, restricted to the same band (noise estimation).
-      kept: channel -> the harmonics within the band that stand out of the noise.
+      kept: channel ("torque", "phi1", "phi2", "phi" relative) -> the harmonics within the band
+        that stand out of the noise.
       noise_std: channel -> noise standard deviation of one raw sample (same unit).
+      phi_noise_var: noise variance of the period-averaged complex Fourier coefficient of the
+        relative angle, per harmonic 0..N/2 (rad^2).
       raw_average: the period average with all harmonics (what validation compares with).
     """
 
@@ -73,7 +76,8 @@ class PreparedRun:
     periods: tuple[SteadyStateRecord, ...]
     kept: dict
     noise_std: dict
-    raw_average: SteadyStateRecord
+    phi_noise_var: np.ndarray = field(repr=False)
+    raw_average: Optional[SteadyStateRecord] = None
 
     @property
     def n_periods(self) -> int:
@@ -123,6 +127,10 @@ def prepare_runs(records: Sequence[SteadyStateRecord], *, band: int = 20,
         if rec.phi2_rad is not None:
             chans["phi2"] = rec.phi2_rad
         avg, per, kept, noise, raw = {}, {}, {}, {}, {}
+        Xphi = np.fft.rfft(rec.phi_rad.reshape(P, N), axis=1) / N
+        phi_var = _pooled(np.sum(np.abs(Xphi - Xphi.mean(axis=0)) ** 2, axis=0) / (P * (P - 1)))
+        phi_sig = np.abs(Xphi.mean(axis=0)) > significance_sigma * np.sqrt(phi_var)
+        kept["phi"] = np.flatnonzero(phi_sig & (np.arange(H + 1) <= band))
         for name, x in chans.items():
             X = np.fft.rfft(x.reshape(P, N), axis=1) / N  # per-period spectra, (P, H + 1)
             mean = X.mean(axis=0)
@@ -145,7 +153,7 @@ def prepare_runs(records: Sequence[SteadyStateRecord], *, band: int = 20,
         out.append(PreparedRun(
             average=make(avg, lambda a: a, "(period average, denoised)"),
             periods=tuple(make(per, lambda a, p=p: a[p], f"(period {p + 1}, denoised)") for p in range(P)),
-            kept=kept, noise_std=noise,
+            kept=kept, noise_std=noise, phi_noise_var=phi_var,
             raw_average=make(raw, lambda a: a, "(period average)"),
         ))
     return out
