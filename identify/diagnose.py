@@ -213,6 +213,7 @@ class Fit:
     row_chi2: np.ndarray = field(repr=False)  # corrected per-row contributions (n_rows,)
     row_harmonic: np.ndarray = field(repr=False)
     row_record: np.ndarray = field(repr=False)
+    profile_std_errors: tuple = ()  # ((name, standard error), ...) of profiled nonlinear parameters
 
     @property
     def dof(self) -> int:
@@ -220,6 +221,12 @@ class Fit:
 
     def as_dict(self) -> dict[str, float]:
         return dict(zip(self.names, (float(v) for v in self.values)))
+
+    def std_error(self, name: str) -> float:
+        """Standard error of any parameter, profiled nonlinear ones included (NaN if unknown)."""
+        if name in self.names:
+            return float(self.std_errors[self.names.index(name)])
+        return float(dict(self.profile_std_errors).get(name, math.nan))
 
     def effect_parameters(self) -> dict[str, float]:
         """All parameters, with the nonlinear ones (free play, slip angle, delay) added."""
@@ -324,6 +331,7 @@ class Cause:
     bounds: Optional[Callable[[Sequence[PreparedRun]], tuple[float, float]]] = None
     log_scale: bool = False
     needs_two_angles: bool = False
+    nonnegative: bool = True  # a negative magnitude is unphysical (friction, damping, delay)
 
 
 def _amplitude(runs) -> float:
@@ -352,7 +360,7 @@ CAUSES: tuple[Cause, ...] = (
     Cause("backlash", "free play in the elastic element: no stiffness within +-half gap",
           _with_gap, "backlash_half_gap_rad", 0, bounds=lambda runs: (1e-4 * _amplitude(runs), 0.8 * _amplitude(runs))),
     Cause("asymmetric_stiffness", "a preload and an even stiffness term: DC shift and even harmonics",
-          lambda s, h: _with_terms(s, (Power(0), Power(2))), "a_Nm_per_rad2", 2),
+          lambda s, h: _with_terms(s, (Power(0), Power(2))), "a_Nm_per_rad2", 2, nonnegative=False),
     Cause("hysteresis", "a Jenkins (one-element Iwan) element: spring and dry-friction slider in series",
           _with_jenkins, "hysteresis_slip_torque_Nm", 1,
           bounds=lambda runs: (1e-3 * _amplitude(runs), 0.9 * _amplitude(runs)), log_scale=True),
@@ -435,8 +443,7 @@ def _magnitude(cause: Cause, f: Fit) -> tuple[str, float, float]:
         i = i1 if abs(f.values[i1]) >= abs(f.values[i2]) else i2
         return f.names[i], float(f.values[i]), float(f.std_errors[i])
     name = cause.magnitude
-    se = float(f.std_errors[f.names.index(name)]) if name in f.names else math.nan
-    return name, float(params.get(name, 0.0)), se
+    return name, float(params.get(name, 0.0)), f.std_error(name)
 
 
 def _profile(problem, cause: Cause, base: ModelSpec, weights) -> Fit:
@@ -460,10 +467,21 @@ def _profile(problem, cause: Cause, base: ModelSpec, weights) -> Fit:
     k = int(np.argmin(vals))
     a, b = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
     res = minimize_scalar(obj, bounds=(a, b), method="bounded", options={"xatol": 1e-6 * (hi_t - lo_t)})
-    best = min(cache.values(), key=lambda f: f.chi2)
-    if res.success and obj(res.x) <= best.chi2:
-        best = cache[back(res.x)]
-    return best
+    h_best = min(cache, key=lambda h: cache[h].chi2)
+    best = cache[h_best]
+    # Standard error of the profiled parameter from the curvature of chi2 (it rises by 1 at
+    # one standard error), by a central difference in the parameter itself.
+    step = max(1e-3 * abs(h_best), 1e-6 * (hi - lo))
+    def chi2_at(h):
+        return _solve(problem, cause.extend(base, h), weights).chi2
+
+    if h_best - step >= lo and (lo > 0 or h_best - step > 0 or not cause.log_scale):
+        curv = (chi2_at(h_best - step) - 2 * best.chi2 + chi2_at(h_best + step)) / step**2
+    else:  # at the lower bound: one-sided second difference
+        curv = (chi2_at(h_best + 2 * step) - 2 * chi2_at(h_best + step) + best.chi2) / step**2
+    se = math.sqrt(2.0 / curv) if curv > 0 else math.nan
+    name = cause.magnitude if cause.n_linear == 0 else {"hysteresis": "hysteresis_slip_angle_rad"}[cause.name]
+    return replace(best, profile_std_errors=((name, se),))
 
 
 def score_cause(problem: _Problem, cause: Cause, base: Fit, weights: np.ndarray, n_causes: int,
@@ -480,8 +498,15 @@ def score_cause(problem: _Problem, cause: Cause, base: Fit, weights: np.ndarray,
     p = float(chi2_dist.sf(max(delta, 0.0), q))
     score = delta - q * math.log(base.n_rows)
     significant = bool(p < alpha / n_causes and score > 0)
-    return CauseScore(cause.name, float(delta), q, float(score), p, significant, ext, _magnitude(cause, ext),
-                      _signature(base, ext))
+    mag = _magnitude(cause, ext)
+    note = ""
+    if cause.nonnegative and mag[1] < 0:
+        # A friction or damping that feeds energy in is not a physical cause; it only bends
+        # the model towards another effect's signature.
+        note = f"fitted with an unphysical negative {mag[0]} = {mag[1]:.4g}: rejected"
+        significant = False
+    return CauseScore(cause.name, float(delta), q, float(score), p, significant, ext, mag,
+                      _signature(base, ext), note=note)
 
 
 @dataclass(frozen=True)
@@ -564,7 +589,9 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
             break
         steps.append(best)
         # Re-estimate the weights with the extended structure, then refit.
+        carried = current.profile_std_errors + best.fit.profile_std_errors
         current, wcur = fit(problem, best.fit.spec)
+        current = replace(current, profile_std_errors=carried)
         remaining = [c for c in remaining if c.name != best.effect]
         # Rivals: significant on the previous base, close in evidence; are they still needed?
         for rival in scores[1:]:

@@ -11,9 +11,11 @@ from typing import Union
 import mujoco
 import numpy as np
 
-from identify.basis import JointLaw, Power, Term, Viscous, angle_hats, rate_hats
+from identify.basis import (Coulomb, Jenkins, JointLaw, Power, QuadraticDamping, Term, Viscous, angle_hats,
+                            rate_hats)
+from identify.plant import Plant
 
-__all__ = ["RigModel", "RigModelError", "load_rig", "law_from_model", "DEFAULT_MODEL"]
+__all__ = ["RigModel", "RigModelError", "load_rig", "law_from_model", "plant_from_model", "DEFAULT_MODEL"]
 
 DEFAULT_MODEL = Path(__file__).resolve().parent.parent / "models" / "two_flywheels.xml"
 
@@ -33,8 +35,13 @@ _SCALAR_FIELDS: dict[str, Term] = {
     "k_Nm_per_rad": Power(1),
     "a_Nm_per_rad2": Power(2),
     "gamma_Nm_per_rad3": Power(3),
+    "coulomb_torque_Nm": Coulomb(),
+    "quadratic_damping_Nms2_per_rad2": QuadraticDamping(),
 }
 _ARRAY_FIELDS = ("knots_rad", "g_Nm", "rate_knots_rad_s", "f_Nm")
+#: Effects beyond the law's linear parameters (see :class:`identify.plant.Plant`).
+_EFFECT_FIELDS = ("backlash_half_gap_rad", "hysteresis_slip_torque_Nm", "hysteresis_slip_angle_rad",
+                  "bearing1_damping_Nms_per_rad", "bearing2_damping_Nms_per_rad", "drive_delay_s")
 
 
 class RigModelError(ValueError):
@@ -49,6 +56,11 @@ class RigModel:
       path: the MJCF file.
       model: the compiled ``mujoco.MjModel`` (compiled once, before any callback is installed).
       law: the joint law read from the file's ``jointrig_*`` numeric fields.
+      plant: the law plus bearing drag and drive delay (``jointrig_bearing1_damping_Nms_per_rad``,
+        ``..._bearing2_...``, ``jointrig_drive_delay_s``); effects inside the law are
+        ``jointrig_coulomb_torque_Nm``, ``jointrig_quadratic_damping_Nms2_per_rad2``,
+        ``jointrig_backlash_half_gap_rad`` (free play of every stiffness term) and
+        ``jointrig_hysteresis_slip_torque_Nm`` with ``jointrig_hysteresis_slip_angle_rad``.
       J1_kgm2, J2_kgm2: flywheel inertias about the hinge axis (from the compiled mass matrix).
       qpos_adr, dof_adr: addresses of phi1 and phi2 in qpos and qvel.
       actuator_id: the drive motor.
@@ -59,6 +71,7 @@ class RigModel:
     path: Path
     model: mujoco.MjModel
     law: JointLaw
+    plant: Plant
     J1_kgm2: float
     J2_kgm2: float
     qpos_adr: tuple[int, int]
@@ -86,11 +99,11 @@ def _numeric_fields(model: mujoco.MjModel) -> dict[str, np.ndarray]:
 def law_from_model(model: mujoco.MjModel, source: str = "model") -> JointLaw:
     """The joint law a model declares in its ``jointrig_*`` ``<custom><numeric>`` fields."""
     fields = {k[len(PREFIX):]: v for k, v in _numeric_fields(model).items() if k.startswith(PREFIX)}
-    unknown = sorted(set(fields) - set(_SCALAR_FIELDS) - set(_ARRAY_FIELDS))
+    unknown = sorted(set(fields) - set(_SCALAR_FIELDS) - set(_ARRAY_FIELDS) - set(_EFFECT_FIELDS))
     if unknown:
         raise RigModelError(
             f"{source}: unknown joint-law field(s) {[PREFIX + u for u in unknown]}; expected "
-            f"{[PREFIX + f for f in list(_SCALAR_FIELDS) + list(_ARRAY_FIELDS)]}"
+            f"{[PREFIX + f for f in list(_SCALAR_FIELDS) + list(_ARRAY_FIELDS) + list(_EFFECT_FIELDS)]}"
         )
     terms: list[Term] = []
     values: list[float] = []
@@ -122,7 +135,33 @@ def law_from_model(model: mujoco.MjModel, source: str = "model") -> JointLaw:
     if any(isinstance(t, Power) and t.power == 1 for t in terms) and "knots_rad" in fields:
         raise RigModelError(f"{source}: {PREFIX}k_Nm_per_rad and {PREFIX}knots_rad both set the "
                             f"linear stiffness; keep one")
+    eff = {}
+    for name in _EFFECT_FIELDS:
+        if name in fields:
+            data = fields[name]
+            if data.size != 1 or not np.isfinite(data[0]) or data[0] < 0:
+                raise RigModelError(f"{source}: {PREFIX}{name} must hold one finite number >= 0, got {data}")
+            eff[name] = float(data[0])
+    if eff.get("backlash_half_gap_rad", 0.0) > 0:
+        terms = [Power(t.power, eff["backlash_half_gap_rad"]) if isinstance(t, Power) and t.power >= 1 else t
+                 for t in terms]
+    if ("hysteresis_slip_torque_Nm" in eff) != ("hysteresis_slip_angle_rad" in eff):
+        raise RigModelError(f"{source}: {PREFIX}hysteresis_slip_torque_Nm and {PREFIX}hysteresis_slip_angle_rad "
+                            f"go together")
+    if eff.get("hysteresis_slip_angle_rad", 0.0) > 0:
+        terms.append(Jenkins(eff["hysteresis_slip_angle_rad"]))
+        values.append(eff["hysteresis_slip_torque_Nm"])
     return JointLaw(tuple(terms), tuple(values))
+
+
+def plant_from_model(model: mujoco.MjModel, source: str = "model") -> Plant:
+    """The law plus the effects outside the joint (bearing drag, drive delay) a model declares."""
+    law = law_from_model(model, source)
+    fields = {k[len(PREFIX):]: v for k, v in _numeric_fields(model).items() if k.startswith(PREFIX)}
+    get = lambda name: float(fields[name][0]) if name in fields else 0.0  # noqa: E731
+    return Plant(law, bearing1_damping_Nms_per_rad=get("bearing1_damping_Nms_per_rad"),
+                 bearing2_damping_Nms_per_rad=get("bearing2_damping_Nms_per_rad"),
+                 drive_delay_s=get("drive_delay_s"))
 
 
 def _find(model, obj, name, what, source):
@@ -167,7 +206,8 @@ def load_rig(path: Union[str, os.PathLike] = DEFAULT_MODEL) -> RigModel:
         if model.sensor_type[sid] != _SENSOR_TYPES[kind]:
             raise RigModelError(f"{src}: sensor '{name}' must be a {kind} sensor")
         sensor_adr[name] = int(model.sensor_adr[sid])
-    law = law_from_model(model, src)
+    plant = plant_from_model(model, src)
+    law = plant.law
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     mass = np.zeros((model.nv, model.nv))
@@ -176,7 +216,7 @@ def load_rig(path: Union[str, os.PathLike] = DEFAULT_MODEL) -> RigModel:
     if abs(mass[dofs[0], dofs[1]]) > 1e-12 * mass[dofs[0], dofs[0]]:
         raise RigModelError(f"{src}: flywheels must not be inertially coupled (bodies in a chain?)")
     return RigModel(
-        path=path, model=model, law=law,
+        path=path, model=model, law=law, plant=plant,
         J1_kgm2=float(mass[dofs[0], dofs[0]]), J2_kgm2=float(mass[dofs[1], dofs[1]]),
         qpos_adr=tuple(int(model.jnt_qposadr[j]) for j in joint_ids), dof_adr=dofs,
         actuator_id=int(act), sensor_adr=sensor_adr, digest=hashlib.sha256(text).hexdigest(),

@@ -255,7 +255,7 @@ def simulate_steady_state(
         raise ValueError(f"omega_rad_s must be a finite number > 0, got {omega_rad_s}")
     if not math.isfinite(amplitude_Nm):
         raise ValueError(f"amplitude_Nm must be finite, got {amplitude_Nm}")
-    plant = Plant.of(rig.law if law is None else law)
+    plant = rig.plant if law is None else Plant.of(law)
     if drive is None:
         drive = PeriodicDrive.cosine(omega_rad_s, amplitude_Nm)
     elif abs(drive.omega_rad_s - omega_rad_s) > 1e-12 * omega_rad_s:

@@ -66,6 +66,7 @@ class RunComparison:
     held_out: bool
     time_s: np.ndarray
     phi_measured_rad: np.ndarray
+    phi_resolved_rad: np.ndarray  # the measured angle on its resolved harmonics (loop x axis)
     phi_nominal_rad: np.ndarray
     phi_extended_rad: np.ndarray
     joint_torque_measured_Nm: np.ndarray
@@ -109,29 +110,46 @@ class DiagnosisReport:
         return float(np.sqrt(np.mean([r.noise_floor_rad ** 2 for r in held])))
 
 
+def _resolved(x: np.ndarray, harmonics: np.ndarray) -> np.ndarray:
+    """One period of ``x`` keeping only the given harmonics (and the mean)."""
+    X = np.fft.rfft(x)
+    keep = np.zeros(X.size, bool)
+    keep[0] = True
+    keep[np.asarray(harmonics, dtype=int)] = True
+    return np.fft.irfft(np.where(keep, X, 0), n=x.size)
+
+
 def _joint_torque_measured(run: PreparedRun, f: Fit, torque_share: float) -> np.ndarray:
-    rec = run.average
+    """Joint torque from the measurement through an equation of motion, on the harmonics each
+    channel resolves (the band's unresolved harmonics would be noise times (n omega)^2)."""
+    rec = run.raw_average
     w = rec.omega_rad_s
     N = rec.samples_per_period
     n = np.fft.rfftfreq(N, 1.0 / N)
 
-    def accel(x):
-        return np.fft.irfft(np.fft.rfft(x) * (1j * n * w) ** 2, n=N)
+    def deriv(x, order):
+        return np.fft.irfft(np.fft.rfft(x) * (1j * n * w) ** order, n=N)
 
+    torque = _resolved(rec.torque_Nm, run.kept["torque"])
     p = f.as_dict()
     if "J1_kgm2" in p:
-        out = rec.torque_Nm - p["J1_kgm2"] * accel(rec.phi1_rad)
+        phi1 = _resolved(rec.phi1_rad, run.kept["phi1"])
+        out = torque - p["J1_kgm2"] * deriv(phi1, 2)
         if "bearing1_damping_Nms_per_rad" in p:
-            out = out - p["bearing1_damping_Nms_per_rad"] * np.fft.irfft(np.fft.rfft(rec.phi1_rad) * 1j * n * w, n=N)
+            out = out - p["bearing1_damping_Nms_per_rad"] * deriv(phi1, 1)
         return out
-    return torque_share * rec.torque_Nm - p["Je_kgm2"] * accel(rec.phi_rad)
+    phi = _resolved(rec.phi_rad, run.kept["phi"])
+    return torque_share * torque - p["Je_kgm2"] * deriv(phi, 2)
 
 
-def _law_torque(law: JointLaw, rec: SteadyStateRecord) -> np.ndarray:
+def _law_torque(law: JointLaw, run: PreparedRun) -> np.ndarray:
+    """A law's torque along the measured relative motion (resolved harmonics)."""
+    rec = run.raw_average
     N = rec.samples_per_period
     n = np.fft.rfftfreq(N, 1.0 / N)
-    rate = np.fft.irfft(np.fft.rfft(rec.phi_rad) * 1j * n * rec.omega_rad_s, n=N)
-    return np.asarray(law.torque(rec.phi_rad, rate), dtype=float)
+    phi = _resolved(rec.phi_rad, run.kept["phi"])
+    rate = np.fft.irfft(np.fft.rfft(phi) * 1j * n * rec.omega_rad_s, n=N)
+    return np.asarray(law.torque(phi, rate), dtype=float)
 
 
 def _simulate(rig: RigModel, plant: Plant, J: tuple[float, float], run: PreparedRun, band: int,
@@ -191,11 +209,11 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
         comparisons.append(RunComparison(
             run_id=rid, omega_rad_s=avg.omega_rad_s,
             amplitude_Nm=float(abs(fourier_coefficients(avg.torque_Nm, 1, 1)[1])), held_out=i in holdout,
-            time_s=avg.time_s - avg.time_s[0], phi_measured_rad=avg.phi_rad, phi_nominal_rad=phi_nom,
+            time_s=avg.time_s - avg.time_s[0], phi_measured_rad=avg.phi_rad, phi_resolved_rad=_resolved(run.raw_average.phi_rad, run.kept["phi"]), phi_nominal_rad=phi_nom,
             phi_extended_rad=phi_ext,
             joint_torque_measured_Nm=_joint_torque_measured(run, diag.extended, torque_share),
-            joint_torque_nominal_Nm=_law_torque(nominal_plant.law, avg),
-            joint_torque_extended_Nm=_law_torque(ext_plant.law, avg),
+            joint_torque_nominal_Nm=_law_torque(nominal_plant.law, run),
+            joint_torque_extended_Nm=_law_torque(ext_plant.law, run),
             noise_floor_rad=floor, harmonics_compared=tuple(int(v) for v in h),
         ))
     return DiagnosisReport(diag, tuple(comparisons), holdout, band)

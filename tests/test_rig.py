@@ -44,9 +44,14 @@ def _state(rig, phi1, phi2, v1, v2, t):
 def test_callback_torque_equals_law_evaluated_independently(path):
     rig = load_rig(path)
     p = rig.law.as_dict()
+    fields = {rig.model.numeric(i).name: rig.model.numeric(i).data[0] for i in range(rig.model.nnumeric)}
+    gap = fields.get("jointrig_backlash_half_gap_rad", 0.0)
+    dry = fields.get("jointrig_coulomb_torque_Nm", 0.0)
     if "k_Nm_per_rad" in p:
         def independent(phi, rate):  # written out by hand from the MJCF fields
-            return p["c_Nms_per_rad"] * rate + p["k_Nm_per_rad"] * phi + p.get("gamma_Nm_per_rad3", 0) * phi**3
+            e = phi - np.clip(phi, -gap, gap)  # engaged angle beyond the free play
+            return (p["c_Nms_per_rad"] * rate + p["k_Nm_per_rad"] * e + p.get("gamma_Nm_per_rad3", 0) * e**3
+                    + dry * np.sign(rate))
     else:
         knots = rig.model.numeric("jointrig_knots_rad").data
         g = rig.model.numeric("jointrig_g_Nm").data
