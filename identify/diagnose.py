@@ -580,11 +580,12 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
     remaining = list(causes)
     ambiguous: list[Ambiguity] = []
     for rnd in range(max_effects):
+        # Ranked by evidence; causes rejected as unphysical or untestable go last.
         scores = sorted((score_cause(problem, c, current, wcur, len(remaining), alpha) for c in remaining),
-                        key=lambda s: -s.score)
+                        key=lambda s: (bool(s.note), -s.score))
         if rnd == 0:
             first = scores
-        best = scores[0] if scores and scores[0].significant else None
+        best = next((c for c in scores if c.significant), None)
         if best is None:
             break
         steps.append(best)
@@ -594,8 +595,8 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
         current = replace(current, profile_std_errors=carried)
         remaining = [c for c in remaining if c.name != best.effect]
         # Rivals: significant on the previous base, close in evidence; are they still needed?
-        for rival in scores[1:]:
-            if not rival.significant or rival.score < best.score - 10.0:
+        for rival in scores:
+            if rival is best or not rival.significant or rival.score < best.score - 10.0:
                 continue
             cause_r = next(c for c in causes if c.name == rival.effect)
             cause_b = next(c for c in causes if c.name == best.effect)

@@ -107,7 +107,11 @@ def estimate_omega(time_s: np.ndarray, torque_Nm: np.ndarray) -> float:
     dw = 2 * math.pi / (8 * n * dt)
 
     def neg_power(w):
-        return -abs(np.sum(x * np.exp(-1j * w * t))) ** 2
+        # Least-squares sine fit (cos, sin, mean) at w: unlike the periodogram it is not biased
+        # by the negative-frequency image when the record holds a non-integer number of periods.
+        basis = np.column_stack([np.cos(w * t), np.sin(w * t), np.ones_like(t)])
+        coef, *_ = np.linalg.lstsq(basis, x, rcond=None)
+        return -float(np.sum((basis @ coef) ** 2))
 
     res = minimize_scalar(neg_power, bounds=(w0 - 2 * dw, w0 + 2 * dw), method="bounded",
                           options={"xatol": 1e-10 * w0})

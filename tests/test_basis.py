@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from identify.basis import (AngleHat, JointLaw, Monomial, Power, Viscous, angle_hats, hat_law, hat_matrix,
-                            polynomial_law, rate_hats)
+from identify.basis import (AngleHat, Coulomb, Jenkins, JointLaw, Monomial, Power, QuadraticDamping, Viscous,
+                            angle_hats, hat_law, hat_matrix, play, polynomial_law, rate_hats)
 
 KNOTS = (-0.6, -0.3, -0.1, 0.0, 0.1, 0.3, 0.6)
 
@@ -27,6 +27,7 @@ def test_hat_law_equals_numpy_interp_inside_and_extends_end_slopes():
 
 
 @pytest.mark.parametrize("term", [Viscous(), Power(0), Power(1), Power(3), Monomial(0, 3), Monomial(2, 1),
+                                  Power(1, 0.2), Power(3, 0.2), Coulomb(), QuadraticDamping(),
                                   *angle_hats(KNOTS),
                                   *rate_hats((-2.0, 0.0, 2.0))])
 def test_scalar_path_equals_array_path(term):
@@ -53,8 +54,53 @@ def test_polynomial_law_names_and_values():
     (lambda: AngleHat((0.0, 1.0), 2), "outside"),
     (lambda: Power(-1), "power"),
     (lambda: Monomial(0, 1), "Viscous"),
+    (lambda: Power(0, 0.1), "free play"),
+    (lambda: Power(1, -0.1), "gap_rad"),
+    (lambda: Jenkins(0.0), "slip_rad"),
     (lambda: hat_law(knots_rad=KNOTS, g_Nm=[1.0, 2.0]), "7 knots but 2 values"),
 ])
 def test_invalid_laws_raise(make, match):
     with pytest.raises(ValueError, match=match):
         make()
+
+
+def test_backlash_dead_zone_and_dry_friction_closed_forms():
+    # Free play +-0.2 rad: no torque inside, the stiffness acts on the engaged angle beyond.
+    k = Power(1, 0.2)
+    assert k(0.15, 0.0) == 0.0 and k(-0.2, 0.0) == 0.0
+    assert k(0.5, 0.0) == pytest.approx(0.3, rel=1e-15) and k(-0.5, 0.0) == pytest.approx(-0.3, rel=1e-15)
+    assert Power(3, 0.2)(0.5, 0.0) == pytest.approx(0.3**3, rel=1e-14)
+    assert Power(1, 0.2).name == Power(1).name == "k_Nm_per_rad"  # same parameter, with free play
+    assert (Coulomb()(0.0, 2.5), Coulomb()(0.0, -1e-9), Coulomb()(0.0, 0.0)) == (1.0, -1.0, 0.0)
+    assert QuadraticDamping()(0.0, -3.0) == -9.0
+
+
+def test_jenkins_loop_dissipates_four_slip_torque_times_excess_amplitude():
+    # Closed form: a Jenkins element (slip torque F, slip angle d) driven by phi = A cos t
+    # traces a parallelogram of area 4 F (A - d) per cycle for A > d. rtol 1e-3: the trapezoid
+    # rule over 4096 samples cuts the loop's two corners between samples (~1/4096 each).
+    F, d, A = 50.0, 0.05, 0.3
+    t = np.linspace(0, 2 * np.pi, 4096, endpoint=False)
+    phi = A * np.cos(t)
+    tau = F * Jenkins(d)(phi, None)
+    loop = np.sum(0.5 * (tau + np.roll(tau, -1)) * (np.roll(phi, -1) - phi))
+    assert abs(loop) == pytest.approx(4 * F * (A - d), rel=1e-3)
+    assert np.max(np.abs(tau)) == pytest.approx(F, rel=1e-12)
+
+
+def test_jenkins_array_path_equals_stepping_the_play_operator():
+    # The rig commits the slider state with play() after every step and evaluates
+    # Jenkins.torque from it; the identifier's array path runs the operator over the record.
+    # On a periodic record (second pass) both give the same numbers.
+    j = Jenkins(0.04)
+    t = np.linspace(0, 2 * np.pi, 256, endpoint=False)
+    phi = 0.2 * np.cos(t) + 0.05 * np.cos(3 * t + 0.4)
+    z = 0.0
+    for _ in range(2):
+        out = []
+        for v in phi:
+            out.append(j.torque(float(v), z))
+            z = play(float(v), z, j.slip_rad)
+    np.testing.assert_allclose(out, j(phi, None), rtol=0, atol=1e-15)
+    with pytest.raises(TypeError, match="state"):
+        j(0.1, 0.0)
