@@ -44,6 +44,7 @@ __all__ = [
     "two_dof_system",
     "single_dof_system",
     "spectral_rate",
+    "upsample",
 ]
 
 
@@ -130,8 +131,25 @@ def harmonic_rows(
     return A, F, harm, part
 
 
+def upsample(x: np.ndarray, factor: int) -> np.ndarray:
+    """Trigonometric interpolation of a periodic record onto ``factor`` times as many samples
+    (exact for a record band-limited below its Nyquist harmonic, which is dropped)."""
+    if factor == 1:
+        return x
+    n = x.shape[-1]
+    X = np.fft.rfft(x)
+    if n % 2 == 0:
+        X[-1] = 0.0
+    return np.fft.irfft(X, n=n * factor) * factor
+
+
 def _term_coeffs(terms: Sequence[Term], phi: np.ndarray, rate: np.ndarray, n_periods: int,
-                 n_harmonics: int) -> np.ndarray:
+                 n_harmonics: int, oversample: int = 1) -> np.ndarray:
+    """Fourier coefficients of every term along the record. ``oversample > 1`` evaluates the
+    terms on a finer grid (trigonometric interpolation of phi and rate) first: a term with a
+    jump or a kink (dry friction, free play, hysteresis) aliases with error O(1/N) on N
+    samples per period; evaluating on ``oversample * N`` cuts that error by the factor."""
+    phi, rate = upsample(phi, oversample), upsample(rate, oversample)
     signals = np.vstack([np.broadcast_to(np.asarray(t(phi, rate), dtype=float), phi.shape)
                          for t in terms])
     return fourier_coefficients(signals, n_periods, n_harmonics)
@@ -174,10 +192,10 @@ def single_dof_system(
 
 
 def _single(rec, x, rate, forcing, terms, n_harmonics, inertia_name, record_index, equation,
-            law_sign) -> LinearSystem:
+            law_sign, oversample=1) -> LinearSystem:
     _check_harmonics(rec, n_harmonics)
     r = _rate_or_spectral(rate, x, rec)
-    cols = [law_sign * _term_coeffs(terms, x, r, rec.n_periods, n_harmonics)]
+    cols = [law_sign * _term_coeffs(terms, x, r, rec.n_periods, n_harmonics, oversample)]
     names = [t.name for t in terms]
     if inertia_name is not None:
         cols.insert(0, _acceleration_coeffs(x, rate, rec, n_harmonics)[None, :])
@@ -194,6 +212,7 @@ def equivalent_system(
     *,
     n_harmonics: int,
     torque_share: float,
+    oversample: int = 1,
 ) -> LinearSystem:
     """Equivalent one-degree-of-freedom form: unknowns ``(Je_kgm2, theta...)``.
 
@@ -205,7 +224,7 @@ def equivalent_system(
     _check_records(records)
     systems = [
         _single(rec, rec.phi_rad, rec.rate_rad_s, torque_share * rec.torque_Nm, terms, n_harmonics,
-                "Je_kgm2", i, equation=0, law_sign=1.0)
+                "Je_kgm2", i, equation=0, law_sign=1.0, oversample=oversample)
         for i, rec in enumerate(records)
     ]
     return LinearSystem.stack(systems)
@@ -217,6 +236,7 @@ def two_dof_system(
     *,
     n_harmonics: int,
     bearings: bool = False,
+    oversample: int = 1,
 ) -> LinearSystem:
     """Direct two-degree-of-freedom form: unknowns ``(J1_kgm2, J2_kgm2, theta...)``.
 
@@ -232,7 +252,7 @@ def two_dof_system(
         _check_harmonics(rec, n_harmonics)
         phi = rec.phi_rad
         rate = _rate_or_spectral(rec.rate_rad_s, phi, rec)
-        law = _term_coeffs(terms, phi, rate, rec.n_periods, n_harmonics)
+        law = _term_coeffs(terms, phi, rate, rec.n_periods, n_harmonics, oversample)
         acc1 = _acceleration_coeffs(rec.phi1_rad, rec.rate1_rad_s, rec, n_harmonics)
         acc2 = _acceleration_coeffs(rec.phi2_rad, rec.rate2_rad_s, rec, n_harmonics)
         zero = np.zeros_like(acc1)

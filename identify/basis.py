@@ -283,13 +283,38 @@ class Jenkins(Term):
         if isinstance(phi, float):
             raise TypeError("Jenkins has state: the rig evaluates it with Jenkins.torque(phi, state)")
         x = np.asarray(phi, dtype=float)
-        out = np.empty_like(x)
-        z, s = 0.0, self.slip_rad
-        for _ in range(2):  # the first pass reaches the periodic state (amplitude > slip)
-            for i, v in enumerate(x.tolist()):
-                z = min(max(z, v - s), v + s)
-                out[i] = (v - z) / s
-        return out
+        z = _play_array(x, self.slip_rad, 0.0)
+        z = _play_array(x, self.slip_rad, float(z[-1]))  # second pass: the periodic state
+        return (x - z) / self.slip_rad
+
+
+def _play_array(x: np.ndarray, slip: float, z0: float) -> np.ndarray:
+    """:func:`play` applied along ``x`` from slider state ``z0``, vectorised by monotone runs:
+    while x rises the slider is ``max(z_before, x - slip)``, while it falls
+    ``min(z_before, x + slip)`` (the same numbers as stepping :func:`play` sample by sample)."""
+    z = np.empty_like(x)
+    if x.size == 0:
+        return z
+    z[0] = play(float(x[0]), z0, slip)
+    if x.size == 1:
+        return z
+    d = np.sign(np.diff(x))
+    nz = np.flatnonzero(d)
+    if nz.size == 0:
+        z[1:] = z[0]
+        return z
+    # A flat step keeps the direction of the step before it (forward fill of the sign).
+    fill = np.maximum.accumulate(np.where(d != 0, np.arange(d.size), 0))
+    d = d[fill]
+    d[: nz[0]] = d[nz[0]]
+    starts = np.concatenate([[1], np.flatnonzero(d[1:] != d[:-1]) + 2])
+    ends = np.concatenate([starts[1:], [x.size]])
+    before = z[0]
+    for a, b in zip(starts.tolist(), ends.tolist()):
+        seg = x[a:b]
+        z[a:b] = np.maximum(before, seg - slip) if d[a - 1] > 0 else np.minimum(before, seg + slip)
+        before = z[b - 1]
+    return z
 
 
 @dataclass(frozen=True)

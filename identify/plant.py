@@ -69,7 +69,19 @@ class PeriodicDrive:
             wn, a, b = terms[0]
             if b == 0.0:
                 return lambda t: a * cos(wn * (t - delay_s))
-        return lambda t: sum(a * cos(wn * (t - delay_s)) + b * sin(wn * (t - delay_s)) for wn, a, b in terms)
+        coeffs = list(self.coeffs)
+        top = max(n for n, v in enumerate(coeffs) if v != 0)
+        coeffs = coeffs[: top + 1]
+        rot = cmath.exp
+
+        def at(t):  # Horner in exp(i w t): one complex exponential per call
+            e = rot(1j * w * (t - delay_s))
+            acc = 0j
+            for c in reversed(coeffs):
+                acc = acc * e + c
+            return acc.real
+
+        return at
 
     def mean_free_impulse(self, t_s: float, delay_s: float = 0.0) -> float:
         """The zero-mean antiderivative of ``T(t - delay_s)`` at ``t_s`` (N m s).

@@ -36,7 +36,22 @@ def _fmt(v: float) -> str:
     return "nan" if not math.isfinite(v) else f"{v:.6g}"
 
 
+def _finite(obj):
+    """JSON has no inf/NaN: non-finite numbers become null."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite(v) for v in obj]
+    return obj
+
+
 def report_json(report: DiagnosisReport, *, source: str = "", notes: Sequence[str] = ()) -> dict:
+    return _finite(_report_json(report, source=source, notes=list(notes) + list(report.notes)))
+
+
+def _report_json(report: DiagnosisReport, *, source: str, notes: Sequence[str]) -> dict:
     d = report.diagnosis
     runs = report.runs
     ext = d.extended
@@ -86,7 +101,7 @@ def format_report(report: DiagnosisReport, *, source: str = "", notes: Sequence[
     lines.append(f"  fit on runs {', '.join(fit_ids)}; held out for validation: {', '.join(held)}")
     lines.append("  noise per sample (from period-to-period variation): "
                  + ", ".join(f"{k} {_fmt(v)}" for k, v in d.noise_std.items()))
-    for n in list(notes) + list(d.notes):
+    for n in list(notes) + list(d.notes) + list(report.notes):
         lines.append(f"  note: {n}")
     lines.append("")
     lines.append(f"Nominal model (paper eq. 11): chi2/dof = {d.nominal.chi2 / d.nominal.dof:.3g} "

@@ -28,7 +28,7 @@ from identify.plant import Plant, drive_of_record
 from identify.records import SteadyStateRecord
 
 from .model import RigModel, load_rig
-from .simulate import SimulationConfig, simulate_steady_state
+from .simulate import SimulationConfig, SteadyStateNotReached, simulate_steady_state
 
 __all__ = ["RunComparison", "DiagnosisReport", "default_holdout", "run_diagnosis", "band_limited"]
 
@@ -78,13 +78,17 @@ class RunComparison:
     def rms(self, which: str) -> float:
         """RMS (rad) of model minus measurement over the compared harmonics (Parseval)."""
         sim = {"nominal": self.phi_nominal_rad, "extended": self.phi_extended_rad}[which]
+        if not np.all(np.isfinite(sim)):
+            return math.inf
         C = fourier_coefficients(sim - self.phi_measured_rad, 1, max(self.harmonics_compared))
         h = np.array(self.harmonics_compared)
         return float(np.sqrt(np.sum(np.abs(C[h]) ** 2 * np.where(h == 0, 1.0, 0.5))))
 
     def harmonic_residuals(self, which: str, band: int) -> np.ndarray:
-        """|Phi_n(model) - Phi_n(measured)| for n = 0..band (rad)."""
+        """|Phi_n(model) - Phi_n(measured)| for n = 0..band (rad); NaN if the model has no steady state."""
         sim = {"nominal": self.phi_nominal_rad, "extended": self.phi_extended_rad}[which]
+        if not np.all(np.isfinite(sim)):
+            return np.full(band + 1, np.nan)
         return np.abs(fourier_coefficients(sim - self.phi_measured_rad, 1, band))
 
 
@@ -94,6 +98,7 @@ class DiagnosisReport:
     runs: tuple[RunComparison, ...]
     holdout: tuple[int, ...]
     band: int
+    notes: tuple[str, ...] = ()
 
     def validation_rms(self, which: str) -> float:
         held = [r for r in self.runs if r.held_out]
@@ -101,8 +106,10 @@ class DiagnosisReport:
 
     @property
     def gain(self) -> float:
-        ext = self.validation_rms("extended")
-        return self.validation_rms("nominal") / ext if ext > 0 else math.inf
+        ext, nom = self.validation_rms("extended"), self.validation_rms("nominal")
+        if not math.isfinite(ext):
+            return 0.0 if math.isfinite(nom) else math.nan
+        return nom / ext if ext > 0 else math.inf
 
     @property
     def noise_floor_rad(self) -> float:
@@ -156,7 +163,12 @@ def _simulate(rig: RigModel, plant: Plant, J: tuple[float, float], run: Prepared
               config: SimulationConfig) -> np.ndarray:
     rec = run.average
     coeffs = fourier_coefficients(rec.torque_Nm, 1, band)
-    drive = drive_of_record(rec.omega_rad_s, coeffs)
+    # Replay the harmonics the torque measurement resolves (the fundamental at least), not
+    # its noise.
+    keep = np.zeros(coeffs.size, bool)
+    keep[1] = True
+    keep[run.kept["torque"][run.kept["torque"] <= band]] = True
+    drive = drive_of_record(rec.omega_rad_s, np.where(keep, coeffs, 0))
     sim, _ = simulate_steady_state(rig, rec.omega_rad_s, drive.amplitude_Nm, config, law=plant, drive=drive,
                                    inertias_kgm2=J)
     return band_limited(sim.phi_rad, band)
@@ -193,6 +205,7 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
     nominal_plant, J_nom = plant_of(diag.nominal, torque_share)
     ext_plant, J_ext = plant_of(diag.extended, torque_share)
     comparisons = []
+    notes: list[str] = []
     for i, (rid, run) in enumerate(zip(run_ids, prepared)):
         say(f"simulating run {rid} ({i + 1}/{n}) in the rig: nominal and extended")
         N = run.average.samples_per_period
@@ -201,8 +214,24 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
         # so only the relative angle and the rates must repeat.
         config = SimulationConfig(samples_per_period=N, n_periods=1, settle_tol=1e-7,
                                   absolute_angles_periodic=False)
-        phi_nom = _simulate(rig, nominal_plant, J_nom, run, band, config)
-        phi_ext = _simulate(rig, ext_plant, J_ext, run, band, config)
+        phi = {}
+        for which, plant, J in (("nominal", nominal_plant, J_nom), ("extended", ext_plant, J_ext)):
+            if not all(math.isfinite(j) and j > 0 for j in J):
+                if i == 0:
+                    notes.append(f"the {which} model's inertias {J} kg m^2 are not positive (are the runs at one "
+                                 f"frequency only? inertia and stiffness then cannot be separated): it cannot be "
+                                 f"simulated; its RMS counts as infinite")
+                phi[which] = np.full(N, np.nan)
+                continue
+            try:
+                phi[which] = _simulate(rig, plant, J, run, band, config)
+            except SteadyStateNotReached as err:
+                # A wrong model may have no periodic response to this drive (it drifts, or is
+                # chaotic): that is a finding about the model, not a failure of the tool.
+                notes.append(f"run {rid}: the {which} model reaches no periodic steady state under the "
+                             f"measured drive ({err}); its RMS there counts as infinite")
+                phi[which] = np.full(N, np.nan)
+        phi_nom, phi_ext = phi["nominal"], phi["extended"]
         avg = run.average
         h = np.union1d([0], run.kept["phi"]).astype(int)
         floor = float(np.sqrt(np.sum(run.phi_noise_var[h] * np.where(h == 0, 1.0, 0.5))))
@@ -216,4 +245,10 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
             joint_torque_extended_Nm=_law_torque(ext_plant.law, run),
             noise_floor_rad=floor, harmonics_compared=tuple(int(v) for v in h),
         ))
-    return DiagnosisReport(diag, tuple(comparisons), holdout, band)
+    report = DiagnosisReport(diag, tuple(comparisons), holdout, band, tuple(notes))
+    if diag.steps and not report.gain > 1.0:
+        notes.append(f"the extended model predicts the held-out runs no better than the nominal one (gain "
+                     f"{report.gain:.3g}): treat the effects as unconfirmed (at low SNR the noise in the angles "
+                     f"biases the law's nonlinear terms)")
+        report = DiagnosisReport(diag, tuple(comparisons), holdout, band, tuple(notes))
+    return report

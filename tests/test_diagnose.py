@@ -1,0 +1,152 @@
+"""The diagnosis finds effects hidden in rig data it is not told about.
+
+Every case simulates the paper's joint with one hidden effect (or none, or two) over
+omega = 25, 40, 55 rad/s x M0 = 1500, 2500, 3500 N m (9 runs, 16 periods each), measures it at
+40 dB SNR on torque and both angles, writes and reads the measured-runs CSV, and runs the
+whole product path (:func:`rig.validate.run_diagnosis`): fit on 6 runs, hold out runs 1, 4, 7
+(the middle amplitude at each frequency), validate in the rig.
+
+Acceptance (issue 4): the hidden effect ranked first; its magnitude within 15%; gain >= 5
+on the held-out runs; for ``none`` nothing significant. Magnitudes are modest: each effect is
+checked to be at most ~5% of the peak joint torque where it is a torque.
+"""
+
+from __future__ import annotations
+
+import zlib
+
+import numpy as np
+import pytest
+
+from identify.basis import Coulomb, Jenkins, JointLaw, Power, QuadraticDamping, Viscous
+from identify.diagnose import EFFECT_MAGNITUDE
+from identify.plant import Plant
+from measured.runs import read_runs, write_runs
+from rig import SimulationConfig, simulate_steady_state
+from rig.measurement import add_noise
+from rig.validate import run_diagnosis
+
+BASE = (Viscous(), Power(1), Power(3))
+VALS = (100.0, 2000.0, 200.0)
+POINTS = [(w, a) for w in (25.0, 40.0, 55.0) for a in (1500.0, 2500.0, 3500.0)]
+
+
+def _gap(g):
+    return (Viscous(), Power(1, g), Power(3, g))
+
+
+#: case -> (plant, {magnitude parameter: true value})
+CASES = {
+    "none": (Plant(JointLaw(BASE, VALS)), {}),
+    "coulomb_friction": (Plant(JointLaw(BASE + (Coulomb(),), VALS + (95.0,))), {"coulomb_torque_Nm": 95.0}),
+    "backlash": (Plant(JointLaw(_gap(0.02), VALS)), {"backlash_half_gap_rad": 0.02}),
+    "asymmetric_stiffness": (Plant(JointLaw(BASE + (Power(2),), VALS + (200.0,))), {"a_Nm_per_rad2": 200.0}),
+    "hysteresis": (Plant(JointLaw(BASE + (Jenkins(0.05),), VALS + (50.0,))), {"hysteresis_slip_torque_Nm": 50.0}),
+    "quadratic_damping": (Plant(JointLaw(BASE + (QuadraticDamping(),), VALS + (1.0,))),
+                          {"quadratic_damping_Nms2_per_rad2": 1.0}),
+    "drive_delay": (Plant(JointLaw(BASE, VALS), drive_delay_s=0.001), {"drive_delay_s": 0.001}),
+    "bearing_friction": (Plant(JointLaw(BASE, VALS), bearing2_damping_Nms_per_rad=5.0),
+                         {"bearing2_damping_Nms_per_rad": 5.0}),
+    "coulomb_friction+backlash": (Plant(JointLaw(_gap(0.02) + (Coulomb(),), VALS + (95.0,))),
+                                  {"coulomb_torque_Nm": 95.0, "backlash_half_gap_rad": 0.02}),
+}
+
+_cache: dict = {}
+
+
+def measured(rig, tmp_path_factory, case, *, snr_db=40.0, seed=None):
+    """(records read back from CSV, peak joint torque in N m) for a case, simulated once."""
+    key = (case, snr_db)
+    if key not in _cache:
+        plant = CASES[case][0]
+        rng = np.random.default_rng(seed if seed is not None else zlib.crc32(case.encode()))
+        clean = [simulate_steady_state(rig, w, a, SimulationConfig(n_periods=16), law=plant)[0] for w, a in POINTS]
+        stateless = JointLaw(tuple(t for t in plant.law.terms if not t.stateful),
+                             tuple(v for t, v in zip(plant.law.terms, plant.law.values) if not t.stateful))
+        peak = max(float(np.max(np.abs(stateless.torque(r.phi_rad, r.rate_rad_s)))) for r in clean)
+        path = tmp_path_factory.mktemp("data") / f"{case}.csv"
+        write_runs(path, [add_noise(r, snr_db, rng) for r in clean])
+        _cache[key] = (read_runs(path).records, peak)
+    return _cache[key]
+
+
+@pytest.fixture(scope="module")
+def reports(rig, tmp_path_factory):
+    out = {}
+
+    def get(case):
+        if case not in out:
+            records, peak = measured(rig, tmp_path_factory, case)
+            out[case] = (run_diagnosis(records, rig=rig), peak)
+        return out[case]
+    return get
+
+
+@pytest.mark.parametrize("case", [c for c in CASES if c != "none"])
+def test_hidden_effect_is_ranked_first_sized_and_pays_off(reports, case):
+    report, peak = reports(case)
+    d = report.diagnosis
+    truth = CASES[case][1]
+    hidden = set(case.split("+"))
+    first = d.causes[0]
+    assert first.effect in hidden, [(c.effect, round(c.score)) for c in d.causes]
+    assert first.significant
+    assert set(d.effects) == hidden, d.effects  # found, and nothing invented beside it
+    params = d.extended.effect_parameters()
+    for name, value in truth.items():
+        # 15%: the issue's bound; the standard errors here are 0.2-3% of the values.
+        assert params[name] == pytest.approx(value, rel=0.15), (name, params[name])
+        if name.endswith("_Nm") and not name.startswith("a_"):
+            assert value <= 0.05 * peak  # a modest effect: <= 5% of the peak joint torque
+    assert report.gain >= 5.0, (report.validation_rms("nominal"), report.validation_rms("extended"))
+    # The extended model leaves only noise: chi2/dof at most about 1 (below 1 where the
+    # model-fidelity floor, 1e-3 of each run's torque, exceeds the noise; 1.3 allows for the
+    # weight estimates' 30 degrees of freedom).
+    assert 0.5 < d.extended.chi2 / d.extended.dof < 1.3
+
+
+def test_nominal_data_invents_nothing(reports):
+    report, _ = reports("none")
+    d = report.diagnosis
+    assert d.effects == () and not any(c.significant for c in d.causes), [(c.effect, c.p_value) for c in d.causes]
+    assert d.nominal.chi2 / d.nominal.dof < 1.3
+    # The nominal law is recovered: k and c within 1% (standard errors ~0.1%).
+    p = d.nominal.as_dict()
+    assert p["k_Nm_per_rad"] == pytest.approx(2000, rel=0.01) and p["c_Nms_per_rad"] == pytest.approx(100, rel=0.01)
+    assert report.gain == pytest.approx(1.0)
+
+
+def test_magnitude_names_carry_units():
+    for name in EFFECT_MAGNITUDE.values():
+        assert name.split("_")[-1] in {"Nm", "rad", "rad2", "s"} or "_per_" in name, name
+
+
+def test_relative_angle_only_uses_the_equivalent_form(rig, tmp_path_factory):
+    # The same dry-friction data with only phi = phi1 - phi2: Je instead of J1, J2; bearing
+    # friction cannot be tested (it acts on absolute rates) and says so.
+    records, _ = measured(rig, tmp_path_factory, "coulomb_friction")
+    rel = [type(r)(r.omega_rad_s, r.time_s, r.torque_Nm, r.phi_rad, None, n_periods=r.n_periods) for r in records]
+    report = run_diagnosis(rel, rig=rig)
+    d = report.diagnosis
+    assert d.form == "equivalent" and "Je_kgm2" in d.nominal.names
+    assert d.effects == ("coulomb_friction",)
+    assert d.extended.as_dict()["coulomb_torque_Nm"] == pytest.approx(95.0, rel=0.15)
+    bearing = next(c for c in d.causes if c.effect == "bearing_friction")
+    assert not bearing.significant and "needs both flywheel angles" in bearing.note
+    assert report.gain >= 5.0
+
+
+def test_says_when_the_data_cannot_tell_two_causes_apart(rig, tmp_path_factory):
+    # At 20 dB the transition after each reversal that tells a Jenkins element from dry
+    # friction drowns in noise: both fit equally well and neither is needed given the other.
+    from rig.diagnosis_report import format_report, report_json
+
+    records, _ = measured(rig, tmp_path_factory, "coulomb_friction", snr_db=20.0, seed=5)
+    report = run_diagnosis(records, rig=rig)
+    pairs = [set(a.effects) for a in report.diagnosis.ambiguous]
+    assert {"coulomb_friction", "hysteresis"} in pairs
+    assert report.diagnosis.effects[0] in {"coulomb_friction", "hysteresis"}
+    text = format_report(report)
+    assert "CANNOT TELL APART" in text and "low-amplitude run" in text
+    js = report_json(report)
+    assert js["ambiguous"] and "excitation" in js["ambiguous"][0]
