@@ -572,7 +572,7 @@ def _profile(problem, cause: Cause, base: ModelSpec, weights) -> Fit:
     vals = [obj(u) for u in grid]
     k = int(np.argmin(vals))
     a, b = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
-    res = minimize_scalar(obj, bounds=(a, b), method="bounded", options={"xatol": 1e-6 * (hi_t - lo_t)})
+    minimize_scalar(obj, bounds=(a, b), method="bounded", options={"xatol": 1e-6 * (hi_t - lo_t)})
     h_best = min(cache, key=lambda h: cache[h].chi2)
     best = cache[h_best]
     # Standard error of the profiled parameter from the curvature of chi2 (it rises by 1 at

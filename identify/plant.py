@@ -64,7 +64,7 @@ class PeriodicDrive:
         """A fast scalar function ``t -> T(t - delay_s)`` for the MuJoCo callback."""
         w = self.omega_rad_s
         terms = [(n * w, v.real, -v.imag) for n, v in enumerate(self.coeffs) if n and v != 0]
-        cos, sin = math.cos, math.sin
+        cos = math.cos
         if len(terms) == 1:
             wn, a, b = terms[0]
             if b == 0.0:

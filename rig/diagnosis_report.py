@@ -20,16 +20,13 @@ import io
 import math
 import os
 from pathlib import Path
-from typing import Optional, Sequence
+from typing import Sequence
 
 import numpy as np
 
-from identify.diagnose import EFFECT_MAGNITUDE
-from identify.harmonics import fourier_coefficients
-
 from .validate import DiagnosisReport
 
-__all__ = ["report_json", "format_report", "log_diagnosis", "write_html", "expected_entities"]
+__all__ = ["report_json", "format_report", "log_diagnosis", "write_html"]
 
 
 def _fmt(v: float) -> str:
@@ -148,16 +145,6 @@ def format_report(report: DiagnosisReport, *, source: str = "", notes: Sequence[
 
 def _label(r) -> str:
     return f"run{r.run_id}".replace(".", "p").replace("/", "_").replace(" ", "_")
-
-
-def expected_entities(report: DiagnosisReport) -> set[str]:
-    out = {"/diagnosis/causes", "/diagnosis/summary"}
-    for r in report.runs:
-        lab = _label(r)
-        for w in ("measured", "nominal", "extended"):
-            out |= {f"/diagnosis/runs/{lab}/phi_rad/{w}", f"/diagnosis/loops/{lab}/{w}"}
-        out |= {f"/diagnosis/harmonic_residuals/{lab}/nominal", f"/diagnosis/harmonic_residuals/{lab}/extended"}
-    return out
 
 
 def log_diagnosis(rec, report: DiagnosisReport, text: str) -> None:

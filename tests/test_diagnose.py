@@ -1,8 +1,9 @@
 """The diagnosis finds effects hidden in rig data it is not told about.
 
-Every case simulates the paper's joint with one hidden effect (or none, or two) over
-omega = 25, 40, 55 rad/s x M0 = 1500, 2500, 3500 N m (9 runs, 16 periods each), measures it at
-40 dB SNR on torque and both angles, writes and reads the measured-runs CSV, and runs the
+Every case (``rig.hidden_effects``) simulates the paper's joint with one hidden effect (or none,
+or two) over omega = 25, 40, 55 rad/s x M0 = 1500, 2500, 3500 N m (9 runs, 16 periods each),
+measures it at 40 dB SNR on torque and both angles, writes and reads the measured-runs CSV, and
+runs the
 whole product path (:func:`rig.validate.run_diagnosis`): fit on 6 runs, hold out runs 1, 4, 7
 (the middle amplitude at each frequency), validate in the rig.
 
@@ -13,59 +14,24 @@ checked to be at most ~5% of the peak joint torque where it is a torque.
 
 from __future__ import annotations
 
-import zlib
-
-import numpy as np
 import pytest
 
-from identify.basis import Coulomb, Jenkins, JointLaw, Power, QuadraticDamping, Viscous
 from identify.diagnose import EFFECT_MAGNITUDE
-from identify.plant import Plant
 from measured.runs import read_runs, write_runs
-from rig import SimulationConfig, simulate_steady_state
-from rig.measurement import add_noise
+from rig.hidden_effects import HIDDEN_EFFECTS as CASES
+from rig.hidden_effects import simulate_case
 from rig.validate import run_diagnosis
-
-BASE = (Viscous(), Power(1), Power(3))
-VALS = (100.0, 2000.0, 200.0)
-POINTS = [(w, a) for w in (25.0, 40.0, 55.0) for a in (1500.0, 2500.0, 3500.0)]
-
-
-def _gap(g):
-    return (Viscous(), Power(1, g), Power(3, g))
-
-
-#: case -> (plant, {magnitude parameter: true value})
-CASES = {
-    "none": (Plant(JointLaw(BASE, VALS)), {}),
-    "coulomb_friction": (Plant(JointLaw(BASE + (Coulomb(),), VALS + (95.0,))), {"coulomb_torque_Nm": 95.0}),
-    "backlash": (Plant(JointLaw(_gap(0.02), VALS)), {"backlash_half_gap_rad": 0.02}),
-    "asymmetric_stiffness": (Plant(JointLaw(BASE + (Power(2),), VALS + (200.0,))), {"a_Nm_per_rad2": 200.0}),
-    "hysteresis": (Plant(JointLaw(BASE + (Jenkins(0.05),), VALS + (50.0,))), {"hysteresis_slip_torque_Nm": 50.0}),
-    "quadratic_damping": (Plant(JointLaw(BASE + (QuadraticDamping(),), VALS + (1.0,))),
-                          {"quadratic_damping_Nms2_per_rad2": 1.0}),
-    "drive_delay": (Plant(JointLaw(BASE, VALS), drive_delay_s=0.001), {"drive_delay_s": 0.001}),
-    "bearing_friction": (Plant(JointLaw(BASE, VALS), bearing2_damping_Nms_per_rad=5.0),
-                         {"bearing2_damping_Nms_per_rad": 5.0}),
-    "coulomb_friction+backlash": (Plant(JointLaw(_gap(0.02) + (Coulomb(),), VALS + (95.0,))),
-                                  {"coulomb_torque_Nm": 95.0, "backlash_half_gap_rad": 0.02}),
-}
 
 _cache: dict = {}
 
 
 def measured(rig, tmp_path_factory, case, *, snr_db=40.0, seed=None):
     """(records read back from CSV, peak joint torque in N m) for a case, simulated once."""
-    key = (case, snr_db)
+    key = (case, snr_db, seed)
     if key not in _cache:
-        plant = CASES[case][0]
-        rng = np.random.default_rng(seed if seed is not None else zlib.crc32(case.encode()))
-        clean = [simulate_steady_state(rig, w, a, SimulationConfig(n_periods=16), law=plant)[0] for w, a in POINTS]
-        stateless = JointLaw(tuple(t for t in plant.law.terms if not t.stateful),
-                             tuple(v for t, v in zip(plant.law.terms, plant.law.values) if not t.stateful))
-        peak = max(float(np.max(np.abs(stateless.torque(r.phi_rad, r.rate_rad_s)))) for r in clean)
+        records, peak = simulate_case(rig, case, snr_db=snr_db, seed=seed)
         path = tmp_path_factory.mktemp("data") / f"{case}.csv"
-        write_runs(path, [add_noise(r, snr_db, rng) for r in clean])
+        write_runs(path, records)
         _cache[key] = (read_runs(path).records, peak)
     return _cache[key]
 

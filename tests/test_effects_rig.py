@@ -3,7 +3,6 @@
 import copy
 import math
 
-import mujoco
 import numpy as np
 import pytest
 
