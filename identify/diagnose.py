@@ -48,7 +48,7 @@ from .records import RecordError, SteadyStateRecord
 from .solve import IllConditionedWarning, solve
 
 __all__ = [
-    "PreparedRun", "prepare_runs", "ModelSpec", "NOMINAL", "Cause", "CAUSES", "Fit", "CauseScore",
+    "DEFAULT_FIDELITY", "kink_corrected_rate", "PreparedRun", "prepare_runs", "ModelSpec", "NOMINAL", "Cause", "CAUSES", "Fit", "CauseScore",
     "Diagnosis", "diagnose", "fit", "plant_of", "EFFECT_MAGNITUDE", "SEPARATING_EXCITATION",
 ]
 
@@ -88,6 +88,9 @@ class PreparedRun:
     def n_periods(self) -> int:
         return len(self.periods)
 
+
+#: Model-fidelity floor, relative to each run's largest balanced torque (see :func:`diagnose`).
+DEFAULT_FIDELITY = 1e-3
 
 #: Law columns are evaluated on 16x the samples (trigonometric interpolation of the band-limited
 #: angle): a jump (dry friction) on 256 samples per period aliases at ~1/256 of its size,
@@ -323,7 +326,7 @@ class _Problem:
     n_harmonics: int
     torque_share: float
     nu: float  # degrees of freedom of each row weight
-    fidelity: float = 5e-4  # model-fidelity floor relative to each run's torque (see diagnose)
+    fidelity: float = DEFAULT_FIDELITY  # model-fidelity floor relative to each run's torque (see diagnose)
 
     def _records(self, recs: Sequence[SteadyStateRecord], jump: float) -> list[SteadyStateRecord]:
         if jump <= 0:
@@ -656,7 +659,7 @@ class Diagnosis:
 
 def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmonics: int = 20,
              torque_share: float = 0.5, alpha: float = 1e-3, max_effects: int = 3,
-             fidelity: float = 5e-4, causes: Sequence[Cause] = CAUSES) -> Diagnosis:
+             fidelity: float = DEFAULT_FIDELITY, causes: Sequence[Cause] = CAUSES) -> Diagnosis:
     """Fit the nominal model, rank causes by evidence, extend greedily (module docstring).
 
     Args:
@@ -669,10 +672,11 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
         Harmonic balance of a law with a jump (dry friction) from angles band-limited to
         ``n_harmonics`` is exact only up to where the jumps fall (restored by
         :func:`kink_corrected_rate` to ~4e-5 of a period) and the rig's RK4 step (~1e-4 of
-        the swing); on noise-free rig data with dry friction the remaining misfit is ~2e-4
-        of the run's torque (chi2/dof 0.13 at 80 dB with this floor), which at high SNR would
-        be "found" as hysteresis. 5e-4 keeps it out; causes of a few percent of the joint
-        torque stay ~100x above it.
+        the swing). Measured on the dry-friction case: without noise the remaining misfit is
+        ~2e-4 of the run's torque; at 40 dB a floor of 5e-4 still let that misfit pass as a
+        small second "hysteresis" (slip 1.5e-3 rad, 9 N m, p = 2e-5) for one noise seed in
+        three. 1e-3 keeps it out; causes of a few percent of the joint torque stay ~50x above
+        it. The price: gamma's standard error grows from ~18 to ~27 N m/rad^3.
     """
     runs = tuple(runs)
     if not runs:

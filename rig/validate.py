@@ -22,7 +22,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from identify.basis import JointLaw
-from identify.diagnose import Diagnosis, Fit, PreparedRun, diagnose, plant_of, prepare_runs
+from identify.diagnose import DEFAULT_FIDELITY, Diagnosis, Fit, PreparedRun, diagnose, plant_of, prepare_runs
 from identify.harmonics import fourier_coefficients
 from identify.plant import Plant, drive_of_record
 from identify.records import SteadyStateRecord
@@ -176,14 +176,15 @@ def _simulate(rig: RigModel, plant: Plant, J: tuple[float, float], run: Prepared
 
 def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Sequence[str]] = None,
                   holdout: Optional[Sequence[int]] = None, band: int = 20, torque_share: float = 0.5,
-                  form: Optional[str] = None, alpha: float = 1e-3, rig: Optional[RigModel] = None,
-                  progress=None) -> DiagnosisReport:
+                  form: Optional[str] = None, alpha: float = 1e-3, fidelity: float = DEFAULT_FIDELITY,
+                  rig: Optional[RigModel] = None, progress=None) -> DiagnosisReport:
     """Diagnose on the fit runs, then compare nominal and extended models on every run.
 
     Args:
       holdout: indices of runs kept out of the fit (default :func:`default_holdout`).
       band: harmonics 0..band used for fitting and for comparison.
       torque_share: J2 / (J1 + J2) for records with only the relative angle.
+      fidelity: model-fidelity floor of :func:`identify.diagnose.diagnose`.
       progress: optional callable ``(message) -> None`` for long work.
     """
     say = progress or (lambda msg: None)
@@ -200,7 +201,7 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
     prepared = prepare_runs(records, band=band)
     say(f"diagnosing on runs {[run_ids[i] for i in fit_idx]}, holding out {[run_ids[i] for i in holdout]}")
     diag = diagnose([prepared[i] for i in fit_idx], form=form, n_harmonics=band, torque_share=torque_share,
-                    alpha=alpha)
+                    alpha=alpha, fidelity=fidelity)
     rig = rig or load_rig()
     nominal_plant, J_nom = plant_of(diag.nominal, torque_share)
     ext_plant, J_ext = plant_of(diag.extended, torque_share)

@@ -23,6 +23,7 @@ import sys
 import time
 from pathlib import Path
 
+from identify.diagnose import DEFAULT_FIDELITY
 from identify.records import RecordError
 from measured.runs import RunsFileError, read_runs
 from rig.diagnosis_report import format_report, log_diagnosis, report_json, write_html
@@ -47,6 +48,9 @@ def parse_args(argv=None) -> argparse.Namespace:
                    help="J2/(J1+J2), needed only for data with the relative angle 'phi' (default: %(default)s)")
     p.add_argument("--alpha", type=float, default=1e-3,
                    help="false-alarm probability per round over all causes (default: %(default)s)")
+    p.add_argument("--fidelity", type=float, default=DEFAULT_FIDELITY,
+                   help="model-fidelity floor relative to each run's torque: misfits below it are not evidence "
+                        "(default: %(default)s)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     return p.parse_args(argv)
 
@@ -68,7 +72,7 @@ def main(argv=None) -> int:
         for n in loaded.notes:
             log.info("note: %s", n)
         report = run_diagnosis(loaded.records, run_ids=ids, holdout=holdout, band=args.band,
-                               torque_share=args.torque_share, alpha=args.alpha,
+                               torque_share=args.torque_share, alpha=args.alpha, fidelity=args.fidelity,
                                progress=lambda msg: log.info("%s", msg))
     except (RunsFileError, RecordError, ValueError, SimulationError) as err:
         print(f"diagnose: error: {err}", file=sys.stderr)
