@@ -191,54 +191,49 @@ def _figures(report: DiagnosisReport) -> list[tuple[str, str]]:
     style = {"measured": dict(color="k", lw=2.2, alpha=0.5), "nominal": dict(color="tab:red", lw=1.2, ls="--"),
              "extended": dict(color="tab:blue", lw=1.2)}
 
-    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 2.8 * rows), squeeze=False)
-    for ax, r in zip(axes.flat, runs):
+    def grid(height, draw, caption):
+        """One panel per run, drawn by ``draw(ax, run)``; appended to ``out`` as a PNG."""
+        fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, height * rows), squeeze=False)
+        for ax, r in zip(axes.flat, runs):
+            draw(ax, r)
+        for ax in list(axes.flat)[n:]:
+            ax.axis("off")
+        axes.flat[0].legend(fontsize=8)
+        fig.tight_layout()
+        out.append((caption, _png(fig)))
+        plt.close(fig)
+
+    def held(r):
+        return " (held out)" if r.held_out else ""
+
+    def time_series(ax, r):
         for w, phi in (("measured", r.phi_measured_rad), ("nominal", r.phi_nominal_rad),
                        ("extended", r.phi_extended_rad)):
             ax.plot(r.time_s, phi, label=w, **style[w])
-        ax.set_title(f"run {r.run_id}: {r.omega_rad_s:g} rad/s, {r.amplitude_Nm:.4g} N m"
-                     + (" (held out)" if r.held_out else ""), fontsize=9)
-        ax.set_xlabel("t [s]")
-        ax.set_ylabel("phi [rad]")
-    for ax in list(axes.flat)[n:]:
-        ax.axis("off")
-    axes.flat[0].legend(fontsize=8)
-    fig.tight_layout()
-    out.append(("Relative angle over one period: measured (period average) vs simulated in the rig", _png(fig)))
-    plt.close(fig)
+        ax.set_title(f"run {r.run_id}: {r.omega_rad_s:g} rad/s, {r.amplitude_Nm:.4g} N m{held(r)}", fontsize=9)
+        ax.set(xlabel="t [s]", ylabel="phi [rad]")
 
-    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.2 * rows), squeeze=False)
-    for ax, r in zip(axes.flat, runs):
+    def loops(ax, r):
+        x = np.append(r.phi_resolved_rad, r.phi_resolved_rad[0])
         for w, tau in (("measured", r.joint_torque_measured_Nm), ("nominal", r.joint_torque_nominal_Nm),
                        ("extended", r.joint_torque_extended_Nm)):
-            ax.plot(np.append(r.phi_resolved_rad, r.phi_resolved_rad[0]), np.append(tau, tau[0]), label=w, **style[w])
-        ax.set_title(f"run {r.run_id}" + (" (held out)" if r.held_out else ""), fontsize=9)
-        ax.set_xlabel("phi [rad]")
-        ax.set_ylabel("joint torque [N m]")
-    for ax in list(axes.flat)[n:]:
-        ax.axis("off")
-    axes.flat[0].legend(fontsize=8)
-    fig.tight_layout()
-    out.append(("Restoring-force loops: joint torque against relative angle (measured from the equation of "
-                "motion with the extended model's inertia; models from their laws along the measured motion)",
-                _png(fig)))
-    plt.close(fig)
+            ax.plot(x, np.append(tau, tau[0]), label=w, **style[w])
+        ax.set_title(f"run {r.run_id}{held(r)}", fontsize=9)
+        ax.set(xlabel="phi [rad]", ylabel="joint torque [N m]")
 
-    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 2.8 * rows), squeeze=False)
     h = np.arange(report.band + 1)
-    for ax, r in zip(axes.flat, runs):
+
+    def residuals(ax, r):
         ax.bar(h - 0.2, r.harmonic_residuals("nominal", report.band), width=0.4, color="tab:red", label="nominal")
         ax.bar(h + 0.2, r.harmonic_residuals("extended", report.band), width=0.4, color="tab:blue", label="extended")
         ax.set_yscale("log")
-        ax.set_title(f"run {r.run_id}" + (" (held out)" if r.held_out else ""), fontsize=9)
-        ax.set_xlabel("harmonic n")
-        ax.set_ylabel("|residual| [rad]")
-    for ax in list(axes.flat)[n:]:
-        ax.axis("off")
-    axes.flat[0].legend(fontsize=8)
-    fig.tight_layout()
-    out.append(("Harmonic residuals per run: |Phi_n simulated - Phi_n measured|", _png(fig)))
-    plt.close(fig)
+        ax.set_title(f"run {r.run_id}{held(r)}", fontsize=9)
+        ax.set(xlabel="harmonic n", ylabel="|residual| [rad]")
+
+    grid(2.8, time_series, "Relative angle over one period: measured (period average) vs simulated in the rig")
+    grid(3.2, loops, "Restoring-force loops: joint torque against relative angle (measured from the equation of "
+                     "motion with the extended model's inertia; models from their laws along the measured motion)")
+    grid(2.8, residuals, "Harmonic residuals per run: |Phi_n simulated - Phi_n measured|")
 
     causes = [c for c in report.diagnosis.causes if math.isfinite(c.score)]
     fig, ax = plt.subplots(figsize=(7, 0.45 * len(causes) + 1))
