@@ -515,7 +515,10 @@ class CauseScore:
       p_value: of ``delta_chi2`` under chi-square(n_params) if the cause were absent.
       significant: ``p_value < alpha / n_causes`` and score > 0.
       fit: the extended fit; magnitude: the size parameter and its value; signature: share of
-        the chi-square drop by harmonic class (mean, fundamental, even, odd >= 3).
+        the chi-square drop by harmonic class (mean, fundamental, even, odd >= 3) and
+        ``dissipative``, the share of the cause's joint torque at the fundamental that is in
+        quadrature with the angle (1: it dissipates, like friction; 0: it is elastic, like
+        free play; None: it acts outside the joint).
     """
 
     effect: str
@@ -537,12 +540,48 @@ class CauseScore:
                 "parameters": self.fit.effect_parameters() if self.fit else {}}
 
 
-def _signature(base: Fit, ext: Fit) -> dict:
+def _law_of(f: Fit) -> JointLaw:
+    p = f.as_dict()
+    return JointLaw(f.spec.terms, tuple(p[t.name] for t in f.spec.terms))
+
+
+def _dissipative_share(problem: "_Problem", base: Fit, ext: Fit) -> Optional[float]:
+    """The cause's own joint torque along the measured motion, at the fundamental: 0 = in
+    phase with the angle (elastic), 1 = in quadrature (dissipative); None when the cause
+    acts outside the joint (drive delay, bearings)."""
+    if ext.spec.terms == base.spec.terms:
+        return None
+    # The effect alone, at the extended fit's values: its added terms, and for free play the
+    # elastic terms with the gap minus the same terms without it.
+    law = _law_of(ext)
+    base_names = set(base.names)
+    plain = [(Power(t.power) if isinstance(t, Power) else t, v) for t, v in zip(law.terms, law.values)
+             if t.name in base_names]
+    without = JointLaw(tuple(t for t, _ in plain), tuple(v for _, v in plain))
+    num = den = 0.0
+    for run in problem.runs:
+        rec = run.fine_average
+        M = rec.samples_per_period
+        phi = rec.phi_rad
+        rate = np.fft.irfft(np.fft.rfft(phi) * 1j * np.arange(M // 2 + 1) * rec.omega_rad_s, n=M)
+        extra = np.asarray(law.torque(phi, rate), float) - np.asarray(without.torque(phi, rate), float)
+        T1 = np.fft.rfft(extra)[1]
+        P1 = np.fft.rfft(phi)[1]
+        num += abs((T1 * np.conj(P1)).imag)
+        den += abs(T1) * abs(P1)
+    return float(num / den) if den > 0 else None
+
+
+def _signature(problem: "_Problem", base: Fit, ext: Fit) -> dict:
+    """Where the cause's improvement lies: share of the chi-square drop by harmonic class
+    (mean, fundamental, even, odd >= 3), and the dissipative share of its joint torque."""
     d = base.row_chi2 - ext.row_chi2
     h = base.row_harmonic
     classes = {"mean": h == 0, "fundamental": h == 1, "even": (h % 2 == 0) & (h > 0), "odd>=3": (h % 2 == 1) & (h > 1)}
     total = float(d.sum()) or 1.0
-    return {k: float(d[m].sum() / total) for k, m in classes.items()}
+    out: dict = {k: float(d[m].sum() / total) for k, m in classes.items()}
+    out["dissipative"] = _dissipative_share(problem, base, ext)
+    return out
 
 
 def _magnitude(cause: Cause, f: Fit) -> tuple[str, float, float]:
@@ -615,7 +654,7 @@ def score_cause(problem: _Problem, cause: Cause, base: Fit, weights: np.ndarray,
         note = f"fitted with an unphysical negative {mag[0]} = {mag[1]:.4g}: rejected"
         significant = False
     return CauseScore(cause.name, float(delta), q, float(score), p, significant, ext, mag,
-                      _signature(base, ext), note=note)
+                      _signature(problem, base, ext), note=note)
 
 
 @dataclass(frozen=True)

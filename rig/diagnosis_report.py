@@ -109,10 +109,12 @@ def format_report(report: DiagnosisReport, *, source: str = "", notes: Sequence[
     lines.append("Causes ranked by evidence (score = drop in chi2 - n_params ln(n_rows); significant: "
                  "p < 1e-3 / n_causes):")
     lines.append(f"  {'rank':4s} {'effect':22s} {'score':>12s} {'d_chi2':>12s} {'q':>2s} {'p':>9s} {'sig':>4s}  "
-                 f"magnitude; where the improvement is (mean/fund./even/odd>=3)")
+                 f"magnitude; where the improvement is (mean/fund./even/odd>=3); dissipative share")
     for i, c in enumerate(d.causes, 1):
         sig = c.signature
         where = "/".join(f"{sig.get(k, 0.0):.0%}" for k in ("mean", "fundamental", "even", "odd>=3")) if sig else "-"
+        if sig and sig.get("dissipative") is not None:
+            where += f"; {sig['dissipative']:.2f}"
         mag = f"{c.magnitude[0]} = {_fmt(c.magnitude[1])} +- {_fmt(c.magnitude[2])}"
         lines.append(f"  {i:<4d} {c.effect:22s} {c.score:12.4g} {c.delta_chi2:12.4g} {c.n_params:2d} "
                      f"{c.p_value:9.2g} {'yes' if c.significant else 'no':>4s}  {mag}; {where}"
