@@ -153,7 +153,7 @@ def prepare_runs(records: Sequence[SteadyStateRecord], *, band: int = 20,
             keep = np.arange(H + 1) <= band
             sig = np.abs(mean) > significance_sigma * np.sqrt(var_mean)
             kept[name] = np.flatnonzero(sig & keep)
-            noise[name] = float(np.sqrt(np.median(var_mean[1:H]) * P * N / 2))  # per raw sample
+            noise[name] = float(np.sqrt(np.median(var_mean[1:H]) * P * N))  # per raw sample
             avg[name] = np.fft.irfft(np.where(keep, mean, 0) * N, n=N)
             per[name] = np.fft.irfft(np.where(keep, X, 0) * N, n=N, axis=1)
             favg[name] = np.fft.irfft(np.where(keep, mean, 0) * Nf, n=Nf)

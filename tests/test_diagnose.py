@@ -129,3 +129,26 @@ def test_signature_tells_dissipative_from_elastic_causes(reports, case, low, hig
     share = report.diagnosis.steps[0].signature["dissipative"]
     assert low <= share <= high, share
     assert report.diagnosis.steps[0].signature["odd>=3"] > 0.05  # odd harmonics carry part of the evidence
+
+
+def test_noise_is_estimated_from_period_to_period_variation():
+    # White noise of known sigma on a periodic record: the per-sample noise estimate and the
+    # noise variance of the averaged relative-angle coefficients. 5%: the median over ~127
+    # pooled harmonics of a variance with 2 (P - 1) = 30 degrees of freedom each.
+    import numpy as np
+
+    from identify.diagnose import prepare_runs
+    from identify.records import SteadyStateRecord
+
+    N, P, w = 256, 16, 10.0
+    rng = np.random.default_rng(0)
+    t = np.arange(N * P) * 2 * np.pi / (w * N)
+    x = np.cos(w * t) + 0.1 * np.cos(3 * w * t)
+    rec = SteadyStateRecord(w, t, 100 * x + rng.normal(0, 0.5, x.size), x + rng.normal(0, 0.01, x.size), None,
+                            n_periods=P)
+    run = prepare_runs([rec])[0]
+    assert run.noise_std["torque"] == pytest.approx(0.5, rel=0.05)
+    assert run.noise_std["phi1"] == pytest.approx(0.01, rel=0.05)
+    assert np.median(run.phi_noise_var[1:N // 2]) == pytest.approx(0.01**2 / (N * P), rel=0.1)
+    assert set(run.kept["phi"][:2]) == {1, 3}  # the two harmonics that are there, and no noise
+    assert len(run.kept["phi"]) == 2
