@@ -440,6 +440,7 @@ class Cause:
     log_scale: bool = False
     needs_two_angles: bool = False
     nonnegative: bool = True  # a negative magnitude is unphysical (friction, damping, delay)
+    profiled: Optional[str] = None  # name of the nonlinear parameter the profile search finds
 
 
 def _amplitude(runs) -> float:
@@ -466,17 +467,20 @@ CAUSES: tuple[Cause, ...] = (
     Cause("coulomb_friction", "dry friction in the joint: a torque of constant size opposing the relative rate",
           lambda s, h: _with_terms(s, (Coulomb(),)), "coulomb_torque_Nm", 1),
     Cause("backlash", "free play in the elastic element: no stiffness within +-half gap",
-          _with_gap, "backlash_half_gap_rad", 0, bounds=lambda runs: (1e-4 * _amplitude(runs), 0.8 * _amplitude(runs))),
+          _with_gap, "backlash_half_gap_rad", 0, bounds=lambda runs: (1e-4 * _amplitude(runs), 0.8 * _amplitude(runs)),
+          profiled="backlash_half_gap_rad"),
     Cause("asymmetric_stiffness", "a preload and an even stiffness term: DC shift and even harmonics",
           lambda s, h: _with_terms(s, (Power(0), Power(2))), "a_Nm_per_rad2", 2, nonnegative=False),
     Cause("hysteresis", "a Jenkins (one-element Iwan) element: spring and dry-friction slider in series",
           _with_jenkins, "hysteresis_slip_torque_Nm", 1,
-          bounds=lambda runs: (1e-3 * _amplitude(runs), 0.9 * _amplitude(runs)), log_scale=True),
+          bounds=lambda runs: (1e-3 * _amplitude(runs), 0.9 * _amplitude(runs)), log_scale=True,
+          profiled="hysteresis_slip_angle_rad"),
     Cause("quadratic_damping", "damping torque proportional to the rate squared",
           lambda s, h: _with_terms(s, (QuadraticDamping(),)), "quadratic_damping_Nms2_per_rad2", 1),
     Cause("drive_delay", "the drive torque reaches flywheel 1 later than it is recorded",
           lambda s, h: replace(s, drive_delay_s=float(h)), "drive_delay_s", 0,
-          bounds=lambda runs: (0.0, 0.1 * min(2 * math.pi / r.average.omega_rad_s for r in runs))),
+          bounds=lambda runs: (0.0, 0.1 * min(2 * math.pi / r.average.omega_rad_s for r in runs)),
+          profiled="drive_delay_s"),
     Cause("bearing_friction", "viscous drag of a flywheel to ground (not through the joint)",
           lambda s, h: replace(s, bearings=True), "bearing_damping_Nms_per_rad", 2, needs_two_angles=True),
 )
@@ -597,10 +601,10 @@ def _magnitude(cause: Cause, f: Fit) -> tuple[str, float, float]:
 def _profile(problem, cause: Cause, base: ModelSpec, weights) -> Fit:
     lo, hi = cause.bounds(problem.runs)
     if cause.log_scale:
-        to, back = math.log, math.exp
-        lo_t, hi_t = to(lo), to(hi)
+        back = math.exp
+        lo_t, hi_t = math.log(lo), math.log(hi)
     else:
-        to = back = (lambda v: v)
+        back = float
         lo_t, hi_t = lo, hi
     cache: dict[float, Fit] = {}
 
@@ -618,18 +622,19 @@ def _profile(problem, cause: Cause, base: ModelSpec, weights) -> Fit:
     h_best = min(cache, key=lambda h: cache[h].chi2)
     best = cache[h_best]
     # Standard error of the profiled parameter from the curvature of chi2 (it rises by 1 at
-    # one standard error), by a central difference in the parameter itself.
+    # one standard error; scaled like the linear ones when the fit is worse than the noise),
+    # by a central difference in the parameter itself (one-sided at the lower bound).
     step = max(1e-3 * abs(h_best), 1e-6 * (hi - lo))
+
     def chi2_at(h):
         return _solve(problem, cause.extend(base, h), weights).chi2
 
-    if h_best - step >= lo and (lo > 0 or h_best - step > 0 or not cause.log_scale):
+    if h_best - step >= lo:
         curv = (chi2_at(h_best - step) - 2 * best.chi2 + chi2_at(h_best + step)) / step**2
-    else:  # at the lower bound: one-sided second difference
+    else:
         curv = (chi2_at(h_best + 2 * step) - 2 * chi2_at(h_best + step) + best.chi2) / step**2
-    se = math.sqrt(2.0 / curv) if curv > 0 else math.nan
-    name = cause.magnitude if cause.n_linear == 0 else {"hysteresis": "hysteresis_slip_angle_rad"}[cause.name]
-    return replace(best, profile_std_errors=((name, se),))
+    se = math.sqrt(2.0 / curv * max(1.0, best.chi2 / max(best.dof, 1))) if curv > 0 else math.nan
+    return replace(best, profile_std_errors=((cause.profiled, se),))
 
 
 def score_cause(problem: _Problem, cause: Cause, base: Fit, weights: np.ndarray, n_causes: int,
