@@ -4,6 +4,7 @@ Rerun entities (SI; units in the names):
 
 * ``diagnosis/runs/<run>/phi_rad/{measured,nominal,extended}``: one period of the relative
   angle, timeline ``t_s``.
+* ``diagnosis/runs/<run>/departure_rad/{nominal,extended}``: simulated minus measured.
 * ``diagnosis/loops/<run>/{measured,nominal,extended}``: the restoring-force loop, joint
   torque (N m) against relative angle (rad), as 2D line strips.
 * ``diagnosis/harmonic_residuals/<run>/{nominal,extended}``: |Phi_n model - measured| (rad),
@@ -164,9 +165,11 @@ def log_diagnosis(rec, report: DiagnosisReport, text: str) -> None:
             pts = np.column_stack([r.phi_resolved_rad, tau])
             rec.log(f"diagnosis/loops/{lab}/{w}", rr.LineStrips2D([np.vstack([pts, pts[:1]])], colors=[colors[w]]),
                     static=True)
-        for w in ("nominal", "extended"):
+        for w, phi in (("nominal", r.phi_nominal_rad), ("extended", r.phi_extended_rad)):
             rec.log(f"diagnosis/harmonic_residuals/{lab}/{w}", rr.BarChart(r.harmonic_residuals(w, report.band)),
                     static=True)
+            rec.send_columns(f"diagnosis/runs/{lab}/departure_rad/{w}", indexes=[t],
+                             columns=rr.Scalars.columns(scalars=phi - r.phi_measured_rad))
     scores = np.array([c.score for c in report.diagnosis.causes if math.isfinite(c.score)])
     rec.log("diagnosis/causes", rr.BarChart(scores), static=True)
     rec.log("diagnosis/summary", rr.TextDocument("```\n" + text + "\n```", media_type=rr.MediaType.MARKDOWN),
@@ -215,6 +218,13 @@ def _figures(report: DiagnosisReport) -> list[tuple[str, str]]:
         ax.set_title(f"run {r.run_id}: {r.omega_rad_s:g} rad/s, {r.amplitude_Nm:.4g} N m{held(r)}", fontsize=9)
         ax.set(xlabel="t [s]", ylabel="phi [rad]")
 
+    def departure(ax, r):
+        ax.axhspan(-r.noise_floor_rad, r.noise_floor_rad, color="0.85", label="noise floor")
+        for w, phi in (("nominal", r.phi_nominal_rad), ("extended", r.phi_extended_rad)):
+            ax.plot(r.time_s, phi - r.phi_measured_rad, label=w, **style[w])
+        ax.set_title(f"run {r.run_id}{held(r)}", fontsize=9)
+        ax.set(xlabel="t [s]", ylabel="simulated - measured [rad]")
+
     def loops(ax, r):
         x = np.append(r.phi_resolved_rad, r.phi_resolved_rad[0])
         for w, tau in (("measured", r.joint_torque_measured_Nm), ("nominal", r.joint_torque_nominal_Nm),
@@ -233,6 +243,8 @@ def _figures(report: DiagnosisReport) -> list[tuple[str, str]]:
         ax.set(xlabel="harmonic n", ylabel="|residual| [rad]")
 
     grid(2.8, time_series, "Relative angle over one period: measured (period average) vs simulated in the rig")
+    grid(2.8, departure, "Where the simulation departs from the measurement: simulated minus measured relative "
+                         "angle (band-limited), with the noise floor of the comparison")
     grid(3.2, loops, "Restoring-force loops: joint torque against relative angle (measured from the equation of "
                      "motion with the extended model's inertia; models from their laws along the measured motion)")
     grid(2.8, residuals, "Harmonic residuals per run: |Phi_n simulated - Phi_n measured|")

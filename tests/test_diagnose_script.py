@@ -51,9 +51,12 @@ def test_recording_and_report(outputs):
         for w in ("measured", "nominal", "extended"):
             assert f"/diagnosis/runs/run{run}/phi_rad/{w}" in paths
             assert f"/diagnosis/loops/run{run}/{w}" in paths
+        for w in ("nominal", "extended"):
+            assert f"/diagnosis/runs/run{run}/departure_rad/{w}" in paths
     assert "/diagnosis/causes" in paths and "/diagnosis/summary" in paths
     html = (outputs / "d.html").read_text()
-    assert html.count("<img") == 4 and "Restoring-force loops" in html and "coulomb_friction" in html
+    assert html.count("<img") == 5 and "Restoring-force loops" in html and "coulomb_friction" in html
+    assert "departs from the measurement" in html
 
 
 @pytest.mark.parametrize("text, match", [
