@@ -40,7 +40,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 from scipy.stats import chi2 as chi2_dist
 
-from .balance import LinearSystem, equivalent_system, two_dof_system
+from .balance import LinearSystem, equivalent_system, spectral_rate, two_dof_system
 from .basis import Coulomb, Jenkins, JointLaw, Power, QuadraticDamping, Term, Viscous
 from .harmonics import fourier_coefficients, max_harmonic, synthesize
 from .plant import Plant
@@ -63,30 +63,29 @@ class PreparedRun:
 
     Attributes:
       average: one period, the mean of the run's periods restricted to harmonics 0..band.
-      periods: each period alone, restricted to the same band (noise estimation).
+      raw_average: the period average with all harmonics.
+      fine_average, fine_periods: ``average`` and each period alone (same band) on
+        OVERSAMPLE times as many samples (exact: they are band-limited). The law columns are
+        evaluated on these, where a jump (dry friction) or a kink (free play) aliases
+        OVERSAMPLE times less; ``fine_periods`` give the noise of every row.
       kept: channel ("torque", "phi1", "phi2", "phi" relative) -> the harmonics within the band
         that stand out of the noise.
       noise_std: channel -> noise standard deviation of one raw sample (same unit).
       phi_noise_var: noise variance of the period-averaged complex Fourier coefficient of the
         relative angle, per harmonic 0..N/2 (rad^2).
-      raw_average: the period average with all harmonics.
-      fine_average, fine_periods: ``average`` and ``periods`` on OVERSAMPLE times as many
-        samples (exact: they are band-limited); the law columns are evaluated on these, where
-        a jump (dry friction) or a kink (free play) aliases OVERSAMPLE times less.
     """
 
     average: SteadyStateRecord
-    periods: tuple[SteadyStateRecord, ...]
+    raw_average: SteadyStateRecord
+    fine_average: SteadyStateRecord
+    fine_periods: tuple[SteadyStateRecord, ...]
     kept: dict
     noise_std: dict
     phi_noise_var: np.ndarray = field(repr=False)
-    raw_average: Optional[SteadyStateRecord] = None
-    fine_average: Optional[SteadyStateRecord] = None
-    fine_periods: tuple[SteadyStateRecord, ...] = ()
 
     @property
     def n_periods(self) -> int:
-        return len(self.periods)
+        return len(self.fine_periods)
 
 
 #: Model-fidelity floor, relative to each run's largest balanced torque (see :func:`diagnose`).
@@ -96,6 +95,14 @@ DEFAULT_FIDELITY = 1e-3
 #: angle): a jump (dry friction) on 256 samples per period aliases at ~1/256 of its size,
 #: enough to be "significant" at 40 dB; 16x brings that to ~2e-4.
 OVERSAMPLE = 16
+
+
+def _period_spectra(x: np.ndarray, P: int, N: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per-period spectra ``(P, N/2 + 1)`` (coefficients divided by N), their mean, and the
+    noise variance of the mean from period-to-period variation (pooled over neighbours)."""
+    X = np.fft.rfft(x.reshape(P, N), axis=1) / N
+    mean = X.mean(axis=0)
+    return X, mean, _pooled(np.sum(np.abs(X - mean) ** 2, axis=0) / (P * (P - 1)))
 
 
 def _pooled(var: np.ndarray, half_width: int = 4) -> np.ndarray:
@@ -140,43 +147,35 @@ def prepare_runs(records: Sequence[SteadyStateRecord], *, band: int = 20,
         chans = {"torque": rec.torque_Nm, "phi1": rec.phi1_rad}
         if rec.phi2_rad is not None:
             chans["phi2"] = rec.phi2_rad
-        avg, per, kept, noise, raw, favg, fper = {}, {}, {}, {}, {}, {}, {}
+        in_band = np.arange(H + 1) <= band
         Nf = N * OVERSAMPLE
-        Xphi = np.fft.rfft(rec.phi_rad.reshape(P, N), axis=1) / N
-        phi_var = _pooled(np.sum(np.abs(Xphi - Xphi.mean(axis=0)) ** 2, axis=0) / (P * (P - 1)))
-        phi_sig = np.abs(Xphi.mean(axis=0)) > significance_sigma * np.sqrt(phi_var)
-        kept["phi"] = np.flatnonzero(phi_sig & (np.arange(H + 1) <= band))
+        _, phi_mean, phi_var = _period_spectra(rec.phi_rad, P, N)
+        kept = {"phi": np.flatnonzero(in_band & (np.abs(phi_mean) > significance_sigma * np.sqrt(phi_var)))}
+        noise, avg, raw, favg, fper = {}, {}, {}, {}, {}
         for name, x in chans.items():
-            X = np.fft.rfft(x.reshape(P, N), axis=1) / N  # per-period spectra, (P, H + 1)
-            mean = X.mean(axis=0)
-            var_mean = _pooled(np.sum(np.abs(X - mean) ** 2, axis=0) / (P * (P - 1)))
-            keep = np.arange(H + 1) <= band
-            sig = np.abs(mean) > significance_sigma * np.sqrt(var_mean)
-            kept[name] = np.flatnonzero(sig & keep)
+            X, mean, var_mean = _period_spectra(x, P, N)
+            kept[name] = np.flatnonzero(in_band & (np.abs(mean) > significance_sigma * np.sqrt(var_mean)))
             noise[name] = float(np.sqrt(np.median(var_mean[1:H]) * P * N))  # per raw sample
-            avg[name] = np.fft.irfft(np.where(keep, mean, 0) * N, n=N)
-            per[name] = np.fft.irfft(np.where(keep, X, 0) * N, n=N, axis=1)
-            favg[name] = np.fft.irfft(np.where(keep, mean, 0) * Nf, n=Nf)
-            fper[name] = np.fft.irfft(np.where(keep, X, 0) * Nf, n=Nf, axis=1)
+            avg[name] = np.fft.irfft(np.where(in_band, mean, 0) * N, n=N)
             raw[name] = np.fft.irfft(mean * N, n=N)
-        t1 = rec.time_s[:N]
+            favg[name] = np.fft.irfft(np.where(in_band, mean, 0) * Nf, n=Nf)
+            fper[name] = np.fft.irfft(np.where(in_band, X, 0) * Nf, n=Nf, axis=1)
         two = "phi2" in chans
-
+        t1 = rec.time_s[:N]
         tf = rec.time_s[0] + np.arange(Nf) * (2 * math.pi / rec.omega_rad_s) / Nf
 
-        def make(src, get, label, t1=t1):
-            return SteadyStateRecord(rec.omega_rad_s, t1, get(src["torque"]), get(src["phi1"]),
+        def make(src, get, label, t=t1):
+            return SteadyStateRecord(rec.omega_rad_s, t, get(src["torque"]), get(src["phi1"]),
                                      get(src["phi2"]) if two else None, n_periods=1,
                                      drive_amplitude_Nm=rec.drive_amplitude_Nm, source=f"{rec.source} {label}")
 
         out.append(PreparedRun(
-            average=make(avg, lambda a: a, "(period average, denoised)"),
-            periods=tuple(make(per, lambda a, p=p: a[p], f"(period {p + 1}, denoised)") for p in range(P)),
-            kept=kept, noise_std=noise, phi_noise_var=phi_var,
+            average=make(avg, lambda a: a, "(period average, band-limited)"),
             raw_average=make(raw, lambda a: a, "(period average)"),
             fine_average=make(favg, lambda a: a, "(period average, band-limited, oversampled)", tf),
             fine_periods=tuple(make(fper, lambda a, p=p: a[p], f"(period {p + 1}, band-limited, oversampled)", tf)
                                for p in range(P)),
+            kept=kept, noise_std=noise, phi_noise_var=phi_var,
         ))
     return out
 
@@ -286,7 +285,7 @@ def kink_corrected_rate(phi_rad: np.ndarray, omega_rad_s: float, band: int, jump
     M = phi_rad.size
     n = np.arange(M // 2 + 1)
     jw = 1j * n * omega_rad_s
-    v_bl = np.fft.irfft(np.fft.rfft(phi_rad) * jw, n=M)
+    v_bl = spectral_rate(phi_rad, omega_rad_s, 1)
     if jump_rad_s2 <= 0:
         return v_bl
     T = 2 * math.pi / omega_rad_s
@@ -338,9 +337,7 @@ class _Problem:
                 out.append(replace(r, rate1_rad_s=rate))
             else:
                 # The relative rate carries the kinks; flywheel 2's rate stays band-limited.
-                M = r.phi2_rad.size
-                w = 1j * np.arange(M // 2 + 1) * r.omega_rad_s
-                rate2 = np.fft.irfft(np.fft.rfft(r.phi2_rad) * w, n=M)
+                rate2 = spectral_rate(r.phi2_rad, r.omega_rad_s, 1)
                 out.append(replace(r, rate1_rad_s=rate + rate2, rate2_rad_s=rate2))
         return out
 
@@ -565,9 +562,8 @@ def _dissipative_share(problem: "_Problem", base: Fit, ext: Fit) -> Optional[flo
     num = den = 0.0
     for run in problem.runs:
         rec = run.fine_average
-        M = rec.samples_per_period
         phi = rec.phi_rad
-        rate = np.fft.irfft(np.fft.rfft(phi) * 1j * np.arange(M // 2 + 1) * rec.omega_rad_s, n=M)
+        rate = spectral_rate(phi, rec.omega_rad_s, 1)
         extra = np.asarray(law.torque(phi, rate), float) - np.asarray(without.torque(phi, rate), float)
         T1 = np.fft.rfft(extra)[1]
         P1 = np.fft.rfft(phi)[1]

@@ -16,13 +16,14 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Optional, Sequence
 
 import numpy as np
 
 from identify.basis import JointLaw
 from identify.diagnose import DEFAULT_FIDELITY, Diagnosis, Fit, PreparedRun, diagnose, plant_of, prepare_runs
+from identify.balance import spectral_rate
 from identify.harmonics import fourier_coefficients
 from identify.plant import Plant, drive_of_record
 from identify.records import SteadyStateRecord
@@ -37,9 +38,16 @@ log = logging.getLogger(__name__)
 
 def band_limited(x: np.ndarray, band: int) -> np.ndarray:
     """One period of ``x`` restricted to harmonics 0..band."""
+    return _resolved(x, np.arange(1, band + 1))
+
+
+def _resolved(x: np.ndarray, harmonics) -> np.ndarray:
+    """One period of ``x`` keeping only the given harmonics (and the mean)."""
     X = np.fft.rfft(x)
-    X[band + 1:] = 0
-    return np.fft.irfft(X, n=x.size)
+    keep = np.zeros(X.size, bool)
+    keep[0] = True
+    keep[np.asarray(harmonics, dtype=int)] = True
+    return np.fft.irfft(np.where(keep, X, 0), n=x.size)
 
 
 def default_holdout(n_runs: int) -> tuple[int, ...]:
@@ -117,25 +125,16 @@ class DiagnosisReport:
         return float(np.sqrt(np.mean([r.noise_floor_rad ** 2 for r in held])))
 
 
-def _resolved(x: np.ndarray, harmonics: np.ndarray) -> np.ndarray:
-    """One period of ``x`` keeping only the given harmonics (and the mean)."""
-    X = np.fft.rfft(x)
-    keep = np.zeros(X.size, bool)
-    keep[0] = True
-    keep[np.asarray(harmonics, dtype=int)] = True
-    return np.fft.irfft(np.where(keep, X, 0), n=x.size)
-
-
 def _joint_torque_measured(run: PreparedRun, f: Fit, torque_share: float) -> np.ndarray:
     """Joint torque from the measurement through an equation of motion, on the harmonics each
     channel resolves (the band's unresolved harmonics would be noise times (n omega)^2)."""
     rec = run.raw_average
     w = rec.omega_rad_s
-    N = rec.samples_per_period
-    n = np.fft.rfftfreq(N, 1.0 / N)
 
     def deriv(x, order):
-        return np.fft.irfft(np.fft.rfft(x) * (1j * n * w) ** order, n=N)
+        for _ in range(order):
+            x = spectral_rate(x, w, 1)
+        return x
 
     torque = _resolved(rec.torque_Nm, run.kept["torque"])
     p = f.as_dict()
@@ -152,10 +151,8 @@ def _joint_torque_measured(run: PreparedRun, f: Fit, torque_share: float) -> np.
 def _law_torque(law: JointLaw, run: PreparedRun) -> np.ndarray:
     """A law's torque along the measured relative motion (resolved harmonics)."""
     rec = run.raw_average
-    N = rec.samples_per_period
-    n = np.fft.rfftfreq(N, 1.0 / N)
     phi = _resolved(rec.phi_rad, run.kept["phi"])
-    rate = np.fft.irfft(np.fft.rfft(phi) * 1j * n * rec.omega_rad_s, n=N)
+    rate = spectral_rate(phi, rec.omega_rad_s, 1)
     return np.asarray(law.torque(phi, rate), dtype=float)
 
 
@@ -239,7 +236,8 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
         comparisons.append(RunComparison(
             run_id=rid, omega_rad_s=avg.omega_rad_s,
             amplitude_Nm=float(abs(fourier_coefficients(avg.torque_Nm, 1, 1)[1])), held_out=i in holdout,
-            time_s=avg.time_s - avg.time_s[0], phi_measured_rad=avg.phi_rad, phi_resolved_rad=_resolved(run.raw_average.phi_rad, run.kept["phi"]), phi_nominal_rad=phi_nom,
+            time_s=avg.time_s - avg.time_s[0], phi_measured_rad=avg.phi_rad,
+            phi_resolved_rad=_resolved(run.raw_average.phi_rad, run.kept["phi"]), phi_nominal_rad=phi_nom,
             phi_extended_rad=phi_ext,
             joint_torque_measured_Nm=_joint_torque_measured(run, diag.extended, torque_share),
             joint_torque_nominal_Nm=_law_torque(nominal_plant.law, run),
@@ -248,8 +246,8 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
         ))
     report = DiagnosisReport(diag, tuple(comparisons), holdout, band, tuple(notes))
     if diag.steps and not report.gain > 1.0:
-        notes.append(f"the extended model predicts the held-out runs no better than the nominal one (gain "
-                     f"{report.gain:.3g}): treat the effects as unconfirmed (at low SNR the noise in the angles "
-                     f"biases the law's nonlinear terms)")
-        report = DiagnosisReport(diag, tuple(comparisons), holdout, band, tuple(notes))
+        report = replace(report, notes=report.notes + (
+            f"the extended model predicts the held-out runs no better than the nominal one (gain "
+            f"{report.gain:.3g}): treat the effects as unconfirmed (at low SNR the noise in the angles "
+            f"biases the law's nonlinear terms)",))
     return report
