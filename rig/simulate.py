@@ -206,6 +206,19 @@ def passive_callback(callback: Callable) -> Iterator[None]:
         _lock.release()
 
 
+@contextlib.contextmanager
+def _activated(native_law) -> Iterator[None]:
+    """Point the native library at this simulation's parameters for the block (no-op for None)."""
+    if native_law is None:
+        yield
+        return
+    native_law.activate()
+    try:
+        yield
+    finally:
+        native_law.deactivate()
+
+
 def _check_warnings(d: mujoco.MjData, where: str) -> None:
     raised = [(mujoco.mjtWarning(i).name, w.number, w.lastinfo) for i, w in enumerate(d.warning)
               if w.number > 0]
@@ -224,6 +237,7 @@ def simulate_steady_state(
     law: Optional[Union[JointLaw, Plant]] = None,
     drive: Optional[PeriodicDrive] = None,
     inertias_kgm2: Optional[tuple[float, float]] = None,
+    native: bool = False,
 ) -> tuple[SteadyStateRecord, SettleInfo]:
     """Drive flywheel 1 with ``amplitude_Nm * cos(omega_rad_s * t)`` from rest at t = 0 until
     steady state, then log ``config.n_periods`` whole periods.
@@ -240,6 +254,8 @@ def simulate_steady_state(
         cosine; ``amplitude_Nm`` is then only a label.
       inertias_kgm2: (J1, J2) to simulate instead of the model's (each body's inertia tensor
         is scaled, so the moment about the hinge becomes the given value).
+      native: use the compiled C callback (:mod:`rig.native_callback`): the same numbers,
+        without the Python interpreter in every force evaluation.
 
     The record's torque is the drive as recorded: with a drive delay it is the torque before
     the delay (what a torque cell upstream of the delay reads), otherwise the actuator force.
@@ -291,7 +307,21 @@ def simulate_steady_state(
     change = math.inf
     worst = "?"
     settled_at = None
-    with passive_callback(make_callback(rig, plant, drive, errors, slider)):
+    if native:
+        from .native_callback import NativeLaw
+
+        nat = NativeLaw(rig, plant, drive)
+        callback = nat.function
+
+        def commit(phi):
+            nat.commit(phi)
+    else:
+        nat = None
+        callback = make_callback(rig, plant, drive, errors, slider)
+
+        def commit(phi):
+            commit_state(plant, slider, phi)
+    with passive_callback(callback), _activated(nat):
         p = 0
         while True:
             buf = np.empty((n, len(channels)))
@@ -301,10 +331,10 @@ def simulate_steady_state(
                 mujoco.mj_step(m, d)  # sensordata now hold the state at tbuf[i]
                 buf[i] = d.sensordata[idx]
                 if stateful:  # commit the memory at every accepted state
-                    commit_state(plant, slider, float(d.qpos[q1] - d.qpos[q2]))
+                    commit(float(d.qpos[q1] - d.qpos[q2]))
                     for _ in range(k - 1):
                         mujoco.mj_step(m, d)
-                        commit_state(plant, slider, float(d.qpos[q1] - d.qpos[q2]))
+                        commit(float(d.qpos[q1] - d.qpos[q2]))
                 elif k > 1:
                     mujoco.mj_step(m, d, nstep=k - 1)
             p += 1

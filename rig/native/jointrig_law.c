@@ -1,0 +1,123 @@
+/* jointrig: the joint law, bearing drag and drive as a native MuJoCo passive callback.
+ *
+ * The same arithmetic, in the same order, as the Python reference (identify/basis.py
+ * JointLaw.torque scalar path, identify/plant.py PeriodicDrive.evaluator and
+ * rig/simulate.py make_callback), so both give the same numbers to the last bit: a test
+ * compares whole trajectories. Parameters come from one struct the Python side fills
+ * (rig/native_callback.py); Jenkins sliders are committed by the caller after each step.
+ */
+#include <math.h>
+#include <mujoco/mujoco.h>
+
+#define JR_MAX_TERMS 64
+#define JR_MAX_KNOTS 512
+#define JR_MAX_HARM 64
+
+enum { JR_VISCOUS = 0, JR_POWER = 1, JR_MONOMIAL = 2, JR_ANGLE_HAT = 3, JR_RATE_HAT = 4,
+       JR_COULOMB = 5, JR_QUADRATIC = 6, JR_JENKINS = 7 };
+
+typedef struct {
+  int n_terms;
+  int kind[JR_MAX_TERMS];
+  int ipar1[JR_MAX_TERMS];   /* power / angle power / hat index / slider index */
+  int ipar2[JR_MAX_TERMS];   /* rate power / knot offset */
+  int ipar3[JR_MAX_TERMS];   /* number of knots */
+  double value[JR_MAX_TERMS];
+  double dpar[JR_MAX_TERMS]; /* gap (power) or slip angle (Jenkins) */
+  double knots[JR_MAX_KNOTS];
+  double slider[JR_MAX_TERMS];
+  int q1, q2, v1, v2, act;
+  double b1, b2, delay, omega;
+  int single;                /* 1: drive is a * cos(omega * (t - delay)) */
+  double single_a;
+  int n_coeffs;              /* Horner coefficients 0..n_coeffs-1 */
+  double c_re[JR_MAX_HARM], c_im[JR_MAX_HARM];
+  int error;
+} jointrig_params;
+
+static jointrig_params* P = 0;
+
+void jointrig_set_params(jointrig_params* p) { P = p; }
+
+static double hat(double x, const double* k, int n, int i) {
+  int j = 0;
+  while (j < n - 2 && x >= k[j + 1]) j++;
+  double s = (x - k[j]) / (k[j + 1] - k[j]);
+  if (i == j) return 1.0 - s;
+  if (i == j + 1) return s;
+  return 0.0;
+}
+
+static double ipow(double x, int p) { return pow(x, (double)p); }
+
+static double term(int t, double phi, double rate) {
+  switch (P->kind[t]) {
+    case JR_VISCOUS: return rate;
+    case JR_POWER: {
+      double g = P->dpar[t];
+      if (g > 0) {
+        if (phi > g) phi = phi - g;
+        else if (phi < -g) phi = phi + g;
+        else phi = 0.0;
+      }
+      return ipow(phi, P->ipar1[t]);
+    }
+    case JR_MONOMIAL: return ipow(phi, P->ipar1[t]) * ipow(rate, P->ipar2[t]);
+    case JR_ANGLE_HAT: return hat(phi, P->knots + P->ipar2[t], P->ipar3[t], P->ipar1[t]);
+    case JR_RATE_HAT: return hat(rate, P->knots + P->ipar2[t], P->ipar3[t], P->ipar1[t]);
+    case JR_COULOMB: return (double)((rate > 0.0) - (rate < 0.0)) + 0.0;
+    case JR_QUADRATIC: return rate * fabs(rate);
+    default: P->error = 1; return 0.0;
+  }
+}
+
+static double play(double phi, double z, double s) {
+  double lo = phi - s, hi = phi + s;
+  double m = z > lo ? z : lo;   /* max(z, phi - s) */
+  return m < hi ? m : hi;       /* min(., phi + s) */
+}
+
+void jointrig_passive(const mjModel* m, mjData* d) {
+  if (!P) return;
+  double phi = d->qpos[P->q1] - d->qpos[P->q2];
+  double rate = d->qvel[P->v1] - d->qvel[P->v2];
+  double tau = 0.0;
+  for (int t = 0; t < P->n_terms; t++) {
+    if (P->kind[t] == JR_JENKINS) continue;
+    tau = tau + P->value[t] * term(t, phi, rate);
+  }
+  for (int t = 0; t < P->n_terms; t++) {
+    if (P->kind[t] != JR_JENKINS) continue;
+    double s = P->dpar[t];
+    tau += P->value[t] * ((phi - play(phi, P->slider[P->ipar1[t]], s)) / s);
+  }
+  d->qfrc_passive[P->v1] -= tau;
+  d->qfrc_passive[P->v2] += tau;
+  if (P->b1 != 0.0) d->qfrc_passive[P->v1] -= P->b1 * d->qvel[P->v1];
+  if (P->b2 != 0.0) d->qfrc_passive[P->v2] -= P->b2 * d->qvel[P->v2];
+  double t = d->time - P->delay;
+  if (P->single) {
+    d->ctrl[P->act] = P->single_a * cos(P->omega * t);
+  } else {
+    double x = P->omega * t;
+    double e_re = cos(x), e_im = sin(x);
+    double a_re = 0.0, a_im = 0.0;
+    for (int n = P->n_coeffs - 1; n >= 0; n--) {
+      double r = a_re * e_re - a_im * e_im;
+      double i = a_re * e_im + a_im * e_re;
+      a_re = r + P->c_re[n];
+      a_im = i + P->c_im[n];
+    }
+    d->ctrl[P->act] = a_re;
+  }
+}
+
+void jointrig_commit(const mjData* d) {
+  if (!P) return;
+  double phi = d->qpos[P->q1] - d->qpos[P->q2];
+  for (int t = 0; t < P->n_terms; t++)
+    if (P->kind[t] == JR_JENKINS) {
+      int k = P->ipar1[t];
+      P->slider[k] = play(phi, P->slider[k], P->dpar[t]);
+    }
+}

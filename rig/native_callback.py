@@ -1,0 +1,178 @@
+"""The joint law as a native MuJoCo passive callback (C, loaded through ctypes).
+
+MuJoCo's Python bindings accept a ctypes handle to a C function as a callback and then call
+it without the GIL (mujoco/doc/python.rst, "Callbacks"). ``native/jointrig_law.c`` evaluates
+the same terms, bearing drag and drive as the Python callback of :mod:`rig.simulate`, with
+the same arithmetic in the same order, so trajectories agree bit for bit (it is compiled
+with ``-ffp-contract=off`` so no fused multiply-add changes a rounding).
+
+The shared library is compiled on first use with the system C compiler (``cc``, or
+``$CC``) against the headers that ship with the ``mujoco`` wheel, and cached under
+``$XDG_CACHE_HOME/jointrig`` (default ``~/.cache/jointrig``) by a hash of the source and the
+mujoco version; it needs no linking against libmujoco (it only reads and writes mjData).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import os
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+from typing import Optional, Union
+
+import mujoco
+
+from identify.basis import AngleHat, Coulomb, Jenkins, JointLaw, Monomial, Power, QuadraticDamping, RateHat, Viscous
+from identify.plant import PeriodicDrive, Plant
+
+__all__ = ["NativeLaw", "NativeBuildError", "library_path"]
+
+SOURCE = Path(__file__).resolve().parent / "native" / "jointrig_law.c"
+MAX_TERMS, MAX_KNOTS, MAX_HARM = 64, 512, 64
+KIND = {Viscous: 0, Power: 1, Monomial: 2, AngleHat: 3, RateHat: 4, Coulomb: 5, QuadraticDamping: 6, Jenkins: 7}
+
+
+class NativeBuildError(RuntimeError):
+    """The native callback could not be compiled (no C compiler, or it failed)."""
+
+
+class _Params(ctypes.Structure):
+    _fields_ = [
+        ("n_terms", ctypes.c_int),
+        ("kind", ctypes.c_int * MAX_TERMS),
+        ("ipar1", ctypes.c_int * MAX_TERMS),
+        ("ipar2", ctypes.c_int * MAX_TERMS),
+        ("ipar3", ctypes.c_int * MAX_TERMS),
+        ("value", ctypes.c_double * MAX_TERMS),
+        ("dpar", ctypes.c_double * MAX_TERMS),
+        ("knots", ctypes.c_double * MAX_KNOTS),
+        ("slider", ctypes.c_double * MAX_TERMS),
+        ("q1", ctypes.c_int), ("q2", ctypes.c_int), ("v1", ctypes.c_int), ("v2", ctypes.c_int),
+        ("act", ctypes.c_int),
+        ("b1", ctypes.c_double), ("b2", ctypes.c_double), ("delay", ctypes.c_double),
+        ("omega", ctypes.c_double),
+        ("single", ctypes.c_int),
+        ("single_a", ctypes.c_double),
+        ("n_coeffs", ctypes.c_int),
+        ("c_re", ctypes.c_double * MAX_HARM),
+        ("c_im", ctypes.c_double * MAX_HARM),
+        ("error", ctypes.c_int),
+    ]
+
+
+def library_path() -> Path:
+    """The compiled library (built on first call)."""
+    include = Path(mujoco.__file__).resolve().parent / "include"
+    key = hashlib.sha256(SOURCE.read_bytes() + mujoco.__version__.encode()).hexdigest()[:16]
+    cache = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "jointrig"
+    try:
+        cache.mkdir(parents=True, exist_ok=True)
+    except OSError:  # a read-only home: build in the temporary directory instead
+        cache = Path(tempfile.gettempdir()) / f"jointrig-{os.getuid()}"
+        cache.mkdir(parents=True, exist_ok=True)
+    lib = cache / f"jointrig_law-{key}.so"
+    if lib.is_file():
+        return lib
+    cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
+    if not cc:
+        raise NativeBuildError("no C compiler found (set CC): the native callback needs one to build")
+    fd, tmp = tempfile.mkstemp(prefix=".jointrig_law.", suffix=".so", dir=cache)
+    os.close(fd)
+    cmd = [cc, "-O2", "-ffp-contract=off", "-shared", "-fPIC", f"-I{include}", str(SOURCE), "-o", tmp, "-lm"]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode != 0:
+        os.unlink(tmp)
+        raise NativeBuildError(f"compiling {SOURCE.name} failed ({' '.join(cmd)}):\n{proc.stderr}")
+    os.replace(tmp, lib)
+    return lib
+
+
+_lib: Optional[ctypes.CDLL] = None
+
+
+def _load() -> ctypes.CDLL:
+    global _lib
+    if _lib is None:
+        lib = ctypes.CDLL(str(library_path()))
+        lib.jointrig_set_params.argtypes = [ctypes.POINTER(_Params)]
+        lib.jointrig_set_params.restype = None
+        _lib = lib
+    return _lib
+
+
+class NativeLaw:
+    """Parameters of one simulation for the native callback, and its function pointer.
+
+    The library holds one parameter block at a time (``activate`` points it at this one);
+    :func:`rig.simulate.passive_callback` keeps one rig simulating at a time.
+    """
+
+    def __init__(self, rig, plant: Union[Plant, JointLaw], drive: PeriodicDrive):
+        plant = Plant.of(plant)
+        p = _Params()
+        law = plant.law
+        if len(law.terms) > MAX_TERMS:
+            raise ValueError(f"the native callback takes at most {MAX_TERMS} terms, the law has {len(law.terms)}")
+        knots: list[float] = []
+        sliders = 0
+        for i, (t, v) in enumerate(zip(law.terms, law.values)):
+            kind = KIND.get(type(t))
+            if kind is None:
+                raise ValueError(f"the native callback has no term {type(t).__name__}")
+            p.kind[i] = kind
+            p.value[i] = v
+            if isinstance(t, Power):
+                p.ipar1[i], p.dpar[i] = t.power, t.gap_rad
+            elif isinstance(t, Monomial):
+                p.ipar1[i], p.ipar2[i] = t.angle_power, t.rate_power
+            elif isinstance(t, (AngleHat, RateHat)):
+                p.ipar1[i], p.ipar2[i], p.ipar3[i] = t.index, len(knots), len(t.knots)
+                knots.extend(t.knots)
+            elif isinstance(t, Jenkins):
+                p.ipar1[i], p.dpar[i] = sliders, t.slip_rad
+                sliders += 1
+        if len(knots) > MAX_KNOTS:
+            raise ValueError(f"the native callback takes at most {MAX_KNOTS} knots in all, the law has {len(knots)}")
+        for i, k in enumerate(knots):
+            p.knots[i] = k
+        p.n_terms = len(law.terms)
+        p.q1, p.q2 = rig.qpos_adr
+        p.v1, p.v2 = rig.dof_adr
+        p.act = rig.actuator_id
+        p.b1, p.b2 = plant.bearing1_damping_Nms_per_rad, plant.bearing2_damping_Nms_per_rad
+        p.delay = plant.drive_delay_s
+        p.omega = drive.omega_rad_s
+        nz = [(n, c) for n, c in enumerate(drive.coeffs) if n and c != 0]
+        if len(nz) == 1 and nz[0][0] == 1 and nz[0][1].imag == 0:  # as PeriodicDrive.evaluator
+            p.single, p.single_a = 1, nz[0][1].real
+        else:
+            coeffs = list(drive.coeffs)[: max(n for n, c in enumerate(drive.coeffs) if c != 0) + 1]
+            if len(coeffs) > MAX_HARM:
+                raise ValueError(f"the native callback takes harmonics up to {MAX_HARM - 1}")
+            p.n_coeffs = len(coeffs)
+            for n, c in enumerate(coeffs):
+                p.c_re[n], p.c_im[n] = c.real, c.imag
+        self.params = p
+        self.jenkins = [(int(p.ipar1[i]), t.slip_rad) for i, t in enumerate(law.terms) if isinstance(t, Jenkins)]
+        self.lib = _load()
+        self.function = self.lib.jointrig_passive
+
+    def activate(self) -> None:
+        self.lib.jointrig_set_params(ctypes.byref(self.params))
+
+    def deactivate(self) -> None:
+        self.lib.jointrig_set_params(None)
+
+    def commit(self, phi_rad: float) -> None:
+        """Advance the Jenkins sliders to the accepted angle (after a step), as the Python path."""
+        from identify.basis import play
+
+        for k, s in self.jenkins:
+            self.params.slider[k] = play(phi_rad, self.params.slider[k], s)
+
+    @property
+    def error(self) -> bool:
+        return bool(self.params.error)

@@ -1,0 +1,71 @@
+#!/usr/bin/env python3
+"""Rig speed on this machine: microseconds per MuJoCo step, bare vs Python vs native callback.
+
+    python3 scripts/bench_rig.py [--steps N] [--repeats R] [--json OUT]
+
+Every variant steps the default two-flywheel model with RK4 at 0.5 ms from the same state;
+the bare step has no passive callback (the physical limit of a MuJoCo-backed rig); the
+others apply the paper's joint law and the drive through the Python callback of
+rig.simulate or the C callback of rig.native_callback. The best of R repeats is reported
+(the least disturbed by other load).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import mujoco
+
+from identify.plant import PeriodicDrive
+from rig import load_rig, make_callback, passive_callback
+from rig.native_callback import NativeLaw
+from rig.sweep import write_json_atomic
+
+
+def _time_steps(m, d, n: int, repeats: int) -> float:
+    best = float("inf")
+    for _ in range(repeats):
+        mujoco.mj_resetData(m, d)
+        t0 = time.perf_counter()
+        mujoco.mj_step(m, d, nstep=n)
+        best = min(best, time.perf_counter() - t0)
+    return best / n * 1e6
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--steps", type=int, default=20000)
+    p.add_argument("--repeats", type=int, default=5)
+    p.add_argument("--json", type=Path)
+    args = p.parse_args(argv)
+    rig = load_rig()
+    m = rig.model
+    m.opt.integrator = mujoco.mjtIntegrator.mjINT_RK4
+    m.opt.timestep = 5e-4
+    d = mujoco.MjData(m)
+    drive = PeriodicDrive.cosine(40.0, 2500.0)
+    out = {"bare_us_per_step": _time_steps(m, d, args.steps, args.repeats)}
+    errors: list = []
+    with passive_callback(make_callback(rig, rig.law, drive, errors)):
+        out["python_us_per_step"] = _time_steps(m, d, args.steps, args.repeats)
+    native = NativeLaw(rig, rig.law, drive)
+    native.activate()
+    try:
+        with passive_callback(native.function):
+            out["native_us_per_step"] = _time_steps(m, d, args.steps, args.repeats)
+    finally:
+        native.deactivate()
+    out["native_over_bare_step"] = out["native_us_per_step"] / out["bare_us_per_step"]
+    out["python_over_bare_step"] = out["python_us_per_step"] / out["bare_us_per_step"]
+    for k, v in out.items():
+        print(f"{k:24s} {v:8.3f}")
+    if args.json:
+        write_json_atomic(args.json, out)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
