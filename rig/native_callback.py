@@ -14,21 +14,23 @@ mujoco version; it needs no linking against libmujoco (it only reads and writes 
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import hashlib
 import os
 import shutil
 import subprocess
 import tempfile
+import threading
 from pathlib import Path
-from typing import Optional, Union
+from typing import Iterator, Optional, Union
 
 import mujoco
 
 from identify.basis import AngleHat, Coulomb, Jenkins, JointLaw, Monomial, Power, QuadraticDamping, RateHat, Viscous
 from identify.plant import PeriodicDrive, Plant
 
-__all__ = ["NativeLaw", "NativeBuildError", "library_path"]
+__all__ = ["NativeLaw", "NativeBuildError", "library_path", "native_session", "session_active"]
 
 SOURCE = Path(__file__).resolve().parent / "native" / "jointrig_law.c"
 MAX_TERMS, MAX_KNOTS, MAX_HARM = 64, 512, 64
@@ -97,17 +99,50 @@ def _load() -> ctypes.CDLL:
     global _lib
     if _lib is None:
         lib = ctypes.CDLL(str(library_path()))
-        lib.jointrig_set_params.argtypes = [ctypes.POINTER(_Params)]
-        lib.jointrig_set_params.restype = None
+        lib.jointrig_register.argtypes = [ctypes.c_void_p, ctypes.POINTER(_Params)]
+        lib.jointrig_register.restype = ctypes.c_int
+        lib.jointrig_unregister.argtypes = [ctypes.c_void_p]
+        lib.jointrig_unregister.restype = None
         _lib = lib
     return _lib
+
+
+_registry_lock = threading.Lock()
+_session_lock = threading.Lock()
+_session_active = False
+
+
+def session_active() -> bool:
+    """True while :func:`native_session` has the native callback installed."""
+    return _session_active
+
+
+@contextlib.contextmanager
+def native_session() -> Iterator[None]:
+    """Install the native callback once for several simulations, in this thread or others.
+
+    Each simulation registers its own parameter block under its own ``MjData`` (see
+    :meth:`NativeLaw.activate`), so threads stepping different ``MjData`` share the one
+    installed callback safely; MuJoCo's stepping releases the GIL, so they run in parallel.
+    """
+    global _session_active
+    from .simulate import passive_callback
+
+    with _session_lock:
+        lib = _load()
+        with passive_callback(lib.jointrig_passive):
+            _session_active = True
+            try:
+                yield
+            finally:
+                _session_active = False
 
 
 class NativeLaw:
     """Parameters of one simulation for the native callback, and its function pointer.
 
-    The library holds one parameter block at a time (``activate`` points it at this one);
-    :func:`rig.simulate.passive_callback` keeps one rig simulating at a time.
+    ``activate(d)`` registers the parameter block under that ``MjData`` (the callback looks
+    its block up by ``d``), ``deactivate(d)`` withdraws it.
     """
 
     def __init__(self, rig, plant: Union[Plant, JointLaw], drive: PeriodicDrive):
@@ -160,11 +195,14 @@ class NativeLaw:
         self.lib = _load()
         self.function = self.lib.jointrig_passive
 
-    def activate(self) -> None:
-        self.lib.jointrig_set_params(ctypes.byref(self.params))
+    def activate(self, d: mujoco.MjData) -> None:
+        with _registry_lock:
+            if self.lib.jointrig_register(d._address, ctypes.byref(self.params)) < 0:
+                raise RuntimeError("more than 256 simulations at once share the native callback")
 
-    def deactivate(self) -> None:
-        self.lib.jointrig_set_params(None)
+    def deactivate(self, d: mujoco.MjData) -> None:
+        with _registry_lock:
+            self.lib.jointrig_unregister(d._address)
 
     def commit(self, phi_rad: float) -> None:
         """Advance the Jenkins sliders to the accepted angle (after a step), as the Python path."""

@@ -207,16 +207,16 @@ def passive_callback(callback: Callable) -> Iterator[None]:
 
 
 @contextlib.contextmanager
-def _activated(native_law) -> Iterator[None]:
-    """Point the native library at this simulation's parameters for the block (no-op for None)."""
+def _activated(native_law, d) -> Iterator[None]:
+    """Register this simulation's native parameters under its MjData for the block (no-op for None)."""
     if native_law is None:
         yield
         return
-    native_law.activate()
+    native_law.activate(d)
     try:
         yield
     finally:
-        native_law.deactivate()
+        native_law.deactivate(d)
 
 
 def _check_warnings(d: mujoco.MjData, where: str) -> None:
@@ -308,20 +308,21 @@ def simulate_steady_state(
     worst = "?"
     settled_at = None
     if native:
-        from .native_callback import NativeLaw
+        from .native_callback import NativeLaw, session_active
 
         nat = NativeLaw(rig, plant, drive)
-        callback = nat.function
+        # Inside a native_session the callback is installed already (shared by threads).
+        installed = contextlib.nullcontext() if session_active() else passive_callback(nat.function)
 
         def commit(phi):
             nat.commit(phi)
     else:
         nat = None
-        callback = make_callback(rig, plant, drive, errors, slider)
+        installed = passive_callback(make_callback(rig, plant, drive, errors, slider))
 
         def commit(phi):
             commit_state(plant, slider, phi)
-    with passive_callback(callback), _activated(nat):
+    with installed, _activated(nat, d):
         p = 0
         while True:
             buf = np.empty((n, len(channels)))

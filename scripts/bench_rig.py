@@ -52,12 +52,12 @@ def main(argv=None) -> int:
     with passive_callback(make_callback(rig, rig.law, drive, errors)):
         out["python_us_per_step"] = _time_steps(m, d, args.steps, args.repeats)
     native = NativeLaw(rig, rig.law, drive)
-    native.activate()
+    native.activate(d)
     try:
         with passive_callback(native.function):
             out["native_us_per_step"] = _time_steps(m, d, args.steps, args.repeats)
     finally:
-        native.deactivate()
+        native.deactivate(d)
     out["native_over_bare_step"] = out["native_us_per_step"] / out["bare_us_per_step"]
     out["python_over_bare_step"] = out["python_us_per_step"] / out["bare_us_per_step"]
     for k, v in out.items():

@@ -56,6 +56,10 @@ def parse_args(argv=None) -> argparse.Namespace:
     viewer = p.add_mutually_exclusive_group()
     viewer.add_argument("--spawn", action="store_true", help="also stream to a newly spawned rerun viewer")
     viewer.add_argument("--connect", metavar="URL", help="also stream to a running viewer (gRPC URL)")
+    p.add_argument("--native", action="store_true",
+                   help="simulate with the native C callback (identical numbers, ~2.7x faster; needs a C compiler)")
+    p.add_argument("--workers", type=int, default=1,
+                   help="simulate this many sweep points at once in threads (needs --native) (default: %(default)s)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     return p.parse_args(argv)
 
@@ -80,7 +84,7 @@ def main(argv=None) -> int:
         store = args.store or Path("runs/store") / f"{rig.path.stem}-{hashlib.sha256(key.encode()).hexdigest()[:12]}"
     log.info("model %s: law %s, J1 %.6g, J2 %.6g kg m^2; %d sweep points; store %s", rig.path,
              rig.law.as_dict(), rig.J1_kgm2, rig.J2_kgm2, len(plan.points()), store)
-    points = run_sweep(rig, plan, config, store=store)
+    points = run_sweep(rig, plan, config, store=store, native=args.native, workers=args.workers)
     records = records_of(points)
 
     result = identify(records, rig.law.terms, form=args.form, n_harmonics=args.harmonics,

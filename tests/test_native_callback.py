@@ -46,3 +46,18 @@ def test_hat_law_and_a_replayed_multiharmonic_drive(rig):
 def test_native_callback_is_scoped_like_the_python_one(rig):
     simulate_steady_state(rig, 40.0, 100.0, SimulationConfig(samples_per_period=16), native=True)
     assert mujoco.get_mjcb_passive() is None
+
+
+def test_parallel_native_sweep_equals_the_serial_python_sweep(rig, tmp_path):
+    # Threads share the one installed native callback, each simulation finding its own
+    # parameters by its MjData; every point is independent, so the records are identical.
+    from rig.sweep import SweepPlan, records_of, run_sweep
+
+    plan = SweepPlan(omegas_rad_s=(10.0, 45.0, 90.0), amplitudes_Nm=(400.0, 4000.0))
+    serial = records_of(run_sweep(rig, plan, SimulationConfig()))
+    parallel = records_of(run_sweep(rig, plan, SimulationConfig(), native=True, workers=2, store=tmp_path / "s"))
+    for a, b in zip(serial, parallel):
+        _identical(a, b)
+    assert mujoco.get_mjcb_passive() is None
+    with pytest.raises(ValueError, match="needs native=True"):
+        run_sweep(rig, plan, SimulationConfig(), workers=2)

@@ -35,9 +35,29 @@ typedef struct {
   int error;
 } jointrig_params;
 
-static jointrig_params* P = 0;
+/* One parameter block per simulation, found by its mjData: simulations in several threads
+ * (each with its own mjData) share the one installed callback. The Python side serialises
+ * register/unregister; a block is published before its mjData and withdrawn after. */
+#define JR_MAX_SIMS 256
+static const mjData* volatile JR_D[JR_MAX_SIMS];
+static jointrig_params* volatile JR_P[JR_MAX_SIMS];
 
-void jointrig_set_params(jointrig_params* p) { P = p; }
+int jointrig_register(const mjData* d, jointrig_params* p) {
+  for (int i = 0; i < JR_MAX_SIMS; i++)
+    if (JR_D[i] == 0) { JR_P[i] = p; __sync_synchronize(); JR_D[i] = d; return i; }
+  return -1;
+}
+
+void jointrig_unregister(const mjData* d) {
+  for (int i = 0; i < JR_MAX_SIMS; i++)
+    if (JR_D[i] == d) { JR_D[i] = 0; __sync_synchronize(); JR_P[i] = 0; }
+}
+
+static jointrig_params* lookup(const mjData* d) {
+  for (int i = 0; i < JR_MAX_SIMS; i++)
+    if (JR_D[i] == d) return JR_P[i];
+  return 0;
+}
 
 static double hat(double x, const double* k, int n, int i) {
   int j = 0;
@@ -50,7 +70,7 @@ static double hat(double x, const double* k, int n, int i) {
 
 static double ipow(double x, int p) { return pow(x, (double)p); }
 
-static double term(int t, double phi, double rate) {
+static double term(jointrig_params* P, int t, double phi, double rate) {
   switch (P->kind[t]) {
     case JR_VISCOUS: return rate;
     case JR_POWER: {
@@ -78,13 +98,14 @@ static double play(double phi, double z, double s) {
 }
 
 void jointrig_passive(const mjModel* m, mjData* d) {
+  jointrig_params* P = lookup(d);
   if (!P) return;
   double phi = d->qpos[P->q1] - d->qpos[P->q2];
   double rate = d->qvel[P->v1] - d->qvel[P->v2];
   double tau = 0.0;
   for (int t = 0; t < P->n_terms; t++) {
     if (P->kind[t] == JR_JENKINS) continue;
-    tau = tau + P->value[t] * term(t, phi, rate);
+    tau = tau + P->value[t] * term(P, t, phi, rate);
   }
   for (int t = 0; t < P->n_terms; t++) {
     if (P->kind[t] != JR_JENKINS) continue;
@@ -112,12 +133,3 @@ void jointrig_passive(const mjModel* m, mjData* d) {
   }
 }
 
-void jointrig_commit(const mjData* d) {
-  if (!P) return;
-  double phi = d->qpos[P->q1] - d->qpos[P->q2];
-  for (int t = 0; t < P->n_terms; t++)
-    if (P->kind[t] == JR_JENKINS) {
-      int k = P->ipar1[t];
-      P->slider[k] = play(phi, P->slider[k], P->dpar[t]);
-    }
-}
