@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Rig speed on this machine: microseconds per MuJoCo step, bare vs Python vs native callback.
+"""Rig speed on this machine: microseconds per MuJoCo step, bare vs Python vs native callback,
+and the default sweep's wall time serial (Python, native) vs native in threads.
 
     python3 scripts/bench_rig.py [--steps N] [--repeats R] [--json OUT]
 
@@ -13,16 +14,18 @@ rig.simulate or the C callback of rig.native_callback. The best of R repeats is 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
 
 import mujoco
+import numpy as np
 
 from identify.plant import PeriodicDrive
-from rig import load_rig, make_callback, passive_callback
+from rig import SimulationConfig, load_rig, make_callback, passive_callback
 from rig.native_callback import NativeLaw
-from rig.sweep import write_json_atomic
+from rig.sweep import DEFAULT_PLAN, records_of, run_sweep, write_json_atomic
 
 
 def _time_steps(m, d, n: int, repeats: int) -> float:
@@ -39,6 +42,7 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--steps", type=int, default=20000)
     p.add_argument("--repeats", type=int, default=5)
+    p.add_argument("--workers", type=int, default=os.cpu_count() or 2, help="threads for the parallel sweep")
     p.add_argument("--json", type=Path)
     args = p.parse_args(argv)
     rig = load_rig()
@@ -60,8 +64,19 @@ def main(argv=None) -> int:
         native.deactivate(d)
     out["native_over_bare_step"] = out["native_us_per_step"] / out["bare_us_per_step"]
     out["python_over_bare_step"] = out["python_us_per_step"] / out["bare_us_per_step"]
+    # The default sweep, three ways (fresh model: the timing above changed the step).
+    sweep_rig = load_rig()
+    runs = {}
+    for label, kw in (("python_serial", {}), ("native_serial", {"native": True}),
+                      ("native_threads", {"native": True, "workers": args.workers})):
+        t0 = time.perf_counter()
+        runs[label] = records_of(run_sweep(sweep_rig, DEFAULT_PLAN, SimulationConfig(), **kw))
+        out[f"sweep_{label}_s"] = time.perf_counter() - t0
+    out["sweep_identical"] = all(np.array_equal(a.phi_rad, b.phi_rad) and np.array_equal(a.phi_rad, c.phi_rad)
+                                 for a, b, c in zip(*runs.values()))
+    out["sweep_speedup"] = out["sweep_python_serial_s"] / out["sweep_native_threads_s"]
     for k, v in out.items():
-        print(f"{k:24s} {v:8.3f}")
+        print(f"{k:24s} {v:8.3f}" if not isinstance(v, bool) else f"{k:24s} {v}")
     if args.json:
         write_json_atomic(args.json, out)
     return 0
