@@ -43,7 +43,7 @@ from scipy.stats import chi2 as chi2_dist
 from .balance import LinearSystem, equivalent_system, spectral_rate, two_dof_system
 from .basis import Coulomb, Jenkins, JointLaw, Power, QuadraticDamping, Term, Viscous
 from .harmonics import fourier_coefficients, max_harmonic, synthesize
-from .plant import Plant
+from .plant import Plant, effect_parameters
 from .records import RecordError, SteadyStateRecord
 from .solve import IllConditionedWarning, solve
 
@@ -250,18 +250,10 @@ class Fit:
         return float(dict(self.profile_std_errors).get(name, math.nan))
 
     def effect_parameters(self) -> dict[str, float]:
-        """All parameters, with the nonlinear ones (free play, slip angle, delay) added."""
-        out = self.as_dict()
-        gaps = {t.gap_rad for t in self.spec.terms if isinstance(t, Power) and t.gap_rad > 0}
-        if gaps:
-            out["backlash_half_gap_rad"] = gaps.pop()
-        for t in self.spec.terms:
-            if isinstance(t, Jenkins):
-                out["hysteresis_slip_angle_rad"] = t.slip_rad
-                out["hysteresis_stiffness_Nm_per_rad"] = out[t.name] / t.slip_rad
-        if self.spec.drive_delay_s:
-            out["drive_delay_s"] = self.spec.drive_delay_s
-        return out
+        """All parameters, with the nonlinear ones (free play, slip angle, delay) added
+        (named by :func:`identify.plant.effect_parameters`, the one place that names them)."""
+        law_only = Plant(_law_of(self), drive_delay_s=self.spec.drive_delay_s)
+        return {**self.as_dict(), **effect_parameters(law_only)}
 
 
 def kink_corrected_rate(phi_rad: np.ndarray, omega_rad_s: float, band: int, jump_rad_s2: float,
@@ -779,9 +771,7 @@ def plant_of(f: Fit, torque_share: float = 0.5) -> tuple[Plant, tuple[float, flo
     For the equivalent form J1 = Je / s and J2 = Je / (1 - s) with s the torque share.
     """
     p = f.as_dict()
-    law_terms = [t for t in f.spec.terms]
-    law = JointLaw(tuple(law_terms), tuple(p[t.name] for t in law_terms))
-    plant = Plant(law, bearing1_damping_Nms_per_rad=max(p.get("bearing1_damping_Nms_per_rad", 0.0), 0.0),
+    plant = Plant(_law_of(f), bearing1_damping_Nms_per_rad=max(p.get("bearing1_damping_Nms_per_rad", 0.0), 0.0),
                   bearing2_damping_Nms_per_rad=max(p.get("bearing2_damping_Nms_per_rad", 0.0), 0.0),
                   drive_delay_s=f.spec.drive_delay_s)
     if "J1_kgm2" in p:

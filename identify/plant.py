@@ -18,7 +18,7 @@ from __future__ import annotations
 import cmath
 import math
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Optional, Sequence
 
 import numpy as np
 
@@ -56,6 +56,14 @@ class PeriodicDrive:
         return PeriodicDrive(omega_rad_s, (0.0, complex(amplitude_Nm)))
 
     @property
+    def single_cosine_Nm(self) -> Optional[float]:
+        """``a`` if the drive is exactly ``a cos(omega t)`` (the fast path of the callbacks), else None."""
+        nz = [(n, v) for n, v in enumerate(self.coeffs) if n and v != 0]
+        if len(nz) == 1 and nz[0][0] == 1 and nz[0][1].imag == 0.0:
+            return nz[0][1].real
+        return None
+
+    @property
     def amplitude_Nm(self) -> float:
         """Amplitude of the fundamental (N m)."""
         return abs(self.coeffs[1])
@@ -63,12 +71,10 @@ class PeriodicDrive:
     def evaluator(self, delay_s: float = 0.0):
         """A fast scalar function ``t -> T(t - delay_s)`` for the MuJoCo callback."""
         w = self.omega_rad_s
-        terms = [(n * w, v.real, -v.imag) for n, v in enumerate(self.coeffs) if n and v != 0]
         cos = math.cos
-        if len(terms) == 1:
-            wn, a, b = terms[0]
-            if b == 0.0:
-                return lambda t: a * cos(wn * (t - delay_s))
+        a = self.single_cosine_Nm
+        if a is not None:
+            return lambda t: a * cos(w * (t - delay_s))
         coeffs = list(self.coeffs)
         top = max(n for n, v in enumerate(coeffs) if v != 0)
         coeffs = coeffs[: top + 1]
@@ -129,8 +135,9 @@ class Plant:
 def effect_parameters(plant: Plant) -> dict[str, float]:
     """Effect parameters that are not law values: free play, slip angle, bearings, delay."""
     out: dict[str, float] = {}
-    gaps = {t.gap_rad for t in plant.law.terms if isinstance(t, Power) and t.power >= 1}
-    if gaps - {0.0}:
+    # Terms without free play may sit beside those with it (an even term added later).
+    gaps = {t.gap_rad for t in plant.law.terms if isinstance(t, Power) and t.gap_rad > 0}
+    if gaps:
         if len(gaps) > 1:
             raise ValueError(f"the elastic terms have different free plays {sorted(gaps)}")
         out["backlash_half_gap_rad"] = gaps.pop()

@@ -180,9 +180,8 @@ class NativeLaw:
         p.b1, p.b2 = plant.bearing1_damping_Nms_per_rad, plant.bearing2_damping_Nms_per_rad
         p.delay = plant.drive_delay_s
         p.omega = drive.omega_rad_s
-        nz = [(n, c) for n, c in enumerate(drive.coeffs) if n and c != 0]
-        if len(nz) == 1 and nz[0][0] == 1 and nz[0][1].imag == 0:  # as PeriodicDrive.evaluator
-            p.single, p.single_a = 1, nz[0][1].real
+        if drive.single_cosine_Nm is not None:  # the same fast path as PeriodicDrive.evaluator
+            p.single, p.single_a = 1, drive.single_cosine_Nm
         else:
             coeffs = list(drive.coeffs)[: max(n for n, c in enumerate(drive.coeffs) if c != 0) + 1]
             if len(coeffs) > MAX_HARM:

@@ -214,6 +214,9 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
                                   absolute_angles_periodic=False)
         phi = {}
         for which, plant, J in (("nominal", nominal_plant, J_nom), ("extended", ext_plant, J_ext)):
+            if which == "extended" and diag.extended is diag.nominal:
+                phi[which] = phi["nominal"]  # nothing was added: the same model, simulated once
+                continue
             if not all(math.isfinite(j) and j > 0 for j in J):
                 if i == 0:
                     notes.append(f"the {which} model's inertias {J} kg m^2 are not positive (are the runs at one "
