@@ -110,6 +110,8 @@ def _load() -> ctypes.CDLL:
 _registry_lock = threading.Lock()
 _session_lock = threading.Lock()
 _session_active = False
+_session_count = 0
+_session_installed = None
 
 
 def session_active() -> bool:
@@ -124,18 +126,28 @@ def native_session() -> Iterator[None]:
     Each simulation registers its own parameter block under its own ``MjData`` (see
     :meth:`NativeLaw.activate`), so threads stepping different ``MjData`` share the one
     installed callback safely; MuJoCo's stepping releases the GIL, so they run in parallel.
+    Sessions nest and overlap across threads (a count): the first installs the callback, the
+    last to leave restores the previous one.
     """
-    global _session_active
+    global _session_active, _session_count, _session_installed
     from .simulate import passive_callback
 
     with _session_lock:
-        lib = _load()
-        with passive_callback(lib.jointrig_passive):
+        if _session_count == 0:
+            installed = passive_callback(_load().jointrig_passive)
+            installed.__enter__()
+            _session_installed = installed
             _session_active = True
-            try:
-                yield
-            finally:
+        _session_count += 1
+    try:
+        yield
+    finally:
+        with _session_lock:
+            _session_count -= 1
+            if _session_count == 0:
                 _session_active = False
+                installed, _session_installed = _session_installed, None
+                installed.__exit__(None, None, None)
 
 
 class NativeLaw:

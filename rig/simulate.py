@@ -36,6 +36,8 @@ from .model import RigModel
 __all__ = [
     "SimulationConfig",
     "SettleInfo",
+    "StartState",
+    "settle_bound",
     "SimulationError",
     "SteadyStateNotReached",
     "passive_callback",
@@ -65,11 +67,18 @@ class SimulationConfig:
       max_step_s: largest integrator step; the step is ``T / (samples_per_period * k)`` with
         the smallest integer k that respects it, so every period holds whole steps.
       samples_per_period: logged samples per period (uniform).
-      settle_tol: steady state is declared when, for every logged channel, the largest
-        change between two consecutive periods is below ``settle_tol`` times that channel's
-        peak-to-peak swing. A residual transient of relative size eps perturbs the
-        harmonic-balance rows by about eps, so 1e-9 keeps it 5 decades below the 1e-4
-        identification target; transients decay exponentially, so this costs a few periods.
+      settle_tol: bound on the distance of the logged periods from the exact periodic steady
+        state, relative to each channel's peak-to-peak swing (adaptive detection; channels:
+        the relative angle, both rates, and both absolute angles when
+        ``absolute_angles_periodic``). After
+        every period the largest change from the previous one, c_p, is measured; a decaying
+        transient shrinks geometrically, c_p ~ r^p, so the distance still to go is at most
+        ``c_p r / (1 - r)`` with r the larger of the last two ratios c_p / c_(p-1). Steady
+        state is declared when that bound is below ``settle_tol``; see :func:`settle_bound`
+        for the round-off and drift floors. A
+        residual transient of relative size eps perturbs the harmonic-balance rows by about
+        eps, so 1e-9 keeps it 5 decades below the 1e-4 identification target;
+        ``tests/test_speed.py`` checks the bound against a run settled to 1e-13.
       min_periods: periods simulated before the first comparison.
       max_periods: give up (SteadyStateNotReached) after this many periods.
       n_periods: steady periods logged into the record.
@@ -119,12 +128,79 @@ class SimulationConfig:
 
 @dataclass(frozen=True)
 class SettleInfo:
-    """How a run reached steady state: periods simulated, last relative change, wall time."""
+    """How a run reached steady state.
+
+    Attributes:
+      periods_simulated: periods integrated (settling plus logged).
+      last_change: largest period-to-period change at the end, relative to the swing.
+      timestep_s: integrator step.
+      wall_time_s: wall-clock time of the run.
+      error_bound: estimated bound on the logged periods' distance from the exact steady
+        state, relative to the swing (see ``SimulationConfig.settle_tol``); NaN if unknown.
+      decay_ratio: the per-period decay ratio r used for the bound (NaN at round-off level).
+    """
 
     periods_simulated: int
     last_change: float
     timestep_s: float
     wall_time_s: float
+    error_bound: float = math.nan
+    decay_ratio: float = math.nan
+
+
+@dataclass(frozen=True)
+class StartState:
+    """A state to start a run from instead of rest (continuation: the previous point's steady
+    state at drive phase 0). Angles in rad, rates in rad/s, for flywheels 1 and 2."""
+
+    phi1_rad: float
+    phi2_rad: float
+    rate1_rad_s: float
+    rate2_rad_s: float
+
+    @classmethod
+    def of_record(cls, record: SteadyStateRecord) -> "StartState":
+        """The state at a record's first sample (a whole number of periods: drive phase 0)."""
+        return cls(float(record.phi1_rad[0]), float(record.phi2_rad[0]),
+                   float(record.rate1_rad_s[0]), float(record.rate2_rad_s[0]))
+
+
+def settle_bound(changes: list[float], settle_tol: float) -> tuple[bool, float, float]:
+    """Adaptive steady-state test on the history of period-to-period changes (pure).
+
+    ``changes`` are the largest relative period-to-period changes so far; r is the larger of
+    the last two ratios of consecutive changes. Returns ``(settled, error_bound, r)``:
+
+    * change <= settle_tol * 1e-3: settled, bound = the change (round-off level);
+    * r < 0.9 (a decaying transient): bound = change * r / (1 - r), the rest of a geometric
+      series; settled if below ``settle_tol``;
+    * r >= 0.9 after the changes had decayed at a rate r_d < 0.9 (the last such pair of
+      ratios): the changes have reached the floor of integration round-off and of the free
+      rotation's drift (~1e-12..4e-11 of the swing per period here), with whatever transient
+      is left beneath it still decaying at r_d: bound = change / (1 - r_d) (the floor plus
+      the transient's geometric rest), settled if below ``settle_tol``;
+    * otherwise (no decay seen yet, or a transient slower than r = 0.9): not settled.
+    """
+    c = changes[-1]
+    if c <= settle_tol * 1e-3:
+        return True, c, math.nan
+
+    def ratio(a: float, b: float) -> float:
+        return a / b if b > 0 else math.inf
+
+    ratios = [ratio(changes[i], changes[i - 1]) for i in range(1, len(changes))]
+    if not ratios:
+        return False, math.inf, math.nan
+    r = max(ratios[-2:])
+    if r < 0.9:
+        bound = c * r / (1 - r)
+        return bound < settle_tol, bound, r
+    decayed = [max(ratios[i - 1:i + 1]) for i in range(1, len(ratios)) if max(ratios[i - 1:i + 1]) < 0.9]
+    if not decayed:
+        return False, math.inf, r
+    r_d = decayed[-1]
+    bound = c / (1 - r_d)
+    return bound < settle_tol, bound, r_d
 
 
 def make_callback(rig: RigModel, plant: Union[Plant, JointLaw], drive: PeriodicDrive, errors: list,
@@ -238,6 +314,7 @@ def simulate_steady_state(
     drive: Optional[PeriodicDrive] = None,
     inertias_kgm2: Optional[tuple[float, float]] = None,
     native: bool = False,
+    start: Optional[StartState] = None,
 ) -> tuple[SteadyStateRecord, SettleInfo]:
     """Drive flywheel 1 with ``amplitude_Nm * cos(omega_rad_s * t)`` from rest at t = 0 until
     steady state, then log ``config.n_periods`` whole periods.
@@ -255,7 +332,12 @@ def simulate_steady_state(
       inertias_kgm2: (J1, J2) to simulate instead of the model's (each body's inertia tensor
         is scaled, so the moment about the hinge becomes the given value).
       native: use the compiled C callback (:mod:`rig.native_callback`): the same numbers,
-        without the Python interpreter in every force evaluation.
+        without the Python interpreter in every force evaluation. A law without stateful
+        terms is then integrated a whole period per ``mujoco.rollout`` call (no Python
+        between steps, the GIL released); the records are bit-identical to stepping.
+      start: start from this state at t = 0 instead of rest (continuation from the previous
+        sweep point's steady state). Its rigid-body velocity is replaced by the one that
+        keeps the rotation periodic under this drive; the relative motion is kept.
 
     The record's torque is the drive as recorded: with a drive delay it is the torque before
     the delay (what a torque cell upstream of the delay reads), otherwise the actuator force.
@@ -295,24 +377,36 @@ def simulate_steady_state(
     n = config.samples_per_period
     d = mujoco.MjData(m)
     # Start the rigid-body rotation with the velocity that keeps it periodic (0 for a cosine).
-    v_rigid = drive.mean_free_impulse(0.0, plant.drive_delay_s) / (rig.J1_kgm2 + rig.J2_kgm2
-                                                                   if inertias_kgm2 is None else sum(inertias_kgm2))
-    d.qvel[list(rig.dof_adr)] = v_rigid
+    J1, J2 = (rig.J1_kgm2, rig.J2_kgm2) if inertias_kgm2 is None else inertias_kgm2
+    v_rigid = drive.mean_free_impulse(0.0, plant.drive_delay_s) / (J1 + J2)
+    if start is None:
+        d.qvel[list(rig.dof_adr)] = v_rigid
+    else:
+        vals = (start.phi1_rad, start.phi2_rad, start.rate1_rad_s, start.rate2_rad_s)
+        if not all(math.isfinite(v) for v in vals):
+            raise ValueError(f"start state must be finite, got {start}")
+        rel_rate = start.rate1_rad_s - start.rate2_rad_s
+        d.qpos[q1], d.qpos[q2] = start.phi1_rad, start.phi2_rad
+        d.qvel[rig.dof_adr[0]] = v_rigid + J2 / (J1 + J2) * rel_rate
+        d.qvel[rig.dof_adr[1]] = v_rigid - J1 / (J1 + J2) * rel_rate
     adr = rig.sensor_adr
     channels = ("phi1", "phi2", "rate1", "rate2", "drive_torque")
     idx = np.array([adr[c] for c in channels])
     errors: list = []
     periods: list[np.ndarray] = []
     times: list[np.ndarray] = []
-    change = math.inf
+    changes: list[float] = []
+    change, bound, ratio = math.inf, math.inf, math.nan
     worst = "?"
     settled_at = None
+    use_rollout = False
     if native:
         from .native_callback import NativeLaw, session_active
 
         nat = NativeLaw(rig, plant, drive)
         # Inside a native_session the callback is installed already (shared by threads).
         installed = contextlib.nullcontext() if session_active() else passive_callback(nat.function)
+        use_rollout = not stateful
 
         def commit(phi):
             nat.commit(phi)
@@ -322,22 +416,42 @@ def simulate_steady_state(
 
         def commit(phi):
             commit_state(plant, slider, phi)
+
+    def stepped_period() -> tuple[np.ndarray, np.ndarray]:
+        buf = np.empty((n, len(channels)))
+        tbuf = np.empty(n)
+        for i in range(n):
+            tbuf[i] = d.time
+            mujoco.mj_step(m, d)  # sensordata now hold the state at tbuf[i]
+            buf[i] = d.sensordata[idx]
+            if stateful:  # commit the memory at every accepted state
+                commit(float(d.qpos[q1] - d.qpos[q2]))
+                for _ in range(k - 1):
+                    mujoco.mj_step(m, d)
+                    commit(float(d.qpos[q1] - d.qpos[q2]))
+            elif k > 1:
+                mujoco.mj_step(m, d, nstep=k - 1)
+        return buf, tbuf
+
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    state = np.empty(mujoco.mj_stateSize(m, spec))
+
+    def rollout_period() -> tuple[np.ndarray, np.ndarray]:
+        # One C call per period: row j of `st` is the state after step j, row j of `sd` the
+        # sensors computed during step j, i.e. at the state before it (as in stepped_period).
+        from mujoco import rollout
+
+        mujoco.mj_getState(m, d, state, spec)
+        st, sd = rollout.rollout(m, d, state[None], nstep=n * k)
+        tbuf = np.concatenate(([state[0]], st[0, k - 1:-1:k, 0]))
+        mujoco.mj_setState(m, d, st[0, -1], spec)
+        return sd[0, ::k][:, idx], tbuf
+
+    advance = rollout_period if use_rollout else stepped_period
     with installed, _activated(nat, d):
         p = 0
         while True:
-            buf = np.empty((n, len(channels)))
-            tbuf = np.empty(n)
-            for i in range(n):
-                tbuf[i] = d.time
-                mujoco.mj_step(m, d)  # sensordata now hold the state at tbuf[i]
-                buf[i] = d.sensordata[idx]
-                if stateful:  # commit the memory at every accepted state
-                    commit(float(d.qpos[q1] - d.qpos[q2]))
-                    for _ in range(k - 1):
-                        mujoco.mj_step(m, d)
-                        commit(float(d.qpos[q1] - d.qpos[q2]))
-                elif k > 1:
-                    mujoco.mj_step(m, d, nstep=k - 1)
+            buf, tbuf = advance()
             p += 1
             if errors:
                 raise SimulationError(f"{where}: the joint-law callback failed: {errors[0]!r}") from errors[0]
@@ -346,26 +460,31 @@ def simulate_steady_state(
                 raise SimulationError(f"{where}: non-finite state in period {p}")
             if settled_at is None:
                 if periods:
-                    cur, prev, names = buf[:, :4], periods[-1][:, :4], channels[:4]
-                    if not config.absolute_angles_periodic:
-                        cur = np.column_stack([cur[:, 0] - cur[:, 1], cur[:, 2:]])
-                        prev = np.column_stack([prev[:, 0] - prev[:, 1], prev[:, 2:]])
-                        names = ("phi1 - phi2",) + channels[2:4]
+                    # The relative angle always counts (it is the joint's); the absolute ones
+                    # only when they must repeat too.
+                    def watched(b):
+                        return np.column_stack([b[:, 0] - b[:, 1], b[:, 2:4]]
+                                               + ([b[:, :2]] if config.absolute_angles_periodic else []))
+
+                    cur, prev = watched(buf), watched(periods[-1])
+                    names = ("phi1 - phi2",) + channels[2:4] + (channels[:2] if config.absolute_angles_periodic else ())
                     swing = np.ptp(cur, axis=0)
                     diff = np.max(np.abs(cur - prev), axis=0)
                     rel = diff / np.where(swing > 0, swing, 1.0)
                     change = float(np.max(rel))
                     worst = names[int(np.argmax(rel))]
-                    if p >= config.min_periods and change < config.settle_tol:
+                    changes.append(change)
+                    done, bound, ratio = settle_bound(changes, config.settle_tol)
+                    if p >= config.min_periods and done:
                         settled_at = p
                 periods = [buf]
                 times = [tbuf]
                 if settled_at is None and p >= config.max_periods:
                     raise SteadyStateNotReached(
                         f"{where}: no steady state after {p} periods: period-to-period change "
-                        f"{change:.3g} > settle_tol {config.settle_tol:g} (worst channel '{worst}'; a "
-                        f"drifting absolute angle means the integrator does not keep the rigid-body "
-                        f"rotation periodic: use RK4)")
+                        f"{change:.3g}, estimated distance to steady state {bound:.3g} > settle_tol "
+                        f"{config.settle_tol:g} (worst channel '{worst}'; a drifting absolute angle "
+                        f"means the integrator does not keep the rigid-body rotation periodic: use RK4)")
             else:
                 periods.append(buf)
                 times.append(tbuf)
@@ -380,7 +499,7 @@ def simulate_steady_state(
         n_periods=config.n_periods, drive_amplitude_Nm=float(amplitude_Nm), source=where,
     )
     info = SettleInfo(periods_simulated=p, last_change=change, timestep_s=m.opt.timestep,
-                      wall_time_s=_time.perf_counter() - t_start)
+                      wall_time_s=_time.perf_counter() - t_start, error_bound=bound, decay_ratio=ratio)
     log.debug("%s: steady after %d periods (change %.2g), dt %.3g s, %.2f s wall", where,
               settled_at, change, m.opt.timestep, info.wall_time_s)
     return record, info

@@ -17,6 +17,7 @@ import logging
 import math
 import os
 import tempfile
+import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,11 +27,11 @@ import numpy as np
 
 from identify.records import SteadyStateRecord
 
-from .model import RigModel
-from .simulate import SettleInfo, SimulationConfig, simulate_steady_state
+from .model import RigModel, load_rig
+from .simulate import SettleInfo, SimulationConfig, StartState, simulate_steady_state
 
-__all__ = ["SweepPlan", "SweepPoint", "SweepStoreMismatch", "run_sweep", "DEFAULT_PLAN",
-           "records_of", "write_atomic", "write_json_atomic"]
+__all__ = ["SweepPlan", "SweepPoint", "SweepStoreMismatch", "run_sweep", "simulate_segment", "DEFAULT_PLAN",
+           "EXECUTORS", "records_of", "write_atomic", "write_json_atomic"]
 
 log = logging.getLogger(__name__)
 
@@ -138,6 +139,53 @@ def _load_point(path: Path) -> SweepPoint:
     return SweepPoint(record, SettleInfo(**meta["settle"]), from_store=True)
 
 
+def _segments(points: list[tuple[float, float]], continuation: bool, parts: int) -> list[list[int]]:
+    """Index lists simulated one after another (continuation chains); independent of each other.
+
+    Without continuation every point is its own segment. With it, a chain is one amplitude's
+    frequencies in plan order (each starts from the previous one's steady state); chains are
+    cut into contiguous pieces until there are at least ``parts`` segments (so every worker
+    has one), each piece starting from rest.
+    """
+    if not continuation:
+        return [[i] for i in range(len(points))]
+    chains: list[list[int]] = []
+    for i, (_, amp) in enumerate(points):
+        if chains and points[chains[-1][-1]][1] == amp:
+            chains[-1].append(i)
+        else:
+            chains.append([i])
+    pieces = max(1, math.ceil(parts / len(chains)))
+    out = []
+    for chain in chains:
+        size = math.ceil(len(chain) / min(pieces, len(chain)))
+        out.extend(chain[j:j + size] for j in range(0, len(chain), size))
+    return out
+
+
+def simulate_segment(rig: RigModel, tasks: Sequence[tuple[float, float, Optional[SweepPoint]]],
+                     config: SimulationConfig, native: bool, continuation: bool,
+                     on_point: Optional[Callable[[int, SweepPoint], None]] = None) -> list[SweepPoint]:
+    """Simulate a segment's points in order; ``tasks`` are ``(omega, amplitude, stored)``.
+
+    A stored point is reused as is (and, with continuation, starts the next point).
+    """
+    out: list[SweepPoint] = []
+    prev: Optional[SteadyStateRecord] = None
+    for j, (omega, amp, stored) in enumerate(tasks):
+        if stored is not None:
+            point = stored
+        else:
+            start = StartState.of_record(prev) if continuation and prev is not None else None
+            record, info = simulate_steady_state(rig, omega, amp, config, native=native, start=start)
+            point = SweepPoint(record, info, from_store=False)
+        prev = point.record
+        out.append(point)
+        if on_point is not None:
+            on_point(j, point)
+    return out
+
+
 def run_sweep(
     rig: RigModel,
     plan: SweepPlan = DEFAULT_PLAN,
@@ -147,17 +195,30 @@ def run_sweep(
     progress: Optional[Callable[[int, int, SweepPoint], None]] = None,
     native: bool = False,
     workers: int = 1,
+    continuation: bool = False,
+    executor: str = "local",
+    scheduler: Optional[str] = None,
 ) -> list[SweepPoint]:
     """Simulate every point of ``plan`` (amplitude-major order), reusing finished points.
 
     Args:
       store: directory to keep finished points in (created if missing); None keeps nothing.
+        Points are saved as they finish, by the calling process, also with a cluster.
       progress: called as ``progress(i, n, point)`` after each point (in completion order
         when ``workers > 1``).
       native: simulate with the native C callback (the same numbers, faster).
-      workers: simulate this many points at once in threads (needs ``native``: MuJoCo's
-        stepping releases the GIL, a Python callback would take it back at every force
-        evaluation). Results are identical to a serial sweep: every point is independent.
+      workers: simulate this many points at once: threads for the ``local`` executor (needs
+        ``native``: MuJoCo's stepping releases the GIL, a Python callback would take it back at
+        every force evaluation), processes for a local ``dask`` cluster. Results are
+        identical to a serial sweep: the segments are independent.
+      continuation: start each point from the previous frequency's steady state at the same
+        amplitude instead of from rest (fewer periods to settle; see
+        ``scripts/bench_steady.py``). The steady state reached is the same to ``settle_tol``;
+        the records are not bit-identical to a sweep from rest.
+      executor: ``local`` (this process) or ``dask`` (a dask.distributed cluster: each segment
+        is a task; the model file's text travels with it, so workers need no shared disk).
+      scheduler: the dask scheduler address (``tcp://host:8786``); None starts a local
+        cluster of ``workers`` processes for the duration of the sweep.
 
     Raises:
       SweepStoreMismatch: ``store`` holds points of another model, law or configuration.
@@ -177,38 +238,119 @@ def run_sweep(
             write_json_atomic(mpath, manifest)
     if workers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
-    if workers > 1 and not native:
+    if executor not in EXECUTORS:
+        raise ValueError(f"executor must be one of {EXECUTORS}, got {executor!r}")
+    if executor == "local" and workers > 1 and not native:
         raise ValueError("workers > 1 needs native=True: the Python passive callback is one global that holds "
                          "the GIL, so threads would neither share it safely nor run in parallel")
+    if scheduler is not None and executor != "dask":
+        raise ValueError("scheduler is an address of a dask cluster: use executor='dask'")
     points = plan.points()
+    segments = _segments(points, continuation, workers)
     t0 = time.perf_counter()
+    results: dict[int, SweepPoint] = {}
+    done_lock = threading.Lock()
 
-    def one(i: int) -> SweepPoint:
+    def stored(i: int) -> Optional[SweepPoint]:
+        if store is None:
+            return None
+        path = _point_path(store, *points[i])
+        return _load_point(path) if path.exists() else None
+
+    def finished(i: int, point: SweepPoint) -> None:
         omega, amp = points[i]
-        path = _point_path(store, omega, amp) if store is not None else None
-        if path is not None and path.exists():
-            point = _load_point(path)
-        else:
-            record, info = simulate_steady_state(rig, omega, amp, config, native=native)
-            point = SweepPoint(record, info, from_store=False)
-            if path is not None:
-                _save_point(path, point)
-        log.info("point %d/%d: omega %6.2f rad/s, M0 %7.1f N m: %s, %d periods, change %.1e "
-                 "(%.1f s elapsed)", i + 1, len(points), omega, amp,
-                 "from store" if point.from_store else f"simulated in {point.settle.wall_time_s:.1f} s",
-                 point.settle.periods_simulated, point.settle.last_change, time.perf_counter() - t0)
+        if store is not None and not point.from_store:
+            _save_point(_point_path(store, omega, amp), point)
+        with done_lock:
+            results[i] = point
+            count = len(results)
+        log.info("point %d/%d (%d done): omega %6.2f rad/s, M0 %7.1f N m: %s, %d periods, change %.1e, "
+                 "bound %.1e (%.1f s elapsed)", i + 1, len(points), count, omega, amp,
+                 "from store" if point.from_store else f"simulated in {point.settle.wall_time_s:.2f} s",
+                 point.settle.periods_simulated, point.settle.last_change, point.settle.error_bound,
+                 time.perf_counter() - t0)
         if progress is not None:
             progress(i, len(points), point)
-        return point
 
-    if workers == 1:
-        return [one(i) for i in range(len(points))]
-    from concurrent.futures import ThreadPoolExecutor
+    def tasks_of(seg: list[int]) -> list[tuple[float, float, Optional[SweepPoint]]]:
+        return [(points[i][0], points[i][1], stored(i)) for i in seg]
 
-    from .native_callback import native_session
+    def local(seg: list[int]) -> None:
+        simulate_segment(rig, tasks_of(seg), config, native, continuation,
+                         on_point=lambda j, point: finished(seg[j], point))
 
-    with native_session(), ThreadPoolExecutor(max_workers=workers) as pool:
-        return list(pool.map(one, range(len(points))))
+    if executor == "dask":
+        _run_dask(rig, segments, tasks_of, config, native, continuation, workers, scheduler, finished)
+    elif workers == 1:
+        for seg in segments:
+            local(seg)
+    else:
+        from concurrent.futures import ThreadPoolExecutor
+
+        from .native_callback import native_session
+
+        with native_session(), ThreadPoolExecutor(max_workers=workers) as pool:
+            list(pool.map(local, segments))
+    return [results[i] for i in range(len(points))]
+
+
+EXECUTORS = ("local", "dask")
+
+_worker_rigs: dict[str, RigModel] = {}
+_worker_lock = threading.Lock()
+
+
+def _remote_segment(model_name: str, model_text: bytes, digest: str, tasks, config: SimulationConfig,
+                    native: bool, continuation: bool) -> list[SweepPoint]:
+    """A dask task: rebuild the rig from the model text (cached per worker process by digest),
+    check it is the same model, simulate the segment. Python-callback simulations in one
+    worker process run one at a time (the callback is process-global)."""
+    with _worker_lock:
+        rig = _worker_rigs.get(digest)
+        if rig is None:
+            with tempfile.TemporaryDirectory(prefix="jointrig-worker-") as tmp:
+                path = Path(tmp) / model_name
+                path.write_bytes(model_text)
+                rig = load_rig(path)
+            if rig.digest != digest:
+                raise RuntimeError(f"{model_name}: the worker's model digest {rig.digest} differs from "
+                                   f"the client's {digest}")
+            _worker_rigs[digest] = rig
+    if native:
+        from .native_callback import native_session
+
+        with native_session():
+            return simulate_segment(rig, tasks, config, native, continuation)
+    with _python_callback_lock:
+        return simulate_segment(rig, tasks, config, native, continuation)
+
+
+_python_callback_lock = threading.Lock()
+
+
+def _run_dask(rig: RigModel, segments, tasks_of, config, native, continuation, workers, scheduler,
+              finished) -> None:
+    try:
+        from dask.distributed import Client, LocalCluster, as_completed
+    except ImportError as err:  # pragma: no cover - dask is a declared dependency
+        raise RuntimeError("executor 'dask' needs dask.distributed (pip install 'dask[distributed]')") from err
+    text = Path(rig.path).read_bytes()
+    with contextlib.ExitStack() as stack:
+        if scheduler is None:
+            cluster = stack.enter_context(LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                                       dashboard_address=None))
+            client = stack.enter_context(Client(cluster))
+        else:
+            client = stack.enter_context(Client(scheduler))
+        log.info("dask cluster %s: %d segment(s)", client.scheduler.address, len(segments))
+        futures = {}
+        for seg in segments:
+            fut = client.submit(_remote_segment, Path(rig.path).name, text, rig.digest, tasks_of(seg), config,
+                                native, continuation, pure=False)
+            futures[fut] = seg
+        for fut in as_completed(futures):
+            for i, point in zip(futures[fut], fut.result()):
+                finished(i, point)
 
 
 def records_of(points: Sequence[SweepPoint]) -> list[SteadyStateRecord]:
