@@ -76,7 +76,7 @@ class PeriodicDrive:
         if a is not None:
             return lambda t: a * cos(w * (t - delay_s))
         coeffs = list(self.coeffs)
-        top = max(n for n, v in enumerate(coeffs) if v != 0)
+        top = max((n for n, v in enumerate(coeffs) if v != 0), default=0)  # 0: no drive at all
         coeffs = coeffs[: top + 1]
         rot = cmath.exp
 

@@ -195,7 +195,7 @@ class NativeLaw:
         if drive.single_cosine_Nm is not None:  # the same fast path as PeriodicDrive.evaluator
             p.single, p.single_a = 1, drive.single_cosine_Nm
         else:
-            coeffs = list(drive.coeffs)[: max(n for n, c in enumerate(drive.coeffs) if c != 0) + 1]
+            coeffs = list(drive.coeffs)[: max((n for n, c in enumerate(drive.coeffs) if c != 0), default=0) + 1]
             if len(coeffs) > MAX_HARM:
                 raise ValueError(f"the native callback takes harmonics up to {MAX_HARM - 1}")
             p.n_coeffs = len(coeffs)

@@ -49,6 +49,7 @@ __all__ = [
 log = logging.getLogger(__name__)
 
 _lock = threading.Lock()
+_FORCE_STEPPED = False  # benchmarks only: step in Python even where a rollout would do
 
 
 class SimulationError(RuntimeError):
@@ -406,7 +407,7 @@ def simulate_steady_state(
         nat = NativeLaw(rig, plant, drive)
         # Inside a native_session the callback is installed already (shared by threads).
         installed = contextlib.nullcontext() if session_active() else passive_callback(nat.function)
-        use_rollout = not stateful
+        use_rollout = not stateful and not _FORCE_STEPPED
 
         def commit(phi):
             nat.commit(phi)

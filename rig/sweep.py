@@ -280,7 +280,7 @@ def run_sweep(
                          on_point=lambda j, point: finished(seg[j], point))
 
     if executor == "dask":
-        _run_dask(rig, segments, tasks_of, config, native, continuation, workers, scheduler, finished)
+        _run_dask(rig, segments, points, tasks_of, config, native, continuation, workers, scheduler, finished)
     elif workers == 1:
         for seg in segments:
             local(seg)
@@ -290,11 +290,20 @@ def run_sweep(
         from .native_callback import native_session
 
         with native_session(), ThreadPoolExecutor(max_workers=workers) as pool:
-            list(pool.map(local, segments))
+            list(pool.map(local, _longest_first(segments, points, config)))
     return [results[i] for i in range(len(points))]
 
 
 EXECUTORS = ("local", "dask")
+
+
+def _longest_first(segments: list[list[int]], points, config: SimulationConfig) -> list[list[int]]:
+    """Segments in order of decreasing integrator steps per period (low frequencies first), so
+    that parallel workers finish together instead of one waiting for the last long point."""
+    def cost(seg):
+        return sum(config.samples_per_period * config.steps_per_sample(points[i][0]) for i in seg)
+
+    return sorted(segments, key=cost, reverse=True)
 
 _worker_rigs: dict[str, RigModel] = {}
 _worker_lock = threading.Lock()
@@ -328,7 +337,7 @@ def _remote_segment(model_name: str, model_text: bytes, digest: str, tasks, conf
 _python_callback_lock = threading.Lock()
 
 
-def _run_dask(rig: RigModel, segments, tasks_of, config, native, continuation, workers, scheduler,
+def _run_dask(rig: RigModel, segments, points_of, tasks_of, config, native, continuation, workers, scheduler,
               finished) -> None:
     try:
         from dask.distributed import Client, LocalCluster, as_completed
@@ -344,7 +353,7 @@ def _run_dask(rig: RigModel, segments, tasks_of, config, native, continuation, w
             client = stack.enter_context(Client(scheduler))
         log.info("dask cluster %s: %d segment(s)", client.scheduler.address, len(segments))
         futures = {}
-        for seg in segments:
+        for seg in _longest_first(segments, points_of, config):
             fut = client.submit(_remote_segment, Path(rig.path).name, text, rig.digest, tasks_of(seg), config,
                                 native, continuation, pure=False)
             futures[fut] = seg

@@ -1,14 +1,22 @@
 #!/usr/bin/env python3
 """Rig speed on this machine: microseconds per MuJoCo step, bare vs Python vs native callback,
-and the default sweep's wall time serial (Python, native) vs native in threads.
+the default sweep's wall time serial (Python, native) vs native in threads, and the joint
+identified from the default sweep's records by harmonic balance, by ``mujoco.sysid`` and by
+pysindy (time and parameter errors side by side).
 
-    python3 scripts/bench_rig.py [--steps N] [--repeats R] [--json OUT]
+    python3 scripts/bench_rig.py [--steps N] [--repeats R] [--json OUT] [--no-peers]
 
 Every variant steps the default two-flywheel model with RK4 at 0.5 ms from the same state;
 the bare step has no passive callback (the physical limit of a MuJoCo-backed rig); the
 others apply the paper's joint law and the drive through the Python callback of
 rig.simulate or the C callback of rig.native_callback. The best of R repeats is reported
 (the least disturbed by other load).
+
+Identification (simulation excluded, same records for all): harmonic balance (equivalent
+form, harmonics 0..9, Je and the law unknown) timed as the best of R repeats; mujoco.sysid
+(rig/peers.py: native polynomial stiffness, both inertias given, started 30% / 30% / 100%
+away from the truth in k / c / gamma) and pysindy timed once each. Errors are the largest
+relative error over k, c and gamma.
 """
 
 from __future__ import annotations
@@ -22,6 +30,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from identify import identify
 from identify.plant import PeriodicDrive
 from rig import SimulationConfig, load_rig, make_callback, passive_callback
 from rig.native_callback import NativeLaw
@@ -44,6 +53,7 @@ def main(argv=None) -> int:
     p.add_argument("--repeats", type=int, default=5)
     p.add_argument("--workers", type=int, default=os.cpu_count() or 2, help="threads for the parallel sweep")
     p.add_argument("--json", type=Path)
+    p.add_argument("--no-peers", action="store_true", help="skip the mujoco.sysid / pysindy comparison")
     args = p.parse_args(argv)
     rig = load_rig()
     m = rig.model
@@ -75,8 +85,37 @@ def main(argv=None) -> int:
     out["sweep_identical"] = all(np.array_equal(a.phi_rad, b.phi_rad) and np.array_equal(a.phi_rad, c.phi_rad)
                                  for a, b, c in zip(*runs.values()))
     out["sweep_speedup"] = out["sweep_python_serial_s"] / out["sweep_native_threads_s"]
+    # The same identification three ways, on the same records.
+    points = run_sweep(sweep_rig, DEFAULT_PLAN, SimulationConfig(), native=True, workers=args.workers)
+    records = records_of(points)
+    truth = sweep_rig.law.as_dict()
+
+    def max_rel(values: dict) -> float:
+        return max(abs(values[n] / truth[n] - 1) for n in truth)
+
+    best = float("inf")
+    for _ in range(args.repeats):
+        t0 = time.perf_counter()
+        hb = identify(records, sweep_rig.law.terms, n_harmonics=9, torque_share=sweep_rig.torque_share)
+        best = min(best, time.perf_counter() - t0)
+    out["hb_identify_s"] = best
+    out["hb_max_rel_error"] = max_rel({n: hb.value(n) for n in truth})
+    if not args.no_peers:
+        from rig.peers import sindy_identify, sysid_identify
+
+        start = {"k_Nm_per_rad": 1.3 * truth["k_Nm_per_rad"], "c_Nms_per_rad": 0.7 * truth["c_Nms_per_rad"],
+                 "gamma_Nm_per_rad3": 2.0 * truth["gamma_Nm_per_rad3"]}
+        sy = sysid_identify(records, sweep_rig.J1_kgm2, sweep_rig.J2_kgm2, start,
+                            [p.settle.timestep_s for p in points])
+        out["sysid_identify_s"] = sy.wall_time_s
+        out["sysid_max_rel_error"] = max_rel(sy.parameters)
+        out["hb_over_sysid_speedup"] = sy.wall_time_s / out["hb_identify_s"]
+        si = sindy_identify(records, sweep_rig.J1_kgm2, sweep_rig.J2_kgm2)
+        out["sindy_identify_s"] = si.wall_time_s
+        out["sindy_max_rel_error"] = max_rel(si.parameters)
+        out["hb_over_sindy_speedup"] = si.wall_time_s / out["hb_identify_s"]
     for k, v in out.items():
-        print(f"{k:24s} {v:8.3f}" if not isinstance(v, bool) else f"{k:24s} {v}")
+        print(f"{k:24s} {v}" if isinstance(v, bool) else f"{k:24s} {v:.3g}" if abs(v) < 1e-2 else f"{k:24s} {v:8.3f}")
     if args.json:
         write_json_atomic(args.json, out)
     return 0

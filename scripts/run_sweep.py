@@ -3,6 +3,8 @@
 
     python3 scripts/run_sweep.py                       # default sweep, runs/sweep.{json,rrd}
     python3 scripts/run_sweep.py --form two_dof --spawn # J1, J2 and the law; live viewer
+    python3 scripts/run_sweep.py --native --workers 2   # native callback, 2 threads
+    python3 scripts/run_sweep.py --native --executor dask --scheduler tcp://head:8786  # a cluster
 
 Frequencies are in rad/s, drive amplitudes in N m (torque on flywheel 1). Finished sweep
 points are kept in ``--store`` (default: runs/store/<model>-<settings hash>) so an
@@ -25,7 +27,7 @@ from identify import FORMS, compare, format_table, identify
 from identify.basis import JointLaw
 from rig import DEFAULT_MODEL, SimulationConfig, load_rig
 from rig.recording import log_harmonics, log_parameter_table, log_restoring_force, log_run, open_recording
-from rig.sweep import DEFAULT_PLAN, SweepPlan, records_of, run_sweep, write_json_atomic
+from rig.sweep import DEFAULT_PLAN, EXECUTORS, SweepPlan, records_of, run_sweep, write_json_atomic
 
 log = logging.getLogger("run_sweep")
 
@@ -46,7 +48,8 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--samples-per-period", type=int, default=d.samples_per_period)
     p.add_argument("--integrator", default=d.integrator, help="MuJoCo integrator (default: %(default)s)")
     p.add_argument("--settle-tol", type=float, default=d.settle_tol,
-                   help="steady state: max period-to-period change / swing (default: %(default)s)")
+                   help="steady state: bound on the distance from the exact steady state / swing "
+                        "(default: %(default)s)")
     p.add_argument("--store", type=Path, default=None,
                    help="directory of finished sweep points, for resuming (default: runs/store/<auto>)")
     p.add_argument("--no-store", action="store_true", help="keep no sweep points on disk")
@@ -59,7 +62,15 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--native", action="store_true",
                    help="simulate with the native C callback (identical numbers, ~2.7x faster; needs a C compiler)")
     p.add_argument("--workers", type=int, default=1,
-                   help="simulate this many sweep points at once in threads (needs --native) (default: %(default)s)")
+                   help="simulate this many sweep points at once: threads with --executor local (needs --native), "
+                        "worker processes of a local dask cluster (default: %(default)s)")
+    p.add_argument("--executor", choices=EXECUTORS, default="local",
+                   help="local: this process; dask: a dask.distributed cluster (default: %(default)s)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="dask scheduler address, e.g. tcp://head-node:8786 (default: start a local cluster "
+                        "of --workers processes)")
+    p.add_argument("--continuation", action="store_true",
+                   help="start each frequency from the previous one's steady state (same amplitude)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     return p.parse_args(argv)
 
@@ -84,7 +95,8 @@ def main(argv=None) -> int:
         store = args.store or Path("runs/store") / f"{rig.path.stem}-{hashlib.sha256(key.encode()).hexdigest()[:12]}"
     log.info("model %s: law %s, J1 %.6g, J2 %.6g kg m^2; %d sweep points; store %s", rig.path,
              rig.law.as_dict(), rig.J1_kgm2, rig.J2_kgm2, len(plan.points()), store)
-    points = run_sweep(rig, plan, config, store=store, native=args.native, workers=args.workers)
+    points = run_sweep(rig, plan, config, store=store, native=args.native, workers=args.workers,
+                       continuation=args.continuation, executor=args.executor, scheduler=args.scheduler)
     records = records_of(points)
 
     result = identify(records, rig.law.terms, form=args.form, n_harmonics=args.harmonics,
@@ -108,7 +120,8 @@ def main(argv=None) -> int:
         "sweep": {"omegas_rad_s": list(plan.omegas_rad_s), "amplitudes_Nm": list(plan.amplitudes_Nm),
                   "runs": [{"omega_rad_s": p.record.omega_rad_s, "amplitude_Nm": p.record.drive_amplitude_Nm,
                             "periods_to_steady_state": p.settle.periods_simulated,
-                            "last_change": p.settle.last_change, "timestep_s": p.settle.timestep_s}
+                            "last_change": p.settle.last_change, "error_bound": p.settle.error_bound,
+                            "timestep_s": p.settle.timestep_s}
                            for p in points]},
         "simulation": {**dataclasses.asdict(config), "model": str(rig.path), "model_sha256": rig.digest},
         "units": "SI; parameter names carry their units",

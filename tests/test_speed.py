@@ -1,0 +1,242 @@
+"""Speed and scale without loss: rollouts, adaptive steady state, continuation, a dask cluster,
+and the peer methods of scripts/bench_rig.py (timings are in the benchmarks, not here)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import shutil
+import threading
+
+import mujoco
+import numpy as np
+import pytest
+
+import rig.simulate as simulate_module
+from identify.basis import JointLaw
+from identify.plant import PeriodicDrive
+from rig import SimulationConfig, make_callback, passive_callback, simulate_steady_state
+from rig.simulate import settle_bound
+from rig.sweep import SweepPlan, records_of, run_sweep, simulate_segment
+
+needs_cc = pytest.mark.skipif(not (shutil.which("cc") or shutil.which("gcc")),
+                              reason="no C compiler to build the native callback")
+FIELDS = ("time_s", "phi1_rad", "phi2_rad", "rate1_rad_s", "rate2_rad_s", "torque_Nm")
+
+
+def _identical(a, b):
+    for f in FIELDS:
+        np.testing.assert_array_equal(getattr(a, f), getattr(b, f), err_msg=f)
+
+
+def _light(rig, c=5.0):
+    """The paper's joint with light damping (damping ratio 0.056): transients of ~100 periods."""
+    law = JointLaw(rig.law.terms, tuple(c if t.name.startswith("c_") else v for t, v in zip(rig.law.terms, rig.law.values)))
+    return dataclasses.replace(rig, law=law, plant=dataclasses.replace(rig.plant, law=law))
+
+
+def _rel_error(rec, ref) -> float:
+    return max(float(np.max(np.abs(a - b)) / np.ptp(b)) for a, b in
+               ((rec.phi_rad, ref.phi_rad), (rec.rate1_rad_s, ref.rate1_rad_s), (rec.rate2_rad_s, ref.rate2_rad_s)))
+
+
+# --- adaptive steady state (pure) ---------------------------------------------------------
+
+def test_settle_bound_of_a_geometric_transient_is_its_remaining_sum():
+    r = 0.6
+    changes = [r**p for p in range(1, 30)]
+    for p in range(3, 29):
+        done, bound, ratio = settle_bound(changes[:p], 1e-6)
+        remaining = r ** (p + 1) / (1 - r)  # exact distance still to go after period p: sum r^j, j > p
+        assert ratio == pytest.approx(r, rel=1e-12)
+        assert bound == pytest.approx(remaining, rel=1e-9)
+        assert done == (bound < 1e-6)
+
+
+def test_settle_bound_floor_uses_the_last_decay_rate():
+    # Decays at r = 0.1, then stalls at a floor of 1e-12 (round-off / drift).
+    changes = [1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1.1e-12, 1.0e-12]
+    done, bound, r = settle_bound(changes, 1e-10)
+    assert done and r == pytest.approx(0.1) and bound == pytest.approx(1.0e-12 / 0.9)
+    # A floor that is not small enough is refused: c / (1 - r_d) = 1.1e-9 > 1e-9.
+    assert not settle_bound(changes[:-3] + [9.9e-10, 9.9e-10], 1e-9)[0]
+
+
+def test_settle_bound_refuses_without_decay():
+    assert not settle_bound([1e-5], 1e-3)[0]                      # one change: no rate yet
+    assert not settle_bound([1e-5, 1e-5, 1e-5], 1e-3)[0]          # never decayed: a slow transient
+    assert not settle_bound([1e-5, 0.95e-5, 0.9e-5], 1e-4)[0]     # r = 0.95: too slow to bound here
+    assert settle_bound([1e-2, 1e-9], 1e-3)[0]                    # round-off level: settle_tol * 1e-3
+
+
+# --- the rig -------------------------------------------------------------------------------
+
+@needs_cc
+@pytest.mark.parametrize("omega", [20.0, 90.0])  # 3 and 1 integrator steps per sample
+def test_native_rollout_periods_are_bit_identical_to_stepping(rig, omega, monkeypatch):
+    rolled, info_r = simulate_steady_state(rig, omega, 2500.0, SimulationConfig(n_periods=2), native=True)
+    monkeypatch.setattr(simulate_module, "_FORCE_STEPPED", True)
+    stepped, info_s = simulate_steady_state(rig, omega, 2500.0, SimulationConfig(n_periods=2), native=True)
+    _identical(rolled, stepped)
+    assert info_r.periods_simulated == info_s.periods_simulated
+
+
+@needs_cc
+def test_error_bound_holds_against_a_longer_run(rig):
+    # Light damping near resonance: r ~ 0.7 per period, so the bound is far above the
+    # integration floor (~1e-11) at settle_tol 1e-6; the reference runs 60 periods longer
+    # (0.7^60 ~ 5e-10 of what is left: exact to 1e-15).
+    light = _light(rig)
+    cfg = SimulationConfig(settle_tol=1e-6, absolute_angles_periodic=False)
+    rec, info = simulate_steady_state(light, 45.0, 4000.0, cfg, native=True)
+    n = info.periods_simulated + 60
+    ref, _ = simulate_steady_state(light, 45.0, 4000.0, dataclasses.replace(cfg, min_periods=n, max_periods=n + 1,
+                                                                            settle_tol=0.5), native=True)
+    err = _rel_error(rec, ref)
+    assert 0.3 < info.decay_ratio < 0.95
+    assert info.error_bound < 1e-6
+    assert err <= info.error_bound
+    # The bound is not vacuous: the error is within a factor 10 of it.
+    assert err > info.error_bound / 10
+
+
+@needs_cc
+def test_continuation_reaches_the_same_steady_state(rig):
+    light = _light(rig)
+    cfg = SimulationConfig()
+    tasks = [(w, 4000.0, None) for w in (40.0, 45.0, 50.0)]
+    rest = simulate_segment(light, tasks, cfg, native=True, continuation=False)
+    cont = simulate_segment(light, tasks, cfg, native=True, continuation=True)
+    for a, b in zip(rest, cont):
+        # Both within their bounds (<= settle_tol = 1e-9) of the same steady state, plus the
+        # integration floor (~1e-11).
+        assert _rel_error(b.record, a.record) <= a.settle.error_bound + b.settle.error_bound + 1e-10
+    assert cont[0].settle.periods_simulated == rest[0].settle.periods_simulated  # first starts from rest
+
+
+def test_start_state_keeps_a_general_drive_periodic(rig):
+    # From a displaced state under a two-harmonic drive, the rigid rotation still repeats.
+    from rig.simulate import StartState
+
+    drive = PeriodicDrive(30.0, (0, 1000.0, 200j))
+    rec, info = simulate_steady_state(rig, 30.0, 1000.0, SimulationConfig(), drive=drive,
+                                      start=StartState(0.3, -0.2, 5.0, -1.0))
+    assert info.error_bound < 1e-9
+    with pytest.raises(ValueError, match="finite"):
+        simulate_steady_state(rig, 30.0, 1000.0, SimulationConfig(), start=StartState(math.nan, 0, 0, 0))
+
+
+@needs_cc
+def test_native_sessions_overlap_across_threads():
+    from rig.native_callback import native_session, session_active
+
+    inside = threading.Barrier(2)
+    seen = []
+
+    def worker():
+        with native_session():
+            inside.wait()
+            seen.append(session_active() and mujoco.get_mjcb_passive() is not None)
+            inside.wait()
+
+    threads = [threading.Thread(target=worker) for _ in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert seen == [True, True]
+    assert mujoco.get_mjcb_passive() is None and not session_active()
+
+
+# --- a dask cluster ------------------------------------------------------------------------
+
+@pytest.mark.parametrize("native", [pytest.param(True, marks=needs_cc), False])
+def test_dask_local_cluster_of_two_workers_gives_the_local_records(rig, native, tmp_path):
+    pytest.importorskip("dask.distributed")
+    plan = SweepPlan((10.0, 45.0, 90.0), (2500.0,))
+    local = run_sweep(rig, plan, SimulationConfig(), native=native)
+    store = tmp_path / "store"
+    remote = run_sweep(rig, plan, SimulationConfig(), native=native, workers=2, executor="dask", store=store)
+    for a, b in zip(records_of(local), records_of(remote)):
+        _identical(a, b)
+    # The client stored every point; a second run resumes from the store without a cluster.
+    again = run_sweep(rig, plan, SimulationConfig(), store=store)
+    assert all(p.from_store for p in again)
+    for a, b in zip(records_of(local), records_of(again)):
+        _identical(a, b)
+
+
+def test_executor_arguments_are_checked(rig):
+    plan = SweepPlan((10.0,), (400.0,))
+    with pytest.raises(ValueError, match="executor"):
+        run_sweep(rig, plan, executor="ray")
+    with pytest.raises(ValueError, match="scheduler"):
+        run_sweep(rig, plan, scheduler="tcp://nowhere:8786")
+
+
+# --- peers ---------------------------------------------------------------------------------
+
+def test_native_polynomial_stiffness_agrees_with_the_callback_law(rig):
+    """MuJoCo's own stiffness="k 0 gamma" and damping c on a relative hinge (rig/peers.py) and
+    the rig's passive callback give the same free decay: an independent check of the law."""
+    from rig.peers import peer_model_xml
+
+    h, n, phi0 = 5e-4, 2000, 0.4
+    m = rig.model.__copy__()
+    m.opt.timestep = h
+    m.opt.integrator = mujoco.mjtIntegrator.mjINT_RK4
+    d = mujoco.MjData(m)
+    q1, q2 = rig.qpos_adr
+    d.qpos[q1], d.qpos[q2] = phi0 / 2, -phi0 / 2
+    ours = np.empty(n)
+    with passive_callback(make_callback(rig, rig.law, PeriodicDrive.cosine(1.0, 0.0), [])):
+        for i in range(n):
+            mujoco.mj_step(m, d)
+            ours[i] = d.qpos[q1] - d.qpos[q2]
+    law = rig.law.as_dict()
+    pm = mujoco.MjModel.from_xml_string(peer_model_xml(rig.J1_kgm2, rig.J2_kgm2, law["k_Nm_per_rad"],
+                                                       law["c_Nms_per_rad"], law["gamma_Nm_per_rad3"], h))
+    pd = mujoco.MjData(pm)
+    pd.qpos[:] = (phi0 / 2, -phi0)  # flywheel 2 relative to flywheel 1
+    theirs = np.empty(n)
+    for i in range(n):
+        mujoco.mj_step(pm, pd)
+        theirs[i] = -pd.qpos[1]
+    # Same ODE, same RK4 step, different coordinates and summation order: round-off only.
+    np.testing.assert_allclose(theirs, ours, rtol=0, atol=1e-12 * phi0)
+    assert abs(ours[-1]) < 1e-3 * phi0  # it decayed: the comparison covered the whole motion
+
+
+@pytest.fixture(scope="module")
+def peer_records(rig):
+    pytest.importorskip("mujoco.sysid._src")
+    points = run_sweep(rig, SweepPlan((10.0, 45.0, 90.0), (4000.0,)), SimulationConfig())
+    return records_of(points), [p.settle.timestep_s for p in points]
+
+
+def test_mujoco_sysid_recovers_the_joint_with_shifted_sensor_times(rig, peer_records):
+    from rig.peers import sysid_identify
+
+    records, steps = peer_records
+    truth = rig.law.as_dict()
+    start = {"k_Nm_per_rad": 2600.0, "c_Nms_per_rad": 70.0, "gamma_Nm_per_rad3": 400.0}
+    got = sysid_identify(records, rig.J1_kgm2, rig.J2_kgm2, start, steps)
+    # 2e-3: the held control is the drive averaged over each step, which the rig does not
+    # hold (measured 7e-4 on gamma, 3e-5 on k, 2e-5 on c for these records).
+    for name, value in truth.items():
+        assert got.parameters[name] == pytest.approx(value, rel=2e-3), name
+    # Without the one-step shift of the sensor times, gamma is off by ~30% (the pitfall).
+    unshifted = sysid_identify(records, rig.J1_kgm2, rig.J2_kgm2, start, steps, _sensor_shift_steps=0.0)
+    assert abs(unshifted.parameters["gamma_Nm_per_rad3"] / truth["gamma_Nm_per_rad3"] - 1) > 0.05
+
+
+def test_pysindy_recovers_the_joint(rig, peer_records):
+    pytest.importorskip("pysindy")
+    from rig.peers import sindy_identify
+
+    records, _ = peer_records
+    got = sindy_identify(records, rig.J1_kgm2, rig.J2_kgm2)
+    # 2e-3: second-order finite differences at 256 samples per period err by
+    # ~(2 pi / 256)^2 / 6 = 1e-4 in the acceleration, more on the small cubic term.
+    for name, value in rig.law.as_dict().items():
+        assert got.parameters[name] == pytest.approx(value, rel=2e-3), name
