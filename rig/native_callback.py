@@ -62,6 +62,9 @@ class _Params(ctypes.Structure):
         ("c_re", ctypes.c_double * MAX_HARM),
         ("c_im", ctypes.c_double * MAX_HARM),
         ("error", ctypes.c_int),
+        ("cache_valid", ctypes.c_int),
+        ("cache_t", ctypes.c_double),
+        ("cache_u", ctypes.c_double),
     ]
 
 

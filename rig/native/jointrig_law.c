@@ -33,6 +33,8 @@ typedef struct {
   int n_coeffs;              /* Horner coefficients 0..n_coeffs-1 */
   double c_re[JR_MAX_HARM], c_im[JR_MAX_HARM];
   int error;
+  int cache_valid;           /* the drive at the last time asked (RK4 asks t + h/2 twice) */
+  double cache_t, cache_u;
 } jointrig_params;
 
 /* One parameter block per simulation, found by its mjData: simulations in several threads
@@ -41,20 +43,31 @@ typedef struct {
 #define JR_MAX_SIMS 256
 static const mjData* volatile JR_D[JR_MAX_SIMS];
 static jointrig_params* volatile JR_P[JR_MAX_SIMS];
+static volatile int JR_HIGH = 0;  /* slots in use are below this mark: lookups scan only them */
 
 int jointrig_register(const mjData* d, jointrig_params* p) {
   for (int i = 0; i < JR_MAX_SIMS; i++)
-    if (JR_D[i] == 0) { JR_P[i] = p; __sync_synchronize(); JR_D[i] = d; return i; }
+    if (JR_D[i] == 0) {
+      JR_P[i] = p;
+      __sync_synchronize();
+      JR_D[i] = d;
+      if (JR_HIGH < i + 1) JR_HIGH = i + 1;
+      return i;
+    }
   return -1;
 }
 
 void jointrig_unregister(const mjData* d) {
   for (int i = 0; i < JR_MAX_SIMS; i++)
     if (JR_D[i] == d) { JR_D[i] = 0; __sync_synchronize(); JR_P[i] = 0; }
+  int high = JR_HIGH;
+  while (high > 0 && JR_D[high - 1] == 0) high--;
+  JR_HIGH = high;
 }
 
 static jointrig_params* lookup(const mjData* d) {
-  for (int i = 0; i < JR_MAX_SIMS; i++)
+  int high = JR_HIGH;
+  for (int i = 0; i < high; i++)
     if (JR_D[i] == d) return JR_P[i];
   return 0;
 }
@@ -68,7 +81,13 @@ static double hat(double x, const double* k, int n, int i) {
   return 0.0;
 }
 
-static double ipow(double x, int p) { return pow(x, (double)p); }
+/* x ** p as Python computes it (C pow); pow(x, 0) = 1 and pow(x, 1) = x exactly, so these
+ * two are taken without the call. */
+static double ipow(double x, int p) {
+  if (p == 1) return x;
+  if (p == 0) return 1.0;
+  return pow(x, (double)p);
+}
 
 static double term(jointrig_params* P, int t, double phi, double rate) {
   switch (P->kind[t]) {
@@ -117,8 +136,13 @@ void jointrig_passive(const mjModel* m, mjData* d) {
   if (P->b1 != 0.0) d->qfrc_passive[P->v1] -= P->b1 * d->qvel[P->v1];
   if (P->b2 != 0.0) d->qfrc_passive[P->v2] -= P->b2 * d->qvel[P->v2];
   double t = d->time - P->delay;
+  if (P->cache_valid && t == P->cache_t) {
+    d->ctrl[P->act] = P->cache_u;
+    return;
+  }
+  double u;
   if (P->single) {
-    d->ctrl[P->act] = P->single_a * cos(P->omega * t);
+    u = P->single_a * cos(P->omega * t);
   } else {
     double x = P->omega * t;
     double e_re = cos(x), e_im = sin(x);
@@ -129,7 +153,10 @@ void jointrig_passive(const mjModel* m, mjData* d) {
       a_re = r + P->c_re[n];
       a_im = i + P->c_im[n];
     }
-    d->ctrl[P->act] = a_re;
+    u = a_re;
   }
+  P->cache_t = t;
+  P->cache_u = u;
+  P->cache_valid = 1;
+  d->ctrl[P->act] = u;
 }
-
