@@ -81,12 +81,11 @@ static double hat(double x, const double* k, int n, int i) {
   return 0.0;
 }
 
-/* x ** p as Python computes it (C pow); pow(x, 0) = 1 and pow(x, 1) = x exactly, so these
- * two are taken without the call. */
+/* x^p for an integer p >= 0 by repeated multiplication, left to right: identify.basis.ipow. */
 static double ipow(double x, int p) {
-  if (p == 1) return x;
-  if (p == 0) return 1.0;
-  return pow(x, (double)p);
+  double out = p == 0 ? 1.0 : x;
+  for (int i = 1; i < p; i++) out = out * x;
+  return out;
 }
 
 static double term(jointrig_params* P, int t, double phi, double rate) {
