@@ -21,7 +21,7 @@ from identify.records import SteadyStateRecord
 from .model import RigModel
 from .simulate import SimulationConfig, simulate_steady_state
 
-__all__ = ["add_noise", "noise_std", "simulate_runs"]
+__all__ = ["add_noise", "noise_std", "simulate_runs", "repeat_periods"]
 
 
 def noise_std(x: np.ndarray, snr_db: float) -> float:
@@ -42,6 +42,23 @@ def add_noise(record: SteadyStateRecord, snr_db: Optional[float], rng: np.random
     return replace(record, torque_Nm=noisy(record.torque_Nm), phi1_rad=noisy(record.phi1_rad),
                    phi2_rad=noisy(record.phi2_rad), rate1_rad_s=None, rate2_rad_s=None,
                    source=f"{record.source} (measured, SNR {snr_db} dB)")
+
+
+def repeat_periods(record: SteadyStateRecord, n_periods: int) -> SteadyStateRecord:
+    """A steady-state record extended to ``n_periods`` periods by repeating its mean period
+    (exact for a periodic steady state: the rig would log the same samples again)."""
+    if n_periods < 1:
+        raise ValueError(f"n_periods must be >= 1, got {n_periods}")
+    P, N = record.n_periods, record.samples_per_period
+    T = 2 * math.pi / record.omega_rad_s
+
+    def tile(x):
+        return None if x is None else np.tile(x.reshape(P, N).mean(axis=0), n_periods)
+
+    t0 = record.time_s[:N]
+    return replace(record, time_s=(t0[None, :] + T * np.arange(n_periods)[:, None]).ravel(),
+                   torque_Nm=tile(record.torque_Nm), phi1_rad=tile(record.phi1_rad), phi2_rad=tile(record.phi2_rad),
+                   rate1_rad_s=tile(record.rate1_rad_s), rate2_rad_s=tile(record.rate2_rad_s), n_periods=n_periods)
 
 
 def simulate_runs(rig: RigModel, plant: Union[Plant, JointLaw], points: Iterable[tuple[float, float]], *,

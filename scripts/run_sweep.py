@@ -4,6 +4,7 @@
     python3 scripts/run_sweep.py                       # default sweep, runs/sweep.{json,rrd}
     python3 scripts/run_sweep.py --form two_dof --spawn # J1, J2 and the law; live viewer
     python3 scripts/run_sweep.py --native --workers 2   # native callback, 2 threads
+    python3 scripts/run_sweep.py --noise-db 40          # measured at 40 dB SNR: ML, +- std errors
     python3 scripts/run_sweep.py --native --executor dask --scheduler tcp://head:8786  # a cluster
 
 Frequencies are in rad/s, drive amplitudes in N m (torque on flywheel 1). Finished sweep
@@ -24,8 +25,10 @@ from pathlib import Path
 import numpy as np
 
 from identify import FORMS, compare, format_table, identify
+from identify.eiv import ml_identify
 from identify.basis import JointLaw
 from rig import DEFAULT_MODEL, SimulationConfig, load_rig
+from rig.measurement import add_noise, repeat_periods
 from rig.recording import log_harmonics, log_parameter_table, log_restoring_force, log_run, open_recording
 from rig.sweep import DEFAULT_PLAN, EXECUTORS, SweepPlan, records_of, run_sweep, write_json_atomic
 
@@ -71,6 +74,14 @@ def parse_args(argv=None) -> argparse.Namespace:
                         "of --workers processes)")
     p.add_argument("--continuation", action="store_true",
                    help="start each frequency from the previous one's steady state (same amplitude)")
+    p.add_argument("--noise-db", type=float, default=None, metavar="DB",
+                   help="measure every run with white Gaussian noise on both angles and the torque at this SNR "
+                        "per channel (rates not recorded) and identify by errors-in-variables maximum likelihood "
+                        "(identify/eiv.py) (default: no noise, least squares)")
+    p.add_argument("--periods", type=int, default=8,
+                   help="measured periods per run with --noise-db (the noise is estimated from their variation) "
+                        "(default: %(default)s)")
+    p.add_argument("--seed", type=int, default=0, help="noise seed with --noise-db (default: %(default)s)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     return p.parse_args(argv)
 
@@ -85,6 +96,10 @@ def main(argv=None) -> int:
     args = parse_args(argv)
     logging.basicConfig(level=logging.WARNING if args.quiet else logging.INFO,
                         format="%(levelname)s %(name)s: %(message)s")
+    if args.noise_db is not None and args.form != "equivalent":
+        raise ValueError("--noise-db identifies the equivalent form (Je and the law): drop --form two_dof")
+    if args.periods < 2:
+        raise ValueError(f"--periods must be >= 2 (the noise is estimated from their variation), got {args.periods}")
     rig = load_rig(args.model)
     plan = SweepPlan(tuple(args.omegas), tuple(args.amplitudes))
     config = SimulationConfig(max_step_s=args.max_step, samples_per_period=args.samples_per_period,
@@ -99,20 +114,35 @@ def main(argv=None) -> int:
                        continuation=args.continuation, executor=args.executor, scheduler=args.scheduler)
     records = records_of(points)
 
-    result = identify(records, rig.law.terms, form=args.form, n_harmonics=args.harmonics,
-                      torque_share=rig.torque_share)
+    if args.noise_db is None:
+        result = identify(records, rig.law.terms, form=args.form, n_harmonics=args.harmonics,
+                          torque_share=rig.torque_share)
+        print(f"\nHarmonic-balance identification ({args.form} form) from {len(records)} runs, "
+              f"harmonics 0..{args.harmonics}: {result.n_rows} equations, condition number "
+              f"{result.condition_number:.3g}, status: {result.message}\n")
+    else:
+        rng = np.random.default_rng(args.seed)
+        records = [add_noise(repeat_periods(r, args.periods), args.noise_db, rng) for r in records]
+        result = ml_identify(records, rig.law.terms, n_harmonics=args.harmonics, torque_share=rig.torque_share)
+        print(f"\nErrors-in-variables maximum-likelihood harmonic balance (equivalent form) from {len(records)} "
+              f"runs x {args.periods} periods measured at SNR {args.noise_db:g} dB (seed {args.seed}), harmonics "
+              f"0..{args.harmonics}: {result.n_rows} equations; cost {result.cost:.1f} for {result.dof} degrees of "
+              f"freedom (chi-square p = {result.p_value:.2g}), status: {result.message}\n")
     rows = compare(result, truth_of(rig, args.form))
-    print(f"\nHarmonic-balance identification ({args.form} form) from {len(records)} runs, "
-          f"harmonics 0..{args.harmonics}: {result.n_rows} equations, condition number "
-          f"{result.condition_number:.3g}, status: {result.message}\n")
     print(format_table(rows))
+    for r in rows:
+        print(f"  {r.name:20s} {r.identified:.6g} +- {r.std_error:.2g}"
+              + (f"  ({(r.identified - r.true) / r.std_error:+.2f} standard errors from the truth)"
+                 if r.true is not None and r.std_error > 0 else ""))
 
     identified_law = JointLaw(rig.law.terms, tuple(result.value(t.name) for t in rig.law.terms))
     out = {
         "parameters": {r.name: r.as_json() for r in rows},
         "form": args.form,
-        "condition_number": result.condition_number,
-        "relative_residual": result.relative_residual,
+        "condition_number": getattr(result, "condition_number", None),
+        "relative_residual": getattr(result, "relative_residual", None),
+        "noise_db": args.noise_db,
+        "estimator": "least squares" if args.noise_db is None else "errors-in-variables maximum likelihood",
         "n_equations": result.n_rows,
         "success": result.success,
         "message": result.message,

@@ -1,0 +1,95 @@
+"""Noisy records: the errors-in-variables ML harmonic balance against the Cramer-Rao bound.
+
+The Monte Carlo here is the cheap version of scripts/bench_identification.py (40 instead of
+200 realisations); its tolerances follow from that count (stated at each assertion).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from identify.basis import Power, Viscous
+from identify.eiv import _debiased, average_periods, crlb, ml_identify
+from identify.records import RecordError
+from rig.measurement import add_noise, repeat_periods
+from rig.montecarlo import monte_carlo
+
+N_MC = 40
+
+
+def test_noise_variance_of_the_mean_from_the_periods(default_sweep):
+    rec = repeat_periods(default_sweep[4], 8)
+    rng = np.random.default_rng(3)
+    sigma = 0.01
+    noisy = dataclasses.replace(rec, phi1_rad=rec.phi_rad + rng.normal(0, sigma, rec.n_samples), phi2_rad=None,
+                                rate1_rad_s=None, rate2_rad_s=None,
+                                torque_Nm=rec.torque_Nm + rng.normal(0, 2 * sigma, rec.n_samples))
+    avg = average_periods(noisy)
+    # Pooled over N (P - 1) = 256 x 7 degrees of freedom: relative std sqrt(2 / 1792) = 3.3%; 4 sigma.
+    assert avg.var_phi_rad2 == pytest.approx(sigma**2 / 8, rel=4 * math.sqrt(2 / 1792))
+    assert avg.var_torque_Nm2 == pytest.approx(4 * sigma**2 / 8, rel=4 * math.sqrt(2 / 1792))
+    np.testing.assert_allclose(avg.phi_rad, noisy.phi_rad.reshape(8, -1).mean(axis=0))
+
+
+def test_debiased_cube_removes_the_phantom_stiffness():
+    phi = np.linspace(-0.3, 0.3, 11)
+    var = 1e-3
+    # E[(x + n)^3] = x^3 + 3 var x, so the unbiased column is x^3 - 3 var x (Gauss-Hermite is exact).
+    np.testing.assert_allclose(_debiased(Power(3), phi, 0 * phi, var, 0.0), phi**3 - 3 * var * phi, rtol=0, atol=1e-15)
+    # Linear terms are unbiased: unchanged but for the rule's round-off.
+    np.testing.assert_allclose(_debiased(Power(1), phi, 0 * phi, var, 0.0), phi, rtol=0, atol=1e-16)
+    np.testing.assert_allclose(_debiased(Viscous(), phi, phi, var, 1.0), phi, rtol=0, atol=1e-15)
+
+
+def test_records_without_noise_information_are_refused(default_sweep, rig):
+    with pytest.raises(RecordError, match="at least 2"):
+        ml_identify(default_sweep[:2], rig.law.terms, n_harmonics=9, torque_share=rig.torque_share)
+    with pytest.raises(RecordError, match="identical"):
+        ml_identify([repeat_periods(r, 4) for r in default_sweep[:2]], rig.law.terms, n_harmonics=9,
+                    torque_share=rig.torque_share)
+
+
+def test_crlb_scales_with_the_noise(default_sweep, rig):
+    theta = [rig.Je_kgm2, *rig.law.values]
+    kw = dict(n_periods=8, n_harmonics=9, torque_share=rig.torque_share)
+    n = len(default_sweep)
+    a = crlb(default_sweep, rig.law.terms, theta, var_phi_rad2=[1e-8] * n, var_torque_Nm2=[1e-2] * n, **kw)
+    b = crlb(default_sweep, rig.law.terms, theta, var_phi_rad2=[4e-8] * n, var_torque_Nm2=[4e-2] * n, **kw)
+    np.testing.assert_allclose(b, 4 * a, rtol=1e-9)  # linear in the noise variance
+    assert np.all(np.linalg.eigvalsh(a) > 0)
+
+
+@pytest.fixture(scope="module")
+def mc40(default_sweep, rig):
+    truth = {"Je_kgm2": rig.Je_kgm2, **rig.law.as_dict()}
+    return monte_carlo(default_sweep, rig.law.terms, truth, snr_db=40.0, n_runs=N_MC, n_periods=8, n_harmonics=9,
+                       torque_share=rig.torque_share, seed=11)
+
+
+def test_monte_carlo_40db_unbiased(mc40):
+    # The mean of N_MC estimates has a standard deviation std / sqrt(N_MC) = 0.16 std: the
+    # target |bias| < 0.2 std plus 3 of those.
+    for p in mc40.parameters:
+        assert abs(p.bias_over_std) < 0.2 + 3 / math.sqrt(N_MC), p.name
+    # ...while plain least squares on the same records is biased far beyond that (noise in [A]).
+    assert max(abs(p.ls_bias_over_std) for p in mc40.parameters) > 3
+
+
+def test_monte_carlo_40db_efficient(mc40):
+    # Observed variance / true variance ~ chi2(N_MC - 1) / (N_MC - 1): within its 0.1% and 99.9%
+    # quantiles, an estimator of efficiency >= 0.8 shows an observed efficiency above 0.8 / q_hi.
+    lo, hi = stats.chi2.ppf([0.001, 0.999], N_MC - 1) / (N_MC - 1)
+    for p in mc40.parameters:
+        assert 0.8 / hi <= p.efficiency <= 1 / lo, p.name
+
+
+def test_monte_carlo_40db_coverage(mc40):
+    # Coverage of 95% intervals over N_MC realisations: binomial, 0.1% lower quantile.
+    lo = stats.binom.ppf(0.001, N_MC, 0.95) / N_MC
+    for p in mc40.parameters:
+        assert lo <= p.coverage <= 1.0, p.name
