@@ -5,6 +5,7 @@
     python3 scripts/run_sweep.py --form two_dof --spawn # J1, J2 and the law; live viewer
     python3 scripts/run_sweep.py --native --workers 2   # native callback, 2 threads
     python3 scripts/run_sweep.py --noise-db 40          # measured at 40 dB SNR: ML, +- std errors
+    python3 scripts/run_sweep.py --excitation multisine # two odd random-phase multisines
     python3 scripts/run_sweep.py --native --executor dask --scheduler tcp://head:8786  # a cluster
 
 Frequencies are in rad/s, drive amplitudes in N m (torque on flywheel 1). Finished sweep
@@ -19,6 +20,7 @@ import dataclasses
 import hashlib
 import json
 import logging
+import math
 import sys
 from pathlib import Path
 
@@ -26,11 +28,13 @@ import numpy as np
 
 from identify import FORMS, compare, format_table, identify
 from identify.eiv import ml_identify
+from identify.multisine import line_levels
 from identify.basis import JointLaw
 from rig import DEFAULT_MODEL, SimulationConfig, load_rig
 from rig.measurement import add_noise, repeat_periods
 from rig.recording import log_harmonics, log_parameter_table, log_restoring_force, log_run, open_recording
-from rig.sweep import DEFAULT_PLAN, EXECUTORS, SweepPlan, records_of, run_sweep, write_json_atomic
+from rig.sweep import (DEFAULT_MULTISINE, DEFAULT_PLAN, EXECUTORS, SweepPlan, records_of, run_multisines, run_sweep,
+                       write_json_atomic)
 
 log = logging.getLogger("run_sweep")
 
@@ -44,7 +48,12 @@ def parse_args(argv=None) -> argparse.Namespace:
                    metavar="NM", help="drive torque amplitudes on flywheel 1 in N m (default: %(default)s)")
     p.add_argument("--form", choices=FORMS, default="equivalent",
                    help="equivalent 1-DOF (Je + law) or direct 2-DOF (J1, J2 + law) (default: %(default)s)")
-    p.add_argument("--harmonics", type=int, default=9, help="harmonics 0..H balanced (default: %(default)s)")
+    p.add_argument("--harmonics", type=int, default=None,
+                   help="harmonics 0..H balanced (default: 9 stepped, 3 x the top line for a multisine)")
+    p.add_argument("--excitation", choices=("stepped", "multisine"), default="stepped",
+                   help="stepped: one cosine per frequency x amplitude; multisine: odd random-phase multisines "
+                        "(rig/sweep.py DEFAULT_MULTISINE), whose detection lines show nonlinear distortion "
+                        "(default: %(default)s)")
     d = SimulationConfig()
     p.add_argument("--max-step", type=float, default=d.max_step_s, metavar="S",
                    help="largest RK4 step in s (default: %(default)s)")
@@ -96,6 +105,9 @@ def main(argv=None) -> int:
     args = parse_args(argv)
     logging.basicConfig(level=logging.WARNING if args.quiet else logging.INFO,
                         format="%(levelname)s %(name)s: %(message)s")
+    if args.excitation == "multisine" and (args.executor != "local" or args.continuation or args.workers > 1):
+        raise ValueError("--excitation multisine simulates its runs here, one after another: drop --executor, "
+                         "--workers and --continuation")
     if args.noise_db is not None and args.form != "equivalent":
         raise ValueError("--noise-db identifies the equivalent form (Je and the law): drop --form two_dof")
     if args.periods < 2:
@@ -110,10 +122,42 @@ def main(argv=None) -> int:
         store = args.store or Path("runs/store") / f"{rig.path.stem}-{hashlib.sha256(key.encode()).hexdigest()[:12]}"
     log.info("model %s: law %s, J1 %.6g, J2 %.6g kg m^2; %d sweep points; store %s", rig.path,
              rig.law.as_dict(), rig.J1_kgm2, rig.J2_kgm2, len(plan.points()), store)
-    points = run_sweep(rig, plan, config, store=store, native=args.native, workers=args.workers,
-                       continuation=args.continuation, executor=args.executor, scheduler=args.scheduler)
-    records = records_of(points)
+    if args.excitation == "stepped":
+        args.harmonics = 9 if args.harmonics is None else args.harmonics
+        points = run_sweep(rig, plan, config, store=store, native=args.native, workers=args.workers,
+                           continuation=args.continuation, executor=args.executor, scheduler=args.scheduler)
+        runs_json = [{"omega_rad_s": p.record.omega_rad_s, "amplitude_Nm": p.record.drive_amplitude_Nm,
+                      "periods_to_steady_state": p.settle.periods_simulated, "last_change": p.settle.last_change,
+                      "error_bound": p.settle.error_bound, "timestep_s": p.settle.timestep_s} for p in points]
+        records = records_of(points)
+        excitations = None
+    else:
+        ms_plan = DEFAULT_MULTISINE
+        args.harmonics = ms_plan.n_harmonics if args.harmonics is None else args.harmonics
+        ms_config = dataclasses.replace(config, samples_per_period=max(config.samples_per_period,
+                                                                       2 * args.harmonics + 2))
+        done = run_multisines(rig, ms_plan, ms_config, native=args.native)
+        records = [r for r, _, _ in done]
+        excitations = [m for _, _, m in done]
+        runs_json = [{"omega0_rad_s": ms_plan.omega0_rad_s, "rms_Nm": m.rms_Nm, "excited_harmonics": list(m.excited),
+                      "detection_harmonics": list(m.detection), "periods_to_steady_state": i.periods_simulated,
+                      "error_bound": i.error_bound, "timestep_s": i.timestep_s} for _, i, m in done]
 
+    if args.noise_db is not None:
+        rng = np.random.default_rng(args.seed)
+        records = [add_noise(repeat_periods(r, args.periods), args.noise_db, rng) for r in records]
+    if excitations is not None:
+        print("\nNon-excited lines of the relative angle (mean power per line, relative to the excited lines):")
+        for rec, m, rj in zip(records, excitations, runs_json):
+            lv = line_levels(rec, m, args.harmonics)
+            rj["line_levels_rad2"] = {"excited": lv.excited, "odd_detection": lv.odd_detection, "even": lv.even,
+                                      "noise": lv.noise}
+
+            def db(x):
+                return f"{10 * math.log10(x / lv.excited):6.0f} dB" if x > 0 else "  -inf dB"
+
+            print(f"  RMS {m.rms_Nm:6.0f} N m: odd detection lines {db(lv.odd_detection)} (odd distortion), even "
+                  f"lines {db(lv.even)} (even distortion)" + (f", noise {db(lv.noise)}" if lv.noise > 0 else ""))
     if args.noise_db is None:
         result = identify(records, rig.law.terms, form=args.form, n_harmonics=args.harmonics,
                           torque_share=rig.torque_share)
@@ -121,8 +165,6 @@ def main(argv=None) -> int:
               f"harmonics 0..{args.harmonics}: {result.n_rows} equations, condition number "
               f"{result.condition_number:.3g}, status: {result.message}\n")
     else:
-        rng = np.random.default_rng(args.seed)
-        records = [add_noise(repeat_periods(r, args.periods), args.noise_db, rng) for r in records]
         result = ml_identify(records, rig.law.terms, n_harmonics=args.harmonics, torque_share=rig.torque_share)
         print(f"\nErrors-in-variables maximum-likelihood harmonic balance (equivalent form) from {len(records)} "
               f"runs x {args.periods} periods measured at SNR {args.noise_db:g} dB (seed {args.seed}), harmonics "
@@ -130,10 +172,11 @@ def main(argv=None) -> int:
               f"freedom (chi-square p = {result.p_value:.2g}), status: {result.message}\n")
     rows = compare(result, truth_of(rig, args.form))
     print(format_table(rows))
-    for r in rows:
-        print(f"  {r.name:20s} {r.identified:.6g} +- {r.std_error:.2g}"
-              + (f"  ({(r.identified - r.true) / r.std_error:+.2f} standard errors from the truth)"
-                 if r.true is not None and r.std_error > 0 else ""))
+    if args.noise_db is not None:  # without noise the standard errors only reflect integrator error
+        for r in rows:
+            print(f"  {r.name:20s} {r.identified:.6g} +- {r.std_error:.2g}"
+                  + (f"  ({(r.identified - r.true) / r.std_error:+.2f} standard errors from the truth)"
+                     if r.true is not None and r.std_error > 0 else ""))
 
     identified_law = JointLaw(rig.law.terms, tuple(result.value(t.name) for t in rig.law.terms))
     out = {
@@ -147,12 +190,9 @@ def main(argv=None) -> int:
         "success": result.success,
         "message": result.message,
         "max_abs_rel_error": max(abs(r.rel_error) for r in rows if r.rel_error is not None),
-        "sweep": {"omegas_rad_s": list(plan.omegas_rad_s), "amplitudes_Nm": list(plan.amplitudes_Nm),
-                  "runs": [{"omega_rad_s": p.record.omega_rad_s, "amplitude_Nm": p.record.drive_amplitude_Nm,
-                            "periods_to_steady_state": p.settle.periods_simulated,
-                            "last_change": p.settle.last_change, "error_bound": p.settle.error_bound,
-                            "timestep_s": p.settle.timestep_s}
-                           for p in points]},
+        "excitation": args.excitation,
+        "sweep": ({"omegas_rad_s": list(plan.omegas_rad_s), "amplitudes_Nm": list(plan.amplitudes_Nm)}
+                  if args.excitation == "stepped" else dataclasses.asdict(DEFAULT_MULTISINE)) | {"runs": runs_json},
         "simulation": {**dataclasses.asdict(config), "model": str(rig.path), "model_sha256": rig.digest},
         "units": "SI; parameter names carry their units",
     }
