@@ -2,8 +2,11 @@
 
 Gaussian white noise is added to the recorded torque and to both angles at a stated
 signal-to-noise ratio per channel, ``SNR_dB = 20 log10(rms(x - mean x) / sigma)``; rates are
-not recorded (a bench measures angles; the identifier differentiates). Noise is drawn from
-a seeded generator, so a data set is reproducible.
+not recorded (a bench measures angles; the identifier differentiates). Optionally the angles
+are then quantised by an encoder of a given resolution (rad per count): with noise larger
+than a count the quantisation error is close to white, variance q^2 / 12, and the
+period-to-period noise estimate includes it. Noise is drawn from a seeded generator, so a
+data set is reproducible.
 """
 
 from __future__ import annotations
@@ -29,19 +32,28 @@ def noise_std(x: np.ndarray, snr_db: float) -> float:
     return float(np.sqrt(np.mean((x - x.mean()) ** 2)) * 10 ** (-snr_db / 20))
 
 
-def add_noise(record: SteadyStateRecord, snr_db: Optional[float], rng: np.random.Generator) -> SteadyStateRecord:
-    """The record as measured: noisy torque and angles, rates dropped. ``snr_db=None``: no noise."""
+def add_noise(record: SteadyStateRecord, snr_db: Optional[float], rng: np.random.Generator, *,
+              encoder_resolution_rad: Optional[float] = None) -> SteadyStateRecord:
+    """The record as measured: noisy torque and angles, rates dropped. ``snr_db=None``: no
+    noise; ``encoder_resolution_rad``: quantise both angles to multiples of it (rad per count)."""
     if snr_db is not None and not math.isfinite(snr_db):
         raise ValueError(f"snr_db must be a finite number (dB) or None, got {snr_db}")
+    q = encoder_resolution_rad
+    if q is not None and not (math.isfinite(q) and q > 0):
+        raise ValueError(f"encoder_resolution_rad must be a finite number > 0 (rad per count), got {q}")
 
     def noisy(x):
         if x is None or snr_db is None:
             return x
         return x + rng.normal(0.0, noise_std(x, snr_db), x.shape)
 
-    return replace(record, torque_Nm=noisy(record.torque_Nm), phi1_rad=noisy(record.phi1_rad),
-                   phi2_rad=noisy(record.phi2_rad), rate1_rad_s=None, rate2_rad_s=None,
-                   source=f"{record.source} (measured, SNR {snr_db} dB)")
+    def encoder(x):
+        return x if x is None or q is None else np.round(x / q) * q
+
+    note = f"SNR {snr_db} dB" + (f", encoder {q:g} rad/count" if q is not None else "")
+    return replace(record, torque_Nm=noisy(record.torque_Nm), phi1_rad=encoder(noisy(record.phi1_rad)),
+                   phi2_rad=encoder(noisy(record.phi2_rad)), rate1_rad_s=None, rate2_rad_s=None,
+                   source=f"{record.source} (measured, {note})")
 
 
 def repeat_periods(record: SteadyStateRecord, n_periods: int) -> SteadyStateRecord:

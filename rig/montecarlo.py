@@ -80,12 +80,15 @@ class MonteCarloResult:
 
 def monte_carlo(noiseless: Sequence[SteadyStateRecord], terms: Sequence[Term], truth: dict[str, float], *,
                 snr_db: float, n_runs: int, n_periods: int, n_harmonics: int, torque_share: float,
-                seed: int = 0, progress: Optional[Callable[[int, int], None]] = None) -> MonteCarloResult:
+                seed: int = 0, encoder_resolution_rad: Optional[float] = None,
+                progress: Optional[Callable[[int, int], None]] = None) -> MonteCarloResult:
     """Identify ``n_runs`` noisy measurements of the same runs; compare with the CRLB.
 
     Args:
       noiseless: steady-state runs without noise (one period or more each).
       truth: true ``Je_kgm2`` and law parameters by name.
+      encoder_resolution_rad: quantise the angles (the CRLB counts q^2 / 12 per encoder as
+        white noise, which holds while the noise spans several counts).
     """
     if n_runs < 2:
         raise ValueError(f"n_runs must be >= 2, got {n_runs}")
@@ -93,8 +96,9 @@ def monte_carlo(noiseless: Sequence[SteadyStateRecord], terms: Sequence[Term], t
     names = ("Je_kgm2",) + tuple(t.name for t in terms)
     theta0 = np.array([truth[n] for n in names])
     # Noise per channel as add_noise draws it: sigma from the channel's own RMS.
-    var_phi = [noise_std(r.phi1_rad, snr_db) ** 2 + (noise_std(r.phi2_rad, snr_db) ** 2 if r.phi2_rad is not None else 0)
-               for r in base]
+    quant = 0.0 if encoder_resolution_rad is None else encoder_resolution_rad**2 / 12  # per encoder
+    var_phi = [noise_std(r.phi1_rad, snr_db) ** 2 + quant
+               + (noise_std(r.phi2_rad, snr_db) ** 2 + quant if r.phi2_rad is not None else 0) for r in base]
     var_u = [noise_std(r.torque_Nm, snr_db) ** 2 for r in base]
     bound = crlb(base, terms, theta0, var_phi_rad2=var_phi, var_torque_Nm2=var_u, n_periods=n_periods,
                  n_harmonics=n_harmonics, torque_share=torque_share)
@@ -102,7 +106,7 @@ def monte_carlo(noiseless: Sequence[SteadyStateRecord], terms: Sequence[Term], t
     est, se, start = [], [], []
     failures = 0
     for k in range(n_runs):
-        noisy = [add_noise(r, snr_db, rng) for r in base]
+        noisy = [add_noise(r, snr_db, rng, encoder_resolution_rad=encoder_resolution_rad) for r in base]
         res = ml_identify(noisy, terms, n_harmonics=n_harmonics, torque_share=torque_share)
         if not res.success:
             failures += 1

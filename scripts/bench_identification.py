@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """How good the noisy-data identifier is: bias, standard deviation, CRLB, efficiency, coverage.
 
-    python3 scripts/bench_identification.py [--snr-db 40] [--runs 200] [--periods 8] [--json OUT]
+    python3 scripts/bench_identification.py [--snr-db 40] [--runs 200] [--periods 8]
+        [--encoder-resolution RAD] [--json OUT]
 
 The default sweep of the paper's joint is simulated once without noise (18 runs); each of
 ``--runs`` Monte Carlo realisations measures every run over ``--periods`` periods with white
@@ -35,6 +36,8 @@ def main(argv=None) -> int:
     p.add_argument("--periods", type=int, default=8, help="measured periods per run (default: %(default)s)")
     p.add_argument("--harmonics", type=int, default=9, help="harmonics 0..H balanced (default: %(default)s)")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--encoder-resolution", type=float, default=None, metavar="RAD",
+                   help="quantise both angles to this many rad per count (default: no quantisation)")
     p.add_argument("--json", type=Path)
     args = p.parse_args(argv)
     rig = load_rig()
@@ -47,9 +50,11 @@ def main(argv=None) -> int:
             print(f"  {k}/{n} realisations ({time.perf_counter() - t0:.0f} s)", file=sys.stderr)
 
     res = monte_carlo(records, rig.law.terms, truth, snr_db=args.snr_db, n_runs=args.runs, n_periods=args.periods,
-                      n_harmonics=args.harmonics, torque_share=rig.torque_share, seed=args.seed, progress=progress)
+                      n_harmonics=args.harmonics, torque_share=rig.torque_share, seed=args.seed,
+                      encoder_resolution_rad=args.encoder_resolution, progress=progress)
     print(f"Default sweep, {len(records)} runs x {args.periods} periods, SNR {args.snr_db:g} dB, "
-          f"{args.runs} realisations, harmonics 0..{args.harmonics} ({res.failures} solver failures)")
+          f"{args.runs} realisations, harmonics 0..{args.harmonics} ({res.failures} solver failures)"
+          + (f", encoder {args.encoder_resolution:g} rad/count" if args.encoder_resolution else ""))
     print(f"{'parameter':20s} {'true':>10s} {'bias/std':>9s} {'CRLB std':>10s} {'std':>10s} {'efficiency':>10s} "
           f"{'coverage':>8s}   {'LS bias/std':>11s} {'LS eff.':>8s}")
     for s in res.parameters:

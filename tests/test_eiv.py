@@ -93,3 +93,15 @@ def test_monte_carlo_40db_coverage(mc40):
     lo = stats.binom.ppf(0.001, N_MC, 0.95) / N_MC
     for p in mc40.parameters:
         assert lo <= p.coverage <= 1.0, p.name
+
+
+def test_encoder_quantises_the_angles(default_sweep):
+    rec = repeat_periods(default_sweep[3], 2)
+    q = 1e-3
+    m = add_noise(rec, 40.0, np.random.default_rng(0), encoder_resolution_rad=q)
+    for x in (m.phi1_rad, m.phi2_rad):
+        counts = x / q
+        np.testing.assert_allclose(counts, np.round(counts), rtol=0, atol=1e-6)  # whole counts
+    assert "encoder 0.001 rad/count" in m.source
+    with pytest.raises(ValueError, match="encoder_resolution_rad"):
+        add_noise(rec, 40.0, np.random.default_rng(0), encoder_resolution_rad=0.0)
