@@ -47,7 +47,8 @@ from .basis import Term
 from .harmonics import fourier_coefficients, max_harmonic
 from .records import RecordError, SteadyStateRecord
 
-__all__ = ["PeriodAverage", "average_periods", "EivResult", "ml_identify", "crlb", "DEFAULT_RATE_BAND"]
+__all__ = ["PeriodAverage", "average_periods", "EivResult", "ml_identify", "crlb", "DEFAULT_RATE_BAND",
+           "prepare_runs", "linearised", "solve_penalised"]
 
 #: Harmonics kept in the derived rate (the noise of a spectral derivative grows with n).
 DEFAULT_RATE_BAND = 20
@@ -268,13 +269,14 @@ def _whitened(runs: Sequence[_Run], theta: np.ndarray) -> np.ndarray:
     return np.concatenate(out)
 
 
-def _gls(runs: Sequence[_Run], theta: np.ndarray, iterations: int = 6) -> np.ndarray:
+def _gls(runs: Sequence[_Run], theta: np.ndarray, iterations: int = 6, penalty: Optional[np.ndarray] = None
+         ) -> np.ndarray:
     """Iterated generalised least squares: rows weighted by C(theta) of the previous iterate.
 
     Still biased by the noise in [A] (C does not vary with the unknowns inside one solve),
     but it down-weights the rows the noise dominates (the inertia column (n w)^2 Phi_n at high
     harmonics), which plain least squares trusts as much as any other: a start near the
-    likelihood's global minimum.
+    likelihood's global minimum. ``penalty`` rows (already scaled by sqrt(lambda)) are appended.
     """
     for _ in range(iterations):
         As, Fs = [], []
@@ -282,6 +284,9 @@ def _gls(runs: Sequence[_Run], theta: np.ndarray, iterations: int = 6) -> np.nda
             L = linalg.cholesky(r.covariance(theta), lower=True)
             As.append(linalg.solve_triangular(L, r.A, lower=True))
             Fs.append(linalg.solve_triangular(L, r.F, lower=True))
+        if penalty is not None:
+            As.append(penalty)
+            Fs.append(np.zeros(penalty.shape[0]))
         A, F = np.vstack(As), np.concatenate(Fs)
         d = 1 / np.where(np.linalg.norm(A, axis=0) > 0, np.linalg.norm(A, axis=0), 1)
         theta = np.linalg.lstsq(A * d, F, rcond=None)[0] * d
@@ -320,8 +325,54 @@ def ml_identify(records: Sequence[SteadyStateRecord], terms: Sequence[Term], *, 
       torque_share: J2 / (J1 + J2), the drive's share on the relative coordinate.
       rate_band: harmonics kept in the derived rate.
     """
+    runs = prepare_runs(records, terms, n_harmonics=n_harmonics, torque_share=torque_share, rate_band=rate_band)
+    split = [_halves(r) for r in records]
+    halves = None if any(h is None for h in split) else [
+        tuple(_prepare(h, terms, n_harmonics, torque_share, rate_band) for h in pair) for pair in split]
+    return _solve(runs, terms, halves)
+
+
+def _solve(runs: Sequence[_Run], terms: Sequence[Term], halves=None, penalty: Optional[np.ndarray] = None
+           ) -> EivResult:
+    """ML fit; ``penalty`` (rows over theta, scaled by sqrt(lambda)) adds ``|penalty theta|^2`` to
+    the cost (a smoothness prior); the covariance is then the posterior one,
+    ``(J'J + penalty'penalty)^-1``, and ``cost`` is the data part only."""
+    names = ("Je_kgm2",) + tuple(t.name for t in terms)
+    start = _gls(runs, _weighted_ls(runs), penalty=penalty)
+    starts = [start] + ([_instrumental(runs, halves, start)] if halves is not None and penalty is None else [])
+    # Scale each unknown by its whitened column norm at the start (steps of ~1 standard
+    # error), not by its start value: a start near 0 (gamma under heavy noise) would freeze it.
+    norms = np.sqrt(sum(np.sum(linalg.solve_triangular(linalg.cholesky(r.covariance(start), lower=True), r.A,
+                                                       lower=True) ** 2, axis=0) for r in runs))
+    scale = 1 / np.where(norms > 0, norms, 1.0)
+    n_rows = sum(r.F.size for r in runs)
+
+    def residual(z):
+        theta = z * scale
+        w = _whitened(runs, theta)
+        return w if penalty is None else np.concatenate([w, penalty @ theta])
+
+    # The likelihood can hold a spurious minimum near the attenuated start (gamma ~ 0 under
+    # heavy noise); the instrumental-variables start lies near the consistent one. Both are
+    # refined and the lower cost kept.
+    sols = [optimize.least_squares(residual, s0 / scale, method="lm", xtol=1e-12, ftol=1e-12, gtol=1e-12,
+                                   max_nfev=400 * len(names)) for s0 in starts]
+    sol = min(sols, key=lambda x: float(np.sum(x.fun**2)))
+    theta = sol.x * scale
+    J = sol.jac / scale  # d residual / d theta (data rows, then penalty rows)
+    cov = np.linalg.inv(J.T @ J)
+    cost = float(np.sum(sol.fun[:n_rows] ** 2))
+    dof = n_rows - len(names)
+    p_value = float(stats.chi2.sf(cost, dof)) if dof > 0 and penalty is None else math.nan
+    return EivResult(names, theta, np.sqrt(np.diag(cov)), cov, start, cost, dof, p_value, n_rows, len(runs),
+                     bool(sol.success), str(sol.message))
+
+
+def prepare_runs(records: Sequence[SteadyStateRecord], terms: Sequence[Term], *, n_harmonics: int,
+                 torque_share: float, rate_band: int = DEFAULT_RATE_BAND) -> list:
+    """The per-run pieces of :func:`ml_identify` (for estimators built on it, e.g. identify.hat)."""
     if not records:
-        raise ValueError("ml_identify needs at least one record")
+        raise ValueError("at least one record is needed")
     if not 0 < torque_share <= 1:
         raise ValueError(f"torque_share must be in (0, 1], got {torque_share}")
     runs = [_prepare(average_periods(r), terms, n_harmonics, torque_share, rate_band) for r in records]
@@ -329,36 +380,23 @@ def ml_identify(records: Sequence[SteadyStateRecord], terms: Sequence[Term], *, 
         if not (r.var_phi > 0 and r.var_u > 0):
             raise RecordError(f"{rec.source}: the periods are identical (no noise to estimate); "
                               f"use identify.identify for noise-free records")
-    split = [_halves(r) for r in records]
-    halves = None if any(h is None for h in split) else [
-        tuple(_prepare(h, terms, n_harmonics, torque_share, rate_band) for h in pair) for pair in split]
-    return _solve(runs, terms, halves)
+    return runs
 
 
-def _solve(runs: Sequence[_Run], terms: Sequence[Term], halves=None) -> EivResult:
-    names = ("Je_kgm2",) + tuple(t.name for t in terms)
-    start = _gls(runs, _weighted_ls(runs))
-    starts = [start] + ([_instrumental(runs, halves, start)] if halves is not None else [])
-    # Scale each unknown by its whitened column norm at the start (steps of ~1 standard
-    # error), not by its start value: a start near 0 (gamma under heavy noise) would freeze it.
-    norms = np.sqrt(sum(np.sum(linalg.solve_triangular(linalg.cholesky(r.covariance(start), lower=True), r.A,
-                                                       lower=True) ** 2, axis=0) for r in runs))
-    scale = 1 / np.where(norms > 0, norms, 1.0)
-    # The likelihood can hold a spurious minimum near the attenuated start (gamma ~ 0 under
-    # heavy noise); the instrumental-variables start lies near the consistent one. Both are
-    # refined and the lower cost kept.
-    sols = [optimize.least_squares(lambda z: _whitened(runs, z * scale), s0 / scale, method="lm",
-                                   xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=400) for s0 in starts]
-    sol = min(sols, key=lambda x: float(np.sum(x.fun**2)))
-    theta = sol.x * scale
-    J = sol.jac / scale  # d whitened / d theta
-    cov = np.linalg.inv(J.T @ J)
-    cost = float(np.sum(sol.fun**2))
-    n_rows = sum(r.F.size for r in runs)
-    dof = n_rows - len(names)
-    p_value = float(stats.chi2.sf(cost, dof)) if dof > 0 else math.nan
-    return EivResult(names, theta, np.sqrt(np.diag(cov)), cov, start, cost, dof, p_value, n_rows, len(runs),
-                     bool(sol.success), str(sol.message))
+def linearised(runs: Sequence, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Whitened regression ``(L^-1 A, L^-1 F)`` with C(theta) = L L' held fixed (for model
+    selection criteria on the locally linear problem)."""
+    As, Fs = [], []
+    for r in runs:
+        L = linalg.cholesky(r.covariance(theta), lower=True)
+        As.append(linalg.solve_triangular(L, r.A, lower=True))
+        Fs.append(linalg.solve_triangular(L, r.F, lower=True))
+    return np.vstack(As), np.concatenate(Fs)
+
+
+def solve_penalised(runs: Sequence, terms: Sequence[Term], penalty: Optional[np.ndarray]) -> EivResult:
+    """:func:`ml_identify` on prepared runs with a quadratic penalty (see :func:`_solve`)."""
+    return _solve(runs, terms, None, penalty)
 
 
 def crlb(noiseless: Sequence[SteadyStateRecord], terms: Sequence[Term], theta: Sequence[float], *,

@@ -129,6 +129,20 @@ def log_restoring_force(rec: rr.RecordingStream, true_law: Optional[JointLaw], i
                          columns=rr.Scalars.columns(scalars=np.asarray(law.elastic_torque(phi), dtype=float)))
 
 
+def log_restoring_band(rec: rr.RecordingStream, phi_rad: np.ndarray, g_Nm: np.ndarray, lower_Nm: np.ndarray,
+                       upper_Nm: np.ndarray, true_law: Optional[JointLaw] = None,
+                       others: Optional[dict[str, np.ndarray]] = None) -> None:
+    """An identified restoring torque g(phi) with its confidence band (lower, upper), beside
+    the true law when known and any other curves (e.g. the best polynomial), over phi."""
+    idx = [rr.TimeColumn("phi_urad", sequence=np.round(np.asarray(phi_rad) * 1e6).astype(np.int64))]
+    curves = {"identified_Nm": g_Nm, "band_lower_Nm": lower_Nm, "band_upper_Nm": upper_Nm, **(others or {})}
+    if true_law is not None:
+        curves["true_Nm"] = np.asarray(true_law.elastic_torque(phi_rad), dtype=float)
+    for name, y in curves.items():
+        rec.send_columns(f"restoring_force/{name}", indexes=idx,
+                         columns=rr.Scalars.columns(scalars=np.asarray(y, dtype=float)))
+
+
 def log_parameter_table(rec: rr.RecordingStream, markdown: str) -> None:
     rec.log("parameters", rr.TextDocument(markdown, media_type=rr.MediaType.MARKDOWN), static=True)
 

@@ -1,0 +1,129 @@
+"""Unknown joint law: piecewise-linear ("hat") restoring torque g(phi) of eq. (8) from noisy runs.
+
+When the form of the law is unknown, g(phi) is represented by its values g_i at knots spread
+uniformly over the measured range of phi (hat functions interpolate linearly between them),
+beside viscous damping (or hat functions of phi', eq. 9). The unknowns are identified by the
+errors-in-variables maximum-likelihood harmonic balance of :mod:`identify.eiv`, with an
+optional smoothness penalty ``lambda |D2 g|^2`` on the second differences of the knot values.
+
+lambda is chosen by generalised cross-validation (GCV) on the whitened problem linearised at a
+lightly penalised start: ``GCV(lambda) = n |r|^2 / (n - tr H)^2`` over a logarithmic grid, with
+H the influence matrix. GCV estimates the prediction error without a held-out run and needs
+no noise level (the whitening already carries it). With ``lam=0`` no penalty is used.
+
+The confidence band is the posterior one of the penalised fit, ``g(phi) +- 1.96 sqrt(h' C h)``
+with h the hat functions at phi and C the posterior covariance ``(J'J + lambda P'P)^-1``:
+Bayesian intervals of penalised splines, whose coverage is nominal on average over the curve
+(Wahba 1983, Nychka 1988) rather than at every point.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional, Sequence
+
+import numpy as np
+
+from .basis import Term, Viscous, angle_hats, hat_matrix
+from .eiv import EivResult, _gls, _weighted_ls, average_periods, linearised, prepare_runs, solve_penalised
+from .harmonics import fourier_coefficients, synthesize
+from .records import SteadyStateRecord
+
+__all__ = ["HatFit", "fit_hat_law", "knots_from_range", "LAMBDA_GRID"]
+
+#: Candidate penalty weights (relative to the data's whitened scale, see fit_hat_law).
+LAMBDA_GRID = tuple(float(x) for x in np.logspace(-8, 2, 21))
+
+
+def knots_from_range(records: Sequence[SteadyStateRecord], n_knots: int, n_harmonics: int) -> np.ndarray:
+    """``n_knots`` knots spread uniformly over the measured range of phi (rad).
+
+    The range is taken from each run's mean period band-limited to harmonics 0..H (what the
+    balance sees), from the runs whose swing stands out of their noise (20 x the band-limited
+    noise's standard deviation): with noise set relative to each encoder's own swing, the
+    relative angle of a slow run (large rigid rotation) can be mostly noise.
+    """
+    if n_knots < 3:
+        raise ValueError(f"n_knots must be >= 3, got {n_knots}")
+    lo, hi = np.inf, -np.inf
+    for r in records:
+        avg = average_periods(r, noise_free=r.n_periods < 2)
+        N = avg.n_samples
+        smooth = synthesize(fourier_coefficients(avg.phi_rad, 1, n_harmonics), N)
+        noise = np.sqrt(avg.var_phi_rad2 * (2 * n_harmonics + 1) / N)
+        if np.ptp(smooth) > 20 * noise:
+            lo, hi = min(lo, float(smooth.min())), max(hi, float(smooth.max()))
+    if not hi > lo:
+        raise ValueError("no record's relative angle stands out of its noise: no range to place knots on")
+    return np.linspace(lo, hi, n_knots)
+
+
+@dataclass(frozen=True)
+class HatFit:
+    """A piecewise-linear restoring torque with its uncertainty.
+
+    Attributes:
+      knots_rad, g_Nm: knot positions and values; covariance_Nm2: of g, ``(m, m)``.
+      lam: the penalty weight used (0: none); gcv: ``(lambda, GCV score)`` over the grid
+        (empty when lambda was given).
+      result: the full ML result (Je, damping and the g_i).
+    """
+
+    knots_rad: np.ndarray
+    g_Nm: np.ndarray
+    covariance_Nm2: np.ndarray
+    lam: float
+    gcv: tuple[tuple[float, float], ...]
+    result: EivResult
+
+    def band(self, phi_rad: np.ndarray, z: float = 1.959963984540054) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(g, lower, upper)`` at ``phi_rad`` (N m); the band is +-z posterior standard deviations."""
+        H = hat_matrix(np.asarray(phi_rad, dtype=float), self.knots_rad)
+        g = H @ self.g_Nm
+        sd = np.sqrt(np.einsum("ij,jk,ik->i", H, self.covariance_Nm2, H))
+        return g, g - z * sd, g + z * sd
+
+
+def fit_hat_law(records: Sequence[SteadyStateRecord], *, n_knots: int, n_harmonics: int, torque_share: float,
+                damping: Sequence[Term] = (Viscous(),), lam: Optional[float] = None,
+                knots_rad: Optional[Sequence[float]] = None) -> HatFit:
+    """Identify ``g(phi)`` on hat functions (and the damping terms, and Je) from noisy runs.
+
+    Args:
+      records: measured runs with at least 2 periods each (noise from their variation).
+      n_knots: number of knots over the measured range of phi (ignored with ``knots_rad``).
+      damping: the damping terms beside g (default viscous).
+      lam: penalty weight; None chooses it by GCV over :data:`LAMBDA_GRID`; 0 turns it off.
+    """
+    knots = (np.asarray(knots_rad, dtype=float) if knots_rad is not None
+             else knots_from_range(records, n_knots, n_harmonics))
+    hats = angle_hats(knots)
+    terms = tuple(damping) + hats
+    runs = prepare_runs(records, terms, n_harmonics=n_harmonics, torque_share=torque_share)
+    p = 1 + len(terms)
+    first = 1 + len(damping)
+    m = len(hats)
+    D2 = np.zeros((m - 2, p))
+    for i in range(m - 2):
+        D2[i, first + i: first + i + 3] = (1.0, -2.0, 1.0)
+    # Make lambda dimensionless: the penalty rows on the scale of the g columns of the whitened data.
+    J0, _ = linearised(runs, _weighted_ls(runs))
+    norm = np.linalg.norm(J0[:, first:]) / max(np.linalg.norm(D2), 1e-300)
+    P = D2 * norm
+    gcv: list[tuple[float, float]] = []
+    if lam is None:
+        theta0 = _gls(runs, _weighted_ls(runs), penalty=np.sqrt(LAMBDA_GRID[0]) * P)
+        J, y = linearised(runs, theta0)
+        JtJ, Jty, PtP = J.T @ J, J.T @ y, P.T @ P
+        n = y.size
+        for lg in LAMBDA_GRID:
+            M = JtJ + lg * PtP
+            th = np.linalg.solve(M, Jty)
+            r = y - J @ th
+            tr = float(np.trace(np.linalg.solve(M, JtJ)))
+            gcv.append((lg, float(n * (r @ r) / (n - tr) ** 2)))
+        lam = min(gcv, key=lambda x: x[1])[0]
+    res = solve_penalised(runs, terms, np.sqrt(lam) * P if lam > 0 else None)
+    g = res.values[first:]
+    cov = res.covariance[first:, first:]
+    return HatFit(knots, g, cov, float(lam), tuple(gcv), res)

@@ -1,0 +1,65 @@
+"""A joint law of unknown form: hat functions (eq. 8) recover a kinked law no quintic fits."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from identify.hat import fit_hat_law, knots_from_range
+from rig import SimulationConfig, load_rig
+from rig.measurement import add_noise, repeat_periods
+from rig.sweep import DEFAULT_PLAN, records_of, run_sweep
+
+from conftest import MODELS_DIR
+
+
+@pytest.fixture(scope="module")
+def kink():
+    rig = load_rig(MODELS_DIR / "two_flywheels_kink.xml")
+    records = records_of(run_sweep(rig, DEFAULT_PLAN, SimulationConfig()))
+    rng = np.random.default_rng(5)
+    noisy = [add_noise(repeat_periods(r, 8), 40.0, rng) for r in records]
+    fit = fit_hat_law(noisy, n_knots=21, n_harmonics=9, torque_share=rig.torque_share)
+    return rig, noisy, fit
+
+
+def test_hat_fit_recovers_a_law_no_quintic_fits(kink):
+    rig, _, fit = kink
+    phi = np.linspace(fit.knots_rad[0], fit.knots_rad[-1], 801)
+    g, lo, hi = fit.band(phi)
+    true = np.asarray(rig.law.elastic_torque(phi), dtype=float)
+    rms = np.sqrt(np.mean((g - true) ** 2))
+    quintic = np.sqrt(np.mean((np.polyval(np.polyfit(phi, true, 5), phi) - true) ** 2))
+    # The best quintic, fitted to the true law itself, misses by 85 N m RMS; the hat fit from
+    # noisy data by 18 N m (measured): ask for a factor 3.
+    assert rms < quintic / 3
+    # The band is the posterior one of the fit: it holds the truth except where the fit's own
+    # approximation error dominates, at the kinks (knot spacing 0.035 rad x slope jump 14000
+    # N m/rad / 4 = 120 N m there). Away from the kinks it holds it nearly everywhere.
+    away = np.abs(np.abs(phi) - 0.2) > 0.05
+    inside = (true >= lo) & (true <= hi)
+    assert inside[away].mean() > 0.85
+    assert inside.mean() > 0.6
+
+
+def test_hat_fit_inertia_and_damping_within_their_errors(kink):
+    _, _, fit = kink
+    for name, true in (("Je_kgm2", 1.0), ("c_Nms_per_rad", 100.0)):
+        assert abs(fit.result.value(name) - true) < 4 * fit.result.std_error(name), name
+
+
+def test_gcv_prefers_its_lambda_to_heavy_smoothing(kink):
+    rig, noisy, fit = kink
+    assert fit.gcv and fit.lam == min(fit.gcv, key=lambda x: x[1])[0]
+    scores = dict(fit.gcv)
+    assert scores[fit.lam] < scores[max(scores)]  # the heaviest penalty flattens the kink
+
+
+def test_knots_come_from_the_runs_that_stand_out_of_their_noise(kink):
+    _, noisy, fit = kink
+    knots = knots_from_range(noisy, 5, 9)
+    # The noisiest runs (omega = 1 rad/s: the encoders' noise scales with a 100 rad rigid swing)
+    # would stretch the range to +-30 rad; the trusted runs give the true +-0.35 rad.
+    assert -0.4 < knots[0] < -0.3 and 0.3 < knots[-1] < 0.4
+    with pytest.raises(ValueError, match="n_knots"):
+        knots_from_range(noisy, 2, 9)
