@@ -48,7 +48,7 @@ from .harmonics import fourier_coefficients, max_harmonic
 from .records import RecordError, SteadyStateRecord
 
 __all__ = ["PeriodAverage", "average_periods", "EivResult", "ml_identify", "crlb", "DEFAULT_RATE_BAND",
-           "prepare_runs", "linearised", "solve_penalised"]
+           "prepare_runs", "linearised", "solve_penalised", "fisher_per_period"]
 
 #: Harmonics kept in the derived rate (the noise of a spectral derivative grows with n).
 DEFAULT_RATE_BAND = 20
@@ -399,24 +399,38 @@ def solve_penalised(runs: Sequence, terms: Sequence[Term], penalty: Optional[np.
     return _solve(runs, terms, None, penalty)
 
 
-def crlb(noiseless: Sequence[SteadyStateRecord], terms: Sequence[Term], theta: Sequence[float], *,
-         var_phi_rad2: Sequence[float], var_torque_Nm2: Sequence[float], n_periods: int, n_harmonics: int,
-         torque_share: float, rate_band: int = DEFAULT_RATE_BAND) -> np.ndarray:
-    """Cramer-Rao lower bound (covariance, ``(p, p)``) of ``(Je, law...)`` from P measured periods
-    of these runs with white Gaussian noise of the given per-sample variances (one per run).
-
-    Small-noise bound of the errors-in-variables problem with the true signals as nuisance
-    parameters: ``(sum_runs A0' C(theta)^-1 A0)^-1`` with A0 the noiseless regression rows and
-    C the residual covariance of the mean of ``n_periods`` periods.
-    """
+def fisher_per_period(noiseless: Sequence[SteadyStateRecord], terms: Sequence[Term], theta: Sequence[float], *,
+                      var_phi_rad2: Sequence[float], var_torque_Nm2: Sequence[float], n_harmonics: int,
+                      torque_share: float, rate_band: int = DEFAULT_RATE_BAND) -> list[np.ndarray]:
+    """Fisher information of ``(Je, law...)`` carried by ONE measured period of each run, with
+    white Gaussian noise of the given per-sample variances: ``A0' C(theta)^-1 A0`` (small-noise,
+    true signals as nuisance parameters). P periods carry P times as much (C scales as 1/P)."""
     theta = np.asarray(theta, dtype=float)
-    fisher = 0.0
+    out = []
     for rec, vp, vu in zip(noiseless, var_phi_rad2, var_torque_Nm2, strict=True):
         avg = average_periods(rec, noise_free=True)
-        avg = PeriodAverage(avg.omega_rad_s, avg.phi_rad, avg.torque_Nm, vp / n_periods, vu / n_periods,
-                            n_periods, avg.source)
+        avg = PeriodAverage(avg.omega_rad_s, avg.phi_rad, avg.torque_Nm, vp, vu, 1, avg.source)
         r = _prepare(avg, terms, n_harmonics, torque_share, rate_band, noisy=False)
         L = linalg.cholesky(r.covariance(theta), lower=True)
         W = linalg.solve_triangular(L, r.A, lower=True)
-        fisher = fisher + W.T @ W
-    return np.linalg.inv(fisher)
+        out.append(W.T @ W)
+    return out
+
+
+def crlb(noiseless: Sequence[SteadyStateRecord], terms: Sequence[Term], theta: Sequence[float], *,
+         var_phi_rad2: Sequence[float], var_torque_Nm2: Sequence[float], n_periods, n_harmonics: int,
+         torque_share: float, rate_band: int = DEFAULT_RATE_BAND) -> np.ndarray:
+    """Cramer-Rao lower bound (covariance, ``(p, p)``) of ``(Je, law...)`` from ``n_periods``
+    measured periods of these runs (one number for all, or one per run) with white Gaussian
+    noise of the given per-sample variances (one per run).
+
+    Small-noise bound of the errors-in-variables problem with the true signals as nuisance
+    parameters: ``(sum_runs P_run A0' C1(theta)^-1 A0)^-1`` with A0 the noiseless regression
+    rows and C1 the residual covariance of one period (:func:`fisher_per_period`).
+    """
+    F = fisher_per_period(noiseless, terms, theta, var_phi_rad2=var_phi_rad2, var_torque_Nm2=var_torque_Nm2,
+                          n_harmonics=n_harmonics, torque_share=torque_share, rate_band=rate_band)
+    periods = [n_periods] * len(F) if np.isscalar(n_periods) else list(n_periods)
+    if len(periods) != len(F):
+        raise ValueError(f"n_periods: {len(periods)} values for {len(F)} runs")
+    return np.linalg.inv(sum(p * f for p, f in zip(periods, F)))

@@ -33,11 +33,18 @@ def noise_std(x: np.ndarray, snr_db: float) -> float:
 
 
 def add_noise(record: SteadyStateRecord, snr_db: Optional[float], rng: np.random.Generator, *,
-              encoder_resolution_rad: Optional[float] = None) -> SteadyStateRecord:
+              encoder_resolution_rad: Optional[float] = None,
+              sigma: Optional[tuple[float, float]] = None) -> SteadyStateRecord:
     """The record as measured: noisy torque and angles, rates dropped. ``snr_db=None``: no
-    noise; ``encoder_resolution_rad``: quantise both angles to multiples of it (rad per count)."""
+    noise; ``encoder_resolution_rad``: quantise both angles to multiples of it (rad per count);
+    ``sigma = (angle_rad, torque_Nm)``: fixed noise standard deviations instead of ``snr_db``
+    (sensors whose noise does not scale with the signal)."""
     if snr_db is not None and not math.isfinite(snr_db):
         raise ValueError(f"snr_db must be a finite number (dB) or None, got {snr_db}")
+    if sigma is not None:
+        if len(sigma) != 2 or not all(math.isfinite(x) and x >= 0 for x in sigma):
+            raise ValueError(f"sigma must be (angle_rad, torque_Nm), finite and >= 0, got {sigma}")
+        return _fixed_noise(record, sigma, rng, encoder_resolution_rad)
     q = encoder_resolution_rad
     if q is not None and not (math.isfinite(q) and q > 0):
         raise ValueError(f"encoder_resolution_rad must be a finite number > 0 (rad per count), got {q}")
@@ -54,6 +61,19 @@ def add_noise(record: SteadyStateRecord, snr_db: Optional[float], rng: np.random
     return replace(record, torque_Nm=noisy(record.torque_Nm), phi1_rad=encoder(noisy(record.phi1_rad)),
                    phi2_rad=encoder(noisy(record.phi2_rad)), rate1_rad_s=None, rate2_rad_s=None,
                    source=f"{record.source} (measured, {note})")
+
+
+def _fixed_noise(record, sigma, rng, q):
+    def noisy(x, sd):
+        return None if x is None else x + rng.normal(0.0, sd, x.shape)
+
+    def encoder(x):
+        return x if x is None or q is None else np.round(x / q) * q
+
+    return replace(record, torque_Nm=noisy(record.torque_Nm, sigma[1]),
+                   phi1_rad=encoder(noisy(record.phi1_rad, sigma[0])), phi2_rad=encoder(noisy(record.phi2_rad, sigma[0])),
+                   rate1_rad_s=None, rate2_rad_s=None,
+                   source=f"{record.source} (measured, noise {sigma[0]:.3g} rad, {sigma[1]:.3g} N m)")
 
 
 def repeat_periods(record: SteadyStateRecord, n_periods: int) -> SteadyStateRecord:

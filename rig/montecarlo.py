@@ -69,7 +69,7 @@ class ParameterStats:
 class MonteCarloResult:
     snr_db: float
     n_runs: int
-    n_periods: int
+    n_periods: object  # int, or a tuple per run
     parameters: tuple[ParameterStats, ...]
     failures: int
 
@@ -79,20 +79,26 @@ class MonteCarloResult:
 
 
 def monte_carlo(noiseless: Sequence[SteadyStateRecord], terms: Sequence[Term], truth: dict[str, float], *,
-                snr_db: float, n_runs: int, n_periods: int, n_harmonics: int, torque_share: float,
+                snr_db: float, n_runs: int, n_periods, n_harmonics: int, torque_share: float,
                 seed: int = 0, encoder_resolution_rad: Optional[float] = None,
+                sigma: Optional[tuple[float, float]] = None,
                 progress: Optional[Callable[[int, int], None]] = None) -> MonteCarloResult:
     """Identify ``n_runs`` noisy measurements of the same runs; compare with the CRLB.
 
     Args:
       noiseless: steady-state runs without noise (one period or more each).
       truth: true ``Je_kgm2`` and law parameters by name.
+      n_periods: measured periods, one number for all runs or one per run.
+      sigma: fixed noise standard deviations (angle rad, torque N m) instead of ``snr_db``.
       encoder_resolution_rad: quantise the angles (the CRLB counts q^2 / 12 per encoder as
         white noise, which holds while the noise spans several counts).
     """
     if n_runs < 2:
         raise ValueError(f"n_runs must be >= 2, got {n_runs}")
-    base = [repeat_periods(r, n_periods) for r in noiseless]
+    periods = [n_periods] * len(noiseless) if np.isscalar(n_periods) else [int(x) for x in n_periods]
+    if len(periods) != len(noiseless):
+        raise ValueError(f"n_periods: {len(periods)} values for {len(noiseless)} runs")
+    base = [repeat_periods(r, P) for r, P in zip(noiseless, periods)]
     names = ("Je_kgm2",) + tuple(t.name for t in terms)
     theta0 = np.array([truth[n] for n in names])
     # Noise per channel as add_noise draws it: sigma from the channel's own RMS.
@@ -100,13 +106,16 @@ def monte_carlo(noiseless: Sequence[SteadyStateRecord], terms: Sequence[Term], t
     var_phi = [noise_std(r.phi1_rad, snr_db) ** 2 + quant
                + (noise_std(r.phi2_rad, snr_db) ** 2 + quant if r.phi2_rad is not None else 0) for r in base]
     var_u = [noise_std(r.torque_Nm, snr_db) ** 2 for r in base]
-    bound = crlb(base, terms, theta0, var_phi_rad2=var_phi, var_torque_Nm2=var_u, n_periods=n_periods,
+    if sigma is not None:  # fixed sensor noise instead of a per-channel SNR
+        var_phi = [sigma[0] ** 2 * (2 if r.phi2_rad is not None else 1) + 2 * quant for r in base]
+        var_u = [sigma[1] ** 2] * len(base)
+    bound = crlb(base, terms, theta0, var_phi_rad2=var_phi, var_torque_Nm2=var_u, n_periods=periods,
                  n_harmonics=n_harmonics, torque_share=torque_share)
     rng = np.random.default_rng(seed)
     est, se, start = [], [], []
     failures = 0
     for k in range(n_runs):
-        noisy = [add_noise(r, snr_db, rng, encoder_resolution_rad=encoder_resolution_rad) for r in base]
+        noisy = [add_noise(r, snr_db, rng, encoder_resolution_rad=encoder_resolution_rad, sigma=sigma) for r in base]
         res = ml_identify(noisy, terms, n_harmonics=n_harmonics, torque_share=torque_share)
         if not res.success:
             failures += 1
@@ -125,4 +134,5 @@ def monte_carlo(noiseless: Sequence[SteadyStateRecord], terms: Sequence[Term], t
             coverage=float(np.mean(np.abs(est[:, i] - theta0[i]) <= Z95 * se[:, i])),
             mean_std_error=float(se[:, i].mean()), ls_mean=float(start[:, i].mean()),
             ls_std=float(start[:, i].std(ddof=1))))
-    return MonteCarloResult(float(snr_db), n_runs, n_periods, tuple(stats), failures)
+    return MonteCarloResult(float(snr_db), n_runs, n_periods if np.isscalar(n_periods) else tuple(periods),
+                            tuple(stats), failures)
