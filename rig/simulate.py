@@ -44,6 +44,7 @@ __all__ = [
     "make_callback",
     "commit_state",
     "simulate_steady_state",
+    "coherent_omega",
 ]
 
 log = logging.getLogger(__name__)
@@ -67,7 +68,11 @@ class SimulationConfig:
     Attributes:
       max_step_s: largest integrator step; the step is ``T / (samples_per_period * k)`` with
         the smallest integer k that respects it, so every period holds whole steps.
-      samples_per_period: logged samples per period (uniform).
+      samples_per_period: logged samples per period (uniform), unless ``sample_rate_Hz``.
+      sample_rate_Hz: a bench's fixed sampling rate instead: every run logs
+        ``N = fs 2 pi / omega`` samples per period, which must be a whole number (coherent
+        sampling, as a bench engineer sets it up: :func:`coherent_omega` snaps a frequency).
+        The integrator step stays independent: ``T / (N k)`` with k from ``max_step_s``.
       settle_tol: bound on the distance of the logged periods from the exact periodic steady
         state, relative to each channel's peak-to-peak swing (adaptive detection; channels:
         the relative angle, both rates, and both absolute angles when
@@ -92,6 +97,7 @@ class SimulationConfig:
 
     max_step_s: float = 5e-4
     samples_per_period: int = 256
+    sample_rate_Hz: Optional[float] = None
     settle_tol: float = 1e-9
     min_periods: int = 2
     max_periods: int = 2000
@@ -104,6 +110,8 @@ class SimulationConfig:
             raise ValueError(f"max_step_s must be > 0, got {self.max_step_s}")
         if self.samples_per_period < 8:
             raise ValueError(f"samples_per_period must be >= 8, got {self.samples_per_period}")
+        if self.sample_rate_Hz is not None and not (math.isfinite(self.sample_rate_Hz) and self.sample_rate_Hz > 0):
+            raise ValueError(f"sample_rate_Hz must be a finite number > 0 or None, got {self.sample_rate_Hz}")
         if not 0 < self.settle_tol < 1:
             raise ValueError(f"settle_tol must be in (0, 1), got {self.settle_tol}")
         if self.min_periods < 2 or self.max_periods < self.min_periods:
@@ -118,13 +126,38 @@ class SimulationConfig:
     def mj_integrator_name(self) -> str:
         return "mjINT_" + self.integrator.upper()
 
+    def samples_for(self, omega_rad_s: float) -> int:
+        """Samples per period at this drive frequency.
+
+        Raises:
+          ValueError: with ``sample_rate_Hz``, a frequency whose period holds no whole number
+            of samples (or fewer than 8).
+        """
+        if self.sample_rate_Hz is None:
+            return self.samples_per_period
+        exact = self.sample_rate_Hz * 2 * math.pi / omega_rad_s
+        n = round(exact)
+        if abs(exact - n) > 1e-9 * exact or n < 8:
+            raise ValueError(f"omega {omega_rad_s:.12g} rad/s is not coherent with sample_rate_Hz "
+                             f"{self.sample_rate_Hz:g}: a period holds {exact:.6g} samples; use "
+                             f"rig.simulate.coherent_omega({omega_rad_s:g}, {self.sample_rate_Hz:g}) = "
+                             f"{coherent_omega(omega_rad_s, self.sample_rate_Hz):.12g} rad/s"
+                             + (" (and at least 8 samples per period)" if n < 8 else ""))
+        return n
+
     def steps_per_sample(self, omega_rad_s: float) -> int:
         period = 2 * math.pi / omega_rad_s
-        return max(1, math.ceil(period / (self.samples_per_period * self.max_step_s) - 1e-9))
+        return max(1, math.ceil(period / (self.samples_for(omega_rad_s) * self.max_step_s) - 1e-9))
 
     def timestep_s(self, omega_rad_s: float) -> float:
         period = 2 * math.pi / omega_rad_s
-        return period / (self.samples_per_period * self.steps_per_sample(omega_rad_s))
+        return period / (self.samples_for(omega_rad_s) * self.steps_per_sample(omega_rad_s))
+
+
+def coherent_omega(omega_rad_s: float, sample_rate_Hz: float) -> float:
+    """The drive frequency nearest ``omega_rad_s`` whose period holds a whole number of samples
+    at ``sample_rate_Hz``: ``2 pi fs / round(2 pi fs / omega)`` (rad/s)."""
+    return 2 * math.pi * sample_rate_Hz / max(1, round(2 * math.pi * sample_rate_Hz / omega_rad_s))
 
 
 @dataclass(frozen=True)
@@ -375,7 +408,7 @@ def simulate_steady_state(
     m.opt.integrator = mujoco.mjtIntegrator.__members__[config.mj_integrator_name]
     m.opt.timestep = config.timestep_s(omega_rad_s)
     k = config.steps_per_sample(omega_rad_s)
-    n = config.samples_per_period
+    n = config.samples_for(omega_rad_s)
     d = mujoco.MjData(m)
     # Start the rigid-body rotation with the velocity that keeps it periodic (0 for a cosine).
     J1, J2 = (rig.J1_kgm2, rig.J2_kgm2) if inertias_kgm2 is None else inertias_kgm2

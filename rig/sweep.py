@@ -61,6 +61,14 @@ class SweepPlan:
     def points(self) -> list[tuple[float, float]]:
         return [(w, a) for a in self.amplitudes_Nm for w in self.omegas_rad_s]
 
+    def coherent(self, sample_rate_Hz: float) -> "SweepPlan":
+        """The plan with every frequency moved to the nearest one a bench sampling at
+        ``sample_rate_Hz`` holds whole periods of (rig.simulate.coherent_omega)."""
+        from .simulate import coherent_omega
+
+        return SweepPlan(tuple(dict.fromkeys(coherent_omega(w, sample_rate_Hz) for w in self.omegas_rad_s)),
+                         self.amplitudes_Nm)
+
 
 #: Default sweep for the paper's joint (undamped natural frequency sqrt(k/Je) = 44.7 rad/s):
 #: from far below (1 rad/s, the paper's case) through the natural frequency to twice it,
@@ -356,7 +364,7 @@ def _longest_first(segments: list[list[int]], points, config: SimulationConfig) 
     """Segments in order of decreasing integrator steps per period (low frequencies first), so
     that parallel workers finish together instead of one waiting for the last long point."""
     def cost(seg):
-        return sum(config.samples_per_period * config.steps_per_sample(points[i][0]) for i in seg)
+        return sum(config.samples_for(points[i][0]) * config.steps_per_sample(points[i][0]) for i in seg)
 
     return sorted(segments, key=cost, reverse=True)
 

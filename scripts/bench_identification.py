@@ -2,7 +2,7 @@
 """How good the noisy-data identifier is: bias, standard deviation, CRLB, efficiency, coverage.
 
     python3 scripts/bench_identification.py [--snr-db 40] [--runs 200] [--periods 8]
-        [--encoder-resolution RAD] [--json OUT]
+        [--encoder-resolution RAD] [--sample-rate-hz FS] [--json OUT]
 
 The default sweep of the paper's joint is simulated once without noise (18 runs); each of
 ``--runs`` Monte Carlo realisations measures every run over ``--periods`` periods with white
@@ -36,12 +36,16 @@ def main(argv=None) -> int:
     p.add_argument("--periods", type=int, default=8, help="measured periods per run (default: %(default)s)")
     p.add_argument("--harmonics", type=int, default=9, help="harmonics 0..H balanced (default: %(default)s)")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--sample-rate-hz", type=float, default=None, metavar="FS",
+                   help="a bench's fixed sampling rate (coherent: frequencies moved to whole samples per period) "
+                        "instead of 256 samples per period")
     p.add_argument("--encoder-resolution", type=float, default=None, metavar="RAD",
                    help="quantise both angles to this many rad per count (default: no quantisation)")
     p.add_argument("--json", type=Path)
     args = p.parse_args(argv)
     rig = load_rig()
-    records = records_of(run_sweep(rig, DEFAULT_PLAN, SimulationConfig()))
+    plan = DEFAULT_PLAN if args.sample_rate_hz is None else DEFAULT_PLAN.coherent(args.sample_rate_hz)
+    records = records_of(run_sweep(rig, plan, SimulationConfig(sample_rate_Hz=args.sample_rate_hz)))
     truth = {"Je_kgm2": rig.Je_kgm2, **rig.law.as_dict()}
     t0 = time.perf_counter()
 
@@ -54,7 +58,8 @@ def main(argv=None) -> int:
                       encoder_resolution_rad=args.encoder_resolution, progress=progress)
     print(f"Default sweep, {len(records)} runs x {args.periods} periods, SNR {args.snr_db:g} dB, "
           f"{args.runs} realisations, harmonics 0..{args.harmonics} ({res.failures} solver failures)"
-          + (f", encoder {args.encoder_resolution:g} rad/count" if args.encoder_resolution else ""))
+          + (f", encoder {args.encoder_resolution:g} rad/count" if args.encoder_resolution else "")
+          + (f", sampled at {args.sample_rate_hz:g} Hz" if args.sample_rate_hz else ""))
     print(f"{'parameter':20s} {'true':>10s} {'bias/std':>9s} {'CRLB std':>10s} {'std':>10s} {'efficiency':>10s} "
           f"{'coverage':>8s}   {'LS bias/std':>11s} {'LS eff.':>8s}")
     for s in res.parameters:

@@ -58,6 +58,9 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--max-step", type=float, default=d.max_step_s, metavar="S",
                    help="largest RK4 step in s (default: %(default)s)")
     p.add_argument("--samples-per-period", type=int, default=d.samples_per_period)
+    p.add_argument("--sample-rate-hz", type=float, default=None, metavar="FS",
+                   help="log at a bench's fixed sampling rate instead of --samples-per-period; every frequency is "
+                        "moved to the nearest one whose period holds whole samples (coherent sampling)")
     p.add_argument("--integrator", default=d.integrator, help="MuJoCo integrator (default: %(default)s)")
     p.add_argument("--settle-tol", type=float, default=d.settle_tol,
                    help="steady state: bound on the distance from the exact steady state / swing "
@@ -114,8 +117,13 @@ def main(argv=None) -> int:
         raise ValueError(f"--periods must be >= 2 (the noise is estimated from their variation), got {args.periods}")
     rig = load_rig(args.model)
     plan = SweepPlan(tuple(args.omegas), tuple(args.amplitudes))
+    if args.sample_rate_hz is not None:
+        plan = plan.coherent(args.sample_rate_hz)
+        log.info("sampling at %g Hz: frequencies moved to %s rad/s (whole samples per period)", args.sample_rate_hz,
+                 ", ".join(f"{w:.4f}" for w in plan.omegas_rad_s))
     config = SimulationConfig(max_step_s=args.max_step, samples_per_period=args.samples_per_period,
-                              settle_tol=args.settle_tol, integrator=args.integrator)
+                              settle_tol=args.settle_tol, integrator=args.integrator,
+                              sample_rate_Hz=args.sample_rate_hz)
     store = None
     if not args.no_store:
         key = json.dumps([rig.digest, dataclasses.asdict(config)], sort_keys=True)

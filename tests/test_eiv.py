@@ -105,3 +105,25 @@ def test_encoder_quantises_the_angles(default_sweep):
     assert "encoder 0.001 rad/count" in m.source
     with pytest.raises(ValueError, match="encoder_resolution_rad"):
         add_noise(rec, 40.0, np.random.default_rng(0), encoder_resolution_rad=0.0)
+
+
+def test_fixed_bench_sampling_rate_is_coherent_and_identifiable(rig):
+    from rig import SimulationConfig
+    from rig.simulate import coherent_omega
+    from rig.sweep import SweepPlan, records_of, run_sweep
+
+    fs = 300.0
+    with pytest.raises(ValueError, match="not coherent"):
+        SimulationConfig(sample_rate_Hz=fs).samples_for(45.0)
+    plan = SweepPlan((10.0, 45.0, 90.0), (4000.0,)).coherent(fs)
+    assert plan.omegas_rad_s[1] == pytest.approx(coherent_omega(45.0, fs)) and abs(plan.omegas_rad_s[1] - 45.0) < 0.3
+    records = records_of(run_sweep(rig, plan, SimulationConfig(sample_rate_Hz=fs)))
+    for r in records:  # every run sampled at fs: N = fs T samples per period, whatever the frequency
+        assert r.samples_per_period == round(fs * 2 * math.pi / r.omega_rad_s)
+        np.testing.assert_allclose(np.diff(r.time_s), 1 / fs, rtol=1e-9)
+    rng = np.random.default_rng(8)
+    noisy = [add_noise(repeat_periods(r, 8), 40.0, rng) for r in records]
+    res = ml_identify(noisy, rig.law.terms, n_harmonics=9, torque_share=rig.torque_share)
+    truth = {"Je_kgm2": rig.Je_kgm2, **rig.law.as_dict()}
+    for name, value in truth.items():  # 4 standard errors: a 6e-5 chance each if they are right
+        assert abs(res.value(name) - value) < 4 * res.std_error(name), name
