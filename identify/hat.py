@@ -1,4 +1,5 @@
-"""Unknown joint law: piecewise-linear ("hat") restoring torque g(phi) of eq. (8) from noisy runs.
+"""Unknown joint law: piecewise-linear ("hat") restoring torque g(phi) of eq. (8), and optionally
+damping torque f(phi') of eq. (9), from noisy runs.
 
 When the form of the law is unknown, g(phi) is represented by its values g_i at knots spread
 uniformly over the measured range of phi (hat functions interpolate linearly between them),
@@ -19,17 +20,17 @@ Bayesian intervals of penalised splines, whose coverage is nominal on average ov
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Optional, Sequence
 
 import numpy as np
 
-from .basis import Term, Viscous, angle_hats, hat_matrix
+from .basis import Term, Viscous, angle_hats, hat_matrix, rate_hats
 from .eiv import EivResult, _gls, _weighted_ls, average_periods, linearised, prepare_runs, solve_penalised
 from .harmonics import fourier_coefficients, synthesize
 from .records import SteadyStateRecord
 
-__all__ = ["HatFit", "fit_hat_law", "knots_from_range", "LAMBDA_GRID"]
+__all__ = ["HatFit", "fit_hat_law", "knots_from_range", "rate_knots_from_range", "LAMBDA_GRID"]
 
 #: Candidate penalty weights (relative to the data's whitened scale, see fit_hat_law).
 LAMBDA_GRID = tuple(float(x) for x in np.logspace(-8, 2, 21))
@@ -58,6 +59,25 @@ def knots_from_range(records: Sequence[SteadyStateRecord], n_knots: int, n_harmo
     return np.linspace(lo, hi, n_knots)
 
 
+def rate_knots_from_range(records: Sequence[SteadyStateRecord], n_knots: int, n_harmonics: int) -> np.ndarray:
+    """An odd number of knots (rad/s) symmetric about 0 over the largest measured |phi'| (the
+    band-limited derivative of the mean period, from the runs that stand out of their noise)."""
+    if n_knots < 3 or n_knots % 2 == 0:
+        raise ValueError(f"n_rate_knots must be odd and >= 3 (0 is the middle knot), got {n_knots}")
+    top = 0.0
+    for r in records:
+        avg = average_periods(r, noise_free=r.n_periods < 2)
+        N = avg.n_samples
+        C = fourier_coefficients(avg.phi_rad, 1, n_harmonics)
+        noise = np.sqrt(avg.var_phi_rad2 * (2 * n_harmonics + 1) / N)
+        if np.ptp(synthesize(C, N)) > 20 * noise:
+            rate = synthesize(1j * np.arange(n_harmonics + 1) * avg.omega_rad_s * C, N)
+            top = max(top, float(np.max(np.abs(rate))))
+    if not top > 0:
+        raise ValueError("no record's relative angle stands out of its noise: no rate range to place knots on")
+    return np.linspace(-top, top, n_knots)
+
+
 @dataclass(frozen=True)
 class HatFit:
     """A piecewise-linear restoring torque with its uncertainty.
@@ -67,6 +87,9 @@ class HatFit:
       lam: the penalty weight used (0: none); gcv: ``(lambda, GCV score)`` over the grid
         (empty when lambda was given).
       result: the full ML result (Je, damping and the g_i).
+      rate_knots_rad_s, f_Nm, f_covariance_Nm2: the damping torque f(phi') on hat functions of
+        the rate (eq. 9) when asked for (f = 0 at the middle knot, phi' = 0: a constant torque
+        belongs to g); else empty.
     """
 
     knots_rad: np.ndarray
@@ -75,6 +98,9 @@ class HatFit:
     lam: float
     gcv: tuple[tuple[float, float], ...]
     result: EivResult
+    rate_knots_rad_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    f_Nm: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    f_covariance_Nm2: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
 
     def band(self, phi_rad: np.ndarray, z: float = 1.959963984540054) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(g, lower, upper)`` at ``phi_rad`` (N m); the band is +-z posterior standard deviations."""
@@ -83,33 +109,71 @@ class HatFit:
         sd = np.sqrt(np.einsum("ij,jk,ik->i", H, self.covariance_Nm2, H))
         return g, g - z * sd, g + z * sd
 
+    def band_f(self, rate_rad_s: np.ndarray, z: float = 1.959963984540054
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(f, lower, upper)`` of the damping torque at ``rate_rad_s`` (N m)."""
+        if not self.f_Nm.size:
+            raise ValueError("this fit has no hat functions of the rate (pass n_rate_knots)")
+        H = hat_matrix(np.asarray(rate_rad_s, dtype=float), self.rate_knots_rad_s)
+        H = np.delete(H, self.rate_knots_rad_s.size // 2, axis=1)  # f = 0 at the middle knot
+        f = H @ self.f_Nm
+        sd = np.sqrt(np.einsum("ij,jk,ik->i", H, self.f_covariance_Nm2, H))
+        return f, f - z * sd, f + z * sd
+
+
+def _second_differences(n_params: int, first: int, n: int, skip: int = -1) -> np.ndarray:
+    """Rows (1, -2, 1) over ``n`` consecutive knot values stored from ``first``; the knot
+    ``skip`` is fixed at 0 (not a parameter) and the parameters after it shift down by one."""
+    def col(j):
+        return None if j == skip else first + (j if skip < 0 or j < skip else j - 1)
+
+    rows = []
+    for i in range(n - 2):
+        row = np.zeros(n_params)
+        for j, w in zip((i, i + 1, i + 2), (1.0, -2.0, 1.0)):
+            c = col(j)
+            if c is not None:
+                row[c] = w
+        rows.append(row)
+    return np.array(rows).reshape(-1, n_params)
+
 
 def fit_hat_law(records: Sequence[SteadyStateRecord], *, n_knots: int, n_harmonics: int, torque_share: float,
                 damping: Sequence[Term] = (Viscous(),), lam: Optional[float] = None,
-                knots_rad: Optional[Sequence[float]] = None) -> HatFit:
-    """Identify ``g(phi)`` on hat functions (and the damping terms, and Je) from noisy runs.
+                knots_rad: Optional[Sequence[float]] = None, n_rate_knots: Optional[int] = None) -> HatFit:
+    """Identify ``g(phi)`` on hat functions (and the damping, and Je) from noisy runs.
 
     Args:
       records: measured runs with at least 2 periods each (noise from their variation).
       n_knots: number of knots over the measured range of phi (ignored with ``knots_rad``).
-      damping: the damping terms beside g (default viscous).
+      damping: the damping terms beside g (default viscous); ignored with ``n_rate_knots``.
       lam: penalty weight; None chooses it by GCV over :data:`LAMBDA_GRID`; 0 turns it off.
+      n_rate_knots: identify the damping torque f(phi') on this many hat functions of the rate
+        (odd; eq. 9) instead of ``damping``; the penalty then smooths f too.
     """
     knots = (np.asarray(knots_rad, dtype=float) if knots_rad is not None
              else knots_from_range(records, n_knots, n_harmonics))
     hats = angle_hats(knots)
+    rknots = np.zeros(0)
+    if n_rate_knots is not None:
+        rknots = rate_knots_from_range(records, n_rate_knots, n_harmonics)
+        rh = rate_hats(rknots)
+        damping = tuple(h for i, h in enumerate(rh) if i != len(rh) // 2)  # f(0) = 0
     terms = tuple(damping) + hats
     runs = prepare_runs(records, terms, n_harmonics=n_harmonics, torque_share=torque_share)
     p = 1 + len(terms)
     first = 1 + len(damping)
     m = len(hats)
-    D2 = np.zeros((m - 2, p))
-    for i in range(m - 2):
-        D2[i, first + i: first + i + 3] = (1.0, -2.0, 1.0)
-    # Make lambda dimensionless: the penalty rows on the scale of the g columns of the whitened data.
+    blocks = [_second_differences(p, first, m)]
+    if n_rate_knots is not None:
+        blocks.append(_second_differences(p, 1, n_rate_knots, skip=n_rate_knots // 2))
+    # Make lambda dimensionless: each block on the scale of its columns in the whitened data.
     J0, _ = linearised(runs, _weighted_ls(runs))
-    norm = np.linalg.norm(J0[:, first:]) / max(np.linalg.norm(D2), 1e-300)
-    P = D2 * norm
+    scaled = []
+    for D in blocks:
+        cols = np.flatnonzero(np.any(D != 0, axis=0))
+        scaled.append(D * np.linalg.norm(J0[:, cols]) / max(np.linalg.norm(D), 1e-300))
+    P = np.vstack(scaled)
     gcv: list[tuple[float, float]] = []
     if lam is None:
         theta0 = _gls(runs, _weighted_ls(runs), penalty=np.sqrt(LAMBDA_GRID[0]) * P)
@@ -126,4 +190,7 @@ def fit_hat_law(records: Sequence[SteadyStateRecord], *, n_knots: int, n_harmoni
     res = solve_penalised(runs, terms, np.sqrt(lam) * P if lam > 0 else None)
     g = res.values[first:]
     cov = res.covariance[first:, first:]
-    return HatFit(knots, g, cov, float(lam), tuple(gcv), res)
+    if n_rate_knots is None:
+        return HatFit(knots, g, cov, float(lam), tuple(gcv), res)
+    return HatFit(knots, g, cov, float(lam), tuple(gcv), res, rknots, res.values[1:first],
+                  res.covariance[1:first, 1:first])

@@ -131,15 +131,18 @@ def log_restoring_force(rec: rr.RecordingStream, true_law: Optional[JointLaw], i
 
 def log_restoring_band(rec: rr.RecordingStream, phi_rad: np.ndarray, g_Nm: np.ndarray, lower_Nm: np.ndarray,
                        upper_Nm: np.ndarray, true_law: Optional[JointLaw] = None,
-                       others: Optional[dict[str, np.ndarray]] = None) -> None:
+                       others: Optional[dict[str, np.ndarray]] = None, *, entity: str = "restoring_force",
+                       index: str = "phi_urad") -> None:
     """An identified restoring torque g(phi) with its confidence band (lower, upper), beside
-    the true law when known and any other curves (e.g. the best polynomial), over phi."""
-    idx = [rr.TimeColumn("phi_urad", sequence=np.round(np.asarray(phi_rad) * 1e6).astype(np.int64))]
+    the true law when known and any other curves (e.g. the best polynomial), over phi. With
+    ``entity="damping_force", index="rate_urad_s"`` the same for f(phi') over the rate (pass the
+    true curve in ``others``)."""
+    idx = [rr.TimeColumn(index, sequence=np.round(np.asarray(phi_rad) * 1e6).astype(np.int64))]
     curves = {"identified_Nm": g_Nm, "band_lower_Nm": lower_Nm, "band_upper_Nm": upper_Nm, **(others or {})}
     if true_law is not None:
         curves["true_Nm"] = np.asarray(true_law.elastic_torque(phi_rad), dtype=float)
     for name, y in curves.items():
-        rec.send_columns(f"restoring_force/{name}", indexes=idx,
+        rec.send_columns(f"{entity}/{name}", indexes=idx,
                          columns=rr.Scalars.columns(scalars=np.asarray(y, dtype=float)))
 
 

@@ -40,6 +40,9 @@ def main(argv=None) -> int:
     p.add_argument("--periods", type=int, default=8, help="measured periods per run (default: %(default)s)")
     p.add_argument("--harmonics", type=int, default=9, help="harmonics 0..H balanced (default: %(default)s)")
     p.add_argument("--lam", type=float, default=None, help="penalty weight (default: chosen by GCV; 0: none)")
+    p.add_argument("--rate-knots", type=int, default=None, metavar="N",
+                   help="also identify the damping torque f(phi') on N (odd) hat functions of the rate (eq. 9) "
+                        "instead of viscous damping")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--rrd", type=Path, default=Path("runs/unknown_law.rrd"))
     p.add_argument("--png", type=Path, default=Path("runs/unknown_law.png"))
@@ -49,7 +52,7 @@ def main(argv=None) -> int:
     rng = np.random.default_rng(args.seed)
     noisy = [add_noise(repeat_periods(r, args.periods), args.noise_db, rng) for r in records]
     fit = fit_hat_law(noisy, n_knots=args.knots, n_harmonics=args.harmonics, torque_share=rig.torque_share,
-                      lam=args.lam)
+                      lam=args.lam, n_rate_knots=args.rate_knots)
     phi = np.linspace(fit.knots_rad[0], fit.knots_rad[-1], 801)
     g, lo, hi = fit.band(phi)
     true = np.asarray(rig.law.elastic_torque(phi), dtype=float)
@@ -61,8 +64,17 @@ def main(argv=None) -> int:
     print(f"{rig.path.name}: {len(noisy)} runs x {args.periods} periods at {args.noise_db:g} dB; {args.knots} knots on "
           f"[{fit.knots_rad[0]:.3f}, {fit.knots_rad[-1]:.3f}] rad; penalty lambda = {fit.lam:.2g}"
           + (" (GCV)" if fit.gcv else ""))
-    print(f"Je = {fit.result.value('Je_kgm2'):.5g} +- {fit.result.std_error('Je_kgm2'):.2g} kg m^2, "
-          f"c = {fit.result.value('c_Nms_per_rad'):.5g} +- {fit.result.std_error('c_Nms_per_rad'):.2g} N m s/rad")
+    print(f"Je = {fit.result.value('Je_kgm2'):.5g} +- {fit.result.std_error('Je_kgm2'):.2g} kg m^2"
+          + (f", c = {fit.result.value('c_Nms_per_rad'):.5g} +- {fit.result.std_error('c_Nms_per_rad'):.2g} N m s/rad"
+             if "c_Nms_per_rad" in fit.result.names else ""))
+    if fit.f_Nm.size:
+        rate = np.linspace(fit.rate_knots_rad_s[0], fit.rate_knots_rad_s[-1], 801)
+        f, flo, fhi = fit.band_f(rate)
+        true_f = np.asarray(rig.law.torque(np.zeros_like(rate), rate), dtype=float) - np.asarray(
+            rig.law.elastic_torque(np.zeros_like(rate)), dtype=float)
+        print(f"damping torque f(phi') on {args.rate_knots} knots over +-{fit.rate_knots_rad_s[-1]:.2f} rad/s: RMS error "
+              f"{np.sqrt(np.mean((f - true_f) ** 2)):.1f} N m of {np.max(np.abs(true_f)):.0f}; the band holds the true "
+              f"f over {np.mean((true_f >= flo) & (true_f <= fhi)):.1%} of the range")
     print(f"{'phi_rad':>9s} {'g_Nm':>10s} {'+- std err':>10s} {'true_Nm':>10s}")
     for k, v, e in zip(fit.knots_rad, fit.g_Nm, se):
         print(f"{k:9.4f} {v:10.1f} {e:10.1f} {float(rig.law.elastic_torque(np.array([k]))[0]):10.1f}")
@@ -72,6 +84,9 @@ def main(argv=None) -> int:
     if args.rrd:
         with open_recording(args.rrd) as rec:
             log_restoring_band(rec, phi, g, lo, hi, rig.law, {"best_quintic_Nm": quintic})
+            if fit.f_Nm.size:
+                log_restoring_band(rec, rate, f, flo, fhi, None, {"true_Nm": true_f}, entity="damping_force",
+                                   index="rate_urad_s")
             log_parameter_table(rec, f"hat fit: {args.knots} knots, lambda {fit.lam:.2g}, RMS error {rms:.1f} N m, "
                                      f"best quintic {rms5:.1f} N m, band holds the truth over {covered:.1%}")
         print(f"wrote {args.rrd}")
