@@ -447,6 +447,13 @@ class JointLaw:
     def as_dict(self) -> dict[str, float]:
         return dict(zip(self.names, self.values))
 
+    def with_values(self, **values: float) -> "JointLaw":
+        """The same terms with some parameters changed, by name (``law.with_values(c_Nms_per_rad=5)``)."""
+        unknown = sorted(set(values) - set(self.names))
+        if unknown:
+            raise ValueError(f"JointLaw.with_values: no parameters {unknown}; the law has {list(self.names)}")
+        return JointLaw(self.terms, tuple(values.get(n, v) for n, v in zip(self.names, self.values)))
+
     def torque(self, phi: ArrayLike, rate: ArrayLike) -> ArrayLike:
         """Joint torque ``M_v`` in N m at relative angle ``phi`` (rad) and rate (rad/s).
 

@@ -79,40 +79,35 @@ class PeriodAverage:
         return self.phi_rad.size
 
 
-def average_periods(record: SteadyStateRecord, *, noise_free: bool = False) -> PeriodAverage:
+def average_periods(record: SteadyStateRecord, *, noise_free: bool = False,
+                    periods: slice = slice(None)) -> PeriodAverage:
     """Mean period and noise variance of the mean from the period-to-period variation.
 
     ``noise_free=True`` (simulated records without noise, one period allowed) sets both
-    variances to 0. Otherwise at least 2 periods are needed.
+    variances to 0. Otherwise at least 2 periods are needed. ``periods`` selects the periods
+    to use (all by default).
     """
     P, N = record.n_periods, record.samples_per_period
-    phi = record.phi_rad.reshape(P, N)
-    u = record.torque_Nm.reshape(P, N)
+    phi = record.phi_rad.reshape(P, N)[periods]
+    u = record.torque_Nm.reshape(P, N)[periods]
+    k = phi.shape[0]
     if noise_free:
-        return PeriodAverage(record.omega_rad_s, phi.mean(axis=0), u.mean(axis=0), 0.0, 0.0, P, record.source)
-    if P < 2:
-        raise RecordError(f"{record.source}: {P} period(s); the noise estimate needs at least 2 "
+        return PeriodAverage(record.omega_rad_s, phi.mean(axis=0), u.mean(axis=0), 0.0, 0.0, k, record.source)
+    if k < 2:
+        raise RecordError(f"{record.source}: {k} period(s); the noise estimate needs at least 2 "
                           f"measured periods (8 give 7 degrees of freedom per sample)")
-    var_phi = float(phi.var(axis=0, ddof=1).mean()) / P
-    var_u = float(u.var(axis=0, ddof=1).mean()) / P
-    return PeriodAverage(record.omega_rad_s, phi.mean(axis=0), u.mean(axis=0), var_phi, var_u, P, record.source)
+    var_phi = float(phi.var(axis=0, ddof=1).mean()) / k
+    var_u = float(u.var(axis=0, ddof=1).mean()) / k
+    return PeriodAverage(record.omega_rad_s, phi.mean(axis=0), u.mean(axis=0), var_phi, var_u, k, record.source)
 
 
 def _halves(record: SteadyStateRecord) -> Optional[tuple[PeriodAverage, PeriodAverage]]:
     """Mean periods of the first and the second half of the periods (independent noise), with
     the noise of each from its own periods; None below 4 periods."""
-    P, N = record.n_periods, record.samples_per_period
+    P = record.n_periods
     if P < 4:
         return None
-    out = []
-    for sel in (slice(0, P // 2), slice(P // 2, P)):
-        phi = record.phi_rad.reshape(P, N)[sel]
-        u = record.torque_Nm.reshape(P, N)[sel]
-        k = phi.shape[0]
-        out.append(PeriodAverage(record.omega_rad_s, phi.mean(axis=0), u.mean(axis=0),
-                                 float(phi.var(axis=0, ddof=1).mean()) / k, float(u.var(axis=0, ddof=1).mean()) / k,
-                                 k, record.source))
-    return out[0], out[1]
+    return average_periods(record, periods=slice(0, P // 2)), average_periods(record, periods=slice(P // 2, P))
 
 
 @functools.lru_cache(maxsize=32)
@@ -262,6 +257,8 @@ class EivResult:
 
 
 def _whitened(runs: Sequence[_Run], theta: np.ndarray) -> np.ndarray:
+    """``L^-1 (A theta - F)`` per run, C(theta) = L L' (the ML residual; one triangular solve of a
+    vector per run, where :func:`linearised` solves the whole [A])."""
     out = []
     for r in runs:
         L = linalg.cholesky(r.covariance(theta), lower=True)
@@ -279,15 +276,9 @@ def _gls(runs: Sequence[_Run], theta: np.ndarray, iterations: int = 6, penalty: 
     likelihood's global minimum. ``penalty`` rows (already scaled by sqrt(lambda)) are appended.
     """
     for _ in range(iterations):
-        As, Fs = [], []
-        for r in runs:
-            L = linalg.cholesky(r.covariance(theta), lower=True)
-            As.append(linalg.solve_triangular(L, r.A, lower=True))
-            Fs.append(linalg.solve_triangular(L, r.F, lower=True))
+        A, F = linearised(runs, theta)
         if penalty is not None:
-            As.append(penalty)
-            Fs.append(np.zeros(penalty.shape[0]))
-        A, F = np.vstack(As), np.concatenate(Fs)
+            A, F = np.vstack([A, penalty]), np.concatenate([F, np.zeros(penalty.shape[0])])
         d = 1 / np.where(np.linalg.norm(A, axis=0) > 0, np.linalg.norm(A, axis=0), 1)
         theta = np.linalg.lstsq(A * d, F, rcond=None)[0] * d
     return theta
@@ -342,8 +333,7 @@ def _solve(runs: Sequence[_Run], terms: Sequence[Term], halves=None, penalty: Op
     starts = [start] + ([_instrumental(runs, halves, start)] if halves is not None and penalty is None else [])
     # Scale each unknown by its whitened column norm at the start (steps of ~1 standard
     # error), not by its start value: a start near 0 (gamma under heavy noise) would freeze it.
-    norms = np.sqrt(sum(np.sum(linalg.solve_triangular(linalg.cholesky(r.covariance(start), lower=True), r.A,
-                                                       lower=True) ** 2, axis=0) for r in runs))
+    norms = np.linalg.norm(linearised(runs, start)[0], axis=0)
     scale = 1 / np.where(norms > 0, norms, 1.0)
     n_rows = sum(r.F.size for r in runs)
 
@@ -410,9 +400,7 @@ def fisher_per_period(noiseless: Sequence[SteadyStateRecord], terms: Sequence[Te
     for rec, vp, vu in zip(noiseless, var_phi_rad2, var_torque_Nm2, strict=True):
         avg = average_periods(rec, noise_free=True)
         avg = PeriodAverage(avg.omega_rad_s, avg.phi_rad, avg.torque_Nm, vp, vu, 1, avg.source)
-        r = _prepare(avg, terms, n_harmonics, torque_share, rate_band, noisy=False)
-        L = linalg.cholesky(r.covariance(theta), lower=True)
-        W = linalg.solve_triangular(L, r.A, lower=True)
+        W, _ = linearised([_prepare(avg, terms, n_harmonics, torque_share, rate_band, noisy=False)], theta)
         out.append(W.T @ W)
     return out
 

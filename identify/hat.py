@@ -36,45 +36,39 @@ __all__ = ["HatFit", "fit_hat_law", "knots_from_range", "rate_knots_from_range",
 LAMBDA_GRID = tuple(float(x) for x in np.logspace(-8, 2, 21))
 
 
-def knots_from_range(records: Sequence[SteadyStateRecord], n_knots: int, n_harmonics: int) -> np.ndarray:
-    """``n_knots`` knots spread uniformly over the measured range of phi (rad).
-
-    The range is taken from each run's mean period band-limited to harmonics 0..H (what the
-    balance sees), from the runs whose swing stands out of their noise (20 x the band-limited
+def _trusted_signals(records: Sequence[SteadyStateRecord], n_harmonics: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """``(phi, phi')`` of each run's mean period band-limited to harmonics 0..H (what the balance
+    sees), for the runs whose angle swing stands out of its noise (20 x the band-limited
     noise's standard deviation): with noise set relative to each encoder's own swing, the
-    relative angle of a slow run (large rigid rotation) can be mostly noise.
-    """
-    if n_knots < 3:
-        raise ValueError(f"n_knots must be >= 3, got {n_knots}")
-    lo, hi = np.inf, -np.inf
-    for r in records:
-        avg = average_periods(r, noise_free=r.n_periods < 2)
-        N = avg.n_samples
-        smooth = synthesize(fourier_coefficients(avg.phi_rad, 1, n_harmonics), N)
-        noise = np.sqrt(avg.var_phi_rad2 * (2 * n_harmonics + 1) / N)
-        if np.ptp(smooth) > 20 * noise:
-            lo, hi = min(lo, float(smooth.min())), max(hi, float(smooth.max()))
-    if not hi > lo:
-        raise ValueError("no record's relative angle stands out of its noise: no range to place knots on")
-    return np.linspace(lo, hi, n_knots)
-
-
-def rate_knots_from_range(records: Sequence[SteadyStateRecord], n_knots: int, n_harmonics: int) -> np.ndarray:
-    """An odd number of knots (rad/s) symmetric about 0 over the largest measured |phi'| (the
-    band-limited derivative of the mean period, from the runs that stand out of their noise)."""
-    if n_knots < 3 or n_knots % 2 == 0:
-        raise ValueError(f"n_rate_knots must be odd and >= 3 (0 is the middle knot), got {n_knots}")
-    top = 0.0
+    relative angle of a slow run (large rigid rotation) can be mostly noise."""
+    out = []
     for r in records:
         avg = average_periods(r, noise_free=r.n_periods < 2)
         N = avg.n_samples
         C = fourier_coefficients(avg.phi_rad, 1, n_harmonics)
-        noise = np.sqrt(avg.var_phi_rad2 * (2 * n_harmonics + 1) / N)
-        if np.ptp(synthesize(C, N)) > 20 * noise:
-            rate = synthesize(1j * np.arange(n_harmonics + 1) * avg.omega_rad_s * C, N)
-            top = max(top, float(np.max(np.abs(rate))))
-    if not top > 0:
-        raise ValueError("no record's relative angle stands out of its noise: no rate range to place knots on")
+        phi = synthesize(C, N)
+        if np.ptp(phi) > 20 * np.sqrt(avg.var_phi_rad2 * (2 * n_harmonics + 1) / N):
+            out.append((phi, synthesize(1j * np.arange(n_harmonics + 1) * avg.omega_rad_s * C, N)))
+    if not out:
+        raise ValueError("no record's relative angle stands out of its noise: no range to place knots on")
+    return out
+
+
+def knots_from_range(records: Sequence[SteadyStateRecord], n_knots: int, n_harmonics: int) -> np.ndarray:
+    """``n_knots`` knots spread uniformly over the measured range of phi (rad), from the
+    runs whose angle stands out of its noise (:func:`_trusted_signals`)."""
+    if n_knots < 3:
+        raise ValueError(f"n_knots must be >= 3, got {n_knots}")
+    sig = _trusted_signals(records, n_harmonics)
+    return np.linspace(min(float(phi.min()) for phi, _ in sig), max(float(phi.max()) for phi, _ in sig), n_knots)
+
+
+def rate_knots_from_range(records: Sequence[SteadyStateRecord], n_knots: int, n_harmonics: int) -> np.ndarray:
+    """An odd number of knots (rad/s) symmetric about 0 over the largest measured |phi'|, from
+    the same runs as :func:`knots_from_range`."""
+    if n_knots < 3 or n_knots % 2 == 0:
+        raise ValueError(f"n_rate_knots must be odd and >= 3 (0 is the middle knot), got {n_knots}")
+    top = max(float(np.max(np.abs(rate))) for _, rate in _trusted_signals(records, n_harmonics))
     return np.linspace(-top, top, n_knots)
 
 
@@ -168,7 +162,8 @@ def fit_hat_law(records: Sequence[SteadyStateRecord], *, n_knots: int, n_harmoni
     if n_rate_knots is not None:
         blocks.append(_second_differences(p, 1, n_rate_knots, skip=n_rate_knots // 2))
     # Make lambda dimensionless: each block on the scale of its columns in the whitened data.
-    J0, _ = linearised(runs, _weighted_ls(runs))
+    ls = _weighted_ls(runs)
+    J0, _ = linearised(runs, ls)
     scaled = []
     for D in blocks:
         cols = np.flatnonzero(np.any(D != 0, axis=0))
@@ -176,7 +171,7 @@ def fit_hat_law(records: Sequence[SteadyStateRecord], *, n_knots: int, n_harmoni
     P = np.vstack(scaled)
     gcv: list[tuple[float, float]] = []
     if lam is None:
-        theta0 = _gls(runs, _weighted_ls(runs), penalty=np.sqrt(LAMBDA_GRID[0]) * P)
+        theta0 = _gls(runs, ls, penalty=np.sqrt(LAMBDA_GRID[0]) * P)
         J, y = linearised(runs, theta0)
         JtJ, Jty, PtP = J.T @ J, J.T @ y, P.T @ P
         n = y.size

@@ -41,39 +41,26 @@ def add_noise(record: SteadyStateRecord, snr_db: Optional[float], rng: np.random
     (sensors whose noise does not scale with the signal)."""
     if snr_db is not None and not math.isfinite(snr_db):
         raise ValueError(f"snr_db must be a finite number (dB) or None, got {snr_db}")
-    if sigma is not None:
-        if len(sigma) != 2 or not all(math.isfinite(x) and x >= 0 for x in sigma):
-            raise ValueError(f"sigma must be (angle_rad, torque_Nm), finite and >= 0, got {sigma}")
-        return _fixed_noise(record, sigma, rng, encoder_resolution_rad)
+    if sigma is not None and (len(sigma) != 2 or not all(math.isfinite(x) and x >= 0 for x in sigma)):
+        raise ValueError(f"sigma must be (angle_rad, torque_Nm), finite and >= 0, got {sigma}")
     q = encoder_resolution_rad
     if q is not None and not (math.isfinite(q) and q > 0):
         raise ValueError(f"encoder_resolution_rad must be a finite number > 0 (rad per count), got {q}")
 
-    def noisy(x):
-        if x is None or snr_db is None:
+    def noisy(x, fixed_sd):
+        if x is None or (snr_db is None and sigma is None):
             return x
-        return x + rng.normal(0.0, noise_std(x, snr_db), x.shape)
+        return x + rng.normal(0.0, fixed_sd if sigma is not None else noise_std(x, snr_db), x.shape)
 
     def encoder(x):
         return x if x is None or q is None else np.round(x / q) * q
 
-    note = f"SNR {snr_db} dB" + (f", encoder {q:g} rad/count" if q is not None else "")
-    return replace(record, torque_Nm=noisy(record.torque_Nm), phi1_rad=encoder(noisy(record.phi1_rad)),
-                   phi2_rad=encoder(noisy(record.phi2_rad)), rate1_rad_s=None, rate2_rad_s=None,
-                   source=f"{record.source} (measured, {note})")
-
-
-def _fixed_noise(record, sigma, rng, q):
-    def noisy(x, sd):
-        return None if x is None else x + rng.normal(0.0, sd, x.shape)
-
-    def encoder(x):
-        return x if x is None or q is None else np.round(x / q) * q
-
-    return replace(record, torque_Nm=noisy(record.torque_Nm, sigma[1]),
-                   phi1_rad=encoder(noisy(record.phi1_rad, sigma[0])), phi2_rad=encoder(noisy(record.phi2_rad, sigma[0])),
-                   rate1_rad_s=None, rate2_rad_s=None,
-                   source=f"{record.source} (measured, noise {sigma[0]:.3g} rad, {sigma[1]:.3g} N m)")
+    sd_angle, sd_torque = sigma if sigma is not None else (None, None)
+    note = (f"noise {sigma[0]:.3g} rad, {sigma[1]:.3g} N m" if sigma is not None else f"SNR {snr_db} dB") + (
+        f", encoder {q:g} rad/count" if q is not None else "")
+    return replace(record, torque_Nm=noisy(record.torque_Nm, sd_torque),
+                   phi1_rad=encoder(noisy(record.phi1_rad, sd_angle)), phi2_rad=encoder(noisy(record.phi2_rad, sd_angle)),
+                   rate1_rad_s=None, rate2_rad_s=None, source=f"{record.source} (measured, {note})")
 
 
 def repeat_periods(record: SteadyStateRecord, n_periods: int) -> SteadyStateRecord:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import hashlib
 import os
 from dataclasses import dataclass
@@ -89,6 +91,11 @@ class RigModel:
     def torque_share(self) -> float:
         """``J2 / (J1 + J2)``: the part of the drive torque that strains the joint."""
         return self.J2_kgm2 / (self.J1_kgm2 + self.J2_kgm2)
+
+    def with_plant(self, plant: Union[Plant, JointLaw]) -> "RigModel":
+        """The same rig simulating another law (or plant) than its file declares."""
+        plant = Plant.of(plant)
+        return dataclasses.replace(self, law=plant.law, plant=plant)
 
 
 def _numeric_fields(model: mujoco.MjModel) -> dict[str, np.ndarray]:

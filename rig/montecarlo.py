@@ -101,14 +101,15 @@ def monte_carlo(noiseless: Sequence[SteadyStateRecord], terms: Sequence[Term], t
     base = [repeat_periods(r, P) for r, P in zip(noiseless, periods)]
     names = ("Je_kgm2",) + tuple(t.name for t in terms)
     theta0 = np.array([truth[n] for n in names])
-    # Noise per channel as add_noise draws it: sigma from the channel's own RMS.
-    quant = 0.0 if encoder_resolution_rad is None else encoder_resolution_rad**2 / 12  # per encoder
-    var_phi = [noise_std(r.phi1_rad, snr_db) ** 2 + quant
-               + (noise_std(r.phi2_rad, snr_db) ** 2 + quant if r.phi2_rad is not None else 0) for r in base]
-    var_u = [noise_std(r.torque_Nm, snr_db) ** 2 for r in base]
-    if sigma is not None:  # fixed sensor noise instead of a per-channel SNR
-        var_phi = [sigma[0] ** 2 * (2 if r.phi2_rad is not None else 1) + 2 * quant for r in base]
-        var_u = [sigma[1] ** 2] * len(base)
+    # Noise per channel as add_noise draws it: fixed (sigma) or from the channel's own RMS; the
+    # encoder adds q^2 / 12 per angle.
+    quant = 0.0 if encoder_resolution_rad is None else encoder_resolution_rad**2 / 12
+
+    def var(x, fixed):
+        return fixed**2 if sigma is not None else noise_std(x, snr_db) ** 2
+
+    var_phi = [sum(var(x, sigma and sigma[0]) + quant for x in (r.phi1_rad, r.phi2_rad) if x is not None) for r in base]
+    var_u = [var(r.torque_Nm, sigma and sigma[1]) for r in base]
     bound = crlb(base, terms, theta0, var_phi_rad2=var_phi, var_torque_Nm2=var_u, n_periods=periods,
                  n_harmonics=n_harmonics, torque_share=torque_share)
     rng = np.random.default_rng(seed)

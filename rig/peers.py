@@ -107,26 +107,18 @@ def sysid_identify(records: Sequence[SteadyStateRecord], J1_kgm2: float, J2_kgm2
     params = sysid.ParameterDict()
     lo, hi = 0.1, 10.0
 
-    def setter(index):
+    def modifier(attribute: str, index: int):
+        """Set coefficient ``index`` of the relative hinge's polynomial ``attribute`` in the spec."""
         def modify(s, p):
-            stiff = np.array(s.joint("phi_rel").stiffness)
-            stiff[index] = p.value[0]
-            s.joint("phi_rel").stiffness = stiff
+            values = np.array(getattr(s.joint("phi_rel"), attribute))
+            values[index] = p.value[0]
+            setattr(s.joint("phi_rel"), attribute, values)
         return modify
 
-    params.add(sysid.Parameter("k_Nm_per_rad", nominal=start["k_Nm_per_rad"], min_value=lo * start["k_Nm_per_rad"],
-                               max_value=hi * start["k_Nm_per_rad"], modifier=setter(0)))
-    params.add(sysid.Parameter("gamma_Nm_per_rad3", nominal=start["gamma_Nm_per_rad3"],
-                               min_value=lo * start["gamma_Nm_per_rad3"], max_value=hi * start["gamma_Nm_per_rad3"],
-                               modifier=setter(2)))
-
-    def set_damping(s, p):
-        damp = np.array(s.joint("phi_rel").damping)
-        damp[0] = p.value[0]
-        s.joint("phi_rel").damping = damp
-
-    params.add(sysid.Parameter("c_Nms_per_rad", nominal=start["c_Nms_per_rad"], min_value=lo * start["c_Nms_per_rad"],
-                               max_value=hi * start["c_Nms_per_rad"], modifier=set_damping))
+    for name, attribute, index in (("k_Nm_per_rad", "stiffness", 0), ("gamma_Nm_per_rad3", "stiffness", 2),
+                                   ("c_Nms_per_rad", "damping", 0)):
+        params.add(sysid.Parameter(name, nominal=start[name], min_value=lo * start[name], max_value=hi * start[name],
+                                   modifier=modifier(attribute, index)))
     residual_fn = sysid.build_residual_fn(models_sequences=sequences)
     opt, _ = sysid.optimize(initial_params=params, residual_fn=residual_fn, optimizer="mujoco", verbose=False)
     out = {name: float(opt[name].value[0]) for name in NAMES}

@@ -26,6 +26,7 @@ from typing import Callable, Iterator, Optional, Union
 
 import mujoco
 import numpy as np
+from mujoco import rollout
 
 from identify.basis import JointLaw, play
 from identify.plant import PeriodicDrive, Plant
@@ -38,6 +39,7 @@ __all__ = [
     "SettleInfo",
     "StartState",
     "settle_bound",
+    "relative_departure",
     "SimulationError",
     "SteadyStateNotReached",
     "passive_callback",
@@ -235,6 +237,15 @@ def settle_bound(changes: list[float], settle_tol: float) -> tuple[bool, float, 
     r_d = decayed[-1]
     bound = c / (1 - r_d)
     return bound < settle_tol, bound, r_d
+
+
+def relative_departure(record: SteadyStateRecord, reference: SteadyStateRecord) -> float:
+    """Largest difference of the relative angle and of both rates between two records of the
+    same samples, relative to each channel's swing in ``reference`` (the measure of
+    ``SimulationConfig.settle_tol``, without the absolute angles)."""
+    pairs = ((record.phi_rad, reference.phi_rad), (record.rate1_rad_s, reference.rate1_rad_s),
+             (record.rate2_rad_s, reference.rate2_rad_s))
+    return max(float(np.max(np.abs(a - b)) / np.ptp(b)) for a, b in pairs)
 
 
 def make_callback(rig: RigModel, plant: Union[Plant, JointLaw], drive: PeriodicDrive, errors: list,
@@ -473,8 +484,6 @@ def simulate_steady_state(
     def rollout_period() -> tuple[np.ndarray, np.ndarray]:
         # One C call per period: row j of `st` is the state after step j, row j of `sd` the
         # sensors computed during step j, i.e. at the state before it (as in stepped_period).
-        from mujoco import rollout
-
         mujoco.mj_getState(m, d, state, spec)
         st, sd = rollout.rollout(m, d, state[None], nstep=n * k)
         tbuf = np.concatenate(([state[0]], st[0, k - 1:-1:k, 0]))
@@ -482,6 +491,13 @@ def simulate_steady_state(
         return sd[0, ::k][:, idx], tbuf
 
     advance = rollout_period if use_rollout else stepped_period
+    # The settle test watches the relative angle (the joint's) and both rates, plus the absolute
+    # angles only when they must repeat too.
+    names = ("phi1 - phi2",) + channels[2:4] + (channels[:2] if config.absolute_angles_periodic else ())
+
+    def watched(b):
+        return np.column_stack([b[:, 0] - b[:, 1], b[:, 2:4]] + ([b[:, :2]] if config.absolute_angles_periodic else []))
+
     with installed, _activated(nat, d):
         p = 0
         while True:
@@ -494,14 +510,7 @@ def simulate_steady_state(
                 raise SimulationError(f"{where}: non-finite state in period {p}")
             if settled_at is None:
                 if periods:
-                    # The relative angle always counts (it is the joint's); the absolute ones
-                    # only when they must repeat too.
-                    def watched(b):
-                        return np.column_stack([b[:, 0] - b[:, 1], b[:, 2:4]]
-                                               + ([b[:, :2]] if config.absolute_angles_periodic else []))
-
                     cur, prev = watched(buf), watched(periods[-1])
-                    names = ("phi1 - phi2",) + channels[2:4] + (channels[:2] if config.absolute_angles_periodic else ())
                     swing = np.ptp(cur, axis=0)
                     diff = np.max(np.abs(cur - prev), axis=0)
                     rel = diff / np.where(swing > 0, swing, 1.0)

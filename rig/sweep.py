@@ -372,11 +372,15 @@ _worker_rigs: dict[str, RigModel] = {}
 _worker_lock = threading.Lock()
 
 
-def _remote_segment(model_name: str, model_text: bytes, digest: str, tasks, config: SimulationConfig,
+_python_callback_lock = threading.Lock()
+
+
+def _remote_segment(model_name: str, model_text: bytes, digest: str, plant, tasks, config: SimulationConfig,
                     native: bool, continuation: bool) -> list[SweepPoint]:
     """A dask task: rebuild the rig from the model text (cached per worker process by digest),
-    check it is the same model, simulate the segment. Python-callback simulations in one
-    worker process run one at a time (the callback is process-global)."""
+    check it is the same model, give it the client's plant (which may differ from the file's),
+    simulate the segment. Python-callback simulations in one worker process run one at a time
+    (the callback is process-global)."""
     with _worker_lock:
         rig = _worker_rigs.get(digest)
         if rig is None:
@@ -388,6 +392,7 @@ def _remote_segment(model_name: str, model_text: bytes, digest: str, tasks, conf
                 raise RuntimeError(f"{model_name}: the worker's model digest {rig.digest} differs from "
                                    f"the client's {digest}")
             _worker_rigs[digest] = rig
+    rig = rig.with_plant(plant)
     if native:
         from .native_callback import native_session
 
@@ -395,9 +400,6 @@ def _remote_segment(model_name: str, model_text: bytes, digest: str, tasks, conf
             return simulate_segment(rig, tasks, config, native, continuation)
     with _python_callback_lock:
         return simulate_segment(rig, tasks, config, native, continuation)
-
-
-_python_callback_lock = threading.Lock()
 
 
 def _run_dask(rig: RigModel, segments, points_of, tasks_of, config, native, continuation, workers, scheduler,
@@ -417,8 +419,8 @@ def _run_dask(rig: RigModel, segments, points_of, tasks_of, config, native, cont
         log.info("dask cluster %s: %d segment(s)", client.scheduler.address, len(segments))
         futures = {}
         for seg in _longest_first(segments, points_of, config):
-            fut = client.submit(_remote_segment, Path(rig.path).name, text, rig.digest, tasks_of(seg), config,
-                                native, continuation, pure=False)
+            fut = client.submit(_remote_segment, Path(rig.path).name, text, rig.digest, rig.plant, tasks_of(seg),
+                                config, native, continuation, pure=False)
             futures[fut] = seg
         for fut in as_completed(futures):
             for i, point in zip(futures[fut], fut.result()):

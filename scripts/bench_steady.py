@@ -24,29 +24,19 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import sys
 from pathlib import Path
 
 import numpy as np
 
 from identify import identify
-from identify.basis import JointLaw
-from identify.plant import Plant
 from rig import SimulationConfig, load_rig
+from rig.simulate import relative_departure
 from rig.sweep import DEFAULT_PLAN, simulate_segment, write_json_atomic
 
 
 REFERENCE_EXTRA = 30
 VERBOSE = False
-
-
-def _error(rec, ref) -> float:
-    """Largest difference of relative angle and rates, relative to each channel's swing."""
-    out = 0.0
-    for a, b in ((rec.phi_rad, ref.phi_rad), (rec.rate1_rad_s, ref.rate1_rad_s), (rec.rate2_rad_s, ref.rate2_rad_s)):
-        out = max(out, float(np.max(np.abs(a - b)) / np.ptp(b)))
-    return out
 
 
 def _sweep(rig, config, continuation: bool):
@@ -75,7 +65,7 @@ def bench(rig, label: str) -> dict:
     out = {"model": label, "settle_tol": cfg.settle_tol}
     for k in ("rest", "continuation"):
         pts = runs[k]
-        errs = [_error(p.record, r.record) for p, r in zip(pts, ref)]
+        errs = [relative_departure(p.record, r.record) for p, r in zip(pts, ref)]
         if VERBOSE:
             for p, e in zip(pts, errs):
                 print(f"    {k} w {p.record.omega_rad_s:5.1f} M {p.record.drive_amplitude_Nm:6.0f}: {p.settle.periods_simulated:4d} periods, "
@@ -104,9 +94,7 @@ def main(argv=None) -> int:
     global VERBOSE
     VERBOSE = args.points
     rig = load_rig()
-    light_law = JointLaw(rig.law.terms, tuple(5.0 if t.name.startswith("c_") else v
-                                              for t, v in zip(rig.law.terms, rig.law.values)))
-    light = dataclasses.replace(rig, law=light_law, plant=dataclasses.replace(rig.plant, law=light_law))
+    light = rig.with_plant(rig.law.with_values(c_Nms_per_rad=5.0))
     results = [bench(rig, "paper joint, c = 100 N m s/rad"), bench(light, "light damping, c = 5 N m s/rad")]
     for r in results:
         print(f"{r['model']} (settle_tol {r['settle_tol']:g}; reference {r['reference_periods']} periods):")

@@ -58,7 +58,8 @@ def main(argv=None) -> int:
     # encoders together) and largest torque: a per-channel SNR on every candidate would make
     # small-swing runs nearly noise-free, and one set by the absolute angles' rigid swing
     # (100 rad at 1 rad/s) would drown the joint's deflection.
-    default_recs = [r for r, pt in zip(records, points) if pt in set(DEFAULT_PLAN.points())]
+    in_default = set(DEFAULT_PLAN.points())
+    default_recs = [r for r, pt in zip(records, points) if pt in in_default]
     sigma = (max(noise_std(r.phi_rad, args.snr_db) for r in default_recs) / np.sqrt(2),
              max(noise_std(r.torque_Nm, args.snr_db) for r in default_recs))
     var_phi = [2 * sigma[0] ** 2] * len(records)
@@ -66,7 +67,7 @@ def main(argv=None) -> int:
     F = fisher_per_period(records, rig.law.terms, theta, var_phi_rad2=var_phi, var_torque_Nm2=var_u,
                           n_harmonics=args.harmonics, torque_share=rig.torque_share)
     T = [2 * np.pi / w for w, _ in points]
-    default = [DEFAULT_PERIODS if (w, a) in set(DEFAULT_PLAN.points()) else 0 for w, a in points]
+    default = [DEFAULT_PERIODS if pt in in_default else 0 for pt in points]
     budget = args.budget_s if args.budget_s is not None else design_cost_s(default, T, args.setup_s)
     F_default = sum(k * f for k, f in zip(default, F))
     design = d_optimal(F, T, budget, setup_s=args.setup_s)

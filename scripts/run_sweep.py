@@ -156,16 +156,16 @@ def main(argv=None) -> int:
         records = [add_noise(repeat_periods(r, args.periods), args.noise_db, rng) for r in records]
     if excitations is not None:
         print("\nNon-excited lines of the relative angle (mean power per line, relative to the excited lines):")
+        def db(x, ref):
+            return f"{10 * math.log10(x / ref):6.0f} dB" if x > 0 else "  -inf dB"
+
         for rec, m, rj in zip(records, excitations, runs_json):
             lv = line_levels(rec, m, args.harmonics)
             rj["line_levels_rad2"] = {"excited": lv.excited, "odd_detection": lv.odd_detection, "even": lv.even,
                                       "noise": lv.noise}
-
-            def db(x):
-                return f"{10 * math.log10(x / lv.excited):6.0f} dB" if x > 0 else "  -inf dB"
-
-            print(f"  RMS {m.rms_Nm:6.0f} N m: odd detection lines {db(lv.odd_detection)} (odd distortion), even "
-                  f"lines {db(lv.even)} (even distortion)" + (f", noise {db(lv.noise)}" if lv.noise > 0 else ""))
+            print(f"  RMS {m.rms_Nm:6.0f} N m: odd detection lines {db(lv.odd_detection, lv.excited)} (odd "
+                  f"distortion), even lines {db(lv.even, lv.excited)} (even distortion)"
+                  + (f", noise {db(lv.noise, lv.excited)}" if lv.noise > 0 else ""))
     if args.noise_db is None:
         result = identify(records, rig.law.terms, form=args.form, n_harmonics=args.harmonics,
                           torque_share=rig.torque_share)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
@@ -44,6 +43,8 @@ def test_detection_lines_show_odd_distortion_growing_with_level(multisine_runs):
     # relative to the excited lines (distortion power ~ A^6, excited ~ A^2): (2000/300)^4 = 2000.
     assert high.odd_detection > 1e-7 * high.excited
     ratio = (high.odd_detection / high.excited) / (low.odd_detection / low.excited)
+    # Measured 1776 against 1975: the A^4 law is the cubic term's leading order; at RMS 2000 N m
+    # the response also limits itself (the stiffened joint moves less), so 30% is allowed.
     assert ratio == pytest.approx((2000 / 300) ** 4, rel=0.3)
 
 

@@ -13,10 +13,9 @@ import numpy as np
 import pytest
 
 import rig.simulate as simulate_module
-from identify.basis import JointLaw
 from identify.plant import PeriodicDrive
 from rig import SimulationConfig, make_callback, passive_callback, simulate_steady_state
-from rig.simulate import settle_bound
+from rig.simulate import relative_departure, settle_bound
 from rig.sweep import SweepPlan, records_of, run_sweep, simulate_segment
 
 needs_cc = pytest.mark.skipif(not (shutil.which("cc") or shutil.which("gcc")),
@@ -29,15 +28,9 @@ def _identical(a, b):
         np.testing.assert_array_equal(getattr(a, f), getattr(b, f), err_msg=f)
 
 
-def _light(rig, c=5.0):
+def _light(rig):
     """The paper's joint with light damping (damping ratio 0.056): transients of ~100 periods."""
-    law = JointLaw(rig.law.terms, tuple(c if t.name.startswith("c_") else v for t, v in zip(rig.law.terms, rig.law.values)))
-    return dataclasses.replace(rig, law=law, plant=dataclasses.replace(rig.plant, law=law))
-
-
-def _rel_error(rec, ref) -> float:
-    return max(float(np.max(np.abs(a - b)) / np.ptp(b)) for a, b in
-               ((rec.phi_rad, ref.phi_rad), (rec.rate1_rad_s, ref.rate1_rad_s), (rec.rate2_rad_s, ref.rate2_rad_s)))
+    return rig.with_plant(rig.law.with_values(c_Nms_per_rad=5.0))
 
 
 # --- adaptive steady state (pure) ---------------------------------------------------------
@@ -92,7 +85,7 @@ def test_error_bound_holds_against_a_longer_run(rig):
     n = info.periods_simulated + 60
     ref, _ = simulate_steady_state(light, 45.0, 4000.0, dataclasses.replace(cfg, min_periods=n, max_periods=n + 1,
                                                                             settle_tol=0.5), native=True)
-    err = _rel_error(rec, ref)
+    err = relative_departure(rec, ref)
     assert 0.3 < info.decay_ratio < 0.95
     assert info.error_bound < 1e-6
     assert err <= info.error_bound
@@ -110,7 +103,7 @@ def test_continuation_reaches_the_same_steady_state(rig):
     for a, b in zip(rest, cont):
         # Both within their bounds (<= settle_tol = 1e-9) of the same steady state, plus the
         # integration floor (~1e-11).
-        assert _rel_error(b.record, a.record) <= a.settle.error_bound + b.settle.error_bound + 1e-10
+        assert relative_departure(b.record, a.record) <= a.settle.error_bound + b.settle.error_bound + 1e-10
     assert cont[0].settle.periods_simulated == rest[0].settle.periods_simulated  # first starts from rest
 
 
@@ -240,3 +233,21 @@ def test_pysindy_recovers_the_joint(rig, peer_records):
     # ~(2 pi / 256)^2 / 6 = 1e-4 in the acceleration, more on the small cubic term.
     for name, value in rig.law.as_dict().items():
         assert got.parameters[name] == pytest.approx(value, rel=2e-3), name
+
+
+def test_dask_workers_simulate_the_clients_law_not_the_files(rig):
+    # A rig given another law in memory has the same file (and digest): the workers must get
+    # the law with the task, or they would silently simulate the file's.
+    pytest.importorskip("dask.distributed")
+    light = _light(rig)
+    plan = SweepPlan((45.0,), (2500.0,))
+    local = records_of(run_sweep(light, plan, SimulationConfig()))
+    remote = records_of(run_sweep(light, plan, SimulationConfig(), workers=1, executor="dask"))
+    _identical(local[0], remote[0])
+
+
+def test_law_with_values_changes_only_the_named_parameters(rig):
+    light = rig.law.with_values(c_Nms_per_rad=5.0)
+    assert light.as_dict() == {**rig.law.as_dict(), "c_Nms_per_rad": 5.0} and light.terms == rig.law.terms
+    with pytest.raises(ValueError, match="no parameters"):
+        rig.law.with_values(k_bogus=1.0)
