@@ -191,6 +191,8 @@ class ModelSpec:
     terms: tuple[Term, ...]
     bearings: bool = False
     drive_delay_s: float = 0.0
+    #: measurement: the relative angle's zero is off by this much; the law sees phi - offset
+    angle_offset_rad: float = 0.0
 
 
 NOMINAL = ModelSpec((Viscous(), Power(1), Power(3)))
@@ -207,14 +209,27 @@ def _delayed(rec: SteadyStateRecord, delay_s: float) -> SteadyStateRecord:
                                              rec.n_periods))
 
 
+def _offset(rec: SteadyStateRecord, offset_rad: float) -> SteadyStateRecord:
+    """The record with its relative angle's zero moved by ``offset_rad`` (flywheel 1's angle
+    shifted: the inertia and rate columns see no constant)."""
+    if offset_rad == 0:
+        return rec
+    return replace(rec, phi1_rad=rec.phi1_rad - offset_rad)
+
+
 def build_system(records: Sequence[SteadyStateRecord], spec: ModelSpec, *, form: str, n_harmonics: int,
                  torque_share: float) -> LinearSystem:
-    recs = [_delayed(r, spec.drive_delay_s) for r in records]
+    """The harmonic-balance rows of harmonics 1..n_harmonics (not the mean: see :func:`diagnose`)."""
+    recs = [_offset(_delayed(r, spec.drive_delay_s), spec.angle_offset_rad) for r in records]
     if form == "two_dof":
-        return two_dof_system(recs, spec.terms, n_harmonics=n_harmonics, bearings=spec.bearings)
-    if spec.bearings:
+        system = two_dof_system(recs, spec.terms, n_harmonics=n_harmonics, bearings=spec.bearings)
+    elif spec.bearings:
         raise ValueError("bearing drag needs both flywheel angles (form 'two_dof')")
-    return equivalent_system(recs, spec.terms, n_harmonics=n_harmonics, torque_share=torque_share)
+    else:
+        system = equivalent_system(recs, spec.terms, n_harmonics=n_harmonics, torque_share=torque_share)
+    keep = system.row_harmonic > 0
+    return LinearSystem(system.A[keep], system.F[keep], system.names, system.row_record[keep],
+                        system.row_harmonic[keep], system.row_part[keep], system.row_equation[keep])
 
 
 @dataclass(frozen=True)
@@ -253,7 +268,10 @@ class Fit:
         """All parameters, with the nonlinear ones (free play, slip angle, delay) added
         (named by :func:`identify.plant.effect_parameters`, the one place that names them)."""
         law_only = Plant(_law_of(self), drive_delay_s=self.spec.drive_delay_s)
-        return {**self.as_dict(), **effect_parameters(law_only)}
+        out = {**self.as_dict(), **effect_parameters(law_only)}
+        if self.spec.angle_offset_rad:
+            out["angle_offset_rad"] = self.spec.angle_offset_rad
+        return out
 
 
 def kink_corrected_rate(phi_rad: np.ndarray, omega_rad_s: float, band: int, jump_rad_s2: float,
@@ -430,6 +448,9 @@ class Cause:
     needs_two_angles: bool = False
     nonnegative: bool = True  # a negative magnitude is unphysical (friction, damping, delay)
     profiled: Optional[str] = None  # name of the nonlinear parameter the profile search finds
+    #: "dynamic" (in the plant: the rig simulates it) or "measurement" (in the sensors: the data
+    #: are corrected for it; checked first, as a test engineer checks the instrumentation first)
+    kind: str = "dynamic"
 
 
 def _amplitude(runs) -> float:
@@ -458,8 +479,8 @@ CAUSES: tuple[Cause, ...] = (
     Cause("backlash", "free play in the elastic element: no stiffness within +-half gap",
           _with_gap, "backlash_half_gap_rad", 0, bounds=lambda runs: (1e-4 * _amplitude(runs), 0.8 * _amplitude(runs)),
           profiled="backlash_half_gap_rad"),
-    Cause("asymmetric_stiffness", "a preload and an even stiffness term: DC shift and even harmonics",
-          lambda s, h: _with_terms(s, (Power(0), Power(2))), "a_Nm_per_rad2", 2, nonnegative=False),
+    Cause("asymmetric_stiffness", "an even stiffness term a phi^2: even harmonics",
+          lambda s, h: _with_terms(s, (Power(2),)), "a_Nm_per_rad2", 1, nonnegative=False),
     Cause("hysteresis", "a Jenkins (one-element Iwan) element: spring and dry-friction slider in series",
           _with_jenkins, "hysteresis_slip_torque_Nm", 1,
           bounds=lambda runs: (1e-3 * _amplitude(runs), 0.9 * _amplitude(runs)), log_scale=True,
@@ -472,7 +493,20 @@ CAUSES: tuple[Cause, ...] = (
           profiled="drive_delay_s"),
     Cause("bearing_friction", "viscous drag of a flywheel to ground (not through the joint)",
           lambda s, h: replace(s, bearings=True), "bearing_damping_Nms_per_rad", 2, needs_two_angles=True),
+    Cause("angle_offset", "measurement: the zero of the relative angle is off (an encoder's zero); under a cubic "
+          "term it creates even harmonics as an asymmetric spring would",
+          lambda s, h: replace(s, angle_offset_rad=float(h)), "angle_offset_rad", 0,
+          bounds=lambda runs: (-_zero_bound(runs), _zero_bound(runs)), nonnegative=False,
+          profiled="angle_offset_rad", kind="measurement"),
 )
+
+#: Largest zero error of the relative angle that a bench plausibly has (rad): about 0.6 degree.
+#: A larger apparent offset is not sought as a sensor error (it would be a preloaded joint).
+ANGLE_ZERO_TOLERANCE_RAD = 0.01
+
+
+def _zero_bound(runs) -> float:
+    return min(ANGLE_ZERO_TOLERANCE_RAD, 0.1 * _amplitude(runs))
 
 #: The parameter that states each cause's size (bearing: the larger of the two flywheels').
 EFFECT_MAGNITUDE = {c.name: c.magnitude for c in CAUSES}
@@ -489,6 +523,9 @@ SEPARATING_EXCITATION = {
     "static preload test (free play is symmetric and vanishes in relative terms at large amplitude)",
     frozenset({"coulomb_friction", "backlash"}): "a low-amplitude run (inside the free play the joint "
     "transmits no elastic torque but still rubs)",
+    frozenset({"asymmetric_stiffness", "angle_offset"}): "a reading of the relative angle at rest without torque "
+    "(its true zero): under a cubic term gamma, an even term a phi^2 and an angle offset of -a / (3 gamma) give the "
+    "same harmonics",
     frozenset({"bearing_friction", "drive_delay"}): "runs at several drive frequencies (at one frequency a "
     "delay tau and a drag b1 of flywheel 1 act alike, b1 = tau omega^2 (J1 + J2); the delay's phase grows "
     "with frequency, the drag's effect falls)",
@@ -646,8 +683,59 @@ def score_cause(problem: _Problem, cause: Cause, base: Fit, weights: np.ndarray,
         # the model towards another effect's signature.
         note = f"fitted with an unphysical negative {mag[0]} = {mag[1]:.4g}: rejected"
         significant = False
+    elif significant:
+        note = _degenerate(problem, cause, ext) or _feeds_energy(ext)
+        if note:
+            significant = False
     return CauseScore(cause.name, float(delta), q, float(score), p, significant, ext, mag,
                       _signature(problem, base, ext), note=note)
+
+
+#: Parameters that dissipate energy when positive: an extended model with one of them
+#: significantly negative (beyond 2 standard errors) would feed energy in and is never adopted.
+DISSIPATIVE = ("c_Nms_per_rad", "coulomb_torque_Nm", "quadratic_damping_Nms2_per_rad2", "hysteresis_slip_torque_Nm",
+               "bearing1_damping_Nms_per_rad", "bearing2_damping_Nms_per_rad")
+
+
+def _feeds_energy(f: Fit) -> str:
+    for name in DISSIPATIVE:
+        if name in f.names:
+            v, se = f.values[f.names.index(name)], f.std_errors[f.names.index(name)]
+            if v < 0 and (not math.isfinite(se) or -v > 2 * se):
+                return (f"the extended model would hold a negative {name} = {v:.4g} +- {se:.2g}: it would feed energy "
+                        f"in: rejected")
+    return ""
+
+
+def angle_resolution(runs: Sequence["PreparedRun"], band: int) -> float:
+    """What the relative angle the law columns see resolves (rad): 3 noise standard deviations
+    of one sample of the period average band-limited to harmonics 0..band (white noise of
+    sigma per raw sample leaves sigma sqrt((2 band + 1) / (N P)) there), largest over the runs."""
+    out = 0.0
+    for r in runs:
+        sd = r.noise_std.get("phi1", 0.0)
+        if "phi2" in r.noise_std:
+            sd = math.hypot(sd, r.noise_std["phi2"])
+        N = r.raw_average.samples_per_period
+        out = max(out, 3.0 * sd * math.sqrt(min(1.0, (2 * band + 1) / N) / r.n_periods))
+    return out
+
+
+def _degenerate(problem: "_Problem", cause: "Cause", ext: Fit) -> str:
+    """A fitted cause that is really another, or nothing: a Jenkins element whose slip angle is
+    below what the angles resolve never sticks (it is dry friction); a free play below it is
+    no free play. Empty if the cause stands as fitted."""
+    if cause.bounds is None or cause.profiled not in ("hysteresis_slip_angle_rad", "backlash_half_gap_rad"):
+        return ""
+    h = ext.effect_parameters().get(cause.profiled, math.nan)
+    lo = cause.bounds(problem.runs)[0]
+    res = max(angle_resolution(problem.runs, problem.n_harmonics), 2.0 * lo)
+    if not h < res:
+        return ""
+    if cause.name == "hysteresis":
+        return (f"its slip angle {h:.3g} rad is below the angle resolution {res:.2g} rad: a Jenkins element that never "
+                f"sticks is dry friction (see coulomb_friction)")
+    return f"its half gap {h:.3g} rad is below the angle resolution {res:.2g} rad: no free play is resolved"
 
 
 @dataclass(frozen=True)
@@ -694,6 +782,11 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
              fidelity: float = DEFAULT_FIDELITY, causes: Sequence[Cause] = CAUSES) -> Diagnosis:
     """Fit the nominal model, rank causes by evidence, extend greedily (module docstring).
 
+    The mean (harmonic 0) is not balanced: every sensor's zero is arbitrary on a bench (an
+    encoder's index, a torque amplifier's offset), and an offset of the relative angle would
+    pass for a preload and an even stiffness term. A preload is therefore not sought, and an
+    even term shows through the even harmonics it creates.
+
     Args:
       form: ``"two_dof"`` (default when every run has both angles) or ``"equivalent"``.
       n_harmonics: harmonics 0..H balanced per run (capped by the samples per period).
@@ -736,7 +829,9 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
                         key=lambda s: (bool(s.note), -s.score))
         if rnd == 0:
             first = scores
-        best = next((c for c in scores if c.significant), None)
+        kind_of = {c.name: c.kind for c in causes}
+        best = next((c for c in scores if c.significant and kind_of[c.effect] == "measurement"), None) or \
+            next((c for c in scores if c.significant), None)
         if best is None:
             break
         steps.append(best)

@@ -1,40 +1,92 @@
-"""Measured runs of a joint test: the file format the diagnosis reads and the rig writes.
+"""Measured runs of a joint test: the files the diagnosis reads, from any bench, and the format
+the rig writes.
 
-One row per sample, CSV or Parquet (chosen by the file extension ``.csv`` / ``.parquet``):
+**Columns** (any order; names matched without regard to case; others are ignored with a note):
 
-    run     integer or text label of the run (one steady-state record at one drive setting)
-    time    s
-    torque  N m, drive torque on flywheel 1 as recorded
-    phi1    rad, flywheel 1 angle       } or ``phi`` (rad, relative angle phi1 - phi2)
-    phi2    rad, flywheel 2 angle       }
-    omega   rad/s, optional: the drive's fundamental (constant within a run)
+    run     label of the run (one steady-state record at one drive setting); optional: without
+            it a file (or a TDMS/HDF5 group, a UFF load case) is one run
+    time    s      sample times (a bench's clock: uniform, from any phase of the drive)
+    torque  N m    drive torque on flywheel 1 as recorded
+    phi1    rad    flywheel 1 angle     } or ``phi`` (rad, the relative angle phi1 - phi2)
+    phi2    rad    flywheel 2 angle     }
+    omega   rad/s  optional: the drive's fundamental (checked against the data)
 
-CSV files may start with ``#`` comment lines (the writer puts the units there). Any other
-column is refused. A run that does not hold a whole number of periods is trimmed to whole
-periods (the fundamental estimated from the torque when there is no ``omega``) and, when the
-samples per period are not an integer, resampled onto a uniform grid of whole periods by a
-cubic spline; each such change is reported in :attr:`LoadedRuns.notes`.
+**Names and units** come from, in this order: the ``columns`` / ``units`` arguments (CLI
+``--columns torque=M_soll --units phi1=deg``), a sidecar file (``DATA.meta.json`` beside the
+file, or ``jointrig.json`` in a folder of runs: ``{"columns": {...}, "units": {...}}``), and
+the file itself (``phi1 [deg]`` headers, a units row, TDMS ``unit_string``, HDF5 ``units``
+attributes, UFF axis labels, the rig writer's Parquet metadata). Accepted units: see
+:data:`UNITS`. Values are converted to SI on reading.
+
+**Periods.** Each run must be a steady-state record of at least 2 whole periods. The loader
+finds the fundamental in the data (:mod:`identify.periods`): the time stamps define a uniform
+clock (their deviation measured; a gap refused); the frequency is estimated from the torque;
+an ``omega`` column, and the candidate period of a whole number N of samples, are accepted
+only if the data repeat at that period (the residual of a periodic model there is not
+significantly above its minimum; otherwise the record is refused with the mismatch shown).
+A record of N samples per period is cut to whole periods (the incomplete last period
+dropped); a record at a bench's fixed rate (not a whole number of samples per period) keeps
+every sample: each period's harmonics are estimated by least squares and synthesised on a
+uniform grid. An angle that drifts (a slipping encoder, an unsettled transient) is refused; a
+rotation common to both flywheels is removed. Every change is said in
+:attr:`LoadedRuns.notes`.
 """
 
 from __future__ import annotations
 
 import csv
+import hashlib
+import json
 import math
 import os
+import re
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Optional, Sequence, Union
+from typing import Mapping, Optional, Sequence, Union
 
 import numpy as np
-from scipy.interpolate import CubicSpline
-from scipy.optimize import minimize_scalar
 
-from identify.records import SteadyStateRecord
+from identify.periods import (MAX_CLOCK_DEVIATION, Fundamental, estimate_fundamental, linear_drift,
+                              ls_harmonics, periodic_rss, periods_by_least_squares, repeat_statistic, uniform_clock)
+from identify.records import RecordError, SteadyStateRecord
 
-__all__ = ["RunsFileError", "LoadedRuns", "read_runs", "write_runs", "estimate_omega", "COLUMNS"]
+from .formats import SUFFIXES, FormatError, RawTable, read_tables
 
+__all__ = ["RunsFileError", "LoadedRuns", "read_runs", "write_runs", "estimate_omega", "COLUMNS", "UNITS",
+           "parse_mapping", "REPEAT_THRESHOLD"]
+
+#: Canonical columns and their SI units.
 COLUMNS = {"run": "-", "time": "s", "torque": "N m", "phi1": "rad", "phi2": "rad", "phi": "rad",
            "omega": "rad/s"}
+
+_QUANTITY = {"time": "time", "torque": "torque", "phi1": "angle", "phi2": "angle", "phi": "angle",
+             "omega": "frequency"}
+
+#: Accepted units per quantity -> factor to SI (unit text compared without case, blanks, '*', '.', '·').
+UNITS = {
+    "time": {"s": 1.0, "sec": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "ns": 1e-9, "min": 60.0},
+    "angle": {"rad": 1.0, "mrad": 1e-3, "urad": 1e-6, "µrad": 1e-6, "deg": math.pi / 180, "°": math.pi / 180,
+              "degree": math.pi / 180, "degrees": math.pi / 180, "rev": 2 * math.pi, "turn": 2 * math.pi},
+    "torque": {"nm": 1.0, "nmm": 1e-3, "ncm": 1e-2, "knm": 1e3, "mnm": 1e-3},
+    "frequency": {"rad/s": 1.0, "hz": 2 * math.pi, "rpm": 2 * math.pi / 60, "1/min": 2 * math.pi / 60,
+                  "deg/s": math.pi / 180},
+}
+
+#: A stated period (an ``omega`` column, or a whole number of samples) is refused when the
+#: periodic model there fits worse than at the best frequency by more than this many noise
+#: variances, summed over the torque and the relative angle (chi-square(2): p ~ 3e-7).
+REPEAT_THRESHOLD = 30.0
+
+#: Harmonics of the periodic model used to find and check the fundamental.
+CHECK_HARMONICS = 10
+
+#: A linear drift of a channel is refused when it exceeds this many standard errors and this
+#: share of the channel's peak-to-peak swing over the record.
+DRIFT_T_STAT = 10.0
+DRIFT_SHARE = 1e-3
+
+#: Largest magnitude accepted in SI units: anything bigger is a corrupt value, not a measurement.
+MAX_ABS_VALUE = 1e12
 
 
 class RunsFileError(ValueError):
@@ -43,195 +95,445 @@ class RunsFileError(ValueError):
 
 @dataclass(frozen=True)
 class LoadedRuns:
-    """Records read from a file, one per run, in file order, and what was done to them."""
+    """Records read from a file or folder, one per run, in file order, and what was done to them.
+
+    ``sha256``: of the input file (of the files' digests, in order, for a folder)."""
 
     path: Path
     run_ids: tuple[str, ...]
     records: tuple[SteadyStateRecord, ...]
     notes: tuple[str, ...]
+    sha256: str = ""
 
     @property
     def has_both_angles(self) -> bool:
         return all(r.phi2_rad is not None for r in self.records)
 
 
-def _read_table(path: Path) -> dict[str, np.ndarray]:
-    suffix = path.suffix.lower()
-    if suffix == ".parquet":
-        import pyarrow.parquet as pq
+def _norm_unit(u: str) -> str:
+    u = u.strip().lower().replace("µ", "u").replace("μ", "u")
+    u = re.sub(r"[\s*·.]", "", u)
+    return {"n-m": "nm", "n-mm": "nmm"}.get(u, u)
 
-        try:
-            table = pq.read_table(path)
-        except Exception as err:  # noqa: BLE001 - pyarrow raises many types for a bad file
-            raise RunsFileError(f"{path}: not a readable Parquet file: {err}") from None
-        return {name: table.column(name).to_numpy(zero_copy_only=False) for name in table.column_names}
-    if suffix != ".csv":
-        raise RunsFileError(f"{path}: unknown file type {suffix!r}; expected .csv or .parquet")
-    with open(path, newline="") as fh:
-        lines = [ln for ln in fh if not ln.lstrip().startswith("#") and ln.strip()]
-    rows = list(csv.reader(lines))
-    if not rows:
-        raise RunsFileError(f"{path}: no header row; expected columns run,time,torque,phi1,phi2")
-    header = [h.strip() for h in rows[0]]
-    body = rows[1:]
-    cols: dict[str, list] = {h: [] for h in header}
-    for i, row in enumerate(body, start=2):
-        if len(row) != len(header):
-            raise RunsFileError(f"{path}: data row {i - 1} has {len(row)} fields, the header has {len(header)}")
-        for h, v in zip(header, row):
-            cols[h].append(v.strip())
+
+def _unit_factor(where: str, column: str, unit: str) -> float:
+    q = _QUANTITY[column]
+    table = {_norm_unit(k): v for k, v in UNITS[q].items()}
+    u = _norm_unit(unit)
+    if u in table:
+        return table[u]
+    raise RunsFileError(f"{where}: column '{column}' has unit {unit!r}, which is not a {q} unit this tool knows; "
+                        f"expected one of {', '.join(UNITS[q])}")
+
+
+def parse_mapping(text: Optional[Union[str, Mapping[str, str]]], what: str) -> dict[str, str]:
+    """``"torque=M, phi1=enc1"`` (or a mapping) -> ``{"torque": "M", "phi1": "enc1"}``; keys must be
+    canonical column names."""
+    if text is None:
+        return {}
+    if isinstance(text, Mapping):
+        items = list(text.items())
+    else:
+        items = []
+        for part in re.split(r"[,\s]+", str(text).strip()):
+            if not part:
+                continue
+            if "=" not in part:
+                raise RunsFileError(f"{what}: {part!r} is not NAME=VALUE; expected for example "
+                                    f"'torque=M_drive,phi1=enc1'")
+            k, v = part.split("=", 1)
+            items.append((k.strip(), v.strip()))
     out = {}
-    for h, vals in cols.items():
-        if h == "run":
-            out[h] = np.array(vals, dtype=object)
-            continue
-        try:
-            out[h] = np.array([float(v) if v not in ("", "nan", "NaN") else math.nan for v in vals])
-        except ValueError as err:
-            raise RunsFileError(f"{path}: column '{h}' holds a non-number ({err})") from None
+    for k, v in items:
+        if k not in COLUMNS:
+            raise RunsFileError(f"{what}: {k!r} is not a column of this format; expected one of {', '.join(COLUMNS)}")
+        if not isinstance(v, str) or not v:
+            raise RunsFileError(f"{what}: {k!r} needs a non-empty value")
+        out[k] = v
     return out
 
 
+def _sidecar(path: Path) -> tuple[Optional[Path], dict, dict]:
+    side = path / "jointrig.json" if path.is_dir() else path.with_name(path.name + ".meta.json")
+    if not side.is_file():
+        return None, {}, {}
+    try:
+        meta = json.loads(side.read_text())
+    except (OSError, ValueError) as err:
+        raise RunsFileError(f"{side}: not readable JSON ({err}); expected {{\"columns\": {{...}}, "
+                            f"\"units\": {{...}}}}") from None
+    if not isinstance(meta, dict) or set(meta) - {"columns", "units", "comment"}:
+        raise RunsFileError(f"{side}: expected an object with keys 'columns', 'units' (and 'comment'), got "
+                            f"{sorted(meta) if isinstance(meta, dict) else type(meta).__name__}")
+    return side, parse_mapping(meta.get("columns"), str(side)), parse_mapping(meta.get("units"), str(side))
+
+
+def _resolve(table: RawTable, columns: dict, units: dict, notes: list) -> tuple[dict, dict]:
+    """Canonical columns (SI arrays; 'run' as labels) of one raw table."""
+    where = table.source
+    lower: dict[str, str] = {}
+    for name in table.columns:
+        key = name.strip().lower()
+        if key in lower:
+            raise RunsFileError(f"{where}: columns {lower[key]!r} and {name!r} differ only in case; expected "
+                                f"unique names")
+        lower[key] = name
+    found: dict[str, str] = {}
+    for canon in COLUMNS:
+        if canon in columns:
+            src = columns[canon]
+            if src not in table.columns and src.lower() not in lower:
+                raise RunsFileError(f"{where}: column {src!r} (mapped to '{canon}') is not in the file; its "
+                                    f"columns are {sorted(table.columns)}")
+            found[canon] = src if src in table.columns else lower[src.lower()]
+        elif canon in lower and lower[canon] not in columns.values():
+            found[canon] = lower[canon]
+    used = set(found.values())
+    extra = [c for c in table.columns if c not in used]
+    if extra:
+        notes.append(f"{where}: column(s) {extra} ignored (the diagnosis uses {', '.join(COLUMNS)})")
+    out, stated = {}, {}
+    for canon, src in found.items():
+        col = np.asarray(table.columns[src])
+        if canon == "run":
+            out[canon] = np.array([_label(v) for v in col], dtype=object)
+            continue
+        if col.dtype.kind not in "iufb":
+            bad = next((i for i, v in enumerate(col) if not _is_float(v)), 0)
+            raise RunsFileError(f"{where}: column '{src}' holds a non-number ({col[bad]!r} in data row {bad + 1}); "
+                                f"expected numbers in {COLUMNS[canon]}")
+        col = col.astype(float)
+        unit = units.get(canon) or table.units.get(src)
+        if unit is not None:
+            f = _unit_factor(where, canon, unit)
+            if f != 1.0:
+                col = col * f
+            stated[canon] = unit
+        out[canon] = col
+    return out, stated
+
+
+def _is_float(v) -> bool:
+    try:
+        float(v)
+        return True
+    except (TypeError, ValueError):
+        return False
+
+
+def _label(v) -> str:
+    if isinstance(v, (float, np.floating)) and math.isfinite(v) and float(v).is_integer():
+        return str(int(v))
+    if isinstance(v, bytes):
+        return v.decode(errors="replace")
+    return str(v).strip()
+
+
 def estimate_omega(time_s: np.ndarray, torque_Nm: np.ndarray) -> float:
-    """The drive fundamental (rad/s) from a torque record: the periodogram peak, refined.
+    """The drive fundamental (rad/s) from a torque record (multi-harmonic least squares,
+    :func:`identify.periods.estimate_fundamental`).
 
-    Raises RunsFileError if the torque has no clear periodic component.
+    Raises RunsFileError if the torque has no periodic component.
     """
-    t = time_s - time_s[0]
-    x = torque_Nm - torque_Nm.mean()
-    n = x.size
-    dt = float(np.median(np.diff(t)))
-    spec = np.abs(np.fft.rfft(x, 8 * n)) ** 2
-    k = int(np.argmax(spec[1:])) + 1
-    w0 = 2 * math.pi * k / (8 * n * dt)
-    dw = 2 * math.pi / (8 * n * dt)
-
-    def neg_power(w):
-        # Least-squares sine fit (cos, sin, mean) at w: unlike the periodogram it is not biased
-        # by the negative-frequency image when the record holds a non-integer number of periods.
-        basis = np.column_stack([np.cos(w * t), np.sin(w * t), np.ones_like(t)])
-        coef, *_ = np.linalg.lstsq(basis, x, rcond=None)
-        return -float(np.sum((basis @ coef) ** 2))
-
-    res = minimize_scalar(neg_power, bounds=(w0 - 2 * dw, w0 + 2 * dw), method="bounded",
-                          options={"xatol": 1e-10 * w0})
-    return float(res.x)
+    try:
+        return estimate_fundamental(np.asarray(time_s, float), np.asarray(torque_Nm, float)).omega_rad_s
+    except ValueError as err:
+        raise RunsFileError(f"torque: {err}") from None
 
 
-def _to_record(path, run, t, torque, phi1, phi2, omega, samples_per_period, notes) -> SteadyStateRecord:
-    where = f"{path}: run {run}"
+def _reference(t: np.ndarray, x: np.ndarray, best: Fundamental) -> Fundamental:
+    """The periodic fit of another channel at the torque's best frequency (its noise reference)."""
+    tt = t - t[0]
+    rss = periodic_rss(tt, x, best.omega_rad_s, best.harmonics)
+    var = max(rss / best.dof, (1e-9 * float(np.std(x)) + 1e-300) ** 2)
+    return Fundamental(best.omega_rad_s, math.nan, rss, var, best.dof, best.harmonics)
+
+
+def _to_record(where: str, run: str, t: np.ndarray, chans: dict, omega: Optional[float],
+               samples_per_period: Optional[int], notes: list) -> SteadyStateRecord:
     n = t.size
     if n < 16:
-        raise RunsFileError(f"{where}: {n} samples is too short; expected at least 16")
-    dt_all = np.diff(t)
-    if np.any(dt_all <= 0):
-        raise RunsFileError(f"{where}: column 'time' must be strictly increasing within a run")
-    dt = float(np.median(dt_all))
-    if np.max(np.abs(dt_all - dt)) > 1e-3 * dt:
-        raise RunsFileError(f"{where}: column 'time' is not uniformly sampled (steps {dt_all.min():.6g}.."
-                            f"{dt_all.max():.6g} s)")
-    if omega is None:
-        omega = estimate_omega(t, torque)
-        notes.append(f"run {run}: no 'omega' column; the fundamental estimated from the torque is "
-                     f"{omega:.9g} rad/s")
-    period = 2 * math.pi / omega
-    per_float = period / dt
-    P = int(math.floor(n / per_float + 1e-6))
-    if P < 2:
-        raise RunsFileError(f"{where}: holds {n / per_float:.3g} periods of omega = {omega:.6g} rad/s; expected "
-                            f"at least 2 whole periods (the noise is estimated from period-to-period variation)")
-    per = int(round(per_float))
-    integer = abs(per_float - per) < 1e-6 * per_float
-    cols = [torque, phi1] + ([phi2] if phi2 is not None else [])
-    if integer and samples_per_period in (None, per):
-        if P * per != n:
-            notes.append(f"run {run}: {n} samples hold {n / per:.4g} periods; trimmed to {P} whole periods "
-                         f"({P * per} samples)")
-        sel = slice(0, P * per)
-        t_new = t[sel]
-        out = [c[sel] for c in cols]
-        per_new = per
+        raise RunsFileError(f"{where}: run {run}: {n} samples is too short; expected at least 16 (2 whole periods "
+                            f"of at least 8 samples)")
+    try:
+        clock = uniform_clock(t)
+    except ValueError as err:
+        raise RunsFileError(f"{where}: run {run}: column 'time': {err}") from None
+    if clock.max_deviation > MAX_CLOCK_DEVIATION:
+        i = clock.worst_index
+        raise RunsFileError(
+            f"{where}: run {run}: column 'time' is not uniformly sampled: sample {i} at {t[i]:.9g} s is "
+            f"{clock.max_deviation:.3g} steps off the uniform clock t0 + k * {clock.dt_s:.6g} s (a gap, a missing "
+            f"sample or a restart?); expected a uniform clock (deviations below {MAX_CLOCK_DEVIATION} steps)")
+    if clock.max_deviation > 1e-6:
+        notes.append(f"run {run}: time stamps deviate up to {clock.max_deviation:.2g} steps from a uniform clock "
+                     f"of {clock.dt_s:.9g} s (rounding or jitter); the uniform clock is used")
+    dt = clock.dt_s
+    tu = clock.times(n)
+    torque = chans["torque"]
+    phi = chans["phi1"] - chans["phi2"] if "phi2" in chans else chans["phi1"]
+    try:
+        best = estimate_fundamental(tu, torque, harmonics=CHECK_HARMONICS)
+    except ValueError:
+        raise RunsFileError(f"{where}: run {run}: column 'torque' does not vary: no drive to identify from; "
+                            f"expected a periodic drive torque") from None
+    refs = [(torque, best), (phi, _reference(tu, phi, best))]
+
+    def stat(w: float) -> float:
+        return sum(repeat_statistic(tu, x, w, ref) for x, ref in refs)
+
+    per_hat = 2 * math.pi / (best.omega_rad_s * dt)
+    if omega is not None:
+        s = stat(omega)
+        if s > REPEAT_THRESHOLD:
+            raise RunsFileError(
+                f"{where}: run {run}: column 'omega' gives {omega:.9g} rad/s, but the record does not repeat at that "
+                f"period: it repeats at {best.omega_rad_s:.9g} +- {best.std_error_rad_s:.2g} rad/s "
+                f"({per_hat:.6g} samples per period), {abs(omega / best.omega_rad_s - 1):.3g} relative off; at the "
+                f"stated omega the periodic model's residual exceeds its minimum by {s:.3g} noise variances "
+                f"(at most {REPEAT_THRESHOLD:g} expected); check the column's value and unit (rad/s)")
+    N = int(round(per_hat))
+    commensurate = N >= 8 and stat(2 * math.pi / (N * dt)) <= REPEAT_THRESHOLD
+    cols = [torque, chans["phi1"]] + ([chans["phi2"]] if "phi2" in chans else [])
+    if commensurate:
+        w_rec = 2 * math.pi / (N * dt)
+        if omega is not None and abs(omega / w_rec - 1) < 1e-9:
+            w_rec = omega  # the stated value and the record's own period agree to round-off
+        elif omega is not None:
+            notes.append(f"run {run}: column 'omega' ({omega:.9g} rad/s) and the record's own period of {N} samples "
+                         f"({w_rec:.9g} rad/s) differ by {abs(omega / w_rec - 1):.2g}; the record's value is used")
+        elif samples_per_period is None:
+            notes.append(f"run {run}: no 'omega' column; the record repeats every {N} samples: omega = "
+                         f"{w_rec:.9g} rad/s (the torque's line alone gives {best.omega_rad_s:.9g} +- "
+                         f"{best.std_error_rad_s:.2g})")
+        P = n // N
+        if P < 2:
+            raise RunsFileError(f"{where}: run {run}: holds {n / N:.3g} periods of omega = {w_rec:.6g} rad/s; "
+                                f"expected at least 2 whole periods (the noise is estimated from period-to-period "
+                                f"variation)")
+        if P * N != n:
+            notes.append(f"run {run}: {n} samples hold {n / N:.4g} periods; the last {n - P * N} samples (an "
+                         f"incomplete period) are not used")
+        per_out = N
+        data = [c[: P * N] for c in cols]
+        t_rec = clock.t0_s + np.arange(P * N) * (2 * math.pi / (w_rec * N))
+        if samples_per_period is not None and samples_per_period != N:
+            fit = periods_by_least_squares(t_rec, np.array(data), w_rec, samples_per_period=samples_per_period)
+            data, per_out = list(fit.samples), samples_per_period
+            t_rec = clock.t0_s + np.arange(P * per_out) * (2 * math.pi / (w_rec * per_out))
+            notes.append(f"run {run}: resampled from {N} to {per_out} samples per period (harmonics 0..{fit.harmonics})")
     else:
-        per_new = samples_per_period or per
-        t_new = t[0] + np.arange(P * per_new) * period / per_new
-        if t_new[-1] > t[-1]:
-            P -= 1
-            if P < 2:
-                raise RunsFileError(f"{where}: fewer than 2 whole periods after trimming")
-            t_new = t_new[: P * per_new]
-        out = [CubicSpline(t, c)(t_new) for c in cols]
-        notes.append(f"run {run}: {per_float:.6g} samples per period is not an integer; trimmed to {P} whole "
-                     f"periods and resampled to {per_new} samples per period (cubic spline)")
-    return SteadyStateRecord(
-        omega_rad_s=float(omega), time_s=t_new, torque_Nm=out[0], phi1_rad=out[1],
-        phi2_rad=out[2] if phi2 is not None else None, n_periods=P, source=f"{path} run {run}",
-    )
+        w_rec = omega if omega is not None else best.omega_rad_s
+        per = 2 * math.pi / (w_rec * dt)
+        H = ls_harmonics(per)
+        per_out = samples_per_period or max(16, 2 * (H + 1))
+        try:
+            fit = periods_by_least_squares(tu, np.array(cols), w_rec, samples_per_period=per_out, harmonics=H)
+        except ValueError as err:
+            raise RunsFileError(f"{where}: run {run}: {err}") from None
+        P = fit.n_periods
+        if P < 2:
+            raise RunsFileError(f"{where}: run {run}: holds {n / per:.3g} periods of omega = {w_rec:.6g} rad/s; "
+                                f"expected at least 2 whole periods (the noise is estimated from period-to-period "
+                                f"variation)")
+        data = list(fit.samples)
+        t_rec = clock.t0_s + np.arange(P * per_out) * (2 * math.pi / (w_rec * per_out))
+        used = int(round(P * per))
+        src = ("the 'omega' column" if omega is not None else
+               f"the torque's line, +- {best.std_error_rad_s:.2g}")
+        rms = [float(np.std(c)) or 1.0 for c in cols]
+        share = ", ".join(f"{name} {r / s:.2%}" for name, r, s in
+                          zip(["torque", "phi1", "phi2"], fit.residual_rms, rms))
+        notes.append(f"run {run}: {per:.6g} samples per period at omega = {w_rec:.9g} rad/s (from {src}) is not a "
+                     f"whole number (a fixed sample rate): harmonics 0..{fit.harmonics} of each of {P} whole "
+                     f"periods estimated by least squares on its own samples and synthesised at {per_out} samples "
+                     f"per period; residual RMS relative to each channel's RMS (noise plus content above harmonic "
+                     f"{fit.harmonics}): {share}"
+                     + (f"; the last {n - used} samples (an incomplete period) are not used" if n - used > 0 else ""))
+    names = ["torque", "phi1"] + (["phi2"] if "phi2" in chans else [])
+    data = dict(zip(names, data))
+    _check_drift(where, run, t_rec, data, w_rec, notes)
+    try:
+        return SteadyStateRecord(
+            omega_rad_s=float(w_rec), time_s=t_rec, torque_Nm=data["torque"], phi1_rad=data["phi1"],
+            phi2_rad=data.get("phi2"), n_periods=P, source=f"{where} run {run}")
+    except RecordError as err:
+        raise RunsFileError(f"{where}: run {run}: {err}") from None
 
 
-def read_runs(path: Union[str, os.PathLike], *, samples_per_period: Optional[int] = None) -> LoadedRuns:
-    """Read a measured-runs file into whole-period records (see the module docstring).
+def _check_drift(where: str, run: str, t: np.ndarray, data: dict, omega: float, notes: list) -> None:
+    """Refuse a channel that drifts; remove a rotation common to both flywheels (in place)."""
+    def drift(x):
+        return linear_drift(t, x, omega, harmonics=CHECK_HARMONICS)
+
+    def drifts(x, d):
+        return abs(d.t_stat) > DRIFT_T_STAT and abs(d.over_record) > DRIFT_SHARE * max(float(np.ptp(x)), 1e-300)
+
+    if "phi2" in data:
+        rel = data["phi1"] - data["phi2"]
+        d_rel = drift(rel)
+        if drifts(rel, d_rel):
+            raise RunsFileError(
+                f"{where}: run {run}: the relative angle phi1 - phi2 drifts by {d_rel.over_record:.3g} rad over the "
+                f"record ({d_rel.slope:.3g} rad/s, {abs(d_rel.t_stat):.3g} standard errors): a steady-state record "
+                f"repeats every period (a slipping encoder or an unsettled transient?)")
+        d1, d2 = drift(data["phi1"]), drift(data["phi2"])
+        if drifts(data["phi1"], d1) or drifts(data["phi2"], d2):
+            slope = 0.5 * (d1.slope + d2.slope)
+            tc = t - t[0]
+            data["phi1"] = data["phi1"] - slope * tc
+            data["phi2"] = data["phi2"] - slope * tc
+            notes.append(f"run {run}: both flywheels rotate steadily at {slope:.4g} rad/s on top of the vibration; "
+                         f"that common rotation is removed (it loads the joint with nothing; a bearing drag at that "
+                         f"speed would show as a constant torque)")
+    for name in ("torque", "phi1") if "phi2" in data else ("torque", "phi1"):
+        x = data[name]
+        d = drift(x)
+        if drifts(x, d):
+            label = "phi" if name == "phi1" and "phi2" not in data else name
+            unit = "N m" if name == "torque" else "rad"
+            raise RunsFileError(
+                f"{where}: run {run}: column '{label}' drifts by {d.over_record:.3g} {unit} over the record "
+                f"({d.slope:.3g} {unit}/s, {abs(d.t_stat):.3g} standard errors): a steady-state record repeats "
+                f"every period (a slipping encoder, a drifting amplifier or an unsettled transient?)")
+
+
+def _files(path: Path) -> list[Path]:
+    if path.is_dir():
+        files = sorted(p for p in path.iterdir() if p.is_file() and p.suffix.lower() in SUFFIXES
+                       and not p.name.endswith(".meta.json") and not p.name.startswith("."))
+        if not files:
+            raise RunsFileError(f"{path}: a folder without run files; expected files ending in {', '.join(SUFFIXES)}")
+        return files
+    if not path.exists():
+        raise RunsFileError(f"{path}: no such file or folder")
+    if not path.is_file():
+        raise RunsFileError(f"{path}: not a regular file")
+    return [path]
+
+
+def _digest(files: Sequence[Path]) -> str:
+    if len(files) == 1:
+        return hashlib.sha256(files[0].read_bytes()).hexdigest()
+    h = hashlib.sha256()
+    for f in files:
+        h.update(hashlib.sha256(f.read_bytes()).hexdigest().encode())
+    return h.hexdigest()
+
+
+def read_runs(path: Union[str, os.PathLike], *, samples_per_period: Optional[int] = None,
+              columns: Optional[Union[str, Mapping[str, str]]] = None,
+              units: Optional[Union[str, Mapping[str, str]]] = None) -> LoadedRuns:
+    """Read measured runs from a file or a folder of files into whole-period records (module docstring).
 
     Args:
       samples_per_period: resample every run to this many samples per period (default: keep
-        the file's sampling when it divides the period, else round it).
+        a whole number of samples per period as it is; a fixed-rate record gets 2 (H + 1)
+        for the H harmonics estimated, :func:`identify.periods.ls_harmonics`).
+      columns: canonical name -> the file's column name (``"torque=M,phi1=enc1"`` or a dict).
+      units: canonical name -> unit of the file's column (``"phi1=deg,time=ms"``); see :data:`UNITS`.
 
     Raises:
-      RunsFileError: missing file, unknown or missing columns, non-numbers or NaNs (with the
-        run, column and row), non-uniform time, fewer than 2 whole periods in a run.
+      RunsFileError: any file that cannot be used, naming the file, run, column and row and
+        what was expected.
     """
     path = Path(path)
-    if not path.is_file():
-        raise RunsFileError(f"{path}: no such file")
-    table = _read_table(path)
-    names = set(table)
-    unknown = sorted(names - set(COLUMNS))
-    if unknown:
-        raise RunsFileError(f"{path}: unknown column(s) {unknown}; expected run, time, torque, phi1, phi2 "
-                            f"(or phi instead of phi1, phi2) and optionally omega")
-    missing = sorted({"run", "time", "torque"} - names)
-    if missing:
-        raise RunsFileError(f"{path}: missing column(s) {missing}")
-    if "phi" in names and names & {"phi1", "phi2"}:
-        raise RunsFileError(f"{path}: give either 'phi' or 'phi1' and 'phi2', not both")
-    if "phi" not in names and not {"phi1", "phi2"} <= names:
-        raise RunsFileError(f"{path}: missing angle column(s): expected 'phi1' and 'phi2', or 'phi'")
-    run_col = np.array([str(v) for v in table["run"]], dtype=object)
-    for name, col in table.items():
-        if name == "run":
-            continue
-        col = np.asarray(col, dtype=float)
-        bad = ~np.isfinite(col)
-        if bad.any():
-            i = int(np.flatnonzero(bad)[0])
-            raise RunsFileError(f"{path}: column '{name}' holds {int(bad.sum())} missing or non-finite value(s) "
-                                f"(first in run {run_col[i]}, data row {i + 1}); expected finite numbers in "
-                                f"{COLUMNS[name]}")
-        table[name] = col
-    order = list(dict.fromkeys(run_col.tolist()))
-    records, notes = [], []
-    for run in order:
-        sel = run_col == run
-        omega = None
-        if "omega" in table:
-            w = table["omega"][sel]
-            if np.ptp(w) > 1e-9 * abs(w[0]) or not w[0] > 0:
-                raise RunsFileError(f"{path}: run {run}: column 'omega' must be one positive value per run, "
-                                    f"got {w.min():g}..{w.max():g} rad/s")
-            omega = float(w[0])
-        phi1 = table["phi"][sel] if "phi" in table else table["phi1"][sel]
-        phi2 = None if "phi" in table else table["phi2"][sel]
-        records.append(_to_record(path, run, table["time"][sel], table["torque"][sel], phi1, phi2, omega,
-                                  samples_per_period, notes))
-    return LoadedRuns(path, tuple(order), tuple(records), tuple(notes))
+    if samples_per_period is not None and (not isinstance(samples_per_period, (int, np.integer))
+                                           or samples_per_period < 16):
+        raise RunsFileError(f"samples_per_period must be an integer >= 16, got {samples_per_period!r}")
+    columns = parse_mapping(columns, "columns")
+    units = parse_mapping(units, "units")
+    for k, v in units.items():
+        if k != "run":
+            _unit_factor("units", k, v)
+    files = _files(path)
+    side, side_cols, side_units = _sidecar(path)
+    notes: list[str] = []
+    if side is not None:
+        notes.append(f"column names and units from {side}")
+    columns = {**side_cols, **columns}
+    units = {**side_units, **units}
+    tables: list[tuple[Path, RawTable]] = []
+    for f in files:
+        try:
+            tables.extend((f, t) for t in read_tables(f))
+        except FormatError as err:
+            raise RunsFileError(str(err)) from None
+    multi = len(files) > 1
+    run_ids, records, seen, any_units = [], [], set(), False
+    for f, table in tables:
+        cols, stated = _resolve(table, columns, units, notes)
+        any_units = any_units or bool(stated)
+        where = table.source
+        missing = sorted({"time", "torque"} - set(cols))
+        if missing:
+            raise RunsFileError(f"{where}: missing column(s) {missing}; expected time, torque, phi1, phi2 (or phi), "
+                                f"optionally run and omega; its columns are {sorted(table.columns)} (map other "
+                                f"names with --columns torque=NAME)")
+        if "phi" in cols and ("phi1" in cols or "phi2" in cols):
+            raise RunsFileError(f"{where}: give either 'phi' or 'phi1' and 'phi2', not both")
+        if "phi" not in cols and not {"phi1", "phi2"} <= set(cols):
+            raise RunsFileError(f"{where}: missing angle column(s): expected 'phi1' and 'phi2', or 'phi' (the "
+                                f"relative angle); its columns are {sorted(table.columns)}")
+        n = cols["time"].size
+        for name, col in cols.items():
+            if col.size != n:
+                raise RunsFileError(f"{where}: column '{name}' has {col.size} values, 'time' has {n}")
+            if name == "run":
+                continue
+            bad = ~np.isfinite(col) | (np.abs(col) > MAX_ABS_VALUE)
+            if bad.any():
+                i = int(np.flatnonzero(bad)[0])
+                run_i = f"run {cols['run'][i]}, " if "run" in cols else ""
+                raise RunsFileError(f"{where}: column '{name}' holds {int(bad.sum())} missing, non-finite or "
+                                    f"implausibly large value(s) (first {float(col[i])!r} in {run_i}data row "
+                                    f"{i + 1}); expected finite numbers in {COLUMNS[name]} below {MAX_ABS_VALUE:g}")
+        if n == 0:
+            raise RunsFileError(f"{where}: no data rows")
+        if "run" in cols:
+            labels = cols["run"]
+        else:
+            labels = np.full(n, table.run if table.run is not None else (f.stem if multi else "0"), dtype=object)
+        prefix = f"{f.stem}/" if multi and ("run" in cols or table.run is not None) else ""
+        for run in dict.fromkeys(labels.tolist()):
+            sel = labels == run
+            rid = prefix + str(run)
+            if rid in seen:
+                raise RunsFileError(f"{where}: run {rid!r} appears twice; expected one block of rows per run")
+            seen.add(rid)
+            omega = None
+            if "omega" in cols:
+                w = cols["omega"][sel]
+                if np.ptp(w) > 1e-9 * abs(w[0]) or not w[0] > 0:
+                    raise RunsFileError(f"{where}: run {run}: column 'omega' must be one positive value per run, "
+                                        f"got {w.min():g}..{w.max():g} rad/s")
+                omega = float(w[0])
+            chans = {"torque": cols["torque"][sel]}
+            if "phi" in cols:
+                chans["phi1"] = cols["phi"][sel]
+            else:
+                chans["phi1"], chans["phi2"] = cols["phi1"][sel], cols["phi2"][sel]
+            records.append(_to_record(where, rid, cols["time"][sel], chans, omega, samples_per_period, notes))
+            run_ids.append(rid)
+    if not any_units:
+        notes.insert(0, "no units stated in the file or the options: SI assumed (time s, torque N m, angles rad, "
+                        "omega rad/s); state others with --units, e.g. phi1=deg,time=ms")
+    return LoadedRuns(path, tuple(run_ids), tuple(records), tuple(notes), _digest(files))
 
 
 def write_runs(path: Union[str, os.PathLike], records: Sequence[SteadyStateRecord], *,
                run_ids: Optional[Sequence] = None, with_omega: bool = True, comment: str = "") -> Path:
-    """Write records in the measured-runs format, atomically (temp file + rename)."""
+    """Write records in the measured-runs format (CSV with units in the header, or Parquet
+    with units in the schema metadata), atomically (temp file + rename)."""
+    from rig.sweep import write_atomic
+
     path = Path(path)
     run_ids = list(range(len(records))) if run_ids is None else list(run_ids)
     if len(run_ids) != len(records):
         raise ValueError(f"{len(run_ids)} run ids for {len(records)} records")
+    suffix = path.suffix.lower()
+    if suffix not in (".csv", ".parquet"):
+        raise ValueError(f"{path}: unknown file type {path.suffix!r}; expected .csv or .parquet")
     two = all(r.phi2_rad is not None for r in records)
     cols: dict[str, list] = {"run": [], "time": [], "torque": []}
     if two:
@@ -253,30 +555,24 @@ def write_runs(path: Union[str, os.PathLike], records: Sequence[SteadyStateRecor
         if with_omega:
             cols["omega"].append(np.full(n, r.omega_rad_s))
     data = {k: np.concatenate(v) for k, v in cols.items()}
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    try:
-        if path.suffix.lower() == ".parquet":
+
+    def write(tmp: Path) -> None:
+        if suffix == ".parquet":
             import pyarrow as pa
             import pyarrow.parquet as pq
 
             units = {k: COLUMNS[k] for k in data}
             table = pa.table(data).replace_schema_metadata({"units": repr(units), "comment": comment})
             pq.write_table(table, tmp)
-        elif path.suffix.lower() == ".csv":
+        else:
             with open(tmp, "w", newline="") as fh:
-                fh.write("# jointrig measured runs; units: "
-                         + ", ".join(f"{k} [{COLUMNS[k]}]" for k in data) + "\n")
+                fh.write("# jointrig measured runs\n")
                 if comment:
                     fh.write(f"# {comment}\n")
                 w = csv.writer(fh)
-                w.writerow(list(data))
+                w.writerow([k if k == "run" else f"{k} [{COLUMNS[k]}]" for k in data])
                 for row in zip(*(data[k] for k in data)):
                     w.writerow([row[0]] + [repr(float(v)) for v in row[1:]])
-        else:
-            raise ValueError(f"{path}: unknown file type {path.suffix!r}; expected .csv or .parquet")
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+
+    write_atomic(path, write)
     return path

@@ -6,8 +6,9 @@ extended model in the rig for every run, driven by that run's recorded torque (i
 0..band, the constant dropped), and compare the relative angle with the measured one.
 
 The comparison is against the period-averaged measurement, on the harmonics of the relative
-angle that stand out of the noise (``PreparedRun.kept["phi"]``, plus the mean): the part of
-the measurement a model can be asked to predict. The RMS follows from those harmonics by
+angle that stand out of the noise (``PreparedRun.kept["phi"]``, harmonics 1 and up: the mean
+depends on the angle sensors' arbitrary zero): the part of the measurement a model can be asked
+to predict. The RMS follows from those harmonics by
 Parseval; what averaging leaves of the noise on them is reported as ``noise_floor_rad``
 beside the RMS values (a perfect model scores about that).
 """
@@ -234,7 +235,10 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
                 phi[which] = np.full(N, np.nan)
         phi_nom, phi_ext = phi["nominal"], phi["extended"]
         avg = run.average
-        h = np.union1d([0], run.kept["phi"]).astype(int)
+        # Harmonics 1.. only: the angle sensors' zero is arbitrary (see identify.diagnose.diagnose).
+        h = run.kept["phi"][run.kept["phi"] > 0].astype(int)
+        if h.size == 0:
+            h = np.array([1])
         floor = float(np.sqrt(np.sum(run.phi_noise_var[h] * np.where(h == 0, 1.0, 0.5))))
         comparisons.append(RunComparison(
             run_id=rid, omega_rad_s=avg.omega_rad_s,

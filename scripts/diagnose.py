@@ -28,6 +28,7 @@ from identify.records import RecordError
 from measured.runs import RunsFileError, read_runs
 from rig.diagnosis_report import format_report, log_diagnosis, report_json, write_html
 from rig.recording import open_recording
+from rig.runtime import limit_threads
 from rig.simulate import SimulationError
 from rig.sweep import write_json_atomic
 from rig.validate import run_diagnosis
@@ -57,6 +58,7 @@ def parse_args(argv=None) -> argparse.Namespace:
 
 def main(argv=None) -> int:
     args = parse_args(argv)
+    limit_threads()
     logging.basicConfig(level=logging.WARNING if args.quiet else logging.INFO, format="%(message)s",
                         stream=sys.stderr)
     t0 = time.perf_counter()

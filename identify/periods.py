@@ -1,0 +1,267 @@
+"""Whole periods from a bench's record: the clock, the fundamental, and the periods themselves.
+
+Pure functions (arrays in, frozen dataclasses out) behind :mod:`measured.runs`. A bench logs
+samples on its own clock, at its own rate, from an arbitrary phase of the drive, with time
+stamps rounded to the logger's resolution. The identifier needs whole periods sampled
+uniformly (:class:`identify.records.SteadyStateRecord`). The steps:
+
+1. **Clock** (:func:`uniform_clock`): the sample times as ``t0 + k dt`` by least squares; the
+   time stamps' deviation from that clock (rounding, jitter) is measured and reported, and a
+   record whose stamps miss the clock by more than :data:`MAX_CLOCK_DEVIATION` of a step
+   (a gap, a missing sample, a restart) is refused.
+2. **Fundamental** (:func:`estimate_fundamental`): the frequency that minimises the residual of
+   a periodic model with harmonics 0..H (multi-harmonic least squares, started from the
+   periodogram peak), with its standard error from the curvature of the residual.
+3. **Does it repeat?** (:func:`repeat_statistic`): how much worse a periodic model at a
+   *stated* frequency (an ``omega`` column, or ``2 pi / (N dt)`` for a whole number N of
+   samples per period) fits than at the best one, in units of the noise variance (a
+   likelihood-ratio statistic, about chi-square(1) per channel when the stated frequency is
+   right). A frequency estimated from noisy data is never used to decide that a record is not
+   whole periods: the test is whether the data repeat at the candidate period.
+4. **Periods** (:func:`periods_by_least_squares`): for a record whose period is not a whole
+   number of samples (a fixed-rate DAQ), the harmonics 0..H of each whole period are estimated
+   by least squares on that period's own samples and synthesised on a uniform grid: every
+   sample is used, the period-to-period variation (the noise estimate) is kept, and the
+   residual of the fit is reported.
+5. **Drift** (:func:`linear_drift`): a linear trend under the periodic model (a slipping
+   encoder, an unsettled transient, a rotating shaft), with its t-statistic.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+__all__ = [
+    "MAX_CLOCK_DEVIATION", "UniformClock", "uniform_clock", "Fundamental", "estimate_fundamental",
+    "periodic_rss", "repeat_statistic", "PeriodFit", "MAX_LS_HARMONICS", "ls_harmonics", "periods_by_least_squares", "Drift", "linear_drift",
+]
+
+#: Largest deviation of a time stamp from the fitted uniform clock, in sample steps. Rounding
+#: to the logger's resolution and clock jitter stay far below it; a missing sample is a whole step.
+MAX_CLOCK_DEVIATION = 0.05
+
+
+@dataclass(frozen=True)
+class UniformClock:
+    """``t_k = t0_s + k dt_s``; ``max_deviation`` is the largest |stamp - clock| in steps,
+    at sample ``worst_index``."""
+
+    t0_s: float
+    dt_s: float
+    max_deviation: float
+    worst_index: int
+
+    def times(self, n: int) -> np.ndarray:
+        return self.t0_s + np.arange(n) * self.dt_s
+
+
+def uniform_clock(time_s: np.ndarray) -> UniformClock:
+    """Least-squares uniform clock through the time stamps (shape (n,), n >= 2).
+
+    Raises:
+      ValueError: stamps not strictly increasing (names the first offending sample).
+    """
+    t = np.asarray(time_s, dtype=float)
+    steps = np.diff(t)
+    if np.any(steps <= 0):
+        i = int(np.flatnonzero(steps <= 0)[0])
+        raise ValueError(f"time must increase strictly: sample {i + 1} at {t[i + 1]!r} follows {t[i]!r}")
+    k = np.arange(t.size, dtype=float)
+    kc = k - k.mean()
+    tm = t.mean()
+    dt = float(np.dot(kc, t - tm) / np.dot(kc, kc))
+    t0 = float(tm - dt * k.mean())
+    dev = np.abs(t - (t0 + k * dt)) / dt
+    i = int(np.argmax(dev))
+    return UniformClock(t0, dt, float(dev[i]), i)
+
+
+def _basis(t: np.ndarray, omega: float, H: int, *, trend: bool = False) -> np.ndarray:
+    """Columns 1, cos(n w t), sin(n w t) for n = 1..H (and t - mean(t) if ``trend``)."""
+    wt = np.multiply.outer(t, omega * np.arange(1, H + 1))
+    cols = [np.ones((t.size, 1)), np.cos(wt), np.sin(wt)]
+    if trend:
+        cols.append((t - t.mean())[:, None])
+    return np.hstack(cols)
+
+
+def periodic_rss(t: np.ndarray, x: np.ndarray, omega: float, H: int) -> float:
+    """Residual sum of squares of ``x`` (n,) about its best periodic model with harmonics
+    0..H of ``omega`` (t relative to any origin; shape (n,))."""
+    B = _basis(t, omega, H)
+    coef, *_ = np.linalg.lstsq(B, x, rcond=None)
+    r = x - B @ coef
+    return float(r @ r)
+
+
+@dataclass(frozen=True)
+class Fundamental:
+    """Best periodic fit's frequency ``omega_rad_s`` +- ``std_error_rad_s``; ``noise_var``: the
+    residual variance per sample there (signal units squared), with ``dof`` degrees of freedom."""
+
+    omega_rad_s: float
+    std_error_rad_s: float
+    rss: float
+    noise_var: float
+    dof: int
+    harmonics: int
+
+
+def _noise_floor(x: np.ndarray) -> float:
+    """Variance below which a residual is round-off, not noise: (1e-9 of the RMS)^2. A
+    noise-free record must not make a 1e-12 frequency difference look significant."""
+    return (1e-9 * float(np.sqrt(np.mean((x - x.mean()) ** 2))) + 1e-300) ** 2
+
+
+def estimate_fundamental(t: np.ndarray, x: np.ndarray, *, harmonics: int = 10) -> Fundamental:
+    """The drive's fundamental from one channel (usually the torque), shapes (n,).
+
+    Periodogram peak (zero-padded 8x), then the frequency minimising :func:`periodic_rss`
+    with harmonics 0..H within +-2 padded bins. Standard error from the curvature of the RSS:
+    ``var(omega) = 2 sigma^2 / RSS''``.
+
+    Raises:
+      ValueError: no periodic component (a constant signal).
+    """
+    t = np.asarray(t, float) - float(t[0])
+    x = np.asarray(x, float)
+    n = x.size
+    xc = x - x.mean()
+    if not np.any(xc):
+        raise ValueError("the signal is constant: it has no fundamental")
+    dt = float((t[-1] - t[0]) / (n - 1))
+    spec = np.abs(np.fft.rfft(xc, 8 * n)) ** 2
+    k = int(np.argmax(spec[1:])) + 1
+    w0 = 2 * math.pi * k / (8 * n * dt)
+    dw = 2 * math.pi / (8 * n * dt)
+    H = max(1, min(harmonics, int(math.pi / (w0 * dt)) - 1))
+    lo = max(w0 - 2 * dw, 0.5 * w0)
+    res = minimize_scalar(lambda w: periodic_rss(t, x, w, H), bounds=(lo, w0 + 2 * dw), method="bounded",
+                          options={"xatol": 1e-12 * w0})
+    w = float(res.x)
+    rss = float(res.fun)
+    dof = max(n - (2 * H + 1) - 1, 1)
+    var = max(rss / dof, _noise_floor(x))
+    h = max(1e-3 * dw, 1e-9 * w)
+    curv = (periodic_rss(t, x, w + h, H) - 2 * rss + periodic_rss(t, x, w - h, H)) / h**2
+    se = math.sqrt(2 * var / curv) if curv > 0 else math.nan
+    return Fundamental(w, se, rss, var, dof, H)
+
+
+def repeat_statistic(t: np.ndarray, x: np.ndarray, omega: float, best: Fundamental) -> float:
+    """``(RSS(omega) - RSS(best)) / noise variance`` for one channel: about chi-square(1)
+    when the data repeat at ``omega`` (>= 0 up to the optimiser's tolerance)."""
+    t = np.asarray(t, float) - float(t[0])
+    return max(periodic_rss(t, x, omega, best.harmonics) - best.rss, 0.0) / best.noise_var
+
+
+@dataclass(frozen=True)
+class PeriodFit:
+    """Whole periods synthesised from per-period least-squares harmonics.
+
+    Attributes:
+      samples: shape (channels, n_periods * samples_per_period), on the grid
+        ``t0 + k T / samples_per_period``.
+      harmonics: highest harmonic estimated (limited by the samples in a period).
+      residual_rms: per channel, RMS of the data minus the fit (signal units): noise plus
+        what lies above the harmonics estimated.
+      condition_number: of the first period's least-squares matrix.
+    """
+
+    samples: np.ndarray
+    n_periods: int
+    samples_per_period: int
+    harmonics: int
+    residual_rms: np.ndarray
+    condition_number: float
+
+
+#: Highest harmonic estimated per period by default: far above what the diagnosis balances
+#: (20) or a multisine reaches (105), and it keeps the least-squares problems small.
+MAX_LS_HARMONICS = 128
+
+
+def ls_harmonics(samples_per_period: float, max_share: float = 0.4, cap: int = MAX_LS_HARMONICS) -> int:
+    """Harmonics estimated per period from ``samples_per_period`` (non-integer) samples: at most
+    ``max_share`` of them, so that a fifth of each period's samples measure the residual
+    (noise and content above H) instead of being interpolated, and at most ``cap``."""
+    return max(1, min(int(math.floor((samples_per_period - 1) / 2)) - 1, int(max_share * samples_per_period), cap))
+
+
+def periods_by_least_squares(t: np.ndarray, channels: np.ndarray, omega: float, *, samples_per_period: int,
+                             harmonics: Optional[int] = None, max_condition: float = 100.0) -> PeriodFit:
+    """Whole periods of a record whose period is not a whole number of samples.
+
+    Args:
+      t: sample times (n,), uniform; the periods start at ``t[0]``.
+      channels: shape (c, n).
+      omega: the fundamental (rad/s), already checked against the data.
+      samples_per_period: samples per period of the output (> 2H).
+      harmonics: highest harmonic H (default :func:`ls_harmonics`).
+      max_condition: H is lowered until the first period's least-squares matrix has a condition
+        number below this (noise grows by at most this factor on the top harmonics).
+    """
+    t = np.asarray(t, float)
+    x = np.atleast_2d(np.asarray(channels, float))
+    T = 2 * math.pi / omega
+    dt = float(t[1] - t[0])
+    rel = t - t[0]
+    P = int(math.floor((rel[-1] + dt) / T + 1e-9))
+    if P < 1:
+        raise ValueError("the record holds less than one period")
+    H = ls_harmonics(T / dt) if harmonics is None else int(harmonics)
+    H = max(1, min(H, (samples_per_period - 1) // 2))
+    idx = [np.flatnonzero((rel >= p * T - 1e-9 * dt) & (rel < (p + 1) * T - 1e-9 * dt)) for p in range(P)]
+    while True:
+        s = np.linalg.svd(_basis(rel[idx[0]], omega, H), compute_uv=False)
+        cond = float(s[0] / s[-1])
+        if cond <= max_condition or H <= 1:
+            break
+        H = max(1, int(H * 0.9))
+    N = samples_per_period
+    G = _basis(np.arange(N) * (T / N), omega, H)
+    out = np.empty((x.shape[0], P * N))
+    ss = np.zeros(x.shape[0])
+    for p, sel in enumerate(idx):
+        B = _basis(rel[sel], omega, H)
+        coef, *_ = np.linalg.lstsq(B, x[:, sel].T, rcond=None)  # (2H+1, c)
+        out[:, p * N:(p + 1) * N] = (G @ coef).T
+        ss += np.sum((x[:, sel].T - B @ coef) ** 2, axis=0)
+    used = sum(sel.size for sel in idx)
+    return PeriodFit(out, P, N, H, np.sqrt(ss / max(used, 1)), cond)
+
+
+@dataclass(frozen=True)
+class Drift:
+    """Linear trend under the periodic model: ``slope`` (units per s) +- ``std_error``,
+    ``t_stat`` = slope / std_error, and ``over_record`` = slope times the record's length."""
+
+    slope: float
+    std_error: float
+    t_stat: float
+    over_record: float
+
+
+def linear_drift(t: np.ndarray, x: np.ndarray, omega: float, *, harmonics: int = 10) -> Drift:
+    """Trend of ``x`` (n,) fitted together with harmonics 0..H of ``omega``."""
+    t = np.asarray(t, float) - float(t[0])
+    x = np.asarray(x, float)
+    dt = float(t[1] - t[0])
+    H = max(1, min(harmonics, int(math.pi / (omega * dt)) - 1))
+    B = _basis(t, omega, H, trend=True)
+    coef, *_ = np.linalg.lstsq(B, x, rcond=None)
+    r = x - B @ coef
+    dof = max(x.size - B.shape[1], 1)
+    var = max(float(r @ r) / dof, _noise_floor(x))
+    tc = B[:, -1]
+    # The trend column is nearly orthogonal to the harmonics over whole periods; its variance
+    # from the exact normal equations all the same.
+    cov = np.linalg.pinv(B.T @ B)
+    se = math.sqrt(var * cov[-1, -1])
+    slope = float(coef[-1])
+    return Drift(slope, se, slope / se if se > 0 else math.inf, slope * float(tc[-1] - tc[0] + dt))
