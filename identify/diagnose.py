@@ -65,9 +65,9 @@ class PreparedRun:
       average: one period, the mean of the run's periods restricted to harmonics 0..band.
       raw_average: the period average with all harmonics.
       fine_average, fine_periods: ``average`` and each period alone (same band) on
-        OVERSAMPLE times as many samples (exact: they are band-limited). The law columns are
+        FINE_SAMPLES = OVERSAMPLE x 256 samples per period, whatever the record's rate (exact: they are band-limited). The law columns are
         evaluated on these, where a jump (dry friction) or a kink (free play) aliases
-        OVERSAMPLE times less; ``fine_periods`` give the noise of every row.
+        16 times less than on 256 samples; ``fine_periods`` give the noise of every row.
       kept: channel ("torque", "phi1", "phi2", "phi" relative) -> the harmonics within the band
         that stand out of the noise.
       noise_std: channel -> noise standard deviation of one raw sample (same unit).
@@ -95,6 +95,9 @@ DEFAULT_FIDELITY = 1e-3
 #: angle): a jump (dry friction) on 256 samples per period aliases at ~1/256 of its size,
 #: enough to be "significant" at 40 dB; 16x brings that to ~2e-4.
 OVERSAMPLE = 16
+
+#: Samples per period of the fine grid (OVERSAMPLE times the rig's default 256).
+FINE_SAMPLES = OVERSAMPLE * 256
 
 
 def _period_spectra(x: np.ndarray, P: int, N: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -148,7 +151,8 @@ def prepare_runs(records: Sequence[SteadyStateRecord], *, band: int = 20,
         if rec.phi2_rad is not None:
             chans["phi2"] = rec.phi2_rad
         in_band = np.arange(H + 1) <= band
-        Nf = N * OVERSAMPLE
+        # The fine grid has the same size whatever the file's rate: the law columns alias alike.
+        Nf = FINE_SAMPLES
         _, phi_mean, phi_var = _period_spectra(rec.phi_rad, P, N)
         kept = {"phi": np.flatnonzero(in_band & (np.abs(phi_mean) > significance_sigma * np.sqrt(phi_var)))}
         noise, avg, raw, favg, fper = {}, {}, {}, {}, {}
@@ -500,6 +504,9 @@ CAUSES: tuple[Cause, ...] = (
           profiled="angle_offset_rad", kind="measurement"),
 )
 
+#: A measurement cause whose chi-square drop is within 1% of the best cause's is taken first.
+TIE = 0.99
+
 #: Largest zero error of the relative angle that a bench plausibly has (rad): about 0.6 degree.
 #: A larger apparent offset is not sought as a sensor error (it would be a preloaded joint).
 ANGLE_ZERO_TOLERANCE_RAD = 0.01
@@ -829,9 +836,13 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
                         key=lambda s: (bool(s.note), -s.score))
         if rnd == 0:
             first = scores
+        best = next((c for c in scores if c.significant), None)
         kind_of = {c.name: c.kind for c in causes}
-        best = next((c for c in scores if c.significant and kind_of[c.effect] == "measurement"), None) or \
-            next((c for c in scores if c.significant), None)
+        sensor = next((c for c in scores if c.significant and kind_of[c.effect] == "measurement"), None)
+        if best is not None and sensor is not None and sensor.delta_chi2 >= TIE * best.delta_chi2:
+            # As good as the best dynamic cause (they explain the same data): the sensors are
+            # checked first, as a test engineer checks the instrumentation before the joint.
+            best = sensor
         if best is None:
             break
         steps.append(best)

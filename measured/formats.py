@@ -235,7 +235,7 @@ def _read_mat(path: Path) -> list[RawTable]:
     cols = {}
     for k in names:
         v = np.asarray(mat[k])
-        if v.dtype.kind in "iufb" and v.ndim <= 2 and min(v.shape or (1,)) <= 1:
+        if v.dtype.kind in "iufb" and (v.ndim <= 1 or (v.ndim == 2 and min(v.shape) == 1)):
             cols[k] = np.ravel(v).astype(float)
         elif v.dtype.kind in "US" and v.ndim == 1:
             cols[k] = v.astype(object)

@@ -77,6 +77,10 @@ UNITS = {
 #: variances, summed over the torque and the relative angle (chi-square(2): p ~ 3e-7).
 REPEAT_THRESHOLD = 30.0
 
+#: A stated omega this close (relative) to a record's own whole-sample period is taken as that
+#: period written with a logger's rounding (5 significant digits): the record's value is used.
+STATED_ROUNDING = 1e-4
+
 #: Harmonics of the periodic model used to find and check the fundamental.
 CHECK_HARMONICS = 10
 
@@ -283,7 +287,10 @@ def _to_record(where: str, run: str, t: np.ndarray, chans: dict, omega: Optional
         return sum(repeat_statistic(tu, x, w, ref) for x, ref in refs)
 
     per_hat = 2 * math.pi / (best.omega_rad_s * dt)
-    if omega is not None:
+    N = int(round(per_hat))
+    commensurate = N >= 8 and stat(2 * math.pi / (N * dt)) <= REPEAT_THRESHOLD
+    near_own = commensurate and omega is not None and abs(omega * N * dt / (2 * math.pi) - 1) < STATED_ROUNDING
+    if omega is not None and not near_own:
         s = stat(omega)
         if s > REPEAT_THRESHOLD:
             raise RunsFileError(
@@ -292,8 +299,6 @@ def _to_record(where: str, run: str, t: np.ndarray, chans: dict, omega: Optional
                 f"({per_hat:.6g} samples per period), {abs(omega / best.omega_rad_s - 1):.3g} relative off; at the "
                 f"stated omega the periodic model's residual exceeds its minimum by {s:.3g} noise variances "
                 f"(at most {REPEAT_THRESHOLD:g} expected); check the column's value and unit (rad/s)")
-    N = int(round(per_hat))
-    commensurate = N >= 8 and stat(2 * math.pi / (N * dt)) <= REPEAT_THRESHOLD
     cols = [torque, chans["phi1"]] + ([chans["phi2"]] if "phi2" in chans else [])
     if commensurate:
         w_rec = 2 * math.pi / (N * dt)

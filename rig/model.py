@@ -31,6 +31,9 @@ _SENSOR_TYPES = {"jointpos": mujoco.mjtSensor.mjSENS_JOINTPOS,
                  "actuatorfrc": mujoco.mjtSensor.mjSENS_ACTUATORFRC}
 
 PREFIX = "jointrig_"
+#: Law fields that dissipate and must not be negative.
+NONNEGATIVE_FIELDS = ("coulomb_torque_Nm", "quadratic_damping_Nms2_per_rad2")
+
 _SCALAR_FIELDS: dict[str, Term] = {
     "c_Nms_per_rad": Viscous(),
     "constant_Nm": Power(0),
@@ -119,6 +122,9 @@ def law_from_model(model: mujoco.MjModel, source: str = "model") -> JointLaw:
             data = fields[name]
             if data.size != 1:
                 raise RigModelError(f"{source}: {PREFIX}{name} must hold one number, got {data.size}")
+            if name in NONNEGATIVE_FIELDS and not data[0] >= 0:
+                raise RigModelError(f"{source}: {PREFIX}{name} must be >= 0 (a negative one feeds energy in), "
+                                    f"got {data[0]:g}")
             terms.append(term)
             values.append(float(data[0]))
     for knots_name, values_name, make in (("knots_rad", "g_Nm", angle_hats),

@@ -20,3 +20,69 @@ def limit_threads(n: int = 1) -> None:
     from threadpoolctl import threadpool_limits
 
     _LIMITER = threadpool_limits(limits=n)
+
+
+class BadArgument(ValueError):
+    """A command-line argument that cannot be used (names the option and what was expected)."""
+
+
+def check_output(path, option: str) -> None:
+    """Refuse an output path before any work: a directory, or a place where no file can be
+    created (probed by creating and removing a temporary file in the nearest existing folder)."""
+    import os
+    import tempfile
+    from pathlib import Path
+
+    if path is None:
+        return
+    p = Path(path)
+    if p.exists() and p.is_dir():
+        raise BadArgument(f"{option} {p}: is a folder; expected a file path")
+    if p.exists() and not os.access(p, os.W_OK):
+        raise BadArgument(f"{option} {p}: exists and is not writable")
+    parent = p.parent
+    while not parent.exists():
+        parent = parent.parent
+    if not parent.is_dir():
+        raise BadArgument(f"{option} {p}: {parent} is a file, not a folder")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".jointrig-probe.", dir=parent)
+        os.close(fd)
+        os.unlink(tmp)
+    except OSError as err:
+        raise BadArgument(f"{option} {p}: cannot create a file in {parent} ({err.strerror})") from None
+
+
+def check_range(value, option: str, *, lo=None, hi=None, lo_open=False, hi_open=False, integer=False) -> None:
+    """Refuse a numeric option outside [lo, hi] (open ends where asked), or not finite."""
+    import math
+
+    ok = isinstance(value, (int, float)) and math.isfinite(value)
+    if integer:
+        ok = ok and float(value).is_integer()
+    if ok and lo is not None:
+        ok = value > lo if lo_open else value >= lo
+    if ok and hi is not None:
+        ok = value < hi if hi_open else value <= hi
+    if not ok:
+        lo_s = "" if lo is None else ("(" if lo_open else "[") + f"{lo:g}"
+        hi_s = "" if hi is None else f"{hi:g}" + (")" if hi_open else "]")
+        kind = "an integer" if integer else "a number"
+        rng = f" in {lo_s or '(-inf'}, {hi_s or 'inf)'}"
+        raise BadArgument(f"{option} {value!r}: expected {kind}{rng}")
+
+
+def run_cli(main, name: str, argv=None) -> int:
+    """Run a command's ``main``: bad input (a ``ValueError``: the message names the file,
+    option or field) exits 2 with the message; a failed simulation (``RuntimeError``) exits 1;
+    neither prints a traceback."""
+    import sys
+
+    try:
+        return main(argv)
+    except ValueError as err:
+        print(f"{name}: error: {err}", file=sys.stderr)
+        return 2
+    except RuntimeError as err:
+        print(f"{name}: failed: {err}", file=sys.stderr)
+        return 1

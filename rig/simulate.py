@@ -89,6 +89,9 @@ class SimulationConfig:
         ``tests/test_speed.py`` checks the bound against a run settled to 1e-13.
       min_periods: periods simulated before the first comparison.
       max_periods: give up (SteadyStateNotReached) after this many periods.
+      max_wall_s: give up (SteadyStateNotReached) after this much wall-clock time (s); None:
+        no cap. The diagnosis caps each validation run, so a model that settles slowly is a
+        finding about that model, not a hang.
       n_periods: steady periods logged into the record.
       integrator: MuJoCo integrator, case-insensitive ("RK4", "Euler", "implicitfast", ...).
       absolute_angles_periodic: require the absolute angles to repeat too. False checks the
@@ -103,6 +106,7 @@ class SimulationConfig:
     settle_tol: float = 1e-9
     min_periods: int = 2
     max_periods: int = 2000
+    max_wall_s: Optional[float] = None
     n_periods: int = 1
     integrator: str = "RK4"
     absolute_angles_periodic: bool = True
@@ -120,6 +124,8 @@ class SimulationConfig:
             raise ValueError(f"need 2 <= min_periods <= max_periods, got {self.min_periods}, {self.max_periods}")
         if self.n_periods < 1:
             raise ValueError(f"n_periods must be >= 1, got {self.n_periods}")
+        if self.max_wall_s is not None and not (math.isfinite(self.max_wall_s) and self.max_wall_s > 0):
+            raise ValueError(f"max_wall_s must be a finite number > 0 or None, got {self.max_wall_s}")
         if self.mj_integrator_name not in mujoco.mjtIntegrator.__members__:
             raise ValueError(f"unknown integrator {self.integrator!r}; expected one of "
                              f"{[n[6:] for n in mujoco.mjtIntegrator.__members__]}")
@@ -522,6 +528,12 @@ def simulate_steady_state(
                         settled_at = p
                 periods = [buf]
                 times = [tbuf]
+                if (settled_at is None and config.max_wall_s is not None
+                        and _time.perf_counter() - t_start > config.max_wall_s):
+                    raise SteadyStateNotReached(
+                        f"{where}: no steady state within the wall-clock cap of {config.max_wall_s:g} s ({p} periods "
+                        f"simulated; period-to-period change {change:.3g}, estimated distance {bound:.3g} > "
+                        f"settle_tol {config.settle_tol:g})")
                 if settled_at is None and p >= config.max_periods:
                     raise SteadyStateNotReached(
                         f"{where}: no steady state after {p} periods: period-to-period change "

@@ -19,6 +19,7 @@ import os
 import tempfile
 import threading
 import time
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Optional, Sequence
@@ -326,7 +327,16 @@ def run_sweep(
         if store is None:
             return None
         path = _point_path(store, *points[i])
-        return _load_point(path) if path.exists() else None
+        if not path.exists():
+            return None
+        try:
+            return _load_point(path)
+        except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile) as err:
+            # A point file that cannot be read (a sweep killed mid-write before atomic writes,
+            # a full disk, bit rot) is simulated again, not a reason to stop resuming.
+            log.warning("sweep store %s: cannot read it (%s: %s); simulating that point again", path,
+                        type(err).__name__, err)
+            return None
 
     def finished(i: int, point: SweepPoint) -> None:
         omega, amp = points[i]

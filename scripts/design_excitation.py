@@ -47,6 +47,15 @@ def main(argv=None) -> int:
     p.add_argument("--native", action="store_true", help="simulate the candidates with the native callback")
     p.add_argument("--json", type=Path)
     args = p.parse_args(argv)
+    from rig.runtime import check_output, check_range
+
+    check_range(args.snr_db, "--snr-db", lo=0, hi=200, lo_open=True)
+    check_range(args.setup_s, "--setup-s", lo=0)
+    if args.budget_s is not None:
+        check_range(args.budget_s, "--budget-s", lo=0, lo_open=True)
+    check_range(args.harmonics, "--harmonics", lo=1, hi=100, integer=True)
+    check_range(args.verify, "--verify", lo=0, integer=True)
+    check_output(args.json, "--json")
     rig = load_rig()
     points = CANDIDATES.points()
     records = records_of(run_sweep(rig, CANDIDATES, SimulationConfig(), native=args.native,
@@ -106,4 +115,6 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from rig.runtime import run_cli
+
+    sys.exit(run_cli(main, "design_excitation.py"))

@@ -3,16 +3,19 @@
 
     python3 scripts/diagnose.py DATA.csv [--json OUT] [--rrd OUT] [--report OUT.html]
 
-DATA (CSV or Parquet): one row per sample, columns ``run, time, torque, phi1, phi2`` in
-s, N m, rad (``phi`` may replace ``phi1, phi2``; optional ``omega`` in rad/s). Each run is one
-steady-state record of several whole periods at one drive setting.
+DATA: a file (CSV, Parquet, MATLAB .mat, HDF5, NI TDMS, UFF 58) or a folder of them, one row
+per sample, columns ``run, time, torque, phi1, phi2`` in s, N m, rad (``phi`` may replace
+``phi1, phi2``; optional ``omega`` in rad/s; other names with --columns, other units with
+--units or in the header as ``phi1 [deg]``). Each run is one steady-state record of several
+whole periods at one drive setting, sampled at any rate (see measured/runs.py).
 
 The tool fits the nominal model (Je or J1, J2; c phi' + k phi + gamma phi^3), ranks the
 physical causes of what it misses by evidence, extends the model, and measures the gain by
 running both models in the MuJoCo rig under the measured drive of runs held out of the fit
 (default: every third run starting with the second, in file order).
 
-Exit status: 0 on success, 2 on bad input (the message names the file, run and column).
+Exit status: 0 on success, 2 on bad input (the message names the file, run, column or
+option), 1 when the identification itself fails.
 """
 
 from __future__ import annotations
@@ -23,12 +26,14 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 from identify.diagnose import DEFAULT_FIDELITY
 from identify.records import RecordError
 from measured.runs import RunsFileError, read_runs
 from rig.diagnosis_report import format_report, log_diagnosis, report_json, write_html
 from rig.recording import open_recording
-from rig.runtime import limit_threads
+from rig.runtime import BadArgument, check_output, check_range, limit_threads
 from rig.simulate import SimulationError
 from rig.sweep import write_json_atomic
 from rig.validate import run_diagnosis
@@ -38,7 +43,11 @@ log = logging.getLogger("diagnose")
 
 def parse_args(argv=None) -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("data", type=Path, help="measured runs (.csv or .parquet)")
+    p.add_argument("data", type=Path, help="measured runs: a file or a folder of files")
+    p.add_argument("--columns", metavar="NAME=COLUMN,...",
+                   help="the file's names for the columns, e.g. torque=M_drive,phi1=enc1,phi2=enc2,time=t")
+    p.add_argument("--units", metavar="NAME=UNIT,...",
+                   help="units of the file's columns when not SI, e.g. time=ms,phi1=deg,phi2=deg,torque=Nmm")
     p.add_argument("--json", type=Path, help="write the diagnosis as JSON")
     p.add_argument("--rrd", type=Path, help="write a rerun recording")
     p.add_argument("--report", type=Path, help="write a self-contained HTML report")
@@ -63,7 +72,13 @@ def main(argv=None) -> int:
                         stream=sys.stderr)
     t0 = time.perf_counter()
     try:
-        loaded = read_runs(args.data)
+        check_range(args.band, "--band", lo=1, hi=100, integer=True)
+        check_range(args.torque_share, "--torque-share", lo=0, hi=1, lo_open=True, hi_open=True)
+        check_range(args.alpha, "--alpha", lo=0, hi=1, lo_open=True, hi_open=True)
+        check_range(args.fidelity, "--fidelity", lo=0, hi=0.5)
+        for option, path in (("--json", args.json), ("--rrd", args.rrd), ("--report", args.report)):
+            check_output(path, option)
+        loaded = read_runs(args.data, columns=args.columns, units=args.units)
         ids = list(loaded.run_ids)
         holdout = None
         if args.holdout:
@@ -71,14 +86,22 @@ def main(argv=None) -> int:
             if unknown:
                 raise RunsFileError(f"{args.data}: --holdout names run(s) {unknown} not in the file; runs are {ids}")
             holdout = [ids.index(h) for h in args.holdout]
+            if len(set(holdout)) >= len(ids):
+                raise BadArgument(f"--holdout holds out all {len(ids)} runs; expected at least one run left to fit")
+        elif len(ids) < 3:
+            raise RunsFileError(f"{args.data}: {len(ids)} run(s); the diagnosis needs at least 3 (it holds every "
+                                f"third out for validation), or name the held-out runs with --holdout")
         for n in loaded.notes:
             log.info("note: %s", n)
         report = run_diagnosis(loaded.records, run_ids=ids, holdout=holdout, band=args.band,
                                torque_share=args.torque_share, alpha=args.alpha, fidelity=args.fidelity,
                                progress=lambda msg: log.info("%s", msg))
-    except (RunsFileError, RecordError, ValueError, SimulationError) as err:
+    except (RunsFileError, RecordError, BadArgument) as err:
         print(f"diagnose: error: {err}", file=sys.stderr)
         return 2
+    except (SimulationError, ValueError, np.linalg.LinAlgError) as err:
+        print(f"diagnose: the identification failed: {err}", file=sys.stderr)
+        return 1
     text = format_report(report, source=str(args.data), notes=loaded.notes)
     print(text)
     if args.json:

@@ -115,6 +115,18 @@ def main(argv=None) -> int:
         raise ValueError("--noise-db identifies the equivalent form (Je and the law): drop --form two_dof")
     if args.periods < 2:
         raise ValueError(f"--periods must be >= 2 (the noise is estimated from their variation), got {args.periods}")
+    from rig.runtime import check_output, check_range
+
+    check_output(args.json, "--json")
+    if not args.no_rrd:
+        check_output(args.rrd, "--rrd")
+    if args.harmonics is not None:
+        check_range(args.harmonics, "--harmonics", lo=1, hi=1000, integer=True)
+    check_range(args.workers, "--workers", lo=1, hi=256, integer=True)
+    for w in args.omegas:
+        check_range(w, "--omegas", lo=0, hi=1e4, lo_open=True)
+    for a in args.amplitudes:
+        check_range(a, "--amplitudes", lo=0, hi=1e7, lo_open=True)
     rig = load_rig(args.model)
     plan = SweepPlan(tuple(args.omegas), tuple(args.amplitudes))
     if args.sample_rate_hz is not None:
@@ -223,8 +235,6 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    try:
-        sys.exit(main())
-    except (ValueError, RuntimeError) as err:  # bad input or a failed simulation: say what, no traceback
-        print(f"run_sweep.py: error: {err}", file=sys.stderr)
-        sys.exit(2)
+    from rig.runtime import run_cli
+
+    sys.exit(run_cli(main, "run_sweep.py"))

@@ -47,6 +47,20 @@ def main(argv=None) -> int:
     p.add_argument("--rrd", type=Path, default=Path("runs/unknown_law.rrd"))
     p.add_argument("--png", type=Path, default=Path("runs/unknown_law.png"))
     args = p.parse_args(argv)
+    from rig.runtime import check_output, check_range
+
+    if not args.model.is_file():
+        raise ValueError(f"--model {args.model}: no such file")
+    check_range(args.knots, "--knots", lo=3, hi=1000, integer=True)
+    check_range(args.noise_db, "--noise-db", lo=0, hi=200, lo_open=True)
+    check_range(args.periods, "--periods", lo=2, hi=10000, integer=True)
+    check_range(args.harmonics, "--harmonics", lo=1, hi=100, integer=True)
+    if args.lam is not None:
+        check_range(args.lam, "--lam", lo=0)
+    if args.rate_knots is not None:
+        check_range(args.rate_knots, "--rate-knots", lo=3, hi=1000, integer=True)
+    check_output(args.rrd, "--rrd")
+    check_output(args.png, "--png")
     rig = load_rig(args.model)
     records = records_of(run_sweep(rig, DEFAULT_PLAN, SimulationConfig()))
     rng = np.random.default_rng(args.seed)
@@ -111,4 +125,6 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from rig.runtime import run_cli
+
+    sys.exit(run_cli(main, "unknown_law.py"))

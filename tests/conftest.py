@@ -7,7 +7,11 @@ from pathlib import Path
 import pytest
 
 from rig import DEFAULT_MODEL, SimulationConfig, load_rig
+from rig.runtime import limit_threads
 from rig.sweep import DEFAULT_PLAN, records_of, run_sweep
+
+# One BLAS thread per pytest worker: the suite runs on both cores (pytest-xdist, -n 2).
+limit_threads()
 
 MODELS_DIR = Path(DEFAULT_MODEL).parent
 #: Two-flywheel rig models (checked by rig.load_rig); the one-coordinate oscillator is separate.

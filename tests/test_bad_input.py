@@ -1,0 +1,364 @@
+"""Every bad input answered: a clear message naming the file, run, column or option, exit code 2
+for bad input, before any long work, and nothing left behind.
+
+The battery runs each case through the loader, the Python API, the MJCF reader or a command's
+``main`` in this process (the scripts are imported from their files) and checks the error
+type and message, the exit code, that no traceback reached the user and that the output
+folder holds no temporary file afterwards.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from identify.plant import Plant
+from identify.basis import JointLaw, Viscous
+from identify.records import RecordError, SteadyStateRecord
+from measured.runs import RunsFileError, read_runs
+from rig import RigModelError, load_rig
+
+ROOT = Path(__file__).resolve().parent.parent
+W = 60.0
+
+
+def _script(name):
+    spec = importlib.util.spec_from_file_location(f"script_{name}", ROOT / "scripts" / f"{name}.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def _good_rows(n_periods=3, N=64, *, run="0", t0=0.0, omega=W, phi1_extra=None):
+    dt = 2 * math.pi / omega / N
+    rows = []
+    for k in range(n_periods * N):
+        t = t0 + k * dt
+        p1 = 0.3 * math.cos(omega * t - 0.5) + (phi1_extra(t) if phi1_extra else 0.0)
+        rows.append(f"{run},{t!r},{1000 * math.cos(omega * t)!r},{p1!r},{0.1 * math.cos(omega * t - 1.5)!r}")
+    return rows
+
+
+def _edit(rows, i, col, value):
+    rows = list(rows)
+    parts = rows[i].split(",")
+    parts[col] = value
+    rows[i] = ",".join(parts)
+    return rows
+
+
+def good_csv(**kw):
+    return "run,time,torque,phi1,phi2\n" + "\n".join(_good_rows(**kw)) + "\n"
+
+
+def three_runs():
+    return "run,time,torque,phi1,phi2\n" + "\n".join(
+        sum((_good_rows(run=str(r), omega=W * (1 + 0.2 * r)) for r in range(3)), [])) + "\n"
+
+
+# ------------------------------------------------------------------------------ loader cases
+
+LOADER = {
+    "empty file": ("", "no header row"),
+    "header only": ("run,time,torque,phi1,phi2\n", "no data rows"),
+    "short row": ("run,time,torque,phi1,phi2\n0,0,1,2\n", "data row 1 has 4 fields"),
+    "text in torque": ("run,time,torque,phi1,phi2\n" + "\n".join(_good_rows()).replace(",1000.0,", ",abc,", 1),
+                       r"column 'torque' holds a non-number \('abc' in data row 1\)"),
+    "nan in phi1": ("run,time,torque,phi1,phi2\n" + "\n".join(_edit(_good_rows(), 5, 3, "nan")) + "\n",
+                    r"column 'phi1' holds 1 missing.*run 0, data row 6"),
+    "inf value": (good_csv().replace("1000.0", "inf", 1), r"column 'torque' holds 1 missing, non-finite.*run 0, data row 1"),
+    "huge value": (good_csv().replace("1000.0", "1e300", 1), r"implausibly large.*1e\+300"),
+    "duplicate column": ("run,time,torque,phi1,phi1\n0,0,1,2,3\n", "appears twice"),
+    "columns differing in case": ("run,time,torque,phi1,PHI1,phi2\n0,0,1,2,3,4\n", "differ only in case"),
+    "no torque": ("run,time,phi1,phi2\n0,0,1,2\n", r"missing column\(s\) \['torque'\]"),
+    "no angles": ("run,time,torque\n0,0,1\n", "missing angle column"),
+    "phi and phi1": ("run,time,torque,phi,phi1\n0,0,1,2,3\n", "either 'phi' or"),
+    "only phi1": ("run,time,torque,phi1\n0,0,1,2\n", "expected 'phi1' and 'phi2'"),
+    "too short": ("run,time,torque,phi1,phi2\n" + "\n".join(_good_rows()[:10]) + "\n", "too short"),
+    "one period and a half": ("run,time,torque,phi1,phi2\n" + "\n".join(_good_rows(n_periods=2, N=64)[:96]) + "\n",
+                              "expected at least 2 whole periods"),
+    "time not increasing": (good_csv().replace("\n0,0.0,", "\n0,5.0,", 1), "time must increase strictly"),
+    "missing samples": ("run,time,torque,phi1,phi2\n" + "\n".join(r for i, r in enumerate(_good_rows()) if i != 70)
+                        + "\n", r"not uniformly sampled: sample \d+"),
+    "omega 20% off": ("run,time,torque,phi1,phi2,omega\n" + "\n".join(f"{r},72.0" for r in _good_rows()) + "\n",
+                      "does not repeat at that period"),
+    "omega varies in a run": ("run,time,torque,phi1,phi2,omega\n" + "\n".join(
+        f"{r},{60 + (i > 100)}" for i, r in enumerate(_good_rows())) + "\n", "one positive value per run"),
+    "omega negative": ("run,time,torque,phi1,phi2,omega\n" + "\n".join(f"{r},-60" for r in _good_rows()) + "\n",
+                       "one positive value per run"),
+    "slipping encoder": (good_csv(n_periods=4, phi1_extra=lambda t: 0.2 * t), "drifts"),
+    "no drive": ("run,time,torque,phi1,phi2\n" + "\n".join(
+        f"0,{k * 1e-3!r},5.0,{math.sin(k * 0.06)!r},0.0" for k in range(300)) + "\n", "does not vary"),
+    "unknown unit": (good_csv().replace("phi1,", "phi1 [furlong],", 1), "unit 'furlong'.*expected one of rad"),
+    "binary garbage": ("\x00\x01\x02garbage", "NUL bytes"),
+    "run label used twice": ("run,time,torque,phi1,phi2\n" + "\n".join(_good_rows(run="a") + _good_rows(run="b")
+                                                                      + _good_rows(run="a")[:50]) + "\n",
+                             "time must increase strictly"),
+}
+
+
+@pytest.mark.parametrize("case", list(LOADER))
+def test_loader_refuses_bad_csv_with_the_place_named(tmp_path, case):
+    text, match = LOADER[case]
+    path = tmp_path / "bad.csv"
+    path.write_text(text)
+    with pytest.raises(RunsFileError) as err:
+        read_runs(path)
+    assert str(path) in str(err.value)
+    if match:
+        assert err.match(match)
+    assert list(tmp_path.iterdir()) == [path]
+
+
+OPTION_CASES = {
+    "units bad key": (dict(units="angle=deg"), "'angle' is not a column"),
+    "units unknown": (dict(units="phi1=grad"), "unit 'grad'"),
+    "units malformed": (dict(units="phi1deg"), "not NAME=VALUE"),
+    "columns to a missing column": (dict(columns="torque=M_drive"), r"column 'M_drive' \(mapped to 'torque'\) is not"),
+    "columns bad key": (dict(columns="moment=M"), "'moment' is not a column"),
+    "samples per period too few": (dict(samples_per_period=4), "samples_per_period must be an integer >= 16"),
+}
+
+
+@pytest.mark.parametrize("case", list(OPTION_CASES))
+def test_loader_options_are_checked(tmp_path, case):
+    path = tmp_path / "ok.csv"
+    path.write_text(good_csv())
+    kw, match = OPTION_CASES[case]
+    with pytest.raises(RunsFileError, match=match):
+        read_runs(path, **kw)
+
+
+@pytest.mark.parametrize("name, content, match", [
+    ("missing.csv", None, "no such file or folder"),
+    ("x.xlsx", b"PK", "unknown file type '.xlsx'"),
+    ("bad.parquet", b"PAR1 not really", "not a readable Parquet file"),
+    ("bad.mat", b"MATLAB 5.0 garbage" * 3, "MATLAB"),
+    ("bad.h5", b"\x89HDF\r\n\x1a\n garbage", "not a readable HDF5 file"),
+    ("bad.tdms", b"TDSm garbage garbage", "TDMS"),
+    ("bad.uff", b"    -1\n    58\ngarbage\n    -1\n", "UFF|universal|dataset 58"),
+    ("empty_folder", "dir", "a folder without run files"),
+])
+def test_unreadable_files_in_every_format(tmp_path, name, content, match):
+    path = tmp_path / name
+    if content == "dir":
+        path.mkdir()
+    elif content is not None:
+        path.write_bytes(content)
+    with pytest.raises(RunsFileError, match=match):
+        read_runs(path)
+
+
+def test_sidecar_errors(tmp_path):
+    path = tmp_path / "ok.csv"
+    path.write_text(good_csv())
+    side = tmp_path / "ok.csv.meta.json"
+    side.write_text("{not json")
+    with pytest.raises(RunsFileError, match="meta.json: not readable JSON"):
+        read_runs(path)
+    side.write_text('{"colums": {}}')
+    with pytest.raises(RunsFileError, match="expected an object with keys 'columns', 'units'"):
+        read_runs(path)
+
+
+def test_fuzzed_files_give_only_clean_errors(tmp_path):
+    # Every mutation of a valid file (bytes dropped, duplicated, replaced) is either read or
+    # refused with a RunsFileError: no other exception type reaches the user.
+    hypothesis = pytest.importorskip("hypothesis")
+    from hypothesis import HealthCheck, given, settings
+    from hypothesis import strategies as st
+
+    base = good_csv().encode()
+
+    @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+    @given(st.lists(st.tuples(st.integers(0, len(base) - 1), st.sampled_from([b"", b",", b"\n", b"x", b"-", b"9",
+                                                                             b"e", b";", b"\x00"])), max_size=6),
+           st.sampled_from([".csv", ".txt"]))
+    def check(edits, suffix):
+        data = bytearray(base)
+        for pos, rep in sorted(edits, reverse=True):
+            data[pos:pos + 1] = rep
+        path = tmp_path / f"fuzz{suffix}"
+        path.write_bytes(bytes(data))
+        try:
+            read_runs(path)
+        except RunsFileError:
+            pass
+
+    check()
+    assert hypothesis is not None
+
+
+# ------------------------------------------------------------------------------ API and MJCF
+
+
+@pytest.mark.parametrize("make, match", [
+    (lambda: SteadyStateRecord(W, np.arange(64) * 0.001, np.full(64, np.nan), np.zeros(64), None, n_periods=2),
+     "'torque_Nm' holds 64 non-finite"),
+    (lambda: SteadyStateRecord(-1.0, np.arange(64) * 0.001, np.zeros(64), np.zeros(64), None), "omega_rad_s"),
+    (lambda: SteadyStateRecord(W, np.arange(64) * 0.001, np.zeros(63), np.zeros(64), None), "has 63 samples"),
+    (lambda: Plant(JointLaw((Viscous(),), (1.0,)), bearing1_damping_Nms_per_rad=-1.0), "bearing1_damping"),
+    (lambda: Plant(JointLaw((Viscous(),), (1.0,)), drive_delay_s=math.nan), "drive_delay_s"),
+])
+def test_python_api_refuses_bad_values(make, match):
+    with pytest.raises((RecordError, ValueError), match=match):
+        make()
+
+
+MJCF_LAW = """<mujoco><custom>{fields}</custom><worldbody>
+<body name="f1"><joint name="phi1" type="hinge"/><geom size=".1" mass="1"/></body>
+<body name="f2"><joint name="phi2" type="hinge"/><geom size=".1" mass="1"/></body></worldbody>
+<actuator><motor name="drive" joint="phi1"/></actuator>
+<sensor><jointpos name="phi1" joint="phi1"/><jointpos name="phi2" joint="phi2"/>
+<jointvel name="rate1" joint="phi1"/><jointvel name="rate2" joint="phi2"/>
+<actuatorfrc name="drive_torque" actuator="drive"/></sensor></mujoco>"""
+
+
+@pytest.mark.parametrize("fields, match", [
+    ('<numeric name="jointrig_k_Nm_per_rad" data="2000"/><numeric name="jointrig_coulomb_torque_Nm" data="-5"/>',
+     "coulomb_torque_Nm must be >= 0"),
+    ('<numeric name="jointrig_k_Nm_per_rad" data="2000"/><numeric name="jointrig_stiffness" data="1"/>',
+     "unknown joint-law field"),
+    ("", "no joint law"),
+    ('<numeric name="jointrig_k_Nm_per_rad" data="2000"/><numeric name="jointrig_backlash_half_gap_rad" data="-1"/>',
+     "must hold one finite number >= 0"),
+])
+def test_mjcf_law_fields_are_checked(tmp_path, fields, match):
+    path = tmp_path / "m.xml"
+    path.write_text(MJCF_LAW.format(fields=fields))
+    with pytest.raises(RigModelError, match=match):
+        load_rig(path)
+
+
+def test_mjcf_without_a_drive_is_refused(tmp_path):
+    path = tmp_path / "m.xml"
+    path.write_text(MJCF_LAW.format(fields='<numeric name="jointrig_k_Nm_per_rad" data="2000"/>')
+                    .replace('<motor name="drive" joint="phi1"/>', "").replace(
+                        '<actuatorfrc name="drive_torque" actuator="drive"/>', ""))
+    with pytest.raises(RigModelError, match="drive"):
+        load_rig(path)
+
+
+# ------------------------------------------------------------------------------ commands
+
+
+@pytest.fixture(scope="module")
+def data3(tmp_path_factory):
+    path = tmp_path_factory.mktemp("cli") / "three.csv"
+    path.write_text(three_runs())
+    return path
+
+
+DIAGNOSE = {
+    "band 0": (["--band", "0"], "--band 0: expected an integer in [1, 100]"),
+    "alpha 2": (["--alpha", "2"], "--alpha 2.0: expected a number in (0, 1)"),
+    "fidelity -1": (["--fidelity", "-1"], "--fidelity -1.0"),
+    "torque share 1.5": (["--torque-share", "1.5"], "--torque-share 1.5"),
+    "json is a folder": (["--json", "{tmp}"], "is a folder"),
+    "report under a file": (["--report", "{data}/x.html"], "is a file, not a folder"),
+    "rrd where nothing can be written": (["--rrd", "/proc/jointrig.rrd"], "cannot create a file"),
+    "holdout unknown run": (["--holdout", "7"], r"--holdout names run\(s\) \['7'\]"),
+    "holdout everything": (["--holdout", "0", "1", "2"], "holds out all 3 runs"),
+    "columns bad": (["--columns", "torque"], "not NAME=VALUE"),
+    "units bad": (["--units", "phi1=parsec"], "unit 'parsec'"),
+}
+
+
+@pytest.mark.parametrize("case", list(DIAGNOSE))
+def test_diagnose_command_refuses_before_any_work(tmp_path, data3, capsys, case):
+    args, match = DIAGNOSE[case]
+    args = [a.format(tmp=tmp_path, data=data3) for a in args]
+    code = _script("diagnose").main([str(data3), "-q", *args])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert "Traceback" not in err
+    import re
+
+    assert match in err or re.search(match, err), err
+    assert not [p for p in tmp_path.rglob("*") if ".tmp" in p.name]
+
+
+@pytest.mark.parametrize("data, match", [
+    ("missing.csv", "no such file or folder"),
+    ("two_runs.csv", r"2 run\(s\); the diagnosis needs at least 3"),
+])
+def test_diagnose_command_refuses_bad_data(tmp_path, capsys, data, match):
+    if data == "two_runs.csv":
+        (tmp_path / data).write_text("run,time,torque,phi1,phi2\n" + "\n".join(
+            _good_rows(run="a") + _good_rows(run="b", omega=70.0)) + "\n")
+    code = _script("diagnose").main([str(tmp_path / data), "-q"])
+    err = capsys.readouterr().err
+    import re
+
+    assert code == 2 and re.search(match, err), err
+
+
+@pytest.mark.parametrize("args, match", [
+    (["{tmp}/out.xlsx"], "expected a .csv or .parquet"),
+    (["{tmp}/out.csv", "--periods", "0"], "--periods 0"),
+    (["{tmp}/out.csv", "--omegas", "-5"], "--omegas -5.0"),
+    (["{tmp}/out.csv", "--model", "{tmp}/nope.xml"], "nope.xml"),
+    (["/proc/out.csv"], "cannot create a file"),
+])
+def test_make_data_command(tmp_path, capsys, args, match):
+    args = [a.format(tmp=tmp_path) for a in args]
+    code = _script("make_data").main(args)
+    err = capsys.readouterr().err
+    assert code == 2 and match in err, err
+    assert not (tmp_path / "out.csv").exists()
+
+
+@pytest.mark.parametrize("args, match", [
+    (["--json", "{tmp}"], "is a folder"),
+    (["--rrd", "/proc/x.rrd"], "cannot create a file"),
+    (["--harmonics", "0"], "--harmonics 0"),
+    (["--workers", "0"], "--workers 0"),
+    (["--omegas", "0"], "--omegas 0.0"),
+    (["--amplitudes", "nan"], "--amplitudes nan"),
+    (["--model", "{tmp}/none.xml"], "none.xml"),
+])
+def test_run_sweep_command(tmp_path, capsys, args, match):
+    from rig.runtime import run_cli
+
+    args = [a.format(tmp=tmp_path) for a in args]
+    code = run_cli(_script("run_sweep").main, "run_sweep.py", ["--no-store", "-q", *args])
+    err = capsys.readouterr().err
+    assert code == 2 and match in err, err
+
+
+@pytest.mark.parametrize("script, args, match", [
+    ("design_excitation", ["--harmonics", "0"], "--harmonics 0"),
+    ("design_excitation", ["--snr-db", "-3"], "--snr-db -3.0"),
+    ("design_excitation", ["--json", "/proc/d.json"], "cannot create a file"),
+    ("unknown_law", ["--knots", "1"], "--knots 1"),
+    ("unknown_law", ["--periods", "1"], "--periods 1"),
+    ("unknown_law", ["--model", "/nonexistent.xml"], "no such file"),
+    ("unknown_law", ["--png", "/proc/u.png"], "cannot create a file"),
+])
+def test_other_commands_check_arguments_first(capsys, script, args, match):
+    from rig.runtime import run_cli
+
+    code = run_cli(_script(script).main, script, args)
+    err = capsys.readouterr().err
+    assert code == 2 and match in err, err
+
+
+def test_truncated_store_point_is_simulated_again(tmp_path, rig, caplog):
+    from rig import SimulationConfig
+    from rig.sweep import SweepPlan, run_sweep
+
+    plan = SweepPlan((30.0,), (500.0,))
+    cfg = SimulationConfig(samples_per_period=64)
+    first = run_sweep(rig, plan, cfg, store=tmp_path)
+    (npz,) = tmp_path.glob("*.npz")
+    npz.write_bytes(npz.read_bytes()[:100])  # a sweep killed while a disk filled up
+    with pytest.raises(zipfile.BadZipFile):
+        zipfile.ZipFile(npz)
+    again = run_sweep(rig, plan, cfg, store=tmp_path)
+    assert not again[0].from_store and npz.name in caplog.text
+    np.testing.assert_array_equal(again[0].record.phi1_rad, first[0].record.phi1_rad)
