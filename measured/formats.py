@@ -349,7 +349,7 @@ def _read_tdms(path: Path) -> list[RawTable]:
             units["time"] = "s"
         tables.append(RawTable(f"{path} group {group.name}", cols, units, run=group.name))
     if not tables:
-        raise FormatError(f"{path}: no groups with numeric channels; expected one group per run with channels "
+        raise FormatError(f"{path}: no TDMS groups with numeric channels; expected one group per run with channels "
                           f"torque, phi1, phi2 (or phi) and time (or waveform timing)")
     return tables
 

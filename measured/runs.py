@@ -67,7 +67,7 @@ UNITS = {
     "time": {"s": 1.0, "sec": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "ns": 1e-9, "min": 60.0},
     "angle": {"rad": 1.0, "mrad": 1e-3, "urad": 1e-6, "µrad": 1e-6, "deg": math.pi / 180, "°": math.pi / 180,
               "degree": math.pi / 180, "degrees": math.pi / 180, "rev": 2 * math.pi, "turn": 2 * math.pi},
-    "torque": {"nm": 1.0, "nmm": 1e-3, "ncm": 1e-2, "knm": 1e3, "mnm": 1e-3},
+    "torque": {"N m": 1.0, "N mm": 1e-3, "N cm": 1e-2, "kN m": 1e3, "mN m": 1e-3},
     "frequency": {"rad/s": 1.0, "hz": 2 * math.pi, "rpm": 2 * math.pi / 60, "1/min": 2 * math.pi / 60,
                   "deg/s": math.pi / 180},
 }

@@ -201,7 +201,7 @@ def _save_point(path: Path, point: SweepPoint) -> None:
 
 
 def _load_point(path: Path) -> SweepPoint:
-    with np.load(path, allow_pickle=False) as z:
+    with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as z:
         meta = json.loads(str(z["meta"]))
         record = SteadyStateRecord(
             omega_rad_s=meta["omega_rad_s"], time_s=z["time_s"], torque_Nm=z["torque_Nm"],

@@ -64,7 +64,12 @@ def test_hidden_effect_is_ranked_first_sized_and_pays_off(reports, case):
         assert params[name] == pytest.approx(value, rel=0.15), (name, params[name])
         if name.endswith("_Nm") and not name.startswith("a_"):
             assert value <= 0.05 * peak  # a modest effect: <= 5% of the peak joint torque
-    assert report.gain >= 5.0, (report.validation_rms("nominal"), report.validation_rms("extended"))
+    # The even term's gain is measured on harmonics 1.. only since the sensors' zero counts as
+    # arbitrary (issue 11): its DC shift, most of the nominal model's error, is no longer
+    # compared, and the gain fell from 13.9 to 4.98 with the model itself unchanged (a 203 ->
+    # 207). 4.5 for that case; the independent bench's asymmetric cases reach >= 5.
+    bound = 4.5 if case == "asymmetric_stiffness" else 5.0
+    assert report.gain >= bound, (report.validation_rms("nominal"), report.validation_rms("extended"))
     # The extended model leaves only noise: chi2/dof at most about 1 (below 1 where the
     # model-fidelity floor, 1e-3 of each run's torque, exceeds the noise; 1.3 allows for the
     # weight estimates' 30 degrees of freedom).
@@ -102,20 +107,24 @@ def test_relative_angle_only_uses_the_equivalent_form(rig, tmp_path_factory):
     assert report.gain >= 5.0
 
 
-def test_says_when_the_data_cannot_tell_two_causes_apart(rig, tmp_path_factory):
+def test_a_jenkins_element_that_never_sticks_is_named_dry_friction(rig, tmp_path_factory):
     # At 20 dB the transition after each reversal that tells a Jenkins element from dry
-    # friction drowns in noise: both fit equally well and neither is needed given the other.
+    # friction drowns in noise: the Jenkins fit's slip angle falls below what the angles
+    # resolve, and the tool names it by its physics, dry friction (issue 11), instead of
+    # offering "hysteresis" as an equal rival.
     from rig.diagnosis_report import format_report, report_json
 
     records, _ = measured(rig, tmp_path_factory, "coulomb_friction", snr_db=20.0, seed=5)
     report = run_diagnosis(records, rig=rig)
-    pairs = [set(a.effects) for a in report.diagnosis.ambiguous]
-    assert {"coulomb_friction", "hysteresis"} in pairs
-    assert report.diagnosis.effects[0] in {"coulomb_friction", "hysteresis"}
+    d = report.diagnosis
+    assert d.effects[0] == "coulomb_friction"
+    jenkins = next(c for c in d.causes if c.effect == "hysteresis")
+    assert not jenkins.significant and "never sticks is dry friction" in jenkins.note
+    assert "hysteresis" not in d.effects
     text = format_report(report)
-    assert "CANNOT TELL APART" in text and "low-amplitude run" in text
+    assert "never sticks is dry friction" in text
     js = report_json(report)
-    assert js["ambiguous"] and "excitation" in js["ambiguous"][0]
+    assert not any("hysteresis" in a["effects"] for a in js["ambiguous"])
 
 
 @pytest.mark.parametrize("case, low, high", [("coulomb_friction", 0.95, 1.0), ("quadratic_damping", 0.95, 1.0),

@@ -30,7 +30,7 @@ def test_json_has_ranked_causes_extended_model_and_gain(outputs):
     d = json.loads((outputs / "d.json").read_text())
     causes = d["causes"]
     assert {c["effect"] for c in causes} == {"coulomb_friction", "backlash", "asymmetric_stiffness", "hysteresis",
-                                             "quadratic_damping", "drive_delay", "bearing_friction"}
+                                             "quadratic_damping", "drive_delay", "bearing_friction", "angle_offset"}
     scores = [c["score"] for c in causes if c["note"] == ""]
     assert scores == sorted(scores, reverse=True)  # ranked by evidence
     assert all(isinstance(c["significant"], bool) for c in causes)
@@ -60,7 +60,7 @@ def test_recording_and_report(outputs):
 
 
 @pytest.mark.parametrize("text, match", [
-    ("run,time,torque,phi1,phi2,speed\n", "unknown column"),
+    ("run,time,torque,phi1,phi2,speed\n", "no data rows"),
     ("run,time,torque,phi\n0,0,1,nan\n", "non-finite"),
 ])
 def test_bad_input_exits_2_naming_the_column(tmp_path, capsys, text, match):

@@ -61,9 +61,10 @@ CASES = {
         "quadratic_damping/2": ({"q": 0.4}, {"quadratic_damping_Nms2_per_rad2": 0.4}),
         "drive_delay/1": ({"delay": 0.0002}, {"drive_delay_s": 0.0002}),
         "drive_delay/2": ({"delay": 0.0005}, {"drive_delay_s": 0.0005}),
-        # on this joint (c = 5) a drag of 3 is found and sized right but pays off only 2.6x
-        "bearing_friction/1": ({"b2": 5.0}, {"bearing2_damping_Nms_per_rad": 5.0}),
-        "bearing_friction/2": ({"b2": 10.0}, {"bearing2_damping_Nms_per_rad": 10.0}),
+        # on this joint (c = 5) a drag of 3 (5) is found and sized right but pays off only 2.6x
+        # (4.1x): the extended model stays 13x the noise floor near the resonance
+        "bearing_friction/1": ({"b2": 8.0}, {"bearing2_damping_Nms_per_rad": 8.0}),
+        "bearing_friction/2": ({"b2": 12.0}, {"bearing2_damping_Nms_per_rad": 12.0}),
     },
 }
 

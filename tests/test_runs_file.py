@@ -209,11 +209,11 @@ def test_matlab_hdf5_tdms_uff_readers(tmp_path):
     for k in ("torque", "phi1", "phi2"):
         uff.write_sets(pyuff.prepare_58(binary=0, id1=k, func_type=1, load_case_id=3, rsp_node=1, rsp_dir=1,
                                         ref_node=1, ref_dir=1, data=sig[k], x=t, abscissa_spacing=1,
-                                        abscissa_min=0.0, abscissa_inc=dt, ordinate_axis_units_lab="rad",
+                                        abscissa_min=0.0, abscissa_inc=dt, ordinate_axis_units_lab="N m" if k == "torque" else "rad",
                                         abscissa_axis_units_lab="s", abscissa_spec_data_type=17,
                                         ordinate_spec_data_type=0, orddenom_spec_data_type=0,
                                         z_axis_spec_data_type=0, ord_data_type=4), mode="add")
-    for name, runs in (("r.mat", ("0",)), ("r.h5", ("low", "high")), ("r.tdms", ("run7",)), ("r.uff", ("3",))):
+    for name, runs in (("r.mat", ("0",)), ("r.h5", ("high", "low")), ("r.tdms", ("run7",)), ("r.uff", ("3",))):
         loaded = read_runs(tmp_path / name)
         assert loaded.run_ids == runs, name
         for rec in loaded.records:
