@@ -216,9 +216,12 @@ def test_matlab_hdf5_tdms_uff_readers(tmp_path):
     for name, runs in (("r.mat", ("0",)), ("r.h5", ("high", "low")), ("r.tdms", ("run7",)), ("r.uff", ("3",))):
         loaded = read_runs(tmp_path / name)
         assert loaded.run_ids == runs, name
+        # UFF 58 in ASCII stores the abscissa increment as E13.5 (6 digits): the clock, and so
+        # omega, are right to ~1e-6 there; elsewhere to round-off
+        rel = 2e-5 if name == "r.uff" else 1e-8
         for rec in loaded.records:
-            assert rec.omega_rad_s == pytest.approx(W, rel=1e-8), name
-            check_columns(rec, 1e-6 if name == "r.uff" else 1e-9)  # UFF ASCII keeps ~12 digits
+            assert rec.omega_rad_s == pytest.approx(W, rel=rel), name
+            check_columns(rec, 1e-4 if name == "r.uff" else 1e-9)
 
 
 def test_round_trip_of_the_projects_writer(tmp_path):
