@@ -783,6 +783,11 @@ class Diagnosis:
     def effects(self) -> tuple[str, ...]:
         return tuple(s.effect for s in self.steps)
 
+    def effects_of_kind(self, kind: str) -> tuple[str, ...]:
+        """Adopted causes in the plant (``"dynamic"``) or in the sensors (``"measurement"``)."""
+        kinds = {c.name: c.kind for c in CAUSES}
+        return tuple(e for e in self.effects if kinds.get(e, "dynamic") == kind)
+
 
 def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmonics: int = 20,
              torque_share: float = 0.5, alpha: float = 1e-3, max_effects: int = 3,

@@ -45,8 +45,12 @@ def _finite(obj):
     return obj
 
 
-def report_json(report: DiagnosisReport, *, source: str = "", notes: Sequence[str] = ()) -> dict:
-    return _finite(_report_json(report, source=source, notes=list(notes) + list(report.notes)))
+def report_json(report: DiagnosisReport, *, source: str = "", notes: Sequence[str] = (),
+                input_sha256: str = "") -> dict:
+    out = _report_json(report, source=source, notes=list(notes) + list(report.notes))
+    if input_sha256:
+        out = {"source": out.pop("source"), "input_sha256": input_sha256, **out}
+    return _finite(out)
 
 
 def _report_json(report: DiagnosisReport, *, source: str, notes: Sequence[str]) -> dict:
@@ -68,6 +72,8 @@ def _report_json(report: DiagnosisReport, *, source: str, notes: Sequence[str]) 
                     "chi2_per_dof": d.nominal.chi2 / d.nominal.dof},
         "causes": [c.as_json() for c in d.causes],
         "extended": {"effect": effects[0] if effects else "none", "effects": effects,
+                     "dynamic_effects": list(d.effects_of_kind("dynamic")),
+                     "measurement_effects": list(d.effects_of_kind("measurement")),
                      "parameters": ext.effect_parameters(),
                      "std_errors": {n: ext.std_error(n) for n in ext.effect_parameters()},
                      "magnitudes": {s.effect: {"name": s.magnitude[0], "value": ext.effect_parameters().get(
@@ -122,7 +128,11 @@ def format_report(report: DiagnosisReport, *, source: str = "", notes: Sequence[
                      + (f"  [{c.note}]" if c.note else ""))
     lines.append("")
     if d.steps:
-        lines.append(f"Extended model: {' + '.join(d.effects)}; chi2/dof = {d.extended.chi2 / d.extended.dof:.3g}")
+        joint, sensors = d.effects_of_kind("dynamic"), d.effects_of_kind("measurement")
+        what = " + ".join(joint) or "no joint effect"
+        if sensors:
+            what += f"; in the sensors: {' + '.join(sensors)}"
+        lines.append(f"Extended model: {what}; chi2/dof = {d.extended.chi2 / d.extended.dof:.3g}")
     else:
         lines.append("Extended model: none needed (no cause is significant; the nominal model explains the data "
                      "to the noise)")

@@ -105,7 +105,8 @@ def main(argv=None) -> int:
     text = format_report(report, source=str(args.data), notes=loaded.notes)
     print(text)
     if args.json:
-        write_json_atomic(args.json, report_json(report, source=str(args.data), notes=loaded.notes))
+        write_json_atomic(args.json, report_json(report, source=str(args.data), notes=loaded.notes,
+                                                 input_sha256=loaded.sha256))
         log.info("wrote %s", args.json)
     if args.rrd:
         with open_recording(args.rrd) as rec:

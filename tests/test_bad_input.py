@@ -362,3 +362,29 @@ def test_truncated_store_point_is_simulated_again(tmp_path, rig, caplog):
     again = run_sweep(rig, plan, cfg, store=tmp_path)
     assert not again[0].from_store and npz.name in caplog.text
     np.testing.assert_array_equal(again[0].record.phi1_rad, first[0].record.phi1_rad)
+
+
+def test_killed_sweep_resumes_from_its_store(tmp_path):
+    # A sweep killed mid-way (SIGKILL: no cleanup runs) leaves whole points in its store and no
+    # temporary file that blocks the next run; the next run loads them and simulates the rest.
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    store = tmp_path / "store"
+    cmd = [sys.executable, str(ROOT / "scripts" / "run_sweep.py"), "--omegas", "1", "2", "3", "4", "5", "6",
+           "--amplitudes", "400", "--samples-per-period", "64", "--store", str(store),
+           "--json", str(tmp_path / "s.json"), "--no-rrd"]
+    proc = subprocess.Popen(cmd, cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.time() + 120
+    while time.time() < deadline and proc.poll() is None and len(list(store.glob("*.npz"))) < 2:
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    kept = sorted(p.name for p in store.glob("*.npz"))
+    assert kept, "the sweep stored no point before it was killed"
+    out = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert out.stderr.count("from store") >= len(kept), out.stderr
+    assert not list(tmp_path.rglob("*.tmp")) and (tmp_path / "s.json").is_file()
