@@ -71,7 +71,11 @@ def _report_json(report: DiagnosisReport, *, source: str, notes: Sequence[str]) 
                     "std_errors": dict(zip(d.nominal.names, map(float, d.nominal.std_errors))),
                     "chi2_per_dof": d.nominal.chi2 / d.nominal.dof},
         "causes": [c.as_json() for c in d.causes],
-        "extended": {"effect": effects[0] if effects else "none", "effects": effects,
+        "verdict": report.verdict.verdict,
+        "verdict_reason": report.verdict.reason,
+        "misfit_character": report.character.as_json() if report.verdict.verdict == "unexplained" else None,
+        "extended": {"effect": effects[0] if effects else "none", "effects": list(report.adopted),
+                     "tried": effects,
                      "dynamic_effects": list(d.effects_of_kind("dynamic")),
                      "measurement_effects": list(d.effects_of_kind("measurement")),
                      "parameters": ext.effect_parameters(),
@@ -99,6 +103,11 @@ def format_report(report: DiagnosisReport, *, source: str = "", notes: Sequence[
     lines = []
     fit_ids = [r.run_id for r in report.runs if not r.held_out]
     held = [r.run_id for r in report.runs if r.held_out]
+    v = report.verdict
+    lines.append(f"VERDICT: {v.verdict.upper().replace('_', ' ')}: {v.reason}")
+    if v.verdict == "unexplained":
+        lines.append(f"  What the misfit looks like: {report.character.describe()}")
+    lines.append("")
     lines.append(f"Diagnosis of {source or 'the runs'}: {len(report.runs)} runs, "
                  f"{'two-degree-of-freedom form (phi1, phi2)' if d.form == 'two_dof' else 'equivalent form (phi)'}, "
                  f"harmonics 0..{report.band}")

@@ -253,3 +253,33 @@ def measure(joint: Joint, points, path: Path, *, noise: float = 0.002, seed: int
 
 def with_effect(joint: Joint, **kw) -> Joint:
     return replace(joint, **kw)
+
+
+# ------------------------------------------------------------------ effects outside the catalogue
+
+
+def late_channel(delay_s: float, channel: int = 3):
+    """A measurement artefact: one channel (3: phi2) sampled ``delay_s`` late (a multiplexed
+    DAQ, a filter's group delay), by cubic interpolation of the clean record."""
+    from scipy.interpolate import CubicSpline
+
+    def transform(t, T, p1, p2):
+        chans = [t, T, p1, p2]
+        chans[channel] = CubicSpline(t, chans[channel])(t - delay_s)
+        keep = t >= delay_s  # no extrapolation: the first samples are dropped from every channel
+        return tuple(c[keep] - (t[keep][0] if i == 0 else 0) for i, c in enumerate(chans))
+
+    return transform
+
+
+def torque_calibration(cubic: float, full_scale_Nm: float):
+    """A torque cell whose reading is ``T + cubic * T^3 / full_scale^2`` (a calibration error)."""
+    def transform(t, T, p1, p2):
+        return t, T + cubic * T**3 / full_scale_Nm**2, p1, p2
+
+    return transform
+
+
+def cogging(amplitude_Nm: float, pitch_rad: float):
+    """A joint torque periodic in the angle (detents, a cogging coupling): A sin(2 pi phi / pitch)."""
+    return lambda phi, v: amplitude_Nm * math.sin(2 * math.pi * phi / pitch_rad)

@@ -96,7 +96,9 @@ def test_independent_bench_effect_is_found_sized_and_pays_off(tmp_path, joint, c
     table = [(c.effect, round(c.score), c.significant, c.note[:40]) for c in d.causes]
     if case == "none":
         assert dynamic == [], table
+        assert report.verdict.verdict == "no_misfit", report.verdict
         return
+    assert report.verdict.verdict == "explained", report.verdict
     effect = case.split("/")[0]
     assert ranked[0] == effect and d.causes[[c.effect for c in d.causes].index(effect)].significant, table
     assert dynamic == [effect], (dynamic, table)
