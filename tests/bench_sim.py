@@ -98,6 +98,16 @@ def _rhs(joint: Joint, M0: float, w: float, mode: dict):
 
 def _events(joint: Joint, mode: dict, w: float = 0.0, M0: float = 0.0):
     ev = []
+    if joint.gap:
+        # the free play's kinks: restart there, so the integrator never steps across one
+        def kink_up(t, y):
+            return y[0] - y[1] - joint.gap
+        def kink_down(t, y):
+            return y[0] - y[1] + joint.gap
+        for f, d in zip((kink_up, kink_down), mode["kinks"]):
+            f.terminal = True
+            f.direction = d  # the next crossing only: the one just passed does not fire again
+            ev.append(f)
     if joint.Fc and mode["s"] == 0:
         def unsticks(t, y):
             return abs(_stick_torque(joint, w, M0, t, y, mode)) - joint.Fc
@@ -151,7 +161,12 @@ def simulate(joint: Joint, w: float, M0: float, t_eval: np.ndarray, y0: np.ndarr
         y = np.array(sol.y_events[fired[0]][0], float)
         evs = _events(joint, mode, w, M0)
         name = evs[fired[0]].__name__
-        if name == "rate_zero":
+        if name.startswith("kink"):
+            which = 0 if name == "kink_up" else 1
+            dirs = list(mode["kinks"])
+            dirs[which] = -dirs[which]
+            mode["kinks"] = tuple(dirs)
+        elif name == "rate_zero":
             need = _stick_torque(joint, w, M0, t, y, mode)
             if abs(need) <= joint.Fc:
                 v = (joint.J1 * y[2] + joint.J2 * y[3]) / (joint.J1 + joint.J2)  # momentum kept
@@ -197,7 +212,9 @@ def steady_state(joint: Joint, w: float, M0: float, *, tol: float = 1e-8, max_pe
     (DOP853 at rtol 1e-11 leaves a floor of ~5e-10 on the lightly damped joint)."""
     T = 2 * math.pi / w
     y = _linear_start(joint, w, M0)
-    mode = {"s": 1 if y[2] - y[3] >= 0 else -1, "j": 0}
+    phi = y[0] - y[1]
+    mode = {"s": 1 if y[2] - y[3] >= 0 else -1, "j": 0,
+            "kinks": (1 if phi < joint.gap else -1, 1 if phi < -joint.gap else -1)}
     t = 0.0
     chunk = 10
     prev = None
