@@ -46,9 +46,9 @@ from typing import Mapping, Optional, Sequence, Union
 
 import numpy as np
 
-from identify.periods import (MAX_CLOCK_DEVIATION, Fundamental, estimate_fundamental, linear_drift,
+from jointrig.identify.periods import (MAX_CLOCK_DEVIATION, Fundamental, estimate_fundamental, linear_drift,
                               ls_harmonics, periodic_rss, periods_by_least_squares, repeat_statistic, uniform_clock)
-from identify.records import RecordError, SteadyStateRecord
+from jointrig.identify.records import RecordError, SteadyStateRecord
 
 from .formats import SUFFIXES, FormatError, RawTable, read_tables
 
@@ -530,7 +530,7 @@ def write_runs(path: Union[str, os.PathLike], records: Sequence[SteadyStateRecor
                run_ids: Optional[Sequence] = None, with_omega: bool = True, comment: str = "") -> Path:
     """Write records in the measured-runs format (CSV with units in the header, or Parquet
     with units in the schema metadata), atomically (temp file + rename)."""
-    from rig.sweep import write_atomic
+    from jointrig.rig.sweep import write_atomic
 
     path = Path(path)
     run_ids = list(range(len(records))) if run_ids is None else list(run_ids)

@@ -35,7 +35,10 @@ EXCITED_MAX_BIN = 2683
 ARROW_FULL = (100, 40575)
 ARROW_NO_EXTRAPOLATION = (100, 32100)
 SCORE_SKIP = 50
-DEFAULT_DIR = Path(__file__).resolve().parent.parent.parent / "shared" / "data" / "silverbox"
+#: Where the data set is looked for: $JOINTRIG_SILVERBOX_DIR, else ``../shared/data/silverbox``
+#: beside the source tree (an installed copy has no such neighbour: pass ``--data DIR``).
+DEFAULT_DIR = Path(os.environ.get("JOINTRIG_SILVERBOX_DIR")
+                   or Path(__file__).resolve().parent.parent.parent / "shared" / "data" / "silverbox")
 
 
 class SilverboxError(ValueError):

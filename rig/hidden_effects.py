@@ -13,9 +13,9 @@ from typing import Optional
 
 import numpy as np
 
-from identify.basis import Coulomb, Jenkins, JointLaw, Power, QuadraticDamping, Viscous
-from identify.plant import Plant
-from identify.records import SteadyStateRecord
+from jointrig.identify.basis import Coulomb, Jenkins, JointLaw, Power, QuadraticDamping, Viscous
+from jointrig.identify.plant import Plant
+from jointrig.identify.records import SteadyStateRecord
 
 from .measurement import add_noise
 from .model import RigModel

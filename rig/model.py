@@ -13,9 +13,9 @@ from typing import Union
 import mujoco
 import numpy as np
 
-from identify.basis import (Coulomb, Jenkins, JointLaw, Power, QuadraticDamping, Term, Viscous, angle_hats,
+from jointrig.identify.basis import (Coulomb, Jenkins, JointLaw, Power, QuadraticDamping, Term, Viscous, angle_hats,
                             rate_hats)
-from identify.plant import Plant
+from jointrig.identify.plant import Plant
 
 __all__ = ["RigModel", "RigModelError", "load_rig", "law_from_model", "plant_from_model", "DEFAULT_MODEL"]
 

@@ -19,10 +19,10 @@ from typing import Callable, Optional, Sequence
 
 import numpy as np
 
-from identify import identify
-from identify.basis import Term
-from identify.eiv import crlb, ml_identify
-from identify.records import SteadyStateRecord
+from jointrig.identify import identify
+from jointrig.identify.basis import Term
+from jointrig.identify.eiv import crlb, ml_identify
+from jointrig.identify.records import SteadyStateRecord
 
 from .measurement import add_noise, noise_std, repeat_periods
 

@@ -27,8 +27,8 @@ from typing import Iterator, Optional, Union
 
 import mujoco
 
-from identify.basis import AngleHat, Coulomb, Jenkins, JointLaw, Monomial, Power, QuadraticDamping, RateHat, Viscous
-from identify.plant import PeriodicDrive, Plant
+from jointrig.identify.basis import AngleHat, Coulomb, Jenkins, JointLaw, Monomial, Power, QuadraticDamping, RateHat, Viscous
+from jointrig.identify.plant import PeriodicDrive, Plant
 
 __all__ = ["NativeLaw", "NativeBuildError", "library_path", "native_session", "session_active"]
 
@@ -220,7 +220,7 @@ class NativeLaw:
 
     def commit(self, phi_rad: float) -> None:
         """Advance the Jenkins sliders to the accepted angle (after a step), as the Python path."""
-        from identify.basis import play
+        from jointrig.identify.basis import play
 
         for k, s in self.jenkins:
             self.params.slider[k] = play(phi_rad, self.params.slider[k], s)

@@ -16,7 +16,7 @@ import mujoco
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from identify.basis import JointLaw
+from jointrig.identify.basis import JointLaw
 
 from .simulate import SimulationError, _check_warnings, passive_callback
 

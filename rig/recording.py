@@ -27,9 +27,9 @@ from typing import Iterator, Optional, Sequence
 import numpy as np
 import rerun as rr
 
-from identify.basis import JointLaw
-from identify.harmonics import fourier_coefficients
-from identify.records import SteadyStateRecord
+from jointrig.identify.basis import JointLaw
+from jointrig.identify.harmonics import fourier_coefficients
+from jointrig.identify.records import SteadyStateRecord
 
 __all__ = ["open_recording", "run_label", "log_run", "log_restoring_force", "log_harmonics",
            "log_parameter_table", "expected_entities"]

@@ -28,9 +28,9 @@ import mujoco
 import numpy as np
 from mujoco import rollout
 
-from identify.basis import JointLaw, play
-from identify.plant import PeriodicDrive, Plant
-from identify.records import SteadyStateRecord
+from jointrig.identify.basis import JointLaw, play
+from jointrig.identify.plant import PeriodicDrive, Plant
+from jointrig.identify.records import SteadyStateRecord
 
 from .model import RigModel
 

@@ -26,7 +26,7 @@ from typing import Callable, Optional, Sequence
 
 import numpy as np
 
-from identify.records import SteadyStateRecord
+from jointrig.identify.records import SteadyStateRecord
 
 from .model import RigModel, load_rig
 from .simulate import SettleInfo, SimulationConfig, StartState, simulate_steady_state
@@ -92,7 +92,7 @@ class MultisinePlan:
     seed: int = 0
 
     def excitations(self):
-        from identify.multisine import odd_multisine
+        from jointrig.identify.multisine import odd_multisine
 
         return [odd_multisine(self.omega0_rad_s, self.max_harmonic_excited, rms, seed=self.seed)
                 for rms in self.rms_levels_Nm]
@@ -118,7 +118,7 @@ def run_multisines(rig: RigModel, plan: MultisinePlan = DEFAULT_MULTISINE,
     Raises:
       ValueError: too few samples per period for the harmonics to balance.
     """
-    from identify.harmonics import max_harmonic
+    from jointrig.identify.harmonics import max_harmonic
 
     if max_harmonic(config.samples_per_period) < plan.n_harmonics:
         raise ValueError(f"samples_per_period={config.samples_per_period} resolves harmonics up to "

@@ -22,12 +22,12 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from identify.basis import JointLaw
-from identify.diagnose import DEFAULT_FIDELITY, Diagnosis, Fit, PreparedRun, diagnose, plant_of, prepare_runs
-from identify.balance import spectral_rate
-from identify.harmonics import fourier_coefficients
-from identify.plant import Plant, drive_of_record
-from identify.records import SteadyStateRecord
+from jointrig.identify.basis import JointLaw
+from jointrig.identify.diagnose import DEFAULT_FIDELITY, Diagnosis, Fit, PreparedRun, diagnose, plant_of, prepare_runs
+from jointrig.identify.balance import spectral_rate
+from jointrig.identify.harmonics import fourier_coefficients
+from jointrig.identify.plant import Plant, drive_of_record
+from jointrig.identify.records import SteadyStateRecord
 
 from .model import RigModel, load_rig
 from .simulate import SimulationConfig, SteadyStateNotReached, simulate_steady_state

@@ -24,9 +24,9 @@ import sys
 import time
 from pathlib import Path
 
-from rig import SimulationConfig, load_rig
-from rig.montecarlo import monte_carlo
-from rig.sweep import DEFAULT_PLAN, records_of, run_sweep, write_json_atomic
+from jointrig.rig import SimulationConfig, load_rig
+from jointrig.rig.montecarlo import monte_carlo
+from jointrig.rig.sweep import DEFAULT_PLAN, records_of, run_sweep, write_json_atomic
 
 
 def main(argv=None) -> int:

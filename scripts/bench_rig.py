@@ -30,11 +30,11 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from identify import identify
-from identify.plant import PeriodicDrive
-from rig import SimulationConfig, load_rig, make_callback, passive_callback
-from rig.native_callback import NativeLaw
-from rig.sweep import DEFAULT_PLAN, records_of, run_sweep, write_json_atomic
+from jointrig.identify import identify
+from jointrig.identify.plant import PeriodicDrive
+from jointrig.rig import SimulationConfig, load_rig, make_callback, passive_callback
+from jointrig.rig.native_callback import NativeLaw
+from jointrig.rig.sweep import DEFAULT_PLAN, records_of, run_sweep, write_json_atomic
 
 
 def _time_steps(m, d, n: int, repeats: int) -> float:
@@ -115,7 +115,7 @@ def main(argv=None) -> int:
     out["hb_max_rel_error"] = max_rel({n: hb.value(n) for n in truth})
     details = {"hb_parameters": {n: hb.value(n) for n in truth}}
     if not args.no_peers:
-        from rig.peers import sindy_identify, sysid_identify
+        from jointrig.rig.peers import sindy_identify, sysid_identify
 
         start = {"k_Nm_per_rad": 1.3 * truth["k_Nm_per_rad"], "c_Nms_per_rad": 0.7 * truth["c_Nms_per_rad"],
                  "gamma_Nm_per_rad3": 2.0 * truth["gamma_Nm_per_rad3"]}

@@ -29,10 +29,10 @@ from pathlib import Path
 
 import numpy as np
 
-from identify import identify
-from rig import SimulationConfig, load_rig
-from rig.simulate import relative_departure
-from rig.sweep import DEFAULT_PLAN, simulate_segment, write_json_atomic
+from jointrig.identify import identify
+from jointrig.rig import SimulationConfig, load_rig
+from jointrig.rig.simulate import relative_departure
+from jointrig.rig.sweep import DEFAULT_PLAN, simulate_segment, write_json_atomic
 
 
 REFERENCE_EXTRA = 30

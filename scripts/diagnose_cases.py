@@ -1,58 +1,9 @@
 #!/usr/bin/env python3
-"""How the diagnosis does on every hidden-effect case of rig.hidden_effects.
+"""Thin wrapper of ``jointrig cases`` (the code is in jointrig/commands/diagnose_cases.py; ``--help`` for options)."""
 
-    python3 scripts/diagnose_cases.py [--snr-db 40] [--seed N] [--json OUT]
-
-For each case: the rig simulates 9 runs (16 periods each) with the effect hidden, measures
-them at the SNR, and the diagnosis (fit on 6 runs, validate on 3 held out) reports which cause
-it ranks first, the effects it adds, the recovered magnitude against the truth and the gain.
-The acceptance bounds (tests/test_diagnose.py): hidden effect first, magnitude within 15%,
-gain >= 5, nothing significant for ``none``.
-"""
-
-from __future__ import annotations
-
-import argparse
 import sys
-import time
-from pathlib import Path
 
-from rig import load_rig
-from rig.hidden_effects import HIDDEN_EFFECTS, simulate_case
-from rig.sweep import write_json_atomic
-from rig.validate import run_diagnosis
-
-
-def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--snr-db", type=float, default=40.0, help="SNR per channel in dB (default: %(default)s)")
-    p.add_argument("--seed", type=int, default=None, help="noise seed (default: one per case, from its name)")
-    p.add_argument("--json", type=Path, help="write the table as JSON")
-    args = p.parse_args(argv)
-    rig = load_rig()
-    rows = []
-    print(f"{'hidden':26s} {'ranked first':22s} {'found':34s} {'magnitude (true -> found)':44s} {'gain':>7s} "
-          f"{'s':>5s}")
-    for case, (_, truth) in HIDDEN_EFFECTS.items():
-        t0 = time.perf_counter()
-        records, peak = simulate_case(rig, case, snr_db=args.snr_db, seed=args.seed)
-        report = run_diagnosis(records, rig=rig)
-        d = report.diagnosis
-        params = d.extended.effect_parameters()
-        mags = {n: (v, params.get(n, float("nan"))) for n, v in truth.items()}
-        first = d.causes[0].effect if d.causes and d.causes[0].significant else "none"
-        mag_txt = "; ".join(f"{n.split('_')[0]} {v:.4g} -> {f:.4g}" for n, (v, f) in mags.items()) or "-"
-        found = "+".join(d.effects) or "none"
-        print(f"{case:26s} {first:22s} {found:34s} {mag_txt:44s} {report.gain:7.3g} "
-              f"{time.perf_counter() - t0:5.1f}", flush=True)
-        rows.append({"hidden": case, "ranked_first": first, "found": list(d.effects),
-                     "magnitudes": {n: {"true": v, "found": f, "rel_error": (f - v) / v} for n, (v, f) in mags.items()},
-                     "gain": report.gain, "peak_joint_torque_Nm": peak,
-                     "ambiguous": [a.as_json() for a in d.ambiguous]})
-    if args.json:
-        write_json_atomic(args.json, {"snr_db": args.snr_db, "cases": rows})
-    return 0
-
+from jointrig.commands.diagnose_cases import main, run  # noqa: F401  (main: for tests and callers)
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run())

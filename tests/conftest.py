@@ -6,9 +6,9 @@ from pathlib import Path
 
 import pytest
 
-from rig import DEFAULT_MODEL, SimulationConfig, load_rig
-from rig.runtime import limit_threads
-from rig.sweep import DEFAULT_PLAN, records_of, run_sweep
+from jointrig.rig import DEFAULT_MODEL, SimulationConfig, load_rig
+from jointrig.rig.runtime import limit_threads
+from jointrig.rig.sweep import DEFAULT_PLAN, records_of, run_sweep
 
 # One BLAS thread per pytest worker: the suite runs on both cores (pytest-xdist, -n 2).
 limit_threads()

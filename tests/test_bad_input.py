@@ -17,11 +17,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from identify.plant import Plant
-from identify.basis import JointLaw, Viscous
-from identify.records import RecordError, SteadyStateRecord
-from measured.runs import RunsFileError, read_runs
-from rig import RigModelError, load_rig
+from jointrig.identify.plant import Plant
+from jointrig.identify.basis import JointLaw, Viscous
+from jointrig.identify.records import RecordError, SteadyStateRecord
+from jointrig.measured.runs import RunsFileError, read_runs
+from jointrig.rig import RigModelError, load_rig
 
 ROOT = Path(__file__).resolve().parent.parent
 W = 60.0
@@ -323,7 +323,7 @@ def test_make_data_command(tmp_path, capsys, args, match):
     (["--model", "{tmp}/none.xml"], "none.xml"),
 ])
 def test_run_sweep_command(tmp_path, capsys, args, match):
-    from rig.runtime import run_cli
+    from jointrig.rig.runtime import run_cli
 
     args = [a.format(tmp=tmp_path) for a in args]
     code = run_cli(_script("run_sweep").main, "run_sweep.py", ["--no-store", "-q", *args])
@@ -341,7 +341,7 @@ def test_run_sweep_command(tmp_path, capsys, args, match):
     ("unknown_law", ["--png", "/proc/u.png"], "cannot create a file"),
 ])
 def test_other_commands_check_arguments_first(capsys, script, args, match):
-    from rig.runtime import run_cli
+    from jointrig.rig.runtime import run_cli
 
     code = run_cli(_script(script).main, script, args)
     err = capsys.readouterr().err
@@ -349,8 +349,8 @@ def test_other_commands_check_arguments_first(capsys, script, args, match):
 
 
 def test_truncated_store_point_is_simulated_again(tmp_path, rig, caplog):
-    from rig import SimulationConfig
-    from rig.sweep import SweepPlan, run_sweep
+    from jointrig.rig import SimulationConfig
+    from jointrig.rig.sweep import SweepPlan, run_sweep
 
     plan = SweepPlan((30.0,), (500.0,))
     cfg = SimulationConfig(samples_per_period=64)

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from identify.basis import (AngleHat, Coulomb, Jenkins, JointLaw, Monomial, Power, QuadraticDamping, Viscous,
+from jointrig.identify.basis import (AngleHat, Coulomb, Jenkins, JointLaw, Monomial, Power, QuadraticDamping, Viscous,
                             angle_hats, hat_law, hat_matrix, play, polynomial_law, rate_hats)
 
 KNOTS = (-0.6, -0.3, -0.1, 0.0, 0.1, 0.3, 0.6)

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from identify.design import d_optimal, design_cost_s
+from jointrig.identify.design import d_optimal, design_cost_s
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
 

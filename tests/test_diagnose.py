@@ -16,11 +16,11 @@ from __future__ import annotations
 
 import pytest
 
-from identify.diagnose import EFFECT_MAGNITUDE
-from measured.runs import read_runs, write_runs
-from rig.hidden_effects import HIDDEN_EFFECTS as CASES
-from rig.hidden_effects import simulate_case
-from rig.validate import run_diagnosis
+from jointrig.identify.diagnose import EFFECT_MAGNITUDE
+from jointrig.measured.runs import read_runs, write_runs
+from jointrig.rig.hidden_effects import HIDDEN_EFFECTS as CASES
+from jointrig.rig.hidden_effects import simulate_case
+from jointrig.rig.validate import run_diagnosis
 
 _cache: dict = {}
 
@@ -112,7 +112,7 @@ def test_a_jenkins_element_that_never_sticks_is_named_dry_friction(rig, tmp_path
     # friction drowns in noise: the Jenkins fit's slip angle falls below what the angles
     # resolve, and the tool names it by its physics, dry friction (issue 11), instead of
     # offering "hysteresis" as an equal rival.
-    from rig.diagnosis_report import format_report, report_json
+    from jointrig.rig.diagnosis_report import format_report, report_json
 
     records, _ = measured(rig, tmp_path_factory, "coulomb_friction", snr_db=20.0, seed=5)
     report = run_diagnosis(records, rig=rig)
@@ -146,8 +146,8 @@ def test_noise_is_estimated_from_period_to_period_variation():
     # pooled harmonics of a variance with 2 (P - 1) = 30 degrees of freedom each.
     import numpy as np
 
-    from identify.diagnose import prepare_runs
-    from identify.records import SteadyStateRecord
+    from jointrig.identify.diagnose import prepare_runs
+    from jointrig.identify.records import SteadyStateRecord
 
     N, P, w = 256, 16, 10.0
     rng = np.random.default_rng(0)

@@ -6,10 +6,10 @@ import math
 import numpy as np
 import pytest
 
-from identify.basis import Coulomb, Jenkins, JointLaw, Power, Viscous
-from identify.plant import PeriodicDrive, Plant
-from rig import SimulationConfig, load_rig, simulate_steady_state
-from rig.model import DEFAULT_MODEL, RigModelError
+from jointrig.identify.basis import Coulomb, Jenkins, JointLaw, Power, Viscous
+from jointrig.identify.plant import PeriodicDrive, Plant
+from jointrig.rig import SimulationConfig, load_rig, simulate_steady_state
+from jointrig.rig.model import DEFAULT_MODEL, RigModelError
 
 from conftest import MODELS_DIR
 

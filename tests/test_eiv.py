@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from identify.basis import Power, Viscous
-from identify.eiv import _debiased, average_periods, crlb, ml_identify
-from identify.records import RecordError
-from rig.measurement import add_noise, repeat_periods
-from rig.montecarlo import monte_carlo
+from jointrig.identify.basis import Power, Viscous
+from jointrig.identify.eiv import _debiased, average_periods, crlb, ml_identify
+from jointrig.identify.records import RecordError
+from jointrig.rig.measurement import add_noise, repeat_periods
+from jointrig.rig.montecarlo import monte_carlo
 
 N_MC = 40
 
@@ -108,9 +108,9 @@ def test_encoder_quantises_the_angles(default_sweep):
 
 
 def test_fixed_bench_sampling_rate_is_coherent_and_identifiable(rig):
-    from rig import SimulationConfig
-    from rig.simulate import coherent_omega
-    from rig.sweep import SweepPlan, records_of, run_sweep
+    from jointrig.rig import SimulationConfig
+    from jointrig.rig.simulate import coherent_omega
+    from jointrig.rig.sweep import SweepPlan, records_of, run_sweep
 
     fs = 300.0
     with pytest.raises(ValueError, match="not coherent"):

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from identify.harmonics import fourier_coefficients, max_harmonic, synthesize, to_sine_cosine
+from jointrig.identify.harmonics import fourier_coefficients, max_harmonic, synthesize, to_sine_cosine
 
 N = 64  # samples per period
 

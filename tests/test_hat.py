@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from identify.hat import fit_hat_law, knots_from_range
-from rig import SimulationConfig, load_rig
-from rig.measurement import add_noise, repeat_periods
-from rig.sweep import DEFAULT_PLAN, records_of, run_sweep
+from jointrig.identify.hat import fit_hat_law, knots_from_range
+from jointrig.rig import SimulationConfig, load_rig
+from jointrig.rig.measurement import add_noise, repeat_periods
+from jointrig.rig.sweep import DEFAULT_PLAN, records_of, run_sweep
 
 from conftest import MODELS_DIR
 

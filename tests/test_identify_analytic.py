@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from identify import (Power, RecordError, SteadyStateRecord, Viscous, equivalent_system, identify, solve,
+from jointrig.identify import (Power, RecordError, SteadyStateRecord, Viscous, equivalent_system, identify, solve,
                       spectral_rate)
 
 J1, J2, C, K = 2.0, 3.0, 40.0, 1500.0

@@ -5,9 +5,9 @@ import json
 import numpy as np
 import pytest
 
-from identify import Power, Viscous, identify
-from rig import SimulationConfig, simulate_steady_state
-from rig.sweep import DEFAULT_PLAN, SweepPlan, SweepStoreMismatch, records_of, run_sweep
+from jointrig.identify import Power, Viscous, identify
+from jointrig.rig import SimulationConfig, simulate_steady_state
+from jointrig.rig.sweep import DEFAULT_PLAN, SweepPlan, SweepStoreMismatch, records_of, run_sweep
 
 # Acceptance is 1e-4 relative. Measured with RK4 at dt <= 5e-4 s (the default): <= 2.5e-8 for the
 # polynomial joint (1.9e-7 at dt <= 1e-3 s: error ~ dt^3), so 1e-6 still leaves a 40x margin
@@ -42,7 +42,7 @@ def test_paper_case_omega_1_alone(rig):
 
 
 def test_quadratic_term_identified_when_present(rig):
-    from identify.basis import polynomial_law
+    from jointrig.identify.basis import polynomial_law
     law = polynomial_law(c_Nms_per_rad=100, k_Nm_per_rad=2000, a_Nm_per_rad2=-300, gamma_Nm_per_rad3=200)
     plan = SweepPlan((5.0, 30.0, 45.0, 70.0), (400.0, 4000.0))
     recs = [simulate_steady_state(rig, w, a, SimulationConfig(), law=law)[0] for w, a in plan.points()]

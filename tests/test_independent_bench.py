@@ -22,9 +22,9 @@ import math
 import pytest
 
 from bench_sim import JOINTS, POINTS, measure, with_effect
-from identify.diagnose import CAUSES
-from measured.runs import read_runs
-from rig.validate import run_diagnosis
+from jointrig.identify.diagnose import CAUSES
+from jointrig.measured.runs import read_runs
+from jointrig.rig.validate import run_diagnosis
 
 KIND = {c.name: c.kind for c in CAUSES}
 

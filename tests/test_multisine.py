@@ -7,11 +7,11 @@ import math
 import numpy as np
 import pytest
 
-from identify import identify
-from identify.basis import JointLaw, Power
-from identify.multisine import line_levels, odd_multisine
-from rig import SimulationConfig, simulate_steady_state
-from rig.sweep import DEFAULT_MULTISINE, run_multisines
+from jointrig.identify import identify
+from jointrig.identify.basis import JointLaw, Power
+from jointrig.identify.multisine import line_levels, odd_multisine
+from jointrig.rig import SimulationConfig, simulate_steady_state
+from jointrig.rig.sweep import DEFAULT_MULTISINE, run_multisines
 
 
 def test_odd_multisine_lines_phases_and_rms():

@@ -6,9 +6,9 @@ import mujoco
 import numpy as np
 import pytest
 
-from identify.plant import PeriodicDrive
-from rig import SimulationConfig, load_rig, simulate_steady_state
-from rig.hidden_effects import HIDDEN_EFFECTS
+from jointrig.identify.plant import PeriodicDrive
+from jointrig.rig import SimulationConfig, load_rig, simulate_steady_state
+from jointrig.rig.hidden_effects import HIDDEN_EFFECTS
 
 from conftest import MODELS_DIR
 
@@ -51,7 +51,7 @@ def test_native_callback_is_scoped_like_the_python_one(rig):
 def test_parallel_native_sweep_equals_the_serial_python_sweep(rig, tmp_path):
     # Threads share the one installed native callback, each simulation finding its own
     # parameters by its MjData; every point is independent, so the records are identical.
-    from rig.sweep import SweepPlan, records_of, run_sweep
+    from jointrig.rig.sweep import SweepPlan, records_of, run_sweep
 
     plan = SweepPlan(omegas_rad_s=(10.0, 45.0, 90.0), amplitudes_Nm=(400.0, 4000.0))
     serial = records_of(run_sweep(rig, plan, SimulationConfig()))

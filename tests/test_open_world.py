@@ -17,8 +17,8 @@ from __future__ import annotations
 import pytest
 
 from bench_sim import JOINTS, POINTS, cogging, late_channel, measure, torque_calibration, with_effect
-from measured.runs import read_runs
-from rig.validate import run_diagnosis
+from jointrig.measured.runs import read_runs
+from jointrig.rig.validate import run_diagnosis
 
 HOLDOUT = (2, 3)
 

@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from identify.basis import JointLaw, Term, hat_law
-from identify.plant import PeriodicDrive
-from rig import (DEFAULT_MODEL, RigModelError, SimulationConfig, SimulationError, SteadyStateNotReached, load_rig,
+from jointrig.identify.basis import JointLaw, Term, hat_law
+from jointrig.identify.plant import PeriodicDrive
+from jointrig.rig import (DEFAULT_MODEL, RigModelError, SimulationConfig, SimulationError, SteadyStateNotReached, load_rig,
                  make_callback, passive_callback, simulate_steady_state)
-from rig.model import ACTUATOR
+from jointrig.rig.model import ACTUATOR
 
 from conftest import ALL_MODELS, RIG_MODELS
 

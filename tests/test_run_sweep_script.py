@@ -14,7 +14,7 @@ sys.path.insert(0, str(ROOT / "scripts"))
 
 import run_sweep  # noqa: E402
 
-from rig.recording import expected_entities, run_label  # noqa: E402
+from jointrig.rig.recording import expected_entities, run_label  # noqa: E402
 
 
 @pytest.fixture(scope="module")

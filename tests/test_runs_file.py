@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from measured.runs import RunsFileError, estimate_omega, read_runs, write_runs
+from jointrig.measured.runs import RunsFileError, estimate_omega, read_runs, write_runs
 
 W = 60.0  # rad/s
 
@@ -227,7 +227,7 @@ def test_matlab_hdf5_tdms_uff_readers(tmp_path):
 def test_round_trip_of_the_projects_writer(tmp_path):
     dt = 2 * math.pi / W / 64
     t = np.arange(3 * 64) * dt
-    from identify.records import SteadyStateRecord
+    from jointrig.identify.records import SteadyStateRecord
 
     rec = SteadyStateRecord(W, t, torque(t), phi1(t), phi2(t), n_periods=3)
     for suffix in (".csv", ".parquet"):

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from measured.silverbox import DEFAULT_DIR, SilverboxError, load_silverbox
+from jointrig.measured.silverbox import DEFAULT_DIR, SilverboxError, load_silverbox
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "scripts"))

@@ -12,11 +12,11 @@ import mujoco
 import numpy as np
 import pytest
 
-import rig.simulate as simulate_module
-from identify.plant import PeriodicDrive
-from rig import SimulationConfig, make_callback, passive_callback, simulate_steady_state
-from rig.simulate import relative_departure, settle_bound
-from rig.sweep import SweepPlan, records_of, run_sweep, simulate_segment
+import jointrig.rig.simulate as simulate_module
+from jointrig.identify.plant import PeriodicDrive
+from jointrig.rig import SimulationConfig, make_callback, passive_callback, simulate_steady_state
+from jointrig.rig.simulate import relative_departure, settle_bound
+from jointrig.rig.sweep import SweepPlan, records_of, run_sweep, simulate_segment
 
 needs_cc = pytest.mark.skipif(not (shutil.which("cc") or shutil.which("gcc")),
                               reason="no C compiler to build the native callback")
@@ -109,7 +109,7 @@ def test_continuation_reaches_the_same_steady_state(rig):
 
 def test_start_state_keeps_a_general_drive_periodic(rig):
     # From a displaced state under a two-harmonic drive, the rigid rotation still repeats.
-    from rig.simulate import StartState
+    from jointrig.rig.simulate import StartState
 
     drive = PeriodicDrive(30.0, (0, 1000.0, 200j))
     rec, info = simulate_steady_state(rig, 30.0, 1000.0, SimulationConfig(), drive=drive,
@@ -121,7 +121,7 @@ def test_start_state_keeps_a_general_drive_periodic(rig):
 
 @needs_cc
 def test_native_sessions_overlap_across_threads():
-    from rig.native_callback import native_session, session_active
+    from jointrig.rig.native_callback import native_session, session_active
 
     inside = threading.Barrier(2)
     seen = []
@@ -172,7 +172,7 @@ def test_executor_arguments_are_checked(rig):
 def test_native_polynomial_stiffness_agrees_with_the_callback_law(rig):
     """MuJoCo's own stiffness="k 0 gamma" and damping c on a relative hinge (rig/peers.py) and
     the rig's passive callback give the same free decay: an independent check of the law."""
-    from rig.peers import peer_model_xml
+    from jointrig.rig.peers import peer_model_xml
 
     h, n, phi0 = 5e-4, 2000, 0.4
     m = rig.model.__copy__()
@@ -208,7 +208,7 @@ def peer_records(rig):
 
 
 def test_mujoco_sysid_recovers_the_joint_with_shifted_sensor_times(rig, peer_records):
-    from rig.peers import sysid_identify
+    from jointrig.rig.peers import sysid_identify
 
     records, steps = peer_records
     truth = rig.law.as_dict()
@@ -225,7 +225,7 @@ def test_mujoco_sysid_recovers_the_joint_with_shifted_sensor_times(rig, peer_rec
 
 def test_pysindy_recovers_the_joint(rig, peer_records):
     pytest.importorskip("pysindy")
-    from rig.peers import sindy_identify
+    from jointrig.rig.peers import sindy_identify
 
     records, _ = peer_records
     got = sindy_identify(records, rig.J1_kgm2, rig.J2_kgm2)

@@ -5,11 +5,11 @@ import math
 import numpy as np
 import pytest
 
-from identify import JointLaw, Monomial, Power, Viscous
-from identify.extend import score_candidates
-from identify.output_error import refine_output_error, simulate_periods
-from identify.signals import BandlimitedInput
-from identify.steady import SteadyStateError, periodic_response
+from jointrig.identify import JointLaw, Monomial, Power, Viscous
+from jointrig.identify.extend import score_candidates
+from jointrig.identify.output_error import refine_output_error, simulate_periods
+from jointrig.identify.signals import BandlimitedInput
+from jointrig.identify.steady import SteadyStateError, periodic_response
 
 FS, N, R = 600.0, 512, 4
 J = 5e-6
@@ -37,7 +37,7 @@ def test_linear_law_is_the_frf():
 
 def test_nonlinear_steady_state_matches_time_domain_simulation():
     """Frequency-domain steady state vs the MuJoCo 1-DOF rig run over 12 periods of the same input."""
-    from rig.oscillator import simulate_free_run
+    from jointrig.rig.oscillator import simulate_free_run
 
     u = multisine()[:1]
     Y = periodic_response(inertia=J, law=NOMINAL, input_spectra=np.fft.rfft(u, axis=-1),

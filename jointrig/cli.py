@@ -1,0 +1,61 @@
+"""The ``jointrig`` command (also ``python -m jointrig``): one subcommand per job.
+
+    jointrig sweep ...        frequency x amplitude sweep of a rig model and its identification
+    jointrig diagnose DATA    what the simulation gets wrong about measured runs
+    jointrig make-data OUT    simulate measured runs of a model (CSV/Parquet)
+    jointrig design           D-optimal excitation on a test-time budget
+    jointrig unknown-law      a joint law of unknown form on hat functions
+    jointrig silverbox        the Silverbox benchmark on the real files
+    jointrig paper            the paper's example, eq. (12)
+    jointrig cases            every hidden-effect case of the diagnosis
+
+``jointrig SUBCOMMAND --help`` lists the subcommand's options with units and defaults.
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+
+from jointrig import __version__
+
+#: subcommand -> (module in jointrig.commands, one-line summary)
+SUBCOMMANDS = {
+    "sweep": ("run_sweep", "frequency x amplitude sweep of a rig model and its identification"),
+    "diagnose": ("diagnose", "what the simulation gets wrong about measured runs (a file or a folder)"),
+    "make-data": ("make_data", "simulate measured runs of a model and write them (CSV/Parquet)"),
+    "design": ("design_excitation", "D-optimal excitation on a test-time budget"),
+    "unknown-law": ("unknown_law", "a joint law of unknown form on hat functions, with its band"),
+    "silverbox": ("silverbox", "the Silverbox benchmark on the real files"),
+    "paper": ("paper_example", "the paper's example, eq. (12)"),
+    "cases": ("diagnose_cases", "how the diagnosis does on every hidden-effect case"),
+}
+
+
+def _usage() -> str:
+    width = max(map(len, SUBCOMMANDS))
+    lines = [f"usage: jointrig [--version] SUBCOMMAND [options]   (jointrig {__version__})", "", "subcommands:"]
+    lines += [f"  {name:{width}s}  {summary}" for name, (_, summary) in SUBCOMMANDS.items()]
+    lines += ["", "jointrig SUBCOMMAND --help lists its options with units and defaults."]
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not argv or argv[0] in ("-h", "--help", "help"):
+        print(_usage())
+        return 0 if argv else 2
+    if argv[0] == "--version":
+        print(f"jointrig {__version__}")
+        return 0
+    name, rest = argv[0], argv[1:]
+    if name not in SUBCOMMANDS:
+        print(f"jointrig: error: unknown subcommand {name!r}; expected one of {', '.join(SUBCOMMANDS)}",
+              file=sys.stderr)
+        return 2
+    module = importlib.import_module(f"jointrig.commands.{SUBCOMMANDS[name][0]}")
+    return module.run(rest)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

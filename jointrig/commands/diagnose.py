@@ -1,0 +1,129 @@
+"""What the simulation gets wrong: diagnose measured joint runs against the nominal model.
+
+    python3 scripts/diagnose.py DATA.csv [--json OUT] [--rrd OUT] [--report OUT.html]
+
+DATA: a file (CSV, Parquet, MATLAB .mat, HDF5, NI TDMS, UFF 58) or a folder of them, one row
+per sample, columns ``run, time, torque, phi1, phi2`` in s, N m, rad (``phi`` may replace
+``phi1, phi2``; optional ``omega`` in rad/s; other names with --columns, other units with
+--units or in the header as ``phi1 [deg]``). Each run is one steady-state record of several
+whole periods at one drive setting, sampled at any rate (see measured/runs.py).
+
+The tool fits the nominal model (Je or J1, J2; c phi' + k phi + gamma phi^3), ranks the
+physical causes of what it misses by evidence, extends the model, and measures the gain by
+running both models in the MuJoCo rig under the measured drive of runs held out of the fit
+(default: every third run starting with the second, in file order).
+
+Exit status: 0 on success, 2 on bad input (the message names the file, run, column or
+option), 1 when the identification itself fails.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from jointrig.identify.diagnose import DEFAULT_FIDELITY
+from jointrig.identify.records import RecordError
+from jointrig.measured.runs import RunsFileError, read_runs
+from jointrig.rig.diagnosis_report import format_report, log_diagnosis, report_json, write_html
+from jointrig.rig.recording import open_recording
+from jointrig.rig.runtime import BadArgument, check_output, check_range, limit_threads
+from jointrig.rig.simulate import SimulationError
+from jointrig.rig.sweep import write_json_atomic
+from jointrig.rig.validate import run_diagnosis
+
+log = logging.getLogger("diagnose")
+
+
+def parse_args(argv=None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("data", type=Path, help="measured runs: a file or a folder of files")
+    p.add_argument("--columns", metavar="NAME=COLUMN,...",
+                   help="the file's names for the columns, e.g. torque=M_drive,phi1=enc1,phi2=enc2,time=t")
+    p.add_argument("--units", metavar="NAME=UNIT,...",
+                   help="units of the file's columns when not SI, e.g. time=ms,phi1=deg,phi2=deg,torque=Nmm")
+    p.add_argument("--json", type=Path, help="write the diagnosis as JSON")
+    p.add_argument("--rrd", type=Path, help="write a rerun recording")
+    p.add_argument("--report", type=Path, help="write a self-contained HTML report")
+    p.add_argument("--holdout", nargs="+", metavar="RUN",
+                   help="run labels held out of the fit for validation (default: every third, from the second)")
+    p.add_argument("--band", type=int, default=20, help="harmonics 0..BAND fitted and compared (default: %(default)s)")
+    p.add_argument("--torque-share", type=float, default=0.5,
+                   help="J2/(J1+J2), needed only for data with the relative angle 'phi' (default: %(default)s)")
+    p.add_argument("--alpha", type=float, default=1e-3,
+                   help="false-alarm probability per round over all causes (default: %(default)s)")
+    p.add_argument("--fidelity", type=float, default=DEFAULT_FIDELITY,
+                   help="model-fidelity floor relative to each run's torque: misfits below it are not evidence "
+                        "(default: %(default)s)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+    return p.parse_args(argv)
+
+
+def main(argv=None) -> int:
+    args = parse_args(argv)
+    limit_threads()
+    logging.basicConfig(level=logging.WARNING if args.quiet else logging.INFO, format="%(message)s",
+                        stream=sys.stderr)
+    t0 = time.perf_counter()
+    try:
+        check_range(args.band, "--band", lo=1, hi=100, integer=True)
+        check_range(args.torque_share, "--torque-share", lo=0, hi=1, lo_open=True, hi_open=True)
+        check_range(args.alpha, "--alpha", lo=0, hi=1, lo_open=True, hi_open=True)
+        check_range(args.fidelity, "--fidelity", lo=0, hi=0.5)
+        for option, path in (("--json", args.json), ("--rrd", args.rrd), ("--report", args.report)):
+            check_output(path, option)
+        loaded = read_runs(args.data, columns=args.columns, units=args.units)
+        ids = list(loaded.run_ids)
+        holdout = None
+        if args.holdout:
+            unknown = [h for h in args.holdout if h not in ids]
+            if unknown:
+                raise RunsFileError(f"{args.data}: --holdout names run(s) {unknown} not in the file; runs are {ids}")
+            holdout = [ids.index(h) for h in args.holdout]
+            if len(set(holdout)) >= len(ids):
+                raise BadArgument(f"--holdout holds out all {len(ids)} runs; expected at least one run left to fit")
+        elif len(ids) < 3:
+            raise RunsFileError(f"{args.data}: {len(ids)} run(s); the diagnosis needs at least 3 (it holds every "
+                                f"third out for validation), or name the held-out runs with --holdout")
+        for n in loaded.notes:
+            log.info("note: %s", n)
+        report = run_diagnosis(loaded.records, run_ids=ids, holdout=holdout, band=args.band,
+                               torque_share=args.torque_share, alpha=args.alpha, fidelity=args.fidelity,
+                               progress=lambda msg: log.info("%s", msg))
+    except (RunsFileError, RecordError, BadArgument) as err:
+        print(f"diagnose: error: {err}", file=sys.stderr)
+        return 2
+    except (SimulationError, ValueError, np.linalg.LinAlgError) as err:
+        print(f"diagnose: the identification failed: {err}", file=sys.stderr)
+        return 1
+    text = format_report(report, source=str(args.data), notes=loaded.notes)
+    print(text)
+    if args.json:
+        write_json_atomic(args.json, report_json(report, source=str(args.data), notes=loaded.notes,
+                                                 input_sha256=loaded.sha256))
+        log.info("wrote %s", args.json)
+    if args.rrd:
+        with open_recording(args.rrd) as rec:
+            log_diagnosis(rec, report, text)
+        log.info("wrote %s", args.rrd)
+    if args.report:
+        write_html(args.report, report, text, title=f"jointrig diagnosis of {args.data.name}")
+        log.info("wrote %s", args.report)
+    log.info("done in %.1f s", time.perf_counter() - t0)
+    return 0
+
+
+def run(argv=None) -> int:
+    """``main`` with the command's exit codes and no traceback (:func:`jointrig.rig.runtime.run_cli`)."""
+    from jointrig.rig.runtime import run_cli
+
+    return run_cli(main, "jointrig diagnose", argv)
+
+
+if __name__ == "__main__":
+    sys.exit(run())

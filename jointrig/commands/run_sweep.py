@@ -1,0 +1,245 @@
+"""Main job: sweep the rig over frequency x amplitude, identify the joint, report, record.
+
+    python3 scripts/run_sweep.py                       # default sweep, runs/sweep.{json,rrd}
+    python3 scripts/run_sweep.py --form two_dof --spawn # J1, J2 and the law; live viewer
+    python3 scripts/run_sweep.py --native --workers 2   # native callback, 2 threads
+    python3 scripts/run_sweep.py --noise-db 40          # measured at 40 dB SNR: ML, +- std errors
+    python3 scripts/run_sweep.py --excitation multisine # two odd random-phase multisines
+    python3 scripts/run_sweep.py --native --executor dask --scheduler tcp://head:8786  # a cluster
+
+Frequencies are in rad/s, drive amplitudes in N m (torque on flywheel 1). Finished sweep
+points are kept in ``--store`` (default: runs/store/<model>-<settings hash>) so an
+interrupted sweep resumes where it stopped.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import hashlib
+import json
+import logging
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from jointrig.identify import FORMS, compare, format_table, identify
+from jointrig.identify.eiv import ml_identify
+from jointrig.identify.multisine import line_levels
+from jointrig.identify.basis import JointLaw
+from jointrig.rig import DEFAULT_MODEL, SimulationConfig, load_rig
+from jointrig.rig.measurement import add_noise, repeat_periods
+from jointrig.rig.recording import log_harmonics, log_parameter_table, log_restoring_force, log_run, open_recording
+from jointrig.rig.sweep import (DEFAULT_MULTISINE, DEFAULT_PLAN, EXECUTORS, SweepPlan, records_of, run_multisines, run_sweep,
+                       write_json_atomic)
+
+log = logging.getLogger("run_sweep")
+
+
+def parse_args(argv=None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--model", type=Path, default=DEFAULT_MODEL, help="rig MJCF (default: %(default)s)")
+    p.add_argument("--omegas", type=float, nargs="+", default=list(DEFAULT_PLAN.omegas_rad_s),
+                   metavar="RAD_S", help="drive frequencies in rad/s (default: %(default)s)")
+    p.add_argument("--amplitudes", type=float, nargs="+", default=list(DEFAULT_PLAN.amplitudes_Nm),
+                   metavar="NM", help="drive torque amplitudes on flywheel 1 in N m (default: %(default)s)")
+    p.add_argument("--form", choices=FORMS, default="equivalent",
+                   help="equivalent 1-DOF (Je + law) or direct 2-DOF (J1, J2 + law) (default: %(default)s)")
+    p.add_argument("--harmonics", type=int, default=None,
+                   help="harmonics 0..H balanced (default: 9 stepped, 3 x the top line for a multisine)")
+    p.add_argument("--excitation", choices=("stepped", "multisine"), default="stepped",
+                   help="stepped: one cosine per frequency x amplitude; multisine: odd random-phase multisines "
+                        "(rig/sweep.py DEFAULT_MULTISINE), whose detection lines show nonlinear distortion "
+                        "(default: %(default)s)")
+    d = SimulationConfig()
+    p.add_argument("--max-step", type=float, default=d.max_step_s, metavar="S",
+                   help="largest RK4 step in s (default: %(default)s)")
+    p.add_argument("--samples-per-period", type=int, default=d.samples_per_period)
+    p.add_argument("--sample-rate-hz", type=float, default=None, metavar="FS",
+                   help="log at a bench's fixed sampling rate instead of --samples-per-period; every frequency is "
+                        "moved to the nearest one whose period holds whole samples (coherent sampling)")
+    p.add_argument("--integrator", default=d.integrator, help="MuJoCo integrator (default: %(default)s)")
+    p.add_argument("--settle-tol", type=float, default=d.settle_tol,
+                   help="steady state: bound on the distance from the exact steady state / swing "
+                        "(default: %(default)s)")
+    p.add_argument("--store", type=Path, default=None,
+                   help="directory of finished sweep points, for resuming (default: runs/store/<auto>)")
+    p.add_argument("--no-store", action="store_true", help="keep no sweep points on disk")
+    p.add_argument("--json", type=Path, default=Path("runs/sweep.json"), help="results JSON (default: %(default)s)")
+    p.add_argument("--rrd", type=Path, default=Path("runs/sweep.rrd"), help="rerun recording (default: %(default)s)")
+    p.add_argument("--no-rrd", action="store_true", help="write no recording file")
+    viewer = p.add_mutually_exclusive_group()
+    viewer.add_argument("--spawn", action="store_true", help="also stream to a newly spawned rerun viewer")
+    viewer.add_argument("--connect", metavar="URL", help="also stream to a running viewer (gRPC URL)")
+    p.add_argument("--native", action="store_true",
+                   help="simulate with the native C callback (identical numbers, ~2.7x faster; needs a C compiler)")
+    p.add_argument("--workers", type=int, default=1,
+                   help="simulate this many sweep points at once: threads with --executor local (needs --native), "
+                        "worker processes of a local dask cluster (default: %(default)s)")
+    p.add_argument("--executor", choices=EXECUTORS, default="local",
+                   help="local: this process; dask: a dask.distributed cluster (default: %(default)s)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="dask scheduler address, e.g. tcp://head-node:8786 (default: start a local cluster "
+                        "of --workers processes)")
+    p.add_argument("--continuation", action="store_true",
+                   help="start each frequency from the previous one's steady state (same amplitude)")
+    p.add_argument("--noise-db", type=float, default=None, metavar="DB",
+                   help="measure every run with white Gaussian noise on both angles and the torque at this SNR "
+                        "per channel (rates not recorded) and identify by errors-in-variables maximum likelihood "
+                        "(identify/eiv.py) (default: no noise, least squares)")
+    p.add_argument("--periods", type=int, default=8,
+                   help="measured periods per run with --noise-db (the noise is estimated from their variation) "
+                        "(default: %(default)s)")
+    p.add_argument("--seed", type=int, default=0, help="noise seed with --noise-db (default: %(default)s)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+    return p.parse_args(argv)
+
+
+def truth_of(rig, form: str) -> dict[str, float]:
+    inertia = ({"Je_kgm2": rig.Je_kgm2} if form == "equivalent"
+               else {"J1_kgm2": rig.J1_kgm2, "J2_kgm2": rig.J2_kgm2})
+    return {**inertia, **rig.law.as_dict()}
+
+
+def main(argv=None) -> int:
+    args = parse_args(argv)
+    logging.basicConfig(level=logging.WARNING if args.quiet else logging.INFO,
+                        format="%(levelname)s %(name)s: %(message)s")
+    if args.excitation == "multisine" and (args.executor != "local" or args.continuation or args.workers > 1):
+        raise ValueError("--excitation multisine simulates its runs here, one after another: drop --executor, "
+                         "--workers and --continuation")
+    if args.noise_db is not None and args.form != "equivalent":
+        raise ValueError("--noise-db identifies the equivalent form (Je and the law): drop --form two_dof")
+    if args.periods < 2:
+        raise ValueError(f"--periods must be >= 2 (the noise is estimated from their variation), got {args.periods}")
+    from jointrig.rig.runtime import check_output, check_range
+
+    check_output(args.json, "--json")
+    if not args.no_rrd:
+        check_output(args.rrd, "--rrd")
+    if args.harmonics is not None:
+        check_range(args.harmonics, "--harmonics", lo=1, hi=1000, integer=True)
+    check_range(args.workers, "--workers", lo=1, hi=256, integer=True)
+    for w in args.omegas:
+        check_range(w, "--omegas", lo=0, hi=1e4, lo_open=True)
+    for a in args.amplitudes:
+        check_range(a, "--amplitudes", lo=0, hi=1e7, lo_open=True)
+    rig = load_rig(args.model)
+    plan = SweepPlan(tuple(args.omegas), tuple(args.amplitudes))
+    if args.sample_rate_hz is not None:
+        plan = plan.coherent(args.sample_rate_hz)
+        log.info("sampling at %g Hz: frequencies moved to %s rad/s (whole samples per period)", args.sample_rate_hz,
+                 ", ".join(f"{w:.4f}" for w in plan.omegas_rad_s))
+    config = SimulationConfig(max_step_s=args.max_step, samples_per_period=args.samples_per_period,
+                              settle_tol=args.settle_tol, integrator=args.integrator,
+                              sample_rate_Hz=args.sample_rate_hz)
+    store = None
+    if not args.no_store:
+        key = json.dumps([rig.digest, dataclasses.asdict(config)], sort_keys=True)
+        store = args.store or Path("runs/store") / f"{rig.path.stem}-{hashlib.sha256(key.encode()).hexdigest()[:12]}"
+    log.info("model %s: law %s, J1 %.6g, J2 %.6g kg m^2; %d sweep points; store %s", rig.path,
+             rig.law.as_dict(), rig.J1_kgm2, rig.J2_kgm2, len(plan.points()), store)
+    if args.excitation == "stepped":
+        args.harmonics = 9 if args.harmonics is None else args.harmonics
+        points = run_sweep(rig, plan, config, store=store, native=args.native, workers=args.workers,
+                           continuation=args.continuation, executor=args.executor, scheduler=args.scheduler)
+        runs_json = [{"omega_rad_s": p.record.omega_rad_s, "amplitude_Nm": p.record.drive_amplitude_Nm,
+                      "periods_to_steady_state": p.settle.periods_simulated, "last_change": p.settle.last_change,
+                      "error_bound": p.settle.error_bound, "timestep_s": p.settle.timestep_s} for p in points]
+        records = records_of(points)
+        excitations = None
+    else:
+        ms_plan = DEFAULT_MULTISINE
+        args.harmonics = ms_plan.n_harmonics if args.harmonics is None else args.harmonics
+        ms_config = dataclasses.replace(config, samples_per_period=max(config.samples_per_period,
+                                                                       2 * args.harmonics + 2))
+        done = run_multisines(rig, ms_plan, ms_config, native=args.native)
+        records = [r for r, _, _ in done]
+        excitations = [m for _, _, m in done]
+        runs_json = [{"omega0_rad_s": ms_plan.omega0_rad_s, "rms_Nm": m.rms_Nm, "excited_harmonics": list(m.excited),
+                      "detection_harmonics": list(m.detection), "periods_to_steady_state": i.periods_simulated,
+                      "error_bound": i.error_bound, "timestep_s": i.timestep_s} for _, i, m in done]
+
+    if args.noise_db is not None:
+        rng = np.random.default_rng(args.seed)
+        records = [add_noise(repeat_periods(r, args.periods), args.noise_db, rng) for r in records]
+    if excitations is not None:
+        print("\nNon-excited lines of the relative angle (mean power per line, relative to the excited lines):")
+        def db(x, ref):
+            return f"{10 * math.log10(x / ref):6.0f} dB" if x > 0 else "  -inf dB"
+
+        for rec, m, rj in zip(records, excitations, runs_json):
+            lv = line_levels(rec, m, args.harmonics)
+            rj["line_levels_rad2"] = {"excited": lv.excited, "odd_detection": lv.odd_detection, "even": lv.even,
+                                      "noise": lv.noise}
+            print(f"  RMS {m.rms_Nm:6.0f} N m: odd detection lines {db(lv.odd_detection, lv.excited)} (odd "
+                  f"distortion), even lines {db(lv.even, lv.excited)} (even distortion)"
+                  + (f", noise {db(lv.noise, lv.excited)}" if lv.noise > 0 else ""))
+    if args.noise_db is None:
+        result = identify(records, rig.law.terms, form=args.form, n_harmonics=args.harmonics,
+                          torque_share=rig.torque_share)
+        print(f"\nHarmonic-balance identification ({args.form} form) from {len(records)} runs, "
+              f"harmonics 0..{args.harmonics}: {result.n_rows} equations, condition number "
+              f"{result.condition_number:.3g}, status: {result.message}\n")
+    else:
+        result = ml_identify(records, rig.law.terms, n_harmonics=args.harmonics, torque_share=rig.torque_share)
+        print(f"\nErrors-in-variables maximum-likelihood harmonic balance (equivalent form) from {len(records)} "
+              f"runs x {args.periods} periods measured at SNR {args.noise_db:g} dB (seed {args.seed}), harmonics "
+              f"0..{args.harmonics}: {result.n_rows} equations; cost {result.cost:.1f} for {result.dof} degrees of "
+              f"freedom (chi-square p = {result.p_value:.2g}), status: {result.message}\n")
+    rows = compare(result, truth_of(rig, args.form))
+    print(format_table(rows))
+    if args.noise_db is not None:  # without noise the standard errors only reflect integrator error
+        for r in rows:
+            print(f"  {r.name:20s} {r.identified:.6g} +- {r.std_error:.2g}"
+                  + (f"  ({(r.identified - r.true) / r.std_error:+.2f} standard errors from the truth)"
+                     if r.true is not None and r.std_error > 0 else ""))
+
+    identified_law = JointLaw(rig.law.terms, tuple(result.value(t.name) for t in rig.law.terms))
+    out = {
+        "parameters": {r.name: r.as_json() for r in rows},
+        "form": args.form,
+        "condition_number": getattr(result, "condition_number", None),
+        "relative_residual": getattr(result, "relative_residual", None),
+        "noise_db": args.noise_db,
+        "estimator": "least squares" if args.noise_db is None else "errors-in-variables maximum likelihood",
+        "n_equations": result.n_rows,
+        "success": result.success,
+        "message": result.message,
+        "max_abs_rel_error": max(abs(r.rel_error) for r in rows if r.rel_error is not None),
+        "excitation": args.excitation,
+        "sweep": ({"omegas_rad_s": list(plan.omegas_rad_s), "amplitudes_Nm": list(plan.amplitudes_Nm)}
+                  if args.excitation == "stepped" else dataclasses.asdict(DEFAULT_MULTISINE)) | {"runs": runs_json},
+        "simulation": {**dataclasses.asdict(config), "model": str(rig.path), "model_sha256": rig.digest},
+        "units": "SI; parameter names carry their units",
+    }
+    if args.json:
+        write_json_atomic(args.json, out)
+        print(f"\nwrote {args.json}")
+
+    rrd = None if args.no_rrd else args.rrd
+    if rrd is not None or args.spawn or args.connect:
+        with open_recording(rrd, spawn=args.spawn, connect=args.connect) as rec:
+            for r in records:
+                log_run(rec, r)
+            log_harmonics(rec, records, args.harmonics)
+            phi_all = np.concatenate([r.phi_rad for r in records])
+            log_restoring_force(rec, rig.law, identified_law, (float(phi_all.min()), float(phi_all.max())))
+            log_parameter_table(rec, format_table(rows, markdown=True))
+        if rrd is not None:
+            print(f"wrote {rrd} (open it with: .venv/bin/rerun {rrd}; without a display: .venv/bin/rerun {rrd} "
+                  f"--web-viewer, then a browser on port 9090)")
+    return 0 if result.success else 1
+
+
+def run(argv=None) -> int:
+    """``main`` with the command's exit codes and no traceback (:func:`jointrig.rig.runtime.run_cli`)."""
+    from jointrig.rig.runtime import run_cli
+
+    return run_cli(main, "jointrig sweep", argv)
+
+
+if __name__ == "__main__":
+    sys.exit(run())

@@ -1,0 +1,223 @@
+"""The Silverbox benchmark end to end: estimate on the 10 multisine periods only, test on the arrow.
+
+    python3 scripts/silverbox.py [--data DIR] [--json OUT] [--rrd OUT]
+
+1. Harmonic balance (all lines 0..2700, i.e. every excited and non-excited line in the band) for
+   the Duffing model m y'' + d y' + a y + b y^3 = u: the starting point.
+2. Output-error refinement on the steady periods (simulation error, unbiased for output noise).
+3. What the Duffing model gets wrong: residual by line group, phase trend, DC; candidate effects
+   ranked by a score test; extension kept only where held-out realisations (9, 10) improve.
+4. Free-run simulation of each model on the arrow input in the MuJoCo one-degree-of-freedom rig
+   (RK4, 8 steps per sample), checked against scipy (LSODA) on the first samples, and the RMS
+   error in mV over "arrow full" [100, 40575) and "without extrapolation" [100, 32100).
+The arrow is never used for estimation or selection.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from jointrig.identify import JointLaw, LinearSystem, Power, Viscous, single_dof_system, solve
+from jointrig.identify.extend import extend_model, residual_analysis, score_candidates
+from jointrig.identify.output_error import refine_output_error, simulate_periods
+from jointrig.identify.signals import BandlimitedInput
+from jointrig.measured.silverbox import EXCITED_MAX_BIN, PERIOD, SilverboxData, load_silverbox
+from jointrig.rig.oscillator import simulate_free_run, simulate_free_run_reference
+from jointrig.rig.sweep import write_json_atomic
+
+log = logging.getLogger("silverbox")
+
+HB_MAX_LINE = 2700
+SUBSTEPS = 8  # RK4 steps per sample: 3.7 uV from 16 steps over the arrow; 4 steps is 0.38 mV off
+TRAIN, VALIDATE = np.arange(8), np.arange(8, 10)
+REFERENCE_SAMPLES = 4096
+
+#: Published arrow-full RMS errors (mV) as listed in the jointrig issue on this benchmark. Sources
+#: verified here: the benchmark (T. Wigren, J. Schoukens, "Three free data sets for development and
+#: benchmarking in nonlinear system identification", ECC 2013) and J. Paduart et al., "Identification
+#: of nonlinear systems using polynomial nonlinear state space models", Automatica 46(4), 2010 (BLA
+#: and PNLSS). The other rows carry the issue's figures; their papers were not available here.
+PUBLISHED = (
+    ("best linear approximation", 13.7, "-", "Paduart et al., Automatica 2010"),
+    ("physical model, nonlinear-feedback relaxation", 0.96, "-", "per issue #6 (source not verified here)"),
+    ("nonlinear-feedback model", 0.38, "10", "per issue #6 (source not verified here)"),
+    ("PNLSS", 0.26, "37", "Paduart et al., Automatica 2010"),
+    ("GP-NARX", 0.60, "-", "per issue #6 (source not verified here)"),
+    ("LSTM", 2.68, "-", "per issue #6 (source not verified here)"),
+)
+
+#: Silverbox names (u, y in V) for the law's parameters.
+NAMES = {"inertia": "m_s2", "c_Nms_per_rad": "d_s", "k_Nm_per_rad": "a", "gamma_Nm_per_rad3": "b_per_V2",
+         "a_Nm_per_rad2": "a2_per_V", "c_p2_q1": "d2_s_per_V2", "c_p0_q3": "d3_s3_per_V2",
+         "p5_Nm_per_rad5": "b5_per_V4", "delay_s": "delay_s"}
+
+
+def harmonic_balance(u: np.ndarray, y: np.ndarray, fs_Hz: float, terms) -> tuple[float, JointLaw, object]:
+    w0 = 2 * math.pi * fs_Hz / PERIOD
+    system = LinearSystem.stack([
+        single_dof_system(omega_rad_s=w0, n_periods=1, x=y[r], rate=None, forcing=u[r], terms=terms,
+                          n_harmonics=HB_MAX_LINE, inertia_name="inertia", record_index=r)
+        for r in range(u.shape[0])])
+    res = solve(system)
+    return float(res.values[0]), JointLaw(tuple(terms), tuple(res.values[1:])), res
+
+
+def arrow_rms(data: SilverboxData, inertia, law, delay_s=0.0) -> tuple[dict, np.ndarray]:
+    u, y, scored_full = data.arrow("full")
+    _, _, scored_noext = data.arrow("no_extrapolation")
+    sim = simulate_free_run(law, inertia, BandlimitedInput(u, data.fs_Hz), u.size, data.fs_Hz,
+                            substeps=SUBSTEPS, delay_s=delay_s)
+    rms = {name: 1e3 * float(np.sqrt(np.mean((sim[s] - y[s]) ** 2)))
+           for name, s in (("full", scored_full), ("no_extrapolation", scored_noext))}
+    return rms, sim
+
+
+def _params(names, values, stds):
+    return {NAMES.get(n, n): {"value": float(v), "std_error": float(s)} for n, v, s in zip(names, values, stds)}
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--data", type=Path, default=None, help="Silverbox directory (default ../shared/data/silverbox)")
+    p.add_argument("--json", type=Path, default=None)
+    p.add_argument("--rrd", type=Path, default=None)
+    p.add_argument("-q", "--quiet", action="store_true")
+    args = p.parse_args(argv)
+    logging.basicConfig(level=logging.WARNING if args.quiet else logging.INFO, format="%(levelname)s %(name)s: %(message)s")
+    t0 = time.perf_counter()
+    data = load_silverbox(args.data)
+    u, y = data.estimation_periods()
+    fs = data.fs_Hz
+    print(f"Silverbox: {data.path}; offsets removed: input {1e3 * data.u_offset_V:.3f} mV, output "
+          f"{1e3 * data.y_offset_V:.3f} mV; multisine blocks at samples {list(data.block_starts)}")
+    U = np.fft.rfft(u, axis=-1) / PERIOD
+    k = np.arange(U.shape[-1])
+    even = (k > 0) & (k <= EXCITED_MAX_BIN) & (k % 2 == 0)
+    input_noise = float(np.sqrt(np.mean(np.abs(U[:, even]) ** 2) * PERIOD / 2))
+    print(f"input noise (from the non-excited even lines of the input): {1e3 * input_noise:.3f} mV RMS "
+          f"(signal {1e3 * np.std(u):.2f} mV RMS)")
+
+    # 1. Harmonic balance, nominal Duffing model.
+    terms = (Viscous(), Power(1), Power(3))
+    m_hb, law_hb, hb = harmonic_balance(u, y, fs, terms)
+    # 2. Output error from there.
+    oe = refine_output_error(u, y, fs, inertia=m_hb, law=law_hb)
+    y_oe, _ = simulate_periods(oe.inertia, oe.law, u, fs)
+    y_hb, _ = simulate_periods(m_hb, law_hb, u, fs)
+    est_rms = {"hb": 1e3 * float(np.sqrt(np.mean((y_hb - y) ** 2))), "oe": 1e3 * oe.rms_error}
+    print(f"\nNominal Duffing model, estimation simulation error: harmonic balance {est_rms['hb']:.4f} mV, "
+          f"after output error {est_rms['oe']:.4f} mV")
+    print(f"  {'parameter':12s} {'HB':>14s} {'OE':>14s} {'OE std err':>11s}")
+    for i, name in enumerate(oe.names):
+        print(f"  {NAMES[name]:12s} {hb.values[i]:14.6g} {oe.values[i]:14.6g} {oe.std_errors[i]:11.2e}")
+    wn = math.sqrt(oe.law.values[1] / oe.inertia)
+    print(f"  (linear resonance {wn / 2 / math.pi:.2f} Hz, damping ratio "
+          f"{oe.law.values[0] / (2 * math.sqrt(oe.inertia * oe.law.values[1])):.4f})")
+
+    # 3. What it gets wrong.
+    ra = residual_analysis(y_oe, y, fs, data.excited_bins, EXCITED_MAX_BIN)
+    print("\nWhere the nominal model's simulation error sits (estimation data, power summed over lines):")
+    print(f"  {'line group':16s} {'measured':>11s} {'residual':>11s} {'unexplained':>12s}")
+    for g, mp, rp in zip(ra.groups, ra.measured_power, ra.residual_power):
+        if mp > 0:
+            print(f"  {g:16s} {mp:11.3e} {rp:11.3e} {rp / mp:11.1%}")
+    print(f"  phase trend of simulated vs measured over the excited lines: {ra.phase_slope_s * 1e6:+.2f} us "
+          f"(a sample is {1e6 / fs:.0f} us); mean residual {1e3 * ra.dc_residual:+.4f} mV")
+    scores = score_candidates(u[TRAIN], y[TRAIN], fs, inertia=oe.inertia, law=oe.law)
+    print("\nCandidate causes, ranked by the score test on the training realisations 1-8:")
+    print(f"  {'effect':20s} {'RSS removable':>13s} {'pred. RMS':>10s} {'chi2':>9s}  meaning")
+    for s in scores:
+        print(f"  {s.effect:20s} {s.reduction:13.3e} {1e3 * s.predicted_rms:8.4f}mV {s.chi2:9.0f}  {s.meaning}")
+    if len(scores) > 1 and scores[1].reduction > 0.9 * scores[0].reduction:
+        print(f"  note: {scores[0].effect} and {scores[1].effect} explain nearly the same part of the residual "
+              f"(within {100 * (1 - scores[1].reduction / scores[0].reduction):.0f}%): these data cannot tell "
+              f"them apart; multisines at several amplitude levels (the damping of one grows with rate, of "
+              f"the other with amplitude) would")
+    ext = extend_model(u, y, fs, inertia=oe.inertia, law=oe.law, train=TRAIN, validate=VALIDATE)
+    print("\nExtension, each step kept only if the simulation error on held-out realisations 9-10 drops >= 2%:")
+    for st in ext.steps:
+        print(f"  + {st.effect:20s} held-out RMS {1e3 * st.validation_rms_before:.4f} -> "
+              f"{1e3 * st.validation_rms_after:.4f} mV: {'kept' if st.accepted else 'rejected'}")
+    fit = ext.fit
+    print(f"Extended model ({', '.join(ext.effects) or 'nothing added'}), {len(fit.names)} parameters, "
+          f"estimation simulation error {1e3 * fit.rms_error:.4f} mV:")
+    for name, v, s in zip(fit.names, fit.values, fit.std_errors):
+        print(f"  {NAMES.get(name, name):12s} {v:14.6g} +- {s:.2e}")
+
+    # 4. The arrow (test data), free run in the MuJoCo rig.
+    rms_hb, _ = arrow_rms(data, m_hb, law_hb)
+    rms_nom, sim_nom = arrow_rms(data, oe.inertia, oe.law)
+    rms_ext, sim_ext = arrow_rms(data, fit.inertia, fit.law, fit.delay_s)
+    ua, ya, _ = data.arrow("full")
+    ref = simulate_free_run_reference(fit.law, fit.inertia, BandlimitedInput(ua, fs), REFERENCE_SAMPLES, fs,
+                                      delay_s=fit.delay_s, method="LSODA")
+    agree = float(np.max(np.abs(ref - sim_ext[:REFERENCE_SAMPLES])))
+    print(f"\nMuJoCo rig vs scipy LSODA on the first {REFERENCE_SAMPLES} arrow samples (extended model): "
+          f"max |difference| {1e6 * agree:.3f} uV")
+    print("\nArrow (test), free-run RMS error:")
+    print(f"  {'model':52s} {'full':>8s} {'no extrap.':>11s} {'params':>7s}")
+    rows = [("jointrig: Duffing by harmonic balance", rms_hb, 4),
+            ("jointrig: Duffing, harmonic balance + output error", rms_nom, 4),
+            (f"jointrig: extended ({' + '.join(ext.effects)})", rms_ext, len(fit.names))]
+    for name, r, npar in rows:
+        print(f"  {name:52s} {r['full']:6.3f}mV {r['no_extrapolation']:9.3f}mV {npar:7d}")
+    print("  published (arrow full):")
+    for name, v, npar, src in PUBLISHED:
+        print(f"  {name:52s} {v:6.2f}mV {'':11s} {npar:>7s}  {src}")
+    print(f"\n{time.perf_counter() - t0:.0f} s in all")
+
+    out = {
+        "rms_mV": {"nominal": rms_nom, "extended": rms_ext, "harmonic_balance_only": rms_hb},
+        "parameters": _params(fit.names, fit.values, fit.std_errors),
+        "n_parameters": len(fit.names),
+        "nominal_parameters": _params(oe.names, oe.values, oe.std_errors),
+        "extended_effects": list(ext.effects),
+        "selection": [{"effect": s.effect, "kept": s.accepted, "heldout_rms_mV_before": 1e3 * s.validation_rms_before,
+                       "heldout_rms_mV_after": 1e3 * s.validation_rms_after} for s in ext.steps],
+        "candidate_scores": [{"effect": s.effect, "chi2": s.chi2, "predicted_rms_mV": 1e3 * s.predicted_rms}
+                             for s in scores],
+        "estimation_rms_mV": {"hb": est_rms["hb"], "nominal": est_rms["oe"], "extended": 1e3 * fit.rms_error},
+        "mujoco_vs_scipy_max_abs_V": agree,
+        "published_full_mV": {n: v for n, v, _, _ in PUBLISHED},
+        "units": "volts; rms in mV; parameters of m y'' + d y' + a y + b y^3 (+ extensions) = u",
+    }
+    if args.json:
+        write_json_atomic(args.json, out)
+        print(f"wrote {args.json}")
+    if args.rrd:
+        from jointrig.rig.recording import open_recording
+        import rerun as rr
+        with open_recording(args.rrd) as rec:
+            t = rr.TimeColumn("t_s", duration=np.arange(ya.size) / fs)
+            for name, sig in (("measured_V", ya), ("nominal_V", sim_nom), ("extended_V", sim_ext),
+                              ("nominal_error_V", sim_nom - ya), ("extended_error_V", sim_ext - ya)):
+                rec.send_columns(f"arrow/{name}", indexes=[t], columns=rr.Scalars.columns(scalars=sig))
+            R = np.abs(np.fft.rfft(y_oe - y, axis=-1)).mean(axis=0) / PERIOD
+            yext, _ = simulate_periods(fit.inertia, fit.law, u, fs, delay_s=fit.delay_s)
+            Rx = np.abs(np.fft.rfft(yext - y, axis=-1)).mean(axis=0) / PERIOD
+            rec.log("estimation/residual_spectrum_nominal_V", rr.BarChart(R[:HB_MAX_LINE]), static=True)
+            rec.log("estimation/residual_spectrum_extended_V", rr.BarChart(Rx[:HB_MAX_LINE]), static=True)
+            table = "\n".join(["| model | full mV | no extrap. mV |", "|---|---|---|"] +
+                              [f"| {n} | {r['full']:.3f} | {r['no_extrapolation']:.3f} |" for n, r, _ in rows] +
+                              [f"| {n} (published) | {v:.2f} | - |" for n, v, _, _ in PUBLISHED])
+            rec.log("table", rr.TextDocument(table, media_type=rr.MediaType.MARKDOWN), static=True)
+        print(f"wrote {args.rrd}")
+    return 0
+
+
+def run(argv=None) -> int:
+    """``main`` with the command's exit codes and no traceback (:func:`jointrig.rig.runtime.run_cli`)."""
+    from jointrig.rig.runtime import run_cli
+
+    return run_cli(main, "jointrig silverbox", argv)
+
+
+if __name__ == "__main__":
+    sys.exit(run())
