@@ -15,6 +15,8 @@ extension that fixes it.
 
 from __future__ import annotations
 
+import math
+
 import logging
 from dataclasses import dataclass
 from typing import Optional, Sequence
@@ -159,10 +161,15 @@ def score_candidates(u: np.ndarray, y: np.ndarray, fs_Hz: float, *, inertia: flo
 
 @dataclass(frozen=True)
 class ExtensionStep:
+    """One candidate tried: simulation RMS on the held-out realisations before/after, and on
+    the other excitation (NaN when there is none)."""
+
     effect: str
     accepted: bool
     validation_rms_before: float
     validation_rms_after: float
+    other_rms_before: float = math.nan
+    other_rms_after: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -186,19 +193,26 @@ def _val_rms(fit: OutputErrorResult, u, y, fs):
 
 def extend_model(u: np.ndarray, y: np.ndarray, fs_Hz: float, *, inertia: float, law: JointLaw,
                  train: np.ndarray, validate: np.ndarray, candidates: Sequence[Candidate] = CANDIDATES,
-                 min_gain: float = 0.02, max_effects: int = 3) -> ExtensionResult:
+                 min_gain: float = 0.02, max_effects: int = 3,
+                 other: Optional[tuple[np.ndarray, np.ndarray]] = None) -> ExtensionResult:
     """Greedy forward selection of candidate effects (see the module docstring).
 
     Args:
       u, y: periodic records ``(R, N)``; train, validate: record indices.
       inertia, law: the nominal model (a starting point; refitted here).
       min_gain: relative drop of the held-out simulation RMS required to keep an effect.
+      other: periodic records ``(u, y)``, each ``(R2, N2)``, of another excitation of the same
+        system: an effect is kept only if it also lowers the simulation error there (held-out
+        realisations of the fit's own excitation cannot see a model that fits the excitation
+        rather than the system). Candidates are then tried in order of evidence until one
+        passes both, not only the best-evidenced one.
     """
     by_name = {c.effect: c for c in candidates}
     ut, yt, uv, yv = u[train], y[train], u[validate], y[validate]
     delay_on = False
     fit = _fit(ut, yt, fs_Hz, inertia, law, 0.0, False)
     val = _val_rms(fit, uv, yv, fs_Hz)
+    oth = _val_rms(fit, other[0], other[1], fs_Hz) if other is not None else math.nan
     effects: list[str] = []
     steps: list[ExtensionStep] = []
     first_scores: Optional[tuple] = None
@@ -208,24 +222,32 @@ def extend_model(u: np.ndarray, y: np.ndarray, fs_Hz: float, *, inertia: float, 
         first_scores = first_scores or scores
         if not scores:
             break
-        # Only the best-evidenced candidate is tried per round: if it does not generalise,
-        # weaker evidence will not either (and each trial is a full output-error fit).
-        best = scores[0]
-        cand = by_name[best.effect]
-        if cand.term is None:
-            trial = _fit(ut, yt, fs_Hz, fit.inertia, fit.law, fit.delay_s, True)
-        else:
-            trial_law = JointLaw(fit.law.terms + (cand.term,), fit.law.values + (best.step,))
-            trial = _fit(ut, yt, fs_Hz, fit.inertia, trial_law, fit.delay_s, delay_on)
-        new_val = _val_rms(trial, uv, yv, fs_Hz)
-        ok = new_val < (1 - min_gain) * val
-        steps.append(ExtensionStep(best.effect, ok, val, new_val))
-        log.info("candidate %s: held-out RMS %.4g -> %.4g (%s)", best.effect, val, new_val,
-                 "kept" if ok else "rejected")
-        if not ok:
+        # Without another excitation only the best-evidenced candidate is tried per round: if
+        # it does not generalise, weaker evidence will not either (each trial is a full
+        # output-error fit). With one, a candidate that fails there may be an artefact of the
+        # fit's excitation while the next one is not: they are tried in order.
+        kept = None
+        for best in (scores if other is not None else scores[:1]):
+            cand = by_name[best.effect]
+            if cand.term is None:
+                trial = _fit(ut, yt, fs_Hz, fit.inertia, fit.law, fit.delay_s, True)
+            else:
+                trial_law = JointLaw(fit.law.terms + (cand.term,), fit.law.values + (best.step,))
+                trial = _fit(ut, yt, fs_Hz, fit.inertia, trial_law, fit.delay_s, delay_on)
+            new_val = _val_rms(trial, uv, yv, fs_Hz)
+            new_oth = _val_rms(trial, other[0], other[1], fs_Hz) if other is not None else math.nan
+            ok = new_val < (1 - min_gain) * val and (other is None or new_oth < oth)
+            steps.append(ExtensionStep(best.effect, ok, val, new_val, oth, new_oth))
+            log.info("candidate %s: held-out RMS %.4g -> %.4g, other excitation %.4g -> %.4g (%s)", best.effect, val,
+                     new_val, oth, new_oth, "kept" if ok else "rejected")
+            if ok:
+                kept = (best, cand, trial, new_val, new_oth)
+                break
+        if kept is None:
             break
+        best, cand, trial, new_val, new_oth = kept
         effects.append(best.effect)
-        fit, val = trial, new_val
+        fit, val, oth = trial, new_val, new_oth
         delay_on = delay_on or cand.term is None
     final = _fit(u, y, fs_Hz, fit.inertia, fit.law, fit.delay_s, delay_on)
     return ExtensionResult(tuple(effects), tuple(steps), final, first_scores or ())

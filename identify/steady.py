@@ -11,8 +11,9 @@ and balanced line by line:
     X = (U e^{-i w delay} - G(X) + dK X) / (L + dK),      dK = k_eq - k (+ i w (c_eq - c))
 
 a fixed-point iteration around the equivalent linearisation (``k_eq``, ``c_eq`` = mean slopes
-of g over the current response), which converges for the mildly nonlinear systems it is meant
-for; it stops with :class:`SteadyStateError` when it does not.
+of g over the current response), relaxed (step halved whenever the change grows), which
+converges for the mildly nonlinear systems it is meant for; it stops with
+:class:`SteadyStateError` when it does not.
 
 Spectra use numpy's unnormalised ``rfft`` convention, shape ``(n_records, n_samples // 2 + 1)``.
 """
@@ -108,6 +109,9 @@ def periodic_response(
 
 def _iterate(X, Ue, L, jw, rest, n_samples, n_bins, oversample, scale, eps, tol, max_iter):
     change = float("inf")
+    # Relaxation: a full step while the change shrinks; halved (down to 1/64) whenever it grows,
+    # which tames the iteration for strongly nonlinear responses without moving its fixed point.
+    beta = 1.0
     for it in range(max_iter):
         x = _upsampled(X, n_samples, oversample)
         v = _upsampled(jw * X, n_samples, oversample)
@@ -122,8 +126,11 @@ def _iterate(X, Ue, L, jw, rest, n_samples, n_bins, oversample, scale, eps, tol,
         X_new = (Ue - G + dK * X) / np.where(denom != 0, denom, np.inf)
         if not np.all(np.isfinite(X_new)):
             raise SteadyStateError(f"non-finite response at iteration {it}: the model diverges under this input")
-        change = float(np.max(np.abs(X_new - X))) / scale
-        X = X_new
+        new_change = float(np.max(np.abs(X_new - X))) / scale
+        if new_change > change and beta > 1 / 64:
+            beta *= 0.5
+        change = new_change
+        X = X_new if beta == 1.0 else X + beta * (X_new - X)
         if change < tol:
             return X
     raise SteadyStateError(f"no steady state after {max_iter} iterations (last relative change {change:.2e} "

@@ -25,7 +25,7 @@ from typing import Optional, Union
 
 import numpy as np
 
-__all__ = ["SilverboxData", "SilverboxError", "load_silverbox", "DEFAULT_DIR", "FS_HZ", "PERIOD", "TRANSIENT"]
+__all__ = ["SilverboxData", "SilverboxError", "load_silverbox", "SchroederData", "load_schroeder", "DEFAULT_DIR", "FS_HZ", "PERIOD", "TRANSIENT"]
 
 FS_HZ = 1e7 / 2**14
 PERIOD = 8192
@@ -35,9 +35,9 @@ EXCITED_MAX_BIN = 2683
 ARROW_FULL = (100, 40575)
 ARROW_NO_EXTRAPOLATION = (100, 32100)
 SCORE_SKIP = 50
-#: Where the data set is looked for: $JOINTRIG_SILVERBOX_DIR, else ``../shared/data/silverbox``
+#: Where the data set is looked for: $JOINTRIG_SILVERBOX, else ``../shared/data/silverbox``
 #: beside the source tree (an installed copy has no such neighbour: pass ``--data DIR``).
-DEFAULT_DIR = Path(os.environ.get("JOINTRIG_SILVERBOX_DIR")
+DEFAULT_DIR = Path(os.environ.get("JOINTRIG_SILVERBOX")
                    or Path(__file__).resolve().parent.parent.parent / "shared" / "data" / "silverbox")
 
 
@@ -149,3 +149,57 @@ def load_silverbox(directory: Optional[Union[str, os.PathLike]] = None) -> Silve
         if np.mean(odd**2) < 100 * np.mean(even**2):
             raise SilverboxError(f"{path}: block at sample {s} is not an odd multisine up to bin {EXCITED_MAX_BIN}")
     return SilverboxData(path=path, u_V=u, y_V=y, u_offset_V=u_off, y_offset_V=y_off, block_starts=tuple(starts))
+
+
+#: The Schroeder-phase multisine of ``Schroeder80mV.csv``: 1024 samples per period from sample
+#: 10584 (0-based; README.txt's 1-based 10585); measured to repeat for 11 periods there. The
+#: first two hold the transient (period 0 differs from period 1 by 1.2 mV RMS in the input,
+#: later ones by 0.4 mV, the noise) and are skipped.
+SCHROEDER_START = 10584
+SCHROEDER_PERIOD = 1024
+SCHROEDER_PERIODS = 11
+SCHROEDER_SKIP = 2
+
+
+@dataclass(frozen=True)
+class SchroederData:
+    """Steady periods of the Schroeder multisine (another excitation of the same circuit), offsets
+    removed as README.txt says (the mean of each channel over the file). ``u_V``, ``y_V``:
+    ``(periods, 1024)``."""
+
+    path: Path
+    u_V: np.ndarray
+    y_V: np.ndarray
+    fs_Hz: float = FS_HZ
+
+
+def load_schroeder(directory: Optional[Union[str, os.PathLike]] = None) -> SchroederData:
+    """Read the Schroeder multisine periods of ``Schroeder80mV.csv`` (columns Ovld2, Ovld1, V1,
+    V2). Never used for estimation: the Silverbox path uses it only to check that an extension
+    chosen on the estimation multisines generalises to another excitation.
+
+    Raises:
+      SilverboxError: missing file, unexpected columns, or a section that does not repeat.
+    """
+    directory = Path(directory or os.environ.get("JOINTRIG_SILVERBOX") or DEFAULT_DIR)
+    path = directory / "Schroeder80mV.csv"
+    if not path.is_file():
+        raise SilverboxError(f"{path}: no such file (the Schroeder multisine of the Silverbox data set)")
+    with open(path) as f:
+        header = [h.strip().strip('"') for h in f.readline().strip().split(",") if h.strip()]
+    if header[2:4] != ["V1", "V2"]:
+        raise SilverboxError(f"{path}: columns {header}, expected 'V1' and 'V2' third and fourth")
+    data = np.genfromtxt(path, delimiter=",", skip_header=1, usecols=(2, 3))
+    end = SCHROEDER_START + SCHROEDER_PERIODS * SCHROEDER_PERIOD
+    if data.ndim != 2 or data.shape[0] < end or not np.all(np.isfinite(data[:end])):
+        raise SilverboxError(f"{path}: expected finite V1, V2 up to sample {end}")
+    u = data[:, 0] - data[:, 0].mean()
+    y = data[:, 1] - data[:, 1].mean()
+    idx = (SCHROEDER_START + np.arange(SCHROEDER_SKIP, SCHROEDER_PERIODS)[:, None] * SCHROEDER_PERIOD
+           + np.arange(SCHROEDER_PERIOD))
+    uu, yy = u[idx], y[idx]
+    spread = float(np.sqrt(np.mean((uu - uu.mean(axis=0)) ** 2)))
+    if spread > 0.1 * float(np.std(uu)):
+        raise SilverboxError(f"{path}: the input from sample {SCHROEDER_START} does not repeat every "
+                             f"{SCHROEDER_PERIOD} samples (period-to-period spread {spread:.3g} V)")
+    return SchroederData(path, uu, yy)

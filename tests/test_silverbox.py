@@ -56,9 +56,17 @@ def test_whole_path_on_the_real_files(tmp_path):
     # Acceptance: nominal Duffing <= 1.2 mV on the full arrow; extended <= 0.5 mV with <= 12 parameters.
     assert rms["nominal"]["full"] <= 1.2
     assert rms["extended"]["full"] <= 0.5 and r["n_parameters"] <= 12
-    # The extension was chosen on estimation data only; it must also pay on the test data.
+    # The extension was chosen on estimation data and another excitation of the same circuit
+    # (the Schroeder multisine; issue 13); it must also pay on the test data and be no worse
+    # there.
     assert rms["extended"]["full"] < rms["nominal"]["full"]
-    assert rms["extended"]["no_extrapolation"] < rms["nominal"]["no_extrapolation"]
+    assert rms["extended"]["no_extrapolation"] <= rms["nominal"]["no_extrapolation"]
+    sch = r["schroeder_rms_mV"]
+    assert sch["extended"] <= sch["nominal"]
+    # cubic damping fits the estimation multisine but not the circuit: measured 24% worse on
+    # the Schroeder multisine, so it is not adopted
+    rejected = {s["effect"] for s in r["selection"] if not s["kept"]}
+    assert "cubic_damping" in rejected and "cubic_damping" not in r["extended_effects"]
     # MuJoCo rig (RK4, 8 steps/sample) vs scipy LSODA (rtol 1e-9): both ~1e-6 relative on a 0.2 V
     # signal over 4096 samples; 5 uV is 1% of the model error being measured.
     assert r["mujoco_vs_scipy_max_abs_V"] < 5e-6

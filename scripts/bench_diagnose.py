@@ -1,0 +1,96 @@
+#!/usr/bin/env python3
+"""How long the diagnosis makes a test engineer wait: the worn-joint example, timed in one run.
+
+    .venv/bin/python scripts/bench_diagnose.py [--repeat N] [--json OUT]
+
+1. ``jointrig make-data`` of the worn joint (models/two_flywheels_worn.xml, 9 runs x 16
+   periods at 40 dB) into a temporary folder (not timed);
+2. the whole diagnosis, end to end as a user runs it: ``jointrig diagnose DATA --json --rrd
+   --report`` in this process (reading, fitting, ranking, validating in the rig, writing);
+3. the nominal fit alone (period averaging and the weighted harmonic balance of the nominal
+   model on the fit runs);
+4. the native simulation of the same 9 runs in the rig (the C callback), the floor a diagnosis
+   that validates in the rig cannot go below.
+
+Best of ``--repeat`` for each, then the ratios. One BLAS thread (as every jointrig command sets).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from jointrig.commands import diagnose as diagnose_cmd
+from jointrig.commands import make_data as make_data_cmd
+from jointrig.identify.diagnose import NOMINAL, _Problem, fit, prepare_runs
+from jointrig.measured.runs import read_runs
+from jointrig.rig import DEFAULT_MODEL, SimulationConfig, load_rig, simulate_steady_state
+from jointrig.rig.runtime import limit_threads
+from jointrig.rig.sweep import write_json_atomic
+from jointrig.rig.validate import default_holdout
+
+WORN = DEFAULT_MODEL.parent / "two_flywheels_worn.xml"
+POINTS = [(w, a) for w in (25.0, 40.0, 55.0) for a in (1500.0, 2500.0, 3500.0)]
+
+
+def best_of(n: int, f) -> float:
+    times = []
+    for _ in range(n):
+        t0 = time.perf_counter()
+        f()
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--repeat", type=int, default=3, help="timings per step; the best is kept (default: %(default)s)")
+    p.add_argument("--json", type=Path, help="write the timings as JSON")
+    args = p.parse_args(argv)
+    limit_threads()
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        data = tmp / "worn.csv"
+        if make_data_cmd.main([str(data), "--model", str(WORN)]) != 0:
+            return 1
+        out = [str(tmp / "worn.json"), str(tmp / "worn.rrd"), str(tmp / "worn.html")]
+        argv_d = [str(data), "-q", "--json", out[0], "--rrd", out[1], "--report", out[2]]
+        t_diag = best_of(args.repeat, lambda: diagnose_cmd.main(argv_d))
+        result = json.loads(Path(out[0]).read_text())
+
+        loaded = read_runs(data)
+        hold = set(default_holdout(len(loaded.records)))
+        fit_recs = [r for i, r in enumerate(loaded.records) if i not in hold]
+
+        def nominal():
+            runs = prepare_runs(fit_recs, band=20)
+            fit(_Problem(tuple(runs), "two_dof", 20, 0.5, 2.0 * (runs[0].n_periods - 1)), NOMINAL)
+
+        t_nom = best_of(args.repeat, nominal)
+        rig = load_rig(WORN)
+        cfg = SimulationConfig(n_periods=16)
+        t_sim = best_of(args.repeat, lambda: [simulate_steady_state(rig, w, a, cfg, native=True) for w, a in POINTS])
+    report = {
+        "what": "worn-joint example, 9 runs x 16 periods at 40 dB; best of --repeat; one BLAS thread",
+        "diagnosis_end_to_end_s": t_diag, "nominal_fit_s": t_nom, "native_simulation_of_the_runs_s": t_sim,
+        "diagnosis_over_native_simulation": t_diag / t_sim, "diagnosis_over_nominal_fit": t_diag / t_nom,
+        "verdict": result["verdict"], "effects": result["extended"]["effects"], "gain": result["gain"],
+    }
+    print(f"worn joint, 9 runs x 16 periods at 40 dB (best of {args.repeat}):")
+    print(f"  diagnosis end to end (--json --rrd --report)  {t_diag:7.2f} s   verdict {result['verdict']}, "
+          f"{' + '.join(result['extended']['effects']) or 'nothing'} adopted, gain {result['gain']:.3g}")
+    print(f"  nominal fit alone                             {t_nom:7.2f} s")
+    print(f"  native simulation of the 9 runs in the rig    {t_sim:7.2f} s")
+    print(f"  diagnosis / native simulation                 {t_diag / t_sim:7.2f} x")
+    if args.json:
+        write_json_atomic(args.json, report)
+        print(f"wrote {args.json}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
