@@ -197,7 +197,9 @@ def log_diagnosis(rec, report: DiagnosisReport, text: str) -> None:
 
 def _png(fig) -> str:
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=90, bbox_inches="tight")
+    # The figures are laid out by tight_layout already: bbox_inches="tight" would lay them out
+    # (draw them) a second time.
+    fig.savefig(buf, format="png", dpi=90)
     return base64.b64encode(buf.getvalue()).decode("ascii")
 
 
@@ -290,9 +292,8 @@ def write_html(path: Path, report: DiagnosisReport, text: str, *, title: str = "
         parts.append(f"<h2>{html.escape(caption)}</h2><img alt='{html.escape(caption)}' "
                      f"src='data:image/png;base64,{png}'>")
     parts.append("</body></html>")
+    from .sweep import write_atomic
+
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    tmp.write_text("\n".join(parts), encoding="utf-8")
-    os.replace(tmp, path)
+    write_atomic(path, lambda tmp: tmp.write_text("\n".join(parts), encoding="utf-8"))
     return path
