@@ -155,6 +155,45 @@ def _term_coeffs(terms: Sequence[Term], phi: np.ndarray, rate: np.ndarray, n_per
     return fourier_coefficients(signals, n_periods, n_harmonics)
 
 
+#: Columns already computed, by record identity: records are immutable (read-only arrays), so a
+#: record's law column for a term, and its acceleration and torque coefficients, never change.
+#: The diagnosis's profile searches rebuild the system for every trial value of one cause's
+#: parameter while the other columns stay; this turns those rebuilds into lookups. Each entry
+#: holds its record (so its id is not reused while cached); the memo is emptied when full.
+_MEMO: dict = {}
+_MEMO_MAX = 2048
+
+
+def _memo(rec: SteadyStateRecord, key: tuple, compute):
+    k = (id(rec),) + key
+    hit = _MEMO.get(k)
+    if hit is not None and hit[0] is rec:
+        return hit[1]
+    value = compute()
+    if len(_MEMO) >= _MEMO_MAX:
+        _MEMO.clear()
+    _MEMO[k] = (rec, value)
+    return value
+
+
+def _record_term_coeffs(rec: SteadyStateRecord, terms: Sequence[Term], n_harmonics: int,
+                        oversample: int) -> np.ndarray:
+    """:func:`_term_coeffs` of the relative motion of ``rec``, one memoised row per term."""
+    def fine():
+        phi = rec.phi_rad
+        rate = _rate_or_spectral(rec.rate_rad_s, phi, rec)
+        return upsample(phi, oversample), upsample(rate, oversample)
+
+    def row(term):
+        def compute():
+            phi, rate = _memo(rec, ("fine", oversample), fine)
+            sig = np.broadcast_to(np.asarray(term(phi, rate), dtype=float), phi.shape)
+            return fourier_coefficients(sig, rec.n_periods, n_harmonics)
+        return _memo(rec, ("term", term, n_harmonics, oversample), compute)
+
+    return np.vstack([row(t) for t in terms])
+
+
 def _rate_or_spectral(rate: Optional[np.ndarray], x: np.ndarray, rec: SteadyStateRecord) -> np.ndarray:
     return rate if rate is not None else spectral_rate(x, rec.omega_rad_s, rec.n_periods)
 
@@ -250,13 +289,12 @@ def two_dof_system(
         if rec.phi2_rad is None:
             raise RecordError(f"{rec.source}: the two-degree-of-freedom form needs 'phi2_rad'")
         _check_harmonics(rec, n_harmonics)
-        phi = rec.phi_rad
-        rate = _rate_or_spectral(rec.rate_rad_s, phi, rec)
-        law = _term_coeffs(terms, phi, rate, rec.n_periods, n_harmonics, oversample)
-        acc1 = _acceleration_coeffs(rec.phi1_rad, rec.rate1_rad_s, rec, n_harmonics)
-        acc2 = _acceleration_coeffs(rec.phi2_rad, rec.rate2_rad_s, rec, n_harmonics)
+        law = _record_term_coeffs(rec, terms, n_harmonics, oversample)
+        acc1, acc2, torque = _memo(rec, ("acc_torque", n_harmonics), lambda: (
+            _acceleration_coeffs(rec.phi1_rad, rec.rate1_rad_s, rec, n_harmonics),
+            _acceleration_coeffs(rec.phi2_rad, rec.rate2_rad_s, rec, n_harmonics),
+            fourier_coefficients(rec.torque_Nm, rec.n_periods, n_harmonics)))
         zero = np.zeros_like(acc1)
-        torque = fourier_coefficients(rec.torque_Nm, rec.n_periods, n_harmonics)
         eq_cols = [[acc1, zero, law], [zero, acc2, -law]]
         names = ("J1_kgm2", "J2_kgm2") + tuple(t.name for t in terms)
         if bearings:
