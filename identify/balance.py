@@ -161,7 +161,7 @@ def _term_coeffs(terms: Sequence[Term], phi: np.ndarray, rate: np.ndarray, n_per
 #: parameter while the other columns stay; this turns those rebuilds into lookups. Each entry
 #: holds its record (so its id is not reused while cached); the memo is emptied when full.
 _MEMO: dict = {}
-_MEMO_MAX = 2048
+_MEMO_MAX = 1024  # at most ~150 records held (about 35 MB at 4096 samples per period)
 
 
 def _memo(rec: SteadyStateRecord, key: tuple, compute):
