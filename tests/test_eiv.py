@@ -127,3 +127,52 @@ def test_fixed_bench_sampling_rate_is_coherent_and_identifiable(rig):
     truth = {"Je_kgm2": rig.Je_kgm2, **rig.law.as_dict()}
     for name, value in truth.items():  # 4 standard errors: a 6e-5 chance each if they are right
         assert abs(res.value(name) - value) < 4 * res.std_error(name), name
+
+
+def test_crlb_equals_the_closed_form_of_a_linear_joint():
+    # A linear joint measured with noise on the torque only: the balance rows are linear in
+    # (Je, c, k) with exact regressors, so the bound is the Gauss-Markov covariance
+    # (sum_runs P A' A / v)^-1, v = s^2 2 sigma^2 / N the variance of one real Fourier row of the
+    # averaged torque (complex coefficient (2/N) sum x e^-i.., white noise sigma^2 per sample).
+    from jointrig.identify.records import SteadyStateRecord
+
+    Je, c, k, s, M0, N, P, sigma2 = 1.0, 100.0, 2000.0, 0.5, 400.0, 64, 8, 4.0
+    rows, recs = [], []
+    for w in (20.0, 45.0, 70.0):
+        X = s * M0 / (k - Je * w * w + 1j * c * w)
+        t = np.arange(N) * (2 * math.pi / w / N)
+        recs.append(SteadyStateRecord(w, t, M0 * np.cos(w * t), (X * np.exp(1j * w * t)).real, None, n_periods=1))
+        a = np.array([-(w * w) * X, 1j * w * X, X])  # columns of Je, c, k at the fundamental
+        rows += [a.real, a.imag]
+    A = np.array(rows)
+    v = s * s * 2 * sigma2 / N
+    closed = np.linalg.inv(P * A.T @ A / v)
+    bound = crlb(recs, (Viscous(), Power(1)), [Je, c, k], var_phi_rad2=[0.0] * 3, var_torque_Nm2=[sigma2] * 3,
+                 n_periods=P, n_harmonics=5, torque_share=s)
+    # round-off only: 1e-9 of each element's scale sqrt(C_ii C_jj) (the c-Je and c-k
+    # covariances are ~0 here, at 1e-17 of the scale)
+    scale = np.sqrt(np.outer(np.diag(closed), np.diag(closed)))
+    assert np.all(np.abs(bound - closed) <= 1e-9 * scale), (bound, closed)
+    np.testing.assert_allclose(np.diag(bound), np.diag(closed), rtol=1e-9)
+
+
+def test_reported_standard_errors_match_the_monte_carlo_spread(mc40):
+    # The estimator's own standard errors against the spread of its estimates, from both sides.
+    # Per parameter, std / mean(se) of a right se lies within sqrt of the chi2(N_MC - 1) 0.1% and
+    # 99.9% quantiles (0.68..1.34 at 40 draws). Pooled over the 4 parameters (geometric mean)
+    # the sampling error shrinks, and the band [0.8, 1.25] catches standard errors 25% too small
+    # (ratio 1.33) or 3x too large (0.33) while a right one passes (measured: 0.97).
+    lo, hi = np.sqrt(stats.chi2.ppf([0.001, 0.999], N_MC - 1) / (N_MC - 1))
+    ratios = []
+    for p in mc40.parameters:
+        r = p.std / p.mean_std_error
+        assert lo <= r <= hi, (p.name, r)
+        ratios.append(r)
+    pooled = float(np.exp(np.mean(np.log(ratios))))
+    assert 0.8 <= pooled <= 1.25, (pooled, ratios)
+    # Coverage of the 95% intervals pooled over parameters and realisations (4 x 40 = 160):
+    # the binomial 0.1% and 99.9% quantiles; se 25% too small covers ~86%, 3x too large ~100%.
+    n = N_MC * len(mc40.parameters)
+    pooled_cov = np.mean([p.coverage for p in mc40.parameters])
+    cov_lo, cov_hi = stats.binom.ppf([0.001, 0.999], n, 0.95) / n
+    assert cov_lo <= pooled_cov <= cov_hi, pooled_cov
