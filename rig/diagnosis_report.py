@@ -169,28 +169,75 @@ def _label(r) -> str:
     return f"run{r.run_id}".replace(".", "p").replace("/", "_").replace(" ", "_")
 
 
+def diagnosis_blueprint(report: DiagnosisReport):
+    """The diagnosis recording's layout (rerun blueprint): a first tab that answers the question
+    (the verdict and report text, the causes by name with the adopted ones marked, their scores),
+    then one tab per run titled with omega and M0: measured, nominal and extended relative angle
+    overlaid, simulated minus measured, the restoring-force loops (normalised: rad and N m on one
+    2D view would be a line) and the harmonic residuals on a log scale."""
+    import rerun.blueprint as rrb
+
+    first = rrb.Horizontal(
+        rrb.TextDocumentView(origin="diagnosis/summary", name="Verdict and report"),
+        rrb.Vertical(rrb.TextDocumentView(origin="diagnosis/causes_table", name="Causes (adopted marked)"),
+                     rrb.BarChartView(origin="diagnosis/causes", name="Cause evidence score, in table order")),
+        column_shares=[3, 2], name="Verdict")
+    tabs = [first]
+    for r in report.runs:
+        lab = _label(r)
+        held = ", held out" if r.held_out else ""
+        tabs.append(rrb.Grid(
+            rrb.TimeSeriesView(origin=f"diagnosis/runs/{lab}/phi_rad",
+                               name="relative angle [rad]: measured, nominal, extended"),
+            rrb.TimeSeriesView(origin=f"diagnosis/runs/{lab}/departure_rad", name="simulated - measured [rad]"),
+            rrb.Spatial2DView(origin=f"diagnosis/loops/{lab}",
+                              name="restoring-force loop (phi / max|phi|, torque / max|torque|)"),
+            rrb.BarChartView(origin=f"diagnosis/harmonic_residuals/{lab}/extended",
+                             name="|harmonic residual| of the extended model [rad]"),
+            grid_columns=2, name=f"run {r.run_id}: {r.omega_rad_s:g} rad/s, {r.amplitude_Nm:.4g} N m{held}"))
+    return rrb.Blueprint(rrb.Tabs(*tabs), collapse_panels=True)
+
+
 def log_diagnosis(rec, report: DiagnosisReport, text: str) -> None:
     import rerun as rr
 
+    rec.send_blueprint(diagnosis_blueprint(report))
     colors = {"measured": (40, 40, 40), "nominal": (214, 39, 40), "extended": (31, 119, 180)}
     for r in report.runs:
         lab = _label(r)
         t = rr.TimeColumn("t_s", duration=r.time_s)
         for w, phi in (("measured", r.phi_measured_rad), ("nominal", r.phi_nominal_rad),
                        ("extended", r.phi_extended_rad)):
+            rec.log(f"diagnosis/runs/{lab}/phi_rad/{w}", rr.SeriesLines(colors=[colors[w]], names=[w]), static=True)
             rec.send_columns(f"diagnosis/runs/{lab}/phi_rad/{w}", indexes=[t], columns=rr.Scalars.columns(scalars=phi))
-        for w, tau in (("measured", r.joint_torque_measured_Nm), ("nominal", r.joint_torque_nominal_Nm),
-                       ("extended", r.joint_torque_extended_Nm)):
-            pts = np.column_stack([r.phi_resolved_rad, tau])
+        taus = (("measured", r.joint_torque_measured_Nm), ("nominal", r.joint_torque_nominal_Nm),
+                ("extended", r.joint_torque_extended_Nm))
+        phi_scale = max(float(np.max(np.abs(r.phi_resolved_rad))), 1e-300)
+        tau_scale = max(max(float(np.max(np.abs(tau))) for _, tau in taus if np.all(np.isfinite(tau))), 1e-300)
+        for w, tau in taus:
+            # Normalised (and y up): a loop in rad against N m on one equal-aspect view is a line.
+            pts = np.column_stack([r.phi_resolved_rad / phi_scale, -tau / tau_scale])
             rec.log(f"diagnosis/loops/{lab}/{w}", rr.LineStrips2D([np.vstack([pts, pts[:1]])], colors=[colors[w]]),
                     static=True)
         for w, phi in (("nominal", r.phi_nominal_rad), ("extended", r.phi_extended_rad)):
             rec.log(f"diagnosis/harmonic_residuals/{lab}/{w}", rr.BarChart(r.harmonic_residuals(w, report.band)),
                     static=True)
+            rec.log(f"diagnosis/runs/{lab}/departure_rad/{w}", rr.SeriesLines(colors=[colors[w]], names=[w]),
+                    static=True)
             rec.send_columns(f"diagnosis/runs/{lab}/departure_rad/{w}", indexes=[t],
                              columns=rr.Scalars.columns(scalars=phi - r.phi_measured_rad))
-    scores = np.array([c.score for c in report.diagnosis.causes if math.isfinite(c.score)])
-    rec.log("diagnosis/causes", rr.BarChart(scores), static=True)
+    causes = [c for c in report.diagnosis.causes if math.isfinite(c.score)]
+    adopted = set(report.adopted)
+    rec.log("diagnosis/causes", rr.BarChart(np.array([c.score for c in causes]),
+                                            abscissa=np.arange(1, len(causes) + 1)), static=True)
+    table = ["| # | cause | score | significant | adopted | magnitude |", "|---|---|---|---|---|---|"]
+    for i, c in enumerate(causes, 1):
+        table.append(f"| {i} | {c.effect} | {c.score:.4g} | {'yes' if c.significant else 'no'} | "
+                     f"{'**ADOPTED**' if c.effect in adopted else ''} | {c.magnitude[0]} = {_fmt(c.magnitude[1])} +- "
+                     f"{_fmt(c.magnitude[2])} |")
+    table.append(f"\nVerdict: **{report.verdict.verdict}**: {report.verdict.reason}")
+    rec.log("diagnosis/causes_table", rr.TextDocument("\n".join(table), media_type=rr.MediaType.MARKDOWN),
+            static=True)
     rec.log("diagnosis/summary", rr.TextDocument("```\n" + text + "\n```", media_type=rr.MediaType.MARKDOWN),
             static=True)
 

@@ -54,6 +54,23 @@ def test_recording_and_report(outputs):
         for w in ("nominal", "extended"):
             assert f"/diagnosis/runs/run{run}/departure_rad/{w}" in paths
     assert "/diagnosis/causes" in paths and "/diagnosis/summary" in paths
+    # The blueprint read back: the first tab answers the question, one tab per run titled with
+    # omega and M0, and every view's origin holds data the recording has.
+    reader = rr.chunk.RrdReader(str(outputs / "d.rrd"))
+    names, origins = [], []
+    for chunk in reader.store(store=reader.blueprints()[0]).stream().to_chunks():
+        batch = chunk.to_record_batch()
+        for col in batch.schema.names:
+            if col.endswith("display_name"):
+                names += [v[0] for v in batch.column(col).to_pylist() if v]
+            elif col.endswith("space_origin"):
+                origins += [v[0] for v in batch.column(col).to_pylist() if v]
+    assert {"Verdict", "Verdict and report", "Causes (adopted marked)"} <= set(names)
+    assert "run 1: 25 rad/s, 2500 N m, held out" in names
+    assert sum(n.startswith("run ") for n in names) == 9
+    for origin in origins:
+        assert any(p == "/" + origin or p.startswith("/" + origin + "/") for p in paths), origin
+    assert len(origins) == 3 + 4 * 9
     html = (outputs / "d.html").read_text()
     assert html.count("<img") == 5 and "Restoring-force loops" in html and "coulomb_friction" in html
     assert "departs from the measurement" in html
