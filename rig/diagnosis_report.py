@@ -183,19 +183,24 @@ def diagnosis_blueprint(report: DiagnosisReport):
                      rrb.BarChartView(origin="diagnosis/causes", name="Cause evidence score, in table order")),
         column_shares=[3, 2], name="Verdict")
     tabs = [first]
+    whole = rrb.VisibleTimeRange("t_s", start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.infinite())
+    axis = rrb.TimeAxis(view_range=rrb.TimeRange(start=rrb.TimeRangeBoundary.infinite(),
+                                                 end=rrb.TimeRangeBoundary.infinite()))
     for r in report.runs:
         lab = _label(r)
         held = ", held out" if r.held_out else ""
         tabs.append(rrb.Grid(
             rrb.TimeSeriesView(origin=f"diagnosis/runs/{lab}/phi_rad",
-                               name="relative angle [rad]: measured, nominal, extended"),
-            rrb.TimeSeriesView(origin=f"diagnosis/runs/{lab}/departure_rad", name="simulated - measured [rad]"),
+                               name="relative angle [rad]: measured, nominal, extended", time_ranges=whole,
+                               axis_x=axis),
+            rrb.TimeSeriesView(origin=f"diagnosis/runs/{lab}/departure_rad", name="simulated - measured [rad]",
+                               time_ranges=whole, axis_x=axis),
             rrb.Spatial2DView(origin=f"diagnosis/loops/{lab}",
                               name="restoring-force loop (phi / max|phi|, torque / max|torque|)"),
             rrb.BarChartView(origin=f"diagnosis/harmonic_residuals/{lab}/extended",
                              name="|harmonic residual| of the extended model [rad]"),
             grid_columns=2, name=f"run {r.run_id}: {r.omega_rad_s:g} rad/s, {r.amplitude_Nm:.4g} N m{held}"))
-    return rrb.Blueprint(rrb.Tabs(*tabs), collapse_panels=True)
+    return rrb.Blueprint(rrb.Tabs(*tabs), rrb.TimePanel(timeline="t_s", state="collapsed"), collapse_panels=True)
 
 
 def log_diagnosis(rec, report: DiagnosisReport, text: str) -> None:

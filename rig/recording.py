@@ -9,7 +9,7 @@ Entities (all SI; the unit is in the entity name):
 * ``restoring_force/true_Nm``, ``restoring_force/identified_Nm``: g(phi) of the true and the
   identified law over the measured range, timeline ``phi_urad`` (angle in micro-radians as
   the x axis).
-* ``harmonics/<run>``: bar chart of |Phi_n|, n = 0..H (rad).
+* ``harmonics/<run>``: bar chart of |Phi_n|, n = 0..H (rad); ``harmonics_log10/<run>`` its log10.
 * ``frf/M<amplitude>/h<n>_rad``: |Phi_n| against the drive frequency, timeline ``omega_mrad_s``.
 * ``parameters``: markdown table true / identified / relative error / standard error.
 
@@ -32,7 +32,7 @@ from jointrig.identify.harmonics import fourier_coefficients
 from jointrig.identify.records import SteadyStateRecord
 
 __all__ = ["open_recording", "run_label", "log_run", "log_restoring_force", "log_harmonics",
-           "log_parameter_table", "expected_entities"]
+           "log_parameter_table", "expected_entities", "sweep_blueprint"]
 
 APP_ID = "jointrig"
 
@@ -93,6 +93,47 @@ def open_recording(rrd_path: Optional[Path], *, spawn: bool = False,
                     os.unlink(tmp)
 
 
+def sweep_blueprint(records: Sequence[SteadyStateRecord]):
+    """The sweep recording's layout: first what the sweep answers (the identified restoring
+    torque against the true one, on the timeline ``phi_urad``, which the time panel opens on,
+    and the parameter table), then the frequency response per drive amplitude (timeline
+    ``omega_mrad_s``), the runs over one period (timeline ``t_s``), the phase portraits and the
+    harmonic spectra (log10), one named view per run. A view shows data only on its own
+    timeline: each view's name says which one to pick in the time panel."""
+    import rerun.blueprint as rrb
+
+    everything = rrb.TimeRange(start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.infinite())
+
+    def whole(timeline):  # all the data, not the window around the time cursor
+        return rrb.VisibleTimeRange(timeline, start=rrb.TimeRangeBoundary.infinite(),
+                                    end=rrb.TimeRangeBoundary.infinite())
+
+    axis = rrb.TimeAxis(view_range=everything)  # the x axis spans it too
+
+    amplitudes = sorted({r.drive_amplitude_Nm for r in records})
+    labs = [(_label(r), f"{r.omega_rad_s:g} rad/s, {r.drive_amplitude_Nm:g} N m") for r in records]
+    law = rrb.Horizontal(
+        rrb.TimeSeriesView(origin="restoring_force",
+                           name="restoring torque g(phi) [N m], identified vs true, against phi [urad] (timeline phi_urad)",
+                           time_ranges=whole("phi_urad"), axis_x=axis),
+        rrb.TextDocumentView(origin="parameters", name="parameters: true, identified, errors"),
+        column_shares=[3, 2], name="Identified law")
+    frf = rrb.Grid(*[rrb.TimeSeriesView(origin=f"frf/M{a:g}",
+                                        name=f"|Phi_n| [rad] against omega [mrad/s] at M0 = {a:g} N m "
+                                             f"(timeline omega_mrad_s)", time_ranges=whole("omega_mrad_s"), axis_x=axis)
+                     for a in amplitudes],
+                   name="Frequency response")
+    runs = rrb.Grid(*[rrb.TimeSeriesView(origin=f"runs/{lab}", name=f"{title}: phi [rad], torque [N m] (timeline t_s)",
+                                         time_ranges=whole("t_s"), axis_x=axis) for lab, title in labs],
+                    name="Runs")
+    portraits = rrb.Grid(*[rrb.Spatial2DView(origin=f"phase_portrait/{lab}", name=f"{title}: phi' / omega against phi [rad]")
+                           for lab, title in labs], name="Phase portraits")
+    spectra = rrb.Grid(*[rrb.BarChartView(origin=f"harmonics_log10/{lab}", name=f"{title}: log10 |Phi_n| [log10 rad]")
+                         for lab, title in labs], name="Harmonic spectra")
+    return rrb.Blueprint(rrb.Tabs(law, frf, runs, portraits, spectra),
+                         rrb.TimePanel(timeline="phi_urad", state="collapsed"), collapse_panels=True)
+
+
 def log_run(rec: rr.RecordingStream, record: SteadyStateRecord) -> None:
     """Time series and phase portrait of one steady-state record."""
     lab = _label(record)
@@ -111,6 +152,8 @@ def log_harmonics(rec: rr.RecordingStream, records: Sequence[SteadyStateRecord],
     for r in records:
         amp = np.abs(fourier_coefficients(r.phi_rad, r.n_periods, n_harmonics))
         rec.log(f"harmonics/{_label(r)}", rr.BarChart(amp), static=True)
+        # log10 for the spectra's view: on a linear scale only the fundamental shows
+        rec.log(f"harmonics_log10/{_label(r)}", rr.BarChart(np.log10(np.maximum(amp, 1e-300))), static=True)
     for a in sorted({r.drive_amplitude_Nm for r in records}):
         group = sorted((r for r in records if r.drive_amplitude_Nm == a), key=lambda r: r.omega_rad_s)
         amps = np.array([np.abs(fourier_coefficients(r.phi_rad, r.n_periods, n_harmonics)) for r in group])

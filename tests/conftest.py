@@ -10,6 +10,22 @@ from jointrig.rig import DEFAULT_MODEL, SimulationConfig, load_rig
 from jointrig.rig.runtime import limit_threads
 from jointrig.rig.sweep import DEFAULT_PLAN, records_of, run_sweep
 
+def blueprint_views(rrd_path) -> tuple[list[str], list[str]]:
+    """(display names, view origins) of the rerun blueprint stored in a recording file."""
+    import rerun as rr
+
+    reader = rr.chunk.RrdReader(str(rrd_path))
+    names, origins = [], []
+    for chunk in reader.store(store=reader.blueprints()[0]).stream().to_chunks():
+        batch = chunk.to_record_batch()
+        for col in batch.schema.names:
+            if col.endswith("display_name"):
+                names += [v[0] for v in batch.column(col).to_pylist() if v]
+            elif col.endswith("space_origin"):
+                origins += [v[0] for v in batch.column(col).to_pylist() if v]
+    return names, origins
+
+
 # One BLAS thread per pytest worker: the suite runs on both cores (pytest-xdist, -n 2).
 limit_threads()
 

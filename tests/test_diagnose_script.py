@@ -56,15 +56,9 @@ def test_recording_and_report(outputs):
     assert "/diagnosis/causes" in paths and "/diagnosis/summary" in paths
     # The blueprint read back: the first tab answers the question, one tab per run titled with
     # omega and M0, and every view's origin holds data the recording has.
-    reader = rr.chunk.RrdReader(str(outputs / "d.rrd"))
-    names, origins = [], []
-    for chunk in reader.store(store=reader.blueprints()[0]).stream().to_chunks():
-        batch = chunk.to_record_batch()
-        for col in batch.schema.names:
-            if col.endswith("display_name"):
-                names += [v[0] for v in batch.column(col).to_pylist() if v]
-            elif col.endswith("space_origin"):
-                origins += [v[0] for v in batch.column(col).to_pylist() if v]
+    from conftest import blueprint_views
+
+    names, origins = blueprint_views(outputs / "d.rrd")
     assert {"Verdict", "Verdict and report", "Causes (adopted marked)"} <= set(names)
     assert "run 1: 25 rad/s, 2500 N m, held out" in names
     assert sum(n.startswith("run ") for n in names) == 9

@@ -45,6 +45,16 @@ def test_recording_is_written_readable_and_complete(outputs):
     assert "/runs/w45_M4000/phi_rad" in want and "/phase_portrait/w10_M400" in want
     assert want <= entities, sorted(want - entities)
     assert any(e.startswith("/frf/") for e in entities)
+    # The blueprint: the identified law first, then named views; every origin holds data.
+    from conftest import blueprint_views
+
+    names, origins = blueprint_views(rrd)
+    assert {"Identified law", "Frequency response", "Runs", "Phase portraits",
+                                "Harmonic spectra"} <= set(names)
+    assert "10 rad/s, 400 N m: phi [rad], torque [N m] (timeline t_s)" in names
+    for origin in origins:
+        assert any(e == "/" + origin or e.startswith("/" + origin + "/") for e in entities), origin
+    assert len(origins) == 2 + 2 + 3 * len(runs)
     assert not list(outputs.glob(".*.tmp"))  # written atomically
     beside = Path(sys.executable).with_name("rerun")  # the CLI ships with rerun-sdk, in the same bin/
     cli = str(beside) if beside.exists() else shutil.which("rerun")

@@ -31,7 +31,8 @@ from jointrig.identify.multisine import line_levels
 from jointrig.identify.basis import JointLaw
 from jointrig.rig import DEFAULT_MODEL, SimulationConfig, load_rig
 from jointrig.rig.measurement import add_noise, repeat_periods
-from jointrig.rig.recording import log_harmonics, log_parameter_table, log_restoring_force, log_run, open_recording
+from jointrig.rig.recording import (log_harmonics, log_parameter_table, log_restoring_force, log_run,
+                                     open_recording, sweep_blueprint)
 from jointrig.rig.sweep import (DEFAULT_MULTISINE, DEFAULT_PLAN, EXECUTORS, SweepPlan, records_of, run_multisines, run_sweep,
                        write_json_atomic)
 
@@ -222,6 +223,7 @@ def main(argv=None) -> int:
     rrd = None if args.no_rrd else args.rrd
     if rrd is not None or args.spawn or args.connect:
         with open_recording(rrd, spawn=args.spawn, connect=args.connect) as rec:
+            rec.send_blueprint(sweep_blueprint(records))
             for r in records:
                 log_run(rec, r)
             log_harmonics(rec, records, args.harmonics)
