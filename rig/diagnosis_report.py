@@ -334,12 +334,27 @@ def _figures(report: DiagnosisReport) -> list[tuple[str, str]]:
     return out
 
 
-def write_html(path: Path, report: DiagnosisReport, text: str, *, title: str = "jointrig diagnosis") -> Path:
-    """A self-contained HTML report (text summary and embedded PNG figures), written atomically."""
+def write_html(path: Path, report: DiagnosisReport, text: str, *, title: str = "jointrig diagnosis",
+               input_sha256: str = "") -> Path:
+    """A self-contained HTML report (the verdict as its headline, provenance, the text summary and
+    embedded PNG figures), written atomically."""
+    import datetime
+
+    from jointrig import __version__
+
+    v = report.verdict
+    colour = {"no_misfit": "#2e7d32", "explained": "#1565c0", "unexplained": "#c62828"}[v.verdict]
+    stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    provenance = f"jointrig {__version__}, {stamp}" + (f", input SHA-256 {input_sha256}" if input_sha256 else "")
     parts = [f"<!doctype html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>",
-             "<style>body{font-family:sans-serif;max-width:1300px;margin:auto} pre{background:#f6f6f6;"
-             "padding:8px;overflow-x:auto} img{max-width:100%}</style></head><body>",
-             f"<h1>{html.escape(title)}</h1>", "<h2>Summary</h2>", f"<pre>{html.escape(text)}</pre>"]
+             "<style>body{font-family:sans-serif;max-width:1300px;margin:auto;padding:0 12px} pre{background:#f6f6f6;"
+             "padding:8px;overflow-x:auto;white-space:pre} img{max-width:100%} .verdict{border-left:6px solid "
+             f"{colour};padding:6px 12px;background:#fafafa;font-size:1.1em}} .prov{{color:#666;font-size:0.85em;"
+             "overflow-wrap:anywhere}</style></head><body>",
+             f"<h1>{html.escape(title)}</h1>",
+             f"<p class='verdict'><b>{html.escape(v.verdict.replace('_', ' ').upper())}</b>: {html.escape(v.reason)}</p>",
+             f"<p class='prov'>{html.escape(provenance)}</p>",
+             "<h2>Summary</h2>", f"<pre>{html.escape(text)}</pre>"]
     for caption, png in _figures(report):
         parts.append(f"<h2>{html.escape(caption)}</h2><img alt='{html.escape(caption)}' "
                      f"src='data:image/png;base64,{png}'>")

@@ -112,7 +112,8 @@ def main(argv=None) -> int:
             log_diagnosis(rec, report, text)
         log.info("wrote %s", args.rrd)
     if args.report:
-        write_html(args.report, report, text, title=f"jointrig diagnosis of {args.data.name}")
+        write_html(args.report, report, text, title=f"jointrig diagnosis of {args.data.name}",
+                   input_sha256=loaded.sha256)
         log.info("wrote %s", args.report)
     log.info("done in %.1f s", time.perf_counter() - t0)
     return 0
