@@ -86,3 +86,18 @@ def run_cli(main, name: str, argv=None) -> int:
     except RuntimeError as err:
         print(f"{name}: failed: {err}", file=sys.stderr)
         return 1
+
+
+def progress_level(quiet: bool) -> int:
+    """Logging level of a command's progress lines (on stderr): INFO on a terminal, WARNING under
+    ``--quiet`` or when stderr is not a terminal (a log file or a CI job gets the results, not
+    the progress), unless ``JOINTRIG_PROGRESS=1`` asks for them."""
+    import logging
+    import os
+    import sys
+
+    if quiet:
+        return logging.WARNING
+    if os.environ.get("JOINTRIG_PROGRESS") == "1" or sys.stderr.isatty():
+        return logging.INFO
+    return logging.WARNING

@@ -384,7 +384,10 @@ def test_killed_sweep_resumes_from_its_store(tmp_path):
     proc.wait()
     kept = sorted(p.name for p in store.glob("*.npz"))
     assert kept, "the sweep stored no point before it was killed"
-    out = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    import os
+
+    env = {**os.environ, "JOINTRIG_PROGRESS": "1"}  # progress lines on a pipe too (they say "from store")
+    out = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=300, env=env)
     assert out.returncode == 0, out.stderr
     assert out.stderr.count("from store") >= len(kept), out.stderr
     assert not list(tmp_path.rglob("*.tmp")) and (tmp_path / "s.json").is_file()

@@ -36,6 +36,7 @@ from jointrig.rig.runtime import BadArgument, check_output, check_range, limit_t
 from jointrig.rig.simulate import SimulationError
 from jointrig.rig.sweep import write_json_atomic
 from jointrig.rig.validate import run_diagnosis
+from jointrig.rig.runtime import progress_level
 
 log = logging.getLogger("diagnose")
 
@@ -67,7 +68,7 @@ def parse_args(argv=None) -> argparse.Namespace:
 def main(argv=None) -> int:
     args = parse_args(argv)
     limit_threads()
-    logging.basicConfig(level=logging.WARNING if args.quiet else logging.INFO, format="%(message)s",
+    logging.basicConfig(level=progress_level(args.quiet), format="%(message)s",
                         stream=sys.stderr)
     t0 = time.perf_counter()
     try:

@@ -33,6 +33,7 @@ from jointrig.rig import DEFAULT_MODEL, SimulationConfig, load_rig
 from jointrig.rig.measurement import add_noise, repeat_periods
 from jointrig.rig.recording import (log_harmonics, log_parameter_table, log_restoring_force, log_run,
                                      open_recording, sweep_blueprint)
+from jointrig.rig.runtime import progress_level
 from jointrig.rig.sweep import (DEFAULT_MULTISINE, DEFAULT_PLAN, EXECUTORS, SweepPlan, records_of, run_multisines, run_sweep,
                        write_json_atomic)
 
@@ -106,7 +107,7 @@ def truth_of(rig, form: str) -> dict[str, float]:
 
 def main(argv=None) -> int:
     args = parse_args(argv)
-    logging.basicConfig(level=logging.WARNING if args.quiet else logging.INFO,
+    logging.basicConfig(level=progress_level(args.quiet),
                         format="%(levelname)s %(name)s: %(message)s")
     if args.excitation == "multisine" and (args.executor != "local" or args.continuation or args.workers > 1):
         raise ValueError("--excitation multisine simulates its runs here, one after another: drop --executor, "

@@ -31,6 +31,7 @@ from jointrig.identify.signals import BandlimitedInput
 from jointrig.measured.silverbox import EXCITED_MAX_BIN, PERIOD, SilverboxData, load_schroeder, load_silverbox
 from jointrig.rig.oscillator import simulate_free_run, simulate_free_run_reference
 from jointrig.rig.sweep import write_json_atomic
+from jointrig.rig.runtime import progress_level
 
 log = logging.getLogger("silverbox")
 
@@ -90,7 +91,7 @@ def main(argv=None) -> int:
     p.add_argument("--rrd", type=Path, default=None)
     p.add_argument("-q", "--quiet", action="store_true")
     args = p.parse_args(argv)
-    logging.basicConfig(level=logging.WARNING if args.quiet else logging.INFO, format="%(levelname)s %(name)s: %(message)s")
+    logging.basicConfig(level=progress_level(args.quiet), format="%(levelname)s %(name)s: %(message)s")
     t0 = time.perf_counter()
     data = load_silverbox(args.data)
     u, y = data.estimation_periods()
