@@ -53,8 +53,10 @@ def main(argv=None) -> int:
         print(f"jointrig: error: unknown subcommand {name!r}; expected one of {', '.join(SUBCOMMANDS)}",
               file=sys.stderr)
         return 2
+    from jointrig.rig.runtime import run_cli
+
     module = importlib.import_module(f"jointrig.commands.{SUBCOMMANDS[name][0]}")
-    return module.run(rest)
+    return run_cli(module.main, f"jointrig {name}", rest)
 
 
 if __name__ == "__main__":

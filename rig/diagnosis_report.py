@@ -19,7 +19,6 @@ import base64
 import html
 import io
 import math
-import os
 from pathlib import Path
 from typing import Sequence
 

@@ -3,7 +3,7 @@
 
 import sys
 
-from jointrig.commands.paper_example import main, run  # noqa: F401  (main: for tests and callers)
+from jointrig.cli import main
 
 if __name__ == "__main__":
-    sys.exit(run())
+    sys.exit(main(["paper", *sys.argv[1:]]))

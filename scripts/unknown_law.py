@@ -3,7 +3,7 @@
 
 import sys
 
-from jointrig.commands.unknown_law import main, run  # noqa: F401  (main: for tests and callers)
+from jointrig.cli import main
 
 if __name__ == "__main__":
-    sys.exit(run())
+    sys.exit(main(["unknown-law", *sys.argv[1:]]))

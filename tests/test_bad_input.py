@@ -2,14 +2,14 @@
 for bad input, before any long work, and nothing left behind.
 
 The battery runs each case through the loader, the Python API, the MJCF reader or a command's
-``main`` in this process (the scripts are imported from their files) and checks the error
+``main`` in this process (from ``jointrig.commands``) and checks the error
 type and message, the exit code, that no traceback reached the user and that the output
 folder holds no temporary file afterwards.
 """
 
 from __future__ import annotations
 
-import importlib.util
+import importlib
 import math
 import zipfile
 from pathlib import Path
@@ -28,10 +28,7 @@ W = 60.0
 
 
 def _script(name):
-    spec = importlib.util.spec_from_file_location(f"script_{name}", ROOT / "scripts" / f"{name}.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return importlib.import_module(f"jointrig.commands.{name}")
 
 
 def _good_rows(n_periods=3, N=64, *, run="0", t0=0.0, omega=W, phi1_extra=None):

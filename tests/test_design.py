@@ -3,17 +3,14 @@
 from __future__ import annotations
 
 import json
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from jointrig.identify.design import d_optimal, design_cost_s
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
 
-import design_excitation  # noqa: E402
+from jointrig.commands import design_excitation  # noqa: E402
 
 
 def test_allocation_balances_complementary_candidates_within_budget():

@@ -1,17 +1,15 @@
 """scripts/make_data.py and scripts/diagnose.py end to end: JSON schema, recording, report, errors."""
 
 import json
-import sys
 from pathlib import Path
 
 import pytest
 import rerun as rr
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "scripts"))
 
-import diagnose  # noqa: E402
-import make_data  # noqa: E402
+from jointrig.commands import diagnose  # noqa: E402
+from jointrig.commands import make_data  # noqa: E402
 
 
 @pytest.fixture(scope="module")

@@ -10,9 +10,8 @@ import pytest
 import rerun as rr
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "scripts"))
 
-import run_sweep  # noqa: E402
+from jointrig.commands import run_sweep  # noqa: E402
 
 from jointrig.rig.recording import expected_entities, run_label  # noqa: E402
 

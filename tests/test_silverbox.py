@@ -1,16 +1,12 @@
 """Issue: the Silverbox benchmark on the real files (reader checks, the whole path and its figure)."""
 
 import json
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from jointrig.measured.silverbox import DEFAULT_DIR, SilverboxError, load_silverbox
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "scripts"))
 HAVE_DATA = (DEFAULT_DIR / "SNLS80mV.csv").is_file()
 needs_data = pytest.mark.skipif(not HAVE_DATA, reason=f"Silverbox data not at {DEFAULT_DIR}")
 
@@ -47,7 +43,7 @@ def test_reader_errors_name_the_file(tmp_path):
 @needs_data
 @pytest.mark.slow
 def test_whole_path_on_the_real_files(tmp_path):
-    import silverbox
+    from jointrig.commands import silverbox
 
     out = tmp_path / "sb.json"
     assert silverbox.main(["-q", "--json", str(out)]) == 0

@@ -18,7 +18,6 @@ realisations of both and reports the observed standard deviations.
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -111,14 +110,3 @@ def main(argv=None) -> int:
         write_json_atomic(args.json, out)
         print(f"wrote {args.json}")
     return 0
-
-
-def run(argv=None) -> int:
-    """``main`` with the command's exit codes and no traceback (:func:`jointrig.rig.runtime.run_cli`)."""
-    from jointrig.rig.runtime import run_cli
-
-    return run_cli(main, "jointrig design", argv)
-
-
-if __name__ == "__main__":
-    sys.exit(run())

@@ -118,14 +118,3 @@ def main(argv=None) -> int:
         log.info("wrote %s", args.report)
     log.info("done in %.1f s", time.perf_counter() - t0)
     return 0
-
-
-def run(argv=None) -> int:
-    """``main`` with the command's exit codes and no traceback (:func:`jointrig.rig.runtime.run_cli`)."""
-    from jointrig.rig.runtime import run_cli
-
-    return run_cli(main, "jointrig diagnose", argv)
-
-
-if __name__ == "__main__":
-    sys.exit(run())

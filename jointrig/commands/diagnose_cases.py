@@ -12,7 +12,6 @@ gain >= 5, nothing significant for ``none``.
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from pathlib import Path
 
@@ -51,14 +50,3 @@ def main(argv=None) -> int:
     if args.json:
         write_json_atomic(args.json, {"snr_db": args.snr_db, "cases": rows})
     return 0
-
-
-def run(argv=None) -> int:
-    """``main`` with the command's exit codes and no traceback (:func:`jointrig.rig.runtime.run_cli`)."""
-    from jointrig.rig.runtime import run_cli
-
-    return run_cli(main, "jointrig cases", argv)
-
-
-if __name__ == "__main__":
-    sys.exit(run())

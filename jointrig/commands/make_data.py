@@ -71,14 +71,3 @@ def main(argv=None) -> int:
         return 2
     log.info("wrote %s", args.out)
     return 0
-
-
-def run(argv=None) -> int:
-    """``main`` with the command's exit codes and no traceback (:func:`jointrig.rig.runtime.run_cli`)."""
-    from jointrig.rig.runtime import run_cli
-
-    return run_cli(main, "jointrig make-data", argv)
-
-
-if __name__ == "__main__":
-    sys.exit(run())

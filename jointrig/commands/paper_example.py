@@ -18,7 +18,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import logging
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -130,14 +129,3 @@ def main(argv=None) -> int:
             "back_transformed": ours_back, "paper_back_transformed": PAPER_BACK,
             "noise_snr_db": args.snr_db, "one_frequency_vs_sweep": noisy_out})
     return 0
-
-
-def run(argv=None) -> int:
-    """``main`` with the command's exit codes and no traceback (:func:`jointrig.rig.runtime.run_cli`)."""
-    from jointrig.rig.runtime import run_cli
-
-    return run_cli(main, "jointrig paper", argv)
-
-
-if __name__ == "__main__":
-    sys.exit(run())

@@ -20,7 +20,6 @@ import hashlib
 import json
 import logging
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -235,14 +234,3 @@ def main(argv=None) -> int:
             print(f"wrote {rrd} (open it with: .venv/bin/rerun {rrd}; without a display: .venv/bin/rerun {rrd} "
                   f"--web-viewer, then a browser on port 9090)")
     return 0 if result.success else 1
-
-
-def run(argv=None) -> int:
-    """``main`` with the command's exit codes and no traceback (:func:`jointrig.rig.runtime.run_cli`)."""
-    from jointrig.rig.runtime import run_cli
-
-    return run_cli(main, "jointrig sweep", argv)
-
-
-if __name__ == "__main__":
-    sys.exit(run())

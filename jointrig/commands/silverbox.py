@@ -18,7 +18,6 @@ from __future__ import annotations
 import argparse
 import logging
 import math
-import sys
 import time
 from pathlib import Path
 
@@ -235,14 +234,3 @@ def main(argv=None) -> int:
             rec.log("table", rr.TextDocument(table, media_type=rr.MediaType.MARKDOWN), static=True)
         print(f"wrote {args.rrd}")
     return 0
-
-
-def run(argv=None) -> int:
-    """``main`` with the command's exit codes and no traceback (:func:`jointrig.rig.runtime.run_cli`)."""
-    from jointrig.rig.runtime import run_cli
-
-    return run_cli(main, "jointrig silverbox", argv)
-
-
-if __name__ == "__main__":
-    sys.exit(run())

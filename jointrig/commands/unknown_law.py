@@ -17,7 +17,6 @@ true law and the best quintic.
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -121,14 +120,3 @@ def main(argv=None) -> int:
         write_atomic(args.png, lambda tmp: fig.savefig(tmp, format="png", dpi=120))
         print(f"wrote {args.png}")
     return 0
-
-
-def run(argv=None) -> int:
-    """``main`` with the command's exit codes and no traceback (:func:`jointrig.rig.runtime.run_cli`)."""
-    from jointrig.rig.runtime import run_cli
-
-    return run_cli(main, "jointrig unknown-law", argv)
-
-
-if __name__ == "__main__":
-    sys.exit(run())
