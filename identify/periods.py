@@ -37,8 +37,9 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 __all__ = [
-    "MAX_CLOCK_DEVIATION", "UniformClock", "uniform_clock", "Fundamental", "estimate_fundamental",
-    "periodic_rss", "repeat_statistic", "PeriodFit", "MAX_LS_HARMONICS", "ls_harmonics", "periods_by_least_squares", "Drift", "linear_drift",
+    "MAX_CLOCK_DEVIATION", "UniformClock", "uniform_clock", "Fundamental", "estimate_fundamental", "fit_at",
+    "periodic_rss", "repeat_statistic", "PeriodFit", "MAX_LS_HARMONICS", "ls_harmonics", "periods_by_least_squares",
+    "Drift", "linear_drift",
 ]
 
 #: Largest deviation of a time stamp from the fitted uniform clock, in sample steps. Rounding
@@ -164,6 +165,15 @@ def estimate_fundamental(t: np.ndarray, x: np.ndarray, *, harmonics: int = 10) -
     curv = (periodic_rss(t, x, w + h, H) - 2 * rss + periodic_rss(t, x, w - h, H)) / h**2
     se = math.sqrt(2 * var / curv) if curv > 0 else math.nan
     return Fundamental(w, se, rss, var, dof, H)
+
+
+def fit_at(t: np.ndarray, x: np.ndarray, best: Fundamental) -> Fundamental:
+    """Another channel's periodic fit at ``best``'s frequency and harmonics: its residual and
+    noise variance there, the reference :func:`repeat_statistic` compares that channel with."""
+    t = np.asarray(t, float) - float(t[0])
+    x = np.asarray(x, float)
+    rss = periodic_rss(t, x, best.omega_rad_s, best.harmonics)
+    return Fundamental(best.omega_rad_s, math.nan, rss, max(rss / best.dof, _noise_floor(x)), best.dof, best.harmonics)
 
 
 def repeat_statistic(t: np.ndarray, x: np.ndarray, omega: float, best: Fundamental) -> float:

@@ -46,8 +46,8 @@ from typing import Mapping, Optional, Sequence, Union
 
 import numpy as np
 
-from jointrig.identify.periods import (MAX_CLOCK_DEVIATION, Fundamental, estimate_fundamental, linear_drift,
-                              ls_harmonics, periodic_rss, periods_by_least_squares, repeat_statistic, uniform_clock)
+from jointrig.identify.periods import (MAX_CLOCK_DEVIATION, estimate_fundamental, fit_at, linear_drift,
+                              ls_harmonics, periods_by_least_squares, repeat_statistic, uniform_clock)
 from jointrig.identify.records import RecordError, SteadyStateRecord
 
 from .formats import SUFFIXES, FormatError, RawTable, read_tables
@@ -245,14 +245,6 @@ def estimate_omega(time_s: np.ndarray, torque_Nm: np.ndarray) -> float:
         raise RunsFileError(f"torque: {err}") from None
 
 
-def _reference(t: np.ndarray, x: np.ndarray, best: Fundamental) -> Fundamental:
-    """The periodic fit of another channel at the torque's best frequency (its noise reference)."""
-    tt = t - t[0]
-    rss = periodic_rss(tt, x, best.omega_rad_s, best.harmonics)
-    var = max(rss / best.dof, (1e-9 * float(np.std(x)) + 1e-300) ** 2)
-    return Fundamental(best.omega_rad_s, math.nan, rss, var, best.dof, best.harmonics)
-
-
 def _to_record(where: str, run: str, t: np.ndarray, chans: dict, omega: Optional[float],
                samples_per_period: Optional[int], notes: list) -> SteadyStateRecord:
     n = t.size
@@ -281,7 +273,7 @@ def _to_record(where: str, run: str, t: np.ndarray, chans: dict, omega: Optional
     except ValueError:
         raise RunsFileError(f"{where}: run {run}: column 'torque' does not vary: no drive to identify from; "
                             f"expected a periodic drive torque") from None
-    refs = [(torque, best), (phi, _reference(tu, phi, best))]
+    refs = [(torque, best), (phi, fit_at(tu, phi, best))]
 
     def stat(w: float) -> float:
         return sum(repeat_statistic(tu, x, w, ref) for x, ref in refs)
@@ -391,7 +383,9 @@ def _check_drift(where: str, run: str, t: np.ndarray, data: dict, omega: float, 
             notes.append(f"run {run}: both flywheels rotate steadily at {slope:.4g} rad/s on top of the vibration; "
                          f"that common rotation is removed (it loads the joint with nothing; a bearing drag at that "
                          f"speed would show as a constant torque)")
-    for name in ("torque", "phi1") if "phi2" in data else ("torque", "phi1"):
+    # With two angles, phi1 is checked after any common rotation is removed; phi2 then follows
+    # from the relative angle, already checked. With one, phi1 holds the relative angle.
+    for name in ("torque", "phi1"):
         x = data[name]
         d = drift(x)
         if drifts(x, d):

@@ -93,6 +93,16 @@ def _quiet_runs(u: np.ndarray, level: float, min_len: int) -> list[tuple[int, in
     return [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2]) if b - a >= min_len]
 
 
+def _data_file(directory, name: str, what: str) -> tuple[Path, list[str]]:
+    """The path of one of the data set's CSV files and its header (column names, quotes removed)."""
+    path = Path(directory or os.environ.get("JOINTRIG_SILVERBOX") or DEFAULT_DIR) / name
+    if not path.is_file():
+        raise SilverboxError(f"{path}: no such file ({what})")
+    with open(path) as f:
+        header = [h.strip().strip('"') for h in f.readline().strip().split(",") if h.strip()]
+    return path, header
+
+
 def load_silverbox(directory: Optional[Union[str, os.PathLike]] = None) -> SilverboxData:
     """Read ``SNLS80mV.csv`` from ``directory`` (default ``../shared/data/silverbox`` beside the
     project, or ``$JOINTRIG_SILVERBOX``) and locate its parts. Nothing is downloaded.
@@ -101,12 +111,8 @@ def load_silverbox(directory: Optional[Union[str, os.PathLike]] = None) -> Silve
       SilverboxError: missing file, unexpected columns, non-finite values, or a layout that
         does not match the documented one.
     """
-    directory = Path(directory or os.environ.get("JOINTRIG_SILVERBOX") or DEFAULT_DIR)
-    path = directory / "SNLS80mV.csv"
-    if not path.is_file():
-        raise SilverboxError(f"{path}: no such file (give the Silverbox directory, e.g. ../shared/data/silverbox)")
-    with open(path) as f:
-        header = [h.strip().strip('"') for h in f.readline().strip().split(",") if h.strip()]
+    path, header = _data_file(directory, "SNLS80mV.csv",
+                              "give the Silverbox directory, e.g. ../shared/data/silverbox")
     if header[:2] != ["V1", "V2"]:
         raise SilverboxError(f"{path}: columns {header}, expected 'V1' (input) and 'V2' (output) first")
     data = np.loadtxt(path, delimiter=",", skiprows=1, usecols=(0, 1))
@@ -181,12 +187,7 @@ def load_schroeder(directory: Optional[Union[str, os.PathLike]] = None) -> Schro
     Raises:
       SilverboxError: missing file, unexpected columns, or a section that does not repeat.
     """
-    directory = Path(directory or os.environ.get("JOINTRIG_SILVERBOX") or DEFAULT_DIR)
-    path = directory / "Schroeder80mV.csv"
-    if not path.is_file():
-        raise SilverboxError(f"{path}: no such file (the Schroeder multisine of the Silverbox data set)")
-    with open(path) as f:
-        header = [h.strip().strip('"') for h in f.readline().strip().split(",") if h.strip()]
+    path, header = _data_file(directory, "Schroeder80mV.csv", "the Schroeder multisine of the Silverbox data set")
     if header[2:4] != ["V1", "V2"]:
         raise SilverboxError(f"{path}: columns {header}, expected 'V1' and 'V2' third and fourth")
     data = np.genfromtxt(path, delimiter=",", skip_header=1, usecols=(2, 3))

@@ -72,6 +72,12 @@ def check_range(value, option: str, *, lo=None, hi=None, lo_open=False, hi_open=
         raise BadArgument(f"{option} {value!r}: expected {kind}{rng}")
 
 
+def check_each(values, option: str, **bounds) -> None:
+    """:func:`check_range` on every value of a list option (``--omegas 10 45 90``)."""
+    for v in values:
+        check_range(v, option, **bounds)
+
+
 def run_cli(main, name: str, argv=None) -> int:
     """Run a command's ``main``: bad input (a ``ValueError``: the message names the file,
     option or field) exits 2 with the message; a failed simulation (``RuntimeError``) exits 1;

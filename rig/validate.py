@@ -18,6 +18,7 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass, replace
+from functools import cached_property
 from typing import Optional, Sequence
 
 import numpy as np
@@ -191,10 +192,9 @@ def misfit_character(runs: Sequence[RunComparison], band: int) -> MisfitCharacte
     power = np.zeros(band + 1)
     for r in runs:
         res = r.joint_torque_measured_Nm - r.joint_torque_extended_Nm
-        N = res.size
-        R = np.fft.rfft(res)[: band + 1] * (2.0 / N)
-        M = np.fft.rfft(r.joint_torque_measured_Nm)[: band + 1] * (2.0 / N)
-        P = np.fft.rfft(r.phi_resolved_rad)[: band + 1]
+        R = fourier_coefficients(res, 1, band)
+        M = fourier_coefficients(r.joint_torque_measured_Nm, 1, band)
+        P = fourier_coefficients(r.phi_resolved_rad, 1, band)
         p = np.abs(R[1:]) ** 2 / 2
         power[1:] += p / max(float(np.sum(np.abs(M[1:]) ** 2 / 2)), 1e-300)
         rms.append(float(np.sqrt(p.sum())))
@@ -239,7 +239,7 @@ class DiagnosisReport:
         held = [r for r in self.runs if r.held_out]
         return float(np.sqrt(np.mean([r.noise_floor_rad ** 2 for r in held])))
 
-    @property
+    @cached_property
     def verdict(self) -> Verdict:
         """The diagnosis's answer in one word (see :class:`Verdict` and the thresholds above)."""
         d = self.diagnosis
@@ -271,7 +271,7 @@ class DiagnosisReport:
         """Causes the verdict adopts: those of an "explained" diagnosis, else none."""
         return self.diagnosis.effects if self.verdict.verdict == "explained" else ()
 
-    @property
+    @cached_property
     def character(self) -> MisfitCharacter:
         return misfit_character(self.runs, self.band)
 

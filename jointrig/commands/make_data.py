@@ -41,7 +41,7 @@ def parse_args(argv=None) -> argparse.Namespace:
 
 def main(argv=None) -> int:
     args = parse_args(argv)
-    from jointrig.rig.runtime import BadArgument, check_output, check_range
+    from jointrig.rig.runtime import BadArgument, check_each, check_output, check_range
 
     try:
         if args.out.suffix.lower() not in (".csv", ".parquet"):
@@ -49,10 +49,8 @@ def main(argv=None) -> int:
         check_output(args.out, "out")
         check_range(args.periods, "--periods", lo=2, hi=10000, integer=True)
         check_range(args.snr_db, "--snr-db", lo=0, hi=200, lo_open=True)
-        for w in args.omegas:
-            check_range(w, "--omegas", lo=0, hi=1e4, lo_open=True)
-        for a in args.amplitudes:
-            check_range(a, "--amplitudes", lo=0, hi=1e7, lo_open=True)
+        check_each(args.omegas, "--omegas", lo=0, hi=1e4, lo_open=True)
+        check_each(args.amplitudes, "--amplitudes", lo=0, hi=1e7, lo_open=True)
     except BadArgument as err:
         print(f"make_data: error: {err}", file=sys.stderr)
         return 2

@@ -115,7 +115,7 @@ def main(argv=None) -> int:
         raise ValueError("--noise-db identifies the equivalent form (Je and the law): drop --form two_dof")
     if args.periods < 2:
         raise ValueError(f"--periods must be >= 2 (the noise is estimated from their variation), got {args.periods}")
-    from jointrig.rig.runtime import check_output, check_range
+    from jointrig.rig.runtime import check_each, check_output, check_range
 
     check_output(args.json, "--json")
     if not args.no_rrd:
@@ -123,10 +123,8 @@ def main(argv=None) -> int:
     if args.harmonics is not None:
         check_range(args.harmonics, "--harmonics", lo=1, hi=1000, integer=True)
     check_range(args.workers, "--workers", lo=1, hi=256, integer=True)
-    for w in args.omegas:
-        check_range(w, "--omegas", lo=0, hi=1e4, lo_open=True)
-    for a in args.amplitudes:
-        check_range(a, "--amplitudes", lo=0, hi=1e7, lo_open=True)
+    check_each(args.omegas, "--omegas", lo=0, hi=1e4, lo_open=True)
+    check_each(args.amplitudes, "--amplitudes", lo=0, hi=1e7, lo_open=True)
     rig = load_rig(args.model)
     plan = SweepPlan(tuple(args.omegas), tuple(args.amplitudes))
     if args.sample_rate_hz is not None:
