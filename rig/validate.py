@@ -110,6 +110,7 @@ class RunComparison:
 #: A model explains the data to the noise when its chi-square per degree of freedom is at most
 #: this (a correct model gives 0.4-1.0: the model-fidelity floor inflates the row variances) ...
 CHI2_PER_DOF_OK = 2.0
+#: (Figures of this block: ``python tests/test_independent_bench.py`` and ``tests/test_open_world.py``.)
 #: ... and the nominal model predicts the held-out runs within this many times the comparison's
 #: noise floor (measured on the independent bench without an effect: 1.9x on the paper's joint,
 #: 6.8x on the lightly damped one, where the floor, which counts only the measurement's noise,

@@ -108,3 +108,31 @@ def test_independent_bench_effect_is_found_sized_and_pays_off(tmp_path, joint, c
     assert math.isfinite(se) and se > 0
     assert abs(value - true) <= 3 * se, (name, value, se, true)
     assert report.gain >= 5, (report.gain, report.validation_rms("nominal"), report.validation_rms("extended"))
+
+
+def _figures(case):
+    import tempfile
+    from pathlib import Path
+
+    joint, name = case
+    with tempfile.TemporaryDirectory() as tmp:
+        r = _diagnose(Path(tmp), joint, name)
+    d, floor = r.diagnosis, r.noise_floor_rad
+    return (f"{joint:6s} {name:24s} {r.verdict.verdict:12s} {'+'.join(d.effects) or '-':34s} "
+            f"{d.nominal.chi2 / d.nominal.dof:8.3g} {d.extended.chi2 / d.extended.dof:8.3g} "
+            f"{r.validation_rms('nominal') / floor:8.3g} {r.validation_rms('extended') / floor:8.3g} {r.gain:8.3g}")
+
+
+if __name__ == "__main__":
+    # The figures behind the verdict's thresholds (rig/validate.py), every case on two cores:
+    #   .venv/bin/python tests/test_independent_bench.py
+    from concurrent.futures import ProcessPoolExecutor
+
+    from jointrig.rig.runtime import limit_threads
+
+    limit_threads()
+    print(f"{'joint':6s} {'case':24s} {'verdict':12s} {'adopted':34s} {'chi2/dof':>8s} {'ext.':>8s} "
+          f"{'nom/flr':>8s} {'ext/flr':>8s} {'gain':>8s}")
+    with ProcessPoolExecutor(2) as pool:
+        for row in pool.map(_figures, [(j, c) for j in CASES for c in CASES[j]]):
+            print(row, flush=True)

@@ -62,3 +62,29 @@ def test_an_effect_outside_the_catalogue_is_unexplained_and_described(tmp_path, 
     else:
         # a torque of the angle alone: elastic, odd, on high harmonics
         assert ch.dissipative_share < 0.3 and ch.even_share < 0.4 and max(ch.top_harmonics) >= 5, info
+
+
+def _figures(case):
+    import tempfile
+    from pathlib import Path
+
+    joint, name = case
+    with tempfile.TemporaryDirectory() as tmp:
+        r = _report(Path(tmp), joint, name)
+    d, floor = r.diagnosis, r.noise_floor_rad
+    return (f"{joint:6s} {name:20s} {r.verdict.verdict:12s} tried {'+'.join(d.effects) or '-':30s} gain {r.gain:6.3g} "
+            f"chi2/dof {d.extended.chi2 / d.extended.dof:6.3g} held-out/floor "
+            f"{r.validation_rms('extended') / floor:6.3g}\n    {r.character.describe()}")
+
+
+if __name__ == "__main__":
+    # What the diagnosis says of each effect outside the catalogue:
+    #   .venv/bin/python tests/test_open_world.py
+    from concurrent.futures import ProcessPoolExecutor
+
+    from jointrig.rig.runtime import limit_threads
+
+    limit_threads()
+    with ProcessPoolExecutor(2) as pool:
+        for row in pool.map(_figures, [(j, c) for c in CASES for j in ("paper", "light")]):
+            print(row, flush=True)
