@@ -430,7 +430,7 @@ def _run_dask(rig: RigModel, segments, points_of, tasks_of, config, native, cont
     with contextlib.ExitStack() as stack:
         if scheduler is None:
             cluster = stack.enter_context(LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                                       dashboard_address=None))
+                                                       dashboard_address=":0"))  # any free port: 8787 may be taken
             client = stack.enter_context(Client(cluster))
         else:
             client = stack.enter_context(Client(scheduler))
