@@ -24,9 +24,13 @@ from typing import Sequence
 
 import numpy as np
 
-from .validate import DiagnosisReport
+from .formatting import quantity_of, sig, unit_of, with_se
+from .validate import CHI2_PER_DOF_OK, DiagnosisReport
 
 __all__ = ["report_json", "format_report", "log_diagnosis", "write_html"]
+
+# Units of the measured channels whose noise is reported (angles are in rad).
+_CHANNEL_UNIT = {"torque": "N m"}
 
 
 def _fmt(v: float) -> str:
@@ -109,28 +113,28 @@ def format_report(report: DiagnosisReport, *, source: str = "", notes: Sequence[
     lines.append("")
     lines.append(f"Diagnosis of {source or 'the runs'}: {len(report.runs)} runs, "
                  f"{'two-degree-of-freedom form (phi1, phi2)' if d.form == 'two_dof' else 'equivalent form (phi)'}, "
-                 f"harmonics 0..{report.band}")
+                 f"harmonics 1..{report.band}")
     lines.append(f"  fit on runs {', '.join(fit_ids)}; held out for validation: {', '.join(held)}")
     lines.append("  noise per sample (from period-to-period variation): "
-                 + ", ".join(f"{k} {_fmt(v)}" for k, v in d.noise_std.items()))
+                 + ", ".join(f"{k} {sig(v, 2)} {_CHANNEL_UNIT.get(k, 'rad')}" for k, v in d.noise_std.items()))
     for n in list(notes) + list(d.notes) + list(report.notes):
         lines.append(f"  note: {n}")
     lines.append("")
     lines.append(f"Nominal model (paper eq. 11): chi2/dof = {d.nominal.chi2 / d.nominal.dof:.3g} "
-                 f"(about 1 when only noise is left)")
-    for n, v, s in zip(d.nominal.names, d.nominal.values, d.nominal.std_errors):
-        lines.append(f"  {n:34s} {v:14.6g} +- {s:.2g}")
+                 f"(about 0.4-1 when only noise is left, with the model-fidelity floor)")
+    for n, v in d.nominal.as_dict().items():
+        lines.append(f"  {quantity_of(n):28s} {with_se(v, d.nominal.std_error(n)):>24s} {unit_of(n)}")
     lines.append("")
     lines.append("Causes ranked by evidence (score = drop in chi2 - n_params ln(n_rows); significant: "
                  "p < 1e-3 / n_causes):")
     lines.append(f"  {'rank':4s} {'effect':22s} {'score':>12s} {'d_chi2':>12s} {'q':>2s} {'p':>9s} {'sig':>4s}  "
                  f"magnitude; where the improvement is (mean/fund./even/odd>=3); dissipative share")
     for i, c in enumerate(d.causes, 1):
-        sig = c.signature
-        where = "/".join(f"{sig.get(k, 0.0):.0%}" for k in ("mean", "fundamental", "even", "odd>=3")) if sig else "-"
-        if sig and sig.get("dissipative") is not None:
-            where += f"; {sig['dissipative']:.2f}"
-        mag = f"{c.magnitude[0]} = {_fmt(c.magnitude[1])} +- {_fmt(c.magnitude[2])}"
+        share = c.signature
+        where = "/".join(f"{share.get(k, 0.0):.0%}" for k in ("mean", "fundamental", "even", "odd>=3")) if share else "-"
+        if share and share.get("dissipative") is not None:
+            where += f"; {share['dissipative']:.2f}"
+        mag = f"{quantity_of(c.magnitude[0])} = {with_se(c.magnitude[1], c.magnitude[2])} {unit_of(c.magnitude[0])}"
         lines.append(f"  {i:<4d} {c.effect:22s} {c.score:12.4g} {c.delta_chi2:12.4g} {c.n_params:2d} "
                      f"{c.p_value:9.2g} {'yes' if c.significant else 'no':>4s}  {mag}; {where}"
                      + (f"  [{c.note}]" if c.note else ""))
@@ -146,7 +150,7 @@ def format_report(report: DiagnosisReport, *, source: str = "", notes: Sequence[
                      "to the noise)")
     ext = d.extended
     for n, v in ext.effect_parameters().items():
-        lines.append(f"  {n:34s} {v:14.6g} +- {_fmt(ext.std_error(n))}")
+        lines.append(f"  {quantity_of(n):28s} {with_se(v, ext.std_error(n)):>24s} {unit_of(n)}")
     for a in d.ambiguous:
         lines.append(f"  CANNOT TELL APART: {a.effects[0]} and {a.effects[1]} explain the same part of the data "
                      f"(neither is significant given the other). To separate them: {a.excitation}.")
@@ -283,18 +287,21 @@ def _figures(report: DiagnosisReport) -> list[tuple[str, str]]:
     def held(r):
         return " (held out)" if r.held_out else ""
 
+    def title(ax, r):
+        ax.set_title(f"run {r.run_id}: {r.omega_rad_s:.4g} rad/s, {r.amplitude_Nm:.4g} N m{held(r)}", fontsize=9)
+
     def time_series(ax, r):
         for w, phi in (("measured", r.phi_measured_rad), ("nominal", r.phi_nominal_rad),
                        ("extended", r.phi_extended_rad)):
             ax.plot(r.time_s, phi, label=w, **style[w])
-        ax.set_title(f"run {r.run_id}: {r.omega_rad_s:g} rad/s, {r.amplitude_Nm:.4g} N m{held(r)}", fontsize=9)
+        title(ax, r)
         ax.set(xlabel="t [s]", ylabel="phi [rad]")
 
     def departure(ax, r):
         ax.axhspan(-r.noise_floor_rad, r.noise_floor_rad, color="0.85", label="noise floor")
         for w, phi in (("nominal", r.phi_nominal_rad), ("extended", r.phi_extended_rad)):
             ax.plot(r.time_s, phi - r.phi_measured_rad, label=w, **style[w])
-        ax.set_title(f"run {r.run_id}{held(r)}", fontsize=9)
+        title(ax, r)
         ax.set(xlabel="t [s]", ylabel="simulated - measured [rad]")
 
     def loops(ax, r):
@@ -302,7 +309,7 @@ def _figures(report: DiagnosisReport) -> list[tuple[str, str]]:
         for w, tau in (("measured", r.joint_torque_measured_Nm), ("nominal", r.joint_torque_nominal_Nm),
                        ("extended", r.joint_torque_extended_Nm)):
             ax.plot(x, np.append(tau, tau[0]), label=w, **style[w])
-        ax.set_title(f"run {r.run_id}{held(r)}", fontsize=9)
+        title(ax, r)
         ax.set(xlabel="phi [rad]", ylabel="joint torque [N m]")
 
     h = np.arange(report.band + 1)
@@ -311,7 +318,7 @@ def _figures(report: DiagnosisReport) -> list[tuple[str, str]]:
         ax.bar(h - 0.2, r.harmonic_residuals("nominal", report.band), width=0.4, color="tab:red", label="nominal")
         ax.bar(h + 0.2, r.harmonic_residuals("extended", report.band), width=0.4, color="tab:blue", label="extended")
         ax.set_yscale("log")
-        ax.set_title(f"run {r.run_id}{held(r)}", fontsize=9)
+        title(ax, r)
         ax.set(xlabel="harmonic n", ylabel="|residual| [rad]")
 
     grid(2.8, time_series, "Relative angle over one period: measured (period average) vs simulated in the rig")
@@ -321,22 +328,142 @@ def _figures(report: DiagnosisReport) -> list[tuple[str, str]]:
                      "motion with the extended model's inertia; models from their laws along the measured motion)")
     grid(2.8, residuals, "Harmonic residuals per run: |Phi_n simulated - Phi_n measured|")
 
-    causes = [c for c in report.diagnosis.causes if math.isfinite(c.score)]
-    fig, ax = plt.subplots(figsize=(7, 0.45 * len(causes) + 1))
-    ax.barh([c.effect for c in causes][::-1], [c.score for c in causes][::-1],
-            color=["tab:green" if c.significant else "tab:gray" for c in causes][::-1])
+    causes = [c for c in report.diagnosis.causes if math.isfinite(c.score)][::-1]
+    adopted = set(report.adopted)
+    fig, ax = plt.subplots(figsize=(7, 0.45 * len(causes) + 1.2))
+    ax.barh([c.effect + (" (adopted)" if c.effect in adopted else "") for c in causes], [c.score for c in causes],
+            color=["tab:blue" if c.effect in adopted else "tab:gray" for c in causes],
+            edgecolor=["k" if c.significant else "none" for c in causes], linewidth=1.2)
+    for lbl, c in zip(ax.get_yticklabels(), causes):
+        lbl.set_fontweight("bold" if c.effect in adopted else "normal")
     ax.set_xscale("symlog")
-    ax.set_xlabel("evidence score (green: significant)")
+    ax.set_xlabel("evidence score (blue: adopted; black edge: significant)")
     fig.tight_layout()
     out.append(("Causes ranked by evidence", _png(fig)))
     plt.close(fig)
     return out
 
 
+_CSS = """
+body{font-family:system-ui,sans-serif;max-width:1240px;margin:auto;padding:0 16px;color:#222;line-height:1.4}
+h1{margin-bottom:4px} h2{margin-top:28px;border-bottom:1px solid #ddd;padding-bottom:2px}
+.verdict{border-left:6px solid var(--c);padding:8px 14px;background:#fafafa;font-size:1.15em}
+.prov{color:#555;font-size:0.85em;overflow-wrap:anywhere}
+table{border-collapse:collapse;margin:8px 0;font-size:0.92em;max-width:100%}
+.wrap{overflow-x:auto;max-width:100%}
+th,td{border-bottom:1px solid #e3e3e3;padding:3px 10px;text-align:left;vertical-align:top}
+th{background:#f3f3f3} td.unit{white-space:nowrap} td.num{text-align:right;font-variant-numeric:tabular-nums;white-space:nowrap}
+tr.adopted td{background:#e8f1fb;font-weight:600} tr.heldout td:first-child::after{content:" (held out)";
+color:#666;font-weight:normal}
+.tag{display:inline-block;padding:0 6px;border-radius:3px;background:#1565c0;color:#fff;font-size:0.8em}
+.note{color:#555;font-size:0.9em} img{max-width:100%;height:auto} figure{margin:12px 0}
+figcaption{color:#444;font-size:0.92em;margin-bottom:4px}
+details pre{background:#f6f6f6;padding:8px;overflow-x:auto;font-size:0.8em}
+"""
+
+
+def _row(cells, cls: str = "") -> str:
+    """A table row; a cell is text, or ``(text, "num")`` for a right-aligned number."""
+    out = []
+    for c in cells:
+        text, kind = (c if isinstance(c, tuple) else (c, ""))
+        out.append(f"<td class='{kind}'>{html.escape(str(text))}</td>" if kind else f"<td>{html.escape(str(text))}</td>")
+    return f"<tr class='{cls}'>" + "".join(out) + "</tr>" if cls else "<tr>" + "".join(out) + "</tr>"
+
+
+def _table(head: Sequence[str], rows: Sequence[str]) -> str:
+    thead = ("<thead><tr>" + "".join(f"<th>{html.escape(h)}</th>" for h in head) + "</tr></thead>") if head else ""
+    return "<div class='wrap'><table>" + thead + "<tbody>" + "".join(rows) + "</tbody></table></div>"
+
+
+def _parameter_rows(fit, values: dict) -> list[str]:
+    return [_row([quantity_of(n), unit_of(n), (with_se(v, fit.std_error(n)), "num")]) for n, v in values.items()]
+
+
+
+
+def _html_sections(report: DiagnosisReport, source: str, notes: Sequence[str]) -> list[str]:
+    """The report's tables: provenance and data, nominal model, causes, extended model,
+    validation per run; numbers to the precision of their standard errors, units beside them."""
+    d = report.diagnosis
+    adopted = set(report.adopted)
+    fit_ids = [r.run_id for r in report.runs if not r.held_out]
+    held = [r.run_id for r in report.runs if r.held_out]
+    out = ["<h2>Data</h2>", _table([], [
+        _row(["input", source or "(runs given in Python)"]),
+        _row(["runs", f"{len(report.runs)}: fitted on {', '.join(fit_ids)}; held out for validation: "
+                      f"{', '.join(held) or 'none'}"]),
+        _row(["model form", "two-degree-of-freedom (phi1, phi2)" if d.form == "two_dof"
+              else "equivalent single degree of freedom (relative angle phi)"]),
+        _row(["harmonics balanced", f"1..{report.band}"])])]
+    out.append("<h3>Noise per raw sample (from the period-to-period variation)</h3>")
+    out.append(_table(["channel", "unit", "standard deviation"],
+                      [_row([ch, _CHANNEL_UNIT.get(ch, "rad"), (sig(v, 2), "num")]) for ch, v in d.noise_std.items()]))
+    all_notes = list(notes) + list(d.notes) + list(report.notes)
+    if all_notes:
+        out.append("<h3>Notes on the data</h3><ul>" + "".join(f"<li>{html.escape(n)}</li>" for n in all_notes)
+                   + "</ul>")
+
+    out.append(f"<h2>Nominal model (paper eq. 11)</h2><p>chi2/dof = {sig(d.nominal.chi2 / d.nominal.dof)} "
+               f"(about 0.4-1 when only noise is left with the model-fidelity floor; the verdict asks at most "
+               f"{CHI2_PER_DOF_OK:g})</p>")
+    out.append(_table(["parameter", "unit", "value ± standard error"], _parameter_rows(d.nominal, d.nominal.as_dict())))
+
+    out.append("<h2>Causes ranked by evidence</h2><p class='note'>score = drop in chi-square minus "
+               "(parameters added) x ln(rows), the BIC evidence; significant when p &lt; 0.001 / number of causes. "
+               "Adopted causes are highlighted.</p>")
+    rows = []
+    head = ["#", "cause", "score", "Δchi2", "params", "p", "significant", "magnitude", "value ± s.e.", "unit"]
+    for i, c in enumerate(d.causes, 1):
+        name, value, se = c.magnitude
+        cls = "adopted" if c.effect in adopted else ""
+        rows.append(_row([(str(i), "num"), c.effect + ("  [adopted]" if c.effect in adopted else ""),
+                          (sig(c.score, 4), "num"), (sig(c.delta_chi2, 4), "num"), (str(c.n_params), "num"),
+                          ("< 1e-300" if c.p_value == 0 else sig(c.p_value, 2), "num"),
+                          "yes" if c.significant else "no", quantity_of(name), (with_se(value, se), "num"),
+                          (unit_of(name), "unit")], cls))
+        if c.note:
+            rows.append(f"<tr class='{cls}'><td></td><td class='note' colspan='{len(head) - 1}'>"
+                        f"{html.escape(c.note)}</td></tr>")
+    out.append(_table(head, rows))
+    for a in d.ambiguous:
+        out.append(f"<p><b>Cannot tell apart:</b> {html.escape(a.effects[0])} and {html.escape(a.effects[1])} "
+                   f"explain the same part of the data. To separate them: {html.escape(a.excitation)}.</p>")
+
+    ext = d.extended
+    if d.steps:
+        what = " + ".join(d.effects)
+        status = ("adopted" if adopted else "tried, not adopted (see the verdict)")
+        out.append(f"<h2>Extended model: {html.escape(what)} ({status})</h2>"
+                   f"<p>chi2/dof = {sig(ext.chi2 / ext.dof)}</p>")
+        out.append(_table(["parameter", "unit", "value ± standard error"], _parameter_rows(ext, ext.effect_parameters())))
+    else:
+        out.append("<h2>Extended model</h2><p>None: no cause is significant.</p>")
+    if report.verdict.verdict == "unexplained":
+        out.append("<h2>What the unexplained misfit looks like</h2>"
+                   f"<p>{html.escape(report.character.describe())}</p>")
+
+    out.append("<h2>Validation in the MuJoCo rig</h2><p class='note'>Each run simulated under its measured "
+               "drive; RMS of simulated minus measured relative angle over the harmonics the measurement "
+               "resolves, against the noise floor of that comparison.</p>")
+    rows = [_row([r.run_id, (sig(r.omega_rad_s, 4), "num"), (sig(r.amplitude_Nm, 4), "num"),
+                  (sig(r.rms("nominal")), "num"), (sig(r.rms("extended")), "num"), (sig(r.noise_floor_rad), "num")],
+                 "heldout" if r.held_out else "") for r in report.runs]
+    rows.append(_row(["held-out runs", "", "", (sig(report.validation_rms("nominal")), "num"),
+                      (sig(report.validation_rms("extended")), "num"), (sig(report.noise_floor_rad), "num")],
+                     "adopted"))
+    out.append(_table(["run", "omega [rad/s]", "M0 [N m]", "nominal [rad]", "extended [rad]", "noise floor [rad]"],
+                      rows))
+    out.append(f"<p>Held-out gain (nominal error / extended error): <b>{sig(report.gain)}</b>.</p>")
+    return out
+
+
 def write_html(path: Path, report: DiagnosisReport, text: str, *, title: str = "jointrig diagnosis",
-               input_sha256: str = "") -> Path:
-    """A self-contained HTML report (the verdict as its headline, provenance, the text summary and
-    embedded PNG figures), written atomically."""
+               input_sha256: str = "", source: str = "", notes: Sequence[str] = ()) -> Path:
+    """A self-contained HTML report, written atomically: the verdict as its headline, provenance
+    (tool version, date, input SHA-256), tables with units and numbers to the precision of their
+    standard errors (adopted causes marked), embedded PNG figures with every run panel titled by
+    its omega and M0, and the console text folded at the end."""
     import datetime
 
     from jointrig import __version__
@@ -344,19 +471,18 @@ def write_html(path: Path, report: DiagnosisReport, text: str, *, title: str = "
     v = report.verdict
     colour = {"no_misfit": "#2e7d32", "explained": "#1565c0", "unexplained": "#c62828"}[v.verdict]
     stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    provenance = f"jointrig {__version__}, {stamp}" + (f", input SHA-256 {input_sha256}" if input_sha256 else "")
-    parts = [f"<!doctype html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>",
-             "<style>body{font-family:sans-serif;max-width:1300px;margin:auto;padding:0 12px} pre{background:#f6f6f6;"
-             "padding:8px;overflow-x:auto;white-space:pre} img{max-width:100%} .verdict{border-left:6px solid "
-             f"{colour};padding:6px 12px;background:#fafafa;font-size:1.1em}} .prov{{color:#666;font-size:0.85em;"
-             "overflow-wrap:anywhere}</style></head><body>",
-             f"<h1>{html.escape(title)}</h1>",
-             f"<p class='verdict'><b>{html.escape(v.verdict.replace('_', ' ').upper())}</b>: {html.escape(v.reason)}</p>",
-             f"<p class='prov'>{html.escape(provenance)}</p>",
-             "<h2>Summary</h2>", f"<pre>{html.escape(text)}</pre>"]
+    provenance = f"jointrig {__version__}, {stamp}" + (f"; input SHA-256 {input_sha256}" if input_sha256 else "")
+    parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'>"
+             f"<meta name='viewport' content='width=device-width, initial-scale=1'><title>{html.escape(title)}</title>"
+             f"<style>{_CSS}</style></head><body>",
+             f"<h1>{html.escape(title)}</h1>", f"<p class='prov'>{html.escape(provenance)}</p>",
+             f"<p class='verdict' style='--c:{colour}'><b>{html.escape(v.verdict.replace('_', ' ').upper())}</b>: "
+             f"{html.escape(v.reason)}</p>"]
+    parts += _html_sections(report, source, notes)
     for caption, png in _figures(report):
-        parts.append(f"<h2>{html.escape(caption)}</h2><img alt='{html.escape(caption)}' "
-                     f"src='data:image/png;base64,{png}'>")
+        parts.append(f"<figure><figcaption>{html.escape(caption)}</figcaption><img alt='{html.escape(caption)}' "
+                     f"src='data:image/png;base64,{png}'></figure>")
+    parts.append(f"<details><summary>The same report as console text</summary><pre>{html.escape(text)}</pre></details>")
     parts.append("</body></html>")
     from .sweep import write_atomic
 

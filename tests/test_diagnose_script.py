@@ -82,3 +82,62 @@ def test_bad_input_exits_2_naming_the_column(tmp_path, capsys, text, match):
 def test_unknown_holdout_run_is_refused(outputs, capsys):
     assert diagnose.main([str(outputs / "worn.parquet"), "--holdout", "99", "-q"]) == 2
     assert "--holdout names run(s) ['99']" in capsys.readouterr().err
+
+
+def _chromium():
+    import shutil
+
+    for name in ("chromium", "chromium-browser", "google-chrome"):
+        if shutil.which(name):
+            return shutil.which(name)
+    return None
+
+
+@pytest.mark.parametrize("width", [1280, 1920])
+def test_report_renders_in_a_real_browser_without_errors_or_overflow(outputs, width):
+    # The HTML report in headless Chromium (Debian's package, driven by playwright; playwright's
+    # own browser download is not used): no console or page errors, no request leaves the file
+    # (one self-contained file), nothing wider than the window, every table fits its column
+    # without an inner scroll bar, every figure decoded, and the headline, provenance, adopted
+    # causes and numbers rounded to their standard errors as the JSON says.
+    sync_api = pytest.importorskip("playwright.sync_api")
+    exe = _chromium()
+    if exe is None:
+        pytest.skip("no Chromium on PATH (Debian: apt-get install chromium)")
+    from jointrig.rig.formatting import with_se
+
+    d = json.loads((outputs / "d.json").read_text())
+    errors, requests = [], []
+    with sync_api.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=exe, args=[
+            "--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
+            "--disable-sync", "--no-first-run"])
+        try:
+            page = browser.new_page(viewport={"width": width, "height": 900})
+            page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+            page.on("pageerror", lambda e: errors.append(str(e)))
+            page.on("request", lambda r: requests.append(r.url))
+            page.goto((outputs / "d.html").as_uri())
+            page.wait_for_load_state("load")
+            m = page.evaluate("""() => ({
+                doc: document.documentElement.scrollWidth, win: window.innerWidth,
+                wraps: [...document.querySelectorAll('.wrap')].map(w => w.scrollWidth - w.clientWidth),
+                imgs: [...document.images].map(i => [i.complete && i.naturalWidth > 0, i.getBoundingClientRect().right]),
+                verdict: document.querySelector('.verdict').innerText,
+                prov: document.querySelector('.prov').innerText,
+                adopted: [...document.querySelectorAll('tr.adopted td:nth-child(2)')].map(t => t.innerText),
+                cells: [...document.querySelectorAll('td')].map(t => t.innerText)})""")
+            page.screenshot(path=str(outputs / f"report_{width}.png"), full_page=True)
+        finally:
+            browser.close()
+    assert errors == []
+    assert all(u == (outputs / "d.html").as_uri() or u.startswith("data:") for u in requests), requests
+    assert m["doc"] <= m["win"], m["doc"]
+    assert m["wraps"] and all(extra <= 0 for extra in m["wraps"]), m["wraps"]
+    assert len(m["imgs"]) == 5 and all(ok and right <= m["win"] for ok, right in m["imgs"])
+    assert m["verdict"].startswith("EXPLAINED: ")
+    assert d["input_sha256"] in m["prov"] and "jointrig " in m["prov"]
+    assert sorted(a.split()[0] for a in m["adopted"] if a.endswith("[adopted]")) == ["backlash", "coulomb_friction"]
+    ext = d["extended"]
+    for name in ("coulomb_torque_Nm", "backlash_half_gap_rad"):
+        assert with_se(ext["parameters"][name], ext["std_errors"][name]) in m["cells"], name

@@ -114,7 +114,7 @@ def main(argv=None) -> int:
         log.info("wrote %s", args.rrd)
     if args.report:
         write_html(args.report, report, text, title=f"jointrig diagnosis of {args.data.name}",
-                   input_sha256=loaded.sha256)
+                   input_sha256=loaded.sha256, source=str(args.data), notes=loaded.notes)
         log.info("wrote %s", args.report)
     log.info("done in %.1f s", time.perf_counter() - t0)
     return 0
