@@ -56,7 +56,12 @@ def main(argv=None) -> int:
     from jointrig.rig.runtime import run_cli
 
     module = importlib.import_module(f"jointrig.commands.{SUBCOMMANDS[name][0]}")
-    return run_cli(module.main, f"jointrig {name}", rest)
+    # argparse names the program after argv[0]: "usage: jointrig diagnose ...", not "jointrig".
+    argv0, sys.argv[0] = sys.argv[0], f"jointrig {name}"
+    try:
+        return run_cli(module.main, f"jointrig {name}", rest)
+    finally:
+        sys.argv[0] = argv0
 
 
 if __name__ == "__main__":

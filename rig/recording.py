@@ -134,6 +134,59 @@ def sweep_blueprint(records: Sequence[SteadyStateRecord]):
                          rrb.TimePanel(timeline="phi_urad", state="collapsed"), collapse_panels=True)
 
 
+def unknown_law_blueprint(with_damping: bool):
+    """The unknown-law recording's layout: the identified restoring torque g(phi) with its 95%
+    band, the true law and the best quintic (timeline ``phi_urad``), the fit's summary beside it,
+    and, when a damping curve was fitted, f(phi') on the timeline ``rate_urad_s``."""
+    import rerun.blueprint as rrb
+
+    def whole(timeline):
+        return rrb.VisibleTimeRange(timeline, start=rrb.TimeRangeBoundary.infinite(),
+                                    end=rrb.TimeRangeBoundary.infinite())
+
+    axis = rrb.TimeAxis(view_range=rrb.TimeRange(start=rrb.TimeRangeBoundary.infinite(),
+                                                 end=rrb.TimeRangeBoundary.infinite()))
+    tabs = [rrb.Horizontal(
+        rrb.TimeSeriesView(origin="restoring_force", name="restoring torque g(phi) [N m]: identified, 95% band, "
+                                                          "true, best quintic, against phi [urad] (timeline phi_urad)",
+                           time_ranges=whole("phi_urad"), axis_x=axis),
+        rrb.TextDocumentView(origin="parameters", name="hat fit"), column_shares=[3, 1], name="Restoring torque")]
+    if with_damping:
+        tabs.append(rrb.TimeSeriesView(origin="damping_force",
+                                       name="damping torque f(phi') [N m]: identified, 95% band, true, against "
+                                            "phi' [urad/s] (timeline rate_urad_s)",
+                                       time_ranges=whole("rate_urad_s"), axis_x=axis))
+    return rrb.Blueprint(rrb.Tabs(*tabs), rrb.TimePanel(timeline="phi_urad", state="collapsed"), collapse_panels=True)
+
+
+def silverbox_blueprint():
+    """The Silverbox recording's layout: the arrow test signal, measured and simulated output
+    overlaid with the models' errors (timeline ``t_s``), the error table, and the residual
+    spectra of the estimation data (log scale is the viewer's: bar charts of |Y_k| in V)."""
+    import rerun.blueprint as rrb
+
+    whole = rrb.VisibleTimeRange("t_s", start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.infinite())
+    axis = rrb.TimeAxis(view_range=rrb.TimeRange(start=rrb.TimeRangeBoundary.infinite(),
+                                                 end=rrb.TimeRangeBoundary.infinite()))
+    arrow = rrb.Horizontal(
+        rrb.Vertical(
+            rrb.TimeSeriesView(origin="arrow", contents=["arrow/measured_V", "arrow/nominal_V", "arrow/extended_V"],
+                               name="arrow (test set) output [V]: measured, nominal, extended (timeline t_s)",
+                               time_ranges=whole, axis_x=axis),
+            rrb.TimeSeriesView(origin="arrow", contents=["arrow/nominal_error_V", "arrow/extended_error_V"],
+                               name="simulated - measured [V] (timeline t_s)", time_ranges=whole, axis_x=axis)),
+        rrb.TextDocumentView(origin="table", name="RMS error [mV] on the arrow"), column_shares=[3, 1],
+        name="Arrow test")
+    spectra = rrb.Horizontal(
+        rrb.BarChartView(origin="estimation/residual_spectrum_nominal_V",
+                         name="estimation residual |Y_k| [V], nominal, per multisine line"),
+        rrb.BarChartView(origin="estimation/residual_spectrum_extended_V",
+                         name="estimation residual |Y_k| [V], extended, per multisine line"),
+        name="Residual spectra")
+    return rrb.Blueprint(rrb.Tabs(arrow, spectra), rrb.TimePanel(timeline="t_s", state="collapsed"),
+                         collapse_panels=True)
+
+
 def log_run(rec: rr.RecordingStream, record: SteadyStateRecord) -> None:
     """Time series and phase portrait of one steady-state record."""
     lab = _label(record)

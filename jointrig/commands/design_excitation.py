@@ -37,13 +37,13 @@ DEFAULT_PERIODS = 8
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--snr-db", type=float, default=40.0)
-    p.add_argument("--setup-s", type=float, default=1.0, help="test time a run costs before measuring (s)")
+    p.add_argument("--snr-db", type=float, default=40.0, help="expected signal-to-noise ratio per channel, dB (default: %(default)s)")
+    p.add_argument("--setup-s", type=float, default=1.0, help="test time a run costs before measuring, s (default: %(default)s)")
     p.add_argument("--budget-s", type=float, default=None, help="test-time budget (s); default: the default sweep's")
-    p.add_argument("--harmonics", type=int, default=9)
+    p.add_argument("--harmonics", type=int, default=9, help="harmonics 0..H balanced in the design (default: %(default)s)")
     p.add_argument("--verify", type=int, default=0, metavar="N", help="Monte Carlo realisations of both designs")
     p.add_argument("--native", action="store_true", help="simulate the candidates with the native callback")
-    p.add_argument("--json", type=Path)
+    p.add_argument("--json", type=Path, help="write the design (runs: omega_rad_s, amplitude_Nm, periods) as JSON")
     args = p.parse_args(argv)
     from jointrig.rig.runtime import check_output, check_range
 

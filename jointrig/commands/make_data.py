@@ -34,7 +34,7 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--periods", type=int, default=16, help="periods logged per run (default: %(default)s)")
     p.add_argument("--snr-db", type=float, default=40.0, help="signal-to-noise ratio per channel in dB "
                    "(default: %(default)s); --no-noise for exact data")
-    p.add_argument("--no-noise", action="store_true")
+    p.add_argument("--no-noise", action="store_true", help="write the exact simulated signals (no measurement noise)")
     p.add_argument("--seed", type=int, default=0, help="noise seed (default: %(default)s)")
     return p.parse_args(argv)
 

@@ -61,7 +61,7 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--json", type=Path, default=None, help="write the figures as JSON")
     p.add_argument("--snr-db", type=float, default=60.0, help="noise level of part 3 (default: %(default)s)")
-    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--seed", type=int, default=1, help="noise seed of part 3 (default: %(default)s)")
     args = p.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
 

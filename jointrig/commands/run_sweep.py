@@ -57,7 +57,8 @@ def parse_args(argv=None) -> argparse.Namespace:
     d = SimulationConfig()
     p.add_argument("--max-step", type=float, default=d.max_step_s, metavar="S",
                    help="largest RK4 step in s (default: %(default)s)")
-    p.add_argument("--samples-per-period", type=int, default=d.samples_per_period)
+    p.add_argument("--samples-per-period", type=int, default=d.samples_per_period,
+                   help="samples of each logged steady-state period (the record's resolution; harmonics up to half of it are resolved) (default: %(default)s)")
     p.add_argument("--sample-rate-hz", type=float, default=None, metavar="FS",
                    help="log at a bench's fixed sampling rate instead of --samples-per-period; every frequency is "
                         "moved to the nearest one whose period holds whole samples (coherent sampling)")

@@ -86,9 +86,9 @@ def _params(names, values, stds):
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--data", type=Path, default=None, help="Silverbox directory (default ../shared/data/silverbox)")
-    p.add_argument("--json", type=Path, default=None)
-    p.add_argument("--rrd", type=Path, default=None)
-    p.add_argument("-q", "--quiet", action="store_true")
+    p.add_argument("--json", type=Path, default=None, help="write the figures (parameters, RMS errors in mV) as JSON")
+    p.add_argument("--rrd", type=Path, default=None, help="rerun recording of the arrow test and the residual spectra")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     args = p.parse_args(argv)
     logging.basicConfig(level=progress_level(args.quiet), format="%(levelname)s %(name)s: %(message)s")
     t0 = time.perf_counter()
@@ -216,9 +216,10 @@ def main(argv=None) -> int:
         write_json_atomic(args.json, out)
         print(f"wrote {args.json}")
     if args.rrd:
-        from jointrig.rig.recording import open_recording
+        from jointrig.rig.recording import open_recording, silverbox_blueprint
         import rerun as rr
         with open_recording(args.rrd) as rec:
+            rec.send_blueprint(silverbox_blueprint())
             t = rr.TimeColumn("t_s", duration=np.arange(ya.size) / fs)
             for name, sig in (("measured_V", ya), ("nominal_V", sim_nom), ("extended_V", sim_ext),
                               ("nominal_error_V", sim_nom - ya), ("extended_error_V", sim_ext - ya)):

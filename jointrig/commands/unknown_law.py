@@ -24,7 +24,7 @@ import numpy as np
 from jointrig.identify.hat import fit_hat_law
 from jointrig.rig import DEFAULT_MODEL, SimulationConfig, load_rig
 from jointrig.rig.measurement import add_noise, repeat_periods
-from jointrig.rig.recording import log_parameter_table, log_restoring_band, open_recording
+from jointrig.rig.recording import log_parameter_table, log_restoring_band, open_recording, unknown_law_blueprint
 from jointrig.rig.sweep import DEFAULT_PLAN, records_of, run_sweep, write_atomic
 
 MODEL = DEFAULT_MODEL.parent / "two_flywheels_kink.xml"
@@ -32,7 +32,7 @@ MODEL = DEFAULT_MODEL.parent / "two_flywheels_kink.xml"
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--model", type=Path, default=MODEL)
+    p.add_argument("--model", type=Path, default=MODEL, help="rig MJCF whose joint is to be recovered (default: %(default)s)")
     p.add_argument("--knots", type=int, default=41, help="hat functions over the measured range (default: %(default)s)")
     p.add_argument("--noise-db", type=float, default=40.0, help="SNR per channel, dB (default: %(default)s)")
     p.add_argument("--periods", type=int, default=8, help="measured periods per run (default: %(default)s)")
@@ -41,9 +41,9 @@ def main(argv=None) -> int:
     p.add_argument("--rate-knots", type=int, default=None, metavar="N",
                    help="also identify the damping torque f(phi') on N (odd) hat functions of the rate (eq. 9) "
                         "instead of viscous damping")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--rrd", type=Path, default=Path("runs/unknown_law.rrd"))
-    p.add_argument("--png", type=Path, default=Path("runs/unknown_law.png"))
+    p.add_argument("--seed", type=int, default=0, help="noise seed (default: %(default)s)")
+    p.add_argument("--rrd", type=Path, default=Path("runs/unknown_law.rrd"), help="rerun recording (default: %(default)s)")
+    p.add_argument("--png", type=Path, default=Path("runs/unknown_law.png"), help="static figure (default: %(default)s)")
     args = p.parse_args(argv)
     from jointrig.rig.runtime import check_output, check_range
 
@@ -95,6 +95,7 @@ def main(argv=None) -> int:
     print(f"the 95% band holds the true law over {covered:.1%} of the range")
     if args.rrd:
         with open_recording(args.rrd) as rec:
+            rec.send_blueprint(unknown_law_blueprint(bool(fit.f_Nm.size)))
             log_restoring_band(rec, phi, g, lo, hi, rig.law, {"best_quintic_Nm": quintic})
             if fit.f_Nm.size:
                 log_restoring_band(rec, rate, f, flo, fhi, None, {"true_Nm": true_f}, entity="damping_force",

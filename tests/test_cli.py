@@ -1,0 +1,57 @@
+"""The ``jointrig`` command: subcommands, --version, and --help that documents every option."""
+
+import argparse
+import importlib
+import subprocess
+import sys
+
+import pytest
+
+from jointrig import __version__
+from jointrig.cli import SUBCOMMANDS, main
+
+
+class _Parser(Exception):
+    pass
+
+
+def _parser_of(module_name: str, monkeypatch) -> argparse.ArgumentParser:
+    """The subcommand's argument parser, caught as it is about to parse."""
+    def grab(self, *args, **kwargs):
+        raise _Parser(self)
+
+    monkeypatch.setattr(argparse.ArgumentParser, "parse_args", grab)
+    module = importlib.import_module(f"jointrig.commands.{module_name}")
+    with pytest.raises(_Parser) as caught:
+        module.main([])
+    return caught.value.args[0]
+
+
+@pytest.mark.parametrize("name", list(SUBCOMMANDS))
+def test_every_option_has_help_with_its_default(name, monkeypatch):
+    parser = _parser_of(SUBCOMMANDS[name][0], monkeypatch)
+    missing = []
+    for action in parser._actions:
+        if isinstance(action, argparse._HelpAction):
+            continue
+        text = action.help or ""
+        if not text:
+            missing.append(f"{action.option_strings or action.dest}: no help")
+        elif action.option_strings and action.default not in (None, False, argparse.SUPPRESS) \
+                and "default" not in text:
+            missing.append(f"{action.option_strings}: default {action.default!r} not shown")
+    assert missing == []
+
+
+def test_version_usage_and_unknown_subcommand(capsys):
+    assert main(["--version"]) == 0 and capsys.readouterr().out.strip() == f"jointrig {__version__}"
+    assert main([]) == 2
+    usage = capsys.readouterr().out
+    assert all(name in usage for name in SUBCOMMANDS)
+    assert main(["sweeep"]) == 2 and "unknown subcommand 'sweeep'" in capsys.readouterr().err
+
+
+def test_python_dash_m_names_the_subcommand_in_its_usage():
+    out = subprocess.run([sys.executable, "-m", "jointrig", "diagnose", "--help"], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.startswith("usage: jointrig diagnose ")
