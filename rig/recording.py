@@ -31,8 +31,8 @@ from jointrig.identify.basis import JointLaw
 from jointrig.identify.harmonics import fourier_coefficients
 from jointrig.identify.records import SteadyStateRecord
 
-__all__ = ["open_recording", "run_label", "log_run", "log_restoring_force", "log_harmonics",
-           "log_parameter_table", "expected_entities", "sweep_blueprint"]
+__all__ = ["open_recording", "run_label", "log_run", "log_restoring_force", "log_harmonics", "log_parameter_table",
+           "expected_entities", "sweep_blueprint", "unknown_law_blueprint", "silverbox_blueprint", "log_silverbox"]
 
 APP_ID = "jointrig"
 
@@ -185,6 +185,22 @@ def silverbox_blueprint():
         name="Residual spectra")
     return rrb.Blueprint(rrb.Tabs(arrow, spectra), rrb.TimePanel(timeline="t_s", state="collapsed"),
                          collapse_panels=True)
+
+
+def log_silverbox(rec: rr.RecordingStream, fs_Hz: float, measured_V, nominal_V, extended_V,
+                  residual_nominal_V, residual_extended_V, table_markdown: str) -> None:
+    """The Silverbox recording, laid out by :func:`silverbox_blueprint`: the arrow's measured
+    and simulated outputs and errors over ``t_s``, the residual spectra of the estimation data
+    per multisine line, and the table of RMS errors."""
+    rec.send_blueprint(silverbox_blueprint())
+    t = rr.TimeColumn("t_s", duration=np.arange(np.size(measured_V)) / fs_Hz)
+    for name, y in (("measured_V", measured_V), ("nominal_V", nominal_V), ("extended_V", extended_V),
+                    ("nominal_error_V", np.asarray(nominal_V) - measured_V),
+                    ("extended_error_V", np.asarray(extended_V) - measured_V)):
+        rec.send_columns(f"arrow/{name}", indexes=[t], columns=rr.Scalars.columns(scalars=np.asarray(y, dtype=float)))
+    rec.log("estimation/residual_spectrum_nominal_V", rr.BarChart(np.asarray(residual_nominal_V)), static=True)
+    rec.log("estimation/residual_spectrum_extended_V", rr.BarChart(np.asarray(residual_extended_V)), static=True)
+    rec.log("table", rr.TextDocument(table_markdown, media_type=rr.MediaType.MARKDOWN), static=True)
 
 
 def log_run(rec: rr.RecordingStream, record: SteadyStateRecord) -> None:

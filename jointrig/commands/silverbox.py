@@ -216,22 +216,15 @@ def main(argv=None) -> int:
         write_json_atomic(args.json, out)
         print(f"wrote {args.json}")
     if args.rrd:
-        from jointrig.rig.recording import open_recording, silverbox_blueprint
-        import rerun as rr
+        from jointrig.rig.recording import log_silverbox, open_recording
+
+        R = np.abs(np.fft.rfft(y_oe - y, axis=-1)).mean(axis=0) / PERIOD
+        yext, _ = simulate_periods(fit.inertia, fit.law, u, fs, delay_s=fit.delay_s)
+        Rx = np.abs(np.fft.rfft(yext - y, axis=-1)).mean(axis=0) / PERIOD
+        table = "\n".join(["| model | full mV | no extrap. mV |", "|---|---|---|"] +
+                          [f"| {n} | {r['full']:.3f} | {r['no_extrapolation']:.3f} |" for n, r, _, _ in rows] +
+                          [f"| {n} (published) | {v:.2f} | - |" for n, v, _, _ in PUBLISHED])
         with open_recording(args.rrd) as rec:
-            rec.send_blueprint(silverbox_blueprint())
-            t = rr.TimeColumn("t_s", duration=np.arange(ya.size) / fs)
-            for name, sig in (("measured_V", ya), ("nominal_V", sim_nom), ("extended_V", sim_ext),
-                              ("nominal_error_V", sim_nom - ya), ("extended_error_V", sim_ext - ya)):
-                rec.send_columns(f"arrow/{name}", indexes=[t], columns=rr.Scalars.columns(scalars=sig))
-            R = np.abs(np.fft.rfft(y_oe - y, axis=-1)).mean(axis=0) / PERIOD
-            yext, _ = simulate_periods(fit.inertia, fit.law, u, fs, delay_s=fit.delay_s)
-            Rx = np.abs(np.fft.rfft(yext - y, axis=-1)).mean(axis=0) / PERIOD
-            rec.log("estimation/residual_spectrum_nominal_V", rr.BarChart(R[:HB_MAX_LINE]), static=True)
-            rec.log("estimation/residual_spectrum_extended_V", rr.BarChart(Rx[:HB_MAX_LINE]), static=True)
-            table = "\n".join(["| model | full mV | no extrap. mV |", "|---|---|---|"] +
-                              [f"| {n} | {r['full']:.3f} | {r['no_extrapolation']:.3f} |" for n, r, _, _ in rows] +
-                              [f"| {n} (published) | {v:.2f} | - |" for n, v, _, _ in PUBLISHED])
-            rec.log("table", rr.TextDocument(table, media_type=rr.MediaType.MARKDOWN), static=True)
+            log_silverbox(rec, fs, ya, sim_nom, sim_ext, R[:HB_MAX_LINE], Rx[:HB_MAX_LINE], table)
         print(f"wrote {args.rrd}")
     return 0
