@@ -175,7 +175,7 @@ def silverbox_blueprint():
                                time_ranges=whole, axis_x=axis),
             rrb.TimeSeriesView(origin="arrow", contents=["arrow/nominal_error_V", "arrow/extended_error_V"],
                                name="simulated - measured [V] (timeline t_s)", time_ranges=whole, axis_x=axis)),
-        rrb.TextDocumentView(origin="table", name="RMS error [mV] on the arrow"), column_shares=[3, 1],
+        rrb.TextDocumentView(origin="table", name="RMS error [mV] on the arrow"), column_shares=[5, 3],
         name="Arrow test")
     spectra = rrb.Horizontal(
         rrb.BarChartView(origin="estimation/residual_spectrum_nominal_V",
