@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from jointrig.rig import DEFAULT_MODEL, SimulationConfig, load_rig
@@ -24,6 +26,21 @@ def blueprint_views(rrd_path) -> tuple[list[str], list[str]]:
             elif col.endswith("space_origin"):
                 origins += [v[0] for v in batch.column(col).to_pylist() if v]
     return names, origins
+
+
+#: Tests of the native callback need a C compiler to build it.
+needs_cc = pytest.mark.skipif(not (shutil.which("cc") or shutil.which("gcc")),
+                              reason="no C compiler to build the native callback")
+
+RECORD_FIELDS = ("time_s", "phi1_rad", "phi2_rad", "rate1_rad_s", "rate2_rad_s", "torque_Nm")
+
+
+def assert_identical_records(a, b):
+    """Bit for bit, every channel: the native callback repeats the Python arithmetic in the same
+    order, compiled without floating-point contraction, and the executors only reorder
+    independent points, so no tolerance is needed."""
+    for f in RECORD_FIELDS:
+        np.testing.assert_array_equal(getattr(a, f), getattr(b, f), err_msg=f)
 
 
 # One BLAS thread per pytest worker: the suite runs on both cores (pytest-xdist, -n 2).

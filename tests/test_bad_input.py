@@ -282,11 +282,17 @@ def test_diagnose_command_refuses_before_any_work(tmp_path, data3, capsys, case)
 @pytest.mark.parametrize("data, match", [
     ("missing.csv", "no such file or folder"),
     ("two_runs.csv", r"2 run\(s\); the diagnosis needs at least 3"),
+    ("header_only.csv", "no data rows"),
+    ("nan.csv", "non-finite"),
 ])
 def test_diagnose_command_refuses_bad_data(tmp_path, capsys, data, match):
     if data == "two_runs.csv":
         (tmp_path / data).write_text("run,time,torque,phi1,phi2\n" + "\n".join(
             _good_rows(run="a") + _good_rows(run="b", omega=70.0)) + "\n")
+    elif data == "header_only.csv":
+        (tmp_path / data).write_text("run,time,torque,phi1,phi2,speed\n")
+    elif data == "nan.csv":
+        (tmp_path / data).write_text("run,time,torque,phi\n0,0,1,nan\n")
     code = _script("diagnose").main([str(tmp_path / data), "-q"])
     err = capsys.readouterr().err
     import re

@@ -84,7 +84,10 @@ def test_nominal_data_invents_nothing(reports):
     # The nominal law is recovered: k and c within 1% (standard errors ~0.1%).
     p = d.nominal.as_dict()
     assert p["k_Nm_per_rad"] == pytest.approx(2000, rel=0.01) and p["c_Nms_per_rad"] == pytest.approx(100, rel=0.01)
-    assert report.gain == pytest.approx(1.0)
+    # Nothing adopted, so the check that counts is that the nominal model predicts the held-out
+    # runs in the rig to their noise floor (measured 0.89x; 3x leaves room for other seeds).
+    assert report.verdict.verdict == "no_misfit"
+    assert report.validation_rms("nominal") < 3 * report.noise_floor_rad, report.validation_rms("nominal") / report.noise_floor_rad
 
 
 def test_magnitude_names_carry_units():

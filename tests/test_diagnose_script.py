@@ -68,17 +68,6 @@ def test_recording_and_report(outputs):
     assert "departs from the measurement" in html
 
 
-@pytest.mark.parametrize("text, match", [
-    ("run,time,torque,phi1,phi2,speed\n", "no data rows"),
-    ("run,time,torque,phi\n0,0,1,nan\n", "non-finite"),
-])
-def test_bad_input_exits_2_naming_the_column(tmp_path, capsys, text, match):
-    path = tmp_path / "bad.csv"
-    path.write_text(text)
-    assert diagnose.main([str(path), "-q"]) == 2
-    assert match in capsys.readouterr().err
-
-
 def test_unknown_holdout_run_is_refused(outputs, capsys):
     assert diagnose.main([str(outputs / "worn.parquet"), "--holdout", "99", "-q"]) == 2
     assert "--holdout names run(s) ['99']" in capsys.readouterr().err

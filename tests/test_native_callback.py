@@ -1,28 +1,16 @@
 """The native (C) passive callback computes exactly what the Python reference computes."""
 
-import shutil
 
 import mujoco
-import numpy as np
 import pytest
 
 from jointrig.identify.plant import PeriodicDrive
 from jointrig.rig import SimulationConfig, load_rig, simulate_steady_state
 from jointrig.rig.hidden_effects import HIDDEN_EFFECTS
 
-from conftest import MODELS_DIR
+from conftest import MODELS_DIR, assert_identical_records as _identical, needs_cc
 
-pytestmark = pytest.mark.skipif(not (shutil.which("cc") or shutil.which("gcc")),
-                                reason="no C compiler to build the native callback")
-
-FIELDS = ("phi1_rad", "phi2_rad", "rate1_rad_s", "rate2_rad_s", "torque_Nm")
-
-
-def _identical(a, b):
-    # Bit for bit: the C code repeats the Python arithmetic in the same order and is compiled
-    # without floating-point contraction, so no tolerance is needed.
-    for f in FIELDS:
-        np.testing.assert_array_equal(getattr(a, f), getattr(b, f), err_msg=f)
+pytestmark = needs_cc
 
 
 @pytest.mark.parametrize("case", list(HIDDEN_EFFECTS))
@@ -41,11 +29,6 @@ def test_hat_law_and_a_replayed_multiharmonic_drive(rig):
     hat = load_rig(MODELS_DIR / "two_flywheels_hat.xml")
     _identical(simulate_steady_state(hat, 30.0, 1000.0, SimulationConfig())[0],
                simulate_steady_state(hat, 30.0, 1000.0, SimulationConfig(), native=True)[0])
-
-
-def test_native_callback_is_scoped_like_the_python_one(rig):
-    simulate_steady_state(rig, 40.0, 100.0, SimulationConfig(samples_per_period=16), native=True)
-    assert mujoco.get_mjcb_passive() is None
 
 
 def test_parallel_native_sweep_equals_the_serial_python_sweep(rig, tmp_path):
