@@ -39,14 +39,21 @@ def test_budget_too_small_is_refused():
         d_optimal([np.diag([1.0, 0.0]), np.diag([0.0, 1.0])], [1.0, 1.0], budget_s=6.0, setup_s=1.0, min_periods=4)
 
 
-def test_design_beats_the_default_sweep_on_its_budget(tmp_path):
+def test_design_beats_the_default_sweep_on_its_budget_in_a_monte_carlo(tmp_path):
+    # Graded by what the design is for, the spread of the estimates over noise realisations
+    # (--verify: 12 per design, seed fixed), not by the CRLB it maximises. Measured: CRLB
+    # D-efficiency 7.2 and standard deviations 2.1-3.1x smaller; Monte Carlo standard
+    # deviations 1.9-3.6x smaller, geometric-mean variance gain 8.2 (12 draws: each std to about
+    # 21%). A design that did not
+    # lower a parameter's spread (ratio >= 1, 2.6 such standard errors from the CRLB's 0.46 in
+    # the log) fails; so does a geometric-mean variance gain below 2 (the CRLB's is 7.2).
     out = tmp_path / "d.json"
-    assert design_excitation.main(["--json", str(out)]) == 0
+    assert design_excitation.main(["--json", str(out), "--verify", "12"]) == 0
     data = json.loads(out.read_text())
     used = sum(d["periods"] * 2 * np.pi / d["omega_rad_s"] + data["setup_s"] for d in data["design"])
     assert used <= data["budget_s"] + 1e-9
-    # Measured: D-efficiency 7.1, every CRLB standard deviation 2.1-3.1x smaller. The greedy
-    # design must at least not lose on any parameter.
-    assert data["d_efficiency"] > 2
-    for name, sd in data["crlb_std"].items():
-        assert sd["design"] < sd["default"], name
+    default, design = data["monte_carlo_default"], data["monte_carlo_design"]
+    assert default["failures"] == 0 and design["failures"] == 0
+    ratios = {n: design["parameters"][n]["std"] / default["parameters"][n]["std"] for n in data["crlb_std"]}
+    assert all(r < 1.0 for r in ratios.values()), ratios
+    assert np.exp(np.mean(np.log(1 / np.square(list(ratios.values()))))) > 2.0, ratios
