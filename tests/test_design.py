@@ -44,9 +44,9 @@ def test_design_beats_the_default_sweep_on_its_budget_in_a_monte_carlo(tmp_path)
     # (--verify: 12 per design, seed fixed), not by the CRLB it maximises. Measured: CRLB
     # D-efficiency 7.2 and standard deviations 2.1-3.1x smaller; Monte Carlo standard
     # deviations 1.9-3.6x smaller, geometric-mean variance gain 8.2 (12 draws: each std to about
-    # 21%). A design that did not
-    # lower a parameter's spread (ratio >= 1, 2.6 such standard errors from the CRLB's 0.46 in
-    # the log) fails; so does a geometric-mean variance gain below 2 (the CRLB's is 7.2).
+    # 21%). A design that did not lower a parameter's spread (ratio >= 1, 2.6 such standard
+    # errors from the CRLB's 0.46 in the log) fails; so does a geometric-mean variance gain
+    # below 2 (the CRLB's is 7.2).
     out = tmp_path / "d.json"
     assert design_excitation.main(["--json", str(out), "--verify", "12"]) == 0
     data = json.loads(out.read_text())
