@@ -60,12 +60,39 @@ def test_steady_state_error_when_too_nonlinear():
                           n_samples=N, max_iter=50)
 
 
+def _scipy_steady_period(row: np.ndarray, values, periods: int = 3) -> np.ndarray:
+    """One steady-state period of J y'' + d y' + k1 y + k3 y^3 + a y^2 y' = u(t) by scipy's DOP853
+    from rest, the input evaluated exactly (its sinusoids) at any t: a path independent of the
+    frequency-domain solver that the fits use. The transient decays by exp(-d/(2J) T) = 7e-9
+    per period, so after 2 periods it is below round-off."""
+    from scipy.integrate import solve_ivp
+
+    d, k1, k3, a = values
+    w0 = 2 * math.pi * FS / N
+    U = np.fft.rfft(row) / N
+    lines = np.nonzero(np.abs(U) > 1e-12 * np.abs(U).max())[0]
+    amp, w = 2 * U[lines], w0 * lines
+
+    def rhs(t, s):
+        y, v = s
+        u_t = float(np.real(np.dot(amp, np.exp(1j * w * t))))
+        return [v, (u_t - d * v - k1 * y - k3 * y**3 - a * y * y * v) / J]
+
+    T = N / FS
+    sol = solve_ivp(rhs, (0.0, periods * T), [0.0, 0.0], method="DOP853", rtol=1e-10, atol=1e-14,
+                    t_eval=(periods - 1) * T + np.arange(N) / FS)
+    assert sol.success, sol.message
+    return sol.y[0]
+
+
 @pytest.fixture(scope="module")
 def hidden_damping_data():
-    """Synthetic records from the nominal law plus amplitude-dependent damping (hidden effect)."""
+    """Records of the nominal law plus amplitude-dependent damping (the hidden effect), made by
+    scipy in the time domain, not by the frequency-domain solver that fits them (measured
+    mismatch between the two: 3.7e-5 of the response RMS, the line balance's aliasing)."""
     u = multisine(seed=1)
     truth = JointLaw(NOMINAL.terms + (Monomial(2, 1),), NOMINAL.values + (6e-4,))
-    y, _ = simulate_periods(J, truth, u, FS)
+    y = np.array([_scipy_steady_period(row, truth.values) for row in u])
     return u, y, truth
 
 
@@ -73,9 +100,11 @@ def test_output_error_recovers_the_true_law(hidden_damping_data):
     u, y, truth = hidden_damping_data
     start = JointLaw(truth.terms, tuple(v * f for v, f in zip(truth.values, (1.02, 0.98, 1.01, 0.8))))
     fit = refine_output_error(u, y, FS, inertia=J * 1.01, law=start)
-    # rtol 1e-4: noise-free data; least_squares stops at its default ftol 1e-8 on the cost.
-    np.testing.assert_allclose(fit.values, [J, *truth.values], rtol=1e-4)
-    assert fit.rms_error < 1e-6 * np.std(y)
+    # Noise-free data from the independent path: what is left is the two solvers' mismatch
+    # (3.7e-5 of the RMS), which moves the hidden coefficient by 6e-5 and the others by < 1e-6
+    # (measured): rtol 2e-4 and a residual below 1e-4 of the RMS.
+    np.testing.assert_allclose(fit.values, [J, *truth.values], rtol=2e-4)
+    assert fit.rms_error < 1e-4 * np.std(y)
 
 
 def test_score_test_ranks_the_hidden_effect_first(hidden_damping_data):
@@ -83,9 +112,10 @@ def test_score_test_ranks_the_hidden_effect_first(hidden_damping_data):
     nominal_fit = refine_output_error(u, y, FS, inertia=J, law=NOMINAL)
     scores = score_candidates(u, y, FS, inertia=nominal_fit.inertia, law=nominal_fit.law)
     assert scores[0].effect == "amplitude_damping"
-    # The true effect explains the residual almost entirely (noise-free data), the runner-up does not.
-    assert scores[0].predicted_rms < 0.01 * nominal_fit.rms_error
-    assert scores[1].predicted_rms > 10 * scores[0].predicted_rms
+    # The true effect explains the residual down to the two solvers' mismatch (noise-free data:
+    # measured 3.2% of the nominal residual is left), the runner-up leaves 10.0x more (measured; 5x asked).
+    assert scores[0].predicted_rms < 0.05 * nominal_fit.rms_error
+    assert scores[1].predicted_rms > 5 * scores[0].predicted_rms, scores[1].predicted_rms / scores[0].predicted_rms
     # The Gauss-Newton step estimates the hidden coefficient (6e-4) to within the linearisation error.
     assert scores[0].step == pytest.approx(6e-4, rel=0.05)
 
