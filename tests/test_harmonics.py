@@ -60,3 +60,33 @@ def test_bad_arguments_raise(kwargs, match):
     args = dict(n_periods=1, n_harmonics=3) | kwargs
     with pytest.raises(ValueError, match=match):
         fourier_coefficients(np.ones(N + 1 if args["n_periods"] == 3 else N), **args)
+
+
+def test_max_harmonic_stays_strictly_below_nyquist():
+    # 8 samples: Nyquist is harmonic 4, so 3 is the last one resolved; 9 samples: 4.
+    assert (max_harmonic(8), max_harmonic(9), max_harmonic(3), max_harmonic(2)) == (3, 4, 1, 0)
+
+
+def test_harmonic_range_edges():
+    x = np.cos(_t())
+    np.testing.assert_allclose(fourier_coefficients(x, 1, 0), [0.0], atol=1e-15)  # H = 0: the mean alone
+    with pytest.raises(ValueError, match="outside"):
+        fourier_coefficients(x, 1, -1)
+
+
+def test_synthesize_several_periods_and_batches_in_closed_form():
+    # Two records (rows) of 3 periods of 16 samples each: x = Re(C1 e^{i th}) + Re(C2 e^{2i th}).
+    n, periods = 16, 3
+    th = 2 * np.pi * np.arange(n * periods) / n
+    c = np.array([[0.5, 1 - 2j, 0.25j], [-1.0, 0.5, 3 + 1j]])
+    expected = np.real(c[:, :1] + c[:, 1:2] * np.exp(1j * th) + c[:, 2:3] * np.exp(2j * th))
+    np.testing.assert_allclose(synthesize(c, n * periods, periods), expected, atol=1e-13)
+
+
+def test_synthesize_puts_a_nyquist_harmonic_on_the_alternating_line():
+    # 8 samples, harmonic 4 is Nyquist: only Re(C4) is seen, as Re(C4) (-1)^k.
+    k = np.arange(8)
+    c = np.array([0.0, 0.0, 0.0, 0.0, 0.75 - 5j])
+    np.testing.assert_allclose(synthesize(c, 8), 0.75 * (-1.0) ** k, atol=1e-14)
+    with pytest.raises(ValueError, match="need more than 8 samples"):
+        synthesize(np.ones(6), 8)  # harmonic 5 over 8 samples would fold
