@@ -22,6 +22,10 @@ from jointrig.rig.hidden_effects import HIDDEN_EFFECTS as CASES
 from jointrig.rig.hidden_effects import simulate_case
 from jointrig.rig.validate import run_diagnosis
 
+# One worker runs this module: its module-scoped fixture is computed once (pytest-xdist
+# --dist loadgroup), not once per worker.
+pytestmark = pytest.mark.xdist_group("diagnose")
+
 _cache: dict = {}
 
 

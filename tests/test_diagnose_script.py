@@ -11,6 +11,10 @@ ROOT = Path(__file__).resolve().parent.parent
 from jointrig.commands import diagnose  # noqa: E402
 from jointrig.commands import make_data  # noqa: E402
 
+# One worker runs this module: its module-scoped fixture is computed once (pytest-xdist
+# --dist loadgroup), not once per worker.
+pytestmark = pytest.mark.xdist_group("diagnose_script")
+
 
 @pytest.fixture(scope="module")
 def outputs(tmp_path_factory):

@@ -19,6 +19,10 @@ from jointrig.identify.records import RecordError
 from jointrig.rig.measurement import add_noise, repeat_periods
 from jointrig.rig.montecarlo import monte_carlo
 
+# One worker runs this module: its module-scoped fixture is computed once (pytest-xdist
+# --dist loadgroup), not once per worker.
+pytestmark = pytest.mark.xdist_group("eiv")
+
 N_MC = 40
 
 

@@ -12,6 +12,10 @@ from jointrig.rig.sweep import DEFAULT_PLAN, records_of, run_sweep
 
 from conftest import MODELS_DIR
 
+# One worker runs this module: its module-scoped fixture is computed once (pytest-xdist
+# --dist loadgroup), not once per worker.
+pytestmark = pytest.mark.xdist_group("hat")
+
 
 @pytest.fixture(scope="module")
 def kink():

@@ -13,6 +13,10 @@ from jointrig.identify.multisine import line_levels, odd_multisine
 from jointrig.rig import SimulationConfig, simulate_steady_state
 from jointrig.rig.sweep import DEFAULT_MULTISINE, run_multisines
 
+# One worker runs this module: its module-scoped fixture is computed once (pytest-xdist
+# --dist loadgroup), not once per worker.
+pytestmark = pytest.mark.xdist_group("multisine")
+
 
 def test_odd_multisine_lines_phases_and_rms():
     ms = odd_multisine(2.0, 35, 500.0, seed=4)

@@ -15,6 +15,10 @@ from jointrig.commands import run_sweep  # noqa: E402
 
 from jointrig.rig.recording import expected_entities, run_label  # noqa: E402
 
+# One worker runs this module: its module-scoped fixture is computed once (pytest-xdist
+# --dist loadgroup), not once per worker.
+pytestmark = pytest.mark.xdist_group("run_sweep_script")
+
 
 @pytest.fixture(scope="module")
 def outputs(tmp_path_factory):

@@ -11,6 +11,10 @@ from jointrig.identify.output_error import refine_output_error, simulate_periods
 from jointrig.identify.signals import BandlimitedInput
 from jointrig.identify.steady import SteadyStateError, periodic_response
 
+# One worker runs this module: its module-scoped fixture is computed once (pytest-xdist
+# --dist loadgroup), not once per worker.
+pytestmark = pytest.mark.xdist_group("steady_oe")
+
 FS, N, R = 600.0, 512, 4
 J = 5e-6
 NOMINAL = JointLaw((Viscous(), Power(1), Power(3)), (2.2e-4, 1.0, 4.0))
