@@ -254,6 +254,8 @@ class Fit:
     row_harmonic: np.ndarray = field(repr=False)
     row_record: np.ndarray = field(repr=False)
     profile_std_errors: tuple = ()  # ((name, standard error), ...) of profiled nonlinear parameters
+    #: covariance of ``values`` (scaled like ``std_errors``), for quantities derived from the fit
+    covariance: Optional[np.ndarray] = field(default=None, repr=False)
 
     @property
     def dof(self) -> int:
@@ -410,9 +412,11 @@ def _solve(problem: _Problem, spec: ModelSpec, weights: np.ndarray) -> Fit:
     # scale), scaled by chi2/dof when the fit is worse than the noise (model error).
     dof = max(res.dof, 1)
     s2_raw = float(np.sum(weights * r**2)) / dof
-    se = res.std_errors / math.sqrt(max(s2_raw, 1e-300)) * math.sqrt(max(1.0, chi2 / dof))
+    scale = max(1.0, chi2 / dof) / max(s2_raw, 1e-300)
+    se = res.std_errors * math.sqrt(scale)
     return Fit(spec, tuple(system.names), np.array(res.values), np.array(se), chi2, system.F.size,
-               res.condition_number, row, system.row_harmonic, system.row_record)
+               res.condition_number, row, system.row_harmonic, system.row_record,
+               covariance=np.array(res.covariance) * scale)
 
 
 def fit(problem: _Problem, spec: ModelSpec, weights: Optional[np.ndarray] = None, *, iterations: int = 2
