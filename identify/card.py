@@ -26,7 +26,9 @@ how that grows with the amplitude. Two ways to them, one pure function each:
   damping ratio is the loss factor's half, ``E / (2 pi k A^2)``, equal to the law's zeta at
   resonance. Standard errors from the spread over the run's periods.
 
-The dissipation slope ``d ln E / d ln A`` is fitted by weighted least squares over the points.
+The dissipation slope ``d ln E / d ln A`` is fitted by weighted least squares over the points
+(with the frequency as a second regressor for runs at several frequencies: its exponent is 1
+for viscous damping, 0 for friction and hysteresis).
 Closed forms (tested): viscous damping 2, dry friction 1 (``E = 4 F A``), a Jenkins element
 in macroslip ``E = 4 F (A - s)`` (slope ``A / (A - s)``, towards 1), an Iwan joint in
 micro-slip ``3 + chi``. (This is the slope against the displacement amplitude, the card's
@@ -68,6 +70,7 @@ class CardPoint:
     dissipation_J_per_cycle: float
     secant_stiffness_Nm_per_rad: float
     equivalent_damping_Nms_per_rad: float
+    amplitude_rad_std: float = math.nan  # 0 for a law's points: there the amplitude is chosen
     natural_frequency_rad_s_std: float = math.nan
     damping_ratio_std: float = math.nan
     dissipation_J_per_cycle_std: float = math.nan
@@ -87,12 +90,17 @@ class JointCard:
     points: tuple[CardPoint, ...]
     dissipation_slope: float
     dissipation_slope_std: float
+    #: d lnE / d ln(omega) at equal amplitude (1: viscous, 0: friction and hysteresis); NaN when
+    #: the points share one frequency (a backbone has its own: see :func:`dissipation_slope`)
+    rate_exponent: float = math.nan
+    rate_exponent_std: float = math.nan
 
     def as_json(self) -> dict:
         return {"source": self.source, "inertia_kgm2": self.inertia_kgm2,
                 "amplitudes": [p.as_json() for p in self.points],
                 "dissipation_slope": _finite(self.dissipation_slope),
-                "dissipation_slope_std": _finite(self.dissipation_slope_std)}
+                "dissipation_slope_std": _finite(self.dissipation_slope_std),
+                "rate_exponent": _finite(self.rate_exponent), "rate_exponent_std": _finite(self.rate_exponent_std)}
 
 
 def _finite(v: float) -> Optional[float]:
@@ -137,8 +145,12 @@ def _backbone(law: JointLaw, inertia: float, amplitude: float) -> tuple[float, .
 
 
 def law_card(law: JointLaw, inertia_kgm2: float, amplitudes_rad: Sequence[float], *,
-             covariance: Optional[np.ndarray] = None, inertia_index: Optional[int] = None) -> JointCard:
-    """The card of an identified law (module docstring).
+             covariance: Optional[np.ndarray] = None, inertia_index: Optional[int] = None,
+             omegas_rad_s: Optional[Sequence[float]] = None) -> JointCard:
+    """The card of an identified law (module docstring): on the backbone (each amplitude at its
+    natural frequency) or, with ``omegas_rad_s``, at given frequencies (the runs' drive
+    frequencies, to compare with :func:`runs_card` point by point). Off the backbone the damping
+    ratio is the loss factor's half, ``E / (2 pi k A^2)``, as for the runs.
 
     Args:
       law: the joint law (its values are the parameters of the covariance, in order).
@@ -154,12 +166,25 @@ def law_card(law: JointLaw, inertia_kgm2: float, amplitudes_rad: Sequence[float]
         raise ValueError(f"law_card needs inertia_kgm2 > 0, got {inertia_kgm2!r}")
     base = np.array([inertia_kgm2, *law.values])
 
-    def evaluate(theta: np.ndarray, a: float) -> np.ndarray:
-        return np.array(_backbone(JointLaw(law.terms, tuple(theta[1:])), float(theta[0]), a)[:4])
+    omegas = None if omegas_rad_s is None else [float(w) for w in omegas_rad_s]
+    if omegas is not None and (len(omegas) != len(amps) or not all(w > 0 for w in omegas)):
+        raise ValueError(f"law_card: omegas_rad_s must give one frequency > 0 per amplitude, got {omegas_rad_s!r}")
+
+    def point(lw: JointLaw, je: float, a: float, i: int) -> tuple[float, ...]:
+        if omegas is None:
+            return _backbone(lw, je, a)
+        w = omegas[i]
+        k, c = describing_function(lw, a, w)
+        e = math.pi * c * w * a * a
+        return (math.sqrt(k / je) if k > 0 else math.nan, e / (2 * math.pi * k * a * a) if k > 0 else math.nan,
+                e, k, c)
+
+    def evaluate(theta: np.ndarray, a: float, i: int) -> np.ndarray:
+        return np.array(point(JointLaw(law.terms, tuple(theta[1:])), float(theta[0]), a, i)[:4])
 
     points = []
-    for a in amps:
-        w, zeta, e, k, c = _backbone(law, inertia_kgm2, a)
+    for i, a in enumerate(amps):
+        w, zeta, e, k, c = point(law, inertia_kgm2, a, i)
         std = [math.nan] * 4
         if covariance is not None and math.isfinite(w):
             cov = np.asarray(covariance, dtype=float)
@@ -175,13 +200,14 @@ def law_card(law: JointLaw, inertia_kgm2: float, amplitudes_rad: Sequence[float]
                 up[j] += h
                 dn = base.copy()
                 dn[j] -= h
-                jac[:, j] = (evaluate(up, a) - evaluate(dn, a)) / (2 * h)
+                jac[:, j] = (evaluate(up, a, i) - evaluate(dn, a, i)) / (2 * h)
             var = np.einsum("ij,jk,ik->i", jac, full, jac)
             std = list(np.sqrt(np.clip(var, 0.0, None)))
-        points.append(CardPoint(a, w, w, zeta, e, k, c, natural_frequency_rad_s_std=std[0], damping_ratio_std=std[1],
+        at = w if omegas is None else omegas[i]
+        points.append(CardPoint(a, at, w, zeta, e, k, c, amplitude_rad_std=0.0, natural_frequency_rad_s_std=std[0],
+                                damping_ratio_std=std[1],
                                 dissipation_J_per_cycle_std=std[2], secant_stiffness_Nm_per_rad_std=std[3]))
-    slope, slope_std = dissipation_slope(points)
-    return JointCard("law", float(inertia_kgm2), tuple(points), slope, slope_std)
+    return JointCard("law", float(inertia_kgm2), tuple(points), *dissipation_slope(points))
 
 
 def runs_card(records: Sequence[SteadyStateRecord], J1_kgm2: float, J2_kgm2: float, *,
@@ -217,34 +243,50 @@ def runs_card(records: Sequence[SteadyStateRecord], J1_kgm2: float, J2_kgm2: flo
         a, k, e, zeta = map(float, mean)
         wn = math.sqrt(k / je) if k > 0 else math.nan
         wn_se = 0.5 * wn * se[1] / k if k > 0 else math.nan
-        points.append(CardPoint(a, w, wn, zeta, e, k, e / (math.pi * w * a * a), natural_frequency_rad_s_std=wn_se,
+        points.append(CardPoint(a, w, wn, zeta, e, k, e / (math.pi * w * a * a), amplitude_rad_std=float(se[0]),
+                                natural_frequency_rad_s_std=wn_se,
                                 damping_ratio_std=float(se[3]), dissipation_J_per_cycle_std=float(se[2]),
                                 secant_stiffness_Nm_per_rad_std=float(se[1]), run=str(rid)))
     points.sort(key=lambda q: q.amplitude_rad)
-    slope, slope_std = dissipation_slope(points)
-    return JointCard("runs", je, tuple(points), slope, slope_std)
+    return JointCard("runs", je, tuple(points), *dissipation_slope(points))
 
 
-def dissipation_slope(points: Sequence[CardPoint]) -> tuple[float, float]:
-    """``(slope, standard error)`` of ln E against ln A by weighted least squares (weights from
-    the points' standard errors where known, else equal; the error is then scaled by the
-    residual). NaN with fewer than two distinct amplitudes or no positive dissipation."""
+def dissipation_slope(points: Sequence[CardPoint]) -> tuple[float, float, float, float]:
+    """``(slope, its standard error, rate exponent, its standard error)``: weighted least squares
+    of ``ln E = a + slope ln A + rate_exponent ln omega`` (weights from the points' standard
+    errors where all are known, else equal; errors scaled by the residual when it exceeds them).
+
+    Runs at several drive frequencies need the frequency term: a viscous joint dissipates
+    ``pi c omega A^2``, so its slope over A alone would mix in how the frequencies were chosen.
+    On a backbone (one frequency per amplitude, omega_n(A)) or at one frequency the term is left
+    out (rate exponent NaN) and the slope is taken along the points: 2 for a linear joint, 3 + chi
+    for micro-slip. NaN where fewer than two amplitudes dissipate."""
+    nan4 = (math.nan,) * 4
     pts = [q for q in points if q.dissipation_J_per_cycle > 0 and math.isfinite(q.dissipation_J_per_cycle)]
-    if len({round(math.log(q.amplitude_rad), 9) for q in pts}) < 2:
-        return math.nan, math.nan
     x = np.log([q.amplitude_rad for q in pts])
+    if np.unique(np.round(x, 9)).size < 2:
+        return nan4
+    lw = np.log([q.omega_rad_s for q in pts])
+    backbone = all(q.omega_rad_s == q.natural_frequency_rad_s for q in pts)
+    with_rate = not backbone and np.unique(np.round(lw, 9)).size >= 2 and len(pts) >= 4
+    X = np.column_stack([np.ones_like(x), x] + ([lw] if with_rate else []))
     y = np.log([q.dissipation_J_per_cycle for q in pts])
     rel = np.array([q.dissipation_J_per_cycle_std / q.dissipation_J_per_cycle for q in pts])
     weighted = bool(np.all(np.isfinite(rel) & (rel > 0)))
     wts = 1.0 / rel**2 if weighted else np.ones_like(x)
-    X = np.column_stack([np.ones_like(x), x])
     XtW = X.T * wts
-    cov = np.linalg.inv(XtW @ X)
+    try:
+        cov = np.linalg.inv(XtW @ X)
+    except np.linalg.LinAlgError:
+        return nan4
     beta = cov @ (XtW @ y)
     r = y - X @ beta
-    dof = len(x) - 2
+    dof = len(x) - X.shape[1]
     if weighted:
         scale = max(1.0, float(wts @ r**2) / dof) if dof > 0 else 1.0
     else:
         scale = float(r @ r) / dof if dof > 0 else math.nan
-    return float(beta[1]), float(math.sqrt(cov[1, 1] * scale)) if math.isfinite(scale) else math.nan
+    se = np.sqrt(np.diag(cov) * scale) if math.isfinite(scale) else np.full(X.shape[1], math.nan)
+    if with_rate:
+        return float(beta[1]), float(se[1]), float(beta[2]), float(se[2])
+    return float(beta[1]), float(se[1]), math.nan, math.nan

@@ -20,7 +20,7 @@ def _parser_of(module_name: str, monkeypatch) -> argparse.ArgumentParser:
     def grab(self, *args, **kwargs):
         raise _Parser(self)
 
-    monkeypatch.setattr(argparse.ArgumentParser, "parse_args", grab)
+    monkeypatch.setattr(argparse.ArgumentParser, "parse_known_args", grab)  # parse_args calls it too
     module = importlib.import_module(f"jointrig.commands.{module_name}")
     with pytest.raises(_Parser) as caught:
         module.main([])

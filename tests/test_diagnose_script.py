@@ -23,7 +23,8 @@ def outputs(tmp_path_factory):
     assert make_data.main([str(out / "worn.parquet"), "--model", str(ROOT / "models" / "two_flywheels_worn.xml"),
                            "--periods", "12", "--seed", "3"]) == 0
     argv = [str(out / "worn.parquet"), "--json", str(out / "d.json"), "--rrd", str(out / "d.rrd"),
-            "--report", str(out / "d.html"), "-q"]
+            "--report", str(out / "d.html"), "--card", str(out / "card.json"), "--card-png", str(out / "card.png"),
+            "-q"]
     assert diagnose.main(argv) == 0
     return out
 
@@ -70,6 +71,32 @@ def test_recording_and_report(outputs):
     html = (outputs / "d.html").read_text()
     assert html.count("<img") == 5 and "Restoring-force loops" in html and "coulomb_friction" in html
     assert "departs from the measurement" in html
+
+
+def test_joint_card_of_the_worn_joint(outputs):
+    # The card from the runs and from the adopted model (dry friction + free play + the
+    # paper's law) at the same amplitudes and frequencies. Dissipation is the loop area, which
+    # the model reproduces to within the two standard errors combined (measured: all nine
+    # within 1.5 of them); the secant stiffness differs by up to 2.8% (measured), the
+    # describing function's single-harmonic view of a free-play kink, so the bound is 5%.
+    # The paper's viscous c = 100 N m s/rad dominates the loss: a rate exponent near 1 (0.93
+    # measured), a dissipation slope near 2 (1.93).
+    d = json.loads((outputs / "card.json").read_text())
+    runs = [p for p in d["amplitudes"] if p["source"] == "runs"]
+    model = {p["run"]: p for p in d["amplitudes"] if p["source"] == "model_at_runs"}
+    assert len(runs) == 9 and len(model) == 9
+    assert sum(p["source"] == "model" for p in d["amplitudes"]) == 25
+    for p in runs:
+        m = model[p["run"]]
+        for key in ("amplitude_rad", "natural_frequency_rad_s", "damping_ratio", "dissipation_J_per_cycle"):
+            assert key in p and key + "_std" in p and p[key + "_std"] > 0, key  # from the period spread
+        se = (p["dissipation_J_per_cycle_std"] ** 2 + m["dissipation_J_per_cycle_std"] ** 2) ** 0.5
+        assert abs(p["dissipation_J_per_cycle"] - m["dissipation_J_per_cycle"]) < 3 * se, p["run"]
+        assert p["secant_stiffness_Nm_per_rad"] == pytest.approx(m["secant_stiffness_Nm_per_rad"], rel=0.05)
+    slope, rate = d["dissipation_slope"], d["rate_exponent"]
+    assert abs(slope["runs"] - slope["model_at_runs"]) < 3 * (slope["runs_std"] ** 2 + slope["model_at_runs_std"] ** 2) ** 0.5
+    assert 1.7 < slope["runs"] < 2.2 and 0.8 < rate["runs"] < 1.1
+    assert (outputs / "card.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 def test_unknown_holdout_run_is_refused(outputs, capsys):

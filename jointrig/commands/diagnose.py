@@ -51,6 +51,10 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--json", type=Path, help="write the diagnosis as JSON")
     p.add_argument("--rrd", type=Path, help="write a rerun recording")
     p.add_argument("--report", type=Path, help="write a self-contained HTML report")
+    p.add_argument("--card", type=Path, metavar="OUT.json",
+                   help="also write the joint card (amplitude-dependent stiffness, damping, dissipation) as JSON")
+    p.add_argument("--card-png", type=Path, metavar="OUT.png", help="also write the joint card's figure")
+    p.add_argument("--card-only", action="store_true", help="print the joint card, not the diagnosis report")
     p.add_argument("--holdout", nargs="+", metavar="RUN",
                    help="run labels held out of the fit for validation (default: every third, from the second)")
     p.add_argument("--band", type=int, default=20, help="harmonics 0..BAND fitted and compared (default: %(default)s)")
@@ -76,7 +80,8 @@ def main(argv=None) -> int:
         check_range(args.torque_share, "--torque-share", lo=0, hi=1, lo_open=True, hi_open=True)
         check_range(args.alpha, "--alpha", lo=0, hi=1, lo_open=True, hi_open=True)
         check_range(args.fidelity, "--fidelity", lo=0, hi=0.5)
-        for option, path in (("--json", args.json), ("--rrd", args.rrd), ("--report", args.report)):
+        for option, path in (("--json", args.json), ("--rrd", args.rrd), ("--report", args.report),
+                             ("--card", args.card), ("--card-png", args.card_png)):
             check_output(path, option)
         loaded = read_runs(args.data, columns=args.columns, units=args.units)
         ids = list(loaded.run_ids)
@@ -103,7 +108,8 @@ def main(argv=None) -> int:
         print(f"diagnose: the identification failed: {err}", file=sys.stderr)
         return 1
     text = format_report(report, source=str(args.data), notes=loaded.notes)
-    print(text)
+    if not args.card_only:
+        print(text)
     if args.json:
         write_json_atomic(args.json, report_json(report, source=str(args.data), notes=loaded.notes,
                                                  input_sha256=loaded.sha256))
@@ -116,5 +122,54 @@ def main(argv=None) -> int:
         write_html(args.report, report, text, title=f"jointrig diagnosis of {args.data.name}",
                    input_sha256=loaded.sha256, source=str(args.data), notes=loaded.notes)
         log.info("wrote %s", args.report)
+    if args.card or args.card_png or args.card_only:
+        write_card(args, loaded, report)
     log.info("done in %.1f s", time.perf_counter() - t0)
     return 0
+
+
+def write_card(args, loaded, report) -> None:
+    """The joint card of the diagnosis (rig/joint_card.py): printed, and written as JSON and PNG."""
+    from jointrig.rig.joint_card import card_json, card_of_diagnosis, card_png
+    from jointrig.rig.sweep import write_atomic
+
+    card = card_of_diagnosis(report, loaded.records, run_ids=loaded.run_ids, torque_share=args.torque_share)
+    print(format_card(card))
+    if args.card:
+        write_json_atomic(args.card, card_json(card, source=str(args.data), input_sha256=loaded.sha256))
+        log.info("wrote %s", args.card)
+    if args.card_png:
+        png = card_png(card, title=f"joint card of {args.data.name}: {card.model_name}")
+        write_atomic(args.card_png, lambda tmp: tmp.write_bytes(png))
+        log.info("wrote %s", args.card_png)
+
+
+def format_card(card) -> str:
+    from jointrig.rig.formatting import sig, with_se
+
+    def row(src, p):
+        return (f"  {src:13s} {p.run:>4s} {sig(p.amplitude_rad):>9s} {sig(p.omega_rad_s, 4):>7s} "
+                f"{with_se(p.secant_stiffness_Nm_per_rad, p.secant_stiffness_Nm_per_rad_std):>18s} "
+                f"{with_se(p.natural_frequency_rad_s, p.natural_frequency_rad_s_std):>18s} "
+                f"{with_se(p.damping_ratio, p.damping_ratio_std):>20s} "
+                f"{with_se(p.dissipation_J_per_cycle, p.dissipation_J_per_cycle_std):>18s}")
+
+    def slope(c):
+        text = with_se(c.dissipation_slope, c.dissipation_slope_std)
+        if c.rate_exponent == c.rate_exponent:  # not NaN
+            text += f" (rate exponent {with_se(c.rate_exponent, c.rate_exponent_std)})"
+        return text
+
+    lines = [f"Joint card ({card.model_name}; mode of the relative angle, Je = {sig(card.model.inertia_kgm2, 4)} "
+             f"kg m^2); runs at their drive frequency omega, the model there and on its backbone (omega = omega_n):",
+             f"  {'source':13s} {'run':>4s} {'A [rad]':>9s} {'omega':>7s} {'k_sec [N m/rad]':>18s} "
+             f"{'omega_n [rad/s]':>18s} {'damping ratio':>20s} {'E per cycle [J]':>18s}"]
+    for p, m in zip(card.runs.points, card.model_at_runs.points):
+        lines += [row("runs", p), row("model at run", m)]
+    model = card.model.points
+    for p in ([model[0], model[len(model) // 2], model[-1]] if len(model) >= 3 else model):
+        lines.append(row("backbone", p))
+    lines.append(f"  dissipation slope d lnE / d lnA: runs {slope(card.runs)}, model at the runs "
+                 f"{slope(card.model_at_runs)}, backbone {slope(card.model)} (viscous 2 and rate exponent 1, "
+                 f"dry friction 1 and 0, micro-slip 3 + chi)")
+    return "\n".join(lines)

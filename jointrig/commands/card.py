@@ -1,0 +1,35 @@
+"""The joint card of measured runs: amplitude-dependent stiffness, damping and dissipation.
+
+    jointrig card DATA [--json OUT.json] [--png OUT.png] [--holdout RUN ...] [--columns ...] [--units ...]
+
+The runs are diagnosed first (``jointrig diagnose``: the nominal model, the causes, the adopted
+extension, validated in the rig); the card is then computed twice (identify/card.py,
+rig/joint_card.py): from the runs alone (first harmonics and loop areas, the inertias from the
+fit) and from the identified model (describing function), at each run's amplitude and drive
+frequency and along the model's backbone. It prints the card; ``--json`` holds a list
+``amplitudes`` (``amplitude_rad``, ``natural_frequency_rad_s``, ``damping_ratio``,
+``dissipation_J_per_cycle``, ``secant_stiffness_Nm_per_rad``, each with ``_std``, and
+``source``: runs, model_at_runs, model) and the dissipation slopes with their standard errors.
+Exit status as ``jointrig diagnose``.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from jointrig.commands import diagnose
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("data", type=Path, help="measured runs: a file or a folder of files")
+    p.add_argument("--json", type=Path, help="write the card as JSON")
+    p.add_argument("--png", type=Path, help="write the card's figure (PNG)")
+    args, rest = p.parse_known_args(argv)
+    forwarded = [str(args.data), "--card-only"]
+    if args.json:
+        forwarded += ["--card", str(args.json)]
+    if args.png:
+        forwarded += ["--card-png", str(args.png)]
+    return diagnose.main(forwarded + rest)

@@ -1,0 +1,150 @@
+"""The joint card of a diagnosis: the identified joint's card beside the card its runs show.
+
+The identified model is the one the diagnosis stands behind: the extended model when its verdict
+is "explained", otherwise the nominal one (an "unexplained" misfit leaves no better model; the
+card says which it used). Its covariance (inertias and law values) is mapped onto
+``(Je, law values)``; nonlinear parameters found by a profile search (a free play, a slip angle)
+are held at their values. The model's curves span the amplitudes the runs reached: a card is
+not an extrapolation.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from jointrig.identify.card import JointCard, law_card, runs_card
+from jointrig.identify.diagnose import plant_of
+from jointrig.identify.records import SteadyStateRecord
+
+from .validate import DiagnosisReport
+
+__all__ = ["CardReport", "card_of_diagnosis", "card_json", "card_png"]
+
+#: amplitudes of the model's curves, spaced geometrically over the runs' range
+N_CURVE_POINTS = 25
+
+
+@dataclass(frozen=True)
+class CardReport:
+    """The model's card, the runs' card, and which model it is."""
+
+    model: JointCard  # the backbone: each amplitude at its natural frequency
+    runs: JointCard
+    model_name: str
+    model_at_runs: JointCard  # the model at each run's amplitude and drive frequency  # e.g. "extended: coulomb_friction + backlash" or "nominal (paper eq. 11)"
+
+
+def card_of_diagnosis(report: DiagnosisReport, records: Sequence[SteadyStateRecord], *,
+                      run_ids: Sequence[str] | None = None, torque_share: float = 0.5) -> CardReport:
+    d = report.diagnosis
+    use_extended = report.verdict.verdict == "explained" and d.extended is not d.nominal
+    f = d.extended if use_extended else d.nominal
+    name = (f"extended: {' + '.join(d.effects)}" if use_extended
+            else f"nominal (paper eq. 11; verdict {report.verdict.verdict})")
+    plant, (J1, J2) = plant_of(f, torque_share)
+    law = plant.law
+    je = J1 * J2 / (J1 + J2)
+    runs = runs_card(records, J1, J2, run_ids=run_ids, n_harmonics=report.band)
+    cov = None
+    if f.covariance is not None:
+        idx = {n: i for i, n in enumerate(f.names)}
+        T = np.zeros((1 + len(law.names), len(f.names)))
+        if "Je_kgm2" in idx:
+            T[0, idx["Je_kgm2"]] = 1.0
+        else:
+            T[0, idx["J1_kgm2"]] = (J2 / (J1 + J2)) ** 2
+            T[0, idx["J2_kgm2"]] = (J1 / (J1 + J2)) ** 2
+        for r, n in enumerate(law.names):
+            if n in idx:
+                T[1 + r, idx[n]] = 1.0
+        cov = T @ f.covariance @ T.T
+    amps = [p.amplitude_rad for p in runs.points]
+    grid = np.geomspace(min(amps), max(amps), N_CURVE_POINTS) if max(amps) > min(amps) else np.array(amps[:1])
+    model = law_card(law, je, grid, covariance=cov, inertia_index=0)
+    at_runs = law_card(law, je, amps, covariance=cov, inertia_index=0,
+                       omegas_rad_s=[p.omega_rad_s for p in runs.points])
+    return CardReport(model, runs, name, at_runs)
+
+
+def card_json(card: CardReport, *, source: str = "", input_sha256: str = "") -> dict:
+    """The card as JSON: ``amplitudes`` lists every point (``source``: "runs", "model_at_runs" (the
+    model at each run's amplitude and drive frequency) or "model" (its backbone, at the natural
+    frequency)), each value with its ``_std``; the dissipation slopes (and, for runs at several
+    frequencies, the rate exponent) of each with their standard errors."""
+    points = ([{"source": "runs", **p.as_json()} for p in card.runs.points]
+              + [{"source": "model_at_runs", **p.as_json(), "run": r.run}
+                 for p, r in zip(card.model_at_runs.points, card.runs.points)]
+              + [{"source": "model", **p.as_json()} for p in card.model.points])
+    return {"source": source, "input_sha256": input_sha256, "model": card.model_name,
+            "units": "SI: rad, rad/s, N m/rad, N m s/rad, J per cycle; damping ratio dimensionless",
+            "what": "amplitude-dependent joint card: secant stiffness, natural frequency and damping ratio of the "
+                    "joint's mode (relative coordinate, inertia Je), dissipation per cycle; model by the "
+                    "single-harmonic describing function at the natural frequency, runs from their first harmonics "
+                    "and loop areas at the drive frequency",
+            "amplitudes": points,
+            "dissipation_slope": {"runs": card.runs.dissipation_slope, "runs_std": card.runs.dissipation_slope_std,
+                                  "model_at_runs": card.model_at_runs.dissipation_slope,
+                                  "model_at_runs_std": card.model_at_runs.dissipation_slope_std,
+                                  "model": card.model.dissipation_slope,
+                                  "model_std": card.model.dissipation_slope_std},
+            "rate_exponent": {"runs": card.runs.rate_exponent, "runs_std": card.runs.rate_exponent_std,
+                              "model_at_runs": card.model_at_runs.rate_exponent,
+                              "model_at_runs_std": card.model_at_runs.rate_exponent_std},
+            "runs_card": card.runs.as_json(), "model_card": card.model.as_json(),
+            "model_at_runs_card": card.model_at_runs.as_json()}
+
+
+def card_png(card: CardReport, title: str = "joint card") -> bytes:
+    """Four panels over the relative amplitude: natural frequency, damping ratio, dissipation per
+    cycle (log-log, with the slopes) and secant stiffness; the model's backbone as a curve with
+    its +-2 standard-error band, the runs as points with +-2 standard-error bars, the model at
+    each run's drive frequency as open squares (what the runs are compared with)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(2, 2, figsize=(10, 7.5))
+    m, r = card.model.points, card.runs.points
+    am = np.array([p.amplitude_rad for p in m])
+    ar = np.array([p.amplitude_rad for p in r])
+    panels = (("natural_frequency_rad_s", "natural frequency [rad/s]"), ("damping_ratio", "damping ratio [-]"),
+              ("dissipation_J_per_cycle", "dissipation per cycle [J]"),
+              ("secant_stiffness_Nm_per_rad", "secant stiffness [N m/rad]"))
+    for ax, (key, label) in zip(axes.flat, panels):
+        y = np.array([getattr(p, key) for p in m])
+        s = np.array([getattr(p, key + "_std") for p in m])
+        ax.plot(am, y, color="tab:blue", label=f"model backbone ({card.model_name})")
+        if np.all(np.isfinite(s)):
+            ax.fill_between(am, y - 2 * s, y + 2 * s, color="tab:blue", alpha=0.2, lw=0, label="model +-2 s.e.")
+        yr = np.array([getattr(p, key) for p in r])
+        sr = np.array([getattr(p, key + "_std") for p in r])
+        ax.errorbar(ar, yr, yerr=np.where(np.isfinite(sr), 2 * sr, 0.0), fmt="o", color="k", ms=4, capsize=3,
+                    label="runs (+-2 s.e.), at their drive frequency")
+        ym = np.array([getattr(p, key) for p in card.model_at_runs.points])
+        ax.plot(ar, ym, "s", mfc="none", color="tab:blue", ms=7, label="model at the runs' frequencies")
+        ax.set(xlabel="relative amplitude A [rad]", ylabel=label, xscale="log")
+        if key == "dissipation_J_per_cycle":
+            ax.set_yscale("log")
+            ax.set_title(f"slope d lnE/d lnA: runs {_slope(card.runs)}, model at runs {_slope(card.model_at_runs)}, "
+                         f"backbone {_slope(card.model)}", fontsize=8)
+        ax.grid(alpha=0.3, which="both")
+    axes.flat[0].legend(fontsize=7)
+    fig.suptitle(title, fontsize=11)
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100)
+    plt.close(fig)
+    return buf.getvalue()
+
+
+def _slope(c: JointCard) -> str:
+    if not math.isfinite(c.dissipation_slope):
+        return "n/a"
+    return f"{c.dissipation_slope:.3g} +- {c.dissipation_slope_std:.2g}" if math.isfinite(
+        c.dissipation_slope_std) else f"{c.dissipation_slope:.3g}"
