@@ -55,6 +55,9 @@ def parse_args(argv=None) -> argparse.Namespace:
                    help="also write the joint card (amplitude-dependent stiffness, damping, dissipation) as JSON")
     p.add_argument("--card-png", type=Path, metavar="OUT.png", help="also write the joint card's figure")
     p.add_argument("--card-only", action="store_true", help="print the joint card, not the diagnosis report")
+    p.add_argument("--mjcf", type=Path, metavar="OUT.xml",
+                   help="write the identified model (the adopted one: extended if explained, else nominal) as a "
+                        "rig model file (jointrig_* fields, flywheel inertias) to simulate at once")
     p.add_argument("--holdout", nargs="+", metavar="RUN",
                    help="run labels held out of the fit for validation (default: every third, from the second)")
     p.add_argument("--band", type=int, default=20, help="harmonics 0..BAND fitted and compared (default: %(default)s)")
@@ -81,7 +84,7 @@ def main(argv=None) -> int:
         check_range(args.alpha, "--alpha", lo=0, hi=1, lo_open=True, hi_open=True)
         check_range(args.fidelity, "--fidelity", lo=0, hi=0.5)
         for option, path in (("--json", args.json), ("--rrd", args.rrd), ("--report", args.report),
-                             ("--card", args.card), ("--card-png", args.card_png)):
+                             ("--card", args.card), ("--card-png", args.card_png), ("--mjcf", args.mjcf)):
             check_output(path, option)
         loaded = read_runs(args.data, columns=args.columns, units=args.units)
         ids = list(loaded.run_ids)
@@ -124,6 +127,8 @@ def main(argv=None) -> int:
         log.info("wrote %s", args.report)
     if args.card or args.card_png or args.card_only:
         write_card(args, loaded, report)
+    if args.mjcf:
+        write_mjcf(args, loaded, report)
     log.info("done in %.1f s", time.perf_counter() - t0)
     return 0
 
@@ -173,3 +178,29 @@ def format_card(card) -> str:
                  f"{slope(card.model_at_runs)}, backbone {slope(card.model)} (viscous 2 and rate exponent 1, "
                  f"dry friction 1 and 0, micro-slip 3 + chi)")
     return "\n".join(lines)
+
+
+def write_mjcf(args, loaded, report) -> None:
+    """The adopted model as a rig model file, checked by compiling it before it is put in place."""
+    from jointrig.identify.diagnose import plant_of
+    from jointrig.rig.model import identified_model_xml, load_rig
+    from jointrig.rig.sweep import write_atomic
+    from jointrig import __version__
+
+    d = report.diagnosis
+    explained = report.verdict.verdict == "explained"
+    f = d.extended if explained else d.nominal
+    plant, J = plant_of(f, args.torque_share)
+    what = f"extended model ({' + '.join(d.effects)})" if explained and d.effects else "nominal model (paper eq. 11)"
+    lines = [f"jointrig {__version__}: the {what} identified from {args.data} (SHA-256 {loaded.sha256}).",
+             f"Verdict: {report.verdict.verdict}: {report.verdict.reason}",
+             f"Flywheel inertias J1 = {J[0]!r}, J2 = {J[1]!r} kg m^2; parameters +- standard error (SI):"]
+    lines += [f"  {n} = {v!r} +- {f.std_error(n):.3g}" for n, v in f.effect_parameters().items()]
+    lines.append("Simulate it: jointrig sweep --model THIS_FILE (or rig.load_rig).")
+
+    def write(tmp):
+        tmp.write_text(identified_model_xml(plant, J, header="\n".join(lines)), encoding="utf-8")
+        load_rig(tmp)  # it must compile and read back before it replaces anything
+
+    write_atomic(args.mjcf, write)
+    log.info("wrote %s", args.mjcf)
