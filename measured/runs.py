@@ -139,7 +139,8 @@ def parse_mapping(text: Optional[Union[str, Mapping[str, str]]], what: str) -> d
         items = list(text.items())
     else:
         items = []
-        for part in re.split(r"[,\s]+", str(text).strip()):
+        # Commas (or semicolons) separate the pairs; blanks may sit inside a unit ("N m").
+        for part in (p.strip() for p in re.split(r"[,;]", str(text))):
             if not part:
                 continue
             if "=" not in part:

@@ -9,7 +9,8 @@ Mutants are made by cosmic-ray's operators (a well-kept mutation library; its ow
 would start a fresh interpreter and the whole test file set per mutant, hours for the ~2,500
 mutants here): arithmetic swaps (+ -, * /, ** *), comparison swaps (< <=, == !=, is / is
 not), numbers +-1, negated conditions, True/False, and/or, break/continue, loops skipped,
-unary minus removed. A random sample of ``--sample`` mutants per module (seeded)
+unary minus removed; not on lines that change no observable result (decorators, the
+positional-only ``/``, error-message text, ``# pragma: no mutate``). A random sample of ``--sample`` mutants per module (seeded)
 is run, so the kill rate is an estimate with its binomial standard error; ``--sample 0``
 runs all.
 
@@ -30,6 +31,7 @@ import json
 import math
 import os
 import random
+import re
 import signal
 import sys
 import time
@@ -70,20 +72,37 @@ OPERATORS = (
        "core/ReplaceUnaryOperator_Delete_USub"])
 
 
+#: Lines whose mutants change no result a caller can observe, not generated (as mutmut skips
+#: decorators and pragmas): decorators (``@dataclass(frozen=True)``, cache sizes), the ``/``
+#: that marks positional-only parameters, the text of error messages (``raise ...``, message
+#: continuation lines) and lines marked ``# pragma: no mutate``.
+_SKIP_LINE = re.compile(r"""^\s*(@|raise\b|f?["']|.*#\s*pragma:\s*no mutate)""")
+_SIGNATURE_SLASH = re.compile(r"(^|[(,])\s*/\s*(,|\)|$)")
+
+
+def _skipped(operator: str, line: str) -> bool:
+    if _SKIP_LINE.match(line):
+        return True
+    return "_Div_" in operator and bool(_SIGNATURE_SLASH.search(line.split("#")[0]))
+
+
 def enumerate_mutants(module: str) -> list[dict]:
     """Every (operator, occurrence) of the chosen operators in the module's source, with its
-    line, as cosmic-ray's ``init`` finds them."""
+    line, as cosmic-ray's ``init`` finds them (occurrences keep cosmic-ray's numbering), less
+    those on lines :func:`_skipped` names."""
     import cosmic_ray.plugins
     from cosmic_ray.ast import ast_nodes, get_ast
 
     path = ROOT / MODULES[module][0]
-    tree = get_ast(path.read_text(encoding="utf-8"))
+    source = path.read_text(encoding="utf-8")
+    lines = source.splitlines()
+    tree = get_ast(source)
     out = []
     for name in OPERATORS:
         op = cosmic_ray.plugins.get_operator(name)()
         positions = [start for node in ast_nodes(tree) for start, _ in op.mutation_positions(node)]
         out += [{"module": module, "operator": name, "occurrence": k, "line": start[0]}
-                for k, start in enumerate(positions)]
+                for k, start in enumerate(positions) if not _skipped(name, lines[start[0] - 1])]
     return out
 
 

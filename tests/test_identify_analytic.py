@@ -128,3 +128,111 @@ def test_identify_rejects_unknown_form_and_keywords():
         identify([rec], (Viscous(),), form="equivalent", torque_share=0.6, harmonics=3)
     with pytest.raises(ValueError, match="torque_share"):
         identify([rec], (Viscous(),), form="equivalent")
+
+
+# --- edges of the balance and the solver, pinned by hand-computed values (mutation testing
+# found them unpinned: scripts/mutation_test.py) -----------------------------------------------
+
+def _system(A, F):
+    from jointrig.identify.balance import LinearSystem
+
+    A = np.asarray(A, float)
+    m, p = A.shape
+    z = np.zeros(m, int)
+    return LinearSystem(A, np.asarray(F, float), tuple(f"x{i}" for i in range(p)), z, z, z, z)
+
+
+def test_solver_statistics_by_hand():
+    # Two unknowns, three rows: columns orthogonal with norms 1 and 2 after the solver's column
+    # scaling the scaled matrix is orthonormal (condition number exactly 1); the residual of
+    # F = (1, 2, 3) is (0, 0, 3): s2 = 9 / (3 - 2), dof 1, relative residual 3 / |F|.
+    res = solve(_system([[1, 0], [0, 2], [0, 0]], [1, 2, 3]))
+    np.testing.assert_allclose(res.values, [1.0, 1.0], rtol=1e-14)
+    assert res.dof == 1 and res.condition_number == pytest.approx(1.0, rel=1e-14)
+    np.testing.assert_allclose(res.std_errors, [3.0, 1.5], rtol=1e-14)  # sqrt(s2 diag((A'A)^-1))
+    assert res.relative_residual == pytest.approx(3 / np.sqrt(14), rel=1e-14)
+    assert not res.values.flags.writeable and not res.covariance.flags.writeable
+    # A square system: an exact solve, no degree of freedom left for the noise scale.
+    sq = solve(_system([[2, 0], [0, 4]], [2, 4]))
+    np.testing.assert_allclose(sq.values, [1.0, 1.0], rtol=1e-14)
+    assert sq.dof == 0 and np.all(np.isnan(sq.std_errors))
+
+
+def test_solver_condition_number_and_rank():
+    # Columns (1, 1) and (1, 1 + e) after unit scaling: singular values of [[1, 1], [1, 1+e]]/norms.
+    e = 1e-3
+    A = np.array([[1.0, 1.0], [1.0, 1.0 + e], [0.0, 0.0]])
+    An = A / np.linalg.norm(A, axis=0)
+    res = solve(_system(A, [1.0, 2.0, 0.0]))
+    assert res.condition_number == pytest.approx(np.linalg.cond(An), rel=1e-9)
+    assert res.success
+    # Two equal columns: rank 1, reported as such (no exception, success False).
+    dup = solve(_system([[1.0, 1.0], [2.0, 2.0], [0.5, 0.5]], [1.0, 2.0, 0.5]))
+    assert not dup.success and "rank-deficient: rank 1 < 2" in dup.message
+    # The warning threshold (1e8): a condition number of 2e7 is quiet, 2e9 warns.
+    import warnings
+
+    from jointrig.identify.solve import IllConditionedWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        quiet = solve(_system([[1.0, 1.0], [1.0, 1.0 + 1e-7], [0.0, 0.0]], [1.0, 2.0, 0.0]))
+    assert 1e7 < quiet.condition_number < 1e8
+    with pytest.warns(IllConditionedWarning):
+        loud = solve(_system([[1.0, 1.0], [1.0, 1.0 + 1e-9], [0.0, 0.0]], [1.0, 2.0, 0.0]))
+    assert loud.condition_number > 1e8
+
+
+def test_solver_refuses_bad_systems():
+    with pytest.raises(ValueError, match="2 equations for 3 unknowns"):
+        solve(_system([[1, 0, 0], [0, 1, 0]], [1, 1]))
+    with pytest.raises(ValueError, match="non-finite"):
+        solve(_system([[np.nan, 0], [0, 1], [1, 1]], [1, 1, 1]))
+    with pytest.raises(ValueError, match="non-finite"):
+        solve(_system([[1, 0], [0, 1], [1, 1]], [1, np.inf, 1]))
+    for w in ([1, 1, -1], [1, np.nan, 1], [1, 0, 1]):
+        with pytest.raises(ValueError, match="finite and > 0"):
+            solve(_system([[1, 0], [0, 1], [1, 1]], [1, 1, 1]), row_weights=np.array(w, float))
+    with pytest.raises(ValueError, match="all-zero column"):
+        solve(_system([[1, 0], [2, 0], [1, 0]], [1, 1, 1]))
+
+
+def test_weighted_solution_by_hand():
+    # One unknown, rows x = 1 and x = 4 with weights 3 and 1: x = (3*1 + 1*4) / 4.
+    res = solve(_system([[1.0], [1.0]], [1.0, 4.0]), row_weights=np.array([3.0, 1.0]))
+    assert res.values[0] == pytest.approx(1.75, rel=1e-14)
+
+
+def test_harmonic_rows_and_upsampling_by_hand():
+    from jointrig.identify.balance import harmonic_rows, upsample
+
+    cols = np.array([[1 + 2j, 3 - 1j, 0.5j], [2.0, -1j, 4 + 4j]])
+    rhs = np.array([7.0, 1 + 1j, -2j])
+    A, F, harm, part = harmonic_rows(cols, rhs, 2)
+    np.testing.assert_array_equal(harm, [0, 1, 1, 2, 2])
+    np.testing.assert_array_equal(part, [0, 0, 1, 0, 1])
+    np.testing.assert_array_equal(A, [[1, 2], [3, 0], [-1, -1], [0, 4], [0.5, 4]])
+    np.testing.assert_array_equal(F, [7, 1, 1, 0, -2])
+    # Upsampling a band-limited record is exact; the Nyquist line is dropped.
+    th = 2 * np.pi * np.arange(16) / 16
+    x = 0.2 + np.cos(3 * th) + 0.5 * np.sin(th)
+    th4 = 2 * np.pi * np.arange(64) / 64
+    np.testing.assert_allclose(upsample(x, 4), 0.2 + np.cos(3 * th4) + 0.5 * np.sin(th4), atol=1e-13)
+    assert upsample(x, 1) is x
+    np.testing.assert_allclose(upsample((-1.0) ** np.arange(8), 2), np.zeros(16), atol=1e-15)
+    np.testing.assert_allclose(upsample(np.cos(2 * np.pi * np.arange(9) / 9), 2),
+                               np.cos(2 * np.pi * np.arange(18) / 18), atol=1e-14)  # odd length
+
+
+def test_spectral_rate_and_harmonic_range():
+    from jointrig.identify.balance import _check_harmonics
+
+    w = 7.0
+    t = np.arange(2 * 32) * 2 * np.pi / (w * 32)
+    np.testing.assert_allclose(spectral_rate(np.sin(2 * w * t), w, 2), 2 * w * np.cos(2 * w * t), atol=1e-12)
+    rec = linear_record(20.0, 100.0)
+    with pytest.raises(RecordError, match="n_harmonics=-1"):
+        _check_harmonics(rec, -1)
+    _check_harmonics(rec, 0)
+    with pytest.raises(ValueError, match="torque_share must be in"):
+        equivalent_system([rec], (Viscous(), Power(1)), n_harmonics=3, torque_share=0.0)

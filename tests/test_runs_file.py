@@ -280,3 +280,34 @@ def test_drift_refused_and_common_rotation_removed(tmp_path):
     loaded = read_runs(tmp_path / "spin.csv")
     assert any("rotate steadily at 3 rad/s" in n for n in loaded.notes)
     check_columns(loaded.records[0], 1e-12)  # the rotation removed by its fitted slope: measured 9e-15
+
+
+@pytest.mark.parametrize("quantity, unit, factor", [
+    # Written out by hand from the definitions, not read from measured.runs.UNITS.
+    ("time", "s", 1.0), ("time", "sec", 1.0), ("time", "ms", 1e-3), ("time", "us", 1e-6), ("time", "µs", 1e-6),
+    ("time", "ns", 1e-9), ("time", "min", 60.0),
+    ("angle", "rad", 1.0), ("angle", "mrad", 1e-3), ("angle", "urad", 1e-6), ("angle", "µrad", 1e-6),
+    ("angle", "deg", math.pi / 180), ("angle", "°", math.pi / 180), ("angle", "degree", math.pi / 180),
+    ("angle", "degrees", math.pi / 180), ("angle", "rev", 2 * math.pi), ("angle", "turn", 2 * math.pi),
+    ("torque", "N m", 1.0), ("torque", "N mm", 1e-3), ("torque", "N cm", 1e-2), ("torque", "kN m", 1e3),
+    ("torque", "mN m", 1e-3), ("torque", "N*m", 1.0), ("torque", "N·m", 1.0), ("torque", "Nm", 1.0),
+    ("frequency", "rad/s", 1.0), ("frequency", "Hz", 2 * math.pi), ("frequency", "rpm", 2 * math.pi / 60),
+    ("frequency", "1/min", 2 * math.pi / 60), ("frequency", "deg/s", math.pi / 180),
+])
+def test_every_unit_converts_by_its_definition(tmp_path, quantity, unit, factor):
+    # One run of 2 periods at 128 samples; the column of the quantity is written in the unit,
+    # the others in SI; what is read back must be the SI signal (relative 1e-12: the
+    # conversion's round-off; omega is checked against the data's own period).
+    dt = 2 * math.pi / W / 128
+    t = np.arange(2 * 128) * dt
+    column = {"time": "time", "angle": "phi1", "torque": "torque", "frequency": "omega"}[quantity]
+    scale = {"time": (1 / factor, 1, 1, 1), "angle": (1, 1, 1 / factor, 1), "torque": (1, 1 / factor, 1, 1),
+             "frequency": (1, 1, 1, 1)}[quantity]
+    extra = (lambda i: repr(W / factor)) if quantity == "frequency" else None
+    head = "run,time,torque,phi1,phi2" + (",omega" if extra else "")
+    path = tmp_path / "u.csv"
+    path.write_text(csv_text(t, head=head, fmt="{:.17g}", scale=scale, extra=extra))
+    rec = read_runs(path, units=f"{column}={unit}").records[0]
+    np.testing.assert_allclose(rec.time_s[:3], t[:3] - t[0] + rec.time_s[0], rtol=1e-12, atol=1e-15)
+    assert rec.omega_rad_s == pytest.approx(W, rel=1e-9)
+    check_columns(rec, 1e-11)
