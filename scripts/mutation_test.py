@@ -266,9 +266,14 @@ def main(argv=None) -> int:
     print(f"{len(plan)} mutants ({', '.join(f'{m.split(chr(46))[-1]} {counts[m]}' for m in modules)} in all), "
           f"{len(plan) - len(todo)} done before, {len(todo)} to run on {args.workers} worker(s)", file=sys.stderr)
 
+    planned = {_key(m) for m in plan}
+
     def save():
+        # Results of mutants outside this plan (an earlier sample, other filters) stay in the
+        # file for resuming but are not counted.
+        counted = {k: v for k, v in done.items() if k in planned}
         write_json_atomic(args.out, {"sample": args.sample, "seed": args.seed, "operators": OPERATORS,
-                                     "mutants_in_all": counts, "summary": summarise(done), "results": done})
+                                     "mutants_in_all": counts, "summary": summarise(counted), "results": done})
 
     running: dict[int, tuple[dict, float]] = {}
     t0 = time.perf_counter()
@@ -289,12 +294,13 @@ def main(argv=None) -> int:
         done[_key(m)] = {**m, "outcome": outcome, "seconds": round(time.perf_counter() - started, 2),
                          "source": _diff_line(m) if outcome == "survived" else ""}
         save()
-        n = len(done)
-        print(f"[{n}/{len(plan)}] {outcome:17s} {m['module'].split('.')[-1]}:{m['line']} {m['operator'].split('/')[-1]}"
+        n = len(todo) - len(queue) - len(running)
+        print(f"[{n}/{len(todo)}] {outcome:17s} {m['module'].split('.')[-1]}:{m['line']} {m['operator'].split('/')[-1]}"
               f"  ({time.perf_counter() - t0:.0f} s)", file=sys.stderr, flush=True)
     done = {k: v for k, v in done.items() if v["outcome"] != "no mutation"}
     save()
-    s = summarise(done)
+    counted = {k: v for k, v in done.items() if k in planned}
+    s = summarise(counted)
     print(f"{'module':12s} {'mutants':>8s} {'run':>5s} {'killed':>7s} {'kill rate':>10s}")
     for mod, v in s["modules"].items():
         print(f"{mod.split('.')[-1]:12s} {counts[mod]:8d} {v['run']:5d} {v['killed']:7d} "
@@ -303,7 +309,7 @@ def main(argv=None) -> int:
     print(f"{'all':12s} {sum(counts.values()):8d} {t['run']:5d} {t['killed']:7d} {t['kill_rate']:6.1%} +- "
           f"{t['std_error']:.1%}")
     print("survivors:")
-    for r in sorted(done.values(), key=lambda r: (r["module"], r["line"])):
+    for r in sorted(counted.values(), key=lambda r: (r["module"], r["line"])):
         if r["outcome"] == "survived":
             print(f"  {r['module'].split('.')[-1]}:{r['line']} {r['operator'].split('/')[-1]}: {r['source']}")
     return 0
