@@ -311,3 +311,67 @@ def test_every_unit_converts_by_its_definition(tmp_path, quantity, unit, factor)
     np.testing.assert_allclose(rec.time_s[:3], t[:3] - t[0] + rec.time_s[0], rtol=1e-12, atol=1e-15)
     assert rec.omega_rad_s == pytest.approx(W, rel=1e-9)
     check_columns(rec, 1e-11)
+
+
+# --- the pure period functions the loader is built on, by hand (identify/periods.py) --------
+
+def test_uniform_clock_and_its_worst_stamp():
+    from jointrig.identify.periods import uniform_clock
+
+    t = 0.5 + 1e-3 * np.arange(10)
+    t[6] += 2e-5  # 0.02 of a step late
+    c = uniform_clock(t)
+    # The least-squares line leans towards the late stamp by its leverage (1/10 + (6-4.5)^2/82.5
+    # of it), in steps of the fitted dt.
+    lev = 0.1 + 1.5**2 / 82.5
+    assert c.worst_index == 6 and c.max_deviation == pytest.approx(2e-5 * (1 - lev) / c.dt_s, rel=1e-9)
+    assert c.dt_s == pytest.approx(1e-3, rel=1e-3) and c.times(3)[0] == pytest.approx(c.t0_s)
+    with pytest.raises(ValueError, match="sample 1 at"):
+        uniform_clock(np.array([0.0, 0.0, 1.0]))
+
+
+def test_harmonics_per_period_by_hand():
+    from jointrig.identify.periods import ls_harmonics
+
+    # min(floor((N - 1)/2) - 1, floor(0.4 N), cap), at least 1
+    assert [ls_harmonics(n) for n in (3, 10, 64, 1000)] == [1, 3, 25, 128]
+    assert ls_harmonics(64, max_share=0.1) == 6 and ls_harmonics(64, cap=7) == 7
+
+
+def test_linear_drift_in_closed_form():
+    from jointrig.identify.periods import linear_drift
+
+    w, dt = 10.0, 2 * math.pi / 10.0 / 50
+    t = 3.0 + np.arange(200) * dt  # 4 whole periods, starting anywhere
+    x = 0.5 * np.cos(w * t) + 0.1 * np.sin(3 * w * t) + 2e-3 * (t - 3.0)
+    d = linear_drift(t, x, w)
+    assert d.slope == pytest.approx(2e-3, rel=1e-9)
+    assert d.over_record == pytest.approx(2e-3 * 200 * dt, rel=1e-9)
+    assert d.t_stat > 1e3 and d.t_stat == pytest.approx(d.slope / d.std_error)
+    # With white noise of 0.01, the slope's standard error is sigma / sqrt(sum (t - mean)^2)
+    # (the trend column is orthogonal to whole periods of the harmonics): within 10% (the
+    # residual variance from 200 - 22 samples).
+    rng = np.random.default_rng(3)
+    noisy = linear_drift(t, 0.5 * np.cos(w * t) + 0.01 * rng.standard_normal(t.size), w)
+    assert noisy.std_error == pytest.approx(0.01 / np.sqrt(np.sum((t - t.mean()) ** 2)), rel=0.1)
+    assert abs(noisy.t_stat) < 4
+
+
+def test_periods_by_least_squares_in_closed_form():
+    from jointrig.identify.periods import periods_by_least_squares
+
+    # 3.5 periods of a three-harmonic signal at 37.3 samples per period: three whole periods,
+    # each resynthesised exactly on 32 samples, residual zero; with one more harmonic (7)
+    # than the fit keeps, the residual is its RMS.
+    w = 5.0
+    dt = 2 * math.pi / w / 37.3
+    t = np.arange(int(3.5 * 37.3)) * dt
+    x = 1.0 + np.cos(w * t) - 0.3 * np.sin(2 * w * t) + 0.2 * np.cos(3 * w * t + 1)
+    fit = periods_by_least_squares(t, x, w, samples_per_period=32, harmonics=3)
+    assert (fit.n_periods, fit.samples_per_period, fit.harmonics) == (3, 32, 3)
+    tt = np.arange(3 * 32) * (2 * math.pi / w / 32)
+    expect = 1.0 + np.cos(w * tt) - 0.3 * np.sin(2 * w * tt) + 0.2 * np.cos(3 * w * tt + 1)
+    np.testing.assert_allclose(fit.samples[0], expect, atol=1e-12)
+    assert fit.residual_rms[0] < 1e-12
+    extra = periods_by_least_squares(t, x + 0.05 * np.cos(7 * w * t), w, samples_per_period=32, harmonics=3)
+    assert extra.residual_rms[0] == pytest.approx(0.05 / math.sqrt(2), rel=0.05)
