@@ -172,7 +172,26 @@ def _label(r) -> str:
     return f"run{r.run_id}".replace(".", "p").replace("/", "_").replace(" ", "_")
 
 
-def diagnosis_blueprint(report: DiagnosisReport):
+def _log_card(rec, card) -> None:
+    """The joint card over the timeline ``amplitude_urad`` (the relative amplitude in urad):
+    ``diagnosis/card/<quantity>/{model_backbone, runs, model_at_runs}``."""
+    import rerun as rr
+
+    series = (("model_backbone", card.model.points, (31, 119, 180)), ("runs", card.runs.points, (40, 40, 40)),
+              ("model_at_runs", card.model_at_runs.points, (214, 39, 40)))
+    for key in ("natural_frequency_rad_s", "damping_ratio", "dissipation_J_per_cycle", "secant_stiffness_Nm_per_rad"):
+        for name, points, colour in series:
+            pts = sorted(points, key=lambda q: q.amplitude_rad)
+            idx = rr.TimeColumn("amplitude_urad", sequence=[int(round(q.amplitude_rad * 1e6)) for q in pts])
+            path = f"diagnosis/card/{key}/{name}"
+            if name == "model_backbone":
+                rec.log(path, rr.SeriesLines(colors=[colour], names=[name]), static=True)
+            else:
+                rec.log(path, rr.SeriesPoints(colors=[colour], names=[name], marker_sizes=[4.0]), static=True)
+            rec.send_columns(path, indexes=[idx], columns=rr.Scalars.columns(scalars=[getattr(q, key) for q in pts]))
+
+
+def diagnosis_blueprint(report: DiagnosisReport, with_card: bool = False):
     """The diagnosis recording's layout (rerun blueprint): a first tab that answers the question
     (the verdict and report text, the causes by name with the adopted ones marked, their scores),
     then one tab per run titled with omega and M0: measured, nominal and extended relative angle
@@ -203,13 +222,26 @@ def diagnosis_blueprint(report: DiagnosisReport):
             rrb.BarChartView(origin=f"diagnosis/harmonic_residuals/{lab}/extended",
                              name="|harmonic residual| of the extended model [rad]"),
             grid_columns=2, name=f"run {r.run_id}: {r.omega_rad_s:g} rad/s, {r.amplitude_Nm:.4g} N m{held}"))
+    if with_card:
+        whole_a = rrb.VisibleTimeRange("amplitude_urad", start=rrb.TimeRangeBoundary.infinite(),
+                                       end=rrb.TimeRangeBoundary.infinite())
+        tabs.insert(1, rrb.Grid(*[
+            rrb.TimeSeriesView(origin=f"diagnosis/card/{key}", name=f"{label} against A [urad] (timeline amplitude_urad)",
+                               time_ranges=whole_a, axis_x=axis)
+            for key, label in (("natural_frequency_rad_s", "natural frequency [rad/s]"),
+                               ("damping_ratio", "damping ratio [-]"),
+                               ("dissipation_J_per_cycle", "dissipation per cycle [J]"),
+                               ("secant_stiffness_Nm_per_rad", "secant stiffness [N m/rad]"))],
+            grid_columns=2, name="Joint card"))
     return rrb.Blueprint(rrb.Tabs(*tabs), rrb.TimePanel(timeline="t_s", state="collapsed"), collapse_panels=True)
 
 
-def log_diagnosis(rec, report: DiagnosisReport, text: str) -> None:
+def log_diagnosis(rec, report: DiagnosisReport, text: str, *, card=None) -> None:
     import rerun as rr
 
-    rec.send_blueprint(diagnosis_blueprint(report))
+    rec.send_blueprint(diagnosis_blueprint(report, card is not None))
+    if card is not None:
+        _log_card(rec, card)
     colors = {"measured": (40, 40, 40), "nominal": (214, 39, 40), "extended": (31, 119, 180)}
     for r in report.runs:
         lab = _label(r)
@@ -458,8 +490,42 @@ def _html_sections(report: DiagnosisReport, source: str, notes: Sequence[str]) -
     return out
 
 
+def _card_section(card) -> list[str]:
+    """The joint card (rig/joint_card.py): runs beside the model at the same amplitude and
+    frequency, the slopes, and the card's figure."""
+    from .joint_card import card_png
+
+    rows = []
+    for p, m in zip(card.runs.points, card.model_at_runs.points):
+        for src, q, cls in (("runs", p, ""), ("model", m, "")):
+            rows.append(_row([f"{p.run} ({src})", (sig(q.amplitude_rad), "num"), (sig(q.omega_rad_s, 4), "num"),
+                              (with_se(q.secant_stiffness_Nm_per_rad, q.secant_stiffness_Nm_per_rad_std), "num"),
+                              (with_se(q.natural_frequency_rad_s, q.natural_frequency_rad_s_std), "num"),
+                              (with_se(q.damping_ratio, q.damping_ratio_std), "num"),
+                              (with_se(q.dissipation_J_per_cycle, q.dissipation_J_per_cycle_std), "num")], cls))
+
+    def slope(c):
+        text = with_se(c.dissipation_slope, c.dissipation_slope_std)
+        if math.isfinite(c.rate_exponent):
+            text += f", rate exponent {with_se(c.rate_exponent, c.rate_exponent_std)}"
+        return text
+
+    png = base64.b64encode(card_png(card, title=f"joint card: {card.model_name}")).decode("ascii")
+    return [f"<h2>Joint card ({html.escape(card.model_name)})</h2>",
+            "<p class='note'>The joint's mode (relative angle, inertia Je = "
+            f"{sig(card.model.inertia_kgm2, 4)} kg m²): each run beside the model at the same amplitude and drive "
+            "frequency; damping ratio = E / (2 pi k A²), half the loss factor.</p>",
+            _table(["run", "A [rad]", "omega [rad/s]", "k_sec [N m/rad]", "omega_n [rad/s]", "damping ratio",
+                    "E per cycle [J]"], rows),
+            f"<p>Dissipation slope d lnE / d lnA: runs {html.escape(slope(card.runs))}; model at the runs "
+            f"{html.escape(slope(card.model_at_runs))}; backbone {html.escape(slope(card.model))} (viscous 2, dry "
+            f"friction 1, micro-slip 3 + chi).</p>",
+            f"<figure><figcaption>Joint card against the amplitude</figcaption><img alt='joint card' "
+            f"src='data:image/png;base64,{png}'></figure>"]
+
+
 def write_html(path: Path, report: DiagnosisReport, text: str, *, title: str = "jointrig diagnosis",
-               input_sha256: str = "", source: str = "", notes: Sequence[str] = ()) -> Path:
+               input_sha256: str = "", source: str = "", notes: Sequence[str] = (), card=None) -> Path:
     """A self-contained HTML report, written atomically: the verdict as its headline, provenance
     (tool version, date, input SHA-256), tables with units and numbers to the precision of their
     standard errors (adopted causes marked), embedded PNG figures with every run panel titled by
@@ -479,6 +545,8 @@ def write_html(path: Path, report: DiagnosisReport, text: str, *, title: str = "
              f"<p class='verdict' style='--c:{colour}'><b>{html.escape(v.verdict.replace('_', ' ').upper())}</b>: "
              f"{html.escape(v.reason)}</p>"]
     parts += _html_sections(report, source, notes)
+    if card is not None:
+        parts += _card_section(card)
     for caption, png in _figures(report):
         parts.append(f"<figure><figcaption>{html.escape(caption)}</figcaption><img alt='{html.escape(caption)}' "
                      f"src='data:image/png;base64,{png}'></figure>")

@@ -69,9 +69,11 @@ def test_recording_and_report(outputs):
     assert sum(n.startswith("run ") for n in names) == 9
     for origin in origins:
         assert any(p == "/" + origin or p.startswith("/" + origin + "/") for p in paths), origin
-    assert len(origins) == 3 + 4 * 9
+    assert len(origins) == 3 + 4 + 4 * 9  # verdict tab, joint card tab (--card), one tab per run
+    assert any(n.startswith("damping ratio [-] against A") for n in names)
     html = (outputs / "d.html").read_text()
-    assert html.count("<img") == 5 and "Restoring-force loops" in html and "coulomb_friction" in html
+    assert html.count("<img") == 6 and "Restoring-force loops" in html and "coulomb_friction" in html
+    assert "Joint card (extended: coulomb_friction + backlash)" in html
     assert "departs from the measurement" in html
 
 
@@ -189,7 +191,7 @@ def test_report_renders_in_a_real_browser_without_errors_or_overflow(outputs, wi
     assert all(u == (outputs / "d.html").as_uri() or u.startswith("data:") for u in requests), requests
     assert m["doc"] <= m["win"], m["doc"]
     assert m["wraps"] and all(extra <= 0 for extra in m["wraps"]), m["wraps"]
-    assert len(m["imgs"]) == 5 and all(ok and right <= m["win"] for ok, right in m["imgs"])
+    assert len(m["imgs"]) == 6 and all(ok and right <= m["win"] for ok, right in m["imgs"])
     assert m["verdict"].startswith("EXPLAINED: ")
     assert d["input_sha256"] in m["prov"] and "jointrig " in m["prov"]
     assert sorted(a.split()[0] for a in m["adopted"] if a.endswith("[adopted]")) == ["backlash", "coulomb_friction"]

@@ -117,28 +117,33 @@ def main(argv=None) -> int:
         write_json_atomic(args.json, report_json(report, source=str(args.data), notes=loaded.notes,
                                                  input_sha256=loaded.sha256))
         log.info("wrote %s", args.json)
+    card = None
+    if args.card or args.card_png or args.card_only:
+        from jointrig.rig.joint_card import card_of_diagnosis
+
+        log.info("computing the joint card")
+        card = card_of_diagnosis(report, loaded.records, run_ids=loaded.run_ids, torque_share=args.torque_share)
     if args.rrd:
         with open_recording(args.rrd) as rec:
-            log_diagnosis(rec, report, text)
+            log_diagnosis(rec, report, text, card=card)
         log.info("wrote %s", args.rrd)
     if args.report:
         write_html(args.report, report, text, title=f"jointrig diagnosis of {args.data.name}",
-                   input_sha256=loaded.sha256, source=str(args.data), notes=loaded.notes)
+                   input_sha256=loaded.sha256, source=str(args.data), notes=loaded.notes, card=card)
         log.info("wrote %s", args.report)
-    if args.card or args.card_png or args.card_only:
-        write_card(args, loaded, report)
+    if card is not None:
+        write_card(args, loaded, card)
     if args.mjcf:
         write_mjcf(args, loaded, report)
     log.info("done in %.1f s", time.perf_counter() - t0)
     return 0
 
 
-def write_card(args, loaded, report) -> None:
+def write_card(args, loaded, card) -> None:
     """The joint card of the diagnosis (rig/joint_card.py): printed, and written as JSON and PNG."""
-    from jointrig.rig.joint_card import card_json, card_of_diagnosis, card_png
+    from jointrig.rig.joint_card import card_json, card_png
     from jointrig.rig.sweep import write_atomic
 
-    card = card_of_diagnosis(report, loaded.records, run_ids=loaded.run_ids, torque_share=args.torque_share)
     print(format_card(card))
     if args.card:
         write_json_atomic(args.card, card_json(card, source=str(args.data), input_sha256=loaded.sha256))
