@@ -273,8 +273,8 @@ def log_diagnosis(rec, report: DiagnosisReport, text: str, *, card=None) -> None
     table = ["| # | cause | score | significant | adopted | magnitude |", "|---|---|---|---|---|---|"]
     for i, c in enumerate(causes, 1):
         table.append(f"| {i} | {c.effect} | {c.score:.4g} | {'yes' if c.significant else 'no'} | "
-                     f"{'**ADOPTED**' if c.effect in adopted else ''} | {c.magnitude[0]} = {_fmt(c.magnitude[1])} +- "
-                     f"{_fmt(c.magnitude[2])} |")
+                     f"{'**ADOPTED**' if c.effect in adopted else ''} | {quantity_of(c.magnitude[0])} = "
+                     f"{with_se(c.magnitude[1], c.magnitude[2])} {unit_of(c.magnitude[0])} |")
     table.append(f"\nVerdict: **{report.verdict.verdict}**: {report.verdict.reason}")
     rec.log("diagnosis/causes_table", rr.TextDocument("\n".join(table), media_type=rr.MediaType.MARKDOWN),
             static=True)
