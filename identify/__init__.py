@@ -9,7 +9,7 @@ physical causes of what a nominal model misses.
 
 from .balance import LinearSystem, equivalent_system, single_dof_system, spectral_rate, two_dof_system
 from .compare import ParameterComparison, compare, format_table
-from .basis import (AngleHat, Coulomb, Jenkins, JointLaw, Monomial, Power, QuadraticDamping, RateHat, Term, Viscous,
+from .basis import (AngleHat, Coulomb, Iwan, Jenkins, JointLaw, Monomial, Power, QuadraticDamping, RateHat, Term, Viscous,
                     angle_hats, dead_zone, hat_law, hat_matrix, play, polynomial_law, rate_hats)
 from .plant import PeriodicDrive, Plant
 from .harmonics import fourier_coefficients, max_harmonic, synthesize, to_sine_cosine
@@ -21,6 +21,6 @@ __all__ = [
     "RateHat", "RecordError", "SteadyStateRecord", "Term", "Viscous", "angle_hats",
     "FORMS", "equivalent_system", "fourier_coefficients", "identify", "hat_law", "hat_matrix", "max_harmonic",
     "polynomial_law", "rate_hats", "single_dof_system", "solve", "spectral_rate", "synthesize",
-    "to_sine_cosine", "two_dof_system", "Coulomb", "Jenkins", "QuadraticDamping", "dead_zone", "play",
+    "to_sine_cosine", "two_dof_system", "Coulomb", "Iwan", "Jenkins", "QuadraticDamping", "dead_zone", "play",
     "PeriodicDrive", "Plant",
 ]

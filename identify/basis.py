@@ -18,6 +18,8 @@ Terms:
                                                           dependent damping (2, 1)
   * :class:`AngleHat`    ``b = hat_i(phi)``  (eq. 8)   -> ``g{i}_Nm``: restoring torque at knot i
   * :class:`RateHat`     ``b = hat_i(phi')`` (eq. 9 f) -> ``f{i}_Nm``: damping torque at knot i
+  * :class:`Coulomb`, :class:`QuadraticDamping`, :class:`Jenkins` (one slider) and
+    :class:`Iwan` (Segalman's four-parameter distribution of sliders): the catalogued effects
 
 Hat functions are the cardinal basis of piecewise-linear interpolation on sorted knots,
 extended linearly beyond the end knots (so a hat law continues its end slopes rather
@@ -26,6 +28,7 @@ than dropping to zero outside the knot range).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Sequence, Union
@@ -39,6 +42,7 @@ __all__ = [
     "Coulomb",
     "QuadraticDamping",
     "Jenkins",
+    "Iwan",
     "dead_zone",
     "play",
     "AngleHat",
@@ -114,8 +118,10 @@ def _hat(x: ArrayLike, knots: tuple[float, ...], i: int) -> ArrayLike:
 class Term:
     """One basis function ``b(phi, phi')`` of the joint torque, in N m per unit parameter."""
 
-    #: True for a term with memory (:class:`Jenkins`): no scalar ``__call__``.
+    #: True for a term with memory (:class:`Jenkins`, :class:`Iwan`): no scalar ``__call__``;
+    #: the rig keeps ``n_states`` floats for it and calls :meth:`step_torque` and :meth:`commit`.
     stateful = False
+    n_states = 0
 
     @property
     def name(self) -> str:  # parameter name with unit
@@ -302,9 +308,19 @@ class Jenkins(Term):
     def elastic(self) -> bool:
         return False
 
+    n_states = 1
+
     def torque(self, phi: float, state_rad: float) -> float:
         """Unit-parameter torque at angle ``phi`` with the slider at ``state_rad`` before."""
         return (phi - play(phi, state_rad, self.slip_rad)) / self.slip_rad
+
+    def step_torque(self, phi: float, state: list, at: int) -> float:
+        """Unit-parameter torque at ``phi`` with the slider at ``state[at]`` (the rig's path)."""
+        return (phi - play(phi, state[at], self.slip_rad)) / self.slip_rad
+
+    def commit(self, phi: float, state: list, at: int) -> None:
+        """Move the slider ``state[at]`` to the accepted angle ``phi`` (after a step)."""
+        state[at] = play(phi, state[at], self.slip_rad)
 
     def __call__(self, phi, rate):
         if isinstance(phi, float):
@@ -342,6 +358,120 @@ def _play_array(x: np.ndarray, slip: float, z0: float) -> np.ndarray:
         z[a:b] = np.maximum(before, seg - slip) if d[a - 1] > 0 else np.minimum(before, seg + slip)
         before = z[b - 1]
     return z
+
+
+def iwan_elements(slip_rad: float, chi: float, beta: float, elements: int) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """Slip angles (rad) and stiffnesses (N m/rad per N m of macroslip torque) of the Jenkins
+    elements that discretise Segalman's four-parameter Iwan density.
+
+    The density of slip angles is ``R s**chi`` on (0, slip_rad] plus a Dirac of stiffness
+    ``S = beta * K_d`` at ``slip_rad``, where ``K_d = R slip_rad**(chi+1)/(chi+1)`` is the
+    distributed stiffness (Segalman 2005, J. Appl. Mech. 72). The interval is cut into
+    ``elements`` pieces of equal stiffness (edges ``slip_rad (j/n)**(1/(chi+1))``); each
+    piece becomes one element of that stiffness at the piece's stiffness-weighted mean slip,
+    so the total stiffness and the macroslip torque are exact. The last element is the Dirac.
+    Normalised so that the macroslip torque ``sum(k_i s_i)`` is 1.
+    """
+    kd = 1.0 / (slip_rad * ((chi + 1.0) / (chi + 2.0) + beta))
+    e = slip_rad * (np.arange(elements + 1) / elements) ** (1.0 / (chi + 1.0))
+    num = (chi + 1.0) / (chi + 2.0) * np.diff(e ** (chi + 2.0))
+    den = np.diff(e ** (chi + 1.0))
+    slips = num / den
+    stiff = np.full(elements, kd / elements)
+    if beta > 0:
+        slips = np.append(slips, slip_rad)
+        stiff = np.append(stiff, beta * kd)
+    return tuple(float(v) for v in slips), tuple(float(v) for v in stiff)
+
+
+@dataclass(frozen=True)
+class Iwan(Term):
+    """Micro-slip: Segalman's four-parameter Iwan element, a continuum of Jenkins elements
+    (springs in series with dry-friction sliders) in parallel with the rest of the joint.
+
+    The parameter is the macroslip torque ``F_S`` (``iwan_slip_torque_Nm``), the torque at
+    which every slider slips. The shape is fixed by the term: ``slip_rad`` (``phi_max``, the
+    angle at which the last slider slips), ``chi`` in (-1, 0] (the density ``~ s**chi`` of
+    slip angles: the micro-slip dissipation per cycle grows as ``A**(3 + chi)``) and ``beta
+    >= 0`` (the share of the stiffness that slips last, all at once). The tangential
+    stiffness is ``F_S (1 + beta) / (slip_rad (beta + (chi+1)/(chi+2)))``
+    (:attr:`stiffness_per_torque`). Discretised by :func:`iwan_elements` into ``elements``
+    Jenkins elements (+1 for beta > 0); the rig keeps one slider per element.
+    """
+
+    slip_rad: float
+    chi: float = -0.5
+    beta: float = 0.1
+    elements: int = 32
+
+    def __post_init__(self):
+        slip, chi, beta = float(self.slip_rad), float(self.chi), float(self.beta)
+        if not (math.isfinite(slip) and slip > 0):
+            raise ValueError(f"Iwan.slip_rad must be a finite number > 0, got {self.slip_rad!r}")
+        if not (math.isfinite(chi) and -1.0 < chi <= 0.0):
+            raise ValueError(f"Iwan.chi must be in (-1, 0], got {self.chi!r}")
+        if not (math.isfinite(beta) and beta >= 0.0):
+            raise ValueError(f"Iwan.beta must be a finite number >= 0, got {self.beta!r}")
+        if int(self.elements) != self.elements or not 2 <= self.elements <= 200:
+            raise ValueError(f"Iwan.elements must be an integer in [2, 200], got {self.elements!r}")
+        object.__setattr__(self, "slip_rad", slip)
+        object.__setattr__(self, "chi", chi)
+        object.__setattr__(self, "beta", beta)
+        object.__setattr__(self, "elements", int(self.elements))
+
+    stateful = True
+
+    @property
+    def name(self) -> str:
+        return "iwan_slip_torque_Nm"
+
+    @property
+    def elastic(self) -> bool:
+        return False
+
+    @property
+    def n_states(self) -> int:  # type: ignore[override]
+        return self.elements + (1 if self.beta > 0 else 0)
+
+    @property
+    def slips_and_stiffnesses(self) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        return _iwan_cached(self.slip_rad, self.chi, self.beta, self.elements)
+
+    @property
+    def stiffness_per_torque(self) -> float:
+        """Tangential stiffness (N m/rad) per N m of macroslip torque."""
+        return (1.0 + self.beta) / (self.slip_rad * (self.beta + (self.chi + 1.0) / (self.chi + 2.0)))
+
+    def step_torque(self, phi: float, state: list, at: int) -> float:
+        """Unit-parameter torque at ``phi`` with the sliders at ``state[at:at + n_states]``."""
+        slips, stiff = self.slips_and_stiffnesses
+        total = 0.0
+        for i in range(len(slips)):
+            total = total + stiff[i] * (phi - play(phi, state[at + i], slips[i]))
+        return total
+
+    def commit(self, phi: float, state: list, at: int) -> None:
+        """Move every slider to the accepted angle ``phi`` (after a step)."""
+        slips, _ = self.slips_and_stiffnesses
+        for i in range(len(slips)):
+            state[at + i] = play(phi, state[at + i], slips[i])
+
+    def __call__(self, phi, rate):
+        if isinstance(phi, float):
+            raise TypeError("Iwan has state: the rig evaluates it with Iwan.step_torque(phi, state, at)")
+        x = np.asarray(phi, dtype=float)
+        slips, stiff = self.slips_and_stiffnesses
+        total = np.zeros_like(x)
+        for s, k in zip(slips, stiff):
+            z = _play_array(x, s, 0.0)
+            z = _play_array(x, s, float(z[-1]))  # second pass: the periodic state
+            total += k * (x - z)
+        return total
+
+
+@functools.lru_cache(maxsize=256)
+def _iwan_cached(slip_rad: float, chi: float, beta: float, elements: int):
+    return iwan_elements(slip_rad, chi, beta, elements)
 
 
 @dataclass(frozen=True)

@@ -9,7 +9,9 @@ with ``-ffp-contract=off`` so no fused multiply-add changes a rounding).
 The shared library is compiled on first use with the system C compiler (``cc``, or
 ``$CC``) against the headers that ship with the ``mujoco`` wheel, and cached under
 ``$XDG_CACHE_HOME/jointrig`` (default ``~/.cache/jointrig``) by a hash of the source and the
-mujoco version; it needs no linking against libmujoco (it only reads and writes mjData).
+mujoco version; it needs no linking against libmujoco: the callback only reads and writes
+mjData, and ``jointrig_run`` (laws with sliders, stepped in C) gets ``mj_step`` by its address
+in the libmujoco the mujoco module loaded.
 """
 
 from __future__ import annotations
@@ -26,15 +28,18 @@ from pathlib import Path
 from typing import Iterator, Optional, Union
 
 import mujoco
+import numpy as np
 
-from jointrig.identify.basis import AngleHat, Coulomb, Jenkins, JointLaw, Monomial, Power, QuadraticDamping, RateHat, Viscous
+from jointrig.identify.basis import (AngleHat, Coulomb, Iwan, Jenkins, JointLaw, Monomial, Power, QuadraticDamping, RateHat,
+                                     Viscous, play)
 from jointrig.identify.plant import PeriodicDrive, Plant
 
 __all__ = ["NativeLaw", "NativeBuildError", "library_path", "native_session", "session_active"]
 
 SOURCE = Path(__file__).resolve().parent / "native" / "jointrig_law.c"
-MAX_TERMS, MAX_KNOTS, MAX_HARM = 64, 512, 64
-KIND = {Viscous: 0, Power: 1, Monomial: 2, AngleHat: 3, RateHat: 4, Coulomb: 5, QuadraticDamping: 6, Jenkins: 7}
+MAX_TERMS, MAX_KNOTS, MAX_HARM, MAX_SLIDERS = 64, 512, 64, 512
+KIND = {Viscous: 0, Power: 1, Monomial: 2, AngleHat: 3, RateHat: 4, Coulomb: 5, QuadraticDamping: 6, Jenkins: 7,
+        Iwan: 8}
 
 
 class NativeBuildError(RuntimeError):
@@ -51,7 +56,10 @@ class _Params(ctypes.Structure):
         ("value", ctypes.c_double * MAX_TERMS),
         ("dpar", ctypes.c_double * MAX_TERMS),
         ("knots", ctypes.c_double * MAX_KNOTS),
-        ("slider", ctypes.c_double * MAX_TERMS),
+        ("n_sliders", ctypes.c_int),
+        ("slider", ctypes.c_double * MAX_SLIDERS),
+        ("slider_slip", ctypes.c_double * MAX_SLIDERS),
+        ("slider_k", ctypes.c_double * MAX_SLIDERS),
         ("q1", ctypes.c_int), ("q2", ctypes.c_int), ("v1", ctypes.c_int), ("v2", ctypes.c_int),
         ("act", ctypes.c_int),
         ("b1", ctypes.c_double), ("b2", ctypes.c_double), ("delay", ctypes.c_double),
@@ -106,8 +114,28 @@ def _load() -> ctypes.CDLL:
         lib.jointrig_register.restype = ctypes.c_int
         lib.jointrig_unregister.argtypes = [ctypes.c_void_p]
         lib.jointrig_unregister.restype = None
+        lib.jointrig_run.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_int,
+                                     ctypes.POINTER(ctypes.c_int), ctypes.c_int, ctypes.POINTER(ctypes.c_double),
+                                     ctypes.POINTER(ctypes.c_double)]
+        lib.jointrig_run.restype = ctypes.c_int
         _lib = lib
     return _lib
+
+
+_step_address: Optional[int] = None
+
+
+def _mj_step_address() -> int:
+    """The address of ``mj_step`` in the libmujoco that the mujoco module has loaded (the same
+    file, so the same process-wide callbacks), for :func:`jointrig_run` to step in C."""
+    global _step_address
+    if _step_address is None:
+        here = Path(mujoco.__file__).resolve().parent
+        libs = sorted(here.glob("libmujoco.so*")) or sorted(here.glob("libmujoco*.dylib"))
+        if not libs:
+            raise NativeBuildError(f"no libmujoco shared library in {here}: cannot step stateful laws in C")
+        _step_address = ctypes.cast(ctypes.CDLL(str(libs[0])).mj_step, ctypes.c_void_p).value
+    return _step_address
 
 
 _registry_lock = threading.Lock()
@@ -182,8 +210,20 @@ class NativeLaw:
                 p.ipar1[i], p.ipar2[i], p.ipar3[i] = t.index, len(knots), len(t.knots)
                 knots.extend(t.knots)
             elif isinstance(t, Jenkins):
+                if sliders + 1 > MAX_SLIDERS:
+                    raise ValueError(f"the native callback takes at most {MAX_SLIDERS} sliders in all")
                 p.ipar1[i], p.dpar[i] = sliders, t.slip_rad
+                p.slider_slip[sliders] = t.slip_rad
                 sliders += 1
+            elif isinstance(t, Iwan):
+                slips, stiff = t.slips_and_stiffnesses
+                if sliders + len(slips) > MAX_SLIDERS:
+                    raise ValueError(f"the native callback takes at most {MAX_SLIDERS} sliders in all")
+                p.ipar1[i], p.ipar3[i] = sliders, len(slips)
+                for j, (sj, kj) in enumerate(zip(slips, stiff)):
+                    p.slider_slip[sliders + j], p.slider_k[sliders + j] = sj, kj
+                sliders += len(slips)
+        p.n_sliders = sliders
         if len(knots) > MAX_KNOTS:
             raise ValueError(f"the native callback takes at most {MAX_KNOTS} knots in all, the law has {len(knots)}")
         for i, k in enumerate(knots):
@@ -205,7 +245,6 @@ class NativeLaw:
             for n, c in enumerate(coeffs):
                 p.c_re[n], p.c_im[n] = c.real, c.imag
         self.params = p
-        self.jenkins = [(int(p.ipar1[i]), t.slip_rad) for i, t in enumerate(law.terms) if isinstance(t, Jenkins)]
         self.lib = _load()
         self.function = self.lib.jointrig_passive
 
@@ -219,11 +258,26 @@ class NativeLaw:
             self.lib.jointrig_unregister(d._address)
 
     def commit(self, phi_rad: float) -> None:
-        """Advance the Jenkins sliders to the accepted angle (after a step), as the Python path."""
-        from jointrig.identify.basis import play
+        """Advance the sliders to the accepted angle (after a step), as the Python path."""
+        p = self.params
+        for j in range(p.n_sliders):
+            p.slider[j] = play(phi_rad, p.slider[j], p.slider_slip[j])
 
-        for k, s in self.jenkins:
-            self.params.slider[k] = play(phi_rad, self.params.slider[k], s)
+    def run(self, m: mujoco.MjModel, d: mujoco.MjData, n: int, k: int, idx: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray]:
+        """``n`` samples of ``k`` steps each, stepped in C with the sliders committed after
+        every step (the GIL released): the sensors ``idx`` after each sample's first step and
+        the time before it, as the Python stepping loop of :mod:`rig.simulate` records them."""
+        idx = np.ascontiguousarray(idx, dtype=np.intc)
+        buf = np.empty((n, idx.size))
+        tbuf = np.empty(n)
+        dbl = ctypes.POINTER(ctypes.c_double)
+        rc = self.lib.jointrig_run(_mj_step_address(), m._address, d._address, n, k,
+                                   idx.ctypes.data_as(ctypes.POINTER(ctypes.c_int)), idx.size,
+                                   buf.ctypes.data_as(dbl), tbuf.ctypes.data_as(dbl))
+        if rc < 0:
+            raise RuntimeError("jointrig_run: this MjData has no registered parameter block (activate it first)")
+        return buf, tbuf
 
     @property
     def error(self) -> bool:

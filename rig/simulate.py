@@ -28,7 +28,7 @@ import mujoco
 import numpy as np
 from mujoco import rollout
 
-from jointrig.identify.basis import JointLaw, play
+from jointrig.identify.basis import JointLaw
 from jointrig.identify.plant import PeriodicDrive, Plant
 from jointrig.identify.records import SteadyStateRecord
 
@@ -268,8 +268,9 @@ def make_callback(rig: RigModel, plant: Union[Plant, JointLaw], drive: PeriodicD
     law = plant.law
     stateless = [(t, v) for t, v in zip(law.terms, law.values) if not t.stateful]
     stateful = [(t, v) for t, v in zip(law.terms, law.values) if t.stateful]
-    if stateful and (slider_state is None or len(slider_state) != len(stateful)):
-        raise ValueError(f"the law has {len(stateful)} stateful term(s): pass slider_state with one float each")
+    n_states = sum(t.n_states for t, _ in stateful)
+    if stateful and (slider_state is None or len(slider_state) != n_states):
+        raise ValueError(f"the law's stateful term(s) hold {n_states} state(s): pass slider_state with one float each")
     torque = JointLaw(tuple(t for t, _ in stateless), tuple(v for _, v in stateless)).torque \
         if stateless else (lambda phi, rate: 0.0)
     q1, q2 = rig.qpos_adr
@@ -277,7 +278,10 @@ def make_callback(rig: RigModel, plant: Union[Plant, JointLaw], drive: PeriodicD
     act = rig.actuator_id
     b1, b2 = plant.bearing1_damping_Nms_per_rad, plant.bearing2_damping_Nms_per_rad
     drive_at = drive.evaluator(plant.drive_delay_s)
-    hyst = [(t.torque, v, i) for i, (t, v) in enumerate(stateful)]
+    hyst, at = [], 0
+    for t, v in stateful:
+        hyst.append((t.step_torque, v, at))
+        at += t.n_states
 
     def callback(m, d):
         try:
@@ -285,7 +289,7 @@ def make_callback(rig: RigModel, plant: Union[Plant, JointLaw], drive: PeriodicD
             phi = float(qpos[q1] - qpos[q2])
             tau = torque(phi, float(qvel[v1] - qvel[v2]))
             for f, v, i in hyst:
-                tau += v * f(phi, slider_state[i])
+                tau += v * f(phi, slider_state, i)
             frc = d.qfrc_passive
             frc[v1] -= tau
             frc[v2] += tau
@@ -303,9 +307,11 @@ def make_callback(rig: RigModel, plant: Union[Plant, JointLaw], drive: PeriodicD
 
 def commit_state(plant: Union[Plant, JointLaw], slider_state: list, phi_rad: float) -> None:
     """Advance the stateful terms' memory to the accepted angle ``phi_rad`` (after a step)."""
-    stateful = [t for t in Plant.of(plant).law.terms if t.stateful]
-    for i, t in enumerate(stateful):
-        slider_state[i] = play(phi_rad, slider_state[i], t.slip_rad)
+    at = 0
+    for t in Plant.of(plant).law.terms:
+        if t.stateful:
+            t.commit(phi_rad, slider_state, at)
+            at += t.n_states
 
 
 @contextlib.contextmanager
@@ -385,7 +391,8 @@ def simulate_steady_state(
       native: use the compiled C callback (:mod:`rig.native_callback`): the same numbers,
         without the Python interpreter in every force evaluation. A law without stateful
         terms is then integrated a whole period per ``mujoco.rollout`` call (no Python
-        between steps, the GIL released); the records are bit-identical to stepping.
+        between steps, the GIL released); a law with sliders (Jenkins, Iwan) is stepped in C
+        with its sliders committed after every step; the records are bit-identical to stepping.
       start: start from this state at t = 0 instead of rest (continuation from the previous
         sweep point's steady state). Its rigid-body velocity is replaced by the one that
         keeps the rotation periodic under this drive; the relative motion is kept.
@@ -420,7 +427,7 @@ def simulate_steady_state(
             body = m.jnt_bodyid[m.dof_jntid[rig.dof_adr[j]]]
             m.body_inertia[body] *= target / now
     stateful = [t for t in plant.law.terms if t.stateful]
-    slider = [0.0] * len(stateful)
+    slider = [0.0] * sum(t.n_states for t in stateful)
     q1, q2 = rig.qpos_adr
     m.opt.integrator = mujoco.mjtIntegrator.__members__[config.mj_integrator_name]
     m.opt.timestep = config.timestep_s(omega_rad_s)
@@ -496,7 +503,16 @@ def simulate_steady_state(
         mujoco.mj_setState(m, d, st[0, -1], spec)
         return sd[0, ::k][:, idx], tbuf
 
-    advance = rollout_period if use_rollout else stepped_period
+    def native_stepped_period() -> tuple[np.ndarray, np.ndarray]:
+        # Sliders committed after every step, in C (the same loop as stepped_period).
+        return nat.run(m, d, n, k, idx)
+
+    if use_rollout:
+        advance = rollout_period
+    elif native and stateful and not _FORCE_STEPPED:
+        advance = native_stepped_period
+    else:
+        advance = stepped_period
     # The settle test watches the relative angle (the joint's) and both rates, plus the absolute
     # angles only when they must repeat too.
     names = ("phi1 - phi2",) + channels[2:4] + (channels[:2] if config.absolute_angles_periodic else ())

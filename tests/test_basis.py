@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from jointrig.identify.basis import (AngleHat, Coulomb, Jenkins, JointLaw, Monomial, Power, QuadraticDamping, Viscous,
+from jointrig.identify.basis import (AngleHat, Coulomb, Iwan, Jenkins, JointLaw, Monomial, Power, QuadraticDamping, Viscous,
                             angle_hats, hat_law, hat_matrix, play, polynomial_law, rate_hats)
 
 KNOTS = (-0.6, -0.3, -0.1, 0.0, 0.1, 0.3, 0.6)
@@ -57,6 +57,11 @@ def test_polynomial_law_names_and_values():
     (lambda: Power(0, 0.1), "free play"),
     (lambda: Power(1, -0.1), "gap_rad"),
     (lambda: Jenkins(0.0), "slip_rad"),
+    (lambda: Iwan(0.0), "slip_rad"),
+    (lambda: Iwan(0.1, chi=-1.0), "chi"),
+    (lambda: Iwan(0.1, chi=0.2), "chi"),
+    (lambda: Iwan(0.1, beta=-0.1), "beta"),
+    (lambda: Iwan(0.1, elements=1), "elements"),
     (lambda: hat_law(knots_rad=KNOTS, g_Nm=[1.0, 2.0]), "7 knots but 2 values"),
 ])
 def test_invalid_laws_raise(make, match):
@@ -121,3 +126,38 @@ def test_jenkins_vectorised_play_equals_sample_by_sample_on_rough_signals():
                 z = play(v, z, j.slip_rad)
                 out.append((v - z) / j.slip_rad)
         np.testing.assert_allclose(j(x, None), out, rtol=0, atol=1e-14)
+
+
+@pytest.mark.parametrize("chi, beta", [(-0.5, 0.1), (-0.2, 0.0), (0.0, 1.0)])
+def test_iwan_elements_keep_the_stiffness_and_the_macroslip_torque(chi, beta):
+    # Segalman's density R s^chi on (0, s_max] plus a Dirac S = beta K_d at s_max: per N m of
+    # macroslip torque the elements' stiffnesses sum to K_T = (1 + beta) / (s_max (beta +
+    # (chi+1)/(chi+2))) and their slip torques to 1, exactly (round-off: 1e-14).
+    iw = Iwan(0.02, chi, beta, elements=16)
+    slips, stiff = iw.slips_and_stiffnesses
+    assert len(slips) == iw.n_states == 16 + (beta > 0)
+    assert sum(k * s for k, s in zip(stiff, slips)) == pytest.approx(1.0, rel=1e-14)
+    assert sum(stiff) == pytest.approx((1 + beta) / (0.02 * (beta + (chi + 1) / (chi + 2))), rel=1e-14)
+    assert all(0 < a < b for a, b in zip(slips, slips[1:])) and slips[-1] <= 0.02
+    # Below the first slip angle it is a spring of stiffness K_T; past s_max it slides at F_S.
+    phi = np.array([0.0, 0.5 * slips[0], 0.0, -0.5 * slips[0]])
+    np.testing.assert_allclose(iw(phi, None), phi * iw.stiffness_per_torque, rtol=1e-12, atol=1e-15)
+    big = 0.5 * np.cos(np.linspace(0, 2 * np.pi, 64, endpoint=False))
+    assert np.max(iw(big, None)) == pytest.approx(1.0, rel=1e-14)
+
+
+def test_iwan_array_path_equals_stepping_its_sliders():
+    # The rig evaluates Iwan.step_torque and commits every slider after each step; the
+    # identifier's array path runs the play operator per element over the record twice.
+    iw = Iwan(0.05, -0.3, 0.2, elements=8)
+    t = np.linspace(0, 2 * np.pi, 256, endpoint=False)
+    phi = 0.04 * np.cos(t) + 0.01 * np.cos(3 * t + 0.4)
+    state = [0.0] * iw.n_states
+    for _ in range(2):
+        out = []
+        for v in phi.tolist():
+            out.append(iw.step_torque(v, state, 0))
+            iw.commit(v, state, 0)
+    np.testing.assert_allclose(out, iw(phi, None), rtol=0, atol=1e-13)
+    with pytest.raises(TypeError, match="state"):
+        iw(0.1, 0.0)

@@ -22,6 +22,16 @@ def test_every_effect_gives_identical_trajectories(rig, case):
     _identical(python, native)
 
 
+def test_an_iwan_joint_stepped_in_c_gives_identical_trajectories(rig):
+    # 33 sliders committed after every step in C (jointrig_run) against the Python loop.
+    from jointrig.identify.basis import Iwan, JointLaw, Power, Viscous
+
+    law = JointLaw((Viscous(), Power(1), Iwan(0.02, -0.3, 0.1)), (5.0, 500.0, 40.0))
+    cfg = SimulationConfig(n_periods=2)
+    _identical(simulate_steady_state(rig, 25.0, 400.0, cfg, law=law)[0],
+               simulate_steady_state(rig, 25.0, 400.0, cfg, law=law, native=True)[0])
+
+
 def test_hat_law_and_a_replayed_multiharmonic_drive(rig):
     drive = PeriodicDrive(30.0, (0, 1000.0, 50 - 20j, 0, 10j))
     _identical(simulate_steady_state(rig, 30.0, 1000.0, SimulationConfig(), drive=drive)[0],

@@ -4,7 +4,9 @@
  * JointLaw.torque scalar path, identify/plant.py PeriodicDrive.evaluator and
  * rig/simulate.py make_callback), so both give the same numbers to the last bit: a test
  * compares whole trajectories. Parameters come from one struct the Python side fills
- * (rig/native_callback.py); Jenkins sliders are committed by the caller after each step.
+ * (rig/native_callback.py). Sliders (Jenkins and Iwan elements) are committed after every
+ * accepted step: by jointrig_run, which steps the simulation here (mj_step passed in by its
+ * address), or by the Python caller.
  */
 #include <math.h>
 #include <mujoco/mujoco.h>
@@ -12,20 +14,24 @@
 #define JR_MAX_TERMS 64
 #define JR_MAX_KNOTS 512
 #define JR_MAX_HARM 64
+#define JR_MAX_SLIDERS 512
 
 enum { JR_VISCOUS = 0, JR_POWER = 1, JR_MONOMIAL = 2, JR_ANGLE_HAT = 3, JR_RATE_HAT = 4,
-       JR_COULOMB = 5, JR_QUADRATIC = 6, JR_JENKINS = 7 };
+       JR_COULOMB = 5, JR_QUADRATIC = 6, JR_JENKINS = 7, JR_IWAN = 8 };
 
 typedef struct {
   int n_terms;
   int kind[JR_MAX_TERMS];
-  int ipar1[JR_MAX_TERMS];   /* power / angle power / hat index / slider index */
+  int ipar1[JR_MAX_TERMS];   /* power / angle power / hat index / first slider */
   int ipar2[JR_MAX_TERMS];   /* rate power / knot offset */
-  int ipar3[JR_MAX_TERMS];   /* number of knots */
+  int ipar3[JR_MAX_TERMS];   /* number of knots / number of sliders (Iwan) */
   double value[JR_MAX_TERMS];
   double dpar[JR_MAX_TERMS]; /* gap (power) or slip angle (Jenkins) */
   double knots[JR_MAX_KNOTS];
-  double slider[JR_MAX_TERMS];
+  int n_sliders;
+  double slider[JR_MAX_SLIDERS];      /* slider positions (rad) */
+  double slider_slip[JR_MAX_SLIDERS]; /* each slider's slip angle (rad) */
+  double slider_k[JR_MAX_SLIDERS];    /* each Iwan element's stiffness per unit macroslip torque */
   int q1, q2, v1, v2, act;
   double b1, b2, delay, omega;
   int single;                /* 1: drive is a * cos(omega * (t - delay)) */
@@ -122,13 +128,19 @@ void jointrig_passive(const mjModel* m, mjData* d) {
   double rate = d->qvel[P->v1] - d->qvel[P->v2];
   double tau = 0.0;
   for (int t = 0; t < P->n_terms; t++) {
-    if (P->kind[t] == JR_JENKINS) continue;
+    if (P->kind[t] == JR_JENKINS || P->kind[t] == JR_IWAN) continue;
     tau = tau + P->value[t] * term(P, t, phi, rate);
   }
   for (int t = 0; t < P->n_terms; t++) {
-    if (P->kind[t] != JR_JENKINS) continue;
-    double s = P->dpar[t];
-    tau += P->value[t] * ((phi - play(phi, P->slider[P->ipar1[t]], s)) / s);
+    if (P->kind[t] == JR_JENKINS) {
+      double s = P->dpar[t];
+      tau += P->value[t] * ((phi - play(phi, P->slider[P->ipar1[t]], s)) / s);
+    } else if (P->kind[t] == JR_IWAN) {
+      double u = 0.0;
+      for (int j = P->ipar1[t]; j < P->ipar1[t] + P->ipar3[t]; j++)
+        u = u + P->slider_k[j] * (phi - play(phi, P->slider[j], P->slider_slip[j]));
+      tau += P->value[t] * u;
+    }
   }
   d->qfrc_passive[P->v1] -= tau;
   d->qfrc_passive[P->v2] += tau;
@@ -158,4 +170,34 @@ void jointrig_passive(const mjModel* m, mjData* d) {
   P->cache_u = u;
   P->cache_valid = 1;
   d->ctrl[P->act] = u;
+}
+
+/* Move every slider to the accepted relative angle (identify.basis: Jenkins/Iwan.commit). */
+static void commit(jointrig_params* P, const mjData* d) {
+  double phi = d->qpos[P->q1] - d->qpos[P->q2];
+  for (int j = 0; j < P->n_sliders; j++) P->slider[j] = play(phi, P->slider[j], P->slider_slip[j]);
+}
+
+typedef void (*jr_step_fn)(const mjModel*, mjData*);
+
+/* n samples of k steps each, committing the sliders after every step (as the Python
+ * stepping loop of rig/simulate.py does): row i of buf holds sensordata[idx] after the
+ * first step of sample i (the sensors of the state before it), tbuf[i] the time before it.
+ * Returns -1 if d has no parameter block, else the block's error flag. */
+int jointrig_run(void* step, const mjModel* m, mjData* d, int n, int k, const int* idx, int nidx,
+                 double* buf, double* tbuf) {
+  jointrig_params* P = lookup(d);
+  if (!P) return -1;
+  jr_step_fn mj_step = (jr_step_fn)step;
+  for (int i = 0; i < n; i++) {
+    tbuf[i] = d->time;
+    mj_step(m, d);
+    for (int c = 0; c < nidx; c++) buf[i * nidx + c] = d->sensordata[idx[c]];
+    commit(P, d);
+    for (int j = 1; j < k; j++) {
+      mj_step(m, d);
+      commit(P, d);
+    }
+  }
+  return P->error;
 }
