@@ -22,7 +22,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from .basis import JointLaw, Jenkins, Power
+from .basis import Iwan, JointLaw, Jenkins, Power
 
 __all__ = ["Plant", "PeriodicDrive", "effect_parameters", "drive_of_record"]
 
@@ -145,6 +145,11 @@ def effect_parameters(plant: Plant) -> dict[str, float]:
         if isinstance(t, Jenkins):
             out["hysteresis_slip_angle_rad"] = t.slip_rad
             out["hysteresis_stiffness_Nm_per_rad"] = v / t.slip_rad
+        elif isinstance(t, Iwan):
+            out["iwan_slip_angle_rad"] = t.slip_rad
+            out["iwan_chi"] = t.chi
+            out["iwan_beta"] = t.beta
+            out["iwan_stiffness_Nm_per_rad"] = v * t.stiffness_per_torque
     for name in ("bearing1_damping_Nms_per_rad", "bearing2_damping_Nms_per_rad", "drive_delay_s"):
         if getattr(plant, name):
             out[name] = getattr(plant, name)

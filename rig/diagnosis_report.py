@@ -493,7 +493,7 @@ def _html_sections(report: DiagnosisReport, source: str, notes: Sequence[str]) -
 def _card_section(card) -> list[str]:
     """The joint card (rig/joint_card.py): runs beside the model at the same amplitude and
     frequency, the slopes, and the card's figure."""
-    from .joint_card import card_png
+    from .joint_card import card_png, masing_text
 
     rows = []
     for p, m in zip(card.runs.points, card.model_at_runs.points):
@@ -520,6 +520,7 @@ def _card_section(card) -> list[str]:
             f"<p>Dissipation slope d lnE / d lnA: runs {html.escape(slope(card.runs))}; model at the runs "
             f"{html.escape(slope(card.model_at_runs))}; backbone {html.escape(slope(card.model))} (viscous 2, dry "
             f"friction 1, micro-slip 3 + chi).</p>",
+            f"<p>{html.escape(masing_text(card.masing))}</p>",
             f"<figure><figcaption>Joint card against the amplitude</figcaption><img alt='joint card' "
             f"src='data:image/png;base64,{png}'></figure>"]
 

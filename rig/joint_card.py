@@ -17,13 +17,13 @@ from typing import Sequence
 
 import numpy as np
 
-from jointrig.identify.card import JointCard, law_card, runs_card
+from jointrig.identify.card import MASING_FIDELITY, JointCard, MasingCheck, law_card, masing_check, runs_card
 from jointrig.identify.diagnose import plant_of
 from jointrig.identify.records import SteadyStateRecord
 
 from .validate import DiagnosisReport
 
-__all__ = ["CardReport", "card_of_diagnosis", "card_json", "card_png"]
+__all__ = ["CardReport", "card_of_diagnosis", "card_json", "card_png", "masing_text"]
 
 #: amplitudes of the model's curves, spaced geometrically over the runs' range
 N_CURVE_POINTS = 25
@@ -37,6 +37,7 @@ class CardReport:
     runs: JointCard
     model_name: str
     model_at_runs: JointCard  # the model at each run's amplitude and drive frequency  # e.g. "extended: coulomb_friction + backlash" or "nominal (paper eq. 11)"
+    masing: MasingCheck  # do the runs' loops follow from one backbone (Masing's rule)?
 
 
 def card_of_diagnosis(report: DiagnosisReport, records: Sequence[SteadyStateRecord], *,
@@ -68,7 +69,23 @@ def card_of_diagnosis(report: DiagnosisReport, records: Sequence[SteadyStateReco
     model = law_card(law, je, grid, covariance=cov, inertia_index=0)
     at_runs = law_card(law, je, amps, covariance=cov, inertia_index=0,
                        omegas_rad_s=[p.omega_rad_s for p in runs.points])
-    return CardReport(model, runs, name, at_runs)
+    masing = masing_check(records, J1, J2, run_ids=run_ids)
+    return CardReport(model, runs, name, at_runs, masing)
+
+
+def masing_text(check: MasingCheck) -> str:
+    """One sentence on Masing's rule for a card's runs."""
+    if not check.runs or check.discrepancy != check.discrepancy:  # NaN: nothing compared
+        return "Masing check: fewer than two runs whose loops can be compared."
+    how = (f"the runs' loops imply backbones {100 * check.discrepancy:.3g}% apart (of the tip torque; runs "
+           f"{check.worst_pair[0]} and {check.worst_pair[1]}; noise {100 * check.noise:.2g}%, fidelity "
+           f"{100 * MASING_FIDELITY:.2g}%)")
+    verdict = {True: "they follow Masing's rule, as a joint of sliders (Jenkins, Iwan, dry friction) does",
+               False: "they do not follow Masing's rule: the damping depends on the rate or the loops change "
+                      "otherwise than their backbone says",
+               None: "too noisy to tell"}[check.follows]
+    skipped = f"; runs {', '.join(check.skipped)} are not simple loops" if check.skipped else ""
+    return f"Masing check: {how}: {verdict}{skipped}."
 
 
 def card_json(card: CardReport, *, source: str = "", input_sha256: str = "") -> dict:
@@ -95,6 +112,7 @@ def card_json(card: CardReport, *, source: str = "", input_sha256: str = "") -> 
             "rate_exponent": {"runs": card.runs.rate_exponent, "runs_std": card.runs.rate_exponent_std,
                               "model_at_runs": card.model_at_runs.rate_exponent,
                               "model_at_runs_std": card.model_at_runs.rate_exponent_std},
+            "masing": card.masing.as_json(),
             "runs_card": card.runs.as_json(), "model_card": card.model.as_json(),
             "model_at_runs_card": card.model_at_runs.as_json()}
 

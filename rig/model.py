@@ -14,7 +14,7 @@ from typing import Union
 import mujoco
 import numpy as np
 
-from jointrig.identify.basis import (Coulomb, Jenkins, JointLaw, Power, QuadraticDamping, Term, Viscous, angle_hats,
+from jointrig.identify.basis import (Coulomb, Iwan, Jenkins, JointLaw, Power, QuadraticDamping, Term, Viscous, angle_hats,
                             rate_hats)
 from jointrig.identify.plant import Plant, effect_parameters
 
@@ -47,7 +47,10 @@ _SCALAR_FIELDS: dict[str, Term] = {
 _ARRAY_FIELDS = ("knots_rad", "g_Nm", "rate_knots_rad_s", "f_Nm")
 #: Effects beyond the law's linear parameters (see :class:`identify.plant.Plant`).
 _EFFECT_FIELDS = ("backlash_half_gap_rad", "hysteresis_slip_torque_Nm", "hysteresis_slip_angle_rad",
+                  "iwan_slip_torque_Nm", "iwan_slip_angle_rad", "iwan_beta",
                   "bearing1_damping_Nms_per_rad", "bearing2_damping_Nms_per_rad", "drive_delay_s")
+#: The Iwan element's exponent chi in (-1, 0] (default -0.5), the one signed effect field.
+_IWAN_CHI = "iwan_chi"
 
 
 class RigModelError(ValueError):
@@ -66,7 +69,10 @@ class RigModel:
         ``..._bearing2_...``, ``jointrig_drive_delay_s``); effects inside the law are
         ``jointrig_coulomb_torque_Nm``, ``jointrig_quadratic_damping_Nms2_per_rad2``,
         ``jointrig_backlash_half_gap_rad`` (free play of every stiffness term) and
-        ``jointrig_hysteresis_slip_torque_Nm`` with ``jointrig_hysteresis_slip_angle_rad``.
+        ``jointrig_hysteresis_slip_torque_Nm`` with ``jointrig_hysteresis_slip_angle_rad``
+        (a Jenkins element), ``jointrig_iwan_slip_torque_Nm`` with ``jointrig_iwan_slip_angle_rad``
+        and optional ``jointrig_iwan_chi`` (default -0.5) and ``jointrig_iwan_beta`` (default
+        0.1): Segalman's four-parameter Iwan element (micro-slip).
       J1_kgm2, J2_kgm2: flywheel inertias about the hinge axis (from the compiled mass matrix).
       qpos_adr, dof_adr: addresses of phi1 and phi2 in qpos and qvel.
       actuator_id: the drive motor.
@@ -110,11 +116,11 @@ def _numeric_fields(model: mujoco.MjModel) -> dict[str, np.ndarray]:
 def law_from_model(model: mujoco.MjModel, source: str = "model") -> JointLaw:
     """The joint law a model declares in its ``jointrig_*`` ``<custom><numeric>`` fields."""
     fields = {k[len(PREFIX):]: v for k, v in _numeric_fields(model).items() if k.startswith(PREFIX)}
-    unknown = sorted(set(fields) - set(_SCALAR_FIELDS) - set(_ARRAY_FIELDS) - set(_EFFECT_FIELDS))
+    unknown = sorted(set(fields) - set(_SCALAR_FIELDS) - set(_ARRAY_FIELDS) - set(_EFFECT_FIELDS) - {_IWAN_CHI})
     if unknown:
         raise RigModelError(
             f"{source}: unknown joint-law field(s) {[PREFIX + u for u in unknown]}; expected "
-            f"{[PREFIX + f for f in list(_SCALAR_FIELDS) + list(_ARRAY_FIELDS) + list(_EFFECT_FIELDS)]}"
+            f"{[PREFIX + f for f in list(_SCALAR_FIELDS) + list(_ARRAY_FIELDS) + list(_EFFECT_FIELDS) + [_IWAN_CHI]]}"
         )
     terms: list[Term] = []
     values: list[float] = []
@@ -165,6 +171,17 @@ def law_from_model(model: mujoco.MjModel, source: str = "model") -> JointLaw:
     if eff.get("hysteresis_slip_angle_rad", 0.0) > 0:
         terms.append(Jenkins(eff["hysteresis_slip_angle_rad"]))
         values.append(eff["hysteresis_slip_torque_Nm"])
+    if ("iwan_slip_torque_Nm" in eff) != ("iwan_slip_angle_rad" in eff):
+        raise RigModelError(f"{source}: {PREFIX}iwan_slip_torque_Nm and {PREFIX}iwan_slip_angle_rad go together")
+    if (_IWAN_CHI in fields or "iwan_beta" in eff) and "iwan_slip_angle_rad" not in eff:
+        raise RigModelError(f"{source}: {PREFIX}iwan_chi and {PREFIX}iwan_beta shape an Iwan element: set "
+                            f"{PREFIX}iwan_slip_torque_Nm and {PREFIX}iwan_slip_angle_rad too")
+    if eff.get("iwan_slip_angle_rad", 0.0) > 0:
+        chi = fields.get(_IWAN_CHI, np.array([-0.5]))
+        if chi.size != 1 or not (-1.0 < float(chi[0]) <= 0.0):
+            raise RigModelError(f"{source}: {PREFIX}{_IWAN_CHI} must hold one number in (-1, 0], got {chi}")
+        terms.append(Iwan(eff["iwan_slip_angle_rad"], float(chi[0]), eff.get("iwan_beta", 0.1)))
+        values.append(eff["iwan_slip_torque_Nm"])
     return JointLaw(tuple(terms), tuple(values))
 
 
@@ -253,6 +270,14 @@ def identified_model_xml(plant: Plant, inertias_kgm2: tuple[float, float], *, te
         if isinstance(term, Jenkins):
             fields["hysteresis_slip_torque_Nm"] = [value]
             fields["hysteresis_slip_angle_rad"] = [term.slip_rad]
+        elif isinstance(term, Iwan):
+            if term.elements != Iwan(1.0).elements:
+                raise ValueError(f"identified_model_xml: an Iwan element of {term.elements} elements has no "
+                                 f"jointrig_* field (the rig discretises it into {Iwan(1.0).elements})")
+            fields["iwan_slip_torque_Nm"] = [value]
+            fields["iwan_slip_angle_rad"] = [term.slip_rad]
+            fields[_IWAN_CHI] = [term.chi]
+            fields["iwan_beta"] = [term.beta]
         elif term.name in _SCALAR_FIELDS and type(_SCALAR_FIELDS[term.name]) is type(term):
             fields[term.name] = [value]
         else:

@@ -72,10 +72,27 @@ def test_worn_model_declares_its_effects_in_mjcf():
     assert any(isinstance(t, Coulomb) for t in rig.law.terms)
 
 
+def test_an_iwan_joint_written_as_mjcf_reads_back_to_the_same_plant(tmp_path):
+    from jointrig.identify.basis import Iwan, JointLaw, Power, Viscous
+    from jointrig.identify.plant import Plant
+    from jointrig.rig.model import identified_model_xml
+
+    plant = Plant(JointLaw((Viscous(), Power(1), Iwan(0.02, -0.3, 0.25)), (5.0, 500.0, 40.0)))
+    path = tmp_path / "iwan.xml"
+    path.write_text(identified_model_xml(plant, (2.0, 2.0)))
+    back = load_rig(path).plant
+    assert back.law == plant.law and back.parameters() == plant.parameters()
+    assert back.parameters()["iwan_stiffness_Nm_per_rad"] == pytest.approx(40.0 * 1.25 / (0.02 * (0.25 + 0.7 / 1.7)))
+
+
 @pytest.mark.parametrize("fields, match", [
     ('<numeric name="jointrig_hysteresis_slip_torque_Nm" data="5"/>', "go together"),
     ('<numeric name="jointrig_drive_delay_s" data="-1"/>', ">= 0"),
     ('<numeric name="jointrig_bogus_Nm" data="1"/>', "unknown joint-law field"),
+    ('<numeric name="jointrig_iwan_slip_angle_rad" data="0.02"/>', "go together"),
+    ('<numeric name="jointrig_iwan_chi" data="-0.5"/>', "shape an Iwan element"),
+    ('<numeric name="jointrig_iwan_slip_torque_Nm" data="5"/><numeric name="jointrig_iwan_slip_angle_rad" '
+     'data="0.02"/><numeric name="jointrig_iwan_chi" data="0.5"/>', r"in \(-1, 0\]"),
 ])
 def test_bad_effect_fields_are_refused(tmp_path, fields, match):
     text = DEFAULT_MODEL.read_text().replace("<custom>", "<custom>\n    " + fields)

@@ -182,6 +182,9 @@ def format_card(card) -> str:
     lines.append(f"  dissipation slope d lnE / d lnA: runs {slope(card.runs)}, model at the runs "
                  f"{slope(card.model_at_runs)}, backbone {slope(card.model)} (viscous 2 and rate exponent 1, "
                  f"dry friction 1 and 0, micro-slip 3 + chi)")
+    from jointrig.rig.joint_card import masing_text
+
+    lines.append("  " + masing_text(card.masing))
     return "\n".join(lines)
 
 
