@@ -331,20 +331,24 @@ class Jenkins(Term):
         return (x - z) / self.slip_rad
 
 
-def _play_array(x: np.ndarray, slip: float, z0: float) -> np.ndarray:
+def _play_array(x: np.ndarray, slip, z0) -> np.ndarray:
     """:func:`play` applied along ``x`` from slider state ``z0``, vectorised by monotone runs:
     while x rises the slider is ``max(z_before, x - slip)``, while it falls
-    ``min(z_before, x + slip)`` (the same numbers as stepping :func:`play` sample by sample)."""
-    z = np.empty_like(x)
+    ``min(z_before, x + slip)`` (the same numbers as stepping :func:`play` sample by sample).
+    ``slip`` and ``z0`` may be arrays of shape (m,) (m sliders along the same ``x``, as in an
+    Iwan element): the result is then (m, x.size)."""
+    slip_a = np.asarray(slip, dtype=float)[..., None]
+    z = np.empty(slip_a.shape[:-1] + x.shape)
     if x.size == 0:
         return z
-    z[0] = play(float(x[0]), z0, slip)
+    x0 = float(x[0])
+    z[..., 0] = np.minimum(np.maximum(np.asarray(z0, dtype=float), x0 - slip_a[..., 0]), x0 + slip_a[..., 0])
     if x.size == 1:
         return z
     d = np.sign(np.diff(x))
     nz = np.flatnonzero(d)
     if nz.size == 0:
-        z[1:] = z[0]
+        z[..., 1:] = z[..., :1]
         return z
     # A flat step keeps the direction of the step before it (forward fill of the sign).
     fill = np.maximum.accumulate(np.where(d != 0, np.arange(d.size), 0))
@@ -352,11 +356,11 @@ def _play_array(x: np.ndarray, slip: float, z0: float) -> np.ndarray:
     d[: nz[0]] = d[nz[0]]
     starts = np.concatenate([[1], np.flatnonzero(d[1:] != d[:-1]) + 2])
     ends = np.concatenate([starts[1:], [x.size]])
-    before = z[0]
+    before = z[..., 0:1]
     for a, b in zip(starts.tolist(), ends.tolist()):
         seg = x[a:b]
-        z[a:b] = np.maximum(before, seg - slip) if d[a - 1] > 0 else np.minimum(before, seg + slip)
-        before = z[b - 1]
+        z[..., a:b] = np.maximum(before, seg - slip_a) if d[a - 1] > 0 else np.minimum(before, seg + slip_a)
+        before = z[..., b - 1:b]
     return z
 
 
@@ -460,13 +464,10 @@ class Iwan(Term):
         if isinstance(phi, float):
             raise TypeError("Iwan has state: the rig evaluates it with Iwan.step_torque(phi, state, at)")
         x = np.asarray(phi, dtype=float)
-        slips, stiff = self.slips_and_stiffnesses
-        total = np.zeros_like(x)
-        for s, k in zip(slips, stiff):
-            z = _play_array(x, s, 0.0)
-            z = _play_array(x, s, float(z[-1]))  # second pass: the periodic state
-            total += k * (x - z)
-        return total
+        slips, stiff = (np.asarray(v) for v in self.slips_and_stiffnesses)
+        z = _play_array(x, slips, np.zeros(slips.size))
+        z = _play_array(x, slips, z[:, -1])  # second pass: the periodic state
+        return np.asarray(stiff) @ (x[None, :] - z)
 
 
 @functools.lru_cache(maxsize=256)

@@ -298,7 +298,7 @@ MASING_U_POINTS, MASING_GRID = 64, 4096
 #: implied backbones that differ by less than this share of the smaller run's tip torque follow
 #: Masing's rule whatever the noise: the loops are band-limited (harmonics 1..8 by default), which
 #: rounds a slider's corners and rings along the branches (noise-free Jenkins and Iwan joints in
-#: the rig: 2.4% and 1.3% measured, tests/test_card.py)
+#: the rig: 2.4% and 1.6% measured, tests/test_card.py)
 MASING_FIDELITY = 0.04
 #: above this share of the tip torque (3 standard errors) the loops are too noisy to judge
 MASING_NOISE_LIMIT = 0.1

@@ -41,7 +41,7 @@ from scipy.optimize import minimize_scalar
 from scipy.stats import chi2 as chi2_dist
 
 from .balance import LinearSystem, equivalent_system, spectral_rate, two_dof_system
-from .basis import Coulomb, Jenkins, JointLaw, Power, QuadraticDamping, Term, Viscous
+from .basis import Coulomb, Iwan, Jenkins, JointLaw, Power, QuadraticDamping, Term, Viscous
 from .harmonics import fourier_coefficients, max_harmonic, synthesize
 from .plant import Plant, effect_parameters
 from .records import RecordError, SteadyStateRecord
@@ -481,6 +481,20 @@ def _with_jenkins(spec: ModelSpec, slip: float) -> ModelSpec:
     return replace(spec, terms=terms)
 
 
+def _with_iwan(spec: ModelSpec, slip: float) -> ModelSpec:
+    terms = tuple(t for t in spec.terms if not isinstance(t, Iwan)) + (Iwan(slip, IWAN_CHI, IWAN_BETA),)
+    return replace(spec, terms=terms)
+
+
+#: The micro-slip cause's Iwan shape, fixed: chi = -0.5 (the middle of Segalman's range (-1, 0])
+#: and beta = 0.1; only the largest slip angle is profiled, the macroslip torque is linear.
+IWAN_CHI, IWAN_BETA = -0.5, 0.1
+
+
+def _largest_amplitude(runs) -> float:
+    return max(float(np.max(np.abs(r.average.phi_rad - r.average.phi_rad.mean()))) for r in runs)
+
+
 CAUSES: tuple[Cause, ...] = (
     Cause("coulomb_friction", "dry friction in the joint: a torque of constant size opposing the relative rate",
           lambda s, h: _with_terms(s, (Coulomb(),)), "coulomb_torque_Nm", 1),
@@ -493,6 +507,11 @@ CAUSES: tuple[Cause, ...] = (
           _with_jenkins, "hysteresis_slip_torque_Nm", 1,
           bounds=lambda runs: (1e-3 * _amplitude(runs), 0.9 * _amplitude(runs)), log_scale=True,
           profiled="hysteresis_slip_angle_rad"),
+    Cause("micro_slip", "micro-slip: an Iwan element (Segalman's four-parameter distribution of Jenkins elements, "
+          f"chi = {IWAN_CHI}, beta = {IWAN_BETA}), as in bolted and clamped joints",
+          _with_iwan, "iwan_slip_torque_Nm", 1,
+          bounds=lambda runs: (1e-3 * _amplitude(runs), 2.0 * _largest_amplitude(runs)), log_scale=True,
+          profiled="iwan_slip_angle_rad"),
     Cause("quadratic_damping", "damping torque proportional to the rate squared",
           lambda s, h: _with_terms(s, (QuadraticDamping(),)), "quadratic_damping_Nms2_per_rad2", 1),
     Cause("drive_delay", "the drive torque reaches flywheel 1 later than it is recorded",
@@ -526,6 +545,10 @@ EFFECT_MAGNITUDE = {c.name: c.magnitude for c in CAUSES}
 SEPARATING_EXCITATION = {
     frozenset({"coulomb_friction", "hysteresis"}): "runs at small amplitude (below the slip angle a Jenkins "
     "element is a pure spring while dry friction still dissipates): add a low-amplitude run",
+    frozenset({"hysteresis", "micro_slip"}): "runs at several small amplitudes (a Jenkins element dissipates "
+    "nothing below its slip angle, an Iwan element a little at every amplitude, growing as A^(3 + chi))",
+    frozenset({"coulomb_friction", "micro_slip"}): "runs at small amplitude (there an Iwan element is mostly a "
+    "spring and dissipates as A^(3 + chi); dry friction dissipates 4 F A at every amplitude)",
     frozenset({"coulomb_friction", "quadratic_damping"}): "an amplitude sweep at one frequency (dry friction "
     "dissipates per cycle in proportion to amplitude, quadratic damping to amplitude cubed)",
     frozenset({"drive_delay", "quadratic_damping"}): "a frequency sweep at constant amplitude (a delay's "
@@ -705,6 +728,7 @@ def score_cause(problem: _Problem, cause: Cause, base: Fit, weights: np.ndarray,
 #: Parameters that dissipate energy when positive: an extended model with one of them
 #: significantly negative (beyond 2 standard errors) would feed energy in and is never adopted.
 DISSIPATIVE = ("c_Nms_per_rad", "coulomb_torque_Nm", "quadratic_damping_Nms2_per_rad2", "hysteresis_slip_torque_Nm",
+               "iwan_slip_torque_Nm",
                "bearing1_damping_Nms_per_rad", "bearing2_damping_Nms_per_rad")
 
 
@@ -736,7 +760,8 @@ def _degenerate(problem: "_Problem", cause: "Cause", ext: Fit) -> str:
     """A fitted cause that is really another, or nothing: a Jenkins element whose slip angle is
     below what the angles resolve never sticks (it is dry friction); a free play below it is
     no free play. Empty if the cause stands as fitted."""
-    if cause.bounds is None or cause.profiled not in ("hysteresis_slip_angle_rad", "backlash_half_gap_rad"):
+    if cause.bounds is None or cause.profiled not in ("hysteresis_slip_angle_rad", "iwan_slip_angle_rad",
+                                                       "backlash_half_gap_rad"):
         return ""
     h = ext.effect_parameters().get(cause.profiled, math.nan)
     lo = cause.bounds(problem.runs)[0]
@@ -746,6 +771,9 @@ def _degenerate(problem: "_Problem", cause: "Cause", ext: Fit) -> str:
     if cause.name == "hysteresis":
         return (f"its slip angle {h:.3g} rad is below the angle resolution {res:.2g} rad: a Jenkins element that never "
                 f"sticks is dry friction (see coulomb_friction)")
+    if cause.name == "micro_slip":
+        return (f"its largest slip angle {h:.3g} rad is below the angle resolution {res:.2g} rad: an Iwan element that "
+                f"never sticks is dry friction (see coulomb_friction)")
     return f"its half gap {h:.3g} rad is below the angle resolution {res:.2g} rad: no free play is resolved"
 
 

@@ -13,7 +13,7 @@ from typing import Optional
 
 import numpy as np
 
-from jointrig.identify.basis import Coulomb, Jenkins, JointLaw, Power, QuadraticDamping, Viscous
+from jointrig.identify.basis import Coulomb, Iwan, Jenkins, JointLaw, Power, QuadraticDamping, Viscous
 from jointrig.identify.plant import Plant
 from jointrig.identify.records import SteadyStateRecord
 
@@ -40,6 +40,8 @@ HIDDEN_EFFECTS: dict[str, tuple[Plant, dict]] = {
     "backlash": (Plant(JointLaw(_gap(0.02), VALUES)), {"backlash_half_gap_rad": 0.02}),
     "asymmetric_stiffness": (Plant(JointLaw(BASE + (Power(2),), VALUES + (200.0,))), {"a_Nm_per_rad2": 200.0}),
     "hysteresis": (Plant(JointLaw(BASE + (Jenkins(0.05),), VALUES + (50.0,))), {"hysteresis_slip_torque_Nm": 50.0}),
+    # Micro-slip: the largest slip angle 0.5 rad is beyond all but one run's amplitude (0.14-0.61 rad).
+    "micro_slip": (Plant(JointLaw(BASE + (Iwan(0.5, -0.5, 0.1),), VALUES + (80.0,))), {"iwan_slip_torque_Nm": 80.0}),
     "quadratic_damping": (Plant(JointLaw(BASE + (QuadraticDamping(),), VALUES + (1.0,))),
                           {"quadratic_damping_Nms2_per_rad2": 1.0}),
     "drive_delay": (Plant(JointLaw(BASE, VALUES), drive_delay_s=0.001), {"drive_delay_s": 0.001}),
