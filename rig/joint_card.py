@@ -23,7 +23,7 @@ from jointrig.identify.records import SteadyStateRecord
 
 from .validate import DiagnosisReport
 
-__all__ = ["CardReport", "card_of_diagnosis", "card_json", "card_png", "masing_text"]
+__all__ = ["CardReport", "card_of_diagnosis", "identified_law", "card_json", "card_png", "masing_text"]
 
 #: amplitudes of the model's curves, spaced geometrically over the runs' range
 N_CURVE_POINTS = 25
@@ -40,8 +40,9 @@ class CardReport:
     masing: MasingCheck  # do the runs' loops follow from one backbone (Masing's rule)?
 
 
-def card_of_diagnosis(report: DiagnosisReport, records: Sequence[SteadyStateRecord], *,
-                      run_ids: Sequence[str] | None = None, torque_share: float = 0.5) -> CardReport:
+def identified_law(report: DiagnosisReport, torque_share: float = 0.5):
+    """``(law, Je, covariance of (Je, law values) or None, model name, (J1, J2))`` of the model
+    the diagnosis stands behind (module docstring)."""
     d = report.diagnosis
     use_extended = report.verdict.verdict == "explained" and d.extended is not d.nominal
     f = d.extended if use_extended else d.nominal
@@ -50,7 +51,6 @@ def card_of_diagnosis(report: DiagnosisReport, records: Sequence[SteadyStateReco
     plant, (J1, J2) = plant_of(f, torque_share)
     law = plant.law
     je = J1 * J2 / (J1 + J2)
-    runs = runs_card(records, J1, J2, run_ids=run_ids, n_harmonics=report.band)
     cov = None
     if f.covariance is not None:
         idx = {n: i for i, n in enumerate(f.names)}
@@ -64,6 +64,13 @@ def card_of_diagnosis(report: DiagnosisReport, records: Sequence[SteadyStateReco
             if n in idx:
                 T[1 + r, idx[n]] = 1.0
         cov = T @ f.covariance @ T.T
+    return law, je, cov, name, (J1, J2)
+
+
+def card_of_diagnosis(report: DiagnosisReport, records: Sequence[SteadyStateRecord], *,
+                      run_ids: Sequence[str] | None = None, torque_share: float = 0.5) -> CardReport:
+    law, je, cov, name, (J1, J2) = identified_law(report, torque_share)
+    runs = runs_card(records, J1, J2, run_ids=run_ids, n_harmonics=report.band)
     amps = [p.amplitude_rad for p in runs.points]
     grid = np.geomspace(min(amps), max(amps), N_CURVE_POINTS) if max(amps) > min(amps) else np.array(amps[:1])
     model = law_card(law, je, grid, covariance=cov, inertia_index=0)
