@@ -176,20 +176,46 @@ def _memo(rec: SteadyStateRecord, key: tuple, compute):
     return value
 
 
+def _memo_arrays(arrays: tuple, key: tuple, compute):
+    """:func:`_memo` keyed by the identity of the arrays a value is computed from (held in the
+    entry, so no id is reused while cached): records that share their angles (a record whose
+    rate alone was replaced, as the dry-friction kink correction does) share angle-only columns."""
+    k = tuple(id(a) for a in arrays) + key
+    hit = _MEMO.get(k)
+    if hit is not None and all(x is y for x, y in zip(hit[0], arrays)):
+        return hit[1]
+    value = compute()
+    if len(_MEMO) >= _MEMO_MAX:
+        _MEMO.clear()
+    _MEMO[k] = (arrays, value)
+    return value
+
+
 def _record_term_coeffs(rec: SteadyStateRecord, terms: Sequence[Term], n_harmonics: int,
                         oversample: int) -> np.ndarray:
-    """:func:`_term_coeffs` of the relative motion of ``rec``, one memoised row per term."""
-    def fine():
-        phi = rec.phi_rad
-        rate = _rate_or_spectral(rec.rate_rad_s, phi, rec)
-        return upsample(phi, oversample), upsample(rate, oversample)
+    """:func:`_term_coeffs` of the relative motion of ``rec``, one memoised row per term: a term
+    of the angle alone (elastic, or with memory of the angle: Jenkins, Iwan) by the record's
+    angles, any other also by its rates."""
+    angles = (rec.phi1_rad, rec.phi2_rad)
+    motion = angles + (rec.rate1_rad_s, rec.rate2_rad_s)
+
+    def fine_phi():
+        return upsample(rec.phi_rad, oversample)
+
+    def fine_rate():
+        return upsample(_rate_or_spectral(rec.rate_rad_s, rec.phi_rad, rec), oversample)
 
     def row(term):
+        angle_only = term.elastic or term.stateful
+        on = angles if angle_only else motion
+
         def compute():
-            phi, rate = _memo(rec, ("fine", oversample), fine)
+            phi = _memo_arrays(angles, ("fine_phi", oversample), fine_phi)
+            rate = (np.zeros_like(phi) if angle_only
+                    else _memo_arrays(motion, ("fine_rate", oversample), fine_rate))
             sig = np.broadcast_to(np.asarray(term(phi, rate), dtype=float), phi.shape)
             return fourier_coefficients(sig, rec.n_periods, n_harmonics)
-        return _memo(rec, ("term", term, n_harmonics, oversample), compute)
+        return _memo_arrays(on, ("term", term, rec.n_periods, n_harmonics, oversample), compute)
 
     return np.vstack([row(t) for t in terms])
 
