@@ -31,12 +31,16 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass
-from typing import Sequence, Union
+from typing import ClassVar, Optional, Sequence, Union
 
 import numpy as np
 
 __all__ = [
     "Term",
+    "NativeTerm",
+    "FieldError",
+    "TERM_CLASSES",
+    "law_terms_from_fields",
     "Viscous",
     "Power",
     "Coulomb",
@@ -114,9 +118,59 @@ def _hat(x: ArrayLike, knots: tuple[float, ...], i: int) -> ArrayLike:
     return np.where(j == i, 1.0 - s, 0.0) + np.where(j + 1 == i, s, 0.0)
 
 
+class FieldError(ValueError):
+    """A model file's ``jointrig_*`` fields do not make a law term (names the field)."""
+
+
+@dataclass(frozen=True)
+class NativeTerm:
+    """How the C callback (rig/native/jointrig_law.c) evaluates a term: its ``kind`` (the C
+    ``case``), three integers and a float it reads, knots (stored in a shared array; their
+    offset becomes ``ints[1]``) and sliders (``(slip angle rad, stiffness)`` each; the first
+    one's index becomes ``ints[0]``, their count ``ints[2]``)."""
+
+    kind: int
+    ints: tuple[int, int, int] = (0, 0, 0)
+    dpar: float = 0.0
+    knots: tuple[float, ...] = ()
+    sliders: tuple[tuple[float, float], ...] = ()
+
+
 @dataclass(frozen=True)
 class Term:
-    """One basis function ``b(phi, phi')`` of the joint torque, in N m per unit parameter."""
+    """One basis function ``b(phi, phi')`` of the joint torque, in N m per unit parameter.
+
+    A term describes itself once: its mathematics (``__call__``, and for a term with memory
+    ``step_torque``/``commit``), its C case (:meth:`native`), its model-file fields
+    (``MJCF_FIELDS``, :meth:`read_fields`, :meth:`fields`), the sign its parameter must keep
+    (``dissipative``) and the parameters derived from it (:meth:`derived_parameters`). The
+    rig, the model reader and writer and the diagnosis ask these; adding a term is its class
+    here (listed in :data:`TERM_CLASSES`) and its ``case`` in the C callback.
+    """
+
+    #: ``jointrig_*`` fields (without the prefix) this class reads from a model file
+    MJCF_FIELDS: ClassVar[tuple[str, ...]] = ()
+    #: a positive parameter dissipates energy: a negative one feeds energy in (refused in a
+    #: model file, never adopted by the diagnosis)
+    dissipative: ClassVar[bool] = False
+
+    def native(self) -> Optional[NativeTerm]:
+        """The C callback's description of this term, or None (no C case: Python callback only)."""
+        return None
+
+    @classmethod
+    def read_fields(cls, fields: dict) -> list[tuple["Term", float]]:
+        """The terms (and values) this class reads from a model's fields (name without the
+        prefix -> array); [] when none of its fields is there. Raises :class:`FieldError`."""
+        return []
+
+    def fields(self, value: float) -> dict[str, list[float]]:
+        """The model-file fields that declare this term with parameter ``value``."""
+        raise FieldError(f"the law term {self.name!r} has no jointrig_* field to write")
+
+    def derived_parameters(self, value: float) -> dict[str, float]:
+        """Named parameters that follow from the term and its value (a slip angle, a stiffness)."""
+        return {}
 
     #: True for a term with memory (:class:`Jenkins`, :class:`Iwan`): no scalar ``__call__``;
     #: the rig keeps ``n_states`` floats for it and calls :meth:`step_torque` and :meth:`commit`.
@@ -136,9 +190,46 @@ class Term:
         raise NotImplementedError
 
 
+def _scalar(fields: dict, name: str, *, nonnegative: bool = False, dissipates: bool = False,
+            default: Optional[float] = None) -> Optional[float]:
+    """One finite number from field ``name`` (None, or ``default``, if absent); ``>= 0`` when
+    ``nonnegative`` or ``dissipates`` (then the message says why)."""
+    if name not in fields:
+        return default
+    data = np.asarray(fields[name], dtype=float).ravel()
+    if data.size != 1 or not math.isfinite(data[0]):
+        raise FieldError(f"jointrig_{name} must hold one finite number, got {data}")
+    if dissipates and not data[0] >= 0:
+        raise FieldError(f"jointrig_{name} must be >= 0 (a negative one feeds energy in), got {data[0]:g}")
+    if nonnegative and not data[0] >= 0:
+        raise FieldError(f"jointrig_{name} must hold one finite number >= 0, got {data[0]:g}")
+    return float(data[0])
+
+
+def _pair(fields: dict, first: str, second: str) -> bool:
+    """True if both fields are there; refuses one without the other."""
+    if (first in fields) != (second in fields):
+        raise FieldError(f"jointrig_{first} and jointrig_{second} go together")
+    return first in fields
+
+
 @dataclass(frozen=True)
 class Viscous(Term):
     """Viscous damping ``c * phi'``."""
+
+    MJCF_FIELDS = ("c_Nms_per_rad",)
+    dissipative = True
+
+    def native(self):
+        return NativeTerm(0)
+
+    @classmethod
+    def read_fields(cls, fields):
+        c = _scalar(fields, "c_Nms_per_rad")
+        return [] if c is None else [(cls(), c)]
+
+    def fields(self, value):
+        return {"c_Nms_per_rad": [value]}
 
     @property
     def name(self) -> str:
@@ -214,6 +305,29 @@ class Power(Term):
             raise ValueError("Power.gap_rad needs power >= 1 (a preload has no free play)")
         object.__setattr__(self, "gap_rad", gap)
 
+    MJCF_FIELDS = tuple(_POWER_NAMES.values()) + ("backlash_half_gap_rad",)
+
+    def native(self):
+        return NativeTerm(1, (self.power, 0, 0), self.gap_rad)
+
+    @classmethod
+    def read_fields(cls, fields):
+        gap = _scalar(fields, "backlash_half_gap_rad", nonnegative=True, default=0.0)
+        out = []
+        for p, name in _POWER_NAMES.items():
+            v = _scalar(fields, name)
+            if v is not None:
+                out.append((cls(p, gap if p >= 1 else 0.0), v))
+        return out
+
+    def fields(self, value):
+        if self.power not in _POWER_NAMES:
+            return super().fields(value)
+        out = {self.name: [value]}
+        if self.gap_rad > 0:
+            out["backlash_half_gap_rad"] = [self.gap_rad]
+        return out
+
     @property
     def name(self) -> str:
         return _POWER_NAMES.get(self.power, f"p{self.power}_Nm_per_rad{self.power}")
@@ -234,6 +348,20 @@ class Power(Term):
 class Coulomb(Term):
     """Dry (Coulomb) friction in the joint: ``sign(phi')`` -> ``coulomb_torque_Nm``."""
 
+    MJCF_FIELDS = ("coulomb_torque_Nm",)
+    dissipative = True
+
+    def native(self):
+        return NativeTerm(5)
+
+    @classmethod
+    def read_fields(cls, fields):
+        v = _scalar(fields, "coulomb_torque_Nm", dissipates=True)
+        return [] if v is None else [(cls(), v)]
+
+    def fields(self, value):
+        return {"coulomb_torque_Nm": [value]}
+
     @property
     def name(self) -> str:
         return "coulomb_torque_Nm"
@@ -251,6 +379,20 @@ class Coulomb(Term):
 @dataclass(frozen=True)
 class QuadraticDamping(Term):
     """Quadratic (turbulent) damping ``phi' |phi'|`` -> ``quadratic_damping_Nms2_per_rad2``."""
+
+    MJCF_FIELDS = ("quadratic_damping_Nms2_per_rad2",)
+    dissipative = True
+
+    def native(self):
+        return NativeTerm(6)
+
+    @classmethod
+    def read_fields(cls, fields):
+        v = _scalar(fields, "quadratic_damping_Nms2_per_rad2", dissipates=True)
+        return [] if v is None else [(cls(), v)]
+
+    def fields(self, value):
+        return {"quadratic_damping_Nms2_per_rad2": [value]}
 
     @property
     def name(self) -> str:
@@ -299,6 +441,25 @@ class Jenkins(Term):
         object.__setattr__(self, "slip_rad", slip)
 
     stateful = True
+    MJCF_FIELDS = ("hysteresis_slip_torque_Nm", "hysteresis_slip_angle_rad")
+    dissipative = True
+
+    def native(self):
+        return NativeTerm(7, dpar=self.slip_rad, sliders=((self.slip_rad, 0.0),))
+
+    @classmethod
+    def read_fields(cls, fields):
+        if not _pair(fields, "hysteresis_slip_torque_Nm", "hysteresis_slip_angle_rad"):
+            return []
+        torque = _scalar(fields, "hysteresis_slip_torque_Nm", dissipates=True)
+        slip = _scalar(fields, "hysteresis_slip_angle_rad", nonnegative=True)
+        return [(cls(slip), torque)] if slip > 0 else []
+
+    def fields(self, value):
+        return {"hysteresis_slip_torque_Nm": [value], "hysteresis_slip_angle_rad": [self.slip_rad]}
+
+    def derived_parameters(self, value):
+        return {"hysteresis_slip_angle_rad": self.slip_rad, "hysteresis_stiffness_Nm_per_rad": value / self.slip_rad}
 
     @property
     def name(self) -> str:
@@ -424,6 +585,38 @@ class Iwan(Term):
         object.__setattr__(self, "elements", int(self.elements))
 
     stateful = True
+    MJCF_FIELDS = ("iwan_slip_torque_Nm", "iwan_slip_angle_rad", "iwan_chi", "iwan_beta")
+    dissipative = True
+
+    def native(self):
+        slips, stiff = self.slips_and_stiffnesses
+        return NativeTerm(8, sliders=tuple(zip(slips, stiff)))
+
+    @classmethod
+    def read_fields(cls, fields):
+        if not _pair(fields, "iwan_slip_torque_Nm", "iwan_slip_angle_rad"):
+            if "iwan_chi" in fields or "iwan_beta" in fields:
+                raise FieldError("jointrig_iwan_chi and jointrig_iwan_beta shape an Iwan element: set "
+                                 "jointrig_iwan_slip_torque_Nm and jointrig_iwan_slip_angle_rad too")
+            return []
+        torque = _scalar(fields, "iwan_slip_torque_Nm", dissipates=True)
+        slip = _scalar(fields, "iwan_slip_angle_rad", nonnegative=True)
+        chi = _scalar(fields, "iwan_chi", default=-0.5)
+        if not -1.0 < chi <= 0.0:
+            raise FieldError(f"jointrig_iwan_chi must hold one number in (-1, 0], got {chi}")
+        beta = _scalar(fields, "iwan_beta", nonnegative=True, default=0.1)
+        return [(cls(slip, chi, beta), torque)] if slip > 0 else []
+
+    def fields(self, value):
+        if self.elements != type(self).__dataclass_fields__["elements"].default:
+            raise FieldError(f"an Iwan element of {self.elements} elements has no jointrig_* field (the model file's "
+                             f"has {type(self).__dataclass_fields__['elements'].default})")
+        return {"iwan_slip_torque_Nm": [value], "iwan_slip_angle_rad": [self.slip_rad], "iwan_chi": [self.chi],
+                "iwan_beta": [self.beta]}
+
+    def derived_parameters(self, value):
+        return {"iwan_slip_angle_rad": self.slip_rad, "iwan_chi": self.chi, "iwan_beta": self.beta,
+                "iwan_stiffness_Nm_per_rad": value * self.stiffness_per_torque}
 
     @property
     def name(self) -> str:
@@ -490,6 +683,9 @@ class Monomial(Term):
             raise ValueError(f"Monomial needs ints angle_power >= 0, rate_power >= 1, not (0, 1) "
                              f"(that is Viscous); got ({self.angle_power!r}, {self.rate_power!r})")
 
+    def native(self):
+        return NativeTerm(2, (self.angle_power, self.rate_power, 0))
+
     @property
     def name(self) -> str:
         return f"c_p{self.angle_power}_q{self.rate_power}"
@@ -521,6 +717,17 @@ class _Hat(Term):
 class AngleHat(_Hat):
     """Hat function ``hat_i(phi)`` on ``knots`` (rad): the restoring torque at knot i (eq. 8)."""
 
+    MJCF_FIELDS = ("knots_rad", "g_Nm")
+
+    def native(self):
+        return NativeTerm(3, (self.index, 0, len(self.knots)), knots=self.knots)
+
+    @classmethod
+    def read_fields(cls, fields):
+        if "k_Nm_per_rad" in fields and "knots_rad" in fields:
+            raise FieldError("jointrig_k_Nm_per_rad and jointrig_knots_rad both set the linear stiffness; keep one")
+        return _read_hats(fields, "knots_rad", "g_Nm", angle_hats)
+
     @property
     def name(self) -> str:
         return f"g{self.index}_Nm"
@@ -537,6 +744,15 @@ class AngleHat(_Hat):
 class RateHat(_Hat):
     """Hat function ``hat_i(phi')`` on ``knots`` (rad/s): the damping torque at knot i (eq. 9)."""
 
+    MJCF_FIELDS = ("rate_knots_rad_s", "f_Nm")
+
+    def native(self):
+        return NativeTerm(4, (self.index, 0, len(self.knots)), knots=self.knots)
+
+    @classmethod
+    def read_fields(cls, fields):
+        return _read_hats(fields, "rate_knots_rad_s", "f_Nm", rate_hats)
+
     @property
     def name(self) -> str:
         return f"f{self.index}_Nm"
@@ -549,6 +765,20 @@ class RateHat(_Hat):
         return _hat(rate, self.knots, self.index)
 
 
+def _read_hats(fields: dict, knots_name: str, values_name: str, make) -> list[tuple[Term, float]]:
+    if not _pair(fields, knots_name, values_name):
+        return []
+    knots = np.asarray(fields[knots_name], dtype=float).ravel()
+    vals = np.asarray(fields[values_name], dtype=float).ravel()
+    if knots.size != vals.size:
+        raise FieldError(f"jointrig_{knots_name} has {knots.size} entries but jointrig_{values_name} has {vals.size}")
+    try:
+        hats = make(knots)
+    except ValueError as err:
+        raise FieldError(f"jointrig_{knots_name}: {err}") from None
+    return list(zip(hats, (float(v) for v in vals)))
+
+
 def angle_hats(knots: Sequence[float]) -> tuple[AngleHat, ...]:
     k = _check_knots(knots, "angle knots")
     return tuple(AngleHat(k, i) for i in range(len(k)))
@@ -557,6 +787,20 @@ def angle_hats(knots: Sequence[float]) -> tuple[AngleHat, ...]:
 def rate_hats(knots: Sequence[float]) -> tuple[RateHat, ...]:
     k = _check_knots(knots, "rate knots")
     return tuple(RateHat(k, i) for i in range(len(k)))
+
+
+#: Every term a model file can declare, in the order its terms enter the law (the order of the
+#: sums in both callbacks, so it is part of the bits of every trajectory).
+TERM_CLASSES: tuple[type[Term], ...] = (Viscous, Power, Coulomb, QuadraticDamping, AngleHat, RateHat, Jenkins, Iwan)
+
+
+def law_terms_from_fields(fields: dict) -> list[tuple[Term, float]]:
+    """The law's terms and values a model file's ``jointrig_*`` fields declare (names without
+    the prefix), in :data:`TERM_CLASSES` order. Raises :class:`FieldError`."""
+    out: list[tuple[Term, float]] = []
+    for cls in TERM_CLASSES:
+        out.extend(cls.read_fields(fields))
+    return out
 
 
 @dataclass(frozen=True)

@@ -727,13 +727,15 @@ def score_cause(problem: _Problem, cause: Cause, base: Fit, weights: np.ndarray,
 
 #: Parameters that dissipate energy when positive: an extended model with one of them
 #: significantly negative (beyond 2 standard errors) would feed energy in and is never adopted.
-DISSIPATIVE = ("c_Nms_per_rad", "coulomb_torque_Nm", "quadratic_damping_Nms2_per_rad2", "hysteresis_slip_torque_Nm",
-               "iwan_slip_torque_Nm",
-               "bearing1_damping_Nms_per_rad", "bearing2_damping_Nms_per_rad")
+def _dissipative_names(f: Fit) -> tuple[str, ...]:
+    """The fit's parameters that dissipate when positive: its dissipative law terms' (each term
+    says so: ``Term.dissipative``) and the bearings' drag."""
+    law = tuple(t.name for t in f.spec.terms if t.dissipative)
+    return law + ("bearing1_damping_Nms_per_rad", "bearing2_damping_Nms_per_rad")
 
 
 def _feeds_energy(f: Fit) -> str:
-    for name in DISSIPATIVE:
+    for name in _dissipative_names(f):
         if name in f.names:
             v, se = f.values[f.names.index(name)], f.std_errors[f.names.index(name)]
             if v < 0 and (not math.isfinite(se) or -v > 2 * se):

@@ -22,7 +22,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from .basis import Iwan, JointLaw, Jenkins, Power
+from .basis import JointLaw, Power
 
 __all__ = ["Plant", "PeriodicDrive", "effect_parameters", "drive_of_record"]
 
@@ -142,14 +142,7 @@ def effect_parameters(plant: Plant) -> dict[str, float]:
             raise ValueError(f"the elastic terms have different free plays {sorted(gaps)}")
         out["backlash_half_gap_rad"] = gaps.pop()
     for t, v in zip(plant.law.terms, plant.law.values):
-        if isinstance(t, Jenkins):
-            out["hysteresis_slip_angle_rad"] = t.slip_rad
-            out["hysteresis_stiffness_Nm_per_rad"] = v / t.slip_rad
-        elif isinstance(t, Iwan):
-            out["iwan_slip_angle_rad"] = t.slip_rad
-            out["iwan_chi"] = t.chi
-            out["iwan_beta"] = t.beta
-            out["iwan_stiffness_Nm_per_rad"] = v * t.stiffness_per_torque
+        out.update(t.derived_parameters(v))
     for name in ("bearing1_damping_Nms_per_rad", "bearing2_damping_Nms_per_rad", "drive_delay_s"):
         if getattr(plant, name):
             out[name] = getattr(plant, name)

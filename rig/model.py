@@ -14,9 +14,8 @@ from typing import Union
 import mujoco
 import numpy as np
 
-from jointrig.identify.basis import (Coulomb, Iwan, Jenkins, JointLaw, Power, QuadraticDamping, Term, Viscous, angle_hats,
-                            rate_hats)
-from jointrig.identify.plant import Plant, effect_parameters
+from jointrig.identify.basis import TERM_CLASSES, FieldError, JointLaw, law_terms_from_fields
+from jointrig.identify.plant import Plant
 
 __all__ = ["RigModel", "RigModelError", "load_rig", "law_from_model", "plant_from_model", "DEFAULT_MODEL"]
 
@@ -32,25 +31,12 @@ _SENSOR_TYPES = {"jointpos": mujoco.mjtSensor.mjSENS_JOINTPOS,
                  "actuatorfrc": mujoco.mjtSensor.mjSENS_ACTUATORFRC}
 
 PREFIX = "jointrig_"
-#: Law fields that dissipate and must not be negative.
-NONNEGATIVE_FIELDS = ("coulomb_torque_Nm", "quadratic_damping_Nms2_per_rad2")
+#: Fields of the plant outside the joint law (the law's own fields are its terms': TERM_CLASSES).
+_PLANT_FIELDS = ("bearing1_damping_Nms_per_rad", "bearing2_damping_Nms_per_rad", "drive_delay_s")
 
-_SCALAR_FIELDS: dict[str, Term] = {
-    "c_Nms_per_rad": Viscous(),
-    "constant_Nm": Power(0),
-    "k_Nm_per_rad": Power(1),
-    "a_Nm_per_rad2": Power(2),
-    "gamma_Nm_per_rad3": Power(3),
-    "coulomb_torque_Nm": Coulomb(),
-    "quadratic_damping_Nms2_per_rad2": QuadraticDamping(),
-}
-_ARRAY_FIELDS = ("knots_rad", "g_Nm", "rate_knots_rad_s", "f_Nm")
-#: Effects beyond the law's linear parameters (see :class:`identify.plant.Plant`).
-_EFFECT_FIELDS = ("backlash_half_gap_rad", "hysteresis_slip_torque_Nm", "hysteresis_slip_angle_rad",
-                  "iwan_slip_torque_Nm", "iwan_slip_angle_rad", "iwan_beta",
-                  "bearing1_damping_Nms_per_rad", "bearing2_damping_Nms_per_rad", "drive_delay_s")
-#: The Iwan element's exponent chi in (-1, 0] (default -0.5), the one signed effect field.
-_IWAN_CHI = "iwan_chi"
+
+def _known_fields() -> tuple[str, ...]:
+    return tuple(f for cls in TERM_CLASSES for f in cls.MJCF_FIELDS) + _PLANT_FIELDS
 
 
 class RigModelError(ValueError):
@@ -66,13 +52,9 @@ class RigModel:
       model: the compiled ``mujoco.MjModel`` (compiled once, before any callback is installed).
       law: the joint law read from the file's ``jointrig_*`` numeric fields.
       plant: the law plus bearing drag and drive delay (``jointrig_bearing1_damping_Nms_per_rad``,
-        ``..._bearing2_...``, ``jointrig_drive_delay_s``); effects inside the law are
-        ``jointrig_coulomb_torque_Nm``, ``jointrig_quadratic_damping_Nms2_per_rad2``,
-        ``jointrig_backlash_half_gap_rad`` (free play of every stiffness term) and
-        ``jointrig_hysteresis_slip_torque_Nm`` with ``jointrig_hysteresis_slip_angle_rad``
-        (a Jenkins element), ``jointrig_iwan_slip_torque_Nm`` with ``jointrig_iwan_slip_angle_rad``
-        and optional ``jointrig_iwan_chi`` (default -0.5) and ``jointrig_iwan_beta`` (default
-        0.1): Segalman's four-parameter Iwan element (micro-slip).
+        ``..._bearing2_...``, ``jointrig_drive_delay_s``); the law's fields are those its term
+        classes read (``MJCF_FIELDS`` of :data:`identify.basis.TERM_CLASSES`: c, k, a, gamma,
+        dry friction, quadratic damping, free play, hat knots, Jenkins and Iwan elements).
       J1_kgm2, J2_kgm2: flywheel inertias about the hinge axis (from the compiled mass matrix).
       qpos_adr, dof_adr: addresses of phi1 and phi2 in qpos and qvel.
       actuator_id: the drive motor.
@@ -114,82 +96,34 @@ def _numeric_fields(model: mujoco.MjModel) -> dict[str, np.ndarray]:
 
 
 def law_from_model(model: mujoco.MjModel, source: str = "model") -> JointLaw:
-    """The joint law a model declares in its ``jointrig_*`` ``<custom><numeric>`` fields."""
+    """The joint law a model declares in its ``jointrig_*`` ``<custom><numeric>`` fields (each
+    term class reads its own: :data:`identify.basis.TERM_CLASSES`)."""
     fields = {k[len(PREFIX):]: v for k, v in _numeric_fields(model).items() if k.startswith(PREFIX)}
-    unknown = sorted(set(fields) - set(_SCALAR_FIELDS) - set(_ARRAY_FIELDS) - set(_EFFECT_FIELDS) - {_IWAN_CHI})
+    known = _known_fields()
+    unknown = sorted(set(fields) - set(known))
     if unknown:
-        raise RigModelError(
-            f"{source}: unknown joint-law field(s) {[PREFIX + u for u in unknown]}; expected "
-            f"{[PREFIX + f for f in list(_SCALAR_FIELDS) + list(_ARRAY_FIELDS) + list(_EFFECT_FIELDS) + [_IWAN_CHI]]}"
-        )
-    terms: list[Term] = []
-    values: list[float] = []
-    for name, term in _SCALAR_FIELDS.items():
-        if name in fields:
-            data = fields[name]
-            if data.size != 1:
-                raise RigModelError(f"{source}: {PREFIX}{name} must hold one number, got {data.size}")
-            if name in NONNEGATIVE_FIELDS and not data[0] >= 0:
-                raise RigModelError(f"{source}: {PREFIX}{name} must be >= 0 (a negative one feeds energy in), "
-                                    f"got {data[0]:g}")
-            terms.append(term)
-            values.append(float(data[0]))
-    for knots_name, values_name, make in (("knots_rad", "g_Nm", angle_hats),
-                                          ("rate_knots_rad_s", "f_Nm", rate_hats)):
-        if (knots_name in fields) != (values_name in fields):
-            raise RigModelError(f"{source}: {PREFIX}{knots_name} and {PREFIX}{values_name} go together")
-        if knots_name in fields:
-            knots, vals = fields[knots_name], fields[values_name]
-            if knots.size != vals.size:
-                raise RigModelError(f"{source}: {PREFIX}{knots_name} has {knots.size} entries but "
-                                    f"{PREFIX}{values_name} has {vals.size}")
-            try:
-                hats = make(knots)
-            except ValueError as err:
-                raise RigModelError(f"{source}: {PREFIX}{knots_name}: {err}") from None
-            terms.extend(hats)
-            values.extend(float(v) for v in vals)
-    if not terms:
+        raise RigModelError(f"{source}: unknown joint-law field(s) {[PREFIX + u for u in unknown]}; expected "
+                            f"{[PREFIX + f for f in known]}")
+    try:
+        pairs = law_terms_from_fields(fields)
+    except FieldError as err:
+        raise RigModelError(f"{source}: {err}") from None
+    if not pairs:
         raise RigModelError(f"{source}: no joint law: add <custom><numeric name=\"{PREFIX}...\"> fields "
                             f"(e.g. {PREFIX}k_Nm_per_rad)")
-    if any(isinstance(t, Power) and t.power == 1 for t in terms) and "knots_rad" in fields:
-        raise RigModelError(f"{source}: {PREFIX}k_Nm_per_rad and {PREFIX}knots_rad both set the "
-                            f"linear stiffness; keep one")
-    eff = {}
-    for name in _EFFECT_FIELDS:
-        if name in fields:
-            data = fields[name]
-            if data.size != 1 or not np.isfinite(data[0]) or data[0] < 0:
-                raise RigModelError(f"{source}: {PREFIX}{name} must hold one finite number >= 0, got {data}")
-            eff[name] = float(data[0])
-    if eff.get("backlash_half_gap_rad", 0.0) > 0:
-        terms = [Power(t.power, eff["backlash_half_gap_rad"]) if isinstance(t, Power) and t.power >= 1 else t
-                 for t in terms]
-    if ("hysteresis_slip_torque_Nm" in eff) != ("hysteresis_slip_angle_rad" in eff):
-        raise RigModelError(f"{source}: {PREFIX}hysteresis_slip_torque_Nm and {PREFIX}hysteresis_slip_angle_rad "
-                            f"go together")
-    if eff.get("hysteresis_slip_angle_rad", 0.0) > 0:
-        terms.append(Jenkins(eff["hysteresis_slip_angle_rad"]))
-        values.append(eff["hysteresis_slip_torque_Nm"])
-    if ("iwan_slip_torque_Nm" in eff) != ("iwan_slip_angle_rad" in eff):
-        raise RigModelError(f"{source}: {PREFIX}iwan_slip_torque_Nm and {PREFIX}iwan_slip_angle_rad go together")
-    if (_IWAN_CHI in fields or "iwan_beta" in eff) and "iwan_slip_angle_rad" not in eff:
-        raise RigModelError(f"{source}: {PREFIX}iwan_chi and {PREFIX}iwan_beta shape an Iwan element: set "
-                            f"{PREFIX}iwan_slip_torque_Nm and {PREFIX}iwan_slip_angle_rad too")
-    if eff.get("iwan_slip_angle_rad", 0.0) > 0:
-        chi = fields.get(_IWAN_CHI, np.array([-0.5]))
-        if chi.size != 1 or not (-1.0 < float(chi[0]) <= 0.0):
-            raise RigModelError(f"{source}: {PREFIX}{_IWAN_CHI} must hold one number in (-1, 0], got {chi}")
-        terms.append(Iwan(eff["iwan_slip_angle_rad"], float(chi[0]), eff.get("iwan_beta", 0.1)))
-        values.append(eff["iwan_slip_torque_Nm"])
-    return JointLaw(tuple(terms), tuple(values))
+    return JointLaw(tuple(t for t, _ in pairs), tuple(v for _, v in pairs))
 
 
 def plant_from_model(model: mujoco.MjModel, source: str = "model") -> Plant:
     """The law plus the effects outside the joint (bearing drag, drive delay) a model declares."""
     law = law_from_model(model, source)
     fields = {k[len(PREFIX):]: v for k, v in _numeric_fields(model).items() if k.startswith(PREFIX)}
-    get = lambda name: float(fields[name][0]) if name in fields else 0.0  # noqa: E731
+    def get(name: str) -> float:
+        data = fields.get(name, np.zeros(1))
+        if data.size != 1 or not np.isfinite(data[0]) or data[0] < 0:
+            raise RigModelError(f"{source}: {PREFIX}{name} must hold one finite number >= 0, got {data}")
+        return float(data[0])
+
     return Plant(law, bearing1_damping_Nms_per_rad=get("bearing1_damping_Nms_per_rad"),
                  bearing2_damping_Nms_per_rad=get("bearing2_damping_Nms_per_rad"),
                  drive_delay_s=get("drive_delay_s"))
@@ -267,24 +201,13 @@ def identified_model_xml(plant: Plant, inertias_kgm2: tuple[float, float], *, te
     root = ET.fromstring(template.read_text(encoding="utf-8"))
     fields: dict[str, list[float]] = {}
     for term, value in zip(plant.law.terms, plant.law.values):
-        if isinstance(term, Jenkins):
-            fields["hysteresis_slip_torque_Nm"] = [value]
-            fields["hysteresis_slip_angle_rad"] = [term.slip_rad]
-        elif isinstance(term, Iwan):
-            if term.elements != Iwan(1.0).elements:
-                raise ValueError(f"identified_model_xml: an Iwan element of {term.elements} elements has no "
-                                 f"jointrig_* field (the rig discretises it into {Iwan(1.0).elements})")
-            fields["iwan_slip_torque_Nm"] = [value]
-            fields["iwan_slip_angle_rad"] = [term.slip_rad]
-            fields[_IWAN_CHI] = [term.chi]
-            fields["iwan_beta"] = [term.beta]
-        elif term.name in _SCALAR_FIELDS and type(_SCALAR_FIELDS[term.name]) is type(term):
-            fields[term.name] = [value]
-        else:
-            raise ValueError(f"identified_model_xml: the law term {term.name!r} has no jointrig_* field to write")
-    for name, value in effect_parameters(plant).items():
-        if name in _EFFECT_FIELDS:
-            fields[name] = [value]
+        try:
+            fields.update(term.fields(value))
+        except FieldError as err:
+            raise ValueError(f"identified_model_xml: {err}") from None
+    for name in _PLANT_FIELDS:
+        if getattr(plant, name):
+            fields[name] = [getattr(plant, name)]
     custom = root.find("custom")
     if custom is None:
         custom = ET.SubElement(root, "custom")

@@ -30,16 +30,13 @@ from typing import Iterator, Optional, Union
 import mujoco
 import numpy as np
 
-from jointrig.identify.basis import (AngleHat, Coulomb, Iwan, Jenkins, JointLaw, Monomial, Power, QuadraticDamping, RateHat,
-                                     Viscous, play)
+from jointrig.identify.basis import JointLaw, play
 from jointrig.identify.plant import PeriodicDrive, Plant
 
 __all__ = ["NativeLaw", "NativeBuildError", "library_path", "native_session", "session_active"]
 
 SOURCE = Path(__file__).resolve().parent / "native" / "jointrig_law.c"
 MAX_TERMS, MAX_KNOTS, MAX_HARM, MAX_SLIDERS = 64, 512, 64, 512
-KIND = {Viscous: 0, Power: 1, Monomial: 2, AngleHat: 3, RateHat: 4, Coulomb: 5, QuadraticDamping: 6, Jenkins: 7,
-        Iwan: 8}
 
 
 class NativeBuildError(RuntimeError):
@@ -197,32 +194,22 @@ class NativeLaw:
         knots: list[float] = []
         sliders = 0
         for i, (t, v) in enumerate(zip(law.terms, law.values)):
-            kind = KIND.get(type(t))
-            if kind is None:
+            spec = t.native()
+            if spec is None:
                 raise ValueError(f"the native callback has no term {type(t).__name__}")
-            p.kind[i] = kind
-            p.value[i] = v
-            if isinstance(t, Power):
-                p.ipar1[i], p.dpar[i] = t.power, t.gap_rad
-            elif isinstance(t, Monomial):
-                p.ipar1[i], p.ipar2[i] = t.angle_power, t.rate_power
-            elif isinstance(t, (AngleHat, RateHat)):
-                p.ipar1[i], p.ipar2[i], p.ipar3[i] = t.index, len(knots), len(t.knots)
-                knots.extend(t.knots)
-            elif isinstance(t, Jenkins):
-                if sliders + 1 > MAX_SLIDERS:
+            ints = list(spec.ints)
+            if spec.knots:
+                ints[1] = len(knots)
+                knots.extend(spec.knots)
+            if spec.sliders:
+                if sliders + len(spec.sliders) > MAX_SLIDERS:
                     raise ValueError(f"the native callback takes at most {MAX_SLIDERS} sliders in all")
-                p.ipar1[i], p.dpar[i] = sliders, t.slip_rad
-                p.slider_slip[sliders] = t.slip_rad
-                sliders += 1
-            elif isinstance(t, Iwan):
-                slips, stiff = t.slips_and_stiffnesses
-                if sliders + len(slips) > MAX_SLIDERS:
-                    raise ValueError(f"the native callback takes at most {MAX_SLIDERS} sliders in all")
-                p.ipar1[i], p.ipar3[i] = sliders, len(slips)
-                for j, (sj, kj) in enumerate(zip(slips, stiff)):
-                    p.slider_slip[sliders + j], p.slider_k[sliders + j] = sj, kj
-                sliders += len(slips)
+                ints[0], ints[2] = sliders, len(spec.sliders)
+                for j, (slip, k) in enumerate(spec.sliders):
+                    p.slider_slip[sliders + j], p.slider_k[sliders + j] = slip, k
+                sliders += len(spec.sliders)
+            p.kind[i], p.value[i], p.dpar[i] = spec.kind, v, spec.dpar
+            p.ipar1[i], p.ipar2[i], p.ipar3[i] = ints
         p.n_sliders = sliders
         if len(knots) > MAX_KNOTS:
             raise ValueError(f"the native callback takes at most {MAX_KNOTS} knots in all, the law has {len(knots)}")
