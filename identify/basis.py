@@ -18,8 +18,9 @@ Terms:
                                                           dependent damping (2, 1)
   * :class:`AngleHat`    ``b = hat_i(phi)``  (eq. 8)   -> ``g{i}_Nm``: restoring torque at knot i
   * :class:`RateHat`     ``b = hat_i(phi')`` (eq. 9 f) -> ``f{i}_Nm``: damping torque at knot i
-  * :class:`Coulomb`, :class:`QuadraticDamping`, :class:`Jenkins` (one slider) and
-    :class:`Iwan` (Segalman's four-parameter distribution of sliders): the catalogued effects
+  * :class:`Coulomb`, :class:`Stribeck` (velocity-weakening friction), :class:`QuadraticDamping`,
+    :class:`Jenkins` (one slider) and :class:`Iwan` (Segalman's four-parameter distribution of
+    sliders): the catalogued effects
 
 Hat functions are the cardinal basis of piecewise-linear interpolation on sorted knots,
 extended linearly beyond the end knots (so a hat law continues its end slopes rather
@@ -47,6 +48,7 @@ __all__ = [
     "QuadraticDamping",
     "Jenkins",
     "Iwan",
+    "Stribeck",
     "dead_zone",
     "play",
     "AngleHat",
@@ -374,6 +376,60 @@ class Coulomb(Term):
         if isinstance(rate, float):
             return (rate > 0.0) - (rate < 0.0) + 0.0
         return np.sign(np.asarray(rate, dtype=float))
+
+
+@dataclass(frozen=True)
+class Stribeck(Term):
+    """The Stribeck part of dry friction: ``sign(phi') exp(-(phi'/v_s)^2)`` ->
+    ``stribeck_torque_Nm``, the static friction's excess over the sliding one (with
+    :class:`Coulomb` of torque ``F_c``: ``F(phi') = sign(phi') (F_c + F_x exp(-(phi'/v_s)^2))``,
+    velocity-weakening below the Stribeck rate ``velocity_rad_s``)."""
+
+    velocity_rad_s: float
+
+    def __post_init__(self):
+        v = float(self.velocity_rad_s)
+        if not (math.isfinite(v) and v > 0):
+            raise ValueError(f"Stribeck.velocity_rad_s must be a finite number > 0, got {self.velocity_rad_s!r}")
+        object.__setattr__(self, "velocity_rad_s", v)
+
+    MJCF_FIELDS = ("stribeck_torque_Nm", "stribeck_velocity_rad_s")
+    dissipative = True
+
+    def native(self):
+        return NativeTerm(9, dpar=self.velocity_rad_s)
+
+    @classmethod
+    def read_fields(cls, fields):
+        if not _pair(fields, "stribeck_torque_Nm", "stribeck_velocity_rad_s"):
+            return []
+        torque = _scalar(fields, "stribeck_torque_Nm", dissipates=True)
+        velocity = _scalar(fields, "stribeck_velocity_rad_s", nonnegative=True)
+        if not velocity > 0:
+            raise FieldError(f"jointrig_stribeck_velocity_rad_s must be > 0, got {velocity:g}")
+        return [(cls(velocity), torque)]
+
+    def fields(self, value):
+        return {"stribeck_torque_Nm": [value], "stribeck_velocity_rad_s": [self.velocity_rad_s]}
+
+    def derived_parameters(self, value):
+        return {"stribeck_velocity_rad_s": self.velocity_rad_s}
+
+    @property
+    def name(self) -> str:
+        return "stribeck_torque_Nm"
+
+    @property
+    def elastic(self) -> bool:
+        return False
+
+    def __call__(self, phi, rate):
+        if isinstance(rate, float):
+            r = rate / self.velocity_rad_s
+            return ((rate > 0.0) - (rate < 0.0)) * math.exp(-(r * r))
+        x = np.asarray(rate, dtype=float)
+        r = x / self.velocity_rad_s
+        return np.sign(x) * np.exp(-(r * r))
 
 
 @dataclass(frozen=True)
@@ -791,7 +847,8 @@ def rate_hats(knots: Sequence[float]) -> tuple[RateHat, ...]:
 
 #: Every term a model file can declare, in the order its terms enter the law (the order of the
 #: sums in both callbacks, so it is part of the bits of every trajectory).
-TERM_CLASSES: tuple[type[Term], ...] = (Viscous, Power, Coulomb, QuadraticDamping, AngleHat, RateHat, Jenkins, Iwan)
+TERM_CLASSES: tuple[type[Term], ...] = (Viscous, Power, Coulomb, QuadraticDamping, AngleHat, RateHat, Jenkins, Iwan,
+                                        Stribeck)
 
 
 def law_terms_from_fields(fields: dict) -> list[tuple[Term, float]]:

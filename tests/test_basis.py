@@ -1,9 +1,11 @@
 """The joint law's basis terms: closed forms, scalar vs array paths, validation."""
 
+import math
+
 import numpy as np
 import pytest
 
-from jointrig.identify.basis import (AngleHat, Coulomb, Iwan, Jenkins, JointLaw, Monomial, Power, QuadraticDamping, Viscous,
+from jointrig.identify.basis import (AngleHat, Coulomb, Iwan, Jenkins, Stribeck, JointLaw, Monomial, Power, QuadraticDamping, Viscous,
                             angle_hats, hat_law, hat_matrix, play, polynomial_law, rate_hats)
 
 KNOTS = (-0.6, -0.3, -0.1, 0.0, 0.1, 0.3, 0.6)
@@ -58,6 +60,7 @@ def test_polynomial_law_names_and_values():
     (lambda: Power(1, -0.1), "gap_rad"),
     (lambda: Jenkins(0.0), "slip_rad"),
     (lambda: Iwan(0.0), "slip_rad"),
+    (lambda: Stribeck(0.0), "velocity_rad_s"),
     (lambda: Iwan(0.1, chi=-1.0), "chi"),
     (lambda: Iwan(0.1, chi=0.2), "chi"),
     (lambda: Iwan(0.1, beta=-0.1), "beta"),
@@ -161,3 +164,22 @@ def test_iwan_array_path_equals_stepping_its_sliders():
     np.testing.assert_allclose(out, iw(phi, None), rtol=0, atol=1e-13)
     with pytest.raises(TypeError, match="state"):
         iw(0.1, 0.0)
+
+
+def test_stribeck_friction_scalar_and_array_paths_and_its_model_fields(tmp_path):
+    # sign(v) exp(-(v/vs)^2): F_x at a vanishing rate, F_x/e at v = vs, ~0 far beyond; the
+    # scalar (callback) and array (identifier) paths agree; the MJCF fields read back the term.
+    from jointrig.rig import load_rig
+    from jointrig.rig.model import DEFAULT_MODEL, identified_model_xml
+    from jointrig.identify.plant import Plant
+
+    s = Stribeck(0.5)
+    v = np.array([-2.0, -0.5, -1e-9, 0.0, 1e-9, 0.5, 2.0])
+    np.testing.assert_allclose(s(None, v), [-math.exp(-16), -math.exp(-1), -1, 0, 1, math.exp(-1), math.exp(-16)],
+                               rtol=1e-15)
+    assert [s(0.0, float(x)) for x in v] == pytest.approx(list(s(None, v)), rel=1e-15, abs=0)
+    law = JointLaw((Viscous(), Power(1), Coulomb(), s), (5.0, 500.0, 20.0, 15.0))
+    path = tmp_path / "stribeck.xml"
+    path.write_text(identified_model_xml(Plant(law), (2.0, 2.0), template=DEFAULT_MODEL))
+    back = load_rig(path)
+    assert back.law == law and back.plant.parameters()["stribeck_velocity_rad_s"] == 0.5

@@ -17,7 +17,7 @@
 #define JR_MAX_SLIDERS 512
 
 enum { JR_VISCOUS = 0, JR_POWER = 1, JR_MONOMIAL = 2, JR_ANGLE_HAT = 3, JR_RATE_HAT = 4,
-       JR_COULOMB = 5, JR_QUADRATIC = 6, JR_JENKINS = 7, JR_IWAN = 8 };
+       JR_COULOMB = 5, JR_QUADRATIC = 6, JR_JENKINS = 7, JR_IWAN = 8, JR_STRIBECK = 9 };
 
 typedef struct {
   int n_terms;
@@ -111,6 +111,10 @@ static double term(jointrig_params* P, int t, double phi, double rate) {
     case JR_RATE_HAT: return hat(rate, P->knots + P->ipar2[t], P->ipar3[t], P->ipar1[t]);
     case JR_COULOMB: return (double)((rate > 0.0) - (rate < 0.0)) + 0.0;
     case JR_QUADRATIC: return rate * fabs(rate);
+    case JR_STRIBECK: {
+      double r = rate / P->dpar[t];
+      return (double)((rate > 0.0) - (rate < 0.0)) * exp(-(r * r));
+    }
     default: P->error = 1; return 0.0;
   }
 }
