@@ -41,7 +41,7 @@ from scipy.optimize import minimize_scalar
 from scipy.stats import chi2 as chi2_dist
 
 from .balance import LinearSystem, equivalent_system, spectral_rate, two_dof_system
-from .basis import Coulomb, Iwan, Jenkins, JointLaw, Power, QuadraticDamping, Term, Viscous
+from .basis import Coulomb, Iwan, Jenkins, JointLaw, Power, QuadraticDamping, Stribeck, Term, Viscous
 from .harmonics import fourier_coefficients, max_harmonic, synthesize
 from .plant import Plant, effect_parameters
 from .records import RecordError, SteadyStateRecord
@@ -326,7 +326,8 @@ def _coulomb_jump(spec: "ModelSpec", names: Sequence[str], theta: Optional[np.nd
     if theta is None or not any(isinstance(t, Coulomb) for t in spec.terms):
         return 0.0
     p = dict(zip(names, theta))
-    fc = p.get("coulomb_torque_Nm", 0.0)
+    # At a reversal the friction is the static one: the sliding torque plus a Stribeck excess.
+    fc = p.get("coulomb_torque_Nm", 0.0) + p.get("stribeck_torque_Nm", 0.0)
     if "J1_kgm2" in p:
         inv = (1.0 / p["J1_kgm2"] if p["J1_kgm2"] > 0 else 0.0) + (1.0 / p["J2_kgm2"] if p["J2_kgm2"] > 0 else 0.0)
     else:
@@ -491,6 +492,22 @@ def _with_iwan(spec: ModelSpec, slip: float) -> ModelSpec:
 IWAN_CHI, IWAN_BETA = -0.5, 0.1
 
 
+def _with_stribeck(spec: ModelSpec, velocity: float) -> ModelSpec:
+    terms = tuple(t for t in spec.terms if not isinstance(t, Stribeck))
+    if not any(isinstance(t, Coulomb) for t in terms):
+        terms += (Coulomb(),)
+    return replace(spec, terms=terms + (Stribeck(velocity),))
+
+
+def _rate_amplitudes(runs) -> list[float]:
+    """Relative-rate amplitude of every run (rad/s), from the averaged period."""
+    out = []
+    for r in runs:
+        phi = r.average.phi_rad
+        out.append(float(np.max(np.abs(spectral_rate(phi - phi.mean(), r.average.omega_rad_s, 1)))))
+    return out
+
+
 def _largest_amplitude(runs) -> float:
     return max(float(np.max(np.abs(r.average.phi_rad - r.average.phi_rad.mean()))) for r in runs)
 
@@ -512,6 +529,11 @@ CAUSES: tuple[Cause, ...] = (
           _with_iwan, "iwan_slip_torque_Nm", 1,
           bounds=lambda runs: (1e-3 * _amplitude(runs), 2.0 * _largest_amplitude(runs)), log_scale=True,
           profiled="iwan_slip_angle_rad"),
+    Cause("stribeck_friction", "dry friction with a Stribeck peak: static friction above the sliding one, falling "
+          "off with the rate (velocity weakening)",
+          _with_stribeck, "stribeck_torque_Nm", 2,
+          bounds=lambda runs: (0.02 * min(_rate_amplitudes(runs)), 2.0 * max(_rate_amplitudes(runs))), log_scale=True,
+          profiled="stribeck_velocity_rad_s"),
     Cause("quadratic_damping", "damping torque proportional to the rate squared",
           lambda s, h: _with_terms(s, (QuadraticDamping(),)), "quadratic_damping_Nms2_per_rad2", 1),
     Cause("drive_delay", "the drive torque reaches flywheel 1 later than it is recorded",
@@ -549,6 +571,8 @@ SEPARATING_EXCITATION = {
     "nothing below its slip angle, an Iwan element a little at every amplitude, growing as A^(3 + chi))",
     frozenset({"coulomb_friction", "micro_slip"}): "runs at small amplitude (there an Iwan element is mostly a "
     "spring and dissipates as A^(3 + chi); dry friction dissipates 4 F A at every amplitude)",
+    frozenset({"coulomb_friction", "stribeck_friction"}): "runs at low rates (an amplitude sweep at a low frequency: "
+    "the Stribeck peak acts below its rate, where dry friction alone stays flat)",
     frozenset({"coulomb_friction", "quadratic_damping"}): "an amplitude sweep at one frequency (dry friction "
     "dissipates per cycle in proportion to amplitude, quadratic damping to amplitude cubed)",
     frozenset({"drive_delay", "quadratic_damping"}): "a frequency sweep at constant amplitude (a delay's "
@@ -762,6 +786,13 @@ def _degenerate(problem: "_Problem", cause: "Cause", ext: Fit) -> str:
     """A fitted cause that is really another, or nothing: a Jenkins element whose slip angle is
     below what the angles resolve never sticks (it is dry friction); a free play below it is
     no free play. Empty if the cause stands as fitted."""
+    if cause.name == "stribeck_friction":
+        v = ext.effect_parameters().get("stribeck_velocity_rad_s", math.nan)
+        top = max(_rate_amplitudes(problem.runs))
+        if v > top:
+            return (f"its Stribeck rate {v:.3g} rad/s is above every run's rate amplitude (at most {top:.3g} rad/s): the "
+                    f"friction does not fall off within the data; it is dry friction (see coulomb_friction)")
+        return ""
     if cause.bounds is None or cause.profiled not in ("hysteresis_slip_angle_rad", "iwan_slip_angle_rad",
                                                        "backlash_half_gap_rad"):
         return ""

@@ -5,12 +5,15 @@ writer). The two-flywheel equations are written out again:
 
     J1 phi1'' = T(t - delay) - M - b1 phi1'
     J2 phi2'' = M - b2 phi2'
-    M = c v + k d(phi) + a d(phi)^2 + gamma d(phi)^3 + Fc sgn(v) + q v |v| + f_J
+    M = c v + k d(phi) + a d(phi)^2 + gamma d(phi)^3 + (Fc + Fx exp(-(v/vs)^2)) sgn(v) + q v |v| + f_J + f_I
 
 with ``phi = phi1 - phi2``, ``v = phi'``, ``d`` the dead zone of half width ``gap`` (free play),
-and ``f_J`` a Jenkins element (spring ``Fs / r`` in series with a slider that slips at ``Fs``).
-Dry friction (sliding either way, or stuck: the flywheels then move as one body until the
-torque needed to hold the joint exceeds Fc) and the Jenkins slider switch at events
+``f_J`` a Jenkins element (spring ``Fs / r`` in series with a slider that slips at ``Fs``) and
+``f_I`` Segalman's Iwan element as a continuum (its backbone in closed form, Masing's rule after
+every rate reversal; not the project's 32-element discretisation).
+Dry friction (sliding either way, with a Stribeck peak Fx falling off over the rate vs, or
+stuck: the flywheels then move as one body until the torque needed to hold the joint exceeds
+the static friction Fc + Fx) and the Jenkins slider switch at events
 (``solve_ivp`` with terminal events, then a restart in the new mode), so the integrator never
 steps across a discontinuity. Extra
 effects outside the catalogue (for the diagnosis's open-world tests) are in ``Joint.extra``.
@@ -41,14 +44,50 @@ class Joint:
     a: float = 0.0
     gap: float = 0.0
     Fc: float = 0.0
+    Fx: float = 0.0  # Stribeck excess of the static friction over the sliding one (N m)
+    vs: float = 1.0  # Stribeck rate (rad/s): sliding friction Fc + Fx exp(-(v/vs)^2)
     q: float = 0.0
     Fs: float = 0.0  # Jenkins slip torque (N m)
     r: float = 0.0  # Jenkins slip angle (rad)
+    Fi: float = 0.0  # Iwan macroslip torque (N m); a continuum of sliders, Segalman's density
+    smax: float = 0.0  # Iwan: the largest slip angle (rad)
+    chi: float = -0.5
+    beta: float = 0.1
     b1: float = 0.0
     b2: float = 0.0
     delay: float = 0.0
     #: an extra joint torque (phi, v) -> N m outside the catalogue (smooth)
     extra: Optional[Callable[[float, float], float]] = field(default=None, compare=False)
+
+    @property
+    def static(self) -> float:
+        """The friction that holds the joint stuck (N m)."""
+        return self.Fc + self.Fx
+
+    def sliding(self, v: float) -> float:
+        """The size of the friction torque while sliding at rate v (N m)."""
+        return self.Fc + (self.Fx * math.exp(-(v / self.vs) ** 2) if self.Fx else 0.0)
+
+    def iwan_backbone(self, u: float) -> float:
+        """Segalman's continuum Iwan element loaded from rest to angle u (N m), in closed form:
+        density R s^chi on (0, smax] plus a Dirac S = beta K_d at smax; the sliders below u have
+        slipped (each holds its slip torque), the others are springs at u."""
+        x = abs(u)
+        chi, smax = self.chi, self.smax
+        kd = self.Fi / (smax * ((chi + 1) / (chi + 2) + self.beta))
+        if x >= smax:
+            g = self.Fi
+        else:
+            R = kd * (chi + 1) / smax ** (chi + 1)
+            g = R * x ** (chi + 2) / (chi + 2) + x * (R * (smax ** (chi + 1) - x ** (chi + 1)) / (chi + 1) + self.beta * kd)
+        return math.copysign(g, u)
+
+    def iwan_torque(self, phi: float, mode: dict) -> float:
+        """Masing's rule: from rest the backbone; after a reversal at (x_r, F_r) the backbone
+        scaled by two, F_r + 2 g((phi - x_r)/2) (exact for the steady state's simple loops)."""
+        if mode.get("xr") is None:
+            return self.iwan_backbone(phi)
+        return mode["Fr"] + 2.0 * self.iwan_backbone(0.5 * (phi - mode["xr"]))
 
     def smooth_torque(self, phi: float, v: float) -> float:
         d = math.copysign(max(abs(phi) - self.gap, 0.0), phi)
@@ -74,17 +113,19 @@ def _rhs(joint: Joint, M0: float, w: float, mode: dict):
     J1, J2 = joint.J1, joint.J2
 
     def f(t, y):
-        if joint.Fc and mode["s"] == 0:  # stuck: the flywheels move as one body
+        if joint.static and mode["s"] == 0:  # stuck: the flywheels move as one body
             T = M0 * math.cos(w * (t - joint.delay))
             a = (T - joint.b1 * y[2] - joint.b2 * y[3]) / (J1 + J2)
             return [y[2], y[3], a, a]
         phi = y[0] - y[1]
         v = y[2] - y[3]
         m = joint.smooth_torque(phi, v)
-        if joint.Fc:
-            m += joint.Fc * mode["s"]
+        if joint.static:
+            m += joint.sliding(v) * mode["s"]
         if joint.Fs:
             m += y[4] if mode["j"] == 0 else joint.Fs * mode["j"]
+        if joint.Fi:
+            m += joint.iwan_torque(phi, mode)
         T = M0 * math.cos(w * (t - joint.delay))
         a1 = (T - m - joint.b1 * y[2]) / J1
         a2 = (m - joint.b2 * y[3]) / J2
@@ -108,18 +149,24 @@ def _events(joint: Joint, mode: dict, w: float = 0.0, M0: float = 0.0):
             f.terminal = True
             f.direction = d  # the next crossing only: the one just passed does not fire again
             ev.append(f)
-    if joint.Fc and mode["s"] == 0:
+    if joint.static and mode["s"] == 0:
         def unsticks(t, y):
-            return abs(_stick_torque(joint, w, M0, t, y, mode)) - joint.Fc
+            return abs(_stick_torque(joint, w, M0, t, y, mode)) - joint.static
         unsticks.terminal = True
         unsticks.direction = 1
         ev.append(unsticks)
-    elif joint.Fc:
+    elif joint.static:
         def rate_zero(t, y):
             return y[2] - y[3]
         rate_zero.terminal = True
         rate_zero.direction = -mode["s"]
         ev.append(rate_zero)
+    if joint.Fi:
+        def reverses(t, y):
+            return y[2] - y[3]
+        reverses.terminal = True
+        reverses.direction = -mode["i"]
+        ev.append(reverses)
     if joint.Fs:
         if mode["j"] == 0:
             def slips(t, y):
@@ -168,7 +215,7 @@ def simulate(joint: Joint, w: float, M0: float, t_eval: np.ndarray, y0: np.ndarr
             mode["kinks"] = tuple(dirs)
         elif name == "rate_zero":
             need = _stick_torque(joint, w, M0, t, y, mode)
-            if abs(need) <= joint.Fc:
+            if abs(need) <= joint.static:
                 v = (joint.J1 * y[2] + joint.J2 * y[3]) / (joint.J1 + joint.J2)  # momentum kept
                 y[2] = y[3] = v
                 mode["s"] = 0
@@ -176,6 +223,10 @@ def simulate(joint: Joint, w: float, M0: float, t_eval: np.ndarray, y0: np.ndarr
                 mode["s"] = -mode["s"]
         elif name == "unsticks":
             mode["s"] = 1 if _stick_torque(joint, w, M0, t, y, mode) > 0 else -1
+        elif name == "reverses":  # the Iwan element's branch starts again here
+            mode["Fr"] = joint.iwan_torque(y[0] - y[1], mode)
+            mode["xr"] = y[0] - y[1]
+            mode["i"] = -mode["i"]
         elif name == "slips":
             mode["j"] = 1 if y[4] > 0 else -1
         else:  # sticks: slider holds its torque
@@ -213,7 +264,7 @@ def steady_state(joint: Joint, w: float, M0: float, *, tol: float = 1e-8, max_pe
     T = 2 * math.pi / w
     y = _linear_start(joint, w, M0)
     phi = y[0] - y[1]
-    mode = {"s": 1 if y[2] - y[3] >= 0 else -1, "j": 0,
+    mode = {"s": 1 if y[2] - y[3] >= 0 else -1, "j": 0, "i": 1 if y[2] - y[3] >= 0 else -1, "xr": None, "Fr": 0.0,
             "kinks": (1 if phi < joint.gap else -1, 1 if phi < -joint.gap else -1)}
     t = 0.0
     chunk = 10

@@ -34,7 +34,7 @@ def outputs(tmp_path_factory):
 def test_json_has_ranked_causes_extended_model_and_gain(outputs):
     d = json.loads((outputs / "d.json").read_text())
     causes = d["causes"]
-    assert {c["effect"] for c in causes} == {"coulomb_friction", "backlash", "asymmetric_stiffness", "hysteresis", "micro_slip",
+    assert {c["effect"] for c in causes} == {"coulomb_friction", "backlash", "asymmetric_stiffness", "hysteresis", "micro_slip", "stribeck_friction",
                                              "quadratic_damping", "drive_delay", "bearing_friction", "angle_offset"}
     scores = [c["score"] for c in causes if c["note"] == ""]
     assert scores == sorted(scores, reverse=True)  # ranked by evidence
