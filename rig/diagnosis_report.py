@@ -94,6 +94,7 @@ def _report_json(report: DiagnosisReport, *, source: str, notes: Sequence[str]) 
                            "what": "RMS of simulated minus measured relative angle, period-averaged, over the "
                                    "harmonics the measurement resolves, on the held-out runs"},
         "gain": report.gain,
+        "generalisation": report.generalisation,
         "runs": [{"run": r.run_id, "omega_rad_s": r.omega_rad_s, "amplitude_Nm": r.amplitude_Nm,
                   "held_out": r.held_out, "rms_nominal_rad": r.rms("nominal"),
                   "rms_extended_rad": r.rms("extended"), "noise_floor_rad": r.noise_floor_rad}
@@ -165,6 +166,7 @@ def format_report(report: DiagnosisReport, *, source: str = "", notes: Sequence[
     lines.append(f"  held-out runs: nominal {report.validation_rms('nominal'):.3g} rad, extended "
                  f"{report.validation_rms('extended'):.3g} rad, noise floor {report.noise_floor_rad:.3g} rad; "
                  f"gain {report.gain:.3g}")
+    lines.append(f"  generalisation: {report.generalisation}")
     return "\n".join(lines)
 
 
@@ -486,7 +488,8 @@ def _html_sections(report: DiagnosisReport, source: str, notes: Sequence[str]) -
                      "adopted"))
     out.append(_table(["run", "omega [rad/s]", "M0 [N m]", "nominal [rad]", "extended [rad]", "noise floor [rad]"],
                       rows))
-    out.append(f"<p>Held-out gain (nominal error / extended error): <b>{sig(report.gain)}</b>.</p>")
+    out.append(f"<p>Held-out gain (nominal error / extended error): <b>{sig(report.gain)}</b>; "
+               f"{html.escape(report.generalisation)}.</p>")
     return out
 
 

@@ -33,7 +33,7 @@ from jointrig.identify.records import SteadyStateRecord
 from .model import RigModel, load_rig
 from .simulate import SimulationConfig, SteadyStateNotReached, simulate_steady_state
 
-__all__ = ["RunComparison", "DiagnosisReport", "default_holdout", "run_diagnosis", "band_limited"]
+__all__ = ["generalisation_kind", "RunComparison", "DiagnosisReport", "default_holdout", "run_diagnosis", "band_limited"]
 
 log = logging.getLogger(__name__)
 
@@ -89,6 +89,8 @@ class RunComparison:
     joint_torque_extended_Nm: np.ndarray
     noise_floor_rad: float
     harmonics_compared: tuple[int, ...]
+    #: the drive's torque lines that stand out of the noise besides the fundamental (0: a sine)
+    extra_drive_lines: int = 0
 
     def rms(self, which: str) -> float:
         """RMS (rad) of model minus measurement over the compared harmonics (Parseval)."""
@@ -240,6 +242,13 @@ class DiagnosisReport:
         held = [r for r in self.runs if r.held_out]
         return float(np.sqrt(np.mean([r.noise_floor_rad ** 2 for r in held])))
 
+    @property
+    def generalisation(self) -> str:
+        """Which kind of generalisation the held-out runs test (:func:`generalisation_kind`)."""
+        fit = [(r.omega_rad_s, r.amplitude_Nm, r.extra_drive_lines) for r in self.runs if not r.held_out]
+        held = [(r.omega_rad_s, r.amplitude_Nm, r.extra_drive_lines) for r in self.runs if r.held_out]
+        return generalisation_kind(fit, held)
+
     @cached_property
     def verdict(self) -> Verdict:
         """The diagnosis's answer in one word (see :class:`Verdict` and the thresholds above)."""
@@ -324,6 +333,48 @@ def _simulate(rig: RigModel, plant: Plant, J: tuple[float, float], run: Prepared
     return band_limited(sim.phi_rad, band)
 
 
+def generalisation_kind(fit: Sequence[tuple[float, float, int]], held: Sequence[tuple[float, float, int]]) -> str:
+    """What the held-out runs ``(omega rad/s, drive level N m, extra drive lines)`` ask of a model
+    fitted on ``fit``: another excitation (a multi-line drive against sines, or the reverse),
+    drive levels or frequencies outside the fitted range (extrapolation), frequencies the fit did
+    not see inside its range, or only interpolation between fitted levels at fitted frequencies.
+    Frequencies and levels count as equal within 1%."""
+    def close(a, values):
+        return any(abs(a - v) <= 0.01 * max(abs(v), 1e-12) for v in values)
+
+    def distinct(values):
+        out: list[float] = []
+        for v in sorted(values):
+            if not close(v, out):
+                out.append(v)
+        return ", ".join(f"{v:.4g}" for v in out)
+
+    kinds = []
+    if {e > 0 for *_, e in held} - {e > 0 for *_, e in fit}:
+        kinds.append("another excitation (held-out drives with "
+                     + ("several lines, the fit's sines)" if any(e > 0 for *_, e in held) else "one line, the fit's several)"))
+    fw, fl = [w for w, _, _ in fit], [a for _, a, _ in fit]
+    hw, hl = [w for w, _, _ in held], [a for _, a, _ in held]
+    out_l = [a for a in hl if (a < min(fl) and not close(a, fl)) or (a > max(fl) and not close(a, fl))]
+    out_w = [w for w in hw if (w < min(fw) and not close(w, fw)) or (w > max(fw) and not close(w, fw))]
+    new_w = [w for w in hw if w not in out_w and not close(w, fw)]
+    new_l = [a for a in hl if a not in out_l and not close(a, fl)]
+    if out_l:
+        kinds.append(f"extrapolation in drive level ({distinct(out_l)} N m, outside the "
+                     f"fitted {min(fl):.4g}-{max(fl):.4g} N m)")
+    if out_w:
+        kinds.append(f"extrapolation in frequency ({distinct(out_w)} rad/s, outside the "
+                     f"fitted {min(fw):.4g}-{max(fw):.4g} rad/s)")
+    if new_w:
+        kinds.append(f"frequencies the fit did not see ({distinct(new_w)} rad/s, inside "
+                     f"its range)")
+    if new_l:
+        kinds.append(f"drive levels between the fitted ones ({distinct(new_l)} N m)")
+    if not kinds:
+        return "the held-out runs repeat frequencies and drive levels of the fit (another realisation only)"
+    return "the held-out runs test " + "; ".join(kinds)
+
+
 def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Sequence[str]] = None,
                   holdout: Optional[Sequence[int]] = None, band: int = 20, torque_share: float = 0.5,
                   form: Optional[str] = None, alpha: float = 1e-3, fidelity: float = DEFAULT_FIDELITY,
@@ -402,6 +453,7 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
             joint_torque_nominal_Nm=_law_torque(nominal_plant.law, run),
             joint_torque_extended_Nm=_law_torque(ext_plant.law, run),
             noise_floor_rad=floor, harmonics_compared=tuple(int(v) for v in h),
+            extra_drive_lines=int(np.count_nonzero(run.kept["torque"] > 1)) if "torque" in run.kept else 0,
         ))
     report = DiagnosisReport(diag, tuple(comparisons), holdout, band, tuple(notes))
     if diag.steps and not report.gain > 1.0:

@@ -192,3 +192,18 @@ def test_identified_card_agrees_with_virtual_phase_resonance(rig, reports, case)
             se = getattr(q, key + "_std")
             assert 0 < se and abs(getattr(q, key) - getattr(p, key)) < 3 * se, (key, getattr(q, key), getattr(p, key), se)
     assert abs(card.dissipation_slope - pr.dissipation_slope) < 3 * card.dissipation_slope_std
+
+
+def test_the_report_says_which_generalisation_the_held_out_runs_test(reports):
+    from jointrig.rig.validate import generalisation_kind
+
+    fit = [(25.0, 1500.0, 0), (25.0, 3500.0, 0), (55.0, 1500.0, 0), (55.0, 3500.0, 0)]
+    assert generalisation_kind(fit, [(25.0, 1500.0 * 1.005, 0)]).endswith("(another realisation only)")
+    assert "drive levels between the fitted ones (2500 N m)" in generalisation_kind(fit, [(25.0, 2500.0, 0)])
+    assert "frequencies the fit did not see (40 rad/s" in generalisation_kind(fit, [(40.0, 1500.0, 0)])
+    text = generalisation_kind(fit, [(70.0, 5000.0, 3)])
+    assert "another excitation" in text and "extrapolation in drive level (5000 N m" in text
+    assert "extrapolation in frequency (70 rad/s" in text
+    # The default hold-out of the 3 x 3 grid (runs 1, 4, 7: the middle level at each frequency).
+    report, _ = reports("none")
+    assert report.generalisation == ("the held-out runs test drive levels between the fitted ones (2500 N m)")
