@@ -71,7 +71,8 @@ def uniform_clock(time_s: np.ndarray) -> UniformClock:
     steps = np.diff(t)
     if np.any(steps <= 0):
         i = int(np.flatnonzero(steps <= 0)[0])
-        raise ValueError(f"time must increase strictly: sample {i + 1} at {t[i + 1]!r} follows {t[i]!r}")
+        raise ValueError(f"time must increase strictly: sample {i + 1} at {float(t[i + 1]):.10g} s follows "
+                         f"{float(t[i]):.10g} s")
     k = np.arange(t.size, dtype=float)
     kc = k - k.mean()
     tm = t.mean()

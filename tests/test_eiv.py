@@ -181,3 +181,41 @@ def test_reported_standard_errors_match_the_monte_carlo_spread(mc40):
     pooled_cov = np.mean([p.coverage for p in mc40.parameters])
     cov_lo, cov_hi = stats.binom.ppf([0.001, 0.999], n, 0.95) / n
     assert cov_lo <= pooled_cov <= cov_hi, pooled_cov
+
+
+def test_halves_are_the_first_and_second_half_of_the_periods():
+    # Periods of constant value p (p = 0..P-1): each half's mean is the mean of its p's, its
+    # noise the variance of its p's over its count (exact arithmetic); below 4 periods no halves.
+    from jointrig.identify.eiv import _halves
+    from jointrig.identify.records import SteadyStateRecord
+
+    def record(P, N=8):
+        x = np.repeat(np.arange(P, dtype=float), N)
+        t = np.arange(P * N) * (2 * np.pi / (10.0 * N))
+        return SteadyStateRecord(10.0, t, x.copy(), x.copy(), None, None, None, P)
+
+    assert _halves(record(3)) is None
+    a, b = _halves(record(4))
+    assert (a.n_periods, b.n_periods) == (2, 2)
+    np.testing.assert_array_equal(a.phi_rad, 0.5) and np.testing.assert_array_equal(b.phi_rad, 2.5)
+    a, b = _halves(record(7))  # 3 and 4 periods
+    assert (a.n_periods, b.n_periods) == (3, 4)
+    assert a.phi_rad[0] == pytest.approx(1.0) and b.phi_rad[0] == pytest.approx(4.5)
+    assert a.var_phi_rad2 == pytest.approx(1.0 / 3) and b.var_phi_rad2 == pytest.approx((5 / 3) / 4)
+
+
+def test_law_derivatives_by_central_difference():
+    # The noise map's derivative of a term along phi or phi': exact for quadratics, h^2 for a
+    # cube with h = 1e-6 of the signal's own largest value (1e-12 relative here, asked 1e-9).
+    from jointrig.identify.eiv import _derivative
+
+    phi = np.linspace(-0.1, 0.1, 11)
+    rate = 100.0 * np.linspace(1.0, -1.0, 11)  # rates a thousand times the angles
+    np.testing.assert_allclose(_derivative(Power(3), phi, rate, "phi"), 3 * phi**2, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(_derivative(Viscous(), phi, rate, "rate"), 1.0, rtol=1e-9)
+    np.testing.assert_allclose(_derivative(Viscous(), phi, rate, "phi"), 0.0, atol=1e-9)
+    from jointrig.identify.basis import QuadraticDamping
+
+    # v|v| at v = 0: the difference straddles the kink and gives h = 1e-4 instead of 0.
+    np.testing.assert_allclose(_derivative(QuadraticDamping(), phi, rate, "rate"), 2 * np.abs(rate), rtol=1e-9,
+                               atol=1.01e-4)
