@@ -164,22 +164,11 @@ _MEMO: dict = {}
 _MEMO_MAX = 1024  # at most ~150 records held (about 35 MB at 4096 samples per period)
 
 
-def _memo(rec: SteadyStateRecord, key: tuple, compute):
-    k = (id(rec),) + key
-    hit = _MEMO.get(k)
-    if hit is not None and hit[0] is rec:
-        return hit[1]
-    value = compute()
-    if len(_MEMO) >= _MEMO_MAX:
-        _MEMO.clear()
-    _MEMO[k] = (rec, value)
-    return value
-
-
 def _memo_arrays(arrays: tuple, key: tuple, compute):
-    """:func:`_memo` keyed by the identity of the arrays a value is computed from (held in the
-    entry, so no id is reused while cached): records that share their angles (a record whose
-    rate alone was replaced, as the dry-friction kink correction does) share angle-only columns."""
+    """The memoised ``compute()``, keyed by the identity of the objects it is computed from (held
+    in the entry, so no id is reused while cached): records that share their angles (a record
+    whose rate alone was replaced, as the dry-friction kink correction does) share angle-only
+    columns."""
     k = tuple(id(a) for a in arrays) + key
     hit = _MEMO.get(k)
     if hit is not None and all(x is y for x, y in zip(hit[0], arrays)):
@@ -189,6 +178,11 @@ def _memo_arrays(arrays: tuple, key: tuple, compute):
         _MEMO.clear()
     _MEMO[k] = (arrays, value)
     return value
+
+
+def _memo(rec: SteadyStateRecord, key: tuple, compute):
+    """:func:`_memo_arrays` keyed by the record itself."""
+    return _memo_arrays((rec,), key, compute)
 
 
 def _record_term_coeffs(rec: SteadyStateRecord, terms: Sequence[Term], n_harmonics: int,
