@@ -32,7 +32,10 @@ gain on held-out runs live in :mod:`rig.validate`.
 from __future__ import annotations
 
 import math
+import multiprocessing
+import os
 import warnings
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 from typing import Callable, Optional, Sequence
 
@@ -854,9 +857,54 @@ class Diagnosis:
         return tuple(e for e in self.effects if kinds.get(e, "dynamic") == kind)
 
 
+#: What the forked workers of :func:`_score_all` score: set just before they are forked, so they
+#: inherit it with the rest of the parent's memory (nothing of the problem is pickled).
+_TO_SCORE: Optional[tuple] = None
+
+
+def _score_one(i: int) -> CauseScore:
+    problem, causes, base, weights, n, alpha = _TO_SCORE
+    return score_cause(problem, causes[i], base, weights, n, alpha)
+
+
+def default_workers() -> int:
+    """Processes that score the causes of a round: ``JOINTRIG_WORKERS`` if set, else the cores
+    this process may use (at most 4; 1 where ``fork`` is not available)."""
+    env = os.environ.get("JOINTRIG_WORKERS")
+    if env:
+        try:
+            n = int(env)
+        except ValueError:
+            raise ValueError(f"JOINTRIG_WORKERS must be a whole number >= 1, got {env!r}") from None
+        if n < 1:
+            raise ValueError(f"JOINTRIG_WORKERS must be a whole number >= 1, got {env!r}")
+        return n
+    if "fork" not in multiprocessing.get_all_start_methods():
+        return 1
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    return max(1, min(cores, 4))
+
+
+def _score_all(problem: _Problem, causes: Sequence[Cause], base: Fit, weights: np.ndarray, n: int, alpha: float,
+               workers: int) -> list[CauseScore]:
+    """:func:`score_cause` for every cause, in ``workers`` forked processes when more than one
+    (the causes of a round are independent; the scores are the same numbers either way)."""
+    if workers <= 1 or len(causes) < 2:
+        return [score_cause(problem, c, base, weights, n, alpha) for c in causes]
+    global _TO_SCORE
+    _TO_SCORE = (problem, tuple(causes), base, weights, n, alpha)
+    try:
+        ctx = multiprocessing.get_context("fork")
+        with ProcessPoolExecutor(max_workers=min(workers, len(causes)), mp_context=ctx) as pool:
+            return list(pool.map(_score_one, range(len(causes))))
+    finally:
+        _TO_SCORE = None
+
+
 def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmonics: int = 20,
              torque_share: float = 0.5, alpha: float = 1e-3, max_effects: int = 3,
-             fidelity: float = DEFAULT_FIDELITY, causes: Sequence[Cause] = CAUSES) -> Diagnosis:
+             fidelity: float = DEFAULT_FIDELITY, causes: Sequence[Cause] = CAUSES,
+             workers: Optional[int] = None) -> Diagnosis:
     """Fit the nominal model, rank causes by evidence, extend greedily (module docstring).
 
     The mean (harmonic 0) is not balanced: every sensor's zero is arbitrary on a bench (an
@@ -869,6 +917,7 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
       n_harmonics: harmonics 0..H balanced per run (capped by the samples per period).
       torque_share: J2 / (J1 + J2), used only by the equivalent form.
       alpha: family-wise false-alarm probability over the causes of one round.
+      workers: processes that score the causes of a round (default :func:`default_workers`).
       fidelity: model-fidelity floor added to every row's noise, relative to the run's
         largest balanced torque: a misfit below ``fidelity`` times that is not evidence.
         Harmonic balance of a law with a jump (dry friction) from angles band-limited to
@@ -890,6 +939,7 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
     H = min(n_harmonics, min(max_harmonic(r.average.samples_per_period) for r in runs))
     nu = 2.0 * (min(r.n_periods for r in runs) - 1)
     problem = _Problem(runs, form, H, torque_share, nu, fidelity)
+    workers = default_workers() if workers is None else int(workers)
     notes = []
     if nu <= 4:
         notes.append(f"only {int(nu / 2 + 1)} periods per run: the noise estimates are rough (more periods "
@@ -902,7 +952,7 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
     ambiguous: list[Ambiguity] = []
     for rnd in range(max_effects):
         # Ranked by evidence; causes rejected as unphysical or untestable go last.
-        scores = sorted((score_cause(problem, c, current, wcur, len(remaining), alpha) for c in remaining),
+        scores = sorted(_score_all(problem, remaining, current, wcur, len(remaining), alpha, workers),
                         key=lambda s: (bool(s.note), -s.score))
         if rnd == 0:
             first = scores

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import shutil
 from pathlib import Path
 
@@ -11,6 +12,11 @@ import pytest
 from jointrig.rig import DEFAULT_MODEL, SimulationConfig, load_rig
 from jointrig.rig.runtime import limit_threads
 from jointrig.rig.sweep import DEFAULT_PLAN, records_of, run_sweep
+
+# pytest-xdist already runs one test per core: a diagnosis scores its causes in this process
+# (and so do the commands the tests start), not in forked workers of its own. The parallel
+# path has its own test (test_diagnose.py).
+os.environ.setdefault("JOINTRIG_WORKERS", "1")
 
 def blueprint_views(rrd_path) -> tuple[list[str], list[str]]:
     """(display names, view origins) of the rerun blueprint stored in a recording file."""
@@ -66,3 +72,23 @@ def hat_rig():
 def default_sweep(rig):
     """The default sweep of the paper's joint (18 runs, ~3 s)."""
     return records_of(run_sweep(rig, DEFAULT_PLAN, SimulationConfig()))
+
+
+def pytest_collection_modifyitems(config, items):
+    """Keep ``--dist loadgroup`` working: pytest-xdist 3.8 marks a grouped test by appending
+    ``@group`` to ``item._nodeid``, which pytest 9 no longer reads (the node's id is ``_id``), so
+    every group was split over both workers and its session fixture computed twice. Here the
+    suffix is set where this pytest reads it (measured: the worn-joint diagnosis of
+    test_diagnose_script ran once per worker before)."""
+    if not getattr(config.option, "loadgroup", False):  # set by xdist in its workers
+        return
+    for item in items:
+        names = sorted({str(m.args[0] if m.args else m.kwargs.get("name", "default"))
+                        for m in item.iter_markers("xdist_group")})
+        if names and "@" not in item.nodeid:
+            new = f"{item.nodeid}@{'_'.join(names)}"
+            try:
+                from _pytest.nodeid import coerce_node_id  # pytest >= 9
+            except ImportError:  # pytest 8: xdist's own suffix works
+                continue
+            item._id = coerce_node_id(new)

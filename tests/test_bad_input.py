@@ -243,7 +243,7 @@ def test_mjcf_without_a_drive_is_refused(tmp_path):
 # ------------------------------------------------------------------------------ commands
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # once per worker, even when xdist interleaves other modules
 def data3(tmp_path_factory):
     path = tmp_path_factory.mktemp("cli") / "three.csv"
     path.write_text(three_runs())

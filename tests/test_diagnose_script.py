@@ -13,12 +13,12 @@ ROOT = Path(__file__).resolve().parent.parent
 from jointrig.commands import diagnose  # noqa: E402
 from jointrig.commands import make_data  # noqa: E402
 
-# One worker runs this module: its module-scoped fixture is computed once (pytest-xdist
+# One worker runs this module: its session-scoped fixture is computed once (pytest-xdist
 # --dist loadgroup), not once per worker.
 pytestmark = pytest.mark.xdist_group("diagnose_script")
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # once per worker, even when xdist interleaves other modules
 def outputs(tmp_path_factory):
     out = tmp_path_factory.mktemp("diag")
     # The worn model (dry friction 60 N m and free play +-0.03 rad), Parquet this time.

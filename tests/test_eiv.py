@@ -19,7 +19,7 @@ from jointrig.identify.records import RecordError
 from jointrig.rig.measurement import add_noise, repeat_periods
 from jointrig.rig.montecarlo import monte_carlo
 
-# One worker runs this module: its module-scoped fixture is computed once (pytest-xdist
+# One worker runs this module: its session-scoped fixture is computed once (pytest-xdist
 # --dist loadgroup), not once per worker.
 pytestmark = pytest.mark.xdist_group("eiv")
 
@@ -68,7 +68,7 @@ def test_crlb_scales_with_the_noise(default_sweep, rig):
     assert np.all(np.linalg.eigvalsh(a) > 0)
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # once per worker, even when xdist interleaves other modules
 def mc40(default_sweep, rig):
     truth = {"Je_kgm2": rig.Je_kgm2, **rig.law.as_dict()}
     return monte_carlo(default_sweep, rig.law.terms, truth, snr_db=40.0, n_runs=N_MC, n_periods=8, n_harmonics=9,

@@ -12,12 +12,12 @@ from jointrig.rig.sweep import DEFAULT_PLAN, records_of, run_sweep
 
 from conftest import MODELS_DIR
 
-# One worker runs this module: its module-scoped fixture is computed once (pytest-xdist
+# One worker runs this module: its session-scoped fixture is computed once (pytest-xdist
 # --dist loadgroup), not once per worker.
 pytestmark = pytest.mark.xdist_group("hat")
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # once per worker, even when xdist interleaves other modules
 def kink():
     rig = load_rig(MODELS_DIR / "two_flywheels_kink.xml")
     records = records_of(run_sweep(rig, DEFAULT_PLAN, SimulationConfig()))

@@ -13,7 +13,7 @@ from jointrig.identify.multisine import line_levels, odd_multisine
 from jointrig.rig import SimulationConfig, simulate_steady_state
 from jointrig.rig.sweep import DEFAULT_MULTISINE, run_multisines
 
-# One worker runs this module: its module-scoped fixture is computed once (pytest-xdist
+# One worker runs this module: its session-scoped fixture is computed once (pytest-xdist
 # --dist loadgroup), not once per worker.
 pytestmark = pytest.mark.xdist_group("multisine")
 
@@ -34,7 +34,7 @@ def test_odd_multisine_lines_phases_and_rms():
         odd_multisine(2.0, 3, 500.0)
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # once per worker, even when xdist interleaves other modules
 def multisine_runs(rig):
     return run_multisines(rig, DEFAULT_MULTISINE, SimulationConfig(samples_per_period=512))
 

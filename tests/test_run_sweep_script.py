@@ -15,12 +15,12 @@ from jointrig.commands import run_sweep  # noqa: E402
 
 from jointrig.rig.recording import expected_entities, run_label  # noqa: E402
 
-# One worker runs this module: its module-scoped fixture is computed once (pytest-xdist
+# One worker runs this module: its session-scoped fixture is computed once (pytest-xdist
 # --dist loadgroup), not once per worker.
 pytestmark = pytest.mark.xdist_group("run_sweep_script")
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # once per worker, even when xdist interleaves other modules
 def outputs(tmp_path_factory):
     out = tmp_path_factory.mktemp("sweep")
     argv = ["--omegas", "10", "45", "80", "--amplitudes", "400", "4000", "--json", str(out / "r.json"),

@@ -195,7 +195,7 @@ def test_native_polynomial_stiffness_agrees_with_the_callback_law(rig):
     assert abs(ours[-1]) < 1e-3 * phi0  # it decayed: the comparison covered the whole motion
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # once per worker, even when xdist interleaves other modules
 def peer_records(rig):
     pytest.importorskip("mujoco.sysid._src")
     points = run_sweep(rig, SweepPlan((10.0, 45.0, 90.0), (4000.0,)), SimulationConfig())

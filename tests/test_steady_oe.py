@@ -11,7 +11,7 @@ from jointrig.identify.output_error import refine_output_error, simulate_periods
 from jointrig.identify.signals import BandlimitedInput
 from jointrig.identify.steady import SteadyStateError, periodic_response
 
-# One worker runs this module: its module-scoped fixture is computed once (pytest-xdist
+# One worker runs this module: its session-scoped fixture is computed once (pytest-xdist
 # --dist loadgroup), not once per worker.
 pytestmark = pytest.mark.xdist_group("steady_oe")
 
@@ -89,7 +89,7 @@ def _scipy_steady_period(row: np.ndarray, values, periods: int = 3) -> np.ndarra
     return sol.y[0]
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # once per worker, even when xdist interleaves other modules
 def hidden_damping_data():
     """Records of the nominal law plus amplitude-dependent damping (the hidden effect), made by
     scipy in the time domain, not by the frequency-domain solver that fits them (measured
