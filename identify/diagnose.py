@@ -862,6 +862,18 @@ class Diagnosis:
 _TO_SCORE: Optional[tuple] = None
 
 
+def _one_thread() -> None:
+    """A worker's BLAS and OpenMP pools at one thread: the workers are the parallelism (forked
+    with a pool of several threads each, the diagnosis ran 3x slower, measured)."""
+    from threadpoolctl import threadpool_limits
+
+    global _WORKER_LIMITS
+    _WORKER_LIMITS = threadpool_limits(1)
+
+
+_WORKER_LIMITS = None
+
+
 def _score_one(i: int) -> CauseScore:
     problem, causes, base, weights, n, alpha = _TO_SCORE
     return score_cause(problem, causes[i], base, weights, n, alpha)
@@ -895,7 +907,8 @@ def _score_all(problem: _Problem, causes: Sequence[Cause], base: Fit, weights: n
     _TO_SCORE = (problem, tuple(causes), base, weights, n, alpha)
     try:
         ctx = multiprocessing.get_context("fork")
-        with ProcessPoolExecutor(max_workers=min(workers, len(causes)), mp_context=ctx) as pool:
+        with ProcessPoolExecutor(max_workers=min(workers, len(causes)), mp_context=ctx,
+                                 initializer=_one_thread) as pool:
             return list(pool.map(_score_one, range(len(causes))))
     finally:
         _TO_SCORE = None
