@@ -215,23 +215,31 @@ def _pair(fields: dict, first: str, second: str) -> bool:
     return first in fields
 
 
-@dataclass(frozen=True)
-class Viscous(Term):
-    """Viscous damping ``c * phi'``."""
+class _OneField:
+    """A parameterless term declared by the one model-file field that holds its value
+    (``MJCF_FIELDS[0]``, refused negative when the term dissipates); C kind ``NATIVE_KIND``."""
 
-    MJCF_FIELDS = ("c_Nms_per_rad",)
-    dissipative = True
+    NATIVE_KIND: ClassVar[int]
 
     def native(self):
-        return NativeTerm(0)
+        return NativeTerm(self.NATIVE_KIND)
 
     @classmethod
     def read_fields(cls, fields):
-        c = _scalar(fields, "c_Nms_per_rad")
-        return [] if c is None else [(cls(), c)]
+        v = _scalar(fields, cls.MJCF_FIELDS[0], dissipates=cls.dissipative)
+        return [] if v is None else [(cls(), v)]
 
     def fields(self, value):
-        return {"c_Nms_per_rad": [value]}
+        return {self.MJCF_FIELDS[0]: [value]}
+
+
+@dataclass(frozen=True)
+class Viscous(_OneField, Term):
+    """Viscous damping ``c * phi'``."""
+
+    MJCF_FIELDS = ("c_Nms_per_rad",)
+    NATIVE_KIND = 0
+    dissipative = True
 
     @property
     def name(self) -> str:
@@ -347,22 +355,12 @@ class Power(Term):
 
 
 @dataclass(frozen=True)
-class Coulomb(Term):
+class Coulomb(_OneField, Term):
     """Dry (Coulomb) friction in the joint: ``sign(phi')`` -> ``coulomb_torque_Nm``."""
 
     MJCF_FIELDS = ("coulomb_torque_Nm",)
+    NATIVE_KIND = 5
     dissipative = True
-
-    def native(self):
-        return NativeTerm(5)
-
-    @classmethod
-    def read_fields(cls, fields):
-        v = _scalar(fields, "coulomb_torque_Nm", dissipates=True)
-        return [] if v is None else [(cls(), v)]
-
-    def fields(self, value):
-        return {"coulomb_torque_Nm": [value]}
 
     @property
     def name(self) -> str:
@@ -433,22 +431,12 @@ class Stribeck(Term):
 
 
 @dataclass(frozen=True)
-class QuadraticDamping(Term):
+class QuadraticDamping(_OneField, Term):
     """Quadratic (turbulent) damping ``phi' |phi'|`` -> ``quadratic_damping_Nms2_per_rad2``."""
 
     MJCF_FIELDS = ("quadratic_damping_Nms2_per_rad2",)
+    NATIVE_KIND = 6
     dissipative = True
-
-    def native(self):
-        return NativeTerm(6)
-
-    @classmethod
-    def read_fields(cls, fields):
-        v = _scalar(fields, "quadratic_damping_Nms2_per_rad2", dissipates=True)
-        return [] if v is None else [(cls(), v)]
-
-    def fields(self, value):
-        return {"quadratic_damping_Nms2_per_rad2": [value]}
 
     @property
     def name(self) -> str:
