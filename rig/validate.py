@@ -408,6 +408,11 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
     ext_plant, J_ext = plant_of(diag.extended, torque_share)
     comparisons = []
     notes: list[str] = []
+    fitted = diag.extended.as_dict()
+    for name in ("bearing1_damping_Nms_per_rad", "bearing2_damping_Nms_per_rad"):
+        if fitted.get(name, 0.0) < 0:  # within 2 standard errors of 0, else the extension was rejected
+            notes.append(f"the extended model's {name} = {fitted[name]:.3g} +- {diag.extended.std_error(name):.2g} "
+                         f"(not significantly below 0) is simulated as 0: a drag to ground cannot feed energy in")
     for i, (rid, run) in enumerate(zip(run_ids, prepared)):
         say(f"simulating run {rid} ({i + 1}/{n}) in the rig: nominal and extended")
         N = run.average.samples_per_period
