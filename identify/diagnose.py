@@ -34,6 +34,7 @@ from __future__ import annotations
 import math
 import multiprocessing
 import os
+import threading
 import warnings
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
@@ -881,7 +882,8 @@ def _score_one(i: int) -> CauseScore:
 
 def default_workers() -> int:
     """Processes that score the causes of a round: ``JOINTRIG_WORKERS`` if set, else the cores
-    this process may use (at most 4; 1 where ``fork`` is not available)."""
+    this process may use (at most 4; 1 where ``fork`` is not available, or when the process runs
+    other Python threads: forking then could copy a lock another thread holds)."""
     env = os.environ.get("JOINTRIG_WORKERS")
     if env:
         try:
@@ -891,7 +893,7 @@ def default_workers() -> int:
         if n < 1:
             raise ValueError(f"JOINTRIG_WORKERS must be a whole number >= 1, got {env!r}")
         return n
-    if "fork" not in multiprocessing.get_all_start_methods():
+    if "fork" not in multiprocessing.get_all_start_methods() or threading.active_count() > 1:
         return 1
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
     return max(1, min(cores, 4))
