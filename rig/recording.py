@@ -264,3 +264,61 @@ def log_restoring_band(rec: rr.RecordingStream, phi_rad: np.ndarray, g_Nm: np.nd
 def log_parameter_table(rec: rr.RecordingStream, markdown: str) -> None:
     rec.log("parameters", rr.TextDocument(markdown, media_type=rr.MediaType.MARKDOWN), static=True)
 
+
+
+def chain_run_label(record) -> str:
+    """A chain run's entity name: frequency, amplitude and driven flywheel."""
+    driven = "".join(str(i + 1) for i, t in enumerate(record.torques_Nm) if t is not None)
+    return f"{run_label(record.omega_rad_s, record.drive_amplitude_Nm)}_at{driven}"
+
+
+def chain_blueprint(records, n_joints: int):
+    """A chain sweep's layout: per joint, the identified restoring torque against the true one
+    (timeline ``phi_urad``) beside the parameter table; then every run's joint twists over one
+    period (timeline ``t_s``)."""
+    import rerun.blueprint as rrb
+
+    everything = rrb.TimeRange(start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.infinite())
+
+    def whole(timeline):
+        return rrb.VisibleTimeRange(timeline, start=rrb.TimeRangeBoundary.infinite(),
+                                    end=rrb.TimeRangeBoundary.infinite())
+
+    axis = rrb.TimeAxis(view_range=everything)
+    laws = rrb.Horizontal(
+        rrb.Grid(*[rrb.TimeSeriesView(origin=f"restoring_force/joint{j}",
+                                      name=f"joint {j}: restoring torque [N m], identified vs true, against its "
+                                           f"twist [urad] (timeline phi_urad)",
+                                      time_ranges=whole("phi_urad"), axis_x=axis) for j in range(1, n_joints + 1)]),
+        rrb.TextDocumentView(origin="parameters", name="parameters: true, identified, errors"),
+        column_shares=[3, 2], name="Identified joints")
+    runs = rrb.Grid(*[rrb.TimeSeriesView(origin=f"runs/{chain_run_label(r)}",
+                                         name=f"{r.omega_rad_s:g} rad/s, {r.drive_amplitude_Nm:g} N m: joint twists "
+                                              f"[rad], drive torques [N m] (timeline t_s)",
+                                         time_ranges=whole("t_s"), axis_x=axis) for r in records], name="Runs")
+    return rrb.Blueprint(rrb.Tabs(laws, runs), rrb.TimePanel(timeline="phi_urad", state="collapsed"),
+                         collapse_panels=True)
+
+
+def log_chain_run(rec: rr.RecordingStream, record) -> None:
+    """Every joint's twist and every recorded drive torque of one chain run, over its periods."""
+    lab = chain_run_label(record)
+    t = rr.TimeColumn("t_s", duration=record.time_s - record.time_s[0])
+    for j in range(record.n_flywheels - 1):
+        if record.angles_rad[j] is not None and record.angles_rad[j + 1] is not None:
+            rec.send_columns(f"runs/{lab}/joint{j + 1}_twist_rad", indexes=[t],
+                             columns=rr.Scalars.columns(scalars=record.angles_rad[j] - record.angles_rad[j + 1]))
+    for i, tq in enumerate(record.torques_Nm, start=1):
+        if tq is not None:
+            rec.send_columns(f"runs/{lab}/drive{i}_torque_Nm", indexes=[t], columns=rr.Scalars.columns(scalars=tq))
+
+
+def log_chain_laws(rec: rr.RecordingStream, true_laws, identified_laws, twist_ranges_rad, n_points: int = 401) -> None:
+    """Each joint's restoring torque g(phi), identified and true, over its measured twist."""
+    for j, (true, ident, rng) in enumerate(zip(true_laws, identified_laws, twist_ranges_rad), start=1):
+        phi = np.linspace(*rng, n_points)
+        idx = [rr.TimeColumn("phi_urad", sequence=np.round(phi * 1e6).astype(np.int64))]
+        for name, law in (("identified_Nm", ident), ("true_Nm", true)):
+            if law is not None:
+                rec.send_columns(f"restoring_force/joint{j}/{name}", indexes=idx,
+                                 columns=rr.Scalars.columns(scalars=np.asarray(law.elastic_torque(phi), dtype=float)))

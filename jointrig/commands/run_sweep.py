@@ -42,10 +42,13 @@ log = logging.getLogger("run_sweep")
 def parse_args(argv=None) -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--model", type=Path, default=DEFAULT_MODEL, help="rig MJCF (default: %(default)s)")
-    p.add_argument("--omegas", type=float, nargs="+", default=list(DEFAULT_PLAN.omegas_rad_s),
-                   metavar="RAD_S", help="drive frequencies in rad/s (default: %(default)s)")
-    p.add_argument("--amplitudes", type=float, nargs="+", default=list(DEFAULT_PLAN.amplitudes_Nm),
-                   metavar="NM", help="drive torque amplitudes on flywheel 1 in N m (default: %(default)s)")
+    p.add_argument("--omegas", type=float, nargs="+", default=None,
+                   metavar="RAD_S", help=f"drive frequencies in rad/s (default: {list(DEFAULT_PLAN.omegas_rad_s)}; "
+                                         f"for a chain model, rig.chain_sweep.CHAIN_PLAN)")
+    p.add_argument("--amplitudes", type=float, nargs="+", default=None,
+                   metavar="NM", help=f"drive torque amplitudes in N m (default: {list(DEFAULT_PLAN.amplitudes_Nm)})")
+    p.add_argument("--drive-at", type=int, default=1, metavar="I",
+                   help="chain models: the flywheel driven at every --omegas x --amplitudes point (default: %(default)s)")
     p.add_argument("--form", choices=FORMS, default="equivalent",
                    help="equivalent 1-DOF (Je + law) or direct 2-DOF (J1, J2 + law) (default: %(default)s)")
     p.add_argument("--harmonics", type=int, default=None,
@@ -124,6 +127,12 @@ def main(argv=None) -> int:
     if args.harmonics is not None:
         check_range(args.harmonics, "--harmonics", lo=1, hi=1000, integer=True)
     check_range(args.workers, "--workers", lo=1, hi=256, integer=True)
+    from jointrig.rig.chain import is_chain_model
+
+    if is_chain_model(args.model):
+        return chain_main(args)
+    args.omegas = list(DEFAULT_PLAN.omegas_rad_s) if args.omegas is None else args.omegas
+    args.amplitudes = list(DEFAULT_PLAN.amplitudes_Nm) if args.amplitudes is None else args.amplitudes
     check_each(args.omegas, "--omegas", lo=0, hi=1e4, lo_open=True)
     check_each(args.amplitudes, "--amplitudes", lo=0, hi=1e7, lo_open=True)
     rig = load_rig(args.model)
@@ -232,4 +241,96 @@ def main(argv=None) -> int:
         if rrd is not None:
             print(f"wrote {rrd} (open it with: .venv/bin/rerun {rrd}; without a display: .venv/bin/rerun {rrd} "
                   f"--web-viewer, then a browser on port 9090)")
+    return 0 if result.success else 1
+
+
+def chain_main(args: argparse.Namespace) -> int:
+    """A chain model (``jointrig_joint<j>_*`` fields): sweep it, identify every inertia and every
+    joint law at once (identify/chain.py), report and record."""
+    from jointrig.identify.chain import ChainSpec, identify_chain, joint_law
+    from jointrig.rig.chain import load_chain
+    from jointrig.rig.chain_sweep import CHAIN_CONFIG, CHAIN_PLAN, run_chain_sweep
+    from jointrig.rig.recording import chain_blueprint, log_chain_laws, log_chain_run
+    from jointrig.rig.runtime import check_each
+
+    unsupported = [flag for flag, on in (("--form two_dof", args.form != "equivalent"),
+                                         ("--excitation multisine", args.excitation != "stepped"),
+                                         ("--noise-db", args.noise_db is not None), ("--native", args.native),
+                                         ("--workers", args.workers > 1), ("--executor dask", args.executor != "local"),
+                                         ("--continuation", args.continuation),
+                                         ("--sample-rate-hz", args.sample_rate_hz is not None)) if on]
+    if unsupported:
+        raise ValueError(f"{args.model} is a chain model: {', '.join(unsupported)} is not available for chains yet "
+                         f"(they are identified from noise-free stepped sweeps, simulated here one after another)")
+    rig = load_chain(args.model)
+    if args.omegas is None and args.amplitudes is None:
+        points = list(CHAIN_PLAN)
+    else:
+        omegas = args.omegas or sorted({w for w, _, _ in CHAIN_PLAN})
+        amps = args.amplitudes or [60.0]
+        check_each(omegas, "--omegas", lo=0, hi=1e5, lo_open=True)
+        check_each(amps, "--amplitudes", lo=0, hi=1e7, lo_open=True)
+        if args.drive_at not in rig.driven:
+            raise ValueError(f"--drive-at {args.drive_at}: {args.model} has motors on flywheels {list(rig.driven)}")
+        points = [(w, a, args.drive_at) for a in amps for w in omegas]
+    d = SimulationConfig()
+    config = dataclasses.replace(
+        CHAIN_CONFIG, settle_tol=args.settle_tol, integrator=args.integrator,
+        max_step_s=args.max_step if args.max_step != d.max_step_s else CHAIN_CONFIG.max_step_s,
+        samples_per_period=(args.samples_per_period if args.samples_per_period != d.samples_per_period
+                            else CHAIN_CONFIG.samples_per_period))
+    harmonics = 9 if args.harmonics is None else args.harmonics
+    store = None
+    if not args.no_store:
+        key = json.dumps(["chain", rig.digest, dataclasses.asdict(config)], sort_keys=True)
+        store = args.store or Path("runs/store") / f"{rig.path.stem}-{hashlib.sha256(key.encode()).hexdigest()[:12]}"
+    log.info("chain model %s: %d flywheels, inertias %s kg m^2, %d sweep points; store %s", rig.path,
+             rig.n_flywheels, rig.inertias_kgm2, len(points), store)
+    done = run_chain_sweep(rig, points, config, store=store)
+    records = [p.record for p in done]
+    spec = rig.plant.spec()
+    result = identify_chain(records, spec, n_harmonics=harmonics)
+    truth = {**{f"J{i}_kgm2": J for i, J in enumerate(rig.inertias_kgm2, start=1)}, **rig.plant.parameters()}
+    rows = compare(result, truth)
+    print(f"\nHarmonic-balance identification of a {rig.n_flywheels}-flywheel chain from {len(records)} runs, "
+          f"harmonics 0..{harmonics}: {result.n_rows} equations for {len(result.names)} unknowns (block-banded), "
+          f"condition number {result.condition_number:.3g}, status: {result.message}\n")
+    print(format_table(rows))
+    out = {
+        "parameters": {r.name: r.as_json() for r in rows},
+        "form": "chain",
+        "n_flywheels": rig.n_flywheels,
+        "condition_number": result.condition_number,
+        "relative_residual": result.relative_residual,
+        "estimator": "least squares (block-banded QR)",
+        "n_equations": result.n_rows,
+        "success": result.success,
+        "message": result.message,
+        "max_abs_rel_error": max(abs(r.rel_error) for r in rows if r.rel_error is not None),
+        "excitation": "stepped",
+        "sweep": {"points": [{"omega_rad_s": p.omega_rad_s, "amplitude_Nm": p.amplitude_Nm, "driven_flywheel": p.flywheel,
+                              "periods_to_steady_state": p.settle.periods_simulated,
+                              "error_bound": p.settle.error_bound, "timestep_s": p.settle.timestep_s} for p in done]},
+        "simulation": {**dataclasses.asdict(config), "model": str(rig.path), "model_sha256": rig.digest},
+        "units": "SI; parameter names carry their units",
+    }
+    if args.json:
+        write_json_atomic(args.json, out)
+        print(f"\nwrote {args.json}")
+    rrd = None if args.no_rrd else args.rrd
+    if rrd is not None or args.spawn or args.connect:
+        values = result.as_dict()
+        identified = [joint_law(values, spec, j) for j in range(1, rig.n_flywheels)]
+        ranges = []
+        for j in range(rig.n_flywheels - 1):
+            tw = np.concatenate([r.angles_rad[j] - r.angles_rad[j + 1] for r in records])
+            ranges.append((float(tw.min()), float(tw.max())))
+        with open_recording(rrd, spawn=args.spawn, connect=args.connect) as rec:
+            rec.send_blueprint(chain_blueprint(records, rig.n_flywheels - 1))
+            for r in records:
+                log_chain_run(rec, r)
+            log_chain_laws(rec, rig.plant.laws, identified, ranges)
+            log_parameter_table(rec, format_table(rows, markdown=True))
+        if rrd is not None:
+            print(f"wrote {rrd} (open it with: .venv/bin/rerun {rrd})")
     return 0 if result.success else 1

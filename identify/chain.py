@@ -1,0 +1,487 @@
+"""Harmonic balance for a drive train: N flywheels in a chain, N - 1 joints, all unknown.
+
+Flywheel i (1..N) turns by ``phi_i``; joint j (1..N-1) joins flywheels j and j+1 and carries
+the torque ``M_j(phi_j - phi_(j+1), phi_j' - phi_(j+1)')`` (its own law, any terms of
+:mod:`identify.basis`). Flywheel i's equation of motion (paper eq. 1, one per flywheel) is
+
+    J_i phi_i'' + b_i phi_i' + M_i - M_(i-1) = T_i(t),
+
+with ``M_0 = M_N = 0``, ``b_i`` an optional drag to ground (bearing) and ``T_i`` the drive
+torque on flywheel i (0 where there is no drive). Every unknown (all inertias, all law
+parameters, the bearings) enters linearly, so balancing harmonics 0..H of every equation
+gives [A]{S} = {F} as in the two-flywheel case (paper eq. 5-7).
+
+**Block structure.** Flywheel i's rows touch only ``J_i``, ``b_i`` and the laws of joints
+i-1 and i. With the unknowns ordered ``J_1, b_1, law_1, J_2, b_2, law_2, ..., J_N, b_N``
+each flywheel's rows occupy one contiguous band of columns, so [A] is block-banded and is
+reduced by a sequence of small QR factorisations, one per flywheel
+(:func:`solve_banded`), at a cost linear in N; the p x p triangle left is then solved by SVD
+for the condition number and the covariance (the same quantities as :func:`identify.solve.solve`).
+
+**What the data identify.** A joint's law is a function of its relative angle, so both of its
+flywheels' angles must be measured; a flywheel's equation needs its own angle and its
+neighbours'. With every angle measured and a drive torque recorded on at least one flywheel,
+all inertias and all laws are identifiable (the equations of flywheels 1..i determine joint
+i's torque from the drive inwards). :func:`identifiability` says what is missing otherwise,
+and :func:`chain_system` refuses such data with that reason.
+
+Names: ``J{i}_kgm2``, ``bearing{i}_damping_Nms_per_rad`` and ``joint{j}_<term name>``
+(``joint2_k_Nm_per_rad``), 1-based as on the drawing of the train.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Optional, Sequence
+
+import numpy as np
+
+from .balance import LinearSystem, harmonic_rows, spectral_rate, upsample
+from .basis import JointLaw, Term
+from .harmonics import fourier_coefficients, max_harmonic
+from .records import RecordError, SteadyStateRecord
+from .solve import COND_WARN, IdentificationResult
+
+__all__ = ["ChainRecord", "ChainSpec", "ChainIdentifiabilityError", "identifiability", "chain_system",
+           "solve_banded", "identify_chain", "joint_law", "ChainPlant", "plant_of_values", "BandedSystem", "inertia_name", "bearing_name", "joint_prefix"]
+
+
+class ChainIdentifiabilityError(ValueError):
+    """The measured angles and drives do not determine the unknowns (the message says why)."""
+
+
+def inertia_name(i: int) -> str:
+    return f"J{i}_kgm2"
+
+
+def bearing_name(i: int) -> str:
+    return f"bearing{i}_damping_Nms_per_rad"
+
+
+def joint_prefix(j: int) -> str:
+    return f"joint{j}_"
+
+
+def _opt_rows(name: str, rows, n: Optional[int], count: int, src: str) -> tuple:
+    if rows is None:
+        return (None,) * count
+    rows = tuple(rows)
+    if len(rows) != count:
+        raise RecordError(f"{src}: '{name}' holds {len(rows)} channels, expected one per flywheel ({count})")
+    out = []
+    for i, r in enumerate(rows, start=1):
+        if r is None:
+            out.append(None)
+            continue
+        a = np.array(r, dtype=float)
+        if a.ndim != 1 or (n is not None and a.size != n):
+            raise RecordError(f"{src}: '{name}' of flywheel {i} has shape {a.shape}, expected ({n},) like 'time_s'")
+        if not np.all(np.isfinite(a)):
+            raise RecordError(f"{src}: '{name}' of flywheel {i} holds non-finite values")
+        a.setflags(write=False)
+        out.append(a)
+    return tuple(out)
+
+
+@dataclass(frozen=True)
+class ChainRecord:
+    """Whole periods of one steady-state run of a chain, sampled uniformly.
+
+    Attributes:
+      omega_rad_s: drive fundamental (rad/s).
+      time_s: sample times (s), ``(n_samples,)``, whole periods (checked as for
+        :class:`identify.records.SteadyStateRecord`).
+      torques_Nm: per flywheel 1..N, the drive torque applied to it (N m, ``(n_samples,)``), or
+        None where no drive acts.
+      angles_rad: per flywheel, its angle (rad), or None where it is not measured.
+      rates_rad_s: per flywheel, its rate (rad/s), or None (spectral derivative of the angle).
+      n_periods: whole periods held.
+      drive_amplitude_Nm: nominal amplitude, for labels (NaN if unknown).
+      source: where the record came from (used in error messages).
+    """
+
+    omega_rad_s: float
+    time_s: np.ndarray
+    torques_Nm: tuple
+    angles_rad: tuple
+    rates_rad_s: Optional[tuple] = None
+    n_periods: int = 1
+    drive_amplitude_Nm: float = float("nan")
+    source: str = field(default="chain record", compare=False)
+
+    def __post_init__(self):
+        src = self.source
+        N = len(tuple(self.angles_rad))
+        if N < 2:
+            raise RecordError(f"{src}: a chain has at least 2 flywheels, got {N} angle channel(s)")
+        t = np.array(self.time_s, dtype=float)
+        n = t.size
+        angles = _opt_rows("angles_rad", self.angles_rad, n, N, src)
+        torques = _opt_rows("torques_Nm", self.torques_Nm, n, N, src)
+        rates = _opt_rows("rates_rad_s", self.rates_rad_s, n, N, src)
+        # The clock check lives once, in SteadyStateRecord: whole periods, uniform samples.
+        any_angle = next((a for a in angles if a is not None), None)
+        if any_angle is None:
+            raise RecordError(f"{src}: no angle is measured")
+        SteadyStateRecord(self.omega_rad_s, t, np.zeros(n), any_angle, None, n_periods=self.n_periods, source=src)
+        t.setflags(write=False)
+        object.__setattr__(self, "time_s", t)
+        object.__setattr__(self, "angles_rad", angles)
+        object.__setattr__(self, "torques_Nm", torques)
+        object.__setattr__(self, "rates_rad_s", rates)
+        object.__setattr__(self, "omega_rad_s", float(self.omega_rad_s))
+        object.__setattr__(self, "n_periods", int(self.n_periods))
+
+    @property
+    def n_flywheels(self) -> int:
+        return len(self.angles_rad)
+
+    @property
+    def n_samples(self) -> int:
+        return int(self.time_s.size)
+
+    @property
+    def samples_per_period(self) -> int:
+        return self.n_samples // self.n_periods
+
+    @property
+    def measured(self) -> tuple[bool, ...]:
+        return tuple(a is not None for a in self.angles_rad)
+
+    @property
+    def driven(self) -> tuple[bool, ...]:
+        return tuple(t is not None for t in self.torques_Nm)
+
+    def rate(self, i: int) -> np.ndarray:
+        """Rate of flywheel i (0-based index) (rad/s): measured, else the spectral derivative."""
+        r = self.rates_rad_s[i]
+        return r if r is not None else spectral_rate(self.angles_rad[i], self.omega_rad_s, self.n_periods)
+
+    def relative(self, j: int) -> tuple[np.ndarray, np.ndarray]:
+        """Relative angle and rate of joint j (0-based: flywheels j and j+1)."""
+        return (self.angles_rad[j] - self.angles_rad[j + 1], self.rate(j) - self.rate(j + 1))
+
+
+@dataclass(frozen=True)
+class ChainSpec:
+    """A chain's model structure: the terms of every joint's law, and which flywheels have a
+    drag to ground (1-based numbers).
+
+    Attributes:
+      joints: one tuple of :class:`identify.basis.Term` per joint (N - 1 of them).
+      bearings: flywheel numbers with an unknown viscous drag to ground.
+    """
+
+    joints: tuple
+    bearings: tuple = ()
+
+    def __post_init__(self):
+        joints = tuple(tuple(j) for j in self.joints)
+        if not joints:
+            raise ValueError("ChainSpec needs at least one joint")
+        for j, terms in enumerate(joints, start=1):
+            if not terms or not all(isinstance(t, Term) for t in terms):
+                raise ValueError(f"ChainSpec: joint {j} needs at least one law term (identify.basis.Term)")
+        N = len(joints) + 1
+        bearings = tuple(sorted(set(int(b) for b in self.bearings)))
+        if any(not 1 <= b <= N for b in bearings):
+            raise ValueError(f"ChainSpec.bearings must be flywheel numbers 1..{N}, got {self.bearings}")
+        object.__setattr__(self, "joints", joints)
+        object.__setattr__(self, "bearings", bearings)
+
+    @property
+    def n_flywheels(self) -> int:
+        return len(self.joints) + 1
+
+    def blocks(self) -> list[tuple[str, int, tuple[str, ...]]]:
+        """The unknowns in banded order, grouped: ("flywheel", i, names) and ("joint", j, names)."""
+        out = []
+        for i in range(1, self.n_flywheels + 1):
+            names = (inertia_name(i),) + ((bearing_name(i),) if i in self.bearings else ())
+            out.append(("flywheel", i, names))
+            if i < self.n_flywheels:
+                out.append(("joint", i, tuple(joint_prefix(i) + t.name for t in self.joints[i - 1])))
+        return out
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(n for _, _, names in self.blocks() for n in names)
+
+
+def identifiability(n_flywheels: int, measured: Sequence[bool], driven: Sequence[bool]) -> list[str]:
+    """Why the unknowns of a chain are not identifiable from these channels ([] if they are).
+
+    Every joint's law needs both of its flywheels' angles; a recorded drive torque on at
+    least one flywheel fixes the scale (without one, [A]{S} = 0 has only S = 0 or a
+    one-parameter family).
+    """
+    measured, driven = list(measured), list(driven)
+    reasons = []
+    for j in range(1, n_flywheels):
+        missing = [i for i in (j, j + 1) if not measured[i - 1]]
+        if missing:
+            reasons.append(
+                f"joint {j} (flywheels {j}-{j + 1}): its law is a function of phi{j} - phi{j + 1}, and "
+                + " and ".join(f"phi{i}" for i in missing) + " is not measured; add an angle sensor on flywheel "
+                + " and ".join(str(i) for i in missing))
+    if not any(driven):
+        reasons.append("no flywheel has a recorded drive torque: without a known torque the equations are "
+                       "homogeneous and fix no scale; record the drive torque")
+    return reasons
+
+
+def _law_coeffs(terms: Sequence[Term], phi: np.ndarray, rate: np.ndarray, n_periods: int, n_harmonics: int,
+                oversample: int) -> np.ndarray:
+    phi, rate = upsample(phi, oversample), upsample(rate, oversample)
+    sig = np.vstack([np.broadcast_to(np.asarray(t(phi, rate), dtype=float), phi.shape) for t in terms])
+    return fourier_coefficients(sig, n_periods, n_harmonics)
+
+
+@dataclass(frozen=True)
+class BandedSystem:
+    """[A]{S} = {F} of a chain, held as one dense block of rows per flywheel.
+
+    Attributes:
+      system: all rows (dense; rows of flywheel 1 first, then 2, ...), for residuals and tests.
+      spans: per flywheel, ``(first row, end row, first column, end column)``: its rows are
+        zero outside those columns (the banded structure :func:`solve_banded` uses).
+    """
+
+    system: LinearSystem
+    spans: tuple
+
+    @property
+    def density(self) -> float:
+        """Fraction of [A] inside the bands (the rest is structurally zero)."""
+        A = self.system.A
+        inside = sum((r1 - r0) * (c1 - c0) for r0, r1, c0, c1 in self.spans)
+        return inside / A.size if A.size else 0.0
+
+
+def chain_system(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics: int, first_harmonic: int = 0,
+                 oversample: int = 1) -> BandedSystem:
+    """The harmonic-balance rows of every flywheel of every record (harmonics
+    ``first_harmonic..n_harmonics``), ordered for :func:`solve_banded`.
+
+    Raises:
+      ChainIdentifiabilityError: a record lacks an angle a joint needs, or has no drive torque.
+      RecordError: a record with too few samples per period for ``n_harmonics``, or whose
+        flywheel count differs from the spec's.
+    """
+    if not records:
+        raise ValueError("no records to identify from")
+    N = spec.n_flywheels
+    for r in records:
+        if not isinstance(r, ChainRecord):
+            raise TypeError(f"expected ChainRecord, got {type(r).__name__}")
+        if r.n_flywheels != N:
+            raise RecordError(f"{r.source}: {r.n_flywheels} flywheels, but the model has {N}")
+        why = identifiability(N, r.measured, r.driven)
+        if why:
+            raise ChainIdentifiabilityError(f"{r.source}: not identifiable by harmonic balance: " + "; ".join(why))
+        top = max_harmonic(r.samples_per_period)
+        if not 0 <= n_harmonics <= top:
+            raise RecordError(f"{r.source}: n_harmonics={n_harmonics} needs more than the record's "
+                              f"{r.samples_per_period} samples per period (at most {top} harmonics)")
+    names = spec.names
+    col = {n: k for k, n in enumerate(names)}
+    p = len(names)
+    rows_by_fw: list[list] = [[] for _ in range(N)]
+    for ri, rec in enumerate(records):
+        P, H = rec.n_periods, n_harmonics
+        jw = 1j * np.arange(H + 1) * rec.omega_rad_s
+        laws = [_law_coeffs(spec.joints[j], *rec.relative(j), P, H, oversample) for j in range(N - 1)]
+        for i in range(N):
+            cols = np.zeros((p, H + 1), dtype=complex)
+            rate = rec.rate(i)
+            cols[col[inertia_name(i + 1)]] = jw * fourier_coefficients(rate, P, H)
+            if i + 1 in spec.bearings:
+                cols[col[bearing_name(i + 1)]] = fourier_coefficients(rate, P, H)
+            if i < N - 1:  # joint i+1 (between i+1 and i+2) acts with +M on flywheel i+1
+                for t, c in zip(spec.joints[i], laws[i]):
+                    cols[col[joint_prefix(i + 1) + t.name]] += c
+            if i > 0:  # joint i acts with -M on flywheel i+1
+                for t, c in zip(spec.joints[i - 1], laws[i - 1]):
+                    cols[col[joint_prefix(i) + t.name]] -= c
+            torque = rec.torques_Nm[i]
+            rhs = fourier_coefficients(torque, P, H) if torque is not None else np.zeros(H + 1, dtype=complex)
+            A, F, harm, part = harmonic_rows(cols, rhs, H)
+            keep = harm >= first_harmonic
+            rows_by_fw[i].append((A[keep], F[keep], harm[keep], part[keep], ri))
+    # Column band of each flywheel: its own block, and the joints on either side.
+    blocks = spec.blocks()
+    start = {}
+    k = 0
+    for kind, idx, bnames in blocks:
+        start[(kind, idx)] = (k, k + len(bnames))
+        k += len(bnames)
+    As, Fs, rec_idx, harms, parts, eqs, spans = [], [], [], [], [], [], []
+    r0 = 0
+    for i in range(N):
+        lo = start[("joint", i)][0] if i > 0 else start[("flywheel", 1)][0]
+        hi = start[("joint", i + 1)][1] if i < N - 1 else start[("flywheel", N)][1]
+        for A, F, harm, part, ri in rows_by_fw[i]:
+            As.append(A)
+            Fs.append(F)
+            harms.append(harm)
+            parts.append(part)
+            rec_idx.append(np.full(F.size, ri))
+            eqs.append(np.full(F.size, i))
+        r1 = r0 + sum(F.size for _, F, _, _, _ in rows_by_fw[i])
+        spans.append((r0, r1, lo, hi))
+        r0 = r1
+    system = LinearSystem(np.vstack(As), np.concatenate(Fs), names, np.concatenate(rec_idx),
+                          np.concatenate(harms), np.concatenate(parts), np.concatenate(eqs))
+    return BandedSystem(system, tuple(spans))
+
+
+def solve_banded(banded: BandedSystem, *, row_weights: Optional[np.ndarray] = None) -> IdentificationResult:
+    """Weighted least squares of a chain's banded system by one QR per flywheel block.
+
+    The columns are equilibrated (unit 2-norm after row weighting) as in
+    :func:`identify.solve.solve`. Block i's rows, stacked on the rows carried over from block
+    i-1, are factorised over block i's columns; the triangle's rows whose leading column no
+    later block touches are final, the others are carried on. The p x p triangle R left has
+    the singular values of the equilibrated [A]: its SVD gives the solution, the condition
+    number and the covariance ``s^2 (A'WA)^-1`` with ``s^2 = r'Wr / (m - p)``.
+    """
+    system = banded.system
+    A, F = system.A, system.F
+    m, p = A.shape
+    if m < p:
+        raise ValueError(f"{m} equations for {p} unknowns {list(system.names)}: add harmonics or runs")
+    sw = np.ones(m) if row_weights is None else np.sqrt(np.asarray(row_weights, dtype=float))
+    if sw.shape != (m,) or not np.all(np.isfinite(sw)) or np.any(sw <= 0):
+        raise ValueError(f"row_weights must be {m} finite numbers > 0")
+    norms = np.zeros(p)
+    for r0, r1, c0, c1 in banded.spans:
+        norms[c0:c1] += np.sum((A[r0:r1, c0:c1] * sw[r0:r1, None]) ** 2, axis=0)
+    norms = np.sqrt(norms)
+    if np.any(norms == 0):
+        bad = [system.names[i] for i in np.flatnonzero(norms == 0)]
+        raise ValueError(f"parameters {bad} have an all-zero column: the data do not excite them")
+    D = 1.0 / norms
+    R = np.zeros((p, p))
+    g = np.zeros(p)
+    rss = 0.0
+    carry_A = np.zeros((0, 0))
+    carry_F = np.zeros(0)
+    carry_lo = 0
+    done = 0  # rows of R finished
+    for b, (r0, r1, c0, c1) in enumerate(banded.spans):
+        lo = min(carry_lo, c0) if carry_A.size else c0
+        if lo != done:
+            raise ValueError("solve_banded: the blocks' columns are not banded in order")
+        width = c1 - lo
+        stack = np.zeros((carry_A.shape[0] + (r1 - r0), width))
+        stack[:carry_A.shape[0], :carry_A.shape[1]] = carry_A
+        stack[carry_A.shape[0]:, c0 - lo:] = A[r0:r1, c0:c1] * sw[r0:r1, None] * D[c0:c1]
+        rhs = np.concatenate([carry_F, F[r0:r1] * sw[r0:r1]])
+        q, r = np.linalg.qr(stack, mode="complete")
+        qtf = q.T @ rhs
+        k = min(width, stack.shape[0])
+        rss += float(qtf[k:] @ qtf[k:])
+        # Columns no later block touches: the next block's band starts at its c0.
+        nxt = banded.spans[b + 1][2] if b + 1 < len(banded.spans) else c1
+        final = min(nxt - lo, k)
+        R[lo:lo + final, lo:c1] = r[:final]
+        g[lo:lo + final] = qtf[:final]
+        done = lo + final
+        carry_A = r[final:k, final:]
+        carry_F = qtf[final:k]
+        carry_lo = lo + final
+    if done < p:
+        R[done:, done:] = carry_A[: p - done]
+        g[done:] = carry_F[: p - done]
+    U, sv, Vt = np.linalg.svd(R)
+    cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf
+    rank_tol = sv[0] * max(m, p) * np.finfo(float).eps
+    rank = int(np.sum(sv > rank_tol))
+    inv_sv = np.where(sv > rank_tol, 1.0 / np.where(sv > 0, sv, 1.0), 0.0)
+    y = Vt.T @ (inv_sv * (U.T @ g))
+    S = D * y
+    r = (A @ S - F) * sw
+    dof = m - p
+    s2 = float(r @ r) / dof if dof > 0 else math.nan
+    cov = s2 * (D[:, None] * ((Vt.T * inv_sv**2) @ Vt) * D[None, :])
+    std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    success = rank == p
+    if not success:
+        message = f"rank-deficient: rank {rank} < {p} unknowns (condition number {cond:.3g})"
+    elif cond > COND_WARN:
+        message = f"ill-conditioned: condition number {cond:.3g} > {COND_WARN:.0e}; check the standard errors"
+    else:
+        message = "ok"
+    normF = float(np.linalg.norm(F * sw))
+    result = IdentificationResult(
+        names=tuple(system.names), values=S, std_errors=std, covariance=cov, condition_number=cond,
+        residual_rms=float(np.sqrt(np.mean(r**2))), relative_residual=float(np.linalg.norm(r) / normF) if normF else math.inf,
+        n_rows=m, dof=dof, success=success, message=message)
+    for arr in (result.values, result.std_errors, result.covariance):
+        arr.setflags(write=False)
+    return result
+
+
+def identify_chain(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics: int = 9,
+                   row_weights: Optional[np.ndarray] = None) -> IdentificationResult:
+    """All inertias, all joint laws (and the bearings the spec names) of a chain from its records."""
+    return solve_banded(chain_system(records, spec, n_harmonics=n_harmonics), row_weights=row_weights)
+
+
+def joint_law(result_values: dict, spec: ChainSpec, j: int) -> JointLaw:
+    """Joint j's law (1-based) from identified values by name."""
+    terms = spec.joints[j - 1]
+    return JointLaw(terms, tuple(result_values[joint_prefix(j) + t.name] for t in terms))
+
+
+@dataclass(frozen=True)
+class ChainPlant:
+    """What a chain rig simulates: every joint's law and every flywheel's drag to ground.
+
+    Attributes:
+      laws: one :class:`identify.basis.JointLaw` per joint (N - 1).
+      bearings_Nms_per_rad: drag of each flywheel to ground (N m s/rad, >= 0), N of them.
+    """
+
+    laws: tuple
+    bearings_Nms_per_rad: tuple
+
+    def __post_init__(self):
+        laws = tuple(self.laws)
+        if not laws or not all(isinstance(law, JointLaw) for law in laws):
+            raise TypeError("ChainPlant.laws must be one JointLaw per joint")
+        b = tuple(float(v) for v in self.bearings_Nms_per_rad)
+        if len(b) != len(laws) + 1:
+            raise ValueError(f"ChainPlant: {len(b)} bearings for {len(laws) + 1} flywheels")
+        if not all(math.isfinite(v) and v >= 0 for v in b):
+            raise ValueError(f"ChainPlant.bearings_Nms_per_rad must be finite and >= 0, got {b}")
+        object.__setattr__(self, "laws", laws)
+        object.__setattr__(self, "bearings_Nms_per_rad", b)
+
+    @property
+    def n_flywheels(self) -> int:
+        return len(self.laws) + 1
+
+    def parameters(self) -> dict[str, float]:
+        """Every parameter by its chain name (joint laws, nonzero bearings)."""
+        out: dict[str, float] = {}
+        for j, law in enumerate(self.laws, start=1):
+            out.update({joint_prefix(j) + n: v for n, v in law.as_dict().items()})
+        for i, b in enumerate(self.bearings_Nms_per_rad, start=1):
+            if b:
+                out[bearing_name(i)] = b
+        return out
+
+    def spec(self) -> ChainSpec:
+        """The model structure that holds this plant exactly."""
+        return ChainSpec(tuple(law.terms for law in self.laws),
+                         tuple(i for i, b in enumerate(self.bearings_Nms_per_rad, start=1) if b))
+
+
+def plant_of_values(values: dict, spec: ChainSpec) -> ChainPlant:
+    """The plant an identification names (negative bearing drag within noise is simulated as 0 by
+    the caller's choice; here values are taken as they are, bearings clipped at 0)."""
+    laws = tuple(joint_law(values, spec, j) for j in range(1, spec.n_flywheels))
+    bearings = tuple(max(0.0, values.get(bearing_name(i), 0.0)) for i in range(1, spec.n_flywheels + 1))
+    return ChainPlant(laws, bearings)

@@ -1,0 +1,389 @@
+"""Drive trains in MuJoCo: N flywheels (2..8) on coaxial hinges, a joint law between neighbours.
+
+A chain model file (``models/pump_train.xml``) has
+
+* hinges ``phi1 .. phiN`` on one axis, bodies not inertially coupled;
+* motors ``drive<i>`` on hinge ``phi<i>`` (one or more, any flywheels), each with an
+  ``actuatorfrc`` sensor ``drive<i>_torque`` (the torque a bench records);
+* ``jointpos`` sensors ``phi<i>`` (an angle without a sensor is not measured: the record holds
+  None there, and the identifier says what that leaves unidentifiable); optional ``jointvel``
+  sensors ``rate<i>``;
+* per joint j (between flywheels j and j+1) its law's fields with the prefix
+  ``jointrig_joint<j>_`` (``jointrig_joint2_k_Nm_per_rad``: every field a two-flywheel model
+  knows, read by the same term classes, :data:`identify.basis.TERM_CLASSES`), and
+  ``jointrig_bearing<i>_damping_Nms_per_rad`` for a flywheel's drag to ground.
+
+The passive callback applies every joint's torque (``-M_j`` on flywheel j, ``+M_j`` on j+1),
+the bearings and the drives, evaluated at continuous time as in :mod:`rig.simulate`; it is
+installed only around a run by :func:`rig.simulate.passive_callback`. Stateful terms (Jenkins,
+Iwan) keep one state list per joint, committed after every step.
+"""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import math
+import os
+import re
+import time as _time
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Callable, Optional, Sequence, Union
+
+import mujoco
+import numpy as np
+
+from jointrig.identify.basis import FieldError, JointLaw, law_terms_from_fields
+from jointrig.identify.chain import ChainPlant, ChainRecord
+from jointrig.identify.plant import PeriodicDrive
+
+from .model import PREFIX, RigModelError
+from .simulate import SettleInfo, SimulationConfig, SimulationError, SteadyStateNotReached, _check_warnings, \
+    passive_callback, settle_bound
+
+__all__ = ["ChainRig", "load_chain", "is_chain_model", "simulate_chain", "chain_callback", "MAX_FLYWHEELS"]
+
+MAX_FLYWHEELS = 8
+_JOINT_FIELD = re.compile(r"joint(\d+)_(.+)")
+_BEARING_FIELD = re.compile(r"bearing(\d+)_damping_Nms_per_rad")
+
+
+@dataclass(frozen=True, eq=False)
+class ChainRig:
+    """A compiled chain model.
+
+    Attributes:
+      path: the MJCF file; model: the compiled ``MjModel``; plant: joint laws and bearings.
+      inertias_kgm2: each flywheel's inertia about the axis (from the compiled mass matrix).
+      qpos_adr, dof_adr: addresses of phi1..phiN.
+      drives: ``(flywheel number, actuator id, sensor address)`` of every drive.
+      angle_adr, rate_adr: per flywheel, the sensor address or None (not measured).
+      digest: SHA-256 of the file.
+    """
+
+    path: Path
+    model: mujoco.MjModel
+    plant: ChainPlant
+    inertias_kgm2: tuple
+    qpos_adr: tuple
+    dof_adr: tuple
+    drives: tuple
+    angle_adr: tuple
+    rate_adr: tuple
+    digest: str
+
+    @property
+    def n_flywheels(self) -> int:
+        return len(self.inertias_kgm2)
+
+    @property
+    def driven(self) -> tuple[int, ...]:
+        return tuple(i for i, _, _ in self.drives)
+
+    def with_plant(self, plant: ChainPlant) -> "ChainRig":
+        if plant.n_flywheels != self.n_flywheels:
+            raise ValueError(f"{self.path}: a plant of {plant.n_flywheels} flywheels for a chain of {self.n_flywheels}")
+        return replace(self, plant=plant)
+
+
+def is_chain_model(path: Union[str, os.PathLike]) -> bool:
+    """True if the model file declares per-joint laws (``jointrig_joint<j>_*`` fields)."""
+    try:
+        root = ET.parse(path).getroot()
+    except (OSError, ET.ParseError):
+        return False
+    return any(_JOINT_FIELD.fullmatch(n.get("name", "")[len(PREFIX):] or "")
+               for n in root.iter("numeric") if n.get("name", "").startswith(PREFIX))
+
+
+def _plant(model: mujoco.MjModel, N: int, src: str) -> ChainPlant:
+    per_joint: dict[int, dict] = {j: {} for j in range(1, N)}
+    bearings = [0.0] * N
+    for i in range(model.nnumeric):
+        name = model.numeric(i).name
+        if not name.startswith(PREFIX):
+            continue
+        rest = name[len(PREFIX):]
+        data = np.array(model.numeric(i).data, dtype=float)
+        m = _JOINT_FIELD.fullmatch(rest)
+        b = _BEARING_FIELD.fullmatch(rest)
+        if m and 1 <= int(m.group(1)) < N:
+            per_joint[int(m.group(1))][m.group(2)] = data
+        elif b and 1 <= int(b.group(1)) <= N:
+            if data.size != 1 or not np.isfinite(data[0]) or data[0] < 0:
+                raise RigModelError(f"{src}: {name} must hold one finite number >= 0, got {data}")
+            bearings[int(b.group(1)) - 1] = float(data[0])
+        else:
+            raise RigModelError(f"{src}: unknown field {name}; a chain of {N} flywheels takes "
+                                f"{PREFIX}joint<j>_<law field> (j = 1..{N - 1}) and "
+                                f"{PREFIX}bearing<i>_damping_Nms_per_rad (i = 1..{N})")
+    laws = []
+    for j in range(1, N):
+        try:
+            pairs = law_terms_from_fields(per_joint[j])
+        except FieldError as err:
+            raise RigModelError(f"{src}: joint {j}: {str(err).replace(PREFIX, PREFIX + f'joint{j}_')}") from None
+        known = {f for t, _ in pairs for f in type(t).MJCF_FIELDS}
+        unknown = sorted(set(per_joint[j]) - known)
+        if unknown:
+            raise RigModelError(f"{src}: joint {j}: unknown law field(s) {[PREFIX + f'joint{j}_' + u for u in unknown]}")
+        if not pairs:
+            raise RigModelError(f"{src}: joint {j} (flywheels {j}-{j + 1}) has no law: add fields "
+                                f"{PREFIX}joint{j}_k_Nm_per_rad etc.")
+        laws.append(JointLaw(tuple(t for t, _ in pairs), tuple(v for _, v in pairs)))
+    return ChainPlant(tuple(laws), tuple(bearings))
+
+
+def load_chain(path: Union[str, os.PathLike]) -> ChainRig:
+    """Compile and check a chain model (see the module docstring for what it must hold).
+
+    Raises:
+      RigModelError: missing file, MJCF that does not compile, hinges not numbered 1..N or not
+        coaxial, N outside 2..8, a drive without its torque sensor, a joint without a law;
+        the message names the file and the item.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise RigModelError(f"{path}: no such model file")
+    text = path.read_bytes()
+    try:
+        model = mujoco.MjModel.from_xml_path(str(path))
+    except ValueError as err:
+        raise RigModelError(f"{path}: MuJoCo could not compile it: {err}") from None
+    src = str(path)
+    J_ = mujoco.mjtObj.mjOBJ_JOINT
+    ids = []
+    while True:
+        jid = mujoco.mj_name2id(model, J_, f"phi{len(ids) + 1}")
+        if jid < 0:
+            break
+        ids.append(jid)
+    N = len(ids)
+    if not 2 <= N <= MAX_FLYWHEELS:
+        raise RigModelError(f"{src}: a chain has hinges phi1..phiN with N from 2 to {MAX_FLYWHEELS}; found {N}")
+    if model.njnt != N:
+        extra = [mujoco.mj_id2name(model, J_, j) for j in range(model.njnt) if j not in ids]
+        raise RigModelError(f"{src}: joints {extra} are not part of the chain phi1..phi{N}")
+    for k, jid in enumerate(ids, start=1):
+        if model.jnt_type[jid] != mujoco.mjtJoint.mjJNT_HINGE:
+            raise RigModelError(f"{src}: joint 'phi{k}' must be a hinge")
+        if not np.allclose(model.jnt_axis[jid], model.jnt_axis[ids[0]]):
+            raise RigModelError(f"{src}: joint 'phi{k}' must share phi1's axis (a coaxial train)")
+    S_ = mujoco.mjtObj.mjOBJ_SENSOR
+
+    def sensor(name: str, kind) -> Optional[int]:
+        sid = mujoco.mj_name2id(model, S_, name)
+        if sid < 0:
+            return None
+        if model.sensor_type[sid] != kind:
+            raise RigModelError(f"{src}: sensor '{name}' must be a {kind.name[7:].lower()} sensor")
+        return int(model.sensor_adr[sid])
+
+    drives = []
+    for a in range(model.nu):
+        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, a)
+        m = re.fullmatch(r"drive(\d+)", name or "")
+        if not m or not 1 <= int(m.group(1)) <= N:
+            raise RigModelError(f"{src}: actuator '{name}': a chain's motors are named drive<i> (i = 1..{N}) "
+                                f"and drive hinge phi<i>")
+        i = int(m.group(1))
+        if model.actuator_trnid[a, 0] != ids[i - 1]:
+            raise RigModelError(f"{src}: actuator '{name}' must drive hinge 'phi{i}'")
+        if model.actuator_ctrllimited[a]:
+            raise RigModelError(f"{src}: actuator '{name}' must not be ctrllimited (the torque would be clipped)")
+        adr = sensor(f"{name}_torque", mujoco.mjtSensor.mjSENS_ACTUATORFRC)
+        if adr is None:
+            raise RigModelError(f"{src}: actuator '{name}' needs an actuatorfrc sensor '{name}_torque' "
+                                f"(the recorded drive torque)")
+        drives.append((i, a, adr))
+    if not drives:
+        raise RigModelError(f"{src}: no drive: add <motor name=\"drive1\" joint=\"phi1\"/> and its sensor")
+    angle_adr = tuple(sensor(f"phi{i}", mujoco.mjtSensor.mjSENS_JOINTPOS) for i in range(1, N + 1))
+    rate_adr = tuple(sensor(f"rate{i}", mujoco.mjtSensor.mjSENS_JOINTVEL) for i in range(1, N + 1))
+    plant = _plant(model, N, src)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    mass = np.zeros((model.nv, model.nv))
+    mujoco.mj_fullM(model, data, mass)
+    dofs = tuple(int(model.jnt_dofadr[j]) for j in ids)
+    off = mass[np.ix_(dofs, dofs)] - np.diag(np.diag(mass[np.ix_(dofs, dofs)]))
+    if np.max(np.abs(off)) > 1e-12 * np.max(np.diag(mass)):
+        raise RigModelError(f"{src}: flywheels must not be inertially coupled (each body a child of the world)")
+    return ChainRig(path=path, model=model, plant=plant,
+                    inertias_kgm2=tuple(float(mass[d, d]) for d in dofs),
+                    qpos_adr=tuple(int(model.jnt_qposadr[j]) for j in ids), dof_adr=dofs,
+                    drives=tuple(sorted(drives)), angle_adr=angle_adr, rate_adr=rate_adr,
+                    digest=hashlib.sha256(text).hexdigest())
+
+
+def chain_callback(rig: ChainRig, plant: ChainPlant, drives: dict, errors: list, states: list) -> Callable:
+    """The passive callback of a chain: every joint's law, the bearings, the drives at
+    continuous time. ``states[j]`` holds joint j's slider states (committed by the caller)."""
+    q, v = rig.qpos_adr, rig.dof_adr
+    joints = []
+    for j, law in enumerate(plant.laws):
+        stateless = [(t, x) for t, x in zip(law.terms, law.values) if not t.stateful]
+        torque = (JointLaw(tuple(t for t, _ in stateless), tuple(x for _, x in stateless)).torque
+                  if stateless else (lambda phi, rate: 0.0))
+        hyst, at = [], 0
+        for t, x in zip(law.terms, law.values):
+            if t.stateful:
+                hyst.append((t.step_torque, x, at))
+                at += t.n_states
+        joints.append((q[j], q[j + 1], v[j], v[j + 1], torque, hyst, states[j]))
+    bearings = [(v[i], b) for i, b in enumerate(plant.bearings_Nms_per_rad) if b]
+    acts = [(a, drives[i].evaluator()) for i, a, _ in rig.drives if i in drives]
+
+    def callback(m, d):
+        try:
+            qpos, qvel, frc = d.qpos, d.qvel, d.qfrc_passive
+            for qa, qb, va, vb, torque, hyst, st in joints:
+                phi = float(qpos[qa] - qpos[qb])
+                tau = torque(phi, float(qvel[va] - qvel[vb]))
+                for f, x, i in hyst:
+                    tau += x * f(phi, st, i)
+                frc[va] -= tau
+                frc[vb] += tau
+            for va, b in bearings:
+                frc[va] -= b * qvel[va]
+            t = d.time
+            for a, at in acts:
+                d.ctrl[a] = at(t)
+        except Exception as err:  # noqa: BLE001 - re-raised after the step
+            if not errors:
+                errors.append(err)
+
+    return callback
+
+
+def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: SimulationConfig = SimulationConfig(), *,
+                   plant: Optional[ChainPlant] = None, inertias_kgm2: Optional[Sequence[float]] = None,
+                   amplitude_Nm: float = math.nan) -> tuple[ChainRecord, SettleInfo]:
+    """Drive the chain from rest to steady state and log ``config.n_periods`` whole periods.
+
+    Args:
+      drives: flywheel number -> :class:`identify.plant.PeriodicDrive` (fundamental
+        ``omega_rad_s``); every number must have a ``drive<i>`` motor in the model.
+      plant: laws and bearings to simulate instead of the file's; inertias_kgm2: inertias
+        instead of the file's (each body's inertia scaled).
+      amplitude_Nm: a label for the record.
+
+    The flywheels start with the common velocity that keeps the rigid rotation periodic
+    (:meth:`PeriodicDrive.mean_free_impulse` summed over the drives, over the total inertia).
+    Steady state is declared by :func:`rig.simulate.settle_bound` on the relative angles, the
+    rates and (with ``config.absolute_angles_periodic``) the absolute angles.
+    """
+    if not (math.isfinite(omega_rad_s) and omega_rad_s > 0):
+        raise ValueError(f"omega_rad_s must be a finite number > 0, got {omega_rad_s}")
+    if not drives:
+        raise ValueError("drives: give at least one flywheel number -> PeriodicDrive")
+    for i, drv in drives.items():
+        if i not in rig.driven:
+            raise ValueError(f"drives: flywheel {i} has no motor in {rig.path.name} (driven: {list(rig.driven)})")
+        if abs(drv.omega_rad_s - omega_rad_s) > 1e-12 * omega_rad_s:
+            raise ValueError(f"drive on flywheel {i}: fundamental {drv.omega_rad_s} differs from {omega_rad_s}")
+    plant = rig.plant if plant is None else plant
+    if plant.n_flywheels != rig.n_flywheels:
+        raise ValueError(f"plant of {plant.n_flywheels} flywheels for a chain of {rig.n_flywheels}")
+    N = rig.n_flywheels
+    m = copy.copy(rig.model)
+    J = rig.inertias_kgm2
+    if inertias_kgm2 is not None:
+        if len(inertias_kgm2) != N or not all(math.isfinite(x) and x > 0 for x in inertias_kgm2):
+            raise ValueError(f"inertias_kgm2 must be {N} finite numbers > 0, got {inertias_kgm2}")
+        for k, (target, now) in enumerate(zip(inertias_kgm2, rig.inertias_kgm2)):
+            m.body_inertia[m.jnt_bodyid[m.dof_jntid[rig.dof_adr[k]]]] *= target / now
+        J = tuple(float(x) for x in inertias_kgm2)
+    where = f"{rig.path.name} at omega = {omega_rad_s:g} rad/s"
+    t_start = _time.perf_counter()
+    m.opt.integrator = mujoco.mjtIntegrator.__members__[config.mj_integrator_name]
+    m.opt.timestep = config.timestep_s(omega_rad_s)
+    k = config.steps_per_sample(omega_rad_s)
+    n = config.samples_for(omega_rad_s)
+    d = mujoco.MjData(m)
+    d.qvel[list(rig.dof_adr)] = sum(drv.mean_free_impulse(0.0) for drv in drives.values()) / sum(J)
+    states = [[0.0] * sum(t.n_states for t in law.terms if t.stateful) for law in plant.laws]
+    stateful = [(j, [t for t in law.terms if t.stateful]) for j, law in enumerate(plant.laws)]
+    stateful = [(j, ts) for j, ts in stateful if ts]
+    errors: list = []
+    q, v = np.array(rig.qpos_adr), np.array(rig.dof_adr)
+    act_idx = {i: adr for i, _, adr in rig.drives}
+
+    def commit():
+        for j, terms in stateful:
+            phi = float(d.qpos[q[j]] - d.qpos[q[j + 1]])
+            at = 0
+            for t in terms:
+                t.commit(phi, states[j], at)
+                at += t.n_states
+
+    def period():
+        pos, vel, tq, tbuf = np.empty((n, N)), np.empty((n, N)), np.empty((n, N)), np.empty(n)
+        for s in range(n):
+            tbuf[s] = d.time
+            pos[s] = d.qpos[q]  # the state at tbuf[s] (what jointpos/jointvel sensors read in the step)
+            vel[s] = d.qvel[v]
+            mujoco.mj_step(m, d)  # actuatorfrc sensors now hold the torque applied at tbuf[s]
+            tq[s] = [d.sensordata[act_idx[i]] if i in act_idx else 0.0 for i in range(1, N + 1)]
+            if stateful:
+                commit()
+            for _ in range(k - 1):
+                mujoco.mj_step(m, d)
+                if stateful:
+                    commit()
+        return pos, vel, tq, tbuf
+
+    periods: list = []
+    changes: list[float] = []
+    change, bound, ratio = math.inf, math.inf, math.nan
+    settled = False
+    p = 0
+    with passive_callback(chain_callback(rig, plant, drives, errors, states)):
+        while True:
+            pos, vel, tq, tbuf = period()
+            p += 1
+            if errors:
+                raise SimulationError(f"{where}: the joint-law callback failed: {errors[0]!r}") from errors[0]
+            _check_warnings(d, where)
+            if not (np.all(np.isfinite(pos)) and np.all(np.isfinite(vel))):
+                raise SimulationError(f"{where}: non-finite state in period {p}")
+            if not settled:
+                if periods:
+                    cur = np.column_stack([pos[:, :-1] - pos[:, 1:], vel] + ([pos] if config.absolute_angles_periodic else []))
+                    prv_pos, prv_vel = periods[-1][0], periods[-1][1]
+                    prv = np.column_stack([prv_pos[:, :-1] - prv_pos[:, 1:], prv_vel]
+                                          + ([prv_pos] if config.absolute_angles_periodic else []))
+                    swing = np.ptp(cur, axis=0)
+                    rel = np.max(np.abs(cur - prv), axis=0) / np.where(swing > 0, swing, 1.0)
+                    change = float(np.max(rel))
+                    changes.append(change)
+                    done, bound, ratio = settle_bound(changes, config.settle_tol)
+                    settled = p >= config.min_periods and done
+                periods = [(pos, vel, tq, tbuf)]
+                if not settled and (p >= config.max_periods or (
+                        config.max_wall_s is not None and _time.perf_counter() - t_start > config.max_wall_s)):
+                    raise SteadyStateNotReached(
+                        f"{where}: no steady state after {p} periods: change {change:.3g}, estimated distance "
+                        f"{bound:.3g} > settle_tol {config.settle_tol:g}")
+            else:
+                periods.append((pos, vel, tq, tbuf))
+            if settled and len(periods) == config.n_periods:
+                break
+    pos = np.vstack([x[0] for x in periods]).T
+    vel = np.vstack([x[1] for x in periods]).T
+    tq = np.vstack([x[2] for x in periods]).T
+    t_rec = np.concatenate([x[3] for x in periods])
+    measured = [a is not None for a in rig.angle_adr]
+    rated = [a is not None for a in rig.rate_adr]
+    record = ChainRecord(
+        omega_rad_s=float(omega_rad_s), time_s=t_rec,
+        torques_Nm=tuple(tq[i] if (i + 1) in drives else None for i in range(N)),
+        angles_rad=tuple(pos[i] if measured[i] else None for i in range(N)),
+        rates_rad_s=tuple(vel[i] if rated[i] and measured[i] else None for i in range(N)),
+        n_periods=config.n_periods, drive_amplitude_Nm=float(amplitude_Nm), source=where)
+    info = SettleInfo(periods_simulated=p, last_change=change, timestep_s=m.opt.timestep,
+                      wall_time_s=_time.perf_counter() - t_start, error_bound=bound, decay_ratio=ratio)
+    return record, info
+

@@ -1,0 +1,133 @@
+"""Sweeping a chain: one cosine drive per point, finished points kept on disk (resumable).
+
+A point is ``(omega rad/s, amplitude N m, driven flywheel)``. Each finished point is written
+atomically as ``.npz`` into the store directory, whose manifest ties it to the model file's
+digest and the simulation settings; a sweep started again loads the points it finds and
+simulates the rest.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import logging
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Optional, Sequence
+
+import numpy as np
+
+from jointrig.identify.chain import ChainRecord
+from jointrig.identify.plant import PeriodicDrive
+
+from .chain import ChainRig, simulate_chain
+from .simulate import SettleInfo, SimulationConfig
+from .sweep import SweepStoreMismatch, write_atomic, write_json_atomic
+
+__all__ = ["ChainPoint", "CHAIN_PLAN", "CHAIN_CONFIG", "run_chain_sweep"]
+
+log = logging.getLogger(__name__)
+
+#: The pump train's default sweep, (omega rad/s, amplitude N m, driven flywheel): around and
+#: between its modes (47, 195, 448 Hz = 295, 1224, 2817 rad/s), motor-side ripple of 60 N m and
+#: one run at 120 N m near the coupling mode, where the coupling twists by ~10 mrad and its
+#: cubic stiffening (5% of the linear torque there) is seen; two runs driven from the pump
+#: side so that the pump's own equation is excited directly.
+CHAIN_PLAN: tuple = ((150.0, 60.0, 1), (250.0, 60.0, 1), (300.0, 60.0, 1), (330.0, 120.0, 1), (600.0, 60.0, 1),
+                     (1200.0, 60.0, 1), (2000.0, 60.0, 1), (3000.0, 60.0, 1), (400.0, 30.0, 4), (1500.0, 30.0, 4))
+
+#: 128 samples per period and steps of at most 50 us (the highest mode, 2817 rad/s, then has
+#: w dt <= 0.14 under RK4): noise-free identification to ~1e-7 (README, tests/test_chain.py).
+CHAIN_CONFIG = SimulationConfig(samples_per_period=128, max_step_s=5e-5)
+
+
+@dataclass(frozen=True)
+class ChainPoint:
+    omega_rad_s: float
+    amplitude_Nm: float
+    flywheel: int
+    record: ChainRecord
+    settle: SettleInfo
+
+
+def _manifest(rig: ChainRig, config: SimulationConfig) -> dict:
+    return {"format": 1, "kind": "chain", "model_sha256": rig.digest, "config": dataclasses.asdict(config)}
+
+
+def _path(store: Path, w: float, a: float, i: int) -> Path:
+    return store / f"w{w!r}_a{a!r}_f{i}.npz"
+
+
+def _save(path: Path, pt: ChainPoint) -> None:
+    rec = pt.record
+    N = rec.n_flywheels
+
+    def stack(rows):
+        return np.array([r if r is not None else np.full(rec.n_samples, np.nan) for r in rows])
+
+    def write(tmp: Path):
+        with open(tmp, "wb") as fh:
+            np.savez(fh, time_s=rec.time_s, angles_rad=stack(rec.angles_rad), rates_rad_s=stack(rec.rates_rad_s),
+                     torques_Nm=stack(rec.torques_Nm), n_periods=rec.n_periods, omega_rad_s=rec.omega_rad_s,
+                     amplitude_Nm=pt.amplitude_Nm, flywheel=pt.flywheel, n_flywheels=N,
+                     settle=np.array([pt.settle.periods_simulated, pt.settle.last_change, pt.settle.timestep_s,
+                                      pt.settle.wall_time_s, pt.settle.error_bound, pt.settle.decay_ratio]))
+    write_atomic(path, write)
+
+
+def _load(path: Path, source: str) -> ChainPoint:
+    with np.load(path) as z:
+        def rows(a):
+            return tuple(None if np.all(np.isnan(r)) else r for r in a)
+        rec = ChainRecord(float(z["omega_rad_s"]), z["time_s"], rows(z["torques_Nm"]), rows(z["angles_rad"]),
+                          rows(z["rates_rad_s"]), int(z["n_periods"]), float(z["amplitude_Nm"]), source=source)
+        s = z["settle"]
+        settle = SettleInfo(int(s[0]), float(s[1]), float(s[2]), float(s[3]), float(s[4]), float(s[5]))
+        return ChainPoint(rec.omega_rad_s, float(z["amplitude_Nm"]), int(z["flywheel"]), rec, settle)
+
+
+def run_chain_sweep(rig: ChainRig, points: Sequence[tuple], config: SimulationConfig = CHAIN_CONFIG, *,
+                    store: Optional[Path] = None) -> list[ChainPoint]:
+    """Simulate every ``(omega, amplitude, flywheel)`` point (loading those already in ``store``).
+
+    Raises:
+      ValueError: a point whose flywheel has no motor, or a non-positive frequency or amplitude
+        (checked for all points before any simulation).
+      SweepStoreMismatch: ``store`` holds points of another model or other settings.
+    """
+    for w, a, i in points:
+        if not (math.isfinite(w) and w > 0 and math.isfinite(a) and a > 0):
+            raise ValueError(f"sweep point ({w}, {a}, {i}): frequency and amplitude must be finite numbers > 0")
+        if i not in rig.driven:
+            raise ValueError(f"sweep point ({w:g} rad/s, {a:g} N m) drives flywheel {i}, which has no motor in "
+                             f"{rig.path.name} (motors on {list(rig.driven)})")
+        config.samples_for(w)
+    if store is not None:
+        store = Path(store)
+        store.mkdir(parents=True, exist_ok=True)
+        man = store / "manifest.json"
+        want = _manifest(rig, config)
+        if man.exists():
+            have = json.loads(man.read_text())
+            if have != want:
+                raise SweepStoreMismatch(f"{store}: holds points of another model or other settings; use another "
+                                         f"--store or delete it")
+        else:
+            write_json_atomic(man, want)
+    out = []
+    for k, (w, a, i) in enumerate(points, start=1):
+        where = f"{rig.path.name} at omega = {w:g} rad/s, M0 = {a:g} N m on flywheel {i}"
+        path = _path(store, w, a, i) if store is not None else None
+        if path is not None and path.exists():
+            pt = _load(path, where)
+            log.info("[%d/%d] %s: loaded from the store", k, len(points), where)
+        else:
+            rec, info = simulate_chain(rig, w, {i: PeriodicDrive.cosine(w, a)}, config, amplitude_Nm=a)
+            pt = ChainPoint(w, a, i, rec, info)
+            if path is not None:
+                _save(path, pt)
+            log.info("[%d/%d] %s: steady after %d periods (%.1f s)", k, len(points), where,
+                     info.periods_simulated, info.wall_time_s)
+        out.append(pt)
+    return out
