@@ -37,7 +37,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from .balance import LinearSystem, harmonic_rows, spectral_rate, upsample
+from .balance import LinearSystem, _memo_arrays, harmonic_rows, spectral_rate, upsample
 from .basis import JointLaw, Term
 from .harmonics import fourier_coefficients, max_harmonic
 from .records import RecordError, SteadyStateRecord
@@ -231,11 +231,26 @@ def identifiability(n_flywheels: int, measured: Sequence[bool], driven: Sequence
     return reasons
 
 
-def _law_coeffs(terms: Sequence[Term], phi: np.ndarray, rate: np.ndarray, n_periods: int, n_harmonics: int,
-                oversample: int) -> np.ndarray:
-    phi, rate = upsample(phi, oversample), upsample(rate, oversample)
-    sig = np.vstack([np.broadcast_to(np.asarray(t(phi, rate), dtype=float), phi.shape) for t in terms])
-    return fourier_coefficients(sig, n_periods, n_harmonics)
+def _law_coeffs(rec: "ChainRecord", j: int, terms: Sequence[Term], n_harmonics: int, oversample: int) -> np.ndarray:
+    """Fourier coefficients of joint j's terms (0-based) along the record, one memoised row per
+    term (keyed by the record's arrays, which are read-only): a profile search that varies one
+    term's nonlinear parameter re-evaluates that term only."""
+    a, b = rec.angles_rad[j], rec.angles_rad[j + 1]
+    ra, rb = rec.rates_rad_s[j], rec.rates_rad_s[j + 1]
+    keys = (a, b) + tuple(x for x in (ra, rb) if x is not None)
+
+    def motion():
+        phi, rate = rec.relative(j)
+        return upsample(phi, oversample), upsample(rate, oversample)
+
+    def row(term):
+        def compute():
+            phi, rate = _memo_arrays(keys, ("chain_motion", j, oversample), motion)
+            sig = np.broadcast_to(np.asarray(term(phi, rate), dtype=float), phi.shape)
+            return fourier_coefficients(sig, rec.n_periods, n_harmonics)
+        return _memo_arrays(keys, ("chain_term", term, rec.n_periods, n_harmonics, oversample), compute)
+
+    return np.vstack([row(t) for t in terms])
 
 
 @dataclass(frozen=True)
@@ -291,13 +306,15 @@ def chain_system(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics
     for ri, rec in enumerate(records):
         P, H = rec.n_periods, n_harmonics
         jw = 1j * np.arange(H + 1) * rec.omega_rad_s
-        laws = [_law_coeffs(spec.joints[j], *rec.relative(j), P, H, oversample) for j in range(N - 1)]
+        laws = [_law_coeffs(rec, j, spec.joints[j], H, oversample) for j in range(N - 1)]
         for i in range(N):
             cols = np.zeros((p, H + 1), dtype=complex)
-            rate = rec.rate(i)
-            cols[col[inertia_name(i + 1)]] = jw * fourier_coefficients(rate, P, H)
+            keys = (rec.angles_rad[i],) + ((rec.rates_rad_s[i],) if rec.rates_rad_s[i] is not None else ())
+            rate_c = _memo_arrays(keys, ("chain_rate", P, H),
+                                  lambda: fourier_coefficients(rec.rate(i), P, H))  # noqa: B023 - called at once
+            cols[col[inertia_name(i + 1)]] = jw * rate_c
             if i + 1 in spec.bearings:
-                cols[col[bearing_name(i + 1)]] = fourier_coefficients(rate, P, H)
+                cols[col[bearing_name(i + 1)]] = rate_c
             if i < N - 1:  # joint i+1 (between i+1 and i+2) acts with +M on flywheel i+1
                 for t, c in zip(spec.joints[i], laws[i]):
                     cols[col[joint_prefix(i + 1) + t.name]] += c
@@ -305,7 +322,8 @@ def chain_system(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics
                 for t, c in zip(spec.joints[i - 1], laws[i - 1]):
                     cols[col[joint_prefix(i) + t.name]] -= c
             torque = rec.torques_Nm[i]
-            rhs = fourier_coefficients(torque, P, H) if torque is not None else np.zeros(H + 1, dtype=complex)
+            rhs = (_memo_arrays((torque,), ("chain_torque", P, H), lambda: fourier_coefficients(torque, P, H))  # noqa: B023
+                   if torque is not None else np.zeros(H + 1, dtype=complex))
             A, F, harm, part = harmonic_rows(cols, rhs, H)
             keep = harm >= first_harmonic
             rows_by_fw[i].append((A[keep], F[keep], harm[keep], part[keep], ri))

@@ -9,6 +9,7 @@
     jointrig silverbox        the Silverbox benchmark on the real files
     jointrig paper            the paper's example, eq. (12)
     jointrig cases            every hidden-effect case of the diagnosis
+    jointrig diagnose-chain   which joint of a drive train is worn, and how
 
 ``jointrig SUBCOMMAND --help`` lists the subcommand's options with units and defaults.
 """
@@ -31,6 +32,7 @@ SUBCOMMANDS = {
     "silverbox": ("silverbox", "the Silverbox benchmark on the real files"),
     "paper": ("paper_example", "the paper's example, eq. (12)"),
     "cases": ("diagnose_cases", "how the diagnosis does on every hidden-effect case"),
+    "diagnose-chain": ("diagnose_chain", "which joint of a drive train is worn, and how (a chain model)"),
 }
 
 

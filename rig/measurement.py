@@ -24,7 +24,7 @@ from jointrig.identify.records import SteadyStateRecord
 from .model import RigModel
 from .simulate import SimulationConfig, simulate_steady_state
 
-__all__ = ["add_noise", "noise_std", "simulate_runs", "repeat_periods"]
+__all__ = ["add_noise", "noise_std", "simulate_runs", "repeat_periods", "measure_chain"]
 
 
 def noise_std(x: np.ndarray, snr_db: float) -> float:
@@ -98,3 +98,28 @@ def simulate_runs(rig: RigModel, plant: Union[Plant, JointLaw], points: Iterable
         rec, _ = simulate_steady_state(rig, omega, amp, cfg, law=plant)
         out.append(add_noise(rec, snr_db, rng))
     return out
+
+
+def measure_chain(record, snr_db: Optional[float], rng: np.random.Generator, *, n_periods: Optional[int] = None):
+    """A chain record as a bench measures it: its mean period repeated to ``n_periods`` (exact
+    for a steady state), white noise on every angle and every recorded drive torque at
+    ``snr_db`` per channel, rates dropped (a bench measures angles). ``snr_db=None``: no noise."""
+    from jointrig.identify.chain import ChainRecord
+
+    P, N = record.n_periods, record.samples_per_period
+    n_periods = P if n_periods is None else n_periods
+    if n_periods < 1:
+        raise ValueError(f"n_periods must be >= 1, got {n_periods}")
+    T = 2 * math.pi / record.omega_rad_s
+
+    def measured(x):
+        if x is None:
+            return None
+        x = np.tile(x.reshape(P, N).mean(axis=0), n_periods)
+        return x if snr_db is None else x + rng.normal(0.0, noise_std(x, snr_db), x.shape)
+
+    t0 = record.time_s[:N]
+    note = "noise-free" if snr_db is None else f"SNR {snr_db:g} dB"
+    return ChainRecord(record.omega_rad_s, (t0[None, :] + T * np.arange(n_periods)[:, None]).ravel(),
+                       [measured(x) for x in record.torques_Nm], [measured(x) for x in record.angles_rad], None,
+                       n_periods, record.drive_amplitude_Nm, source=f"{record.source} (measured, {note})")

@@ -322,3 +322,53 @@ def log_chain_laws(rec: rr.RecordingStream, true_laws, identified_laws, twist_ra
             if law is not None:
                 rec.send_columns(f"restoring_force/joint{j}/{name}", indexes=idx,
                                  columns=rr.Scalars.columns(scalars=np.asarray(law.elastic_torque(phi), dtype=float)))
+
+
+def log_chain_diagnosis(rec: rr.RecordingStream, diagnosis, validation, n_flywheels: int) -> None:
+    """A chain diagnosis: where (the best score at every joint and flywheel, and the ranked
+    candidates as a table), and the held-out runs (the found joint's twist, measured against the
+    nominal and the extended model), with its blueprint."""
+    import rerun.blueprint as rrb
+
+    places = [f"joint {j}" for j in range(1, n_flywheels)] + [f"flywheel {i}" for i in range(1, n_flywheels + 1)]
+    best = {p: 0.0 for p in places}
+    for s in diagnosis.first_round:
+        key = f"{'joint' if s.at_joint else 'flywheel'} {s.place}"
+        if not s.note:
+            best[key] = max(best[key], s.score)
+    rec.log("where/best_score_per_place", rr.BarChart(np.array([best[p] for p in places])), static=True)
+    lines = ["| candidate | BIC score | p | magnitude | note |", "|---|---|---|---|---|"]
+    for s in diagnosis.first_round:
+        lines.append(f"| {s.label} | {s.score:.1f} | {s.p_value:.2g} | {s.magnitude[0]} = {s.magnitude[1]:.4g} +- "
+                     f"{s.magnitude[2]:.2g} | {s.note} |")
+    found = "; ".join(f"**{s.label}**: {s.magnitude[0]} = {s.magnitude[1]:.4g} +- {s.magnitude[2]:.2g}"
+                      for s in diagnosis.steps) or "nothing significant"
+    gain = "" if validation is None else (f"\n\nHeld-out runs: twist error nominal {validation.nominal_error:.3g}, "
+                                          f"extended {validation.extended_error:.3g}, gain **{validation.gain:.3g}**")
+    head = (f"Found: {found}{gain}\n\nBars of the chart, left to right: " + ", ".join(places)
+            + " (best score of any cause there, first round)\n\n")
+    rec.log("where/candidates", rr.TextDocument(head + "\n".join(lines), media_type=rr.MediaType.MARKDOWN), static=True)
+    views = []
+    if validation is not None and diagnosis.steps:
+        step = diagnosis.steps[0]
+        j = step.place if step.at_joint else min(step.place, n_flywheels - 1)
+        for k, (meas, nom, ext) in enumerate(validation.records):
+            P, N = meas.n_periods, meas.samples_per_period
+            twist_m = (meas.angles_rad[j - 1] - meas.angles_rad[j]).reshape(P, N).mean(axis=0)
+            t = rr.TimeColumn("t_s", duration=meas.time_s[:N] - meas.time_s[0])
+            base = f"held_out/run{k + 1}"
+            rec.send_columns(f"{base}/measured_rad", indexes=[t], columns=rr.Scalars.columns(scalars=twist_m))
+            for name, sim in (("nominal_rad", nom), ("extended_rad", ext)):
+                tw = sim.angles_rad[j - 1] - sim.angles_rad[j]
+                ts = rr.TimeColumn("t_s", duration=sim.time_s - sim.time_s[0])
+                rec.send_columns(f"{base}/{name}", indexes=[ts], columns=rr.Scalars.columns(scalars=tw))
+            views.append(rrb.TimeSeriesView(
+                origin=base, name=f"held-out {meas.omega_rad_s:g} rad/s: joint {j} twist [rad], measured (period "
+                                  f"average) vs nominal vs extended (timeline t_s)"))
+    where = rrb.Horizontal(rrb.TextDocumentView(origin="where/candidates", name="found, and every candidate scored"),
+                           rrb.BarChartView(origin="where/best_score_per_place",
+                                            name="best BIC score per place: joints 1.., then flywheels 1.."),
+                           column_shares=[3, 2], name="Where and what")
+    tabs = [where] + ([rrb.Grid(*views, name="Held-out runs")] if views else [])
+    rec.send_blueprint(rrb.Blueprint(rrb.Tabs(*tabs), rrb.TimePanel(timeline="t_s", state="collapsed"),
+                                     collapse_panels=True))

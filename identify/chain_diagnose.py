@@ -1,0 +1,630 @@
+"""Which joint of a drive train is worn, and how: the diagnosis of a chain.
+
+The two-flywheel diagnosis (:mod:`identify.diagnose`) asks which cause explains a misfit;
+in a chain the question is also *where*. Every catalogued joint cause (the same
+:data:`identify.diagnose.CAUSES` entries, extending a joint's terms exactly as they extend the
+two-flywheel joint's) is scored at every joint, and bearing drag at every flywheel:
+
+1. **Prepare** (:func:`prepare_chain_runs`): average each run's P periods in the frequency
+   domain, keep harmonics 0..band of every channel and resynthesise the mean period and each
+   period on :data:`identify.diagnose.FINE_SAMPLES` samples (the law columns of a jump or a
+   kink alias 16 times less there); rates are exact spectral derivatives of the band.
+2. **Weights**: every harmonic-balance row's noise variance is the period-to-period variance
+   of its residual at the current parameters, over P (cosine and sine rows of one harmonic of
+   one flywheel's equation pooled), plus the model-fidelity floor ``(fidelity * size)^2`` with
+   ``size`` the run's largest balanced term; chi-square is corrected for the estimated weights
+   as in the two-flywheel case (``E[chi2] = dof nu / (nu - 2)``, ``nu = 2 (P - 1)``).
+3. **Nominal fit**: all inertias and every joint's ``c phi' + k phi + gamma phi^3`` (paper eq.
+   11) by weighted least squares on the banded system (:func:`identify.chain.solve_banded`);
+   the mean (harmonic 0) is not balanced (a sensor's zero is arbitrary).
+4. **Candidates**: (cause, joint) and (bearing drag, flywheel). Evidence is the chi-square
+   drop D; a candidate is significant when D exceeds the chi-square(q) quantile at
+   ``alpha / n_candidates`` (Bonferroni over every cause at every place) and its BIC score
+   ``D - q ln(n_rows)`` is positive; causes with one nonlinear parameter are profiled. A
+   friction or damping fitted negative, a slip angle or free play below the angle resolution
+   (then it is dry friction, or nothing) and a Stribeck rate above every run's rate are
+   rejected with the reason.
+5. **Extension**: the best significant candidate is adopted, the weights re-estimated, and
+   the rest scored again on top of it, until nothing significant is left. A rival at another
+   place that neither needs the other nor is needed by it (both ways not significant) makes
+   the two *places* ambiguous: :func:`separating_drive` then says, from the Fisher
+   information of each drive location, which drive would tell them apart.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass, field, replace
+from types import SimpleNamespace
+from typing import Optional, Sequence
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+from scipy.stats import chi2 as chi2_dist
+
+from .basis import Coulomb, Iwan, Jenkins, JointLaw, Power, Stribeck, Viscous
+from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpec, bearing_name, chain_system,
+                    identifiability, inertia_name, joint_prefix, solve_banded)
+from .diagnose import CAUSES, DEFAULT_FIDELITY, FINE_SAMPLES, Cause, ModelSpec
+from .harmonics import max_harmonic
+from .records import RecordError, SteadyStateRecord
+from .solve import IllConditionedWarning
+
+__all__ = ["ChainRun", "prepare_chain_runs", "ChainFit", "Candidate", "CandidateScore", "ChainDiagnosis",
+           "diagnose_chain", "JOINT_CAUSES", "nominal_spec", "plant_and_inertias", "separating_drive"]
+
+#: The catalogue's causes that live in a joint (scored at every joint); bearing drag is scored
+#: at every flywheel. Drive delay and an angle's zero are two-flywheel causes not yet carried over.
+JOINT_CAUSES: tuple[Cause, ...] = tuple(c for c in CAUSES if c.name in (
+    "coulomb_friction", "backlash", "asymmetric_stiffness", "hysteresis", "micro_slip", "stribeck_friction",
+    "quadratic_damping"))
+_BEARING = next(c for c in CAUSES if c.name == "bearing_friction")
+
+
+def nominal_spec(n_flywheels: int) -> ChainSpec:
+    """Every joint ``c phi' + k phi + gamma phi^3`` (paper eq. 11), no bearings."""
+    return ChainSpec(((Viscous(), Power(1), Power(3)),) * (n_flywheels - 1))
+
+
+# --------------------------------------------------------------------------------------------
+# 1. Preparation
+
+
+@dataclass(frozen=True)
+class ChainRun:
+    """One run after averaging and band-limiting (see the module docstring).
+
+    Attributes:
+      average: the mean period, harmonics 0..band, on FINE_SAMPLES samples.
+      periods: each period alike (their spread gives every row's noise).
+      noise_std: channel ("phi<i>", "torque<i>") -> noise standard deviation of one raw sample.
+      samples_per_period: of the raw record.
+    """
+
+    average: ChainRecord
+    periods: tuple
+    noise_std: dict
+    samples_per_period: int
+
+    @property
+    def n_periods(self) -> int:
+        return len(self.periods)
+
+
+def prepare_chain_runs(records: Sequence[ChainRecord], *, band: int = 20) -> list[ChainRun]:
+    """Average, estimate the noise and band-limit every record.
+
+    Raises:
+      RecordError: fewer than 2 periods, or too few samples per period for the band.
+      ChainIdentifiabilityError: an angle a joint needs is not measured, or no drive torque.
+    """
+    out = []
+    for rec in records:
+        P, N = rec.n_periods, rec.samples_per_period
+        if P < 2:
+            raise RecordError(f"{rec.source}: {P} period(s); the diagnosis needs at least 2 to estimate the noise "
+                              f"from period-to-period variation")
+        if band > max_harmonic(N):
+            raise RecordError(f"{rec.source}: {N} samples per period hold at most {max_harmonic(N)} harmonics; the "
+                              f"diagnosis band is {band}")
+        why = identifiability(rec.n_flywheels, rec.measured, rec.driven)
+        if why:
+            raise ChainIdentifiabilityError(f"{rec.source}: " + "; ".join(why))
+        Nf = FINE_SAMPLES
+        keep = np.arange(N // 2 + 1) <= band
+        noise = {}
+
+        def split(x, name):
+            X = np.fft.rfft(x.reshape(P, N), axis=1) / N
+            mean = X.mean(axis=0)
+            var = np.sum(np.abs(X - mean) ** 2, axis=0) / (P * (P - 1))
+            noise[name] = float(np.sqrt(np.median(var[1:N // 2]) * P * N))
+            return (np.fft.irfft(np.where(keep, mean, 0) * Nf, n=Nf),
+                    np.fft.irfft(np.where(keep, X, 0) * Nf, n=Nf, axis=1))
+
+        angles = [split(a, f"phi{i}") for i, a in enumerate(rec.angles_rad, start=1)]
+        torques = [split(t, f"torque{i}") if t is not None else None for i, t in enumerate(rec.torques_Nm, start=1)]
+        tf = rec.time_s[0] + np.arange(Nf) * (2 * math.pi / rec.omega_rad_s) / Nf
+
+        def make(pick, label):
+            return ChainRecord(rec.omega_rad_s, tf, [pick(t) if t is not None else None for t in torques],
+                               [pick(a) for a in angles], None, 1, rec.drive_amplitude_Nm,
+                               source=f"{rec.source} {label}")
+
+        out.append(ChainRun(make(lambda c: c[0], "(period average, band-limited)"),
+                            tuple(make(lambda c, p=p: c[1][p], f"(period {p + 1}, band-limited)") for p in range(P)),
+                            noise, N))
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# 2. Fits
+
+
+@dataclass(frozen=True)
+class ChainFit:
+    """A weighted least-squares fit of one chain structure (chi-square corrected for the weights).
+
+    ``profiled`` holds ``(name, value, standard error)`` of nonlinear parameters found by a
+    profile search (a free play, a slip angle, a Stribeck rate), by their chain names.
+    """
+
+    spec: ChainSpec
+    names: tuple
+    values: np.ndarray
+    std_errors: np.ndarray
+    chi2: float
+    n_rows: int
+    row_chi2: np.ndarray = field(repr=False)
+    profiled: tuple = ()
+
+    @property
+    def dof(self) -> int:
+        return self.n_rows - len(self.names)
+
+    def as_dict(self) -> dict[str, float]:
+        return dict(zip(self.names, (float(v) for v in self.values)))
+
+    def std_error(self, name: str) -> float:
+        if name in self.names:
+            return float(self.std_errors[self.names.index(name)])
+        return next((se for n, _, se in self.profiled if n == name), math.nan)
+
+    def parameters(self) -> dict[str, float]:
+        """Every parameter by its chain name: the linear ones, then what each joint's terms imply
+        (free play, slip angles, Stribeck rate: ``Term.derived_parameters``)."""
+        out = self.as_dict()
+        for j, terms in enumerate(self.spec.joints, start=1):
+            for t in terms:
+                out.update({joint_prefix(j) + k: v for k, v in
+                            t.derived_parameters(out[joint_prefix(j) + t.name]).items()})
+                if isinstance(t, Power) and t.gap_rad > 0:
+                    out[joint_prefix(j) + "backlash_half_gap_rad"] = t.gap_rad
+        return out
+
+
+@dataclass(frozen=True)
+class _Problem:
+    runs: tuple
+    n_harmonics: int
+    nu: float
+    fidelity: float
+
+    def system(self, spec: ChainSpec):
+        return chain_system([r.average for r in self.runs], spec, n_harmonics=self.n_harmonics, first_harmonic=1)
+
+    def row_variance(self, spec: ChainSpec, theta: np.ndarray, like) -> np.ndarray:
+        sysl = like.system
+        var = np.empty(sysl.F.size)
+        for i, run in enumerate(self.runs):
+            res = []
+            for per in run.periods:
+                s = chain_system([per], spec, n_harmonics=self.n_harmonics, first_harmonic=1).system
+                res.append(s.F - s.A @ theta)
+            v = np.array(res).var(axis=0, ddof=1) / run.n_periods
+            rows = np.flatnonzero(sysl.row_record == i)
+            size2 = float(np.max(np.abs(np.column_stack([sysl.A[rows] * theta, sysl.F[rows]])))) ** 2
+            h, e = s.row_harmonic, s.row_equation
+            pooled = v.copy()
+            for key in set(zip(h.tolist(), e.tolist())):
+                sel = (h == key[0]) & (e == key[1])
+                pooled[sel] = v[sel].mean() + self.fidelity**2 * size2
+            # The single-run system lists the rows of each equation in the same order as the
+            # stacked one lists this run's rows of that equation.
+            for eq in np.unique(e):
+                var[rows[sysl.row_equation[rows] == eq]] = pooled[e == eq]
+        scale = np.max(np.abs(sysl.F)) if sysl.F.size else 1.0
+        return np.maximum(var, (1e-12 * scale) ** 2)
+
+    def solve(self, spec: ChainSpec, weights: np.ndarray) -> ChainFit:
+        banded = self.system(spec)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", IllConditionedWarning)
+            res = solve_banded(banded, row_weights=weights)
+        s = banded.system
+        r = s.F - s.A @ res.values
+        corr = (self.nu - 2) / self.nu if self.nu > 2 else 1.0
+        row = weights * r**2 * corr
+        chi2 = float(row.sum())
+        dof = max(res.dof, 1)
+        s2_raw = float(np.sum(weights * r**2)) / dof
+        scale = max(1.0, chi2 / dof) / max(s2_raw, 1e-300)
+        return ChainFit(spec, res.names, np.array(res.values), np.array(res.std_errors) * math.sqrt(scale), chi2,
+                        s.F.size, row)
+
+    def fit(self, spec: ChainSpec, iterations: int = 2) -> tuple[ChainFit, np.ndarray]:
+        banded = self.system(spec)
+        w = np.ones(banded.system.F.size)
+        f = self.solve(spec, w)
+        for _ in range(iterations):
+            w = 1.0 / self.row_variance(spec, f.values, banded)
+            f = self.solve(spec, w)
+        return f, w
+
+
+# --------------------------------------------------------------------------------------------
+# 3. Candidates: a cause at a place
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """A catalogued cause at one place: a joint (1..N-1) or, for bearing drag, a flywheel (1..N)."""
+
+    cause: Cause
+    place: int
+
+    @property
+    def at_joint(self) -> bool:
+        return self.cause.name != "bearing_friction"
+
+    @property
+    def label(self) -> str:
+        return f"{self.cause.name} at {'joint' if self.at_joint else 'flywheel'} {self.place}"
+
+    def extend(self, spec: ChainSpec, h: float) -> ChainSpec:
+        if not self.at_joint:
+            return ChainSpec(spec.joints, spec.bearings + (self.place,))
+        joints = list(spec.joints)
+        joints[self.place - 1] = self.cause.extend(ModelSpec(joints[self.place - 1]), h).terms
+        return ChainSpec(tuple(joints), spec.bearings)
+
+    def magnitude_name(self) -> str:
+        if not self.at_joint:
+            return bearing_name(self.place)
+        return joint_prefix(self.place) + self.cause.magnitude
+
+    def profiled_name(self) -> Optional[str]:
+        return None if self.cause.profiled is None else joint_prefix(self.place) + self.cause.profiled
+
+
+def _twist_runs(problem: _Problem, j: int) -> list:
+    """The run where joint j twists most, as the two-flywheel causes' search bounds read runs
+    (``average.phi_rad``: here joint j's twist). In a chain a joint may barely twist in runs far
+    from its modes; the bounds of a free play or a slip angle must reach the largest twist."""
+    best, amp = None, -1.0
+    for r in problem.runs:
+        a = r.average
+        twist = a.angles_rad[j - 1] - a.angles_rad[j]
+        if np.ptp(twist) > amp:
+            best, amp = (a, twist), float(np.ptp(twist))
+    a, twist = best
+    return [SimpleNamespace(average=SteadyStateRecord(a.omega_rad_s, a.time_s, np.zeros_like(twist), twist, None,
+                                                      source=a.source))]
+
+
+def _rate_amplitude(problem: _Problem, j: int) -> float:
+    top = 0.0
+    for r in problem.runs:
+        _, rate = r.average.relative(j - 1)
+        top = max(top, float(np.max(np.abs(rate))))
+    return top
+
+
+def angle_resolution(problem: _Problem, j: int) -> float:
+    """What joint j's twist resolves (rad): 3 noise standard deviations of one sample of the
+    band-limited period average (as :func:`identify.diagnose.angle_resolution`)."""
+    out = 0.0
+    for r in problem.runs:
+        sd = math.hypot(r.noise_std[f"phi{j}"], r.noise_std[f"phi{j + 1}"])
+        out = max(out, 3.0 * sd * math.sqrt(min(1.0, (2 * problem.n_harmonics + 1) / r.samples_per_period)
+                                             / r.n_periods))
+    return out
+
+
+@dataclass(frozen=True)
+class CandidateScore:
+    """Evidence for one candidate on top of a base model (fields as in :class:`identify.diagnose.CauseScore`)."""
+
+    label: str
+    cause: str
+    place: int
+    at_joint: bool
+    delta_chi2: float
+    n_params: int
+    score: float
+    p_value: float
+    significant: bool
+    fit: ChainFit
+    magnitude: tuple
+    note: str = ""
+
+    def as_json(self) -> dict:
+        return {"candidate": self.label, "cause": self.cause, ("joint" if self.at_joint else "flywheel"): self.place,
+                "score": self.score, "significant": self.significant, "delta_chi2": self.delta_chi2,
+                "n_params": self.n_params, "p_value": self.p_value,
+                "magnitude": {"name": self.magnitude[0], "value": self.magnitude[1], "std_error": self.magnitude[2]},
+                "note": self.note}
+
+
+def _profile(problem: _Problem, cand: Candidate, base: ChainSpec, weights) -> ChainFit:
+    lo, hi = cand.cause.bounds(_twist_runs(problem, cand.place))
+    if cand.cause.name == "stribeck_friction":  # the bounds read the rate of the twist
+        top = _rate_amplitude(problem, cand.place)
+        lo, hi = 0.02 * top, 2.0 * top
+    back, (a, b) = (math.exp, (math.log(lo), math.log(hi))) if cand.cause.log_scale else (float, (lo, hi))
+    cache: dict = {}
+
+    def obj(u):
+        h = back(u)
+        if h not in cache:
+            cache[h] = problem.solve(cand.extend(base, h), weights)
+        return cache[h].chi2
+
+    grid = np.linspace(a, b, 13)
+    vals = [obj(u) for u in grid]
+    k = int(np.argmin(vals))
+    minimize_scalar(obj, bounds=(grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]), method="bounded",
+                    options={"xatol": 1e-5 * (b - a)})
+    h = min(cache, key=lambda x: cache[x].chi2)
+    best = cache[h]
+    step = max(1e-3 * abs(h), 1e-6 * (hi - lo))
+    c = lambda x: problem.solve(cand.extend(base, x), weights).chi2  # noqa: E731
+    if h - step >= lo:
+        curv = (c(h - step) - 2 * best.chi2 + c(h + step)) / step**2
+    else:
+        curv = (c(h + 2 * step) - 2 * c(h + step) + best.chi2) / step**2
+    se = math.sqrt(2.0 / curv * max(1.0, best.chi2 / max(best.dof, 1))) if curv > 0 else math.nan
+    return replace(best, profiled=((cand.profiled_name(), h, se),))
+
+
+def _dissipative(fit: ChainFit) -> list[str]:
+    names = [joint_prefix(j) + t.name for j, terms in enumerate(fit.spec.joints, start=1) for t in terms
+             if t.dissipative]
+    return names + [bearing_name(i) for i in fit.spec.bearings]
+
+
+def _rejection(problem: _Problem, cand: Candidate, ext: ChainFit, mag: tuple) -> str:
+    if cand.cause.nonnegative and mag[1] < 0:
+        return f"fitted with an unphysical negative {mag[0]} = {mag[1]:.4g}: rejected"
+    for name in _dissipative(ext):
+        v, se = ext.as_dict()[name], ext.std_error(name)
+        if v < 0 and (not math.isfinite(se) or -v > 2 * se):
+            return f"the extended model would hold a negative {name} = {v:.4g} +- {se:.2g}: it would feed energy in"
+    params = ext.parameters()
+    pre = joint_prefix(cand.place)
+    if cand.cause.name == "stribeck_friction":
+        v, top = params.get(pre + "stribeck_velocity_rad_s", math.nan), _rate_amplitude(problem, cand.place)
+        if v > top:
+            return (f"its Stribeck rate {v:.3g} rad/s is above every run's twist rate (at most {top:.3g} rad/s): it is "
+                    f"dry friction (see coulomb_friction at joint {cand.place})")
+    if cand.cause.name in ("hysteresis", "micro_slip", "backlash"):
+        h = params.get(cand.profiled_name(), math.nan)
+        res = angle_resolution(problem, cand.place)
+        if h < res:
+            if cand.cause.name == "backlash":
+                return f"its half gap {h:.3g} rad is below the twist's resolution {res:.2g} rad: no free play is resolved"
+            return (f"its slip angle {h:.3g} rad is below the twist's resolution {res:.2g} rad: an element that never "
+                    f"sticks is dry friction (see coulomb_friction at joint {cand.place})")
+    return ""
+
+
+def score(problem: _Problem, cand: Candidate, base: ChainFit, weights: np.ndarray, n_tests: int,
+          alpha: float) -> CandidateScore:
+    """The evidence for one candidate on top of ``base`` (module docstring, step 4)."""
+    ext = (problem.solve(cand.extend(base.spec, 0.0), weights) if cand.cause.bounds is None
+           else _profile(problem, cand, base.spec, weights))
+    q = len(ext.names) - len(base.names) + (1 if cand.cause.bounds is not None else 0)
+    delta = base.chi2 - ext.chi2
+    p = float(chi2_dist.sf(max(delta, 0.0), q))
+    bic = delta - q * math.log(base.n_rows)
+    name = cand.magnitude_name()
+    params = ext.parameters()
+    mag = (name, float(params.get(name, math.nan)), ext.std_error(name))
+    significant = bool(p < alpha / n_tests and bic > 0)
+    note = _rejection(problem, cand, ext, mag) if significant or (cand.cause.nonnegative and mag[1] < 0) else ""
+    if note:
+        significant = False
+    return CandidateScore(cand.label, cand.cause.name, cand.place, cand.at_joint, float(delta), q, float(bic), p,
+                          significant, ext, mag, note)
+
+
+# --------------------------------------------------------------------------------------------
+# 4. The diagnosis
+
+
+@dataclass(frozen=True)
+class Ambiguity:
+    """Two candidates at different places that the data cannot tell apart, and the drive that would."""
+
+    candidates: tuple
+    separating_drive: Optional[int]
+    explanation: str
+
+    def as_json(self) -> dict:
+        return {"candidates": list(self.candidates), "separating_drive_flywheel": self.separating_drive,
+                "explanation": self.explanation}
+
+
+@dataclass(frozen=True)
+class ChainDiagnosis:
+    """The whole diagnosis of a chain.
+
+    Attributes:
+      nominal: the nominal fit; first_round: every candidate scored on it, best first.
+      steps: the candidates adopted, in order; final: the extended fit.
+      ambiguities: places the data cannot tell apart (with the drive that would).
+      n_candidates: candidates per round (the Bonferroni divisor); expected_chi2: the nominal's
+        ``dof nu/(nu-2)``.
+    """
+
+    nominal: ChainFit
+    first_round: tuple
+    steps: tuple
+    final: ChainFit
+    ambiguities: tuple
+    n_harmonics: int
+    noise_std: dict
+    nu: float
+
+    @property
+    def found(self) -> Optional[CandidateScore]:
+        return self.steps[0] if self.steps else None
+
+    def reduced_chi2(self, f: ChainFit) -> float:
+        """chi2 / dof of a fit, relative to what noise alone gives (1 for a model the noise explains)."""
+        return f.chi2 / max(f.dof, 1)
+
+    def as_json(self) -> dict:
+        return {
+            "nominal": {"parameters": self.nominal.parameters(), "chi2": self.nominal.chi2, "dof": self.nominal.dof},
+            "candidates_first_round": [s.as_json() for s in self.first_round],
+            "found": [s.as_json() for s in self.steps],
+            "extended": {"parameters": self.final.parameters(), "chi2": self.final.chi2, "dof": self.final.dof,
+                         "std_errors": {n: self.final.std_error(n) for n in self.final.names}
+                         | {n: se for n, _, se in self.final.profiled}},
+            "ambiguities": [a.as_json() for a in self.ambiguities],
+            "n_harmonics": self.n_harmonics, "noise_std_per_sample": self.noise_std,
+        }
+
+
+def candidates(n_flywheels: int, causes: Sequence[Cause] = JOINT_CAUSES, bearings: bool = True) -> list[Candidate]:
+    out = [Candidate(c, j) for j in range(1, n_flywheels) for c in causes]
+    if bearings:
+        out += [Candidate(_BEARING, i) for i in range(1, n_flywheels + 1)]
+    return out
+
+
+def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: float = 1e-3, max_effects: int = 2,
+                   fidelity: float = DEFAULT_FIDELITY, causes: Sequence[Cause] = JOINT_CAUSES,
+                   progress=None) -> ChainDiagnosis:
+    """Fit the nominal chain, score every cause at every place, extend greedily (module docstring).
+
+    Args:
+      progress: optional callable ``(done, total, label)`` called after every candidate scored.
+    """
+    runs = tuple(runs)
+    if not runs:
+        raise ValueError("no runs to diagnose")
+    N = runs[0].average.n_flywheels
+    H = min(n_harmonics, min(max_harmonic(r.samples_per_period) for r in runs))
+    nu = 2.0 * (min(r.n_periods for r in runs) - 1)
+    problem = _Problem(runs, H, nu, fidelity)
+    nominal, w = problem.fit(nominal_spec(N))
+    current, wcur = nominal, w
+    pool = candidates(N, causes)
+    first: tuple = ()
+    steps: list[CandidateScore] = []
+    ambiguous: list[Ambiguity] = []
+    for rnd in range(max_effects):
+        n = len(pool)
+        scored = []
+        for k, cand in enumerate(pool, start=1):
+            scored.append(score(problem, cand, current, wcur, n, alpha))
+            if progress is not None:
+                progress(k, n, cand.label)
+        scored.sort(key=lambda s: (bool(s.note), -s.score))
+        if rnd == 0:
+            first = tuple(scored)
+        best = next((s for s in scored if s.significant), None)
+        if best is None:
+            break
+        steps.append(best)
+        profiled = current.profiled + best.fit.profiled
+        current, wcur = problem.fit(best.fit.spec)
+        current = replace(current, profiled=profiled)
+        # Every cause at most once per place; the same cause may still be found elsewhere.
+        pool = [c for c in pool if c.label != best.label]
+        by_label = {c.label: c for c in candidates(N, causes)}
+        for rival in scored:
+            if rival is best or not rival.significant or rival.place == best.place and rival.at_joint == best.at_joint:
+                continue
+            if rival.score < 0.5 * best.score:
+                continue
+            r_given_b = score(problem, by_label[rival.label], current, wcur, len(pool), alpha)
+            rival_fit, wr = problem.fit(rival.fit.spec)
+            b_given_r = score(problem, by_label[best.label], rival_fit, wr, len(pool), alpha)
+            if not r_given_b.significant and not b_given_r.significant:
+                drive, why = separating_drive(problem, by_label[best.label], by_label[rival.label], best, rival)
+                ambiguous.append(Ambiguity((best.label, rival.label), drive, why))
+    channels = sorted({ch for r in runs for ch in r.noise_std})
+    noise = {ch: float(np.median([r.noise_std[ch] for r in runs if ch in r.noise_std])) for ch in channels}
+    return ChainDiagnosis(nominal, first, tuple(steps), current, tuple(ambiguous), H, noise, nu)
+
+
+def separating_drive(problem: _Problem, a: Candidate, b: Candidate, sa: CandidateScore, sb: CandidateScore
+                     ) -> tuple[Optional[int], str]:
+    """Which flywheel to drive so that two candidates at different places tell apart.
+
+    For a drive of the measured runs' frequencies and torque on flywheel k, the nominal fit's
+    linear part (inertias, each joint's c and k) predicts every joint's twist; each candidate's
+    own torque (its fitted size, evaluated on that twist) enters the rows of its joint's two
+    flywheels. The Fisher information that separates them is the squared norm of the part of
+    one candidate's rows that the other's cannot take up, per unit noise (the rows' noise from
+    the measured runs); the drive with the most is named. Returns (flywheel, explanation).
+    """
+    base = problem.fit(nominal_spec(problem.runs[0].average.n_flywheels))[0].as_dict()
+    N = problem.runs[0].average.n_flywheels
+    J = np.array([base[inertia_name(i)] for i in range(1, N + 1)])
+    c = np.array([base[joint_prefix(j) + "c_Nms_per_rad"] for j in range(1, N)])
+    k = np.array([base[joint_prefix(j) + "k_Nm_per_rad"] for j in range(1, N)])
+    runs = problem.runs
+    torque = np.median([max(float(np.ptp(t)) / 2 for t in r.average.torques_Nm if t is not None) for r in runs])
+    sigma = np.median([max(v for kk, v in r.noise_std.items() if kk.startswith("torque")) for r in runs]) or 1.0
+    best_k, best_info, infos = None, -1.0, {}
+    M = 256
+    t = np.arange(M) / M * 2 * math.pi
+    for drive in range(1, N + 1):
+        info = 0.0
+        for r in runs:
+            w = r.average.omega_rad_s
+            Z = -w**2 * np.diag(J).astype(complex)
+            for j in range(N - 1):
+                Z[j:j + 2, j:j + 2] += (k[j] + 1j * w * c[j]) * np.array([[1, -1], [-1, 1]])
+            X = np.linalg.solve(Z, np.eye(N)[drive - 1] * torque)
+            cols = []
+            for cand, sc in ((a, sa), (b, sb)):
+                vec = np.zeros((N, 2 * 5), dtype=float)
+                if cand.at_joint:
+                    tw = np.real((X[cand.place - 1] - X[cand.place]) * np.exp(1j * t))
+                    rt = np.real(1j * w * (X[cand.place - 1] - X[cand.place]) * np.exp(1j * t))
+                    law = _effect_law(cand, sc)
+                    extra = np.asarray(law.torque(tw, rt), dtype=float) if law is not None else np.zeros(M)
+                    C = np.fft.rfft(extra)[1:6] / M * 2
+                    row = np.concatenate([C.real, C.imag])
+                    vec[cand.place - 1] += row
+                    vec[cand.place] -= row
+                else:
+                    C = 1j * w * X[cand.place - 1] * sc.magnitude[1]
+                    vec[cand.place - 1, 0], vec[cand.place - 1, 5] = C.real, C.imag
+                cols.append(vec.ravel())
+            u, v = cols
+            nu2 = float(u @ u)
+            if nu2 > 0 and float(v @ v) > 0:
+                # the part of v that u cannot take up, and of u that v cannot: the smaller one
+                ru = v - (u @ v) / nu2 * u
+                rv = u - (u @ v) / float(v @ v) * v
+                info += min(float(ru @ ru), float(rv @ rv)) / sigma**2
+        infos[drive] = info
+        if info > best_info:
+            best_k, best_info = drive, info
+    ranked = ", ".join(f"flywheel {d}: {v:.3g}" for d, v in sorted(infos.items(), key=lambda x: -x[1]))
+    return best_k, (f"driving flywheel {best_k} separates {a.label} from {b.label} best (Fisher information per run "
+                    f"at the measured frequencies and torque, linearised: {ranked})")
+
+
+def _effect_law(cand: Candidate, sc: CandidateScore) -> Optional[JointLaw]:
+    """A candidate's own joint torque at its fitted size (its added terms only)."""
+    joint = sc.fit.spec.joints[cand.place - 1]
+    vals = sc.fit.as_dict()
+    pre = joint_prefix(cand.place)
+    added = [t for t in joint if isinstance(t, (type(t),)) and t.name not in ("c_Nms_per_rad", "k_Nm_per_rad",
+                                                                              "gamma_Nm_per_rad3")]
+    if cand.cause.name == "backlash":
+        gap = next(t.gap_rad for t in joint if isinstance(t, Power))
+        k = vals[pre + "k_Nm_per_rad"]
+        # free play's own torque: the elastic torque with the gap minus the one without
+        return JointLaw((Power(1, gap), Power(1)), (k, -k))
+    if not added:
+        return None
+    return JointLaw(tuple(added), tuple(vals[pre + t.name] for t in added))
+
+
+def plant_and_inertias(f: ChainFit) -> tuple[ChainPlant, tuple[float, ...]]:
+    """The identified plant (laws, bearings clipped at 0) and inertias, ready for the rig."""
+    vals = f.as_dict()
+    laws = tuple(JointLaw(terms, tuple(vals[joint_prefix(j) + t.name] for t in terms))
+                 for j, terms in enumerate(f.spec.joints, start=1))
+    N = len(laws) + 1
+    bearings = tuple(max(0.0, vals.get(bearing_name(i), 0.0)) for i in range(1, N + 1))
+    return ChainPlant(laws, bearings), tuple(vals[inertia_name(i)] for i in range(1, N + 1))
