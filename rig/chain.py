@@ -41,7 +41,7 @@ from jointrig.identify.plant import PeriodicDrive
 
 from .model import PREFIX, RigModelError
 from .simulate import SettleInfo, SimulationConfig, SimulationError, SteadyStateNotReached, _check_warnings, \
-    passive_callback, settle_bound
+    passive_callback, set_inertias, settle_bound
 
 __all__ = ["ChainRig", "load_chain", "is_chain_model", "simulate_chain", "chain_callback", "MAX_FLYWHEELS"]
 
@@ -293,8 +293,7 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
     if inertias_kgm2 is not None:
         if len(inertias_kgm2) != N or not all(math.isfinite(x) and x > 0 for x in inertias_kgm2):
             raise ValueError(f"inertias_kgm2 must be {N} finite numbers > 0, got {inertias_kgm2}")
-        for k, (target, now) in enumerate(zip(inertias_kgm2, rig.inertias_kgm2)):
-            m.body_inertia[m.jnt_bodyid[m.dof_jntid[rig.dof_adr[k]]]] *= target / now
+        set_inertias(m, rig.dof_adr, inertias_kgm2, rig.inertias_kgm2)
         J = tuple(float(x) for x in inertias_kgm2)
     where = f"{rig.path.name} at omega = {omega_rad_s:g} rad/s"
     t_start = _time.perf_counter()

@@ -47,6 +47,7 @@ __all__ = [
     "commit_state",
     "simulate_steady_state",
     "coherent_omega",
+    "set_inertias",
 ]
 
 log = logging.getLogger(__name__)
@@ -352,6 +353,17 @@ def _activated(native_law, d) -> Iterator[None]:
         native_law.deactivate(d)
 
 
+def set_inertias(m: mujoco.MjModel, dofs, targets_kgm2, current_kgm2) -> None:
+    """Give the hinge at each dof of ``m`` (a private copy) the inertia about its axis in
+    ``targets_kgm2`` (kg m^2), scaling its body's inertia tensor, and recompute the model's
+    constants. MuJoCo 4 precomputes the mass matrix of simple bodies (``dof_M0``, in
+    ``mj_setConst``): scaling ``body_inertia`` alone leaves the simulated inertia unchanged.
+    Call it before any passive callback is installed (``mj_setConst`` runs the pipeline)."""
+    for dof, target, now in zip(dofs, targets_kgm2, current_kgm2):
+        m.body_inertia[m.jnt_bodyid[m.dof_jntid[dof]]] *= target / now
+    mujoco.mj_setConst(m, mujoco.MjData(m))
+
+
 def _check_warnings(d: mujoco.MjData, where: str) -> None:
     raised = [(mujoco.mjtWarning(i).name, w.number, w.lastinfo) for i, w in enumerate(d.warning)
               if w.number > 0]
@@ -421,11 +433,10 @@ def simulate_steady_state(
     # Per-run settings on a private copy: the shared MjModel stays untouched.
     m = copy.copy(rig.model)
     if inertias_kgm2 is not None:
-        for j, (name, target, now) in enumerate(zip(("J1", "J2"), inertias_kgm2, (rig.J1_kgm2, rig.J2_kgm2))):
+        for name, target in zip(("J1", "J2"), inertias_kgm2):
             if not (math.isfinite(target) and target > 0):
                 raise ValueError(f"inertias_kgm2: {name} must be a finite number > 0, got {target}")
-            body = m.jnt_bodyid[m.dof_jntid[rig.dof_adr[j]]]
-            m.body_inertia[body] *= target / now
+        set_inertias(m, rig.dof_adr, inertias_kgm2, (rig.J1_kgm2, rig.J2_kgm2))
     stateful = [t for t in plant.law.terms if t.stateful]
     slider = [0.0] * sum(t.n_states for t in stateful)
     q1, q2 = rig.qpos_adr

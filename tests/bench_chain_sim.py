@@ -1,0 +1,299 @@
+"""An independent bench for drive trains: a chain of flywheels integrated by scipy, for the tests.
+
+Nothing here uses jointrig. Flywheel i (0-based here) obeys
+
+    J_i phi_i'' = T_i(t) - M_i + M_(i-1) - b_i phi_i'
+
+with M_j the torque of joint j, written out again from :class:`bench_sim.Joint` (the same
+independent law the two-flywheel bench uses: dead-zone free play, a phi^2, gamma phi^3,
+q v|v|, dry friction with a Stribeck peak, a Jenkins element, Segalman's continuum Iwan
+element under Masing's rule). One joint, ``special``, may carry the non-smooth effects; its
+dry friction and its Jenkins slider switch at events as in :mod:`bench_sim` (stuck, the two
+flywheels of that joint move with one acceleration, the friction holding whatever torque
+keeps them so, until it exceeds the static friction), so the integrator never steps across a
+discontinuity. Bearing drag ``b_i`` acts on any flywheel.
+
+:func:`measured_runs` samples whole periods of the steady state (found by integrating period
+by period until the state repeats to 1e-9 of its swing) and adds white noise at a stated SNR
+to every angle and drive torque, the way a bench with an encoder per flywheel records.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Optional
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from bench_sim import Joint
+
+
+@dataclass(frozen=True)
+class Train:
+    """A chain: inertias (kg m^2), one :class:`bench_sim.Joint` per joint (its J1, J2, b1, b2,
+    delay fields unused), bearing drags (N m s/rad) and the joint with non-smooth effects."""
+
+    J: tuple
+    joints: tuple
+    b: tuple = (0.0, 0.0, 0.0, 0.0)
+    special: int = 0
+
+    @property
+    def N(self) -> int:
+        return len(self.J)
+
+
+#: The test train: motor side, two couplings, load; modes 66, 173, 214 rad/s, damped 12-36%.
+TRAIN = Train(J=(1.0, 0.5, 0.5, 1.0),
+              joints=(Joint(c=30.0, k=1.0e4, gamma=3.0e5), Joint(c=20.0, k=5.0e3, gamma=1.5e5),
+                      Joint(c=30.0, k=1.0e4, gamma=3.0e5)))
+
+
+def with_effect(train: Train, joint: int, **effect) -> Train:
+    """The train with an effect at joint ``joint`` (1-based) (fields of :class:`bench_sim.Joint`)."""
+    joints = list(train.joints)
+    joints[joint - 1] = replace(joints[joint - 1], **effect)
+    return replace(train, joints=tuple(joints), special=joint - 1)
+
+
+def _drives(drive: dict, t: float, N: int) -> np.ndarray:
+    T = np.zeros(N)
+    for i, (w, M0) in drive.items():
+        T[i - 1] = M0 * math.cos(w * t)
+    return T
+
+
+def _torques(train: Train, y: np.ndarray, mode: dict, friction: bool = True) -> np.ndarray:
+    """Every joint's torque (N m); the special joint's dry friction left out when not ``friction``."""
+    N = train.N
+    phi, v = y[:N], y[N:2 * N]
+    M = np.empty(N - 1)
+    for j, jt in enumerate(train.joints):
+        u, r = phi[j] - phi[j + 1], v[j] - v[j + 1]
+        m = jt.smooth_torque(u, r)
+        if j == train.special:
+            if friction and jt.static and mode["s"] != 0:
+                m += jt.sliding(r) * mode["s"]
+            if jt.Fs:
+                m += y[2 * N] if mode["j"] == 0 else jt.Fs * mode["j"]
+            if jt.Fi:
+                m += jt.iwan_torque(u, mode)
+        M[j] = m
+    return M
+
+
+def _accelerations(train: Train, T: np.ndarray, y: np.ndarray, M: np.ndarray) -> np.ndarray:
+    N = train.N
+    v = y[N:2 * N]
+    net = T - np.asarray(train.b) * v
+    net[:-1] -= M
+    net[1:] += M
+    return net / np.asarray(train.J)
+
+
+def _stick_torque(train: Train, drive: dict, t: float, y: np.ndarray, mode: dict) -> float:
+    """The friction torque that would keep the special joint's two flywheels at one acceleration."""
+    m = train.special
+    a = _accelerations(train, _drives(drive, t, train.N), y, _torques(train, y, mode, friction=False))
+    Ja, Jb = train.J[m], train.J[m + 1]
+    # a_m - f/Ja = a_(m+1) + f/Jb
+    return (a[m] - a[m + 1]) / (1.0 / Ja + 1.0 / Jb)
+
+
+def _rhs(train: Train, drive: dict, mode: dict):
+    N, m = train.N, train.special
+    jt = train.joints[m]
+
+    def f(t, y):
+        T = _drives(drive, t, N)
+        M = _torques(train, y, mode)
+        a = _accelerations(train, T, y, M)
+        if jt.static and mode["s"] == 0:  # stuck: friction holds the joint
+            fr = _stick_torque(train, drive, t, y, mode)
+            a[m] -= fr / train.J[m]
+            a[m + 1] += fr / train.J[m + 1]
+        dy = list(y[N:2 * N]) + list(a)
+        if jt.Fs:
+            dy.append(jt.Fs / jt.r * (y[N + m] - y[N + m + 1]) if mode["j"] == 0 else 0.0)
+        return dy
+
+    return f
+
+
+def _events(train: Train, drive: dict, mode: dict):
+    N, m = train.N, train.special
+    jt = train.joints[m]
+    ev = []
+
+    def rel(y):
+        return y[N + m] - y[N + m + 1]
+
+    if jt.gap:
+        def kink_up(t, y):
+            return y[m] - y[m + 1] - jt.gap
+
+        def kink_down(t, y):
+            return y[m] - y[m + 1] + jt.gap
+        for f, d in zip((kink_up, kink_down), mode["kinks"]):
+            f.terminal, f.direction = True, d
+            ev.append(f)
+    if jt.static and mode["s"] == 0:
+        def unsticks(t, y):
+            return abs(_stick_torque(train, drive, t, y, mode)) - jt.static
+        unsticks.terminal, unsticks.direction = True, 1
+        ev.append(unsticks)
+    elif jt.static:
+        def rate_zero(t, y):
+            return rel(y)
+        rate_zero.terminal, rate_zero.direction = True, -mode["s"]
+        ev.append(rate_zero)
+    if jt.Fi:
+        def reverses(t, y):
+            return rel(y)
+        reverses.terminal, reverses.direction = True, -mode["i"]
+        ev.append(reverses)
+    if jt.Fs:
+        if mode["j"] == 0:
+            def slips(t, y):
+                return abs(y[2 * N]) - jt.Fs
+            slips.terminal, slips.direction = True, 1
+            ev.append(slips)
+        else:
+            def sticks(t, y):
+                return rel(y)
+            sticks.terminal, sticks.direction = True, -mode["j"]
+            ev.append(sticks)
+    return ev
+
+
+def simulate(train: Train, drive: dict, t_eval: np.ndarray, y0, mode: dict, t0: float = 0.0):
+    """Integrate from (t0, y0, mode) to t_eval[-1]: states at t_eval, final state, final mode."""
+    N, m = train.N, train.special
+    jt = train.joints[m]
+    mode = dict(mode)
+    t, y = t0, np.array(y0, float)
+    out = np.empty((t_eval.size, y.size))
+    i = 0
+    while True:
+        sel = t_eval[(t_eval >= t) & (np.arange(t_eval.size) >= i)]
+        evs = _events(train, drive, mode)
+        sol = solve_ivp(_rhs(train, drive, mode), (t, t_eval[-1]), y, method="DOP853", rtol=1e-10, atol=1e-12,
+                        t_eval=sel, events=evs or None)
+        if not sol.success:
+            raise RuntimeError(sol.message)
+        k = len(sol.t) if sel.size else 0
+        if k:
+            out[i:i + k] = np.asarray(sol.y).T
+        i += k
+        if sol.status == 0:
+            return out, out[-1].copy(), mode
+        fired = [e for e, te in enumerate(sol.t_events) if te.size]
+        t = float(sol.t_events[fired[0]][0])
+        y = np.array(sol.y_events[fired[0]][0], float)
+        name = evs[fired[0]].__name__
+        if name.startswith("kink"):
+            which = 0 if name == "kink_up" else 1
+            dirs = list(mode["kinks"])
+            dirs[which] = -dirs[which]
+            mode["kinks"] = tuple(dirs)
+        elif name == "rate_zero":
+            need = _stick_torque(train, drive, t, y, mode)
+            if abs(need) <= jt.static:
+                Ja, Jb = train.J[m], train.J[m + 1]
+                v = (Ja * y[N + m] + Jb * y[N + m + 1]) / (Ja + Jb)  # momentum kept
+                y[N + m] = y[N + m + 1] = v
+                mode["s"] = 0
+            else:
+                mode["s"] = -mode["s"]
+        elif name == "unsticks":
+            mode["s"] = 1 if _stick_torque(train, drive, t, y, mode) > 0 else -1
+        elif name == "reverses":
+            u = y[m] - y[m + 1]
+            mode["Fr"] = jt.iwan_torque(u, mode)
+            mode["xr"] = u
+            mode["i"] = -mode["i"]
+        elif name == "slips":
+            mode["j"] = 1 if y[2 * N] > 0 else -1
+        else:  # sticks
+            y[2 * N] = jt.Fs * mode["j"]
+            mode["j"] = 0
+        t = math.nextafter(t, math.inf)
+
+
+def _linear_start(train: Train, drive: dict) -> np.ndarray:
+    """The linear part's steady state at t = 0 (one drive frequency): most of the transient gone."""
+    N = train.N
+    w = next(iter(drive.values()))[0]
+    Z = -w**2 * np.diag(train.J).astype(complex) + 1j * w * np.diag(train.b)
+    for j, jt in enumerate(train.joints):
+        Z[j:j + 2, j:j + 2] += (jt.k + 1j * w * jt.c) * np.array([[1, -1], [-1, 1]])
+    F = np.array([drive[i + 1][1] if (i + 1) in drive else 0.0 for i in range(N)], dtype=complex)
+    # the rigid rotation of a free chain: pin its mean by the pseudo-inverse (a cosine drive from
+    # rest keeps it periodic)
+    X = np.linalg.lstsq(Z, F, rcond=None)[0]
+    y = list(X.real) + list((1j * w * X).real)
+    if train.joints[train.special].Fs:
+        y.append(0.0)
+    return np.array(y)
+
+
+def steady_period(train: Train, drive: dict, samples: int, *, tol: float = 1e-9, max_periods: int = 2000):
+    """One period of the steady state sampled at ``samples`` points: (t, states (samples, dim))."""
+    N, m = train.N, train.special
+    jt = train.joints[m]
+    w = next(iter(drive.values()))[0]
+    T = 2 * math.pi / w
+    y = _linear_start(train, drive)
+    u, r = y[m] - y[m + 1], y[N + m] - y[N + m + 1]
+    mode = {"s": 1 if r >= 0 else -1, "j": 0, "i": 1 if r >= 0 else -1, "xr": None, "Fr": 0.0,
+            "kinks": (1 if u < jt.gap else -1, 1 if u < -jt.gap else -1)}
+    t = 0.0
+    done = 0
+    while done < max_periods:
+        grid = t + T * np.arange(1, 6)
+        ys, y, mode = simulate(train, drive, grid, y, mode, t0=t)
+        t = grid[-1]
+        done += 5
+        rel = np.concatenate([ys[:, :N - 1] - ys[:, 1:N], ys[:, N:2 * N]], axis=1)
+        scale = np.max(np.abs(rel), axis=0) + 1e-12
+        if np.max(np.abs(rel[-1] - rel[-2]) / scale) < tol:
+            t_eval = t + np.arange(samples) * T / samples
+            ys, _, _ = simulate(train, drive, np.append(t_eval, t_eval[-1] + T / samples), y, mode, t0=t)
+            return t_eval - t, ys[:-1]
+    raise RuntimeError(f"no steady state after {max_periods} periods for drive {drive}")
+
+
+@dataclass(frozen=True)
+class Measured:
+    """One measured run: whole periods at ``samples`` per period, noisy angles and drive torques."""
+
+    omega_rad_s: float
+    time_s: np.ndarray
+    angles_rad: tuple
+    torques_Nm: tuple
+    amplitude_Nm: float = math.nan
+    n_periods: int = 8
+
+
+def measured_runs(train: Train, points, *, snr_db: float = 40.0, n_periods: int = 8, samples: int = 128,
+                  seed: int = 0) -> list[Measured]:
+    """Every ``(omega rad/s, amplitude N m, driven flywheel 1-based)`` point, measured: the steady
+    period repeated ``n_periods`` times, white noise at ``snr_db`` on each angle and drive torque."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for w, M0, i in points:
+        t, ys = steady_period(train, {i: (w, M0)}, samples)
+        T = 2 * math.pi / w
+        time = (t[None, :] + T * np.arange(n_periods)[:, None]).ravel()
+
+        def noisy(x):
+            x = np.tile(x, n_periods)
+            sd = np.sqrt(np.mean((x - x.mean()) ** 2)) * 10 ** (-snr_db / 20)
+            return x + rng.normal(0.0, sd, x.size)
+
+        angles = tuple(noisy(ys[:, k]) for k in range(train.N))
+        torques = tuple(noisy(M0 * np.cos(w * t)) if k + 1 == i else None for k in range(train.N))
+        out.append(Measured(w, time, angles, torques, M0, n_periods))
+    return out
