@@ -40,7 +40,7 @@ from jointrig.identify.chain import ChainPlant, ChainRecord
 from jointrig.identify.plant import PeriodicDrive
 
 from .model import PREFIX, RigModelError
-from .simulate import SettleInfo, SimulationConfig, SimulationError, SteadyStateNotReached, _check_warnings, \
+from .simulate import SettleInfo, SimulationConfig, SimulationError, SteadyStateNotReached, _activated, _check_warnings, \
     passive_callback, set_inertias, settle_bound
 
 __all__ = ["ChainRig", "load_chain", "is_chain_model", "simulate_chain", "chain_callback", "MAX_FLYWHEELS"]
@@ -260,7 +260,7 @@ def chain_callback(rig: ChainRig, plant: ChainPlant, drives: dict, errors: list,
 
 def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: SimulationConfig = SimulationConfig(), *,
                    plant: Optional[ChainPlant] = None, inertias_kgm2: Optional[Sequence[float]] = None,
-                   amplitude_Nm: float = math.nan) -> tuple[ChainRecord, SettleInfo]:
+                   amplitude_Nm: float = math.nan, native: bool = False) -> tuple[ChainRecord, SettleInfo]:
     """Drive the chain from rest to steady state and log ``config.n_periods`` whole periods.
 
     Args:
@@ -269,6 +269,9 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
       plant: laws and bearings to simulate instead of the file's; inertias_kgm2: inertias
         instead of the file's (each body's inertia scaled).
       amplitude_Nm: a label for the record.
+      native: every joint's law, the bearings and the drives in the compiled C callback
+        (rig/native_callback.py ``NativeChain``): bit-identical records; a chain without
+        sliders is integrated a period per ``mujoco.rollout`` call (no Python between steps).
 
     The flywheels start with the common velocity that keeps the rigid rotation periodic
     (:meth:`PeriodicDrive.mean_free_impulse` summed over the drives, over the total inertia).
@@ -310,13 +313,25 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
     q, v = np.array(rig.qpos_adr), np.array(rig.dof_adr)
     act_idx = {i: adr for i, _, adr in rig.drives}
 
-    def commit():
-        for j, terms in stateful:
-            phi = float(d.qpos[q[j]] - d.qpos[q[j + 1]])
-            at = 0
-            for t in terms:
-                t.commit(phi, states[j], at)
-                at += t.n_states
+    nat = None
+    if native:
+        from .native_callback import NativeChain
+
+        nat = NativeChain(rig, plant, drives)
+        callback = nat.function
+
+        def commit():
+            nat.commit(d.qpos)
+    else:
+        callback = chain_callback(rig, plant, drives, errors, states)
+
+        def commit():
+            for j, terms in stateful:
+                phi = float(d.qpos[q[j]] - d.qpos[q[j + 1]])
+                at = 0
+                for t in terms:
+                    t.commit(phi, states[j], at)
+                    at += t.n_states
 
     def period():
         pos, vel, tq, tbuf = np.empty((n, N)), np.empty((n, N)), np.empty((n, N)), np.empty(n)
@@ -334,17 +349,36 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
                     commit()
         return pos, vel, tq, tbuf
 
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    state = np.empty(mujoco.mj_stateSize(m, spec))
+    sens = [act_idx.get(i) for i in range(1, N + 1)]
+
+    def rollout_period():
+        # One C call per period: row j of `st` is the state after step j, row j of `sd` the
+        # sensors computed in step j (at the state before it), as the stepped loop records.
+        from mujoco import rollout
+
+        mujoco.mj_getState(m, d, state, spec)
+        st, sd = rollout.rollout(m, d, state[None], nstep=n * k)
+        before = np.vstack([state[None], st[0, :-1]])[::k]  # the state before each sample's first step
+        mujoco.mj_setState(m, d, st[0, -1], spec)
+        tq = np.column_stack([sd[0, ::k, a] if a is not None else np.zeros(n) for a in sens])
+        return before[:, 1 + q], before[:, 1 + m.nq + v], tq, before[:, 0]
+
+    advance = rollout_period if native and not stateful else period
     periods: list = []
     changes: list[float] = []
     change, bound, ratio = math.inf, math.inf, math.nan
     settled = False
     p = 0
-    with passive_callback(chain_callback(rig, plant, drives, errors, states)):
+    with passive_callback(callback), _activated(nat, d):
         while True:
-            pos, vel, tq, tbuf = period()
+            pos, vel, tq, tbuf = advance()
             p += 1
             if errors:
                 raise SimulationError(f"{where}: the joint-law callback failed: {errors[0]!r}") from errors[0]
+            if nat is not None and nat.error:
+                raise SimulationError(f"{where}: the native callback met a term it does not know")
             _check_warnings(d, where)
             if not (np.all(np.isfinite(pos)) and np.all(np.isfinite(vel))):
                 raise SimulationError(f"{where}: non-finite state in period {p}")

@@ -88,8 +88,9 @@ def _load(path: Path, source: str) -> ChainPoint:
 
 
 def run_chain_sweep(rig: ChainRig, points: Sequence[tuple], config: SimulationConfig = CHAIN_CONFIG, *,
-                    store: Optional[Path] = None) -> list[ChainPoint]:
-    """Simulate every ``(omega, amplitude, flywheel)`` point (loading those already in ``store``).
+                    store: Optional[Path] = None, native: bool = False) -> list[ChainPoint]:
+    """Simulate every ``(omega, amplitude, flywheel)`` point (loading those already in ``store``;
+    ``native``: the C callback, bit-identical, so stored points serve either way).
 
     Raises:
       ValueError: a point whose flywheel has no motor, or a non-positive frequency or amplitude
@@ -123,7 +124,7 @@ def run_chain_sweep(rig: ChainRig, points: Sequence[tuple], config: SimulationCo
             pt = _load(path, where)
             log.info("[%d/%d] %s: loaded from the store", k, len(points), where)
         else:
-            rec, info = simulate_chain(rig, w, {i: PeriodicDrive.cosine(w, a)}, config, amplitude_Nm=a)
+            rec, info = simulate_chain(rig, w, {i: PeriodicDrive.cosine(w, a)}, config, amplitude_Nm=a, native=native)
             pt = ChainPoint(w, a, i, rec, info)
             if path is not None:
                 _save(path, pt)

@@ -84,7 +84,7 @@ def _noise(meas: ChainRecord, band: int) -> float:
 
 def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[ChainRecord], *,
                    band: int = 10, config: SimulationConfig = SimulationConfig(samples_per_period=128, max_step_s=5e-5),
-                   max_wall_s: Optional[float] = 120.0) -> ChainValidation:
+                   max_wall_s: Optional[float] = 120.0, native: bool = False) -> ChainValidation:
     """Replay every held-out run's drives on the nominal and the extended plant (module docstring)."""
     cfg = replace(config, absolute_angles_periodic=False, max_wall_s=max_wall_s, n_periods=1)
     models = {"nominal": plant_and_inertias(diagnosis.nominal), "extended": plant_and_inertias(diagnosis.final)}
@@ -100,7 +100,8 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
         errs, sims = {}, {}
         for name, (plant, J) in models.items():
             try:
-                sim, _ = simulate_chain(rig.with_plant(plant), meas.omega_rad_s, drives, cfg, inertias_kgm2=J)
+                sim, _ = simulate_chain(rig.with_plant(plant), meas.omega_rad_s, drives, cfg, inertias_kgm2=J,
+                                        native=native)
             except SteadyStateNotReached as err:
                 return ChainValidation(math.nan, math.nan, math.nan, tuple(per_run),
                                        note=f"the {name} model did not settle on {meas.source}: {err}")

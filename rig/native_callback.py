@@ -33,7 +33,7 @@ import numpy as np
 from jointrig.identify.basis import JointLaw, play
 from jointrig.identify.plant import PeriodicDrive, Plant
 
-__all__ = ["NativeLaw", "NativeBuildError", "library_path", "native_session", "session_active"]
+__all__ = ["NativeLaw", "NativeChain", "NativeBuildError", "library_path", "native_session", "session_active"]
 
 SOURCE = Path(__file__).resolve().parent / "native" / "jointrig_law.c"
 MAX_TERMS, MAX_KNOTS, MAX_HARM, MAX_SLIDERS = 64, 512, 64, 512
@@ -70,6 +70,7 @@ class _Params(ctypes.Structure):
         ("cache_valid", ctypes.c_int),
         ("cache_t", ctypes.c_double),
         ("cache_u", ctypes.c_double),
+        ("next", ctypes.c_void_p),
     ]
 
 
@@ -189,48 +190,13 @@ class NativeLaw:
         plant = Plant.of(plant)
         p = _Params()
         law = plant.law
-        if len(law.terms) > MAX_TERMS:
-            raise ValueError(f"the native callback takes at most {MAX_TERMS} terms, the law has {len(law.terms)}")
-        knots: list[float] = []
-        sliders = 0
-        for i, (t, v) in enumerate(zip(law.terms, law.values)):
-            spec = t.native()
-            if spec is None:
-                raise ValueError(f"the native callback has no term {type(t).__name__}")
-            ints = list(spec.ints)
-            if spec.knots:
-                ints[1] = len(knots)
-                knots.extend(spec.knots)
-            if spec.sliders:
-                if sliders + len(spec.sliders) > MAX_SLIDERS:
-                    raise ValueError(f"the native callback takes at most {MAX_SLIDERS} sliders in all")
-                ints[0], ints[2] = sliders, len(spec.sliders)
-                for j, (slip, k) in enumerate(spec.sliders):
-                    p.slider_slip[sliders + j], p.slider_k[sliders + j] = slip, k
-                sliders += len(spec.sliders)
-            p.kind[i], p.value[i], p.dpar[i] = spec.kind, v, spec.dpar
-            p.ipar1[i], p.ipar2[i], p.ipar3[i] = ints
-        p.n_sliders = sliders
-        if len(knots) > MAX_KNOTS:
-            raise ValueError(f"the native callback takes at most {MAX_KNOTS} knots in all, the law has {len(knots)}")
-        for i, k in enumerate(knots):
-            p.knots[i] = k
-        p.n_terms = len(law.terms)
+        _pack_law(p, law)
         p.q1, p.q2 = rig.qpos_adr
         p.v1, p.v2 = rig.dof_adr
         p.act = rig.actuator_id
         p.b1, p.b2 = plant.bearing1_damping_Nms_per_rad, plant.bearing2_damping_Nms_per_rad
         p.delay = plant.drive_delay_s
-        p.omega = drive.omega_rad_s
-        if drive.single_cosine_Nm is not None:  # the same fast path as PeriodicDrive.evaluator
-            p.single, p.single_a = 1, drive.single_cosine_Nm
-        else:
-            coeffs = list(drive.coeffs)[: max((n for n, c in enumerate(drive.coeffs) if c != 0), default=0) + 1]
-            if len(coeffs) > MAX_HARM:
-                raise ValueError(f"the native callback takes harmonics up to {MAX_HARM - 1}")
-            p.n_coeffs = len(coeffs)
-            for n, c in enumerate(coeffs):
-                p.c_re[n], p.c_im[n] = c.real, c.imag
+        _pack_drive(p, drive)
         self.params = p
         self.lib = _load()
         self.function = self.lib.jointrig_passive
@@ -269,3 +235,100 @@ class NativeLaw:
     @property
     def error(self) -> bool:
         return bool(self.params.error)
+
+
+def _pack_law(p: _Params, law: JointLaw) -> None:
+    """A joint law's terms, knots and sliders into a parameter block (each term says how:
+    ``Term.native``)."""
+    if len(law.terms) > MAX_TERMS:
+        raise ValueError(f"the native callback takes at most {MAX_TERMS} terms, the law has {len(law.terms)}")
+    knots: list[float] = []
+    sliders = 0
+    for i, (t, v) in enumerate(zip(law.terms, law.values)):
+        spec = t.native()
+        if spec is None:
+            raise ValueError(f"the native callback has no term {type(t).__name__}")
+        ints = list(spec.ints)
+        if spec.knots:
+            ints[1] = len(knots)
+            knots.extend(spec.knots)
+        if spec.sliders:
+            if sliders + len(spec.sliders) > MAX_SLIDERS:
+                raise ValueError(f"the native callback takes at most {MAX_SLIDERS} sliders in all")
+            ints[0], ints[2] = sliders, len(spec.sliders)
+            for j, (slip, k) in enumerate(spec.sliders):
+                p.slider_slip[sliders + j], p.slider_k[sliders + j] = slip, k
+            sliders += len(spec.sliders)
+        p.kind[i], p.value[i], p.dpar[i] = spec.kind, v, spec.dpar
+        p.ipar1[i], p.ipar2[i], p.ipar3[i] = ints
+    p.n_sliders = sliders
+    if len(knots) > MAX_KNOTS:
+        raise ValueError(f"the native callback takes at most {MAX_KNOTS} knots in all, the law has {len(knots)}")
+    for i, k in enumerate(knots):
+        p.knots[i] = k
+    p.n_terms = len(law.terms)
+
+
+def _pack_drive(p: _Params, drive: PeriodicDrive) -> None:
+    p.omega = drive.omega_rad_s
+    if drive.single_cosine_Nm is not None:  # the same fast path as PeriodicDrive.evaluator
+        p.single, p.single_a = 1, drive.single_cosine_Nm
+    else:
+        coeffs = list(drive.coeffs)[: max((n for n, c in enumerate(drive.coeffs) if c != 0), default=0) + 1]
+        if len(coeffs) > MAX_HARM:
+            raise ValueError(f"the native callback takes harmonics up to {MAX_HARM - 1}")
+        p.n_coeffs = len(coeffs)
+        for n, c in enumerate(coeffs):
+            p.c_re[n], p.c_im[n] = c.real, c.imag
+
+
+class NativeChain:
+    """The native callback's parameters for a chain (rig/chain.py): one block per joint (its law
+    between its two flywheels, the drag of its left flywheel, and of the last flywheel for the
+    last joint) then one block per drive, linked in that order, which is the order in which the
+    Python chain callback sums every generalised force: the same bits."""
+
+    def __init__(self, rig, plant, drives: dict):
+        N = rig.n_flywheels
+        blocks = []
+        for j, law in enumerate(plant.laws):
+            p = _Params()
+            _pack_law(p, law)
+            p.q1, p.q2 = rig.qpos_adr[j], rig.qpos_adr[j + 1]
+            p.v1, p.v2 = rig.dof_adr[j], rig.dof_adr[j + 1]
+            p.act = -1
+            p.b1 = plant.bearings_Nms_per_rad[j]
+            p.b2 = plant.bearings_Nms_per_rad[N - 1] if j == N - 2 else 0.0
+            blocks.append(p)
+        acts = {i: a for i, a, _ in rig.drives}
+        for i, drive in sorted(drives.items()):
+            p = _Params()
+            p.act = acts[i]
+            _pack_drive(p, drive)
+            blocks.append(p)
+        for a, b in zip(blocks, blocks[1:]):
+            a.next = ctypes.cast(ctypes.byref(b), ctypes.c_void_p).value
+        self.blocks = blocks  # kept alive: the C side holds their addresses
+        self.lib = _load()
+        self.function = self.lib.jointrig_passive
+
+    def activate(self, d: mujoco.MjData) -> None:
+        with _registry_lock:
+            if self.lib.jointrig_register(d._address, ctypes.byref(self.blocks[0])) < 0:
+                raise RuntimeError("more than 256 simulations at once share the native callback")
+
+    def deactivate(self, d: mujoco.MjData) -> None:
+        with _registry_lock:
+            self.lib.jointrig_unregister(d._address)
+
+    def commit(self, qpos: np.ndarray) -> None:
+        """Advance every joint's sliders to its accepted twist (after a step), as the Python path."""
+        for p in self.blocks:
+            if p.n_sliders:
+                phi = float(qpos[p.q1] - qpos[p.q2])
+                for j in range(p.n_sliders):
+                    p.slider[j] = play(phi, p.slider[j], p.slider_slip[j])
+
+    @property
+    def error(self) -> bool:
+        return any(p.error for p in self.blocks)

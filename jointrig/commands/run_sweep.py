@@ -255,7 +255,7 @@ def chain_main(args: argparse.Namespace) -> int:
 
     unsupported = [flag for flag, on in (("--form two_dof", args.form != "equivalent"),
                                          ("--excitation multisine", args.excitation != "stepped"),
-                                         ("--noise-db", args.noise_db is not None), ("--native", args.native),
+                                         ("--noise-db", args.noise_db is not None),
                                          ("--workers", args.workers > 1), ("--executor dask", args.executor != "local"),
                                          ("--continuation", args.continuation),
                                          ("--sample-rate-hz", args.sample_rate_hz is not None)) if on]
@@ -286,7 +286,7 @@ def chain_main(args: argparse.Namespace) -> int:
         store = args.store or Path("runs/store") / f"{rig.path.stem}-{hashlib.sha256(key.encode()).hexdigest()[:12]}"
     log.info("chain model %s: %d flywheels, inertias %s kg m^2, %d sweep points; store %s", rig.path,
              rig.n_flywheels, rig.inertias_kgm2, len(points), store)
-    done = run_chain_sweep(rig, points, config, store=store)
+    done = run_chain_sweep(rig, points, config, store=store, native=args.native)
     records = [p.record for p in done]
     spec = rig.plant.spec()
     result = identify_chain(records, spec, n_harmonics=harmonics)

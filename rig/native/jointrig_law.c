@@ -41,6 +41,7 @@ typedef struct {
   int error;
   int cache_valid;           /* the drive at the last time asked (RK4 asks t + h/2 twice) */
   double cache_t, cache_u;
+  void* next;                /* a chain: the next block (another joint, or a drive), or 0 */
 } jointrig_params;
 
 /* One parameter block per simulation, found by its mjData: simulations in several threads
@@ -125,31 +126,36 @@ static double play(double phi, double z, double s) {
   return m < hi ? m : hi;       /* min(., phi + s) */
 }
 
-void jointrig_passive(const mjModel* m, mjData* d) {
-  jointrig_params* P = lookup(d);
-  if (!P) return;
-  double phi = d->qpos[P->q1] - d->qpos[P->q2];
-  double rate = d->qvel[P->v1] - d->qvel[P->v2];
-  double tau = 0.0;
-  for (int t = 0; t < P->n_terms; t++) {
-    if (P->kind[t] == JR_JENKINS || P->kind[t] == JR_IWAN) continue;
-    tau = tau + P->value[t] * term(P, t, phi, rate);
-  }
-  for (int t = 0; t < P->n_terms; t++) {
-    if (P->kind[t] == JR_JENKINS) {
-      double s = P->dpar[t];
-      tau += P->value[t] * ((phi - play(phi, P->slider[P->ipar1[t]], s)) / s);
-    } else if (P->kind[t] == JR_IWAN) {
-      double u = 0.0;
-      for (int j = P->ipar1[t]; j < P->ipar1[t] + P->ipar3[t]; j++)
-        u = u + P->slider_k[j] * (phi - play(phi, P->slider[j], P->slider_slip[j]));
-      tau += P->value[t] * u;
+/* One block: its joint's law between q1 and q2 (none if it has no terms), its bearings, and
+ * its drive (none if act < 0). A two-flywheel rig has one block; a chain one per joint and one
+ * per drive (rig/native_callback.py NativeChain), applied in the order of rig/chain.py's
+ * Python callback, so that every generalised force is summed in the same order. */
+static void block(jointrig_params* P, mjData* d) {
+  if (P->n_terms > 0) {
+    double phi = d->qpos[P->q1] - d->qpos[P->q2];
+    double rate = d->qvel[P->v1] - d->qvel[P->v2];
+    double tau = 0.0;
+    for (int t = 0; t < P->n_terms; t++) {
+      if (P->kind[t] == JR_JENKINS || P->kind[t] == JR_IWAN) continue;
+      tau = tau + P->value[t] * term(P, t, phi, rate);
     }
+    for (int t = 0; t < P->n_terms; t++) {
+      if (P->kind[t] == JR_JENKINS) {
+        double s = P->dpar[t];
+        tau += P->value[t] * ((phi - play(phi, P->slider[P->ipar1[t]], s)) / s);
+      } else if (P->kind[t] == JR_IWAN) {
+        double u = 0.0;
+        for (int j = P->ipar1[t]; j < P->ipar1[t] + P->ipar3[t]; j++)
+          u = u + P->slider_k[j] * (phi - play(phi, P->slider[j], P->slider_slip[j]));
+        tau += P->value[t] * u;
+      }
+    }
+    d->qfrc_passive[P->v1] -= tau;
+    d->qfrc_passive[P->v2] += tau;
   }
-  d->qfrc_passive[P->v1] -= tau;
-  d->qfrc_passive[P->v2] += tau;
   if (P->b1 != 0.0) d->qfrc_passive[P->v1] -= P->b1 * d->qvel[P->v1];
   if (P->b2 != 0.0) d->qfrc_passive[P->v2] -= P->b2 * d->qvel[P->v2];
+  if (P->act < 0) return;
   double t = d->time - P->delay;
   if (P->cache_valid && t == P->cache_t) {
     d->ctrl[P->act] = P->cache_u;
@@ -176,10 +182,17 @@ void jointrig_passive(const mjModel* m, mjData* d) {
   d->ctrl[P->act] = u;
 }
 
+void jointrig_passive(const mjModel* m, mjData* d) {
+  for (jointrig_params* P = lookup(d); P; P = (jointrig_params*)P->next) block(P, d);
+}
+
 /* Move every slider to the accepted relative angle (identify.basis: Jenkins/Iwan.commit). */
 static void commit(jointrig_params* P, const mjData* d) {
-  double phi = d->qpos[P->q1] - d->qpos[P->q2];
-  for (int j = 0; j < P->n_sliders; j++) P->slider[j] = play(phi, P->slider[j], P->slider_slip[j]);
+  for (; P; P = (jointrig_params*)P->next) {
+    if (P->n_sliders == 0) continue;
+    double phi = d->qpos[P->q1] - d->qpos[P->q2];
+    for (int j = 0; j < P->n_sliders; j++) P->slider[j] = play(phi, P->slider[j], P->slider_slip[j]);
+  }
 }
 
 typedef void (*jr_step_fn)(const mjModel*, mjData*);
@@ -203,5 +216,7 @@ int jointrig_run(void* step, const mjModel* m, mjData* d, int n, int k, const in
       commit(P, d);
     }
   }
-  return P->error;
+  int error = 0;
+  for (jointrig_params* B = P; B; B = (jointrig_params*)B->next) error |= B->error;
+  return error;
 }

@@ -1,0 +1,48 @@
+"""Which joint of a drive train is worn: the chain diagnosis on data of the independent bench.
+
+Data come from tests/bench_chain_sim.py (scipy, event-driven stick-slip and sliders; nothing
+of jointrig), measured at 40 dB; the gain is measured by replaying held-out runs of another
+level in the MuJoCo chain rig. The suite runs one case per joint, each with another kind of
+cause, and the clean train; scripts/bench_chain_cases.py runs every catalogued effect at every
+joint (the table in the README).
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from chain_cases import EFFECTS, run_case
+
+
+@pytest.mark.parametrize("cause,place", [("backlash", 2), ("hysteresis", 1), ("coulomb_friction", 3),
+                                         ("bearing_friction", 4)])
+def test_the_right_joint_and_cause_ranked_first_with_a_gain_of_5(cause, place):
+    # Bounds of the issue: right place and cause first, gain >= 5 on held-out runs of another
+    # level. The magnitude is checked to 15% of the bench's (the bench's law is not the
+    # project's: a continuum Iwan, event-driven friction), which is 10x its standard error.
+    r = run_case(cause, place)
+    kind = "flywheel" if cause == "bearing_friction" else "joint"
+    assert r.first == r.found == f"{cause} at {kind} {place}", (r.first, r.found)
+    assert r.gain >= 5, r.gain
+    name, value, se = r.magnitude
+    if cause == "backlash":
+        truth = EFFECTS["backlash"](1.0)["gap"]
+    elif cause == "hysteresis":
+        truth = EFFECTS["hysteresis"](1.0)["Fs"]
+    elif cause == "coulomb_friction":
+        truth = EFFECTS["coulomb_friction"](1.0)["Fc"]
+    else:
+        truth = 4.0
+    assert value == pytest.approx(truth, rel=0.15), (name, value, se)
+
+
+def test_a_clean_train_gets_no_cause():
+    # Nothing hidden: no candidate of the 25 (7 causes at 3 joints, bearings at 4 flywheels)
+    # passes the Bonferroni-corrected test at alpha = 1e-3; chi2/dof of the nominal fit is
+    # that of the noise (1 +- 3 / sqrt(dof), with the fidelity floor below it).
+    r = run_case("none", 1)
+    assert r.found == "nothing", r.found
+    d = r.diagnosis
+    assert d.nominal.chi2 / d.nominal.dof < 1 + 3 / math.sqrt(d.nominal.dof)
