@@ -344,19 +344,26 @@ def _profile(problem: _Problem, cand: Candidate, base: ChainSpec, weights) -> Ch
         lo, hi = 0.02 * top, 2.0 * top
     back, (a, b) = (math.exp, (math.log(lo), math.log(hi))) if cand.cause.log_scale else (float, (lo, hi))
     cache: dict = {}
+    mag = cand.magnitude_name()
+
+    def penalised(f: ChainFit) -> float:
+        # A friction or damping that feeds energy in is never adopted, so the search stays in the
+        # physical region: a negative magnitude scores worse than any physical value.
+        v = f.as_dict().get(mag, 0.0)
+        return f.chi2 if not (cand.cause.nonnegative and v < 0) else f.chi2 + 1e6 * (1.0 + abs(f.chi2))
 
     def obj(u):
         h = back(u)
         if h not in cache:
             cache[h] = problem.solve(cand.extend(base, h), weights)
-        return cache[h].chi2
+        return penalised(cache[h])
 
     grid = np.linspace(a, b, 13)
     vals = [obj(u) for u in grid]
     k = int(np.argmin(vals))
     minimize_scalar(obj, bounds=(grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]), method="bounded",
                     options={"xatol": 1e-5 * (b - a)})
-    h = min(cache, key=lambda x: cache[x].chi2)
+    h = min(cache, key=lambda x: penalised(cache[x]))
     best = cache[h]
     step = max(1e-3 * abs(h), 1e-6 * (hi - lo))
     c = lambda x: problem.solve(cand.extend(base, x), weights).chi2  # noqa: E731

@@ -272,10 +272,16 @@ def chain_run_label(record) -> str:
     return f"{run_label(record.omega_rad_s, record.drive_amplitude_Nm)}_at{driven}"
 
 
+def _twist_scale(records, j: int) -> float:
+    """Largest |twist| of joint j (1-based) over the records (rad), the scale of its law's view."""
+    return max(float(np.max(np.abs(r.angles_rad[j - 1] - r.angles_rad[j]))) for r in records)
+
+
 def chain_blueprint(records, n_joints: int):
     """A chain sweep's layout: per joint, the identified restoring torque against the true one
-    (timeline ``phi_urad``) beside the parameter table; then every run's joint twists over one
-    period (timeline ``t_s``)."""
+    over its twist in per mille of its largest measured twist (timeline ``twist_permille``: one
+    timeline for joints whose twists differ by decades), beside the parameter table; then every
+    run's joint twists over one period (timeline ``t_s``)."""
     import rerun.blueprint as rrb
 
     everything = rrb.TimeRange(start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.infinite())
@@ -287,16 +293,17 @@ def chain_blueprint(records, n_joints: int):
     axis = rrb.TimeAxis(view_range=everything)
     laws = rrb.Horizontal(
         rrb.Grid(*[rrb.TimeSeriesView(origin=f"restoring_force/joint{j}",
-                                      name=f"joint {j}: restoring torque [N m], identified vs true, against its "
-                                           f"twist [urad] (timeline phi_urad)",
-                                      time_ranges=whole("phi_urad"), axis_x=axis) for j in range(1, n_joints + 1)]),
+                                      name=f"joint {j}: restoring torque [N m], identified vs true, against its twist "
+                                           f"in per mille of {1e3 * _twist_scale(records, j):.3g} mrad "
+                                           f"(timeline twist_permille)",
+                                      time_ranges=whole("twist_permille"), axis_x=axis) for j in range(1, n_joints + 1)]),
         rrb.TextDocumentView(origin="parameters", name="parameters: true, identified, errors"),
         column_shares=[3, 2], name="Identified joints")
     runs = rrb.Grid(*[rrb.TimeSeriesView(origin=f"runs/{chain_run_label(r)}",
                                          name=f"{r.omega_rad_s:g} rad/s, {r.drive_amplitude_Nm:g} N m: joint twists "
                                               f"[rad], drive torques [N m] (timeline t_s)",
                                          time_ranges=whole("t_s"), axis_x=axis) for r in records], name="Runs")
-    return rrb.Blueprint(rrb.Tabs(laws, runs), rrb.TimePanel(timeline="phi_urad", state="collapsed"),
+    return rrb.Blueprint(rrb.Tabs(laws, runs), rrb.TimePanel(timeline="twist_permille", state="collapsed"),
                          collapse_panels=True)
 
 
@@ -313,11 +320,14 @@ def log_chain_run(rec: rr.RecordingStream, record) -> None:
             rec.send_columns(f"runs/{lab}/drive{i}_torque_Nm", indexes=[t], columns=rr.Scalars.columns(scalars=tq))
 
 
-def log_chain_laws(rec: rr.RecordingStream, true_laws, identified_laws, twist_ranges_rad, n_points: int = 401) -> None:
-    """Each joint's restoring torque g(phi), identified and true, over its measured twist."""
-    for j, (true, ident, rng) in enumerate(zip(true_laws, identified_laws, twist_ranges_rad), start=1):
-        phi = np.linspace(*rng, n_points)
-        idx = [rr.TimeColumn("phi_urad", sequence=np.round(phi * 1e6).astype(np.int64))]
+def log_chain_laws(rec: rr.RecordingStream, true_laws, identified_laws, records, n_points: int = 401) -> None:
+    """Each joint's restoring torque g(phi), identified and true, over its measured twist (on the
+    timeline ``twist_permille``: per mille of the joint's largest twist, see :func:`chain_blueprint`)."""
+    for j, (true, ident) in enumerate(zip(true_laws, identified_laws), start=1):
+        scale = _twist_scale(records, j)
+        per_mille = np.arange(-1000, 1001, 5)
+        phi = per_mille * scale / 1000.0
+        idx = [rr.TimeColumn("twist_permille", sequence=per_mille.astype(np.int64))]
         for name, law in (("identified_Nm", ident), ("true_Nm", true)):
             if law is not None:
                 rec.send_columns(f"restoring_force/joint{j}/{name}", indexes=idx,
@@ -336,7 +346,8 @@ def log_chain_diagnosis(rec: rr.RecordingStream, diagnosis, validation, n_flywhe
         key = f"{'joint' if s.at_joint else 'flywheel'} {s.place}"
         if not s.note:
             best[key] = max(best[key], s.score)
-    rec.log("where/best_score_per_place", rr.BarChart(np.array([best[p] for p in places])), static=True)
+    # log10(1 + score): one worn place dwarfs the rest on a linear axis
+    rec.log("where/best_score_log10", rr.BarChart(np.log10(1.0 + np.array([best[p] for p in places]))), static=True)
     lines = ["| candidate | BIC score | p | magnitude | note |", "|---|---|---|---|---|"]
     for s in diagnosis.first_round:
         lines.append(f"| {s.label} | {s.score:.1f} | {s.p_value:.2g} | {s.magnitude[0]} = {s.magnitude[1]:.4g} +- "
@@ -366,8 +377,8 @@ def log_chain_diagnosis(rec: rr.RecordingStream, diagnosis, validation, n_flywhe
                 origin=base, name=f"held-out {meas.omega_rad_s:g} rad/s: joint {j} twist [rad], measured (period "
                                   f"average) vs nominal vs extended (timeline t_s)"))
     where = rrb.Horizontal(rrb.TextDocumentView(origin="where/candidates", name="found, and every candidate scored"),
-                           rrb.BarChartView(origin="where/best_score_per_place",
-                                            name="best BIC score per place: joints 1.., then flywheels 1.."),
+                           rrb.BarChartView(origin="where/best_score_log10",
+                                            name="log10(1 + best BIC score) per place: joints 1.., then flywheels 1.."),
                            column_shares=[3, 2], name="Where and what")
     tabs = [where] + ([rrb.Grid(*views, name="Held-out runs")] if views else [])
     rec.send_blueprint(rrb.Blueprint(rrb.Tabs(*tabs), rrb.TimePanel(timeline="t_s", state="collapsed"),

@@ -321,15 +321,11 @@ def chain_main(args: argparse.Namespace) -> int:
     if rrd is not None or args.spawn or args.connect:
         values = result.as_dict()
         identified = [joint_law(values, spec, j) for j in range(1, rig.n_flywheels)]
-        ranges = []
-        for j in range(rig.n_flywheels - 1):
-            tw = np.concatenate([r.angles_rad[j] - r.angles_rad[j + 1] for r in records])
-            ranges.append((float(tw.min()), float(tw.max())))
         with open_recording(rrd, spawn=args.spawn, connect=args.connect) as rec:
             rec.send_blueprint(chain_blueprint(records, rig.n_flywheels - 1))
             for r in records:
                 log_chain_run(rec, r)
-            log_chain_laws(rec, rig.plant.laws, identified, ranges)
+            log_chain_laws(rec, rig.plant.laws, identified, records)
             log_parameter_table(rec, format_table(rows, markdown=True))
         if rrd is not None:
             print(f"wrote {rrd} (open it with: .venv/bin/rerun {rrd})")
