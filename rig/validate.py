@@ -114,19 +114,21 @@ class RunComparison:
 CHI2_PER_DOF_OK = 2.0
 #: (Figures of this block: ``python tests/test_independent_bench.py`` and ``tests/test_open_world.py``.)
 #: ... and the nominal model predicts the held-out runs within this many times the comparison's
-#: noise floor (measured on the independent bench without an effect: 1.9x on the paper's joint,
-#: 6.8x on the lightly damped one, where the floor, which counts only the measurement's noise,
-#: leaves out the prediction's own uncertainty near resonance; effects absorbed into biased
-#: parameters: 26-95x, issue 13; a free play of 0.01 rad on the paper's joint: 78x).
-HELDOUT_OK = 20.0
+#: noise floor (measured on the independent bench without an effect: 1.7x on the paper's joint,
+#: 2.9x on the lightly damped one; a torque cell's cubic calibration error the nominal model
+#: absorbs into biased parameters: 16.5x; effects outside the catalogue: 50-900x). Until the
+#: rig simulated the identified inertias (2026-11-24: it simulated the file's) the clean runs
+#: gave up to 6.8x and the bound was 20.
+HELDOUT_OK = 8.0
 #: An extended model must predict the held-out runs within this many times the floor (correct
-#: catalogued extensions on the independent bench: 1.8-48x; the largest for free play on the
-#: lightly damped joint and a 2 ms drive delay, both ~30-150x better than nominal).
+#: catalogued extensions on the independent bench: 1.3-49x; the largest for free play with an
+#: angle offset on the lightly damped joint, ~30x better than nominal).
 HELDOUT_EXTENDED_OK = 100.0
 #: An extension is confirmed when the held-out error falls at least this much (catalogued
-#: effects on the independent bench: 6.4-228; effects outside the catalogue that a catalogued
-#: cause half fits: 0.5-2.1, e.g. a torque cell's cubic calibration error taken for quadratic
-#: damping at 2.06).
+#: effects on the independent bench: 6.8-311; effects outside the catalogue that a catalogued
+#: cause half fits: 0.3-1.4 on held-out runs of another level; a torque cell's cubic calibration
+#: error held out at the fit's own levels is fitted by quadratic damping with a gain of 7.95, so
+#: the open-world test holds it out at another level).
 GAIN_OK = 3.0
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -77,8 +78,9 @@ def pump_train_sweep(tmp_path_factory):
     from jointrig.cli import main
 
     out = tmp_path_factory.mktemp("pump_train")
+    native = ["--native"] if shutil.which("cc") or shutil.which("gcc") else []  # bit-identical, 4x faster
     rc = main(["sweep", "--model", str(PUMP_TRAIN), "--json", str(out / "pt.json"), "--rrd", str(out / "pt.rrd"),
-               "--no-store", "--quiet"])
+               "--no-store", "--quiet", *native])
     return rc, json.loads((out / "pt.json").read_text()), out / "pt.rrd"
 
 

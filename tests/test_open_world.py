@@ -21,6 +21,13 @@ from jointrig.measured.runs import read_runs
 from jointrig.rig.validate import run_diagnosis
 
 HOLDOUT = (2, 3)
+#: Held-out runs for the torque cell's calibration error: the lowest level's middle frequency and
+#: the highest level's lowest one (the other level of the runs at 25 and 40 rad/s). A cubic error
+#: grows as T^3, quadratic damping as the rate squared: at the held-out middle frequency and the
+#: fit's own levels (HOLDOUT) quadratic damping predicts 8x better than the nominal model and
+#: passes for the cause (gain 7.95, measured once the rig simulated the identified inertias);
+#: at another level it fails (gain 1.3), as a test engineer's check at another level would show.
+LEVEL_HOLDOUT = (1, 3)
 
 
 def _points(joint):
@@ -40,7 +47,8 @@ def _report(tmp_path, joint, case):
     path = measure(bench, _points(joint), tmp_path / "bench.csv", seed=sum(map(ord, joint + case)), fs_Hz=2000.0,
                    n_periods=6.5, transform=transform)
     loaded = read_runs(path)
-    return run_diagnosis(loaded.records, run_ids=loaded.run_ids, holdout=HOLDOUT)
+    holdout = LEVEL_HOLDOUT if case == "torque_calibration" else HOLDOUT
+    return run_diagnosis(loaded.records, run_ids=loaded.run_ids, holdout=holdout)
 
 
 @pytest.mark.parametrize("joint", ["paper", "light"])
