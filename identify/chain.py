@@ -44,7 +44,8 @@ from .records import RecordError, SteadyStateRecord
 from .solve import COND_WARN, IdentificationResult
 
 __all__ = ["ChainRecord", "ChainSpec", "ChainIdentifiabilityError", "identifiability", "chain_system",
-           "solve_banded", "identify_chain", "joint_law", "ChainPlant", "plant_of_values", "BandedSystem", "inertia_name", "bearing_name", "joint_prefix"]
+           "solve_banded", "identify_chain", "joint_law", "ChainPlant", "plant_of_values", "BandedSystem",
+           "fisher_per_period", "row_covariance", "inertia_name", "bearing_name", "joint_prefix"]
 
 
 class ChainIdentifiabilityError(ValueError):
@@ -503,3 +504,60 @@ def plant_of_values(values: dict, spec: ChainSpec) -> ChainPlant:
     laws = tuple(joint_law(values, spec, j) for j in range(1, spec.n_flywheels))
     bearings = tuple(max(0.0, values.get(bearing_name(i), 0.0)) for i in range(1, spec.n_flywheels + 1))
     return ChainPlant(laws, bearings)
+
+
+def row_covariance(record: ChainRecord, spec: ChainSpec, theta: Sequence[float], *, sigma_angle_rad: float,
+                   sigma_torque_Nm: float, n_harmonics: int = 9) -> tuple[BandedSystem, np.ndarray]:
+    """The balance rows of harmonics 1..H of one record and the covariance of their residuals
+    (``(m, m)``) under white noise of ``sigma_angle_rad`` on every encoder and ``sigma_torque_Nm``
+    on every drive's torque cell, propagated to first order through the linear part of the
+    chain (see :func:`fisher_per_period`). The residuals of one harmonic are correlated across
+    flywheels (an angle enters its neighbours' equations too) and between their cosine and sine
+    parts; different harmonics are independent. The record's periods average the noise."""
+    banded = chain_system([record], spec, n_harmonics=n_harmonics, first_harmonic=1)
+    s = banded.system
+    vals = dict(zip(spec.names, (float(v) for v in theta)))
+    N = spec.n_flywheels
+    J = np.array([vals[inertia_name(i)] for i in range(1, N + 1)])
+    b = np.array([vals.get(bearing_name(i), 0.0) for i in range(1, N + 1)])
+    c = [vals.get(joint_prefix(j) + "c_Nms_per_rad", 0.0) for j in range(1, N)]
+    k = [vals.get(joint_prefix(j) + "k_Nm_per_rad", 0.0) for j in range(1, N)]
+    driven = np.array([t is not None for t in record.torques_Nm], dtype=float)
+    per = 2.0 / record.n_samples  # variance of a coefficient's cosine (or sine) part per unit sigma^2
+    C = np.zeros((s.F.size, s.F.size))
+    for n in range(1, n_harmonics + 1):
+        w = n * record.omega_rad_s
+        Z = np.diag(-J * w * w + 1j * w * b).astype(complex)
+        for j in range(N - 1):
+            Z[j:j + 2, j:j + 2] += (k[j] + 1j * w * c[j]) * np.array([[1, -1], [-1, 1]])
+        # e = Z dPhi - dT with dPhi, dT of independent cosine and sine parts:
+        # [Re e; Im e] = [[R, -I], [I, R]] [Re dPhi; Im dPhi] - [Re dT; Im dT]
+        R, I = Z.real, Z.imag
+        M = np.block([[R, -I], [I, R]])
+        cov = per * (sigma_angle_rad**2 * M @ M.T + sigma_torque_Nm**2 * np.diag(np.tile(driven, 2)))
+        rows = np.flatnonzero(s.row_harmonic == n)
+        # position of each row in [Re e_1..e_N, Im e_1..e_N]
+        pos = s.row_part[rows] * N + s.row_equation[rows]
+        C[np.ix_(rows, rows)] = cov[np.ix_(pos, pos)]
+    return banded, C
+
+
+def fisher_per_period(record: ChainRecord, spec: ChainSpec, theta: Sequence[float], *, sigma_angle_rad: float,
+                      sigma_torque_Nm: float, n_harmonics: int = 9) -> np.ndarray:
+    """Fisher information one measured period of a noise-free chain record carries about the
+    unknowns of ``spec`` (``(p, p)``, in the order of ``spec.names``), under white noise of
+    ``sigma_angle_rad`` on every encoder and ``sigma_torque_Nm`` on every drive's torque cell.
+
+    The balance rows of harmonics 1..H (the mean is not balanced: a sensor's zero is arbitrary)
+    carry the residual covariance of :func:`row_covariance`: flywheel i's residual at harmonic n
+    moves by ``sum_l Z_il(n w) dPhi_l - dT_i``, ``Z`` the dynamic stiffness of the inertias, each
+    joint's ``c`` and ``k`` and the bearings at ``theta``, and the coefficient of white noise
+    over N samples has variance ``2 sigma^2 / N`` in its cosine and in its sine part. Then
+    ``F = A' C^-1 A``. (The nonlinear terms' share of the propagation is left out, and so are
+    errors in variables of second order: identify/eiv.py does both for two flywheels.)
+    """
+    banded, C = row_covariance(record, spec, theta, sigma_angle_rad=sigma_angle_rad,
+                               sigma_torque_Nm=sigma_torque_Nm, n_harmonics=n_harmonics)
+    L = np.linalg.cholesky(C * record.n_periods)
+    A = np.linalg.solve(L, banded.system.A)
+    return A.T @ A

@@ -43,7 +43,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 from scipy.stats import chi2 as chi2_dist
 
-from .basis import Coulomb, Iwan, Jenkins, JointLaw, Power, Stribeck, Viscous
+from .basis import JointLaw, Power, Viscous
 from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpec, bearing_name, chain_system,
                     identifiability, inertia_name, joint_prefix, solve_banded)
 from .diagnose import CAUSES, DEFAULT_FIDELITY, FINE_SAMPLES, Cause, ModelSpec
@@ -52,7 +52,8 @@ from .records import RecordError, SteadyStateRecord
 from .solve import IllConditionedWarning
 
 __all__ = ["ChainRun", "prepare_chain_runs", "ChainFit", "Candidate", "CandidateScore", "ChainDiagnosis",
-           "diagnose_chain", "JOINT_CAUSES", "nominal_spec", "plant_and_inertias", "separating_drive"]
+           "diagnose_chain", "JOINT_CAUSES", "nominal_spec", "plant_and_inertias", "separating_drive",
+           "drive_information"]
 
 #: The catalogue's causes that live in a joint (scored at every joint); bearing drag is scored
 #: at every flywheel. Drive delay and an angle's zero are two-flywheel causes not yet carried over.
@@ -549,65 +550,90 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
     return ChainDiagnosis(nominal, first, tuple(steps), current, tuple(ambiguous), H, noise, nu)
 
 
-def separating_drive(problem: _Problem, a: Candidate, b: Candidate, sa: CandidateScore, sb: CandidateScore
-                     ) -> tuple[Optional[int], str]:
-    """Which flywheel to drive so that two candidates at different places tell apart.
+def drive_information(J_kgm2, c_Nms_per_rad, k_Nm_per_rad, omegas_rad_s, torque_Nm: float, sigma_Nm: float,
+                      first: tuple, second: tuple, *, n_harmonics: int = 5) -> dict[int, float]:
+    """How well a drive at each flywheel tells two effects at different places apart (pure).
 
-    For a drive of the measured runs' frequencies and torque on flywheel k, the nominal fit's
-    linear part (inertias, each joint's c and k) predicts every joint's twist; each candidate's
-    own torque (its fitted size, evaluated on that twist) enters the rows of its joint's two
-    flywheels. The Fisher information that separates them is the squared norm of the part of
-    one candidate's rows that the other's cannot take up, per unit noise (the rows' noise from
-    the measured runs); the drive with the most is named. Returns (flywheel, explanation).
+    The linear chain (inertias ``J``, each joint's ``c`` and ``k``) driven by ``torque_Nm cos(w t)``
+    at flywheel d moves as ``X = Z(w)^-1 e_d torque``. Each effect's own torque along that motion
+    enters the balance rows of harmonics 1..n_harmonics: a joint effect ``("joint", j, law)``
+    (``law``: a :class:`identify.basis.JointLaw` of the effect's own torque) with + on flywheel j
+    and - on j+1, a drag ``("flywheel", i, b_Nms_per_rad)`` on flywheel i. The information that
+    separates them at one frequency is the squared norm of the part of either effect's rows that
+    the other cannot take up (the smaller of the two), over the rows' noise ``sigma_Nm^2``; it
+    is summed over the frequencies. (The nominal law's own columns, which could absorb part of
+    an effect, are left out: the figure ranks drive locations, it is not a significance.)
+
+    Returns: flywheel (1-based) -> information.
     """
-    base = problem.fit(nominal_spec(problem.runs[0].average.n_flywheels))[0].as_dict()
-    N = problem.runs[0].average.n_flywheels
-    J = np.array([base[inertia_name(i)] for i in range(1, N + 1)])
-    c = np.array([base[joint_prefix(j) + "c_Nms_per_rad"] for j in range(1, N)])
-    k = np.array([base[joint_prefix(j) + "k_Nm_per_rad"] for j in range(1, N)])
-    runs = problem.runs
-    torque = np.median([max(float(np.ptp(t)) / 2 for t in r.average.torques_Nm if t is not None) for r in runs])
-    sigma = np.median([max(v for kk, v in r.noise_std.items() if kk.startswith("torque")) for r in runs]) or 1.0
-    best_k, best_info, infos = None, -1.0, {}
+    J = np.asarray(J_kgm2, dtype=float)
+    c, k = np.asarray(c_Nms_per_rad, dtype=float), np.asarray(k_Nm_per_rad, dtype=float)
+    N = J.size
     M = 256
     t = np.arange(M) / M * 2 * math.pi
+    H = n_harmonics
+
+    def rows(effect, X, w):
+        kind, place, what = effect
+        vec = np.zeros((N, 2 * H))
+        if kind == "joint":
+            z = X[place - 1] - X[place]
+            extra = np.asarray(what.torque(np.real(z * np.exp(1j * t)), np.real(1j * w * z * np.exp(1j * t))),
+                               dtype=float)
+            C = np.fft.rfft(np.broadcast_to(extra, t.shape))[1:H + 1] / M * 2
+            row = np.concatenate([C.real, C.imag])
+            vec[place - 1] += row
+            vec[place] -= row
+        else:
+            C = 1j * w * X[place - 1] * what
+            vec[place - 1, 0], vec[place - 1, H] = C.real, C.imag
+        return vec.ravel()
+
+    out = {}
     for drive in range(1, N + 1):
         info = 0.0
-        for r in runs:
-            w = r.average.omega_rad_s
+        for w in omegas_rad_s:
             Z = -w**2 * np.diag(J).astype(complex)
             for j in range(N - 1):
                 Z[j:j + 2, j:j + 2] += (k[j] + 1j * w * c[j]) * np.array([[1, -1], [-1, 1]])
-            X = np.linalg.solve(Z, np.eye(N)[drive - 1] * torque)
-            cols = []
-            for cand, sc in ((a, sa), (b, sb)):
-                vec = np.zeros((N, 2 * 5), dtype=float)
-                if cand.at_joint:
-                    tw = np.real((X[cand.place - 1] - X[cand.place]) * np.exp(1j * t))
-                    rt = np.real(1j * w * (X[cand.place - 1] - X[cand.place]) * np.exp(1j * t))
-                    law = _effect_law(cand, sc)
-                    extra = np.asarray(law.torque(tw, rt), dtype=float) if law is not None else np.zeros(M)
-                    C = np.fft.rfft(extra)[1:6] / M * 2
-                    row = np.concatenate([C.real, C.imag])
-                    vec[cand.place - 1] += row
-                    vec[cand.place] -= row
-                else:
-                    C = 1j * w * X[cand.place - 1] * sc.magnitude[1]
-                    vec[cand.place - 1, 0], vec[cand.place - 1, 5] = C.real, C.imag
-                cols.append(vec.ravel())
-            u, v = cols
-            nu2 = float(u @ u)
-            if nu2 > 0 and float(v @ v) > 0:
-                # the part of v that u cannot take up, and of u that v cannot: the smaller one
-                ru = v - (u @ v) / nu2 * u
-                rv = u - (u @ v) / float(v @ v) * v
-                info += min(float(ru @ ru), float(rv @ rv)) / sigma**2
-        infos[drive] = info
-        if info > best_info:
-            best_k, best_info = drive, info
+            X = np.linalg.solve(Z, np.eye(N)[drive - 1] * torque_Nm)
+            u, v = rows(first, X, w), rows(second, X, w)
+            uu, vv = float(u @ u), float(v @ v)
+            if uu > 0 and vv > 0:
+                ru = v - (u @ v) / uu * u  # the part of v that u cannot take up
+                rv = u - (u @ v) / vv * v
+                info += min(float(ru @ ru), float(rv @ rv)) / sigma_Nm**2
+        out[drive] = info
+    return out
+
+
+def separating_drive(problem: _Problem, a: Candidate, b: Candidate, sa: CandidateScore, sb: CandidateScore
+                     ) -> tuple[Optional[int], str]:
+    """Which flywheel to drive so that two candidates at different places tell apart:
+    :func:`drive_information` with the nominal fit's linear chain, the measured runs'
+    frequencies and median drive torque, the torque noise, and each candidate's fitted effect.
+    Returns (flywheel, explanation)."""
+    N = problem.runs[0].average.n_flywheels
+    base = problem.fit(nominal_spec(N))[0].as_dict()
+    J = [base[inertia_name(i)] for i in range(1, N + 1)]
+    c = [base[joint_prefix(j) + "c_Nms_per_rad"] for j in range(1, N)]
+    k = [base[joint_prefix(j) + "k_Nm_per_rad"] for j in range(1, N)]
+    runs = problem.runs
+    torque = float(np.median([max(float(np.ptp(t)) / 2 for t in r.average.torques_Nm if t is not None) for r in runs]))
+    sigma = float(np.median([max(v for kk, v in r.noise_std.items() if kk.startswith("torque")) for r in runs])) or 1.0
+
+    def effect(cand, sc):
+        if cand.at_joint:
+            law = _effect_law(cand, sc)
+            return ("joint", cand.place, law if law is not None else JointLaw((Viscous(),), (0.0,)))
+        return ("flywheel", cand.place, sc.magnitude[1])
+
+    infos = drive_information(J, c, k, [r.average.omega_rad_s for r in runs], torque, sigma, effect(a, sa),
+                              effect(b, sb))
+    best = max(infos, key=infos.get)
     ranked = ", ".join(f"flywheel {d}: {v:.3g}" for d, v in sorted(infos.items(), key=lambda x: -x[1]))
-    return best_k, (f"driving flywheel {best_k} separates {a.label} from {b.label} best (Fisher information per run "
-                    f"at the measured frequencies and torque, linearised: {ranked})")
+    return best, (f"driving flywheel {best} separates {a.label} from {b.label} best (Fisher information per run "
+                  f"at the measured frequencies and torque, linearised: {ranked})")
 
 
 def _effect_law(cand: Candidate, sc: CandidateScore) -> Optional[JointLaw]:
@@ -615,8 +641,7 @@ def _effect_law(cand: Candidate, sc: CandidateScore) -> Optional[JointLaw]:
     joint = sc.fit.spec.joints[cand.place - 1]
     vals = sc.fit.as_dict()
     pre = joint_prefix(cand.place)
-    added = [t for t in joint if isinstance(t, (type(t),)) and t.name not in ("c_Nms_per_rad", "k_Nm_per_rad",
-                                                                              "gamma_Nm_per_rad3")]
+    added = [t for t in joint if t.name not in ("c_Nms_per_rad", "k_Nm_per_rad", "gamma_Nm_per_rad3")]
     if cand.cause.name == "backlash":
         gap = next(t.gap_rad for t in joint if isinstance(t, Power))
         k = vals[pre + "k_Nm_per_rad"]

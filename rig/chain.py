@@ -21,6 +21,7 @@ Iwan) keep one state list per joint, committed after every step.
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import hashlib
 import math
@@ -37,7 +38,6 @@ import numpy as np
 
 from jointrig.identify.basis import FieldError, JointLaw, law_terms_from_fields
 from jointrig.identify.chain import ChainPlant, ChainRecord
-from jointrig.identify.plant import PeriodicDrive
 
 from .model import PREFIX, RigModelError
 from .simulate import SettleInfo, SimulationConfig, SimulationError, SteadyStateNotReached, _activated, _check_warnings, \
@@ -371,7 +371,12 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
     change, bound, ratio = math.inf, math.inf, math.nan
     settled = False
     p = 0
-    with passive_callback(callback), _activated(nat, d):
+    # Inside a native_session the callback is installed already (shared by threads; each
+    # simulation finds its own blocks by its MjData).
+    from .native_callback import session_active
+
+    installed = contextlib.nullcontext() if native and session_active() else passive_callback(callback)
+    with installed, _activated(nat, d):
         while True:
             pos, vel, tq, tbuf = advance()
             p += 1

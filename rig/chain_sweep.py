@@ -88,15 +88,24 @@ def _load(path: Path, source: str) -> ChainPoint:
 
 
 def run_chain_sweep(rig: ChainRig, points: Sequence[tuple], config: SimulationConfig = CHAIN_CONFIG, *,
-                    store: Optional[Path] = None, native: bool = False) -> list[ChainPoint]:
+                    store: Optional[Path] = None, native: bool = False, workers: int = 1) -> list[ChainPoint]:
     """Simulate every ``(omega, amplitude, flywheel)`` point (loading those already in ``store``;
     ``native``: the C callback, bit-identical, so stored points serve either way).
 
+    ``workers > 1`` simulates that many points at once in threads sharing one installed native
+    callback (:func:`rig.native_callback.native_session`; needs ``native``: a Python callback
+    holds the GIL). The points come back in the order given, bit-identical to a serial sweep.
+
     Raises:
       ValueError: a point whose flywheel has no motor, or a non-positive frequency or amplitude
-        (checked for all points before any simulation).
+        (checked for all points before any simulation); ``workers > 1`` without ``native``.
       SweepStoreMismatch: ``store`` holds points of another model or other settings.
     """
+    if workers < 1:
+        raise ValueError(f"workers must be >= 1, got {workers}")
+    if workers > 1 and not native:
+        raise ValueError("chain sweeps in threads need the native callback (native=True): a Python callback "
+                         "holds the GIL and MuJoCo's passive callback is global")
     for w, a, i in points:
         if not (math.isfinite(w) and w > 0 and math.isfinite(a) and a > 0):
             raise ValueError(f"sweep point ({w}, {a}, {i}): frequency and amplitude must be finite numbers > 0")
@@ -116,19 +125,29 @@ def run_chain_sweep(rig: ChainRig, points: Sequence[tuple], config: SimulationCo
                                          f"--store or delete it")
         else:
             write_json_atomic(man, want)
-    out = []
-    for k, (w, a, i) in enumerate(points, start=1):
+    total = len(points)
+
+    def one(k: int, point: tuple) -> ChainPoint:
+        w, a, i = point
         where = f"{rig.path.name} at omega = {w:g} rad/s, M0 = {a:g} N m on flywheel {i}"
         path = _path(store, w, a, i) if store is not None else None
         if path is not None and path.exists():
             pt = _load(path, where)
-            log.info("[%d/%d] %s: loaded from the store", k, len(points), where)
-        else:
-            rec, info = simulate_chain(rig, w, {i: PeriodicDrive.cosine(w, a)}, config, amplitude_Nm=a, native=native)
-            pt = ChainPoint(w, a, i, rec, info)
-            if path is not None:
-                _save(path, pt)
-            log.info("[%d/%d] %s: steady after %d periods (%.1f s)", k, len(points), where,
-                     info.periods_simulated, info.wall_time_s)
-        out.append(pt)
-    return out
+            log.info("[%d/%d] %s: loaded from the store", k, total, where)
+            return pt
+        rec, info = simulate_chain(rig, w, {i: PeriodicDrive.cosine(w, a)}, config, amplitude_Nm=a, native=native)
+        pt = ChainPoint(w, a, i, rec, info)
+        if path is not None:
+            _save(path, pt)
+        log.info("[%d/%d] %s: steady after %d periods (%.1f s)", k, total, where, info.periods_simulated,
+                 info.wall_time_s)
+        return pt
+
+    if workers == 1:
+        return [one(k, p) for k, p in enumerate(points, start=1)]
+    from concurrent.futures import ThreadPoolExecutor
+
+    from .native_callback import native_session
+
+    with native_session(), ThreadPoolExecutor(max_workers=workers) as pool:
+        return list(pool.map(one, range(1, total + 1), points))

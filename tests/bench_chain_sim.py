@@ -22,8 +22,7 @@ to every angle and drive torque, the way a bench with an encoder per flywheel re
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
-from typing import Optional
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.integrate import solve_ivp

@@ -44,7 +44,17 @@ def main(argv=None) -> int:
     p.add_argument("--verify", type=int, default=0, metavar="N", help="Monte Carlo realisations of both designs")
     p.add_argument("--native", action="store_true", help="simulate the candidates with the native callback")
     p.add_argument("--json", type=Path, help="write the design (runs: omega_rad_s, amplitude_Nm, periods) as JSON")
+    p.add_argument("--model", type=Path, default=None,
+                   help="a chain model (models/pump_train.xml): design where to drive and which frequencies "
+                        "(default: the two-flywheel rig)")
     args = p.parse_args(argv)
+    if args.model is not None:
+        from jointrig.rig.chain import is_chain_model
+
+        if not is_chain_model(args.model):
+            raise ValueError(f"--model {args.model}: designs for a model file are for chains (jointrig_joint<j>_* "
+                             f"fields); the two-flywheel design uses the default rig")
+        return chain_main(args)
     from jointrig.rig.runtime import check_output, check_range
 
     check_range(args.snr_db, "--snr-db", lo=0, hi=200, lo_open=True)
@@ -108,5 +118,96 @@ def main(argv=None) -> int:
                 f"{s.name} std {s.std:.3g} (CRLB {s.crlb_std:.3g}, coverage {s.coverage:.2f})" for s in mc.parameters))
     if args.json:
         write_json_atomic(args.json, out)
+        print(f"wrote {args.json}")
+    return 0
+
+
+#: Chain candidates: drive frequencies relative to the chain's highest undamped mode (log-spaced
+#: from 0.05 to 1.3 of it, and each mode), at every motor, at the default plan's level and twice it.
+CHAIN_RELATIVE_OMEGAS = tuple(float(x) for x in np.geomspace(0.05, 1.3, 12))
+
+
+def chain_candidates(rig, amplitude_Nm: float) -> list[tuple[float, float, int]]:
+    """(omega rad/s, amplitude N m, driven flywheel) candidates for a chain (see CHAIN_RELATIVE_OMEGAS)."""
+    J = np.array(rig.inertias_kgm2)
+    N = J.size
+    K = np.zeros((N, N))
+    for j, law in enumerate(rig.plant.laws):
+        k = law.as_dict().get("k_Nm_per_rad", 0.0)
+        K[j:j + 2, j:j + 2] += k * np.array([[1, -1], [-1, 1]])
+    modes = np.sqrt(np.clip(np.linalg.eigvals(np.linalg.solve(np.diag(J), K)).real, 0, None))
+    modes = sorted(float(m) for m in modes if m > 1e-6)
+    top = modes[-1]
+    omegas = sorted({round(top * r, 1) for r in CHAIN_RELATIVE_OMEGAS} | {round(m, 1) for m in modes})
+    return [(w, a, i) for i in rig.driven for a in (amplitude_Nm, 2 * amplitude_Nm) for w in omegas]
+
+
+def chain_main(args) -> int:
+    """D-optimal excitation of a chain: where to drive, which frequencies, how many periods."""
+    import dataclasses
+
+    from jointrig.identify.chain import fisher_per_period
+    from jointrig.rig.chain import load_chain
+    from jointrig.rig.chain_sweep import CHAIN_CONFIG, CHAIN_PLAN, run_chain_sweep
+    from jointrig.rig.runtime import check_output, check_range
+
+    check_range(args.snr_db, "--snr-db", lo=0, hi=200, lo_open=True)
+    check_range(args.setup_s, "--setup-s", lo=0)
+    if args.budget_s is not None:
+        check_range(args.budget_s, "--budget-s", lo=0, lo_open=True)
+    check_range(args.harmonics, "--harmonics", lo=1, hi=100, integer=True)
+    if args.verify:
+        raise ValueError("--verify (a Monte Carlo of both designs) is for the two-flywheel rig; chains report the CRLB")
+    check_output(args.json, "--json")
+    rig = load_chain(args.model)
+    default_points = [p for p in CHAIN_PLAN if p[2] in rig.driven] if all(
+        p[2] in rig.driven for p in CHAIN_PLAN) else []
+    if not default_points:
+        raise ValueError(f"{args.model}: the default chain plan drives flywheels "
+                         f"{sorted({p[2] for p in CHAIN_PLAN})}, this chain has motors on {list(rig.driven)}")
+    candidates = chain_candidates(rig, 60.0)
+    points = list(dict.fromkeys(candidates + default_points))
+    cfg = dataclasses.replace(CHAIN_CONFIG, settle_tol=1e-8)
+    done = run_chain_sweep(rig, points, cfg, native=args.native, workers=2 if args.native else 1)
+    records = [p.record for p in done]
+    spec = rig.plant.spec()
+    truth = {**{f"J{i}_kgm2": J for i, J in enumerate(rig.inertias_kgm2, start=1)}, **rig.plant.parameters()}
+    theta = [truth[n] for n in spec.names]
+    in_default = set(default_points)
+    defaults = [r for r, pt in zip(records, points) if pt in in_default]
+    twist = max(float(np.std(r.angles_rad[j] - r.angles_rad[j + 1])) for r in defaults for j in range(rig.n_flywheels - 1))
+    torque = max(float(np.std(t)) for r in defaults for t in r.torques_Nm if t is not None)
+    sigma = (twist * 10 ** (-args.snr_db / 20) / np.sqrt(2), torque * 10 ** (-args.snr_db / 20))
+    F = [fisher_per_period(r, spec, theta, sigma_angle_rad=sigma[0], sigma_torque_Nm=sigma[1],
+                           n_harmonics=args.harmonics) for r in records]
+    T = [2 * np.pi / w for w, _, _ in points]
+    default = [DEFAULT_PERIODS if pt in in_default else 0 for pt in points]
+    budget = args.budget_s if args.budget_s is not None else design_cost_s(default, T, args.setup_s)
+    F_default = sum(k * f for k, f in zip(default, F))
+    design = d_optimal(F, T, budget, setup_s=args.setup_s)
+    p_ = len(spec.names)
+    d_eff = float(np.exp((design.log_det_fisher - log_det(F_default)) / p_))
+    print(f"Budget {budget:.2f} s of test time (the default chain plan: {len(default_points)} runs x {DEFAULT_PERIODS} "
+          f"periods + {args.setup_s:g} s setup each); sensor noise {sigma[0]:.3g} rad per encoder, {sigma[1]:.3g} N m "
+          f"({args.snr_db:g} dB below the default plan's largest joint twist and drive torque, RMS); "
+          f"{len(points)} candidates.")
+    print("D-optimal design:")
+    for (w, a, i), k in zip(points, design.periods):
+        if k:
+            print(f"  drive flywheel {i}, omega {w:7.1f} rad/s, {a:5.0f} N m: {k:3d} periods ({k * 2 * np.pi / w:6.3f} s)")
+    print(f"  uses {design.cost_s:.2f} s")
+    sd_def, sd_des = np.sqrt(np.diag(np.linalg.inv(F_default))), np.sqrt(np.diag(design.covariance))
+    print(f"{'parameter':26s} {'CRLB std default':>17s} {'CRLB std design':>16s} {'ratio':>7s}")
+    for n, a, b in zip(spec.names, sd_def, sd_des):
+        print(f"{n:26s} {a:17.4g} {b:16.4g} {b / a:7.3f}")
+    print(f"D-efficiency of the design relative to the default plan: {d_eff:.2f} (> 1: a smaller joint confidence "
+          f"region for the same test time)")
+    if args.json:
+        write_json_atomic(args.json, {
+            "model": str(rig.path), "snr_db": args.snr_db, "sigma_angle_rad": sigma[0], "sigma_torque_Nm": sigma[1],
+            "budget_s": budget, "setup_s": args.setup_s, "d_efficiency": d_eff,
+            "design": [{"omega_rad_s": w, "amplitude_Nm": a, "driven_flywheel": i, "periods": k}
+                       for (w, a, i), k in zip(points, design.periods) if k],
+            "crlb_std": {n: {"default": float(a), "design": float(b)} for n, a, b in zip(spec.names, sd_def, sd_des)}})
         print(f"wrote {args.json}")
     return 0

@@ -247,7 +247,7 @@ def main(argv=None) -> int:
 def chain_main(args: argparse.Namespace) -> int:
     """A chain model (``jointrig_joint<j>_*`` fields): sweep it, identify every inertia and every
     joint law at once (identify/chain.py), report and record."""
-    from jointrig.identify.chain import ChainSpec, identify_chain, joint_law
+    from jointrig.identify.chain import identify_chain, joint_law
     from jointrig.rig.chain import load_chain
     from jointrig.rig.chain_sweep import CHAIN_CONFIG, CHAIN_PLAN, run_chain_sweep
     from jointrig.rig.recording import chain_blueprint, log_chain_laws, log_chain_run
@@ -256,12 +256,14 @@ def chain_main(args: argparse.Namespace) -> int:
     unsupported = [flag for flag, on in (("--form two_dof", args.form != "equivalent"),
                                          ("--excitation multisine", args.excitation != "stepped"),
                                          ("--noise-db", args.noise_db is not None),
-                                         ("--workers", args.workers > 1), ("--executor dask", args.executor != "local"),
+                                         ("--workers without --native", args.workers > 1 and not args.native),
+                                         ("--executor dask", args.executor != "local"),
                                          ("--continuation", args.continuation),
                                          ("--sample-rate-hz", args.sample_rate_hz is not None)) if on]
     if unsupported:
         raise ValueError(f"{args.model} is a chain model: {', '.join(unsupported)} is not available for chains yet "
-                         f"(they are identified from noise-free stepped sweeps, simulated here one after another)")
+                         f"(they are identified from noise-free stepped sweeps, simulated here, in threads with "
+                         f"--native --workers N)")
     rig = load_chain(args.model)
     if args.omegas is None and args.amplitudes is None:
         points = list(CHAIN_PLAN)
@@ -286,7 +288,7 @@ def chain_main(args: argparse.Namespace) -> int:
         store = args.store or Path("runs/store") / f"{rig.path.stem}-{hashlib.sha256(key.encode()).hexdigest()[:12]}"
     log.info("chain model %s: %d flywheels, inertias %s kg m^2, %d sweep points; store %s", rig.path,
              rig.n_flywheels, rig.inertias_kgm2, len(points), store)
-    done = run_chain_sweep(rig, points, config, store=store, native=args.native)
+    done = run_chain_sweep(rig, points, config, store=store, native=args.native, workers=args.workers)
     records = [p.record for p in done]
     spec = rig.plant.spec()
     result = identify_chain(records, spec, n_harmonics=harmonics)
