@@ -39,7 +39,7 @@ import numpy as np
 from jointrig.identify.basis import FieldError, JointLaw, law_terms_from_fields
 from jointrig.identify.chain import ChainPlant, ChainRecord
 
-from .model import PREFIX, RigModelError
+from .model import PREFIX, RigModelError, compile_model
 from .simulate import SettleInfo, SimulationConfig, SimulationError, SteadyStateNotReached, _activated, _check_warnings, \
     passive_callback, set_inertias, settle_bound
 
@@ -144,14 +144,7 @@ def load_chain(path: Union[str, os.PathLike]) -> ChainRig:
         coaxial, N outside 2..8, a drive without its torque sensor, a joint without a law;
         the message names the file and the item.
     """
-    path = Path(path)
-    if not path.is_file():
-        raise RigModelError(f"{path}: no such model file")
-    text = path.read_bytes()
-    try:
-        model = mujoco.MjModel.from_xml_path(str(path))
-    except ValueError as err:
-        raise RigModelError(f"{path}: MuJoCo could not compile it: {err}") from None
+    path, text, model = compile_model(path)
     src = str(path)
     J_ = mujoco.mjtObj.mjOBJ_JOINT
     ids = []

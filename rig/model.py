@@ -137,13 +137,9 @@ def _find(model, obj, name, what, source):
     return i
 
 
-def load_rig(path: Union[str, os.PathLike] = DEFAULT_MODEL) -> RigModel:
-    """Compile and check a rig model.
-
-    Raises:
-      RigModelError: missing file, MJCF that does not compile, missing or mistyped joints,
-        drive or sensors, or an invalid joint law; the message names the file and the item.
-    """
+def compile_model(path: Union[str, os.PathLike]) -> tuple[Path, bytes, mujoco.MjModel]:
+    """The file's path, its bytes (for the digest) and the compiled model (before any passive
+    callback is installed). Raises :class:`RigModelError` naming the file."""
     path = Path(path)
     if not path.is_file():
         raise RigModelError(f"{path}: no such model file")
@@ -152,6 +148,17 @@ def load_rig(path: Union[str, os.PathLike] = DEFAULT_MODEL) -> RigModel:
         model = mujoco.MjModel.from_xml_path(str(path))
     except ValueError as err:
         raise RigModelError(f"{path}: MuJoCo could not compile it: {err}") from None
+    return path, text, model
+
+
+def load_rig(path: Union[str, os.PathLike] = DEFAULT_MODEL) -> RigModel:
+    """Compile and check a rig model.
+
+    Raises:
+      RigModelError: missing file, MJCF that does not compile, missing or mistyped joints,
+        drive or sensors, or an invalid joint law; the message names the file and the item.
+    """
+    path, text, model = compile_model(path)
     src = str(path)
     joint_ids = [_find(model, mujoco.mjtObj.mjOBJ_JOINT, j, "joint", src) for j in JOINTS]
     for name, jid in zip(JOINTS, joint_ids):
