@@ -158,6 +158,12 @@ def load_rig(path: Union[str, os.PathLike] = DEFAULT_MODEL) -> RigModel:
       RigModelError: missing file, MJCF that does not compile, missing or mistyped joints,
         drive or sensors, or an invalid joint law; the message names the file and the item.
     """
+    from .chain import is_chain_model
+
+    if is_chain_model(path):
+        raise RigModelError(f"{path}: a chain model (jointrig_joint<j>_* fields): load it with "
+                            f"rig.chain.load_chain, which checks the chain (jointrig sweep, design and "
+                            f"diagnose-chain take it)")
     path, text, model = compile_model(path)
     src = str(path)
     joint_ids = [_find(model, mujoco.mjtObj.mjOBJ_JOINT, j, "joint", src) for j in JOINTS]

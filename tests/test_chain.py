@@ -296,3 +296,10 @@ def test_chain_excitation_design_beats_the_default_plan_on_its_budget(tmp_path, 
     periods = [r["periods"] for r in d["design"]]
     cost = sum(k * 2 * np.pi / r["omega_rad_s"] + d["setup_s"] for k, r in zip(periods, d["design"]))
     assert cost <= d["budget_s"] + 1e-9
+
+
+def test_two_flywheel_loader_points_a_chain_to_its_loader():
+    from jointrig.rig import load_rig
+
+    with pytest.raises(RigModelError, match="chain model .* rig.chain.load_chain"):
+        load_rig(PUMP_TRAIN)
