@@ -45,7 +45,7 @@ from .solve import COND_WARN, IdentificationResult
 
 __all__ = ["ChainRecord", "ChainSpec", "ChainIdentifiabilityError", "identifiability", "chain_system",
            "solve_banded", "identify_chain", "joint_law", "ChainPlant", "plant_of_values", "BandedSystem",
-           "fisher_per_period", "row_covariance", "inertia_name", "bearing_name", "joint_prefix"]
+           "fisher_per_period", "row_covariance", "average_chain", "ml_identify_chain", "inertia_name", "bearing_name", "joint_prefix"]
 
 
 class ChainIdentifiabilityError(ValueError):
@@ -506,27 +506,21 @@ def plant_of_values(values: dict, spec: ChainSpec) -> ChainPlant:
     return ChainPlant(laws, bearings)
 
 
-def row_covariance(record: ChainRecord, spec: ChainSpec, theta: Sequence[float], *, sigma_angle_rad: float,
-                   sigma_torque_Nm: float, n_harmonics: int = 9) -> tuple[BandedSystem, np.ndarray]:
-    """The balance rows of harmonics 1..H of one record and the covariance of their residuals
-    (``(m, m)``) under white noise of ``sigma_angle_rad`` on every encoder and ``sigma_torque_Nm``
-    on every drive's torque cell, propagated to first order through the linear part of the
-    chain (see :func:`fisher_per_period`). The residuals of one harmonic are correlated across
-    flywheels (an angle enters its neighbours' equations too) and between their cosine and sine
-    parts; different harmonics are independent. The record's periods average the noise."""
-    banded = chain_system([record], spec, n_harmonics=n_harmonics, first_harmonic=1)
-    s = banded.system
-    vals = dict(zip(spec.names, (float(v) for v in theta)))
+def _row_covariance(s: LinearSystem, spec: ChainSpec, vals: dict, omega_rad_s: float, n_samples: int,
+                    driven: Sequence[bool], sigma_angle_rad, sigma_torque_Nm, n_harmonics: int) -> np.ndarray:
+    """The covariance of the residuals of one record's rows ``s`` (harmonics 1..H), see
+    :func:`row_covariance`; ``sigma_*`` a number or one per flywheel."""
     N = spec.n_flywheels
     J = np.array([vals[inertia_name(i)] for i in range(1, N + 1)])
     b = np.array([vals.get(bearing_name(i), 0.0) for i in range(1, N + 1)])
     c = [vals.get(joint_prefix(j) + "c_Nms_per_rad", 0.0) for j in range(1, N)]
     k = [vals.get(joint_prefix(j) + "k_Nm_per_rad", 0.0) for j in range(1, N)]
-    driven = np.array([t is not None for t in record.torques_Nm], dtype=float)
-    per = 2.0 / record.n_samples  # variance of a coefficient's cosine (or sine) part per unit sigma^2
+    sa2 = np.broadcast_to(np.asarray(sigma_angle_rad, dtype=float) ** 2, (N,))
+    st2 = np.broadcast_to(np.asarray(sigma_torque_Nm, dtype=float) ** 2, (N,)) * np.asarray(driven, dtype=float)
+    per = 2.0 / n_samples  # variance of a coefficient's cosine (or sine) part per unit sigma^2
     C = np.zeros((s.F.size, s.F.size))
     for n in range(1, n_harmonics + 1):
-        w = n * record.omega_rad_s
+        w = n * omega_rad_s
         Z = np.diag(-J * w * w + 1j * w * b).astype(complex)
         for j in range(N - 1):
             Z[j:j + 2, j:j + 2] += (k[j] + 1j * w * c[j]) * np.array([[1, -1], [-1, 1]])
@@ -534,11 +528,25 @@ def row_covariance(record: ChainRecord, spec: ChainSpec, theta: Sequence[float],
         # [Re e; Im e] = [[R, -I], [I, R]] [Re dPhi; Im dPhi] - [Re dT; Im dT]
         R, I = Z.real, Z.imag
         M = np.block([[R, -I], [I, R]])
-        cov = per * (sigma_angle_rad**2 * M @ M.T + sigma_torque_Nm**2 * np.diag(np.tile(driven, 2)))
+        cov = per * ((M * np.tile(sa2, 2)) @ M.T + np.diag(np.tile(st2, 2)))
         rows = np.flatnonzero(s.row_harmonic == n)
-        # position of each row in [Re e_1..e_N, Im e_1..e_N]
-        pos = s.row_part[rows] * N + s.row_equation[rows]
+        pos = s.row_part[rows] * N + s.row_equation[rows]  # place in [Re e_1..e_N, Im e_1..e_N]
         C[np.ix_(rows, rows)] = cov[np.ix_(pos, pos)]
+    return C
+
+
+def row_covariance(record: ChainRecord, spec: ChainSpec, theta: Sequence[float], *, sigma_angle_rad,
+                   sigma_torque_Nm, n_harmonics: int = 9) -> tuple[BandedSystem, np.ndarray]:
+    """The balance rows of harmonics 1..H of one record and the covariance of their residuals
+    (``(m, m)``) under white noise of ``sigma_angle_rad`` on the encoders and ``sigma_torque_Nm``
+    on the drives' torque cells (each a number, or one per flywheel), propagated to first order
+    through the linear part of the chain (see :func:`fisher_per_period`). The residuals of one
+    harmonic are correlated across flywheels (an angle enters its neighbours' equations too) and
+    between their cosine and sine parts; different harmonics are independent. The record's
+    periods average the noise."""
+    banded = chain_system([record], spec, n_harmonics=n_harmonics, first_harmonic=1)
+    C = _row_covariance(banded.system, spec, dict(zip(spec.names, (float(v) for v in theta))), record.omega_rad_s,
+                        record.n_samples, record.driven, sigma_angle_rad, sigma_torque_Nm, n_harmonics)
     return banded, C
 
 
@@ -553,11 +561,99 @@ def fisher_per_period(record: ChainRecord, spec: ChainSpec, theta: Sequence[floa
     moves by ``sum_l Z_il(n w) dPhi_l - dT_i``, ``Z`` the dynamic stiffness of the inertias, each
     joint's ``c`` and ``k`` and the bearings at ``theta``, and the coefficient of white noise
     over N samples has variance ``2 sigma^2 / N`` in its cosine and in its sine part. Then
-    ``F = A' C^-1 A``. (The nonlinear terms' share of the propagation is left out, and so are
-    errors in variables of second order: identify/eiv.py does both for two flywheels.)
+    ``F = A' C^-1 A``. (The nonlinear terms' share of the propagation is left out: for the
+    pump train's cubic coupling it is 5% of the linear torque at most.)
     """
     banded, C = row_covariance(record, spec, theta, sigma_angle_rad=sigma_angle_rad,
                                sigma_torque_Nm=sigma_torque_Nm, n_harmonics=n_harmonics)
     L = np.linalg.cholesky(C * record.n_periods)
     A = np.linalg.solve(L, banded.system.A)
     return A.T @ A
+
+
+def average_chain(record: ChainRecord) -> tuple[ChainRecord, np.ndarray, np.ndarray]:
+    """A measured record's mean period, and the noise standard deviation of that mean per sample
+    on each encoder and each torque cell (``(N,)`` each; 0 where absent), from the
+    period-to-period variation (white noise: N (P - 1) degrees of freedom per channel)."""
+    P, n = record.n_periods, record.samples_per_period
+    if P < 2:
+        raise RecordError(f"{record.source}: {P} period(s); the noise estimate needs at least 2 measured periods")
+
+    def split(x):
+        if x is None:
+            return None, 0.0
+        y = x.reshape(P, n)
+        return y.mean(axis=0), float(np.sqrt(y.var(axis=0, ddof=1).mean() / P))
+
+    angles = [split(a) for a in record.angles_rad]
+    torques = [split(t) for t in record.torques_Nm]
+    avg = ChainRecord(record.omega_rad_s, record.time_s[:n], [t for t, _ in torques], [a for a, _ in angles], None,
+                      1, record.drive_amplitude_Nm, source=f"{record.source} (period average)")
+    return avg, np.array([s for _, s in angles]), np.array([s for _, s in torques])
+
+
+def ml_identify_chain(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics: int = 9):
+    """Errors-in-variables maximum likelihood for a chain, as :func:`identify.eiv.ml_identify`
+    for two flywheels: each run's periods averaged and its noise estimated per channel
+    (:func:`average_chain`); the balance rows of harmonics 1..H; the residual covariance
+    ``C(theta)`` propagated through the chain's linear part (:func:`row_covariance`); then
+    ``V(theta) = sum_runs e' C(theta)^-1 e`` minimised by Levenberg-Marquardt on the whitened
+    residuals from an iterated generalised least-squares start. The theta in C is what removes
+    the bias weighting alone leaves. Standard errors ``(J'J)^-1`` of the whitened residuals'
+    Jacobian at the optimum; ``V / dof ~ 1`` for a model that holds (``p_value``).
+
+    Returns an :class:`identify.eiv.EivResult`.
+    """
+    from scipy import optimize, stats
+
+    from .eiv import EivResult
+
+    if not records:
+        raise ValueError("no records to identify from")
+    runs = []
+    for rec in records:
+        avg, sa, st = average_chain(rec)
+        sys_ = chain_system([avg], spec, n_harmonics=n_harmonics, first_harmonic=1).system
+        runs.append((avg, sa, st, sys_))
+    names = spec.names
+
+    def whitened(theta):
+        vals = dict(zip(names, theta))
+        out = []
+        for avg, sa, st, s in runs:
+            C = _row_covariance(s, spec, vals, avg.omega_rad_s, avg.n_samples, avg.driven, sa, st, n_harmonics)
+            L = np.linalg.cholesky(C)
+            out.append(np.linalg.solve(L, s.A @ theta - s.F))
+        return np.concatenate(out)
+
+    def gls(theta):
+        vals = dict(zip(names, theta))
+        As, Fs = [], []
+        for avg, sa, st, s in runs:
+            L = np.linalg.cholesky(_row_covariance(s, spec, vals, avg.omega_rad_s, avg.n_samples, avg.driven, sa, st,
+                                                   n_harmonics))
+            As.append(np.linalg.solve(L, s.A))
+            Fs.append(np.linalg.solve(L, s.F))
+        A, F = np.vstack(As), np.concatenate(Fs)
+        D = 1.0 / np.linalg.norm(A, axis=0)
+        return D * np.linalg.lstsq(A * D, F, rcond=None)[0]
+
+    A0 = np.vstack([s.A for *_, s in runs])
+    F0 = np.concatenate([s.F for *_, s in runs])
+    D0 = 1.0 / np.linalg.norm(A0, axis=0)
+    theta = D0 * np.linalg.lstsq(A0 * D0, F0, rcond=None)[0]
+    for _ in range(4):
+        theta = gls(theta)
+    start = theta.copy()
+    fit = optimize.least_squares(whitened, start, method="lm", x_scale=np.maximum(np.abs(start), 1e-12))
+    Jw = fit.jac
+    D = 1.0 / np.maximum(np.linalg.norm(Jw, axis=0), 1e-300)  # columns differ by 10 decades (kg m^2 .. N m/rad^3)
+    Jd = Jw * D
+    cov = D[:, None] * np.linalg.inv(Jd.T @ Jd) * D[None, :]
+    m, p = fit.fun.size, len(names)
+    cost = float(fit.fun @ fit.fun)
+    dof = m - p
+    result = EivResult(names=tuple(names), values=fit.x, std_errors=np.sqrt(np.clip(np.diag(cov), 0, None)),
+                       covariance=cov, start=start, cost=cost, dof=dof, p_value=float(stats.chi2.sf(cost, dof)),
+                       n_rows=m, n_runs=len(runs), success=bool(fit.success), message=str(fit.message))
+    return result

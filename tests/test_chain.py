@@ -303,3 +303,28 @@ def test_two_flywheel_loader_points_a_chain_to_its_loader():
 
     with pytest.raises(RigModelError, match="chain model .* rig.chain.load_chain"):
         load_rig(PUMP_TRAIN)
+
+
+@needs_cc
+def test_chain_maximum_likelihood_standard_errors_hold_at_40_db():
+    # The pump train's 10 runs, measured 5 times at 40 dB (8 periods each): every inertia and law
+    # parameter by errors-in-variables ML, with its standard error. If the standard errors are
+    # right, z = (estimate - truth) / standard error is a standard normal: the mean of z^2 over
+    # 5 x 11 values lies in 1 +- 3 sqrt(2/55) = [0.43, 1.57], no |z| exceeds 4.5 (a 1e-5 tail
+    # over 55 draws), and V/dof of every fit has a chi-square p above 1e-3.
+    from jointrig.identify.chain import ml_identify_chain
+    from jointrig.rig.chain_sweep import CHAIN_CONFIG, CHAIN_PLAN, run_chain_sweep
+    from jointrig.rig.measurement import measure_chain
+
+    rig = load_chain(PUMP_TRAIN)
+    clean = [p.record for p in run_chain_sweep(rig, CHAIN_PLAN, CHAIN_CONFIG, native=True)]
+    truth = {**{f"J{i}_kgm2": J for i, J in enumerate(rig.inertias_kgm2, start=1)}, **rig.plant.parameters()}
+    z = []
+    for seed in range(5):
+        rng = np.random.default_rng(seed)
+        res = ml_identify_chain([measure_chain(r, 40.0, rng, n_periods=8) for r in clean], rig.plant.spec())
+        assert res.success and res.p_value > 1e-3, (seed, res.cost, res.dof)
+        z += [(res.value(n) - truth[n]) / res.std_error(n) for n in res.names]
+    z = np.array(z)
+    assert 0.43 < float(np.mean(z**2)) < 1.57, z
+    assert np.max(np.abs(z)) < 4.5, z

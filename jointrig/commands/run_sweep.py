@@ -255,7 +255,6 @@ def chain_main(args: argparse.Namespace) -> int:
 
     unsupported = [flag for flag, on in (("--form two_dof", args.form != "equivalent"),
                                          ("--excitation multisine", args.excitation != "stepped"),
-                                         ("--noise-db", args.noise_db is not None),
                                          ("--workers without --native", args.workers > 1 and not args.native),
                                          ("--executor dask", args.executor != "local"),
                                          ("--continuation", args.continuation),
@@ -291,20 +290,38 @@ def chain_main(args: argparse.Namespace) -> int:
     done = run_chain_sweep(rig, points, config, store=store, native=args.native, workers=args.workers)
     records = [p.record for p in done]
     spec = rig.plant.spec()
-    result = identify_chain(records, spec, n_harmonics=harmonics)
     truth = {**{f"J{i}_kgm2": J for i, J in enumerate(rig.inertias_kgm2, start=1)}, **rig.plant.parameters()}
+    if args.noise_db is None:
+        result = identify_chain(records, spec, n_harmonics=harmonics)
+        print(f"\nHarmonic-balance identification of a {rig.n_flywheels}-flywheel chain from {len(records)} runs, "
+              f"harmonics 0..{harmonics}: {result.n_rows} equations for {len(result.names)} unknowns (block-banded), "
+              f"condition number {result.condition_number:.3g}, status: {result.message}\n")
+    else:
+        from jointrig.identify.chain import ml_identify_chain
+        from jointrig.rig.measurement import measure_chain
+
+        rng = np.random.default_rng(args.seed)
+        records = [measure_chain(r, args.noise_db, rng, n_periods=args.periods) for r in records]
+        result = ml_identify_chain(records, spec, n_harmonics=harmonics)
+        print(f"\nErrors-in-variables maximum-likelihood harmonic balance of a {rig.n_flywheels}-flywheel chain from "
+              f"{len(records)} runs x {args.periods} periods measured at SNR {args.noise_db:g} dB (seed {args.seed}), "
+              f"harmonics 1..{harmonics}: {result.n_rows} equations; cost {result.cost:.1f} for {result.dof} degrees "
+              f"of freedom (chi-square p = {result.p_value:.2g}), status: {result.message}\n")
     rows = compare(result, truth)
-    print(f"\nHarmonic-balance identification of a {rig.n_flywheels}-flywheel chain from {len(records)} runs, "
-          f"harmonics 0..{harmonics}: {result.n_rows} equations for {len(result.names)} unknowns (block-banded), "
-          f"condition number {result.condition_number:.3g}, status: {result.message}\n")
     print(format_table(rows))
+    if args.noise_db is not None:
+        for r in rows:
+            print(f"  {r.name:26s} {r.identified:.6g} +- {r.std_error:.2g}  ({(r.identified - r.true) / r.std_error:+.2f} "
+                  f"standard errors from the truth)")
     out = {
         "parameters": {r.name: r.as_json() for r in rows},
         "form": "chain",
         "n_flywheels": rig.n_flywheels,
-        "condition_number": result.condition_number,
-        "relative_residual": result.relative_residual,
-        "estimator": "least squares (block-banded QR)",
+        "condition_number": getattr(result, "condition_number", None),
+        "relative_residual": getattr(result, "relative_residual", None),
+        "noise_db": args.noise_db,
+        "estimator": ("least squares (block-banded QR)" if args.noise_db is None
+                      else "errors-in-variables maximum likelihood"),
         "n_equations": result.n_rows,
         "success": result.success,
         "message": result.message,
