@@ -8,10 +8,12 @@ simulates the rest.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import logging
 import math
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional, Sequence
@@ -87,14 +89,55 @@ def _load(path: Path, source: str) -> ChainPoint:
         return ChainPoint(rec.omega_rad_s, float(z["amplitude_Nm"]), int(z["flywheel"]), rec, settle)
 
 
+_worker_lock = threading.Lock()
+_python_callback_lock = threading.Lock()
+_worker_chains: dict = {}
+
+
+def _remote_point(model_name: str, model_text: bytes, digest: str, plant, point: tuple, config: SimulationConfig,
+                  native: bool) -> ChainPoint:
+    """A dask task: rebuild the chain from the model text (cached per worker process by digest),
+    check it is the same model, give it the client's plant, simulate one point."""
+    import tempfile
+
+    from .chain import load_chain
+
+    with _worker_lock:
+        rig = _worker_chains.get(digest)
+        if rig is None:
+            with tempfile.TemporaryDirectory(prefix="jointrig-worker-") as tmp:
+                path = Path(tmp) / model_name
+                path.write_bytes(model_text)
+                rig = load_chain(path)
+            if rig.digest != digest:
+                raise RuntimeError(f"{model_name}: the worker's model digest {rig.digest} differs from the client's "
+                                   f"{digest}")
+            _worker_chains[digest] = rig
+    rig = rig.with_plant(plant)
+    w, a, i = point
+    if native:
+        from .native_callback import native_session
+
+        with native_session():
+            rec, info = simulate_chain(rig, w, {i: PeriodicDrive.cosine(w, a)}, config, amplitude_Nm=a, native=True)
+    else:
+        with _python_callback_lock:  # the Python callback is process-global: one at a time
+            rec, info = simulate_chain(rig, w, {i: PeriodicDrive.cosine(w, a)}, config, amplitude_Nm=a)
+    return ChainPoint(w, a, i, rec, info)
+
+
 def run_chain_sweep(rig: ChainRig, points: Sequence[tuple], config: SimulationConfig = CHAIN_CONFIG, *,
-                    store: Optional[Path] = None, native: bool = False, workers: int = 1) -> list[ChainPoint]:
+                    store: Optional[Path] = None, native: bool = False, workers: int = 1, executor: str = "local",
+                    scheduler: Optional[str] = None) -> list[ChainPoint]:
     """Simulate every ``(omega, amplitude, flywheel)`` point (loading those already in ``store``;
     ``native``: the C callback, bit-identical, so stored points serve either way).
 
     ``workers > 1`` simulates that many points at once in threads sharing one installed native
     callback (:func:`rig.native_callback.native_session`; needs ``native``: a Python callback
-    holds the GIL). The points come back in the order given, bit-identical to a serial sweep.
+    holds the GIL). ``executor="dask"`` sends each point to a dask.distributed cluster instead
+    (``scheduler``: its address; default a local cluster of ``workers`` processes) with the
+    model text and the plant. The points come back in the order given, bit-identical to a
+    serial sweep.
 
     Raises:
       ValueError: a point whose flywheel has no motor, or a non-positive frequency or amplitude
@@ -103,7 +146,9 @@ def run_chain_sweep(rig: ChainRig, points: Sequence[tuple], config: SimulationCo
     """
     if workers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
-    if workers > 1 and not native:
+    if executor not in ("local", "dask"):
+        raise ValueError(f"unknown executor {executor!r}; expected 'local' or 'dask'")
+    if workers > 1 and not native and executor == "local":
         raise ValueError("chain sweeps in threads need the native callback (native=True): a Python callback "
                          "holds the GIL and MuJoCo's passive callback is global")
     for w, a, i in points:
@@ -143,6 +188,8 @@ def run_chain_sweep(rig: ChainRig, points: Sequence[tuple], config: SimulationCo
                  info.wall_time_s)
         return pt
 
+    if executor == "dask":
+        return _run_dask(rig, points, config, native, workers, scheduler, store, total)
     if workers == 1:
         return [one(k, p) for k, p in enumerate(points, start=1)]
     from concurrent.futures import ThreadPoolExecutor
@@ -151,3 +198,35 @@ def run_chain_sweep(rig: ChainRig, points: Sequence[tuple], config: SimulationCo
 
     with native_session(), ThreadPoolExecutor(max_workers=workers) as pool:
         return list(pool.map(one, range(1, total + 1), points))
+
+
+def _run_dask(rig: ChainRig, points, config, native, workers, scheduler, store, total) -> list[ChainPoint]:
+    from dask.distributed import Client, LocalCluster, as_completed
+
+    out: list = [None] * len(points)
+    todo = []
+    for k, (w, a, i) in enumerate(points):
+        path = _path(store, w, a, i) if store is not None else None
+        if path is not None and path.exists():
+            out[k] = _load(path, f"{rig.path.name} at omega = {w:g} rad/s, M0 = {a:g} N m on flywheel {i}")
+        else:
+            todo.append(k)
+    text = Path(rig.path).read_bytes()
+    with contextlib.ExitStack() as stack:
+        if scheduler is None:
+            cluster = stack.enter_context(LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                                       dashboard_address=":0"))
+            client = stack.enter_context(Client(cluster))
+        else:
+            client = stack.enter_context(Client(scheduler))
+        log.info("dask cluster %s: %d chain point(s)", client.scheduler.address, len(todo))
+        futures = {client.submit(_remote_point, Path(rig.path).name, text, rig.digest, rig.plant, points[k], config,
+                                 native, pure=False): k for k in todo}
+        for n, fut in enumerate(as_completed(futures), start=1):
+            k = futures[fut]
+            pt = fut.result()
+            if store is not None:
+                _save(_path(store, pt.omega_rad_s, pt.amplitude_Nm, pt.flywheel), pt)
+            log.info("[%d/%d] point %d done on the cluster", n, len(todo), k + 1)
+            out[k] = pt
+    return out

@@ -255,8 +255,8 @@ def chain_main(args: argparse.Namespace) -> int:
 
     unsupported = [flag for flag, on in (("--form two_dof", args.form != "equivalent"),
                                          ("--excitation multisine", args.excitation != "stepped"),
-                                         ("--workers without --native", args.workers > 1 and not args.native),
-                                         ("--executor dask", args.executor != "local"),
+                                         ("--workers without --native or --executor dask",
+                                          args.workers > 1 and not args.native and args.executor == "local"),
                                          ("--continuation", args.continuation),
                                          ("--sample-rate-hz", args.sample_rate_hz is not None)) if on]
     if unsupported:
@@ -287,7 +287,8 @@ def chain_main(args: argparse.Namespace) -> int:
         store = args.store or Path("runs/store") / f"{rig.path.stem}-{hashlib.sha256(key.encode()).hexdigest()[:12]}"
     log.info("chain model %s: %d flywheels, inertias %s kg m^2, %d sweep points; store %s", rig.path,
              rig.n_flywheels, rig.inertias_kgm2, len(points), store)
-    done = run_chain_sweep(rig, points, config, store=store, native=args.native, workers=args.workers)
+    done = run_chain_sweep(rig, points, config, store=store, native=args.native, workers=args.workers,
+                           executor=args.executor, scheduler=args.scheduler)
     records = [p.record for p in done]
     spec = rig.plant.spec()
     truth = {**{f"J{i}_kgm2": J for i, J in enumerate(rig.inertias_kgm2, start=1)}, **rig.plant.parameters()}
