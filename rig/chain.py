@@ -15,7 +15,7 @@ A chain model file (``models/pump_train.xml``) has
 
 The passive callback applies every joint's torque (``-M_j`` on flywheel j, ``+M_j`` on j+1),
 the bearings and the drives, evaluated at continuous time as in :mod:`rig.simulate`; it is
-installed only around a run by :func:`rig.simulate.passive_callback`. Stateful terms (Jenkins,
+installed only around a run by :func:`rig.callback.passive_callback`. Stateful terms (Jenkins,
 Iwan) keep one state list per joint, committed after every step.
 """
 
@@ -28,7 +28,6 @@ import math
 import os
 import re
 import time as _time
-import xml.etree.ElementTree as ET
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Callable, Optional, Sequence, Union
@@ -39,14 +38,14 @@ import numpy as np
 from jointrig.identify.basis import FieldError, JointLaw, law_terms_from_fields
 from jointrig.identify.chain import ChainPlant, ChainRecord
 
-from .model import PREFIX, RigModelError, compile_model
+from .model import JOINT_FIELD as _JOINT_FIELD
+from .model import PREFIX, RigModelError, compile_model, is_chain_model
 from .simulate import SettleInfo, SimulationConfig, SimulationError, SteadyStateNotReached, _activated, _check_warnings, \
     passive_callback, set_inertias, settle_bound
 
 __all__ = ["ChainRig", "load_chain", "is_chain_model", "simulate_chain", "chain_callback", "MAX_FLYWHEELS"]
 
 MAX_FLYWHEELS = 8
-_JOINT_FIELD = re.compile(r"joint(\d+)_(.+)")
 _BEARING_FIELD = re.compile(r"bearing(\d+)_damping_Nms_per_rad")
 
 
@@ -86,16 +85,6 @@ class ChainRig:
         if plant.n_flywheels != self.n_flywheels:
             raise ValueError(f"{self.path}: a plant of {plant.n_flywheels} flywheels for a chain of {self.n_flywheels}")
         return replace(self, plant=plant)
-
-
-def is_chain_model(path: Union[str, os.PathLike]) -> bool:
-    """True if the model file declares per-joint laws (``jointrig_joint<j>_*`` fields)."""
-    try:
-        root = ET.parse(path).getroot()
-    except (OSError, ET.ParseError):
-        return False
-    return any(_JOINT_FIELD.fullmatch(n.get("name", "")[len(PREFIX):] or "")
-               for n in root.iter("numeric") if n.get("name", "").startswith(PREFIX))
 
 
 def _plant(model: mujoco.MjModel, N: int, src: str) -> ChainPlant:

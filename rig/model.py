@@ -7,6 +7,8 @@ import dataclasses
 import hashlib
 import math
 import os
+import re
+import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Union
@@ -31,6 +33,8 @@ _SENSOR_TYPES = {"jointpos": mujoco.mjtSensor.mjSENS_JOINTPOS,
                  "actuatorfrc": mujoco.mjtSensor.mjSENS_ACTUATORFRC}
 
 PREFIX = "jointrig_"
+#: A chain model's per-joint law field, without the prefix: ``joint<j>_<field>`` (rig/chain.py).
+JOINT_FIELD = re.compile(r"joint(\d+)_(.+)")
 #: Fields of the plant outside the joint law (the law's own fields are its terms': TERM_CLASSES).
 _PLANT_FIELDS = ("bearing1_damping_Nms_per_rad", "bearing2_damping_Nms_per_rad", "drive_delay_s")
 
@@ -137,6 +141,16 @@ def _find(model, obj, name, what, source):
     return i
 
 
+def is_chain_model(path: Union[str, os.PathLike]) -> bool:
+    """True if the model file declares per-joint laws (``jointrig_joint<j>_*`` fields)."""
+    try:
+        root = ET.parse(path).getroot()
+    except (OSError, ET.ParseError):
+        return False
+    return any(JOINT_FIELD.fullmatch(n.get("name", "")[len(PREFIX):] or "")
+               for n in root.iter("numeric") if n.get("name", "").startswith(PREFIX))
+
+
 def compile_model(path: Union[str, os.PathLike]) -> tuple[Path, bytes, mujoco.MjModel]:
     """The file's path, its bytes (for the digest) and the compiled model (before any passive
     callback is installed). Raises :class:`RigModelError` naming the file."""
@@ -158,8 +172,6 @@ def load_rig(path: Union[str, os.PathLike] = DEFAULT_MODEL) -> RigModel:
       RigModelError: missing file, MJCF that does not compile, missing or mistyped joints,
         drive or sensors, or an invalid joint law; the message names the file and the item.
     """
-    from .chain import is_chain_model
-
     if is_chain_model(path):
         raise RigModelError(f"{path}: a chain model (jointrig_joint<j>_* fields): load it with "
                             f"rig.chain.load_chain, which checks the chain (jointrig sweep, design and "
@@ -208,7 +220,6 @@ def identified_model_xml(plant: Plant, inertias_kgm2: tuple[float, float], *, te
     the flywheels' hinge-axis inertias set to J1, J2 (``diaginertia`` z). ``header`` becomes a
     comment at the top (what was identified, from what). Every field written is one that
     :func:`load_rig` reads back to the same plant (tested)."""
-    import xml.etree.ElementTree as ET
 
     template = Path(template)
     root = ET.fromstring(template.read_text(encoding="utf-8"))

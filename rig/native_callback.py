@@ -159,7 +159,7 @@ def native_session() -> Iterator[None]:
     last to leave restores the previous one.
     """
     global _session_active, _session_count, _session_installed
-    from .simulate import passive_callback
+    from .callback import passive_callback
 
     with _session_lock:
         if _session_count == 0:

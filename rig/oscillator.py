@@ -2,7 +2,7 @@
 
 ``J x'' + M_v(x, x') = u(t - delay)`` on the hinge of ``models/oscillator_1dof.xml``: the law and the
 input act through the same scoped passive callback as the two-flywheel rig
-(:func:`rig.simulate.passive_callback`), the input evaluated at ``d.time`` (RK4 stage times).
+(:func:`rig.callback.passive_callback`), the input evaluated at ``d.time`` (RK4 stage times).
 :func:`simulate_free_run_reference` integrates the same equation with scipy as an independent check.
 """
 
@@ -18,7 +18,8 @@ from scipy.integrate import solve_ivp
 
 from jointrig.identify.basis import JointLaw
 
-from .simulate import SimulationError, _check_warnings, passive_callback
+from .callback import passive_callback
+from .simulate import SimulationError, _check_warnings
 
 __all__ = ["simulate_free_run", "simulate_free_run_reference", "OSCILLATOR_MODEL"]
 

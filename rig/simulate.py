@@ -19,7 +19,6 @@ import contextlib
 import copy
 import logging
 import math
-import threading
 import time as _time
 from dataclasses import dataclass
 from typing import Callable, Iterator, Optional, Union
@@ -32,6 +31,7 @@ from jointrig.identify.basis import JointLaw
 from jointrig.identify.plant import PeriodicDrive, Plant
 from jointrig.identify.records import SteadyStateRecord
 
+from .callback import passive_callback
 from .model import RigModel
 
 __all__ = [
@@ -52,7 +52,6 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-_lock = threading.Lock()
 _FORCE_STEPPED = False  # benchmarks only: step in Python even where a rollout would do
 
 
@@ -313,31 +312,6 @@ def commit_state(plant: Union[Plant, JointLaw], slider_state: list, phi_rad: flo
         if t.stateful:
             t.commit(phi_rad, slider_state, at)
             at += t.n_states
-
-
-@contextlib.contextmanager
-def passive_callback(callback: Callable) -> Iterator[None]:
-    """Install ``callback`` as MuJoCo's global passive callback for the duration of the block.
-
-    Raises:
-      RuntimeError: another passive callback is already installed (another rig, in this
-        thread or another, or foreign code): sharing it would silently mix two models' forces.
-    """
-    if not _lock.acquire(blocking=False):
-        raise RuntimeError("another jointrig simulation holds MuJoCo's passive callback; "
-                           "run rigs one after another (or use separate processes)")
-    try:
-        previous = mujoco.get_mjcb_passive()
-        if previous is not None:
-            raise RuntimeError(f"a MuJoCo passive callback is already installed ({previous!r}); "
-                               f"jointrig will not replace or share it")
-        mujoco.set_mjcb_passive(callback)
-        try:
-            yield
-        finally:
-            mujoco.set_mjcb_passive(previous)
-    finally:
-        _lock.release()
 
 
 @contextlib.contextmanager

@@ -146,8 +146,8 @@ def test_chain_sweep_refuses_what_it_cannot_do_before_simulating(tmp_path, capsy
     from jointrig.cli import main
 
     out = str(tmp_path / "x.json")
-    assert main(["sweep", "--model", str(PUMP_TRAIN), "--noise-db", "40", "--json", out, "--quiet"]) == 2
-    assert "chain model: --noise-db is not available for chains" in capsys.readouterr().err
+    assert main(["sweep", "--model", str(PUMP_TRAIN), "--excitation", "multisine", "--json", out, "--quiet"]) == 2
+    assert "chain model: --excitation multisine is not available for chains" in capsys.readouterr().err
     assert main(["sweep", "--model", str(PUMP_TRAIN), "--omegas", "300", "--drive-at", "2", "--json", out,
                  "--quiet"]) == 2
     err = capsys.readouterr().err
