@@ -25,6 +25,7 @@ import numpy as np
 
 from jointrig.identify.chain_diagnose import diagnose_chain, prepare_chain_runs
 from jointrig.rig.chain import load_chain
+from jointrig.rig.model import DEFAULT_MODEL
 from jointrig.rig.chain_sweep import CHAIN_CONFIG, CHAIN_PLAN, run_chain_sweep
 from jointrig.rig.chain_validate import validate_chain
 from jointrig.rig.measurement import measure_chain
@@ -33,7 +34,7 @@ from jointrig.rig.sweep import write_json_atomic
 
 log = logging.getLogger("diagnose_chain")
 
-MODELS = Path(__file__).resolve().parent.parent.parent / "models"
+MODELS = DEFAULT_MODEL.parent  # package data: found beside the installed rig, editable or not
 
 #: Held-out runs: another level and other frequencies than the estimation runs, from both ends.
 HELD_OUT = ((300.0, 90.0, 1), (800.0, 45.0, 4))
