@@ -211,41 +211,81 @@ def law_card(law: JointLaw, inertia_kgm2: float, amplitudes_rad: Sequence[float]
     return JointCard("law", float(inertia_kgm2), tuple(points), *dissipation_slope(points))
 
 
+def _run_periods(rec: SteadyStateRecord, J1: float, J2: float, h: int) -> np.ndarray:
+    """``(amplitude, secant stiffness, dissipation, damping ratio)`` of every period of a run."""
+    je, share = J1 * J2 / (J1 + J2), J2 / (J1 + J2)
+    n, w = rec.samples_per_period, rec.omega_rad_s
+    harm = np.arange(h + 1)
+    per = []
+    for q in range(rec.n_periods):
+        sl = slice(q * n, (q + 1) * n)
+        Phi = fourier_coefficients(rec.phi_rad[sl], 1, h)
+        M = fourier_coefficients(rec.torque_Nm[sl], 1, h)
+        F = share * M + je * (harm * w) ** 2 * Phi
+        a = abs(Phi[1])
+        k = float(np.real(F[1] / Phi[1]))
+        e = math.pi * float(np.sum(harm * np.imag(F * np.conj(Phi))))
+        zeta = e / (2 * math.pi * k * a * a) if k > 0 else math.nan
+        per.append((a, k, e, zeta))
+    return np.array(per)
+
+
+def _natural_frequency(k: float, je: float) -> float:
+    return math.sqrt(k / je) if k > 0 else math.nan
+
+
 def runs_card(records: Sequence[SteadyStateRecord], J1_kgm2: float, J2_kgm2: float, *,
-              n_harmonics: int = 20, run_ids: Optional[Sequence[str]] = None) -> JointCard:
+              n_harmonics: int = 20, run_ids: Optional[Sequence[str]] = None,
+              inertia_covariance: Optional[np.ndarray] = None) -> JointCard:
     """The card straight from measured runs, without a law (module docstring). Each record
     holds whole periods of a steady state; the inertias come from a fit (they are what the
-    harmonic balance determines best)."""
+    harmonic balance determines best).
+
+    The standard errors hold the period-to-period spread of each run and, given
+    ``inertia_covariance`` (the fit's ``(2, 2)`` covariance of J1 and J2 in kg^2 m^4), the
+    inertias' own uncertainty: the torque share ``J2 / (J1 + J2)`` scales the joint torque and
+    so the secant stiffness and the dissipation (a 1e-3 error in the share is a 1e-3 error in
+    the loop area, measured on the paper's joint at 40 dB: three times the spread's error).
+    """
     if not (J1_kgm2 > 0 and J2_kgm2 > 0):
         raise ValueError(f"runs_card needs inertias > 0, got J1 {J1_kgm2!r}, J2 {J2_kgm2!r}")
+    cov_J = None
+    if inertia_covariance is not None:
+        cov_J = np.asarray(inertia_covariance, dtype=float)
+        if cov_J.shape != (2, 2) or not np.all(np.isfinite(cov_J)):
+            raise ValueError(f"runs_card: inertia_covariance must be a finite 2x2 matrix, got {inertia_covariance!r}")
     je = J1_kgm2 * J2_kgm2 / (J1_kgm2 + J2_kgm2)
-    share = J2_kgm2 / (J1_kgm2 + J2_kgm2)
     ids = list(run_ids) if run_ids is not None else [str(i) for i in range(len(records))]
     points = []
     for rid, rec in zip(ids, records):
-        n, p = rec.samples_per_period, rec.n_periods
-        h = min(n_harmonics, (n - 1) // 2)
+        h = min(n_harmonics, (rec.samples_per_period - 1) // 2)
         w = rec.omega_rad_s
-        harm = np.arange(h + 1)
-        per = []
-        for q in range(p):
-            sl = slice(q * n, (q + 1) * n)
-            Phi = fourier_coefficients(rec.phi_rad[sl], 1, h)
-            M = fourier_coefficients(rec.torque_Nm[sl], 1, h)
-            F = share * M + je * (harm * w) ** 2 * Phi
-            a = abs(Phi[1])
-            k = float(np.real(F[1] / Phi[1]))
-            e = math.pi * float(np.sum(harm * np.imag(F * np.conj(Phi))))
-            zeta = e / (2 * math.pi * k * a * a) if k > 0 else math.nan
-            per.append((a, k, e, zeta))
-        per = np.array(per)
+        p = rec.n_periods
+        per = _run_periods(rec, J1_kgm2, J2_kgm2, h)
         mean = per.mean(axis=0)
         se = per.std(axis=0, ddof=1) / math.sqrt(p) if p > 1 else np.full(4, math.nan)
         a, k, e, zeta = map(float, mean)
-        wn = math.sqrt(k / je) if k > 0 else math.nan
+        wn = _natural_frequency(k, je)
         wn_se = 0.5 * wn * se[1] / k if k > 0 else math.nan
-        points.append(CardPoint(a, w, wn, zeta, e, k, e / (math.pi * w * a * a), amplitude_rad_std=float(se[0]),
-                                natural_frequency_rad_s_std=wn_se,
+        if cov_J is not None:
+            # (a, k, E, zeta, omega_n) against (J1, J2) by central differences (the per-period
+            # values are affine in the share and Je: exact up to round-off).
+            base = np.array([J1_kgm2, J2_kgm2])
+            jac = np.empty((5, 2))
+            for j in range(2):
+                step = 1e-6 * base[j]
+                vals = []
+                for sgn in (1.0, -1.0):
+                    Jp = base.copy()
+                    Jp[j] += sgn * step
+                    m = _run_periods(rec, Jp[0], Jp[1], h).mean(axis=0)
+                    vals.append(np.append(m, _natural_frequency(m[1], Jp[0] * Jp[1] / (Jp[0] + Jp[1]))))
+                jac[:, j] = (vals[0] - vals[1]) / (2 * step)
+            var_J = np.einsum("ij,jk,ik->i", jac, cov_J, jac)
+            se = np.sqrt(se**2 + var_J[:4])
+            wn_se = math.sqrt(wn_se**2 + var_J[4])
+        points.append(CardPoint(a, w, wn, zeta, e, k, e / (math.pi * w * a * a),
+                                amplitude_rad_std=float(se[0]), natural_frequency_rad_s_std=wn_se,
                                 damping_ratio_std=float(se[3]), dissipation_J_per_cycle_std=float(se[2]),
                                 secant_stiffness_Nm_per_rad_std=float(se[1]), run=str(rid)))
     points.sort(key=lambda q: q.amplitude_rad)

@@ -3,6 +3,7 @@
     jointrig sweep ...        frequency x amplitude sweep of a rig model and its identification
     jointrig diagnose DATA    what the simulation gets wrong about measured runs
     jointrig card DATA        the joint card (backbone, damping, dissipation) of measured runs
+    jointrig card-check       the identified card against a virtual phase-resonance test
     jointrig make-data OUT    simulate measured runs of a model (CSV/Parquet)
     jointrig design           D-optimal excitation on a test-time budget
     jointrig unknown-law      a joint law of unknown form on hat functions
@@ -26,6 +27,7 @@ SUBCOMMANDS = {
     "sweep": ("run_sweep", "frequency x amplitude sweep of a rig model and its identification"),
     "diagnose": ("diagnose", "what the simulation gets wrong about measured runs (a file or a folder)"),
     "card": ("card", "the joint card: amplitude-dependent stiffness, damping and dissipation of measured runs"),
+    "card-check": ("card_check", "the identified joint card against a virtual phase-resonance test in the rig"),
     "make-data": ("make_data", "simulate measured runs of a model and write them (CSV/Parquet)"),
     "design": ("design_excitation", "D-optimal excitation on a test-time budget"),
     "unknown-law": ("unknown_law", "a joint law of unknown form on hat functions, with its band"),

@@ -23,7 +23,7 @@ from jointrig.identify.records import SteadyStateRecord
 
 from .validate import DiagnosisReport
 
-__all__ = ["CardReport", "card_of_diagnosis", "identified_law", "card_json", "card_png", "masing_text"]
+__all__ = ["CardReport", "card_of_diagnosis", "identified_law", "inertia_covariance", "card_json", "card_png", "masing_text"]
 
 #: amplitudes of the model's curves, spaced geometrically over the runs' range
 N_CURVE_POINTS = 25
@@ -67,10 +67,27 @@ def identified_law(report: DiagnosisReport, torque_share: float = 0.5):
     return law, je, cov, name, (J1, J2)
 
 
+def inertia_covariance(report: DiagnosisReport, torque_share: float = 0.5):
+    """The ``(2, 2)`` covariance of the flywheel inertias (J1, J2) in kg^2 m^4 of the model
+    :func:`identified_law` uses, or None when the fit has none (for the equivalent form,
+    J1 = Je / s and J2 = Je / (1 - s) with s the torque share)."""
+    d = report.diagnosis
+    f = d.extended if (report.verdict.verdict == "explained" and d.extended is not d.nominal) else d.nominal
+    if f.covariance is None:
+        return None
+    idx = {n: i for i, n in enumerate(f.names)}
+    if "J1_kgm2" in idx:
+        i = [idx["J1_kgm2"], idx["J2_kgm2"]]
+        return f.covariance[np.ix_(i, i)]
+    g = np.array([1.0 / torque_share, 1.0 / (1.0 - torque_share)])
+    return np.outer(g, g) * f.covariance[idx["Je_kgm2"], idx["Je_kgm2"]]
+
+
 def card_of_diagnosis(report: DiagnosisReport, records: Sequence[SteadyStateRecord], *,
                       run_ids: Sequence[str] | None = None, torque_share: float = 0.5) -> CardReport:
     law, je, cov, name, (J1, J2) = identified_law(report, torque_share)
-    runs = runs_card(records, J1, J2, run_ids=run_ids, n_harmonics=report.band)
+    runs = runs_card(records, J1, J2, run_ids=run_ids, n_harmonics=report.band,
+                     inertia_covariance=inertia_covariance(report, torque_share))
     amps = [p.amplitude_rad for p in runs.points]
     grid = np.geomspace(min(amps), max(amps), N_CURVE_POINTS) if max(amps) > min(amps) else np.array(amps[:1])
     model = law_card(law, je, grid, covariance=cov, inertia_index=0)

@@ -110,10 +110,12 @@ def test_joint_card_of_the_worn_joint(outputs):
 
 def test_identified_model_written_as_mjcf_simulates_the_runs(outputs):
     # The file holds the adopted model exactly (repr of every float: a bit-exact round trip)
-    # and, simulated in the rig under a held-out run's measured drive (all 20 torque harmonics
-    # replayed, harmonics 1..20 compared, noise included), reproduces that run: measured
-    # 1.2e-3 rad against the nominal model's 8.8e-3 and a noise floor of 1.9e-4 (the
-    # validation's 8.1e-4 compares only the harmonics that stand out of the noise).
+    # and, simulated in the rig under each run's measured drive (all 20 torque harmonics
+    # replayed, harmonics 1..20 of the period average compared, noise included), reproduces the
+    # measured runs to the noise floor: as well as the true model (the worn model file that made
+    # the data) does under the same replay, the best any model can do with this noise. Measured:
+    # 1.00-1.28 times the true model's error (1.6e-4 to 1.5e-3 rad), the nominal model 14-120
+    # times; asked at most 1.5 times (the fitted parameters are within about 1% of the truth).
     from jointrig.identify.harmonics import fourier_coefficients
     from jointrig.identify.plant import drive_of_record
     from jointrig.measured.runs import read_runs
@@ -127,18 +129,23 @@ def test_identified_model_written_as_mjcf_simulates_the_runs(outputs):
             expected = value
             got = {"J1_kgm2": rig.J1_kgm2, "J2_kgm2": rig.J2_kgm2}.get(name, params.get(name))
             assert got == pytest.approx(expected, rel=1e-12), name
-    run = read_runs(outputs / "worn.parquet").records[1]  # held out
-    n = run.samples_per_period
-    avg = run.phi_rad.reshape(run.n_periods, n).mean(axis=0)
-    coeffs = fourier_coefficients(run.torque_Nm, run.n_periods, 20)
-    drive = drive_of_record(run.omega_rad_s, coeffs)
-    sim, _ = simulate_steady_state(rig, run.omega_rad_s, drive.amplitude_Nm,
-                                   SimulationConfig(samples_per_period=n, n_periods=1, settle_tol=1e-7,
-                                                    absolute_angles_periodic=False), drive=drive, native=True)
-    band = lambda x: np.fft.irfft(np.fft.rfft(x)[:21] * (np.arange(21) > 0), n=n)  # noqa: E731
-    rms = float(np.sqrt(np.mean((band(sim.phi_rad) - band(avg)) ** 2)))
-    row = next(r for r in d["runs"] if r["run"] == "1")
-    assert rms < 0.25 * row["rms_nominal_rad"] and rms < 10 * row["noise_floor_rad"], (rms, row)
+    true_rig = load_rig(ROOT / "models" / "two_flywheels_worn.xml")
+    nominal_rig = load_rig(ROOT / "models" / "two_flywheels.xml")
+
+    def replay_error(model, run):
+        n = run.samples_per_period
+        avg = run.phi_rad.reshape(run.n_periods, n).mean(axis=0)
+        drive = drive_of_record(run.omega_rad_s, fourier_coefficients(run.torque_Nm, run.n_periods, 20))
+        sim, _ = simulate_steady_state(model, run.omega_rad_s, drive.amplitude_Nm,
+                                       SimulationConfig(samples_per_period=n, n_periods=1, settle_tol=1e-7,
+                                                        absolute_angles_periodic=False), drive=drive, native=True)
+        band = lambda x: np.fft.irfft(np.fft.rfft(x)[:21] * (np.arange(21) > 0), n=n)  # noqa: E731
+        return float(np.sqrt(np.mean((band(sim.phi_rad) - band(avg)) ** 2)))
+
+    for i, run in enumerate(read_runs(outputs / "worn.parquet").records):
+        identified, true, nominal = (replay_error(m, run) for m in (rig, true_rig, nominal_rig))
+        assert identified < 1.5 * true, (i, identified, true)
+        assert nominal > 10 * true, (i, nominal, true)  # the comparison can tell a wrong model
 
 
 def test_unknown_holdout_run_is_refused(outputs, capsys):
