@@ -92,8 +92,7 @@ class PreparedRun:
         return len(self.fine_periods)
 
 
-#: Model-fidelity floor, relative to each run's largest balanced torque (see :func:`diagnose`).
-DEFAULT_FIDELITY = 1e-3
+from .defaults import DEFAULT_FIDELITY  # noqa: E402  (model-fidelity floor; see diagnose)
 
 #: Law columns are evaluated on 16x the samples (trigonometric interpolation of the band-limited
 #: angle): a jump (dry friction) on 256 samples per period aliases at ~1/256 of its size,
@@ -900,18 +899,26 @@ def default_workers() -> int:
 
 
 def _score_all(problem: _Problem, causes: Sequence[Cause], base: Fit, weights: np.ndarray, n: int, alpha: float,
-               workers: int) -> list[CauseScore]:
+               workers: int, progress: Optional[Callable[[str], None]] = None) -> list[CauseScore]:
     """:func:`score_cause` for every cause, in ``workers`` forked processes when more than one
-    (the causes of a round are independent; the scores are the same numbers either way)."""
+    (the causes of a round are independent; the scores are the same numbers either way).
+    ``progress`` hears of each cause as its score arrives (in the causes' order)."""
+    say = progress or (lambda msg: None)
+
+    def told(k: int, s: CauseScore) -> CauseScore:
+        say(f"  scored {s.effect} ({k + 1}/{len(causes)}): evidence {s.score:.4g}"
+            + (", significant" if s.significant else ""))
+        return s
+
     if workers <= 1 or len(causes) < 2:
-        return [score_cause(problem, c, base, weights, n, alpha) for c in causes]
+        return [told(k, score_cause(problem, c, base, weights, n, alpha)) for k, c in enumerate(causes)]
     global _TO_SCORE
     _TO_SCORE = (problem, tuple(causes), base, weights, n, alpha)
     try:
         ctx = multiprocessing.get_context("fork")
         with ProcessPoolExecutor(max_workers=min(workers, len(causes)), mp_context=ctx,
                                  initializer=_one_thread) as pool:
-            return list(pool.map(_score_one, range(len(causes))))
+            return [told(k, s) for k, s in enumerate(pool.map(_score_one, range(len(causes))))]
     finally:
         _TO_SCORE = None
 
@@ -919,7 +926,7 @@ def _score_all(problem: _Problem, causes: Sequence[Cause], base: Fit, weights: n
 def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmonics: int = 20,
              torque_share: float = 0.5, alpha: float = 1e-3, max_effects: int = 3,
              fidelity: float = DEFAULT_FIDELITY, causes: Sequence[Cause] = CAUSES,
-             workers: Optional[int] = None) -> Diagnosis:
+             workers: Optional[int] = None, progress: Optional[Callable[[str], None]] = None) -> Diagnosis:
     """Fit the nominal model, rank causes by evidence, extend greedily (module docstring).
 
     The mean (harmonic 0) is not balanced: every sensor's zero is arbitrary on a bench (an
@@ -933,6 +940,7 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
       torque_share: J2 / (J1 + J2), used only by the equivalent form.
       alpha: family-wise false-alarm probability over the causes of one round.
       workers: processes that score the causes of a round (default :func:`default_workers`).
+      progress: optional callable ``(message) -> None``: each round and each cause scored.
       fidelity: model-fidelity floor added to every row's noise, relative to the run's
         largest balanced torque: a misfit below ``fidelity`` times that is not evidence.
         Harmonic balance of a law with a jump (dry friction) from angles band-limited to
@@ -959,6 +967,8 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
     if nu <= 4:
         notes.append(f"only {int(nu / 2 + 1)} periods per run: the noise estimates are rough (more periods "
                      f"sharpen the significance tests)")
+    say = progress or (lambda msg: None)
+    say(f"fitting the nominal model (paper eq. 11) to {len(runs)} runs, harmonics 1..{H}")
     nominal, w = fit(problem, NOMINAL)
     current, wcur = nominal, w
     first: list[CauseScore] = []
@@ -967,7 +977,10 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
     ambiguous: list[Ambiguity] = []
     for rnd in range(max_effects):
         # Ranked by evidence; causes rejected as unphysical or untestable go last.
-        scores = sorted(_score_all(problem, remaining, current, wcur, len(remaining), alpha, workers),
+        say(f"round {rnd + 1}: scoring {len(remaining)} causes on "
+            + (" + ".join(s.effect for s in steps) or "the nominal model")
+            + (f" ({workers} processes)" if workers > 1 else ""))
+        scores = sorted(_score_all(problem, remaining, current, wcur, len(remaining), alpha, workers, say),
                         key=lambda s: (bool(s.note), -s.score))
         if rnd == 0:
             first = scores
@@ -990,6 +1003,7 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
         for rival in scores:
             if rival is best or not rival.significant:
                 continue
+            say(f"  is {rival.effect} still needed beside {best.effect}? (and the reverse)")
             cause_r = next(c for c in causes if c.name == rival.effect)
             cause_b = next(c for c in causes if c.name == best.effect)
             r_given_b = score_cause(problem, cause_r, current, wcur, len(remaining), alpha)

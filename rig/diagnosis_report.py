@@ -20,7 +20,7 @@ import html
 import io
 import math
 from pathlib import Path
-from typing import Sequence
+from typing import Optional, Sequence
 
 import numpy as np
 
@@ -302,21 +302,34 @@ def _figures(report: DiagnosisReport) -> list[tuple[str, str]]:
     n = len(runs)
     cols = min(3, n)
     rows = math.ceil(n / cols)
-    out = []
+    jobs = []
     style = {"measured": dict(color="k", lw=2.2, alpha=0.5), "nominal": dict(color="tab:red", lw=1.2, ls="--"),
              "extended": dict(color="tab:blue", lw=1.2)}
 
     def grid(height, draw, caption):
-        """One panel per run, drawn by ``draw(ax, run)``; appended to ``out`` as a PNG."""
-        fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, height * rows), squeeze=False)
+        """One panel per run, drawn by ``draw(ax, run)``: a job for :func:`_draw_all`."""
+        jobs.append((caption, lambda: _grid(height, draw)))
+
+    def _grid(height, draw):
+        width, tall = 4.2 * cols, height * rows
+        fig, axes = plt.subplots(rows, cols, figsize=(width, tall), squeeze=False)
+        # Margins fixed in inches (tight_layout would draw every figure once more to measure it:
+        # a third of the report's time): room for the y label and tick labels on the left, a
+        # title above and an x label below each panel.
+        left, right, bottom, top, gap_w, gap_h = 0.8, 0.15, 0.5, 0.3, 0.95, 0.8  # inches
+        ax_w = (width - left - right - (cols - 1) * gap_w) / cols
+        ax_h = (tall - bottom - top - (rows - 1) * gap_h) / rows
+        fig.subplots_adjust(left=left / width, right=1 - right / width, bottom=bottom / tall, top=1 - top / tall,
+                            wspace=gap_w / ax_w, hspace=gap_h / ax_h)
         for ax, r in zip(axes.flat, runs):
             draw(ax, r)
         for ax in list(axes.flat)[n:]:
             ax.axis("off")
         axes.flat[0].legend(fontsize=8)
-        fig.tight_layout()
-        out.append((caption, _png(fig)))
-        plt.close(fig)
+        try:
+            return _png(fig)
+        finally:
+            plt.close(fig)
 
     def held(r):
         return " (held out)" if r.held_out else ""
@@ -362,20 +375,56 @@ def _figures(report: DiagnosisReport) -> list[tuple[str, str]]:
                      "motion with the extended model's inertia; models from their laws along the measured motion)")
     grid(2.8, residuals, "Harmonic residuals per run: |Phi_n simulated - Phi_n measured|")
 
-    causes = [c for c in report.diagnosis.causes if math.isfinite(c.score)][::-1]
-    adopted = set(report.adopted)
-    fig, ax = plt.subplots(figsize=(7, 0.45 * len(causes) + 1.2))
-    ax.barh([c.effect + (" (adopted)" if c.effect in adopted else "") for c in causes], [c.score for c in causes],
-            color=["tab:blue" if c.effect in adopted else "tab:gray" for c in causes],
-            edgecolor=["k" if c.significant else "none" for c in causes], linewidth=1.2)
-    for lbl, c in zip(ax.get_yticklabels(), causes):
-        lbl.set_fontweight("bold" if c.effect in adopted else "normal")
-    ax.set_xscale("symlog")
-    ax.set_xlabel("evidence score (blue: adopted; black edge: significant)")
-    fig.tight_layout()
-    out.append(("Causes ranked by evidence", _png(fig)))
-    plt.close(fig)
-    return out
+    def cause_chart():
+        causes = [c for c in report.diagnosis.causes if math.isfinite(c.score)][::-1]
+        adopted = set(report.adopted)
+        fig, ax = plt.subplots(figsize=(7, 0.45 * len(causes) + 1.2))
+        ax.barh([c.effect + (" (adopted)" if c.effect in adopted else "") for c in causes], [c.score for c in causes],
+                color=["tab:blue" if c.effect in adopted else "tab:gray" for c in causes],
+                edgecolor=["k" if c.significant else "none" for c in causes], linewidth=1.2)
+        for lbl, c in zip(ax.get_yticklabels(), causes):
+            lbl.set_fontweight("bold" if c.effect in adopted else "normal")
+        ax.set_xscale("symlog")
+        ax.set_xlabel("evidence score (blue: adopted; black edge: significant)")
+        fig.tight_layout()
+        try:
+            return _png(fig)
+        finally:
+            plt.close(fig)
+
+    jobs.append(("Causes ranked by evidence", cause_chart))
+    return _draw_all(jobs)
+
+
+#: The figure jobs of :func:`_figures`, set just before the workers are forked (they inherit
+#: them with the parent's memory; only the PNGs come back).
+_JOBS: Optional[list] = None
+
+
+def _draw_one(i: int) -> str:
+    return _JOBS[i][1]()
+
+
+def _draw_all(jobs: list) -> list[tuple[str, str]]:
+    """``(caption, base64 PNG)`` of every job, in forked processes where the diagnosis's workers
+    would run (:func:`identify.diagnose.default_workers`): the figures are independent and
+    matplotlib's rendering is most of the report's time. The same PNGs either way."""
+    from jointrig.identify.diagnose import default_workers
+
+    workers = min(default_workers(), len(jobs))
+    if workers <= 1:
+        return [(caption, draw()) for caption, draw in jobs]
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    global _JOBS
+    _JOBS = jobs
+    try:
+        with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("fork")) as pool:
+            pngs = list(pool.map(_draw_one, range(len(jobs))))
+    finally:
+        _JOBS = None
+    return [(caption, png) for (caption, _), png in zip(jobs, pngs)]
 
 
 _CSS = """

@@ -404,7 +404,7 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
     prepared = prepare_runs(records, band=band)
     say(f"diagnosing on runs {[run_ids[i] for i in fit_idx]}, holding out {[run_ids[i] for i in holdout]}")
     diag = diagnose([prepared[i] for i in fit_idx], form=form, n_harmonics=band, torque_share=torque_share,
-                    alpha=alpha, fidelity=fidelity)
+                    alpha=alpha, fidelity=fidelity, progress=progress)
     rig = rig or load_rig()
     nominal_plant, J_nom = plant_of(diag.nominal, torque_share)
     ext_plant, J_ext = plant_of(diag.extended, torque_share)

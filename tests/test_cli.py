@@ -55,3 +55,17 @@ def test_python_dash_m_names_the_subcommand_in_its_usage():
     out = subprocess.run([sys.executable, "-m", "jointrig", "diagnose", "--help"], capture_output=True, text=True,
                          check=True).stdout
     assert out.startswith("usage: jointrig diagnose ")
+
+
+@pytest.mark.parametrize("name, heavy", [
+    ("diagnose", ("rerun", "matplotlib", "scipy.stats", "scipy.optimize", "mujoco", "dask", "pyarrow")),
+    ("sweep", ("rerun", "matplotlib", "scipy.stats", "dask", "pyarrow")),
+])
+def test_help_answers_without_loading_the_numerical_stack(name, heavy):
+    # `--help` and bad options must answer at once: the heavy packages (0.3-0.6 s each to
+    # import) are loaded in main, after the arguments are parsed. The sweep needs MuJoCo for its
+    # default plan's module; the diagnosis needs nothing of it.
+    code = ("import sys\nfrom jointrig.cli import main\ntry:\n    main([%r, '--help'])\nexcept SystemExit:\n    pass\n"
+            "print('loaded:' + ','.join(m for m in %r if m in sys.modules))" % (name, heavy))
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.splitlines()[-1] == "loaded:", f"{name} --help {out.splitlines()[-1]}"

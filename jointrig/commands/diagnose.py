@@ -25,18 +25,11 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
+from jointrig.identify.defaults import DEFAULT_FIDELITY
+from jointrig.rig.runtime import BadArgument, check_output, check_range, limit_threads, progress_level
 
-from jointrig.identify.diagnose import DEFAULT_FIDELITY
-from jointrig.identify.records import RecordError
-from jointrig.measured.runs import RunsFileError, read_runs
-from jointrig.rig.diagnosis_report import format_report, log_diagnosis, report_json, write_html
-from jointrig.rig.recording import open_recording
-from jointrig.rig.runtime import BadArgument, check_output, check_range, limit_threads
-from jointrig.rig.simulate import SimulationError
-from jointrig.rig.sweep import write_json_atomic
-from jointrig.rig.validate import run_diagnosis
-from jointrig.rig.runtime import progress_level
+# The numerical stack (scipy, MuJoCo, rerun, matplotlib) is imported in main, after the
+# arguments are parsed: ``--help`` and bad options answer at once.
 
 log = logging.getLogger("diagnose")
 
@@ -74,6 +67,15 @@ def parse_args(argv=None) -> argparse.Namespace:
 
 def main(argv=None) -> int:
     args = parse_args(argv)
+    import numpy as np
+
+    from jointrig.identify.records import RecordError
+    from jointrig.measured.runs import RunsFileError, read_runs
+    from jointrig.rig.diagnosis_report import format_report, report_json
+    from jointrig.rig.simulate import SimulationError
+    from jointrig.rig.sweep import write_json_atomic
+    from jointrig.rig.validate import run_diagnosis
+
     limit_threads()
     logging.basicConfig(level=progress_level(args.quiet), format="%(message)s",
                         stream=sys.stderr)
@@ -124,10 +126,15 @@ def main(argv=None) -> int:
         log.info("computing the joint card")
         card = card_of_diagnosis(report, loaded.records, run_ids=loaded.run_ids, torque_share=args.torque_share)
     if args.rrd:
+        from jointrig.rig.diagnosis_report import log_diagnosis
+        from jointrig.rig.recording import open_recording
+
         with open_recording(args.rrd) as rec:
             log_diagnosis(rec, report, text, card=card)
         log.info("wrote %s", args.rrd)
     if args.report:
+        from jointrig.rig.diagnosis_report import write_html
+
         write_html(args.report, report, text, title=f"jointrig diagnosis of {args.data.name}",
                    input_sha256=loaded.sha256, source=str(args.data), notes=loaded.notes, card=card)
         log.info("wrote %s", args.report)
@@ -142,7 +149,7 @@ def main(argv=None) -> int:
 def write_card(args, loaded, card) -> None:
     """The joint card of the diagnosis (rig/joint_card.py): printed, and written as JSON and PNG."""
     from jointrig.rig.joint_card import card_json, card_png
-    from jointrig.rig.sweep import write_atomic
+    from jointrig.rig.sweep import write_atomic, write_json_atomic
 
     print(format_card(card))
     if args.card:

@@ -25,13 +25,10 @@ from pathlib import Path
 import numpy as np
 
 from jointrig.identify import FORMS, compare, format_table, identify
-from jointrig.identify.eiv import ml_identify
 from jointrig.identify.multisine import line_levels
 from jointrig.identify.basis import JointLaw
 from jointrig.rig import DEFAULT_MODEL, SimulationConfig, load_rig
 from jointrig.rig.measurement import add_noise, repeat_periods
-from jointrig.rig.recording import (log_harmonics, log_parameter_table, log_restoring_force, log_run,
-                                     open_recording, sweep_blueprint)
 from jointrig.rig.runtime import progress_level
 from jointrig.rig.sweep import (DEFAULT_MULTISINE, DEFAULT_PLAN, EXECUTORS, SweepPlan, records_of, run_multisines, run_sweep,
                        write_json_atomic)
@@ -193,6 +190,8 @@ def main(argv=None) -> int:
               f"harmonics 0..{args.harmonics}: {result.n_rows} equations, condition number "
               f"{result.condition_number:.3g}, status: {result.message}\n")
     else:
+        from jointrig.identify.eiv import ml_identify  # scipy.optimize and .stats: loaded when used
+
         result = ml_identify(records, rig.law.terms, n_harmonics=args.harmonics, torque_share=rig.torque_share)
         print(f"\nErrors-in-variables maximum-likelihood harmonic balance (equivalent form) from {len(records)} "
               f"runs x {args.periods} periods measured at SNR {args.noise_db:g} dB (seed {args.seed}), harmonics "
@@ -230,6 +229,9 @@ def main(argv=None) -> int:
 
     rrd = None if args.no_rrd else args.rrd
     if rrd is not None or args.spawn or args.connect:
+        from jointrig.rig.recording import (log_harmonics, log_parameter_table, log_restoring_force, log_run,
+                                             open_recording, sweep_blueprint)
+
         with open_recording(rrd, spawn=args.spawn, connect=args.connect) as rec:
             rec.send_blueprint(sweep_blueprint(records))
             for r in records:
@@ -250,7 +252,8 @@ def chain_main(args: argparse.Namespace) -> int:
     from jointrig.identify.chain import identify_chain, joint_law
     from jointrig.rig.chain import load_chain
     from jointrig.rig.chain_sweep import CHAIN_CONFIG, CHAIN_PLAN, run_chain_sweep
-    from jointrig.rig.recording import chain_blueprint, log_chain_laws, log_chain_run
+    from jointrig.rig.recording import (chain_blueprint, log_chain_laws, log_chain_run, log_parameter_table,
+                                         open_recording)
     from jointrig.rig.runtime import check_each
 
     unsupported = [flag for flag, on in (("--form two_dof", args.form != "equivalent"),
