@@ -40,8 +40,7 @@ from jointrig.identify.chain import ChainPlant, ChainRecord
 
 from .model import JOINT_FIELD as _JOINT_FIELD
 from .model import PREFIX, RigModelError, compile_model, is_chain_model
-from .simulate import SettleInfo, SimulationConfig, SimulationError, SteadyStateNotReached, _activated, _check_warnings, \
-    passive_callback, set_inertias, settle_bound
+from .simulate import SettleInfo, SimulationConfig, SimulationError, _activated, _settle, passive_callback, set_inertias
 
 __all__ = ["ChainRig", "load_chain", "is_chain_model", "simulate_chain", "chain_callback", "MAX_FLYWHEELS"]
 
@@ -348,49 +347,30 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
         return before[:, 1 + q], before[:, 1 + m.nq + v], tq, before[:, 0]
 
     advance = rollout_period if native and not stateful else period
-    periods: list = []
-    changes: list[float] = []
-    change, bound, ratio = math.inf, math.inf, math.nan
-    settled = False
-    p = 0
+    absolute = config.absolute_angles_periodic
+    names = (tuple(f"phi{j} - phi{j + 1}" for j in range(1, N)) + tuple(f"rate{i}" for i in range(1, N + 1))
+             + (tuple(f"phi{i}" for i in range(1, N + 1)) if absolute else ()))
+
+    def watched(payload):
+        pos, vel = payload[0], payload[1]
+        return np.column_stack([pos[:, :-1] - pos[:, 1:], vel] + ([pos] if absolute else []))
+
+    def failure():
+        if errors:
+            return errors[0]
+        if nat is not None and nat.error:
+            return SimulationError("the native callback met a term it does not know")
+        return None
+
     # Inside a native_session the callback is installed already (shared by threads; each
     # simulation finds its own blocks by its MjData).
     from .native_callback import session_active
 
     installed = contextlib.nullcontext() if native and session_active() else passive_callback(callback)
     with installed, _activated(nat, d):
-        while True:
-            pos, vel, tq, tbuf = advance()
-            p += 1
-            if errors:
-                raise SimulationError(f"{where}: the joint-law callback failed: {errors[0]!r}") from errors[0]
-            if nat is not None and nat.error:
-                raise SimulationError(f"{where}: the native callback met a term it does not know")
-            _check_warnings(d, where)
-            if not (np.all(np.isfinite(pos)) and np.all(np.isfinite(vel))):
-                raise SimulationError(f"{where}: non-finite state in period {p}")
-            if not settled:
-                if periods:
-                    cur = np.column_stack([pos[:, :-1] - pos[:, 1:], vel] + ([pos] if config.absolute_angles_periodic else []))
-                    prv_pos, prv_vel = periods[-1][0], periods[-1][1]
-                    prv = np.column_stack([prv_pos[:, :-1] - prv_pos[:, 1:], prv_vel]
-                                          + ([prv_pos] if config.absolute_angles_periodic else []))
-                    swing = np.ptp(cur, axis=0)
-                    rel = np.max(np.abs(cur - prv), axis=0) / np.where(swing > 0, swing, 1.0)
-                    change = float(np.max(rel))
-                    changes.append(change)
-                    done, bound, ratio = settle_bound(changes, config.settle_tol)
-                    settled = p >= config.min_periods and done
-                periods = [(pos, vel, tq, tbuf)]
-                if not settled and (p >= config.max_periods or (
-                        config.max_wall_s is not None and _time.perf_counter() - t_start > config.max_wall_s)):
-                    raise SteadyStateNotReached(
-                        f"{where}: no steady state after {p} periods: change {change:.3g}, estimated distance "
-                        f"{bound:.3g} > settle_tol {config.settle_tol:g}")
-            else:
-                periods.append((pos, vel, tq, tbuf))
-            if settled and len(periods) == config.n_periods:
-                break
+        periods, (p, change, bound, ratio) = _settle(
+            advance, watched, names, lambda pl: bool(np.all(np.isfinite(pl[0])) and np.all(np.isfinite(pl[1]))),
+            failure, config, d, where, t_start)
     pos = np.vstack([x[0] for x in periods]).T
     vel = np.vstack([x[1] for x in periods]).T
     tq = np.vstack([x[2] for x in periods]).T

@@ -48,11 +48,18 @@ __all__ = [
     "simulate_steady_state",
     "coherent_omega",
     "set_inertias",
+    "BACKENDS",
 ]
 
 log = logging.getLogger(__name__)
 
-_FORCE_STEPPED = False  # benchmarks only: step in Python even where a rollout would do
+#: How a run is integrated (``simulate_steady_state(..., backend=...)``):
+#: ``"python"``: the Python passive callback, stepped from Python (the reference);
+#: ``"native"``: the C callback (:mod:`rig.native_callback`), a whole period per ``mujoco.rollout``
+#: call for a law without sliders, else stepped in C with the sliders committed after each step;
+#: ``"native-stepped"``: the C callback stepped from Python (what the other two are checked
+#: against, bit for bit, and what benchmarks time them against).
+BACKENDS = ("python", "native", "native-stepped")
 
 
 class SimulationError(RuntimeError):
@@ -358,6 +365,7 @@ def simulate_steady_state(
     inertias_kgm2: Optional[tuple[float, float]] = None,
     native: bool = False,
     start: Optional[StartState] = None,
+    backend: Optional[str] = None,
 ) -> tuple[SteadyStateRecord, SettleInfo]:
     """Drive flywheel 1 with ``amplitude_Nm * cos(omega_rad_s * t)`` from rest at t = 0 until
     steady state, then log ``config.n_periods`` whole periods.
@@ -366,6 +374,11 @@ def simulate_steady_state(
     (its velocity is ``M0 sin(omega t) / (omega (J1 + J2))``), so both absolute angles are.
     For any other drive (or a delay) both flywheels start with the common velocity
     :meth:`PeriodicDrive.mean_free_impulse` / (J1 + J2) that keeps the rotation periodic.
+
+    The work is done in four parts: the arguments are checked (:func:`_checked_drive`), a
+    private copy of the model gets the run's step and inertias (:func:`_run_model`), the
+    initial state is set (:func:`_set_initial_state`), a backend is chosen once
+    (:func:`_backend`) and the settle loop (:func:`_settle`) advances it period by period.
 
     Args:
       law: joint law, or a :class:`identify.plant.Plant` (law + bearing drag + drive delay),
@@ -379,9 +392,11 @@ def simulate_steady_state(
         terms is then integrated a whole period per ``mujoco.rollout`` call (no Python
         between steps, the GIL released); a law with sliders (Jenkins, Iwan) is stepped in C
         with its sliders committed after every step; the records are bit-identical to stepping.
+        Shorthand for ``backend="native"``.
       start: start from this state at t = 0 instead of rest (continuation from the previous
         sweep point's steady state). Its rigid-body velocity is replaced by the one that
         keeps the rotation periodic under this drive; the relative motion is kept.
+      backend: one of :data:`BACKENDS`; default ``"native"`` if ``native`` else ``"python"``.
 
     The record's torque is the drive as recorded: with a drive delay it is the torque before
     the delay (what a torque cell upstream of the delay reads), otherwise the actuator force.
@@ -393,81 +408,120 @@ def simulate_steady_state(
       SimulationError: MuJoCo warned, values went non-finite, or the callback failed.
       SteadyStateNotReached: no steady state within ``config.max_periods``.
     """
+    plant = rig.plant if law is None else Plant.of(law)
+    drive = _checked_drive(omega_rad_s, amplitude_Nm, drive, inertias_kgm2, start)
+    if backend is None:
+        backend = "native" if native else "python"
+    elif backend not in BACKENDS:
+        raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+    where = f"{rig.path.name} at omega = {omega_rad_s:g} rad/s, M0 = {amplitude_Nm:g} N m"
+    t_start = _time.perf_counter()
+    m = _run_model(rig, config, omega_rad_s, inertias_kgm2)
+    d = mujoco.MjData(m)
+    J = (rig.J1_kgm2, rig.J2_kgm2) if inertias_kgm2 is None else inertias_kgm2
+    _set_initial_state(rig, d, drive, plant, J, start)
+    n, k = config.samples_for(omega_rad_s), config.steps_per_sample(omega_rad_s)
+    stepper = _backend(backend, rig, plant, drive, m, d, n, k)
+    watched, names = _watched_two_flywheels(config)
+    with stepper.installed():
+        periods, settle = _settle(stepper.advance, watched, names, lambda pl: bool(np.all(np.isfinite(pl[0]))),
+                                  lambda: stepper.errors[0] if stepper.errors else None, config, d, where, t_start)
+    data = np.vstack([pl[0] for pl in periods])
+    t_rec = np.concatenate([pl[1] for pl in periods])
+    torque = data[:, 4] if plant.drive_delay_s == 0 else drive(t_rec)
+    record = SteadyStateRecord(
+        omega_rad_s=float(omega_rad_s), time_s=t_rec, torque_Nm=torque,
+        phi1_rad=data[:, 0], phi2_rad=data[:, 1], rate1_rad_s=data[:, 2], rate2_rad_s=data[:, 3],
+        n_periods=config.n_periods, drive_amplitude_Nm=float(amplitude_Nm), source=where,
+    )
+    p, change, bound, ratio = settle
+    info = SettleInfo(periods_simulated=p, last_change=change, timestep_s=m.opt.timestep,
+                      wall_time_s=_time.perf_counter() - t_start, error_bound=bound, decay_ratio=ratio)
+    log.debug("%s: steady after %d periods (change %.2g), dt %.3g s, %.2f s wall", where,
+              p - config.n_periods + 1, change, m.opt.timestep, info.wall_time_s)
+    return record, info
+
+
+def _checked_drive(omega_rad_s: float, amplitude_Nm: float, drive: Optional[PeriodicDrive],
+                   inertias_kgm2: Optional[tuple[float, float]], start: Optional[StartState]) -> PeriodicDrive:
+    """The run's drive (the cosine unless given), after checking every argument of a run."""
     if not (math.isfinite(omega_rad_s) and omega_rad_s > 0):
         raise ValueError(f"omega_rad_s must be a finite number > 0, got {omega_rad_s}")
     if not math.isfinite(amplitude_Nm):
         raise ValueError(f"amplitude_Nm must be finite, got {amplitude_Nm}")
-    plant = rig.plant if law is None else Plant.of(law)
     if drive is None:
         drive = PeriodicDrive.cosine(omega_rad_s, amplitude_Nm)
     elif abs(drive.omega_rad_s - omega_rad_s) > 1e-12 * omega_rad_s:
         raise ValueError(f"drive fundamental {drive.omega_rad_s} rad/s differs from omega_rad_s {omega_rad_s}")
-    where = f"{rig.path.name} at omega = {omega_rad_s:g} rad/s, M0 = {amplitude_Nm:g} N m"
-    t_start = _time.perf_counter()
-    # Per-run settings on a private copy: the shared MjModel stays untouched.
-    m = copy.copy(rig.model)
     if inertias_kgm2 is not None:
         for name, target in zip(("J1", "J2"), inertias_kgm2):
             if not (math.isfinite(target) and target > 0):
                 raise ValueError(f"inertias_kgm2: {name} must be a finite number > 0, got {target}")
-        set_inertias(m, rig.dof_adr, inertias_kgm2, (rig.J1_kgm2, rig.J2_kgm2))
-    stateful = [t for t in plant.law.terms if t.stateful]
-    slider = [0.0] * sum(t.n_states for t in stateful)
-    q1, q2 = rig.qpos_adr
-    m.opt.integrator = mujoco.mjtIntegrator.__members__[config.mj_integrator_name]
-    m.opt.timestep = config.timestep_s(omega_rad_s)
-    k = config.steps_per_sample(omega_rad_s)
-    n = config.samples_for(omega_rad_s)
-    d = mujoco.MjData(m)
-    # Start the rigid-body rotation with the velocity that keeps it periodic (0 for a cosine).
-    J1, J2 = (rig.J1_kgm2, rig.J2_kgm2) if inertias_kgm2 is None else inertias_kgm2
-    v_rigid = drive.mean_free_impulse(0.0, plant.drive_delay_s) / (J1 + J2)
-    if start is None:
-        d.qvel[list(rig.dof_adr)] = v_rigid
-    else:
+    if start is not None:
         vals = (start.phi1_rad, start.phi2_rad, start.rate1_rad_s, start.rate2_rad_s)
         if not all(math.isfinite(v) for v in vals):
             raise ValueError(f"start state must be finite, got {start}")
-        rel_rate = start.rate1_rad_s - start.rate2_rad_s
-        d.qpos[q1], d.qpos[q2] = start.phi1_rad, start.phi2_rad
-        d.qvel[rig.dof_adr[0]] = v_rigid + J2 / (J1 + J2) * rel_rate
-        d.qvel[rig.dof_adr[1]] = v_rigid - J1 / (J1 + J2) * rel_rate
-    adr = rig.sensor_adr
-    channels = ("phi1", "phi2", "rate1", "rate2", "drive_torque")
-    idx = np.array([adr[c] for c in channels])
-    errors: list = []
-    periods: list[np.ndarray] = []
-    times: list[np.ndarray] = []
-    changes: list[float] = []
-    change, bound, ratio = math.inf, math.inf, math.nan
-    worst = "?"
-    settled_at = None
-    use_rollout = False
-    if native:
-        from .native_callback import NativeLaw, session_active
+    return drive
 
-        nat = NativeLaw(rig, plant, drive)
-        # Inside a native_session the callback is installed already (shared by threads).
-        installed = contextlib.nullcontext() if session_active() else passive_callback(nat.function)
-        use_rollout = not stateful and not _FORCE_STEPPED
 
-        def commit(phi):
-            nat.commit(phi)
-    else:
-        nat = None
-        installed = passive_callback(make_callback(rig, plant, drive, errors, slider))
+def _run_model(rig: RigModel, config: SimulationConfig, omega_rad_s: float,
+               inertias_kgm2: Optional[tuple[float, float]]) -> mujoco.MjModel:
+    """A private copy of the rig's model with the run's integrator, step and inertias (the
+    shared MjModel stays untouched)."""
+    m = copy.copy(rig.model)
+    if inertias_kgm2 is not None:
+        set_inertias(m, rig.dof_adr, inertias_kgm2, (rig.J1_kgm2, rig.J2_kgm2))
+    m.opt.integrator = mujoco.mjtIntegrator.__members__[config.mj_integrator_name]
+    m.opt.timestep = config.timestep_s(omega_rad_s)
+    return m
 
-        def commit(phi):
-            commit_state(plant, slider, phi)
 
-    def stepped_period() -> tuple[np.ndarray, np.ndarray]:
-        buf = np.empty((n, len(channels)))
+def _set_initial_state(rig: RigModel, d: mujoco.MjData, drive: PeriodicDrive, plant: Plant,
+                       J_kgm2: tuple[float, float], start: Optional[StartState]) -> None:
+    """Rest (or ``start``'s relative motion) plus the rigid-body velocity that keeps the
+    rotation periodic under this drive (0 for a cosine)."""
+    J1, J2 = J_kgm2
+    v_rigid = drive.mean_free_impulse(0.0, plant.drive_delay_s) / (J1 + J2)
+    if start is None:
+        d.qvel[list(rig.dof_adr)] = v_rigid
+        return
+    q1, q2 = rig.qpos_adr
+    rel_rate = start.rate1_rad_s - start.rate2_rad_s
+    d.qpos[q1], d.qpos[q2] = start.phi1_rad, start.phi2_rad
+    d.qvel[rig.dof_adr[0]] = v_rigid + J2 / (J1 + J2) * rel_rate
+    d.qvel[rig.dof_adr[1]] = v_rigid - J1 / (J1 + J2) * rel_rate
+
+
+#: The logged channels, in the order of a period's columns.
+_CHANNELS = ("phi1", "phi2", "rate1", "rate2", "drive_torque")
+
+
+class _Stepper:
+    """A backend: installs its passive callback for the run and advances one period of ``n``
+    samples of ``k`` steps, returning the sensors at each sample and the sample times."""
+
+    def __init__(self, rig: RigModel, m: mujoco.MjModel, d: mujoco.MjData, n: int, k: int):
+        self.m, self.d, self.n, self.k = m, d, n, k
+        self.idx = np.array([rig.sensor_adr[c] for c in _CHANNELS])
+        self.q1, self.q2 = rig.qpos_adr
+        self.errors: list = []
+
+    def installed(self):
+        raise NotImplementedError
+
+    def advance(self) -> tuple[np.ndarray, np.ndarray]:
+        raise NotImplementedError
+
+    def _stepped(self, commit: Optional[Callable[[float], None]]) -> tuple[np.ndarray, np.ndarray]:
+        """One period stepped from Python; ``commit`` (laws with sliders) after every step."""
+        m, d, n, k, idx, q1, q2 = self.m, self.d, self.n, self.k, self.idx, self.q1, self.q2
+        buf = np.empty((n, len(idx)))
         tbuf = np.empty(n)
         for i in range(n):
             tbuf[i] = d.time
             mujoco.mj_step(m, d)  # sensordata now hold the state at tbuf[i]
             buf[i] = d.sensordata[idx]
-            if stateful:  # commit the memory at every accepted state
+            if commit is not None:  # commit the memory at every accepted state
                 commit(float(d.qpos[q1] - d.qpos[q2]))
                 for _ in range(k - 1):
                     mujoco.mj_step(m, d)
@@ -476,87 +530,155 @@ def simulate_steady_state(
                 mujoco.mj_step(m, d, nstep=k - 1)
         return buf, tbuf
 
-    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
-    state = np.empty(mujoco.mj_stateSize(m, spec))
 
-    def rollout_period() -> tuple[np.ndarray, np.ndarray]:
-        # One C call per period: row j of `st` is the state after step j, row j of `sd` the
-        # sensors computed during step j, i.e. at the state before it (as in stepped_period).
-        mujoco.mj_getState(m, d, state, spec)
+class _PythonStepper(_Stepper):
+    """The Python passive callback (:func:`make_callback`), stepped from Python."""
+
+    def __init__(self, rig, plant: Plant, drive: PeriodicDrive, m, d, n, k):
+        super().__init__(rig, m, d, n, k)
+        self.plant = plant
+        self.slider = [0.0] * sum(t.n_states for t in plant.law.terms if t.stateful)
+        self.stateful = any(t.stateful for t in plant.law.terms)
+        self.callback = make_callback(rig, plant, drive, self.errors, self.slider)
+
+    def installed(self):
+        return passive_callback(self.callback)
+
+    def _commit(self, phi: float) -> None:
+        commit_state(self.plant, self.slider, phi)
+
+    def advance(self):
+        return self._stepped(self._commit if self.stateful else None)
+
+
+class _NativeStepper(_Stepper):
+    """The C callback stepped from Python (sliders committed by the native law)."""
+
+    def __init__(self, rig, plant: Plant, drive: PeriodicDrive, m, d, n, k):
+        from .native_callback import NativeLaw
+
+        super().__init__(rig, m, d, n, k)
+        self.nat = NativeLaw(rig, plant, drive)
+        self.stateful = any(t.stateful for t in plant.law.terms)
+
+    @contextlib.contextmanager
+    def installed(self):
+        from .native_callback import session_active
+
+        # Inside a native_session the callback is installed already (shared by threads).
+        with (contextlib.nullcontext() if session_active() else passive_callback(self.nat.function)), \
+                _activated(self.nat, self.d):
+            yield
+
+    def advance(self):
+        return self._stepped(self.nat.commit if self.stateful else None)
+
+
+class _NativeRollout(_NativeStepper):
+    """A law without sliders: one ``mujoco.rollout`` call per period (no Python between steps)."""
+
+    def __init__(self, *args):
+        super().__init__(*args)
+        self.spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+        self.state = np.empty(mujoco.mj_stateSize(self.m, self.spec))
+
+    def advance(self):
+        # Row j of `st` is the state after step j, row j of `sd` the sensors computed during
+        # step j, i.e. at the state before it (as in _stepped).
+        m, d, n, k, state = self.m, self.d, self.n, self.k, self.state
+        mujoco.mj_getState(m, d, state, self.spec)
         st, sd = rollout.rollout(m, d, state[None], nstep=n * k)
         tbuf = np.concatenate(([state[0]], st[0, k - 1:-1:k, 0]))
-        mujoco.mj_setState(m, d, st[0, -1], spec)
-        return sd[0, ::k][:, idx], tbuf
+        mujoco.mj_setState(m, d, st[0, -1], self.spec)
+        return sd[0, ::k][:, self.idx], tbuf
 
-    def native_stepped_period() -> tuple[np.ndarray, np.ndarray]:
-        # Sliders committed after every step, in C (the same loop as stepped_period).
-        return nat.run(m, d, n, k, idx)
 
-    if use_rollout:
-        advance = rollout_period
-    elif native and stateful and not _FORCE_STEPPED:
-        advance = native_stepped_period
-    else:
-        advance = stepped_period
-    # The settle test watches the relative angle (the joint's) and both rates, plus the absolute
-    # angles only when they must repeat too.
-    names = ("phi1 - phi2",) + channels[2:4] + (channels[:2] if config.absolute_angles_periodic else ())
+class _NativeSliders(_NativeStepper):
+    """A law with sliders: stepped in C with the sliders committed after every step."""
 
-    def watched(b):
-        return np.column_stack([b[:, 0] - b[:, 1], b[:, 2:4]] + ([b[:, :2]] if config.absolute_angles_periodic else []))
+    def advance(self):
+        return self.nat.run(self.m, self.d, self.n, self.k, self.idx)
 
-    with installed, _activated(nat, d):
-        p = 0
-        while True:
-            buf, tbuf = advance()
-            p += 1
-            if errors:
-                raise SimulationError(f"{where}: the joint-law callback failed: {errors[0]!r}") from errors[0]
-            _check_warnings(d, where)
-            if not np.all(np.isfinite(buf)):
-                raise SimulationError(f"{where}: non-finite state in period {p}")
-            if settled_at is None:
-                if periods:
-                    cur, prev = watched(buf), watched(periods[-1])
-                    swing = np.ptp(cur, axis=0)
-                    diff = np.max(np.abs(cur - prev), axis=0)
-                    rel = diff / np.where(swing > 0, swing, 1.0)
-                    change = float(np.max(rel))
-                    worst = names[int(np.argmax(rel))]
-                    changes.append(change)
-                    done, bound, ratio = settle_bound(changes, config.settle_tol)
-                    if p >= config.min_periods and done:
-                        settled_at = p
-                periods = [buf]
-                times = [tbuf]
-                if (settled_at is None and config.max_wall_s is not None
-                        and _time.perf_counter() - t_start > config.max_wall_s):
-                    raise SteadyStateNotReached(
-                        f"{where}: no steady state within the wall-clock cap of {config.max_wall_s:g} s ({p} periods "
-                        f"simulated; period-to-period change {change:.3g}, estimated distance {bound:.3g} > "
-                        f"settle_tol {config.settle_tol:g})")
-                if settled_at is None and p >= config.max_periods:
-                    raise SteadyStateNotReached(
-                        f"{where}: no steady state after {p} periods: period-to-period change "
-                        f"{change:.3g}, estimated distance to steady state {bound:.3g} > settle_tol "
-                        f"{config.settle_tol:g} (worst channel '{worst}'; a drifting absolute angle "
-                        f"means the integrator does not keep the rigid-body rotation periodic: use RK4)")
-            else:
-                periods.append(buf)
-                times.append(tbuf)
-            if settled_at is not None and len(periods) == config.n_periods:
-                break
-    data = np.vstack(periods)
-    t_rec = np.concatenate(times)
-    torque = data[:, 4] if plant.drive_delay_s == 0 else drive(t_rec)
-    record = SteadyStateRecord(
-        omega_rad_s=float(omega_rad_s), time_s=t_rec, torque_Nm=torque,
-        phi1_rad=data[:, 0], phi2_rad=data[:, 1], rate1_rad_s=data[:, 2], rate2_rad_s=data[:, 3],
-        n_periods=config.n_periods, drive_amplitude_Nm=float(amplitude_Nm), source=where,
-    )
-    info = SettleInfo(periods_simulated=p, last_change=change, timestep_s=m.opt.timestep,
-                      wall_time_s=_time.perf_counter() - t_start, error_bound=bound, decay_ratio=ratio)
-    log.debug("%s: steady after %d periods (change %.2g), dt %.3g s, %.2f s wall", where,
-              settled_at, change, m.opt.timestep, info.wall_time_s)
-    return record, info
 
+def _backend(name: str, rig: RigModel, plant: Plant, drive: PeriodicDrive, m, d, n: int, k: int) -> _Stepper:
+    """The stepper of a :data:`BACKENDS` name for this plant, chosen once per run."""
+    args = (rig, plant, drive, m, d, n, k)
+    if name == "python":
+        return _PythonStepper(*args)
+    if name == "native-stepped":
+        return _NativeStepper(*args)
+    stateful = any(t.stateful for t in plant.law.terms)
+    return _NativeSliders(*args) if stateful else _NativeRollout(*args)
+
+
+def _settle(advance: Callable[[], tuple], watched: Callable[[tuple], np.ndarray], names: tuple[str, ...],
+            finite: Callable[[tuple], bool], failure: Callable[[], Optional[BaseException]],
+            config: SimulationConfig, d: mujoco.MjData, where: str, t_start: float):
+    """Advance period by period until steady state (:func:`settle_bound`), then log
+    ``config.n_periods``; shared by the two-flywheel rig and the chains (rig/chain.py).
+
+    Args:
+      advance: one period's payload (a tuple of arrays, the sample times last).
+      watched: the payload's channels the settle test compares (columns; ``names`` names them).
+      finite: whether a payload's state is finite.
+      failure: the callback's stored exception, if any (MuJoCo cannot propagate one).
+
+    Returns ``(payloads, (periods simulated, last change, error bound, decay ratio))``.
+    """
+    periods: list[tuple] = []
+    changes: list[float] = []
+    change, bound, ratio = math.inf, math.inf, math.nan
+    worst = "?"
+    settled_at = None
+    p = 0
+    while True:
+        payload = advance()
+        p += 1
+        err = failure()
+        if err is not None:
+            raise SimulationError(f"{where}: the joint-law callback failed: {err!r}") from err
+        _check_warnings(d, where)
+        if not finite(payload):
+            raise SimulationError(f"{where}: non-finite state in period {p}")
+        if settled_at is None:
+            if periods:
+                cur, prev = watched(payload), watched(periods[-1])
+                swing = np.ptp(cur, axis=0)
+                diff = np.max(np.abs(cur - prev), axis=0)
+                rel = diff / np.where(swing > 0, swing, 1.0)
+                change = float(np.max(rel))
+                worst = names[int(np.argmax(rel))]
+                changes.append(change)
+                done, bound, ratio = settle_bound(changes, config.settle_tol)
+                if p >= config.min_periods and done:
+                    settled_at = p
+            periods = [payload]
+            if (settled_at is None and config.max_wall_s is not None
+                    and _time.perf_counter() - t_start > config.max_wall_s):
+                raise SteadyStateNotReached(
+                    f"{where}: no steady state within the wall-clock cap of {config.max_wall_s:g} s ({p} periods "
+                    f"simulated; period-to-period change {change:.3g}, estimated distance {bound:.3g} > "
+                    f"settle_tol {config.settle_tol:g})")
+            if settled_at is None and p >= config.max_periods:
+                raise SteadyStateNotReached(
+                    f"{where}: no steady state after {p} periods: period-to-period change "
+                    f"{change:.3g}, estimated distance to steady state {bound:.3g} > settle_tol "
+                    f"{config.settle_tol:g} (worst channel '{worst}'; a drifting absolute angle "
+                    f"means the integrator does not keep the rigid-body rotation periodic: use RK4)")
+        else:
+            periods.append(payload)
+        if settled_at is not None and len(periods) == config.n_periods:
+            return periods, (p, change, bound, ratio)
+
+
+def _watched_two_flywheels(config: SimulationConfig):
+    """The settle test's channels of a two-flywheel period: the relative angle (the joint's)
+    and both rates, plus the absolute angles only when they must repeat too."""
+    absolute = config.absolute_angles_periodic
+    names = ("phi1 - phi2",) + _CHANNELS[2:4] + (_CHANNELS[:2] if absolute else ())
+
+    def watched(payload):
+        b = payload[0]
+        return np.column_stack([b[:, 0] - b[:, 1], b[:, 2:4]] + ([b[:, :2]] if absolute else []))
+
+    return watched, names

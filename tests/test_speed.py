@@ -11,7 +11,6 @@ import mujoco
 import numpy as np
 import pytest
 
-import jointrig.rig.simulate as simulate_module
 from jointrig.identify.plant import PeriodicDrive
 from jointrig.rig import SimulationConfig, make_callback, passive_callback, simulate_steady_state
 from jointrig.rig.simulate import relative_departure, settle_bound
@@ -58,10 +57,10 @@ def test_settle_bound_refuses_without_decay():
 
 @needs_cc
 @pytest.mark.parametrize("omega", [20.0, 90.0])  # 3 and 1 integrator steps per sample
-def test_native_rollout_periods_are_bit_identical_to_stepping(rig, omega, monkeypatch):
+def test_native_rollout_periods_are_bit_identical_to_stepping(rig, omega):
     rolled, info_r = simulate_steady_state(rig, omega, 2500.0, SimulationConfig(n_periods=2), native=True)
-    monkeypatch.setattr(simulate_module, "_FORCE_STEPPED", True)
-    stepped, info_s = simulate_steady_state(rig, omega, 2500.0, SimulationConfig(n_periods=2), native=True)
+    stepped, info_s = simulate_steady_state(rig, omega, 2500.0, SimulationConfig(n_periods=2),
+                                            backend="native-stepped")
     _identical(rolled, stepped)
     assert info_r.periods_simulated == info_s.periods_simulated
 
