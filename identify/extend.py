@@ -28,7 +28,7 @@ from .basis import JointLaw, Monomial, Power, Term
 from .output_error import OutputErrorResult, refine_output_error, simulate_periods
 
 __all__ = ["Candidate", "CANDIDATES", "CandidateScore", "ResidualAnalysis", "ExtensionStep", "ExtensionResult",
-           "residual_analysis", "score_candidates", "extend_model"]
+           "residual_analysis", "score_candidates", "extend_model", "indistinguishable", "INDISTINGUISHABLE_SHARE"]
 
 log = logging.getLogger(__name__)
 
@@ -102,6 +102,20 @@ class CandidateScore:
     chi2: float               # reduction / sigma^2
     p_value: float
     step: float               # one Gauss-Newton step for its coefficient (start value)
+
+
+#: Two candidates whose removable residual is within this share of each other explain nearly
+#: the same part of it: the data cannot tell them apart.
+INDISTINGUISHABLE_SHARE = 0.9
+
+
+def indistinguishable(scores: Sequence[CandidateScore]) -> Optional[tuple[str, str, float]]:
+    """``(best, runner-up, relative difference of their removable residual)`` when the two
+    best-scored candidates explain nearly the same part of the residual (the runner-up removes
+    more than :data:`INDISTINGUISHABLE_SHARE` of what the best removes), else None."""
+    if len(scores) > 1 and scores[1].reduction > INDISTINGUISHABLE_SHARE * scores[0].reduction:
+        return scores[0].effect, scores[1].effect, 1 - scores[1].reduction / scores[0].reduction
+    return None
 
 
 def _rms(x) -> float:

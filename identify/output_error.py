@@ -12,15 +12,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Optional
+from typing import Optional, Sequence
 
 import numpy as np
 from scipy.optimize import least_squares
 
-from .basis import JointLaw
+from .balance import LinearSystem, single_dof_system
+from .basis import JointLaw, Term
+from .solve import IdentificationResult, solve
 from .steady import periodic_response
 
-__all__ = ["OutputErrorResult", "refine_output_error", "simulate_periods"]
+__all__ = ["OutputErrorResult", "refine_output_error", "simulate_periods", "harmonic_balance_start", "steady_rms",
+           "input_noise_rms"]
 
 
 @dataclass(frozen=True)
@@ -62,6 +65,47 @@ def simulate_periods(inertia: float, law: JointLaw, u_periods: np.ndarray, fs_Hz
                           fundamental_rad_s=2 * math.pi * fs_Hz / n, n_samples=n, delay_s=delay_s,
                           initial=initial)
     return np.fft.irfft(Y, n=n, axis=-1), Y
+
+
+def harmonic_balance_start(u_periods: np.ndarray, y_periods: np.ndarray, fs_Hz: float, terms: Sequence[Term], *,
+                           n_harmonics: int) -> tuple[float, JointLaw, IdentificationResult]:
+    """The harmonic balance (paper eq. 1-12, one coordinate) of periodic input/output records:
+    ``m y'' + law(y, y') = u`` balanced on lines 0..``n_harmonics`` of every record (each
+    ``(R, N)`` array holds one period per row), solved by least squares. Returns the inertia
+    ``m``, the law and the solver's result: the start of :func:`refine_output_error`."""
+    u, y = np.atleast_2d(u_periods), np.atleast_2d(y_periods)
+    w0 = 2 * math.pi * fs_Hz / u.shape[-1]
+    system = LinearSystem.stack([
+        single_dof_system(omega_rad_s=w0, n_periods=1, x=y[r], rate=None, forcing=u[r], terms=tuple(terms),
+                          n_harmonics=n_harmonics, inertia_name="inertia", record_index=r)
+        for r in range(u.shape[0])])
+    res = solve(system)
+    return float(res.values[0]), JointLaw(tuple(terms), tuple(res.values[1:])), res
+
+
+def steady_rms(inertia: float, law: JointLaw, u_periods: np.ndarray, y_periods: np.ndarray, fs_Hz: float, *,
+               delay_s: float = 0.0) -> float:
+    """RMS of the steady-state simulation error (data units) on periodic records; NaN when the
+    frequency-domain solver finds no steady state for the model."""
+    from .steady import SteadyStateError
+
+    try:
+        ys, _ = simulate_periods(inertia, law, u_periods, fs_Hz, delay_s=delay_s)
+    except SteadyStateError:
+        return math.nan
+    return float(np.sqrt(np.mean((ys - y_periods) ** 2)))
+
+
+def input_noise_rms(u_periods: np.ndarray, excited_max_bin: int) -> float:
+    """RMS noise of a periodic input (data units) from its non-excited even lines below
+    ``excited_max_bin``: an odd multisine puts nothing there, so what is there is noise, spread
+    evenly over the lines (white)."""
+    u = np.atleast_2d(u_periods)
+    n = u.shape[-1]
+    U = np.fft.rfft(u, axis=-1) / n
+    k = np.arange(U.shape[-1])
+    even = (k > 0) & (k <= excited_max_bin) & (k % 2 == 0)
+    return float(np.sqrt(np.mean(np.abs(U[:, even]) ** 2) * n / 2))
 
 
 def refine_output_error(

@@ -89,6 +89,18 @@ def simulate_free_run(
     return out
 
 
+def free_run_rms(law: JointLaw, inertia: float, u: np.ndarray, y: np.ndarray, fs_Hz: float,
+                 scored: dict, *, substeps: int = 4, delay_s: float = 0.0) -> tuple[dict, np.ndarray]:
+    """Free run of the model under the measured input ``u`` (band-limited between samples:
+    :class:`identify.signals.BandlimitedInput`) in the rig, and the RMS error against ``y``
+    (data units) over each named slice of ``scored``. Returns ``({name: rms}, simulated)``."""
+    from jointrig.identify.signals import BandlimitedInput
+
+    sim = simulate_free_run(law, inertia, BandlimitedInput(u, fs_Hz), u.size, fs_Hz, substeps=substeps,
+                            delay_s=delay_s)
+    return {name: float(np.sqrt(np.mean((sim[s] - y[s]) ** 2))) for name, s in scored.items()}, sim
+
+
 def simulate_free_run_reference(
     law: JointLaw,
     inertia: float,

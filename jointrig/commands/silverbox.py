@@ -23,12 +23,13 @@ from pathlib import Path
 
 import numpy as np
 
-from jointrig.identify import JointLaw, LinearSystem, Power, Viscous, single_dof_system, solve
-from jointrig.identify.extend import extend_model, residual_analysis, score_candidates
-from jointrig.identify.output_error import refine_output_error, simulate_periods
+from jointrig.identify import Power, Viscous
+from jointrig.identify.extend import extend_model, indistinguishable, residual_analysis, score_candidates
+from jointrig.identify.output_error import (harmonic_balance_start, input_noise_rms, refine_output_error,
+                                            simulate_periods, steady_rms)
 from jointrig.identify.signals import BandlimitedInput
 from jointrig.measured.silverbox import EXCITED_MAX_BIN, PERIOD, SilverboxData, load_schroeder, load_silverbox
-from jointrig.rig.oscillator import simulate_free_run, simulate_free_run_reference
+from jointrig.rig.oscillator import free_run_rms, simulate_free_run_reference
 from jointrig.rig.sweep import write_json_atomic
 from jointrig.rig.runtime import progress_level
 
@@ -59,24 +60,13 @@ NAMES = {"inertia": "m_s2", "c_Nms_per_rad": "d_s", "k_Nm_per_rad": "a", "gamma_
          "p5_Nm_per_rad5": "b5_per_V4", "delay_s": "delay_s"}
 
 
-def harmonic_balance(u: np.ndarray, y: np.ndarray, fs_Hz: float, terms) -> tuple[float, JointLaw, object]:
-    w0 = 2 * math.pi * fs_Hz / PERIOD
-    system = LinearSystem.stack([
-        single_dof_system(omega_rad_s=w0, n_periods=1, x=y[r], rate=None, forcing=u[r], terms=terms,
-                          n_harmonics=HB_MAX_LINE, inertia_name="inertia", record_index=r)
-        for r in range(u.shape[0])])
-    res = solve(system)
-    return float(res.values[0]), JointLaw(tuple(terms), tuple(res.values[1:])), res
-
-
 def arrow_rms(data: SilverboxData, inertia, law, delay_s=0.0) -> tuple[dict, np.ndarray]:
-    u, y, scored_full = data.arrow("full")
-    _, _, scored_noext = data.arrow("no_extrapolation")
-    sim = simulate_free_run(law, inertia, BandlimitedInput(u, data.fs_Hz), u.size, data.fs_Hz,
+    """Free-run RMS errors (mV) over the arrow's two scored ranges, and the simulated output (V)."""
+    u, y, full = data.arrow("full")
+    _, _, noext = data.arrow("no_extrapolation")
+    rms, sim = free_run_rms(law, inertia, u, y, data.fs_Hz, {"full": full, "no_extrapolation": noext},
                             substeps=SUBSTEPS, delay_s=delay_s)
-    rms = {name: 1e3 * float(np.sqrt(np.mean((sim[s] - y[s]) ** 2)))
-           for name, s in (("full", scored_full), ("no_extrapolation", scored_noext))}
-    return rms, sim
+    return {k: 1e3 * v for k, v in rms.items()}, sim
 
 
 def _params(names, values, stds):
@@ -97,16 +87,13 @@ def main(argv=None) -> int:
     fs = data.fs_Hz
     print(f"Silverbox: {data.path}; offsets removed: input {1e3 * data.u_offset_V:.3f} mV, output "
           f"{1e3 * data.y_offset_V:.3f} mV; multisine blocks at samples {list(data.block_starts)}")
-    U = np.fft.rfft(u, axis=-1) / PERIOD
-    k = np.arange(U.shape[-1])
-    even = (k > 0) & (k <= EXCITED_MAX_BIN) & (k % 2 == 0)
-    input_noise = float(np.sqrt(np.mean(np.abs(U[:, even]) ** 2) * PERIOD / 2))
+    input_noise = input_noise_rms(u, EXCITED_MAX_BIN)
     print(f"input noise (from the non-excited even lines of the input): {1e3 * input_noise:.3f} mV RMS "
           f"(signal {1e3 * np.std(u):.2f} mV RMS)")
 
     # 1. Harmonic balance, nominal Duffing model.
     terms = (Viscous(), Power(1), Power(3))
-    m_hb, law_hb, hb = harmonic_balance(u, y, fs, terms)
+    m_hb, law_hb, hb = harmonic_balance_start(u, y, fs, terms, n_harmonics=HB_MAX_LINE)
     # 2. Output error from there.
     oe = refine_output_error(u, y, fs, inertia=m_hb, law=law_hb)
     y_oe, _ = simulate_periods(oe.inertia, oe.law, u, fs)
@@ -135,9 +122,10 @@ def main(argv=None) -> int:
     print(f"  {'effect':20s} {'RSS removable':>13s} {'pred. RMS':>10s} {'chi2':>9s}  meaning")
     for s in scores:
         print(f"  {s.effect:20s} {s.reduction:13.3e} {1e3 * s.predicted_rms:8.4f}mV {s.chi2:9.0f}  {s.meaning}")
-    if len(scores) > 1 and scores[1].reduction > 0.9 * scores[0].reduction:
-        print(f"  note: {scores[0].effect} and {scores[1].effect} explain nearly the same part of the residual "
-              f"(within {100 * (1 - scores[1].reduction / scores[0].reduction):.0f}%): these data cannot tell "
+    tie = indistinguishable(scores)
+    if tie is not None:
+        print(f"  note: {tie[0]} and {tie[1]} explain nearly the same part of the residual "
+              f"(within {100 * tie[2]:.0f}%): these data cannot tell "
               f"them apart; multisines at several amplitude levels (the damping of one grows with rate, of "
               f"the other with amplitude) would")
     sch = load_schroeder(args.data)
@@ -167,16 +155,11 @@ def main(argv=None) -> int:
     agree = float(np.max(np.abs(ref - sim_ext[:REFERENCE_SAMPLES])))
     print(f"\nMuJoCo rig vs scipy LSODA on the first {REFERENCE_SAMPLES} arrow samples (extended model): "
           f"max |difference| {1e6 * agree:.3f} uV")
-    def schroeder_rms(inertia, law, delay_s=0.0) -> float:
-        """Steady-state RMS error (mV) on the Schroeder periods; NaN when the frequency-domain
-        solver finds no steady state for that model (said in the table)."""
-        from jointrig.identify.steady import SteadyStateError
 
-        try:
-            ys, _ = simulate_periods(inertia, law, sch.u_V, fs, delay_s=delay_s)
-        except SteadyStateError:
-            return math.nan
-        return 1e3 * float(np.sqrt(np.mean((ys - sch.y_V) ** 2)))
+    def schroeder_rms(inertia, law, delay_s=0.0) -> float:
+        """Steady-state RMS error (mV) on the Schroeder periods; NaN (said in the table) when the
+        frequency-domain solver finds no steady state for that model."""
+        return 1e3 * steady_rms(inertia, law, sch.u_V, sch.y_V, fs, delay_s=delay_s)
 
     sch_rms = {"harmonic_balance_only": schroeder_rms(m_hb, law_hb), "nominal": schroeder_rms(oe.inertia, oe.law),
                "extended": schroeder_rms(fit.inertia, fit.law, fit.delay_s)}
