@@ -1,7 +1,7 @@
 """What the nominal model gets wrong: rank physical causes by evidence and extend the model.
 
 Pure functions (records in, frozen dataclasses out); the rig simulations that measure the
-gain on held-out runs live in :mod:`rig.validate`.
+gain on held-out runs live in :mod:`studies.validate`.
 
 1. **Prepare** every run (:func:`prepare_runs`): average its P periods in the frequency
    domain, estimate the noise variance of every Fourier coefficient from period-to-period

@@ -525,7 +525,7 @@ def write_runs(path: Union[str, os.PathLike], records: Sequence[SteadyStateRecor
                run_ids: Optional[Sequence] = None, with_omega: bool = True, comment: str = "") -> Path:
     """Write records in the measured-runs format (CSV with units in the header, or Parquet
     with units in the schema metadata), atomically (temp file + rename)."""
-    from jointrig.rig.sweep import write_atomic
+    from jointrig.files import write_atomic
 
     path = Path(path)
     run_ids = list(range(len(records))) if run_ids is None else list(run_ids)

@@ -1,8 +1,11 @@
-"""The MuJoCo virtual test rig: two flywheels joined by a nonlinear joint, driven harmonically.
+"""The MuJoCo virtual test rig: two flywheels (or a chain of them) joined by nonlinear joints,
+driven periodically, simulated to steady state.
 
-Submodules beyond the core: :mod:`measurement` (noise model), :mod:`validate` (diagnosis with
-validation in the rig), :mod:`diagnosis_report`, :mod:`hidden_effects` (ground-truth cases),
-:mod:`native_callback` (the callback in C).
+Submodules: :mod:`model` (MJCF rigs), :mod:`simulate` (steady state), :mod:`callback` (MuJoCo's
+global passive callback, scoped), :mod:`native_callback` (the callback in C), :mod:`chain`
+(drive trains), :mod:`oscillator` (the one-coordinate rig of the Silverbox), :mod:`measurement`
+(the sensors' noise) and :mod:`runtime` (a command's process settings). What is run with the
+rig lives in ``jointrig.studies``; what people read, in ``jointrig.present``.
 """
 
 import importlib

@@ -24,7 +24,7 @@ import mujoco
 from jointrig.identify.chain import identify_chain
 from jointrig.identify.plant import PeriodicDrive
 from jointrig.rig.chain import chain_callback, load_chain, simulate_chain
-from jointrig.rig.chain_sweep import CHAIN_CONFIG, CHAIN_PLAN
+from jointrig.studies.chain_sweep import CHAIN_CONFIG, CHAIN_PLAN
 from jointrig.rig.native_callback import NativeChain
 from jointrig.rig.runtime import limit_threads
 from jointrig.rig.simulate import _activated, passive_callback

@@ -30,8 +30,8 @@ from jointrig.identify.diagnose import NOMINAL, _Problem, fit, prepare_runs
 from jointrig.measured.runs import read_runs
 from jointrig.rig import DEFAULT_MODEL, SimulationConfig, load_rig, simulate_steady_state
 from jointrig.rig.runtime import limit_threads
-from jointrig.rig.sweep import write_json_atomic
-from jointrig.rig.validate import default_holdout
+from jointrig.files import write_json_atomic
+from jointrig.studies.validate import default_holdout
 
 WORN = DEFAULT_MODEL.parent / "two_flywheels_worn.xml"
 POINTS = [(w, a) for w in (25.0, 40.0, 55.0) for a in (1500.0, 2500.0, 3500.0)]

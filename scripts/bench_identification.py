@@ -25,8 +25,9 @@ import time
 from pathlib import Path
 
 from jointrig.rig import SimulationConfig, load_rig
-from jointrig.rig.montecarlo import monte_carlo
-from jointrig.rig.sweep import DEFAULT_PLAN, records_of, run_sweep, write_json_atomic
+from jointrig.studies.montecarlo import monte_carlo
+from jointrig.studies.sweep import DEFAULT_PLAN, records_of, run_sweep
+from jointrig.files import write_json_atomic
 
 
 def main(argv=None) -> int:

@@ -14,7 +14,7 @@ rig.simulate or the C callback of rig.native_callback. The best of R repeats is 
 
 Identification (simulation excluded, same records for all): harmonic balance (equivalent
 form, harmonics 0..9, Je and the law unknown) timed as the best of R repeats; mujoco.sysid
-(rig/peers.py: native polynomial stiffness, both inertias given, started 30% / 30% / 100%
+(studies/peers.py: native polynomial stiffness, both inertias given, started 30% / 30% / 100%
 away from the truth in k / c / gamma) and pysindy timed once each. Errors are the largest
 relative error over k, c and gamma.
 """
@@ -34,7 +34,8 @@ from jointrig.identify import identify
 from jointrig.identify.plant import PeriodicDrive
 from jointrig.rig import SimulationConfig, load_rig, make_callback, passive_callback
 from jointrig.rig.native_callback import NativeLaw
-from jointrig.rig.sweep import DEFAULT_PLAN, records_of, run_sweep, write_json_atomic
+from jointrig.studies.sweep import DEFAULT_PLAN, records_of, run_sweep
+from jointrig.files import write_json_atomic
 
 
 def _time_steps(m, d, n: int, repeats: int) -> float:
@@ -115,7 +116,7 @@ def main(argv=None) -> int:
     out["hb_max_rel_error"] = max_rel({n: hb.value(n) for n in truth})
     details = {"hb_parameters": {n: hb.value(n) for n in truth}}
     if not args.no_peers:
-        from jointrig.rig.peers import sindy_identify, sysid_identify
+        from jointrig.studies.peers import sindy_identify, sysid_identify
 
         start = {"k_Nm_per_rad": 1.3 * truth["k_Nm_per_rad"], "c_Nms_per_rad": 0.7 * truth["c_Nms_per_rad"],
                  "gamma_Nm_per_rad3": 2.0 * truth["gamma_Nm_per_rad3"]}

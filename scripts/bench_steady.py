@@ -32,7 +32,8 @@ import numpy as np
 from jointrig.identify import identify
 from jointrig.rig import SimulationConfig, load_rig
 from jointrig.rig.simulate import relative_departure
-from jointrig.rig.sweep import DEFAULT_PLAN, simulate_segment, write_json_atomic
+from jointrig.studies.sweep import DEFAULT_PLAN, simulate_segment
+from jointrig.files import write_json_atomic
 
 
 REFERENCE_EXTRA = 30

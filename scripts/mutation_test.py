@@ -238,7 +238,7 @@ def main(argv=None) -> int:
     import scipy.linalg  # noqa: F401
     import scipy.optimize  # noqa: F401
 
-    from jointrig.rig.sweep import write_json_atomic
+    from jointrig.files import write_json_atomic
 
     modules = args.module or list(MODULES)
     plan = []

@@ -23,7 +23,7 @@ from bench_chain_sim import TRAIN, measured_runs, with_effect
 from jointrig.identify.chain import ChainRecord
 from jointrig.identify.chain_diagnose import diagnose_chain, prepare_chain_runs
 from jointrig.rig.chain import load_chain
-from jointrig.rig.chain_validate import validate_chain
+from jointrig.studies.chain_validate import validate_chain
 from jointrig.rig.simulate import SimulationConfig
 
 #: (omega rad/s, amplitude N m, driven flywheel): around the modes (66, 173, 214 rad/s), from both ends.

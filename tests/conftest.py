@@ -11,7 +11,7 @@ import pytest
 
 from jointrig.rig import DEFAULT_MODEL, SimulationConfig, load_rig
 from jointrig.rig.runtime import limit_threads
-from jointrig.rig.sweep import DEFAULT_PLAN, records_of, run_sweep
+from jointrig.studies.sweep import DEFAULT_PLAN, records_of, run_sweep
 
 # pytest-xdist already runs one test per core: a diagnosis scores its causes in this process
 # (and so do the commands the tests start), not in forked workers of its own. The parallel

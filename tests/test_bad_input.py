@@ -352,7 +352,7 @@ def test_other_commands_check_arguments_first(capsys, script, args, match):
 
 def test_truncated_store_point_is_simulated_again(tmp_path, rig, caplog):
     from jointrig.rig import SimulationConfig
-    from jointrig.rig.sweep import SweepPlan, run_sweep
+    from jointrig.studies.sweep import SweepPlan, run_sweep
 
     plan = SweepPlan((30.0,), (500.0,))
     cfg = SimulationConfig(samples_per_period=64)

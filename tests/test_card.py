@@ -119,11 +119,11 @@ def test_card_from_runs_is_the_laws_loop_along_the_measured_motion(rig, law):
 
 
 def test_virtual_phase_resonance_agrees_with_the_law_card(rig):
-    # The rig driven at 90 degrees of phase lag at each level (rig/phase_resonance.py) measures
+    # The rig driven at 90 degrees of phase lag at each level (studies/phase_resonance.py) measures
     # the backbone without any describing function. The paper's joint is nearly linear at
     # these levels and its motion at resonance nearly harmonic: omega_n and zeta agree to
     # 2.6e-6 (measured); asked 1e-5.
-    from jointrig.rig.phase_resonance import phase_resonance
+    from jointrig.studies.phase_resonance import phase_resonance
 
     pr = phase_resonance(rig, [400.0, 4000.0], xtol_rad_s=1e-5)
     card = law_card(rig.law, rig.Je_kgm2, [p.amplitude_rad for p in pr.points])
@@ -139,7 +139,7 @@ def test_virtual_phase_resonance_of_a_jenkins_joint(rig):
     # motion. Measured against the describing function: omega_n 5.1e-4, zeta 1.2e-3, E 1.8e-4
     # apart; asked 2e-3, 5e-3, 1e-3 (the single-harmonic view of the slip's corners).
     # The brent tolerance 1e-4 rad/s is 4e-6 of omega_n.
-    from jointrig.rig.phase_resonance import phase_resonance
+    from jointrig.studies.phase_resonance import phase_resonance
 
     law = JointLaw((Viscous(), Power(1), Jenkins(0.02)), (5.0, 500.0, 40.0))
     pr = phase_resonance(rig, [400.0], law=law, xtol_rad_s=1e-4, omega_bracket_rad_s=(15.0, 40.0))
@@ -191,7 +191,7 @@ def test_virtual_phase_resonance_of_an_iwan_joint_in_micro_slip(rig):
     # 1e-3, 1e-2, 1e-2. Both give the dissipation slope 2.43 (the 3 + chi = 2.5 of the Iwan
     # element, pulled towards the viscous 2 by c): asked 0.02 apart. settle_tol 1e-6 moves
     # the results by < 1e-5 against 1e-9 (measured).
-    from jointrig.rig.phase_resonance import phase_resonance
+    from jointrig.studies.phase_resonance import phase_resonance
 
     law = JointLaw((Viscous(), Power(1), Iwan(0.05)), (0.5, 500.0, 40.0))
     pr = phase_resonance(rig, [3.0, 6.0, 12.0], law=law, xtol_rad_s=1e-3, omega_bracket_rad_s=(30.0, 55.0),
@@ -241,7 +241,7 @@ def test_masing_check_on_rig_runs(rig, name, law, follows):
 @needs_cc
 @pytest.mark.parametrize("case, adopted", [("paper", ()), ("jenkins", ("hysteresis",)), ("iwan", ("micro_slip",))])
 def test_identified_card_and_runs_card_agree_with_phase_resonance(rig, case, adopted):
-    # rig/card_check.py: a stepped-sine test at 40 dB is diagnosed (the paper's nominal model
+    # studies/card_check.py: a stepped-sine test at 40 dB is diagnosed (the paper's nominal model
     # plus the causes it adopts), and the identified card is held against a virtual
     # phase-resonance test at the amplitudes that test reached; the phase-resonance runs,
     # measured at 40 dB, give the runs' card. Bands:
@@ -253,7 +253,7 @@ def test_identified_card_and_runs_card_agree_with_phase_resonance(rig, case, ado
     #   the latter the paper's joint's dissipation was 3.5 of its errors off). Measured: 1.46.
     # - dissipation slopes (E against A along the backbone): 3 standard errors of the identified
     #   one. Closed forms of the slopes are tested on the laws above (2, 1, 3 + chi).
-    from jointrig.rig.card_check import check_card
+    from jointrig.studies.card_check import check_card
 
     check = check_card(rig, case)
     assert check.adopted == adopted

@@ -189,7 +189,7 @@ def test_native_chain_callback_is_bit_identical_to_the_python_one(model):
     from jointrig.identify.chain import ChainPlant
     from jointrig.identify.plant import PeriodicDrive
     from jointrig.rig.chain import simulate_chain
-    from jointrig.rig.chain_sweep import CHAIN_CONFIG
+    from jointrig.studies.chain_sweep import CHAIN_CONFIG
 
     rig = load_chain(MODELS_DIR / model)
     # bit identity does not depend on the step: a coarse one keeps the Python path quick
@@ -217,7 +217,7 @@ def test_native_chain_callback_is_bit_identical_to_the_python_one(model):
 def test_chain_sweep_in_threads_is_bit_identical_to_serial():
     # Two threads share one installed native callback (each simulation finds its blocks by its
     # MjData): the same records, bit for bit, in the order given.
-    from jointrig.rig.chain_sweep import CHAIN_CONFIG, run_chain_sweep
+    from jointrig.studies.chain_sweep import CHAIN_CONFIG, run_chain_sweep
 
     rig = load_chain(MODELS_DIR / "pump_train_worn.xml")
     points = [(300.0, 60.0, 1), (1200.0, 60.0, 1), (400.0, 30.0, 4), (600.0, 60.0, 1)]
@@ -313,7 +313,7 @@ def test_chain_maximum_likelihood_standard_errors_hold_at_40_db():
     # 5 x 11 values lies in 1 +- 3 sqrt(2/55) = [0.43, 1.57], no |z| exceeds 4.5 (a 1e-5 tail
     # over 55 draws), and V/dof of every fit has a chi-square p above 1e-3.
     from jointrig.identify.chain import ml_identify_chain
-    from jointrig.rig.chain_sweep import CHAIN_CONFIG, CHAIN_PLAN, run_chain_sweep
+    from jointrig.studies.chain_sweep import CHAIN_CONFIG, CHAIN_PLAN, run_chain_sweep
     from jointrig.rig.measurement import measure_chain
 
     rig = load_chain(PUMP_TRAIN)
@@ -334,7 +334,7 @@ def test_chain_sweep_on_a_dask_cluster_gives_the_local_records(tmp_path):
     # Two worker processes rebuild the chain from the model text; the records come back in the
     # order given, bit for bit those of a local sweep, and the store then serves them.
     pytest.importorskip("dask.distributed")
-    from jointrig.rig.chain_sweep import CHAIN_CONFIG, run_chain_sweep
+    from jointrig.studies.chain_sweep import CHAIN_CONFIG, run_chain_sweep
 
     rig = load_chain(MODELS_DIR / "pump_train.xml")
     points = [(1200.0, 60.0, 1), (400.0, 30.0, 4), (2000.0, 60.0, 1)]

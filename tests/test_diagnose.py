@@ -1,10 +1,10 @@
 """The diagnosis finds effects hidden in rig data it is not told about.
 
-Every case (``rig.hidden_effects``) simulates the paper's joint with one hidden effect (or none,
+Every case (``studies.hidden_effects``) simulates the paper's joint with one hidden effect (or none,
 or two) over omega = 25, 40, 55 rad/s x M0 = 1500, 2500, 3500 N m (9 runs, 16 periods each),
 measures it at 40 dB SNR on torque and both angles, writes and reads the measured-runs CSV, and
 runs the
-whole product path (:func:`rig.validate.run_diagnosis`): fit on 6 runs, hold out runs 1, 4, 7
+whole product path (:func:`studies.validate.run_diagnosis`): fit on 6 runs, hold out runs 1, 4, 7
 (the middle amplitude at each frequency), validate in the rig.
 
 Acceptance (issue 4): the hidden effect ranked first; its magnitude within 15%; gain >= 5
@@ -21,9 +21,9 @@ import pytest
 
 from jointrig.identify.diagnose import EFFECT_MAGNITUDE
 from jointrig.measured.runs import read_runs, write_runs
-from jointrig.rig.hidden_effects import HIDDEN_EFFECTS as CASES
-from jointrig.rig.hidden_effects import simulate_case
-from jointrig.rig.validate import run_diagnosis
+from jointrig.studies.hidden_effects import HIDDEN_EFFECTS as CASES
+from jointrig.studies.hidden_effects import simulate_case
+from jointrig.studies.validate import run_diagnosis
 
 # One worker runs this module: its session-scoped fixture is computed once (pytest-xdist
 # --dist loadgroup), not once per worker.
@@ -122,7 +122,7 @@ def test_a_jenkins_element_that_never_sticks_is_named_dry_friction(rig, tmp_path
     # friction drowns in noise: the Jenkins fit's slip angle falls below what the angles
     # resolve, and the tool names it by its physics, dry friction (issue 11), instead of
     # offering "hysteresis" as an equal rival.
-    from jointrig.rig.diagnosis_report import format_report, report_json
+    from jointrig.present.diagnosis_report import format_report, report_json
 
     records, _ = measured(rig, tmp_path_factory, "coulomb_friction", snr_db=20.0, seed=5)
     report = run_diagnosis(records, rig=rig)
@@ -176,14 +176,14 @@ def test_noise_is_estimated_from_period_to_period_variation():
 @pytest.mark.parametrize("case", ["none", "hysteresis", "micro_slip"])
 def test_identified_card_agrees_with_virtual_phase_resonance(rig, reports, case):
     # The card of the model the diagnosis adopted (identified from the noisy runs) against a
-    # virtual phase-resonance test of the true joint in the rig (rig/phase_resonance.py) at
+    # virtual phase-resonance test of the true joint in the rig (studies/phase_resonance.py) at
     # two levels: the paper's joint, a Jenkins joint and an Iwan joint. Measured: every
     # quantity within 1.02 of the card's standard errors (propagated from the fit's
     # covariance); asked within 3. The phase-resonance result has no standard error: it is the
     # true joint, up to Brent's 1e-4 rad/s (2e-6 of omega_n).
     from jointrig.identify.card import law_card
-    from jointrig.rig.joint_card import identified_law
-    from jointrig.rig.phase_resonance import phase_resonance
+    from jointrig.studies.joint_card import identified_law
+    from jointrig.studies.phase_resonance import phase_resonance
 
     report, _ = reports(case)
     law, je, cov, name, _ = identified_law(report)
@@ -198,7 +198,7 @@ def test_identified_card_agrees_with_virtual_phase_resonance(rig, reports, case)
 
 
 def test_the_report_says_which_generalisation_the_held_out_runs_test(reports):
-    from jointrig.rig.validate import generalisation_kind
+    from jointrig.studies.validate import generalisation_kind
 
     fit = [(25.0, 1500.0, 0), (25.0, 3500.0, 0), (55.0, 1500.0, 0), (55.0, 3500.0, 0)]
     assert generalisation_kind(fit, [(25.0, 1500.0 * 1.005, 0)]).endswith("(another realisation only)")
@@ -216,7 +216,7 @@ def test_causes_scored_in_forked_workers_give_the_same_diagnosis(rig, tmp_path_f
     # The causes of a round are independent: scored in two forked processes they give the
     # same numbers, bit for bit, as in one (the fixture's diagnosis ran with one).
     from jointrig.identify.diagnose import diagnose, prepare_runs
-    from jointrig.rig.validate import default_holdout
+    from jointrig.studies.validate import default_holdout
 
     report, _ = reports("backlash")
     records, _ = measured(rig, tmp_path_factory, "backlash")

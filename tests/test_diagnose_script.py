@@ -173,7 +173,7 @@ def test_report_renders_in_a_real_browser_without_errors_or_overflow(outputs, wi
     exe = _chromium()
     if exe is None:
         pytest.skip("no Chromium on PATH (Debian: apt-get install chromium)")
-    from jointrig.rig.formatting import with_se
+    from jointrig.present.formatting import with_se
 
     d = json.loads((outputs / "d.json").read_text())
     errors, requests = [], []

@@ -17,7 +17,7 @@ from jointrig.identify.basis import Power, Viscous
 from jointrig.identify.eiv import _debiased, average_periods, crlb, ml_identify
 from jointrig.identify.records import RecordError
 from jointrig.rig.measurement import add_noise, repeat_periods
-from jointrig.rig.montecarlo import monte_carlo
+from jointrig.studies.montecarlo import monte_carlo
 
 # One worker runs this module: its session-scoped fixture is computed once (pytest-xdist
 # --dist loadgroup), not once per worker.
@@ -114,7 +114,7 @@ def test_encoder_quantises_the_angles(default_sweep):
 def test_fixed_bench_sampling_rate_is_coherent_and_identifiable(rig):
     from jointrig.rig import SimulationConfig
     from jointrig.rig.simulate import coherent_omega
-    from jointrig.rig.sweep import SweepPlan, records_of, run_sweep
+    from jointrig.studies.sweep import SweepPlan, records_of, run_sweep
 
     fs = 300.0
     with pytest.raises(ValueError, match="not coherent"):

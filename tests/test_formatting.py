@@ -1,11 +1,11 @@
-"""Numbers for people (rig/formatting.py): units read from quantity names, values to the precision
+"""Numbers for people (present/formatting.py): units read from quantity names, values to the precision
 of their standard errors. Expected strings written by hand."""
 
 import math
 
 import pytest
 
-from jointrig.rig.formatting import quantity_of, unit_of, with_se
+from jointrig.present.formatting import quantity_of, unit_of, with_se
 
 
 @pytest.mark.parametrize("value, se, text", [

@@ -8,7 +8,7 @@ import pytest
 from jointrig.identify.hat import fit_hat_law, knots_from_range
 from jointrig.rig import SimulationConfig, load_rig
 from jointrig.rig.measurement import add_noise, repeat_periods
-from jointrig.rig.sweep import DEFAULT_PLAN, records_of, run_sweep
+from jointrig.studies.sweep import DEFAULT_PLAN, records_of, run_sweep
 
 from conftest import MODELS_DIR
 

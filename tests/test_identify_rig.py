@@ -7,7 +7,7 @@ import pytest
 
 from jointrig.identify import Power, Viscous, identify
 from jointrig.rig import SimulationConfig, simulate_steady_state
-from jointrig.rig.sweep import DEFAULT_PLAN, SweepPlan, SweepStoreMismatch, records_of, run_sweep
+from jointrig.studies.sweep import DEFAULT_PLAN, SweepPlan, SweepStoreMismatch, records_of, run_sweep
 
 # Acceptance is 1e-4 relative. Measured with RK4 at dt <= 5e-4 s (the default): <= 2.5e-8 for the
 # polynomial joint (1.9e-7 at dt <= 1e-3 s: error ~ dt^3), so 1e-6 still leaves a 40x margin

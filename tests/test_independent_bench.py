@@ -25,7 +25,7 @@ import pytest
 from bench_sim import JOINTS, POINTS, measure, with_effect
 from jointrig.identify.diagnose import CAUSES
 from jointrig.measured.runs import read_runs
-from jointrig.rig.validate import run_diagnosis
+from jointrig.studies.validate import run_diagnosis
 
 KIND = {c.name: c.kind for c in CAUSES}
 
@@ -143,7 +143,7 @@ def _figures(case):
 
 
 if __name__ == "__main__":
-    # The figures behind the verdict's thresholds (rig/validate.py), every case on two cores:
+    # The figures behind the verdict's thresholds (studies/validate.py), every case on two cores:
     #   .venv/bin/python tests/test_independent_bench.py
     from concurrent.futures import ProcessPoolExecutor
 

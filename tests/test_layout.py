@@ -1,5 +1,7 @@
 """The layout's rules, checked on the source: no import cycle among jointrig's modules (imports
-inside functions count: they only hide a cycle), and ``identify`` never imports ``rig``."""
+inside functions count: they only hide a cycle), and the layers import only downwards:
+``identify`` (mathematics) and ``measured`` (readers) below ``rig`` (the simulator), below
+``studies`` (what is run with it), below ``present`` (what people read), below the commands."""
 
 from __future__ import annotations
 
@@ -8,7 +10,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGES = {"rig": "jointrig.rig", "identify": "jointrig.identify", "measured": "jointrig.measured",
-            "jointrig": "jointrig"}
+            "studies": "jointrig.studies", "present": "jointrig.present", "jointrig": "jointrig"}
 
 
 def _modules() -> dict[str, Path]:
@@ -88,3 +90,33 @@ def test_identify_never_imports_rig():
     bad = {m: sorted(x for x in deps if x.startswith("jointrig.rig")) for m, deps in graph.items()
            if m.startswith("jointrig.identify")}
     assert {m: d for m, d in bad.items() if d} == {}
+
+
+#: Each layer and the packages it must not import (anything above it).
+ABOVE = {
+    "jointrig.identify": ("jointrig.measured", "jointrig.rig", "jointrig.studies", "jointrig.present",
+                          "jointrig.commands", "jointrig.cli"),
+    "jointrig.measured": ("jointrig.rig", "jointrig.studies", "jointrig.present", "jointrig.commands", "jointrig.cli"),
+    "jointrig.rig": ("jointrig.studies", "jointrig.present", "jointrig.commands", "jointrig.cli"),
+    "jointrig.studies": ("jointrig.present", "jointrig.commands", "jointrig.cli"),
+    "jointrig.present": ("jointrig.commands", "jointrig.cli"),
+}
+
+
+def test_layers_import_only_downwards():
+    graph = _graph()
+    assert any(m.startswith("jointrig.studies.") for m in graph) and any(m.startswith("jointrig.present.") for m in graph)
+    bad = {}
+    for layer, above in ABOVE.items():
+        for m, deps in graph.items():
+            if m == layer or m.startswith(layer + "."):
+                up = sorted(d for d in deps if d.startswith(above))
+                if up:
+                    bad[m] = up
+    assert bad == {}
+
+
+def test_the_layer_check_sees_an_upward_import():
+    graph = {"jointrig.rig.simulate": {"jointrig.studies.sweep"}}
+    up = [d for d in graph["jointrig.rig.simulate"] if d.startswith(ABOVE["jointrig.rig"])]
+    assert up == ["jointrig.studies.sweep"]

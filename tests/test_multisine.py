@@ -11,7 +11,7 @@ from jointrig.identify import identify
 from jointrig.identify.basis import JointLaw, Power
 from jointrig.identify.multisine import line_levels, odd_multisine
 from jointrig.rig import SimulationConfig, simulate_steady_state
-from jointrig.rig.sweep import DEFAULT_MULTISINE, run_multisines
+from jointrig.studies.sweep import DEFAULT_MULTISINE, run_multisines
 
 # One worker runs this module: its session-scoped fixture is computed once (pytest-xdist
 # --dist loadgroup), not once per worker.

@@ -6,7 +6,7 @@ import pytest
 
 from jointrig.identify.plant import PeriodicDrive
 from jointrig.rig import SimulationConfig, load_rig, simulate_steady_state
-from jointrig.rig.hidden_effects import HIDDEN_EFFECTS
+from jointrig.studies.hidden_effects import HIDDEN_EFFECTS
 
 from conftest import MODELS_DIR, assert_identical_records as _identical, needs_cc
 
@@ -53,7 +53,7 @@ def test_hat_law_and_a_replayed_multiharmonic_drive(rig):
 def test_parallel_native_sweep_equals_the_serial_python_sweep(rig, tmp_path):
     # Threads share the one installed native callback, each simulation finding its own
     # parameters by its MjData; every point is independent, so the records are identical.
-    from jointrig.rig.sweep import SweepPlan, records_of, run_sweep
+    from jointrig.studies.sweep import SweepPlan, records_of, run_sweep
 
     plan = SweepPlan(omegas_rad_s=(10.0, 45.0, 90.0), amplitudes_Nm=(400.0, 4000.0))
     serial = records_of(run_sweep(rig, plan, SimulationConfig()))

@@ -18,7 +18,7 @@ import pytest
 
 from bench_sim import JOINTS, POINTS, cogging, late_channel, measure, torque_calibration, with_effect
 from jointrig.measured.runs import read_runs
-from jointrig.rig.validate import run_diagnosis
+from jointrig.studies.validate import run_diagnosis
 
 HOLDOUT = (2, 3)
 #: Held-out runs for the torque cell's calibration error: the lowest level's middle frequency and

@@ -6,8 +6,8 @@ import numpy as np
 import rerun as rr
 
 from conftest import blueprint_views
-from jointrig.rig.recording import log_parameter_table, log_restoring_band, log_silverbox, open_recording
-from jointrig.rig.recording import unknown_law_blueprint
+from jointrig.present.recording import log_parameter_table, log_restoring_band, log_silverbox, open_recording
+from jointrig.present.recording import unknown_law_blueprint
 
 
 def _paths(rrd):

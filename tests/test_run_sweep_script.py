@@ -13,7 +13,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 from jointrig.commands import run_sweep  # noqa: E402
 
-from jointrig.rig.recording import expected_entities, run_label  # noqa: E402
+from jointrig.present.recording import expected_entities, run_label  # noqa: E402
 
 # One worker runs this module: its session-scoped fixture is computed once (pytest-xdist
 # --dist loadgroup), not once per worker.

@@ -14,7 +14,7 @@ import pytest
 from jointrig.identify.plant import PeriodicDrive
 from jointrig.rig import SimulationConfig, make_callback, passive_callback, simulate_steady_state
 from jointrig.rig.simulate import relative_departure, settle_bound
-from jointrig.rig.sweep import SweepPlan, records_of, run_sweep, simulate_segment
+from jointrig.studies.sweep import SweepPlan, records_of, run_sweep, simulate_segment
 
 from conftest import assert_identical_records as _identical, needs_cc
 
@@ -164,9 +164,9 @@ def test_executor_arguments_are_checked(rig):
 # --- peers ---------------------------------------------------------------------------------
 
 def test_native_polynomial_stiffness_agrees_with_the_callback_law(rig):
-    """MuJoCo's own stiffness="k 0 gamma" and damping c on a relative hinge (rig/peers.py) and
+    """MuJoCo's own stiffness="k 0 gamma" and damping c on a relative hinge (studies/peers.py) and
     the rig's passive callback give the same free decay: an independent check of the law."""
-    from jointrig.rig.peers import peer_model_xml
+    from jointrig.studies.peers import peer_model_xml
 
     h, n, phi0 = 5e-4, 2000, 0.4
     m = rig.model.__copy__()
@@ -202,7 +202,7 @@ def peer_records(rig):
 
 
 def test_mujoco_sysid_recovers_the_joint_with_shifted_sensor_times(rig, peer_records):
-    from jointrig.rig.peers import sysid_identify
+    from jointrig.studies.peers import sysid_identify
 
     records, steps = peer_records
     truth = rig.law.as_dict()
@@ -219,7 +219,7 @@ def test_mujoco_sysid_recovers_the_joint_with_shifted_sensor_times(rig, peer_rec
 
 def test_pysindy_recovers_the_joint(rig, peer_records):
     pytest.importorskip("pysindy")
-    from jointrig.rig.peers import sindy_identify
+    from jointrig.studies.peers import sindy_identify
 
     records, _ = peer_records
     got = sindy_identify(records, rig.J1_kgm2, rig.J2_kgm2)

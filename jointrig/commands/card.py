@@ -4,7 +4,7 @@
 
 The runs are diagnosed first (``jointrig diagnose``: the nominal model, the causes, the adopted
 extension, validated in the rig); the card is then computed twice (identify/card.py,
-rig/joint_card.py): from the runs alone (first harmonics and loop areas, the inertias from the
+studies/joint_card.py): from the runs alone (first harmonics and loop areas, the inertias from the
 fit) and from the identified model (describing function), at each run's amplitude and drive
 frequency and along the model's backbone. It prints the card; ``--json`` holds a list
 ``amplitudes`` (``amplitude_rad``, ``natural_frequency_rad_s``, ``damping_ratio``,

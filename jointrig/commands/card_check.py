@@ -1,4 +1,4 @@
-"""The identified joint card held against a virtual phase-resonance test (rig/card_check.py).
+"""The identified joint card held against a virtual phase-resonance test (studies/card_check.py).
 
     jointrig card-check [CASE ...] [--snr-db 40] [--seed 1] [--periods 8] [--json OUT]
 
@@ -18,9 +18,9 @@ import logging
 from pathlib import Path
 
 from jointrig.rig import load_rig
-from jointrig.rig.card_check import CARD_CASES, check_card, check_text, worst
+from jointrig.studies.card_check import CARD_CASES, check_card, check_text, worst
 from jointrig.rig.runtime import check_output, check_range, limit_threads, progress_level
-from jointrig.rig.sweep import write_json_atomic
+from jointrig.files import write_json_atomic
 
 log = logging.getLogger("jointrig.card-check")
 

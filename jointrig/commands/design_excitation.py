@@ -26,8 +26,9 @@ from jointrig.identify.design import d_optimal, design_cost_s, log_det
 from jointrig.identify.eiv import fisher_per_period
 from jointrig.rig import SimulationConfig, load_rig
 from jointrig.rig.measurement import noise_std
-from jointrig.rig.montecarlo import monte_carlo
-from jointrig.rig.sweep import DEFAULT_PLAN, SweepPlan, records_of, run_sweep, write_json_atomic
+from jointrig.studies.montecarlo import monte_carlo
+from jointrig.studies.sweep import DEFAULT_PLAN, SweepPlan, records_of, run_sweep
+from jointrig.files import write_json_atomic
 
 CANDIDATES = SweepPlan(omegas_rad_s=(1.0, 2.5, 5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 35.0, 40.0, 42.5, 45.0, 47.5, 50.0,
                                      55.0, 60.0, 70.0, 80.0, 90.0),
@@ -148,7 +149,7 @@ def chain_main(args) -> int:
 
     from jointrig.identify.chain import fisher_per_period
     from jointrig.rig.chain import load_chain
-    from jointrig.rig.chain_sweep import CHAIN_CONFIG, CHAIN_PLAN, run_chain_sweep
+    from jointrig.studies.chain_sweep import CHAIN_CONFIG, CHAIN_PLAN, run_chain_sweep
     from jointrig.rig.runtime import check_output, check_range
 
     check_range(args.snr_db, "--snr-db", lo=0, hi=200, lo_open=True)

@@ -71,10 +71,10 @@ def main(argv=None) -> int:
 
     from jointrig.identify.records import RecordError
     from jointrig.measured.runs import RunsFileError, read_runs
-    from jointrig.rig.diagnosis_report import format_report, report_json
+    from jointrig.present.diagnosis_report import format_report, report_json
     from jointrig.rig.simulate import SimulationError
-    from jointrig.rig.sweep import write_json_atomic
-    from jointrig.rig.validate import run_diagnosis
+    from jointrig.files import write_json_atomic
+    from jointrig.studies.validate import run_diagnosis
 
     limit_threads()
     logging.basicConfig(level=progress_level(args.quiet), format="%(message)s",
@@ -121,19 +121,19 @@ def main(argv=None) -> int:
         log.info("wrote %s", args.json)
     card = None
     if args.card or args.card_png or args.card_only:
-        from jointrig.rig.joint_card import card_of_diagnosis
+        from jointrig.studies.joint_card import card_of_diagnosis
 
         log.info("computing the joint card")
         card = card_of_diagnosis(report, loaded.records, run_ids=loaded.run_ids, torque_share=args.torque_share)
     if args.rrd:
-        from jointrig.rig.diagnosis_report import log_diagnosis
-        from jointrig.rig.recording import open_recording
+        from jointrig.present.diagnosis_report import log_diagnosis
+        from jointrig.present.recording import open_recording
 
         with open_recording(args.rrd) as rec:
             log_diagnosis(rec, report, text, card=card)
         log.info("wrote %s", args.rrd)
     if args.report:
-        from jointrig.rig.diagnosis_report import write_html
+        from jointrig.present.diagnosis_report import write_html
 
         write_html(args.report, report, text, title=f"jointrig diagnosis of {args.data.name}",
                    input_sha256=loaded.sha256, source=str(args.data), notes=loaded.notes, card=card)
@@ -147,9 +147,9 @@ def main(argv=None) -> int:
 
 
 def write_card(args, loaded, card) -> None:
-    """The joint card of the diagnosis (rig/joint_card.py): printed, and written as JSON and PNG."""
-    from jointrig.rig.joint_card import card_json, card_png
-    from jointrig.rig.sweep import write_atomic, write_json_atomic
+    """The joint card of the diagnosis (studies/joint_card.py): printed, and written as JSON and PNG."""
+    from jointrig.studies.joint_card import card_json, card_png
+    from jointrig.files import write_atomic, write_json_atomic
 
     print(format_card(card))
     if args.card:
@@ -162,7 +162,7 @@ def write_card(args, loaded, card) -> None:
 
 
 def format_card(card) -> str:
-    from jointrig.rig.formatting import sig, with_se
+    from jointrig.present.formatting import sig, with_se
 
     def row(src, p):
         return (f"  {src:13s} {p.run:>4s} {sig(p.amplitude_rad):>9s} {sig(p.omega_rad_s, 4):>7s} "
@@ -189,7 +189,7 @@ def format_card(card) -> str:
     lines.append(f"  dissipation slope d lnE / d lnA: runs {slope(card.runs)}, model at the runs "
                  f"{slope(card.model_at_runs)}, backbone {slope(card.model)} (viscous 2 and rate exponent 1, "
                  f"dry friction 1 and 0, micro-slip 3 + chi)")
-    from jointrig.rig.joint_card import masing_text
+    from jointrig.studies.joint_card import masing_text
 
     lines.append("  " + masing_text(card.masing))
     return "\n".join(lines)
@@ -199,7 +199,7 @@ def write_mjcf(args, loaded, report) -> None:
     """The adopted model as a rig model file, checked by compiling it before it is put in place."""
     from jointrig.identify.diagnose import plant_of
     from jointrig.rig.model import identified_model_xml, load_rig
-    from jointrig.rig.sweep import write_atomic
+    from jointrig.files import write_atomic
     from jointrig import __version__
 
     d = report.diagnosis

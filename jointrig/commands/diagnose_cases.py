@@ -1,4 +1,4 @@
-"""How the diagnosis does on every hidden-effect case of rig.hidden_effects.
+"""How the diagnosis does on every hidden-effect case of studies.hidden_effects.
 
     python3 scripts/diagnose_cases.py [--snr-db 40] [--seed N] [--json OUT]
 
@@ -16,9 +16,9 @@ import time
 from pathlib import Path
 
 from jointrig.rig import load_rig
-from jointrig.rig.hidden_effects import HIDDEN_EFFECTS, simulate_case
-from jointrig.rig.sweep import write_json_atomic
-from jointrig.rig.validate import run_diagnosis
+from jointrig.studies.hidden_effects import HIDDEN_EFFECTS, simulate_case
+from jointrig.files import write_json_atomic
+from jointrig.studies.validate import run_diagnosis
 
 
 def main(argv=None) -> int:

@@ -4,12 +4,12 @@
     jointrig diagnose-chain --truth MY_WORN.xml --model MY_TRAIN.xml --snr-db 30 --json OUT
 
 The rig simulates the "measured" train (``--truth``, the effect hidden in its file) at the
-sweep points of rig.chain_sweep.CHAIN_PLAN for estimation and at held-out points of another
+sweep points of studies.chain_sweep.CHAIN_PLAN for estimation and at held-out points of another
 level (``--held-out``), measures every angle and drive torque with white noise at
 ``--snr-db``, and hands the records to the diagnosis (identify/chain_diagnose.py), which
 knows only the nominal model's structure: it scores every catalogued cause at every joint
 and bearing drag at every flywheel, names the place and the cause, extends the model there,
-and the rig measures the extended model's gain on the held-out runs (rig/chain_validate.py),
+and the rig measures the extended model's gain on the held-out runs (studies/chain_validate.py),
 replaying their recorded drives on the nominal (``--model``) chain's bodies.
 Frequencies in rad/s, torques in N m.
 """
@@ -26,11 +26,11 @@ import numpy as np
 from jointrig.identify.chain_diagnose import diagnose_chain, prepare_chain_runs
 from jointrig.rig.chain import load_chain
 from jointrig.rig.model import DEFAULT_MODEL
-from jointrig.rig.chain_sweep import CHAIN_CONFIG, CHAIN_PLAN, run_chain_sweep
-from jointrig.rig.chain_validate import validate_chain
+from jointrig.studies.chain_sweep import CHAIN_CONFIG, CHAIN_PLAN, run_chain_sweep
+from jointrig.studies.chain_validate import validate_chain
 from jointrig.rig.measurement import measure_chain
 from jointrig.rig.runtime import check_output, check_range, progress_level
-from jointrig.rig.sweep import write_json_atomic
+from jointrig.files import write_json_atomic
 
 log = logging.getLogger("diagnose_chain")
 
@@ -129,7 +129,7 @@ def main(argv=None) -> int:
     write_json_atomic(args.json, out)
     print(f"\nwrote {args.json}")
     if not args.no_rrd:
-        from jointrig.rig.recording import log_chain_diagnosis, open_recording
+        from jointrig.present.recording import log_chain_diagnosis, open_recording
 
         with open_recording(args.rrd) as rec:
             log_chain_diagnosis(rec, d, v, N)

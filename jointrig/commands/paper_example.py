@@ -25,7 +25,8 @@ import numpy as np
 from jointrig.identify import Power, Viscous, identify, single_dof_system, solve
 from jointrig.identify.records import SteadyStateRecord
 from jointrig.rig import SimulationConfig, load_rig, simulate_steady_state
-from jointrig.rig.sweep import DEFAULT_PLAN, records_of, run_sweep, write_json_atomic
+from jointrig.studies.sweep import DEFAULT_PLAN, records_of, run_sweep
+from jointrig.files import write_json_atomic
 
 PAPER_S = {"m": 1.148887957, "c": 100.0641277, "k": 2599.80183, "a": -599.70047474, "b": 199.80868402}
 PAPER_BACK = {"c/Je": 100.0641277, "k/Je": 1999.826933, "gamma/Je": 199.80868402, "M": 199.8986447}

@@ -30,7 +30,7 @@ from jointrig.identify.basis import JointLaw
 from jointrig.rig import DEFAULT_MODEL, SimulationConfig, load_rig
 from jointrig.rig.measurement import add_noise, repeat_periods
 from jointrig.rig.runtime import progress_level
-from jointrig.rig.sweep import (DEFAULT_MULTISINE, DEFAULT_PLAN, EXECUTORS, SweepPlan, records_of, run_multisines, run_sweep,
+from jointrig.studies.sweep import (DEFAULT_MULTISINE, DEFAULT_PLAN, EXECUTORS, SweepPlan, records_of, run_multisines, run_sweep,
                        write_json_atomic)
 
 log = logging.getLogger("run_sweep")
@@ -41,7 +41,7 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--model", type=Path, default=DEFAULT_MODEL, help="rig MJCF (default: %(default)s)")
     p.add_argument("--omegas", type=float, nargs="+", default=None,
                    metavar="RAD_S", help=f"drive frequencies in rad/s (default: {list(DEFAULT_PLAN.omegas_rad_s)}; "
-                                         f"for a chain model, rig.chain_sweep.CHAIN_PLAN)")
+                                         f"for a chain model, studies.chain_sweep.CHAIN_PLAN)")
     p.add_argument("--amplitudes", type=float, nargs="+", default=None,
                    metavar="NM", help=f"drive torque amplitudes in N m (default: {list(DEFAULT_PLAN.amplitudes_Nm)})")
     p.add_argument("--drive-at", type=int, default=1, metavar="I",
@@ -52,7 +52,7 @@ def parse_args(argv=None) -> argparse.Namespace:
                    help="harmonics 0..H balanced (default: 9 stepped, 3 x the top line for a multisine)")
     p.add_argument("--excitation", choices=("stepped", "multisine"), default="stepped",
                    help="stepped: one cosine per frequency x amplitude; multisine: odd random-phase multisines "
-                        "(rig/sweep.py DEFAULT_MULTISINE), whose detection lines show nonlinear distortion "
+                        "(studies/sweep.py DEFAULT_MULTISINE), whose detection lines show nonlinear distortion "
                         "(default: %(default)s)")
     d = SimulationConfig()
     p.add_argument("--max-step", type=float, default=d.max_step_s, metavar="S",
@@ -229,7 +229,7 @@ def main(argv=None) -> int:
 
     rrd = None if args.no_rrd else args.rrd
     if rrd is not None or args.spawn or args.connect:
-        from jointrig.rig.recording import (log_harmonics, log_parameter_table, log_restoring_force, log_run,
+        from jointrig.present.recording import (log_harmonics, log_parameter_table, log_restoring_force, log_run,
                                              open_recording, sweep_blueprint)
 
         with open_recording(rrd, spawn=args.spawn, connect=args.connect) as rec:
@@ -251,8 +251,8 @@ def chain_main(args: argparse.Namespace) -> int:
     joint law at once (identify/chain.py), report and record."""
     from jointrig.identify.chain import identify_chain, joint_law
     from jointrig.rig.chain import load_chain
-    from jointrig.rig.chain_sweep import CHAIN_CONFIG, CHAIN_PLAN, run_chain_sweep
-    from jointrig.rig.recording import (chain_blueprint, log_chain_laws, log_chain_run, log_parameter_table,
+    from jointrig.studies.chain_sweep import CHAIN_CONFIG, CHAIN_PLAN, run_chain_sweep
+    from jointrig.present.recording import (chain_blueprint, log_chain_laws, log_chain_run, log_parameter_table,
                                          open_recording)
     from jointrig.rig.runtime import check_each
 

@@ -30,7 +30,7 @@ from jointrig.identify.output_error import (harmonic_balance_start, input_noise_
 from jointrig.identify.signals import BandlimitedInput
 from jointrig.measured.silverbox import EXCITED_MAX_BIN, PERIOD, SilverboxData, load_schroeder, load_silverbox
 from jointrig.rig.oscillator import free_run_rms, simulate_free_run_reference
-from jointrig.rig.sweep import write_json_atomic
+from jointrig.files import write_json_atomic
 from jointrig.rig.runtime import progress_level
 
 log = logging.getLogger("silverbox")
@@ -199,7 +199,7 @@ def main(argv=None) -> int:
         write_json_atomic(args.json, out)
         print(f"wrote {args.json}")
     if args.rrd:
-        from jointrig.rig.recording import log_silverbox, open_recording
+        from jointrig.present.recording import log_silverbox, open_recording
 
         R = np.abs(np.fft.rfft(y_oe - y, axis=-1)).mean(axis=0) / PERIOD
         yext, _ = simulate_periods(fit.inertia, fit.law, u, fs, delay_s=fit.delay_s)

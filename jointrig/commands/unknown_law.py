@@ -24,8 +24,9 @@ import numpy as np
 from jointrig.identify.hat import fit_hat_law
 from jointrig.rig import DEFAULT_MODEL, SimulationConfig, load_rig
 from jointrig.rig.measurement import add_noise, repeat_periods
-from jointrig.rig.recording import log_parameter_table, log_restoring_band, open_recording, unknown_law_blueprint
-from jointrig.rig.sweep import DEFAULT_PLAN, records_of, run_sweep, write_atomic
+from jointrig.present.recording import log_parameter_table, log_restoring_band, open_recording, unknown_law_blueprint
+from jointrig.studies.sweep import DEFAULT_PLAN, records_of, run_sweep
+from jointrig.files import write_atomic
 
 MODEL = DEFAULT_MODEL.parent / "two_flywheels_kink.xml"
 

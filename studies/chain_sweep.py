@@ -23,9 +23,11 @@ import numpy as np
 from jointrig.identify.chain import ChainRecord
 from jointrig.identify.plant import PeriodicDrive
 
-from .chain import ChainRig, simulate_chain
-from .simulate import SettleInfo, SimulationConfig
-from .sweep import SweepStoreMismatch, write_atomic, write_json_atomic
+from jointrig.rig.chain import ChainRig, simulate_chain
+from jointrig.rig.simulate import SettleInfo, SimulationConfig
+from jointrig.files import write_atomic, write_json_atomic
+
+from .sweep import SweepStoreMismatch
 
 __all__ = ["ChainPoint", "CHAIN_PLAN", "CHAIN_CONFIG", "run_chain_sweep"]
 
@@ -100,7 +102,7 @@ def _remote_point(model_name: str, model_text: bytes, digest: str, plant, point:
     check it is the same model, give it the client's plant, simulate one point."""
     import tempfile
 
-    from .chain import load_chain
+    from jointrig.rig.chain import load_chain
 
     with _worker_lock:
         rig = _worker_chains.get(digest)
@@ -116,7 +118,7 @@ def _remote_point(model_name: str, model_text: bytes, digest: str, plant, point:
     rig = rig.with_plant(plant)
     w, a, i = point
     if native:
-        from .native_callback import native_session
+        from jointrig.rig.native_callback import native_session
 
         with native_session():
             rec, info = simulate_chain(rig, w, {i: PeriodicDrive.cosine(w, a)}, config, amplitude_Nm=a, native=True)
@@ -194,7 +196,7 @@ def run_chain_sweep(rig: ChainRig, points: Sequence[tuple], config: SimulationCo
         return [one(k, p) for k, p in enumerate(points, start=1)]
     from concurrent.futures import ThreadPoolExecutor
 
-    from .native_callback import native_session
+    from jointrig.rig.native_callback import native_session
 
     with native_session(), ThreadPoolExecutor(max_workers=workers) as pool:
         return list(pool.map(one, range(1, total + 1), points))

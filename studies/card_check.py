@@ -5,9 +5,9 @@ A study, not a step of the diagnosis: for a joint whose law is known (``CARD_CAS
 1. the rig simulates (native callback, bit-identical to the Python one) a stepped sine test (3 frequencies x 3 levels around the joint's mode,
    ``n_periods`` each) and measures it at ``snr_db``;
 2. the diagnosis identifies the joint from those runs alone (nominal model of the paper plus
-   whatever cause it adopts) and :func:`rig.joint_card.identified_law` gives the law it stands
+   whatever cause it adopts) and :func:`studies.joint_card.identified_law` gives the law it stands
    behind with its covariance;
-3. the rig runs the phase-resonance test (:func:`rig.phase_resonance.phase_resonance`, noise
+3. the rig runs the phase-resonance test (:func:`studies.phase_resonance.phase_resonance`, noise
    free, true law) at ``pr_levels_Nm``: the backbone and damping as a lab measures them;
 4. the identified law's card (:func:`identify.card.law_card`) is evaluated at the amplitudes the
    phase-resonance test reached, with standard errors from the fit's covariance; the true
@@ -32,10 +32,10 @@ from jointrig.identify.basis import Iwan, Jenkins, JointLaw, Power, Viscous
 from jointrig.identify.card import JointCard, law_card, runs_card
 
 from .joint_card import identified_law, inertia_covariance
-from .measurement import add_noise
-from .model import RigModel
+from jointrig.rig.measurement import add_noise
+from jointrig.rig.model import RigModel
 from .phase_resonance import phase_resonance
-from .simulate import SimulationConfig, simulate_steady_state
+from jointrig.rig.simulate import SimulationConfig, simulate_steady_state
 from .validate import run_diagnosis
 
 __all__ = ["CardCase", "CARD_CASES", "CardComparison", "CardCheck", "check_card", "check_text", "worst", "QUANTITIES"]

@@ -24,7 +24,7 @@ from jointrig.identify.basis import Term
 from jointrig.identify.eiv import crlb, ml_identify
 from jointrig.identify.records import SteadyStateRecord
 
-from .measurement import add_noise, noise_std, repeat_periods
+from jointrig.rig.measurement import add_noise, noise_std, repeat_periods
 
 __all__ = ["ParameterStats", "MonteCarloResult", "monte_carlo"]
 

@@ -15,7 +15,6 @@ import dataclasses
 import json
 import logging
 import math
-import os
 import tempfile
 import threading
 import time
@@ -26,13 +25,14 @@ from typing import Callable, Optional, Sequence
 
 import numpy as np
 
+from jointrig.files import write_atomic, write_json_atomic
 from jointrig.identify.records import SteadyStateRecord
 
-from .model import RigModel, load_rig
-from .simulate import SettleInfo, SimulationConfig, StartState, simulate_steady_state
+from jointrig.rig.model import RigModel, load_rig
+from jointrig.rig.simulate import SettleInfo, SimulationConfig, StartState, simulate_steady_state
 
 __all__ = ["SweepPlan", "SweepPoint", "SweepStoreMismatch", "run_sweep", "simulate_segment", "DEFAULT_PLAN",
-           "EXECUTORS", "records_of", "write_atomic", "write_json_atomic", "MultisinePlan", "DEFAULT_MULTISINE",
+           "EXECUTORS", "records_of", "MultisinePlan", "DEFAULT_MULTISINE",
            "run_multisines"]
 
 log = logging.getLogger(__name__)
@@ -65,7 +65,7 @@ class SweepPlan:
     def coherent(self, sample_rate_Hz: float) -> "SweepPlan":
         """The plan with every frequency moved to the nearest one a bench sampling at
         ``sample_rate_Hz`` holds whole periods of (rig.simulate.coherent_omega)."""
-        from .simulate import coherent_omega
+        from jointrig.rig.simulate import coherent_omega
 
         return SweepPlan(tuple(dict.fromkeys(coherent_omega(w, sample_rate_Hz) for w in self.omegas_rad_s)),
                          self.amplitudes_Nm)
@@ -142,33 +142,6 @@ class SweepPoint:
 
 class SweepStoreMismatch(ValueError):
     """The store directory holds a sweep of another model, law or configuration."""
-
-
-def write_atomic(path: Path, write: Callable[[Path], None]) -> None:
-    """Call ``write(tmp)`` on a temporary file beside ``path``, then rename it into place."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
-        write(Path(tmp))
-        os.chmod(tmp, readable_mode())
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
-
-
-def readable_mode() -> int:
-    """0666 under the process umask (what ``open`` would give), not mkstemp's 0600."""
-    mask = os.umask(0)
-    os.umask(mask)
-    return 0o666 & ~mask
-
-
-def write_json_atomic(path: Path, obj) -> None:
-    write_atomic(path, lambda tmp: tmp.write_text(json.dumps(obj, indent=2, sort_keys=False) + "\n"))
 
 
 def _manifest(rig: RigModel, config: SimulationConfig) -> dict:
@@ -368,7 +341,7 @@ def run_sweep(
     else:
         from concurrent.futures import ThreadPoolExecutor
 
-        from .native_callback import native_session
+        from jointrig.rig.native_callback import native_session
 
         with native_session(), ThreadPoolExecutor(max_workers=workers) as pool:
             list(pool.map(local, _longest_first(segments, points, config)))
@@ -412,7 +385,7 @@ def _remote_segment(model_name: str, model_text: bytes, digest: str, plant, task
             _worker_rigs[digest] = rig
     rig = rig.with_plant(plant)
     if native:
-        from .native_callback import native_session
+        from jointrig.rig.native_callback import native_session
 
         with native_session():
             return simulate_segment(rig, tasks, config, native, continuation)

@@ -30,8 +30,8 @@ from jointrig.identify.harmonics import fourier_coefficients
 from jointrig.identify.plant import Plant, drive_of_record
 from jointrig.identify.records import SteadyStateRecord
 
-from .model import RigModel, load_rig
-from .simulate import SimulationConfig, SteadyStateNotReached, simulate_steady_state
+from jointrig.rig.model import RigModel, load_rig
+from jointrig.rig.simulate import SimulationConfig, SteadyStateNotReached, simulate_steady_state
 
 __all__ = ["generalisation_kind", "RunComparison", "DiagnosisReport", "default_holdout", "run_diagnosis", "band_limited"]
 

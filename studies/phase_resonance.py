@@ -28,8 +28,8 @@ from jointrig.identify.card import CardPoint, JointCard, dissipation_slope
 from jointrig.identify.harmonics import fourier_coefficients
 from jointrig.identify.plant import Plant
 
-from .model import RigModel
-from .simulate import SimulationConfig, simulate_steady_state
+from jointrig.rig.model import RigModel
+from jointrig.rig.simulate import SimulationConfig, simulate_steady_state
 
 __all__ = ["phase_resonance"]
 

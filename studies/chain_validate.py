@@ -22,8 +22,8 @@ from jointrig.identify.chain_diagnose import ChainDiagnosis, plant_and_inertias
 from jointrig.identify.harmonics import fourier_coefficients, max_harmonic
 from jointrig.identify.plant import drive_of_record
 
-from .chain import ChainRig, simulate_chain
-from .simulate import SimulationConfig, SteadyStateNotReached
+from jointrig.rig.chain import ChainRig, simulate_chain
+from jointrig.rig.simulate import SimulationConfig, SteadyStateNotReached
 
 __all__ = ["ChainValidation", "validate_chain", "twist_error"]
 

@@ -84,7 +84,7 @@ def open_recording(rrd_path: Optional[Path], *, spawn: bool = False,
         rec.disconnect()
         if tmp is not None:
             if ok:
-                from .sweep import readable_mode
+                from jointrig.files import readable_mode
 
                 os.chmod(tmp, readable_mode())
                 os.replace(tmp, rrd_path)

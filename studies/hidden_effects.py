@@ -17,9 +17,9 @@ from jointrig.identify.basis import Coulomb, Iwan, Jenkins, JointLaw, Power, Qua
 from jointrig.identify.plant import Plant
 from jointrig.identify.records import SteadyStateRecord
 
-from .measurement import add_noise
-from .model import RigModel
-from .simulate import SimulationConfig, simulate_steady_state
+from jointrig.rig.measurement import add_noise
+from jointrig.rig.model import RigModel
+from jointrig.rig.simulate import SimulationConfig, simulate_steady_state
 
 __all__ = ["BASE", "VALUES", "POINTS", "HIDDEN_EFFECTS", "simulate_case"]
 

@@ -25,7 +25,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from .formatting import quantity_of, sig, unit_of, with_se
-from .validate import CHI2_PER_DOF_OK, DiagnosisReport
+from jointrig.studies.validate import CHI2_PER_DOF_OK, DiagnosisReport
 
 __all__ = ["report_json", "format_report", "log_diagnosis", "write_html"]
 
@@ -543,9 +543,9 @@ def _html_sections(report: DiagnosisReport, source: str, notes: Sequence[str]) -
 
 
 def _card_section(card) -> list[str]:
-    """The joint card (rig/joint_card.py): runs beside the model at the same amplitude and
+    """The joint card (studies/joint_card.py): runs beside the model at the same amplitude and
     frequency, the slopes, and the card's figure."""
-    from .joint_card import card_png, masing_text
+    from jointrig.studies.joint_card import card_png, masing_text
 
     rows = []
     for p, m in zip(card.runs.points, card.model_at_runs.points):
@@ -605,7 +605,7 @@ def write_html(path: Path, report: DiagnosisReport, text: str, *, title: str = "
                      f"src='data:image/png;base64,{png}'></figure>")
     parts.append(f"<details><summary>The same report as console text</summary><pre>{html.escape(text)}</pre></details>")
     parts.append("</body></html>")
-    from .sweep import write_atomic
+    from jointrig.files import write_atomic
 
     path = Path(path)
     write_atomic(path, lambda tmp: tmp.write_text("\n".join(parts), encoding="utf-8"))
