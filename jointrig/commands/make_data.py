@@ -36,12 +36,13 @@ def parse_args(argv=None) -> argparse.Namespace:
                    "(default: %(default)s); --no-noise for exact data")
     p.add_argument("--no-noise", action="store_true", help="write the exact simulated signals (no measurement noise)")
     p.add_argument("--seed", type=int, default=0, help="noise seed (default: %(default)s)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     return p.parse_args(argv)
 
 
 def main(argv=None) -> int:
     args = parse_args(argv)
-    from jointrig.rig.runtime import BadArgument, check_each, check_output, check_range
+    from jointrig.rig.runtime import BadArgument, check_each, check_output, check_range, progress_level
 
     try:
         if args.out.suffix.lower() not in (".csv", ".parquet"):
@@ -54,7 +55,7 @@ def main(argv=None) -> int:
     except BadArgument as err:
         print(f"make_data: error: {err}", file=sys.stderr)
         return 2
-    logging.basicConfig(level=logging.INFO, format="%(message)s", stream=sys.stderr)
+    logging.basicConfig(level=progress_level(args.quiet), format="%(message)s", stream=sys.stderr)
     points = [(w, a) for w in args.omegas for a in args.amplitudes]
     try:
         rig = load_rig(args.model)
