@@ -32,11 +32,7 @@ gain on held-out runs live in :mod:`studies.validate`.
 from __future__ import annotations
 
 import math
-import multiprocessing
-import os
-import threading
 import warnings
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 from typing import Callable, Optional, Sequence
 
@@ -857,45 +853,7 @@ class Diagnosis:
         return tuple(e for e in self.effects if kinds.get(e, "dynamic") == kind)
 
 
-#: What the forked workers of :func:`_score_all` score: set just before they are forked, so they
-#: inherit it with the rest of the parent's memory (nothing of the problem is pickled).
-_TO_SCORE: Optional[tuple] = None
-
-
-def _one_thread() -> None:
-    """A worker's BLAS and OpenMP pools at one thread: the workers are the parallelism (forked
-    with a pool of several threads each, the diagnosis ran 3x slower, measured)."""
-    from threadpoolctl import threadpool_limits
-
-    global _WORKER_LIMITS
-    _WORKER_LIMITS = threadpool_limits(1)
-
-
-_WORKER_LIMITS = None
-
-
-def _score_one(i: int) -> CauseScore:
-    problem, causes, base, weights, n, alpha = _TO_SCORE
-    return score_cause(problem, causes[i], base, weights, n, alpha)
-
-
-def default_workers() -> int:
-    """Processes that score the causes of a round: ``JOINTRIG_WORKERS`` if set, else the cores
-    this process may use (at most 4; 1 where ``fork`` is not available, or when the process runs
-    other Python threads: forking then could copy a lock another thread holds)."""
-    env = os.environ.get("JOINTRIG_WORKERS")
-    if env:
-        try:
-            n = int(env)
-        except ValueError:
-            raise ValueError(f"JOINTRIG_WORKERS must be a whole number >= 1, got {env!r}") from None
-        if n < 1:
-            raise ValueError(f"JOINTRIG_WORKERS must be a whole number >= 1, got {env!r}")
-        return n
-    if "fork" not in multiprocessing.get_all_start_methods() or threading.active_count() > 1:
-        return 1
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-    return max(1, min(cores, 4))
+from jointrig.parallel import default_workers, fork_map  # noqa: E402
 
 
 def _score_all(problem: _Problem, causes: Sequence[Cause], base: Fit, weights: np.ndarray, n: int, alpha: float,
@@ -910,17 +868,8 @@ def _score_all(problem: _Problem, causes: Sequence[Cause], base: Fit, weights: n
             + (", significant" if s.significant else ""))
         return s
 
-    if workers <= 1 or len(causes) < 2:
-        return [told(k, score_cause(problem, c, base, weights, n, alpha)) for k, c in enumerate(causes)]
-    global _TO_SCORE
-    _TO_SCORE = (problem, tuple(causes), base, weights, n, alpha)
-    try:
-        ctx = multiprocessing.get_context("fork")
-        with ProcessPoolExecutor(max_workers=min(workers, len(causes)), mp_context=ctx,
-                                 initializer=_one_thread) as pool:
-            return [told(k, s) for k, s in enumerate(pool.map(_score_one, range(len(causes))))]
-    finally:
-        _TO_SCORE = None
+    scores = fork_map(lambda c: score_cause(problem, c, base, weights, n, alpha), causes, workers)
+    return [told(k, s) for k, s in enumerate(scores)]
 
 
 def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmonics: int = 20,

@@ -20,7 +20,7 @@ import html
 import io
 import math
 from pathlib import Path
-from typing import Optional, Sequence
+from typing import Sequence
 
 import numpy as np
 
@@ -396,35 +396,13 @@ def _figures(report: DiagnosisReport) -> list[tuple[str, str]]:
     return _draw_all(jobs)
 
 
-#: The figure jobs of :func:`_figures`, set just before the workers are forked (they inherit
-#: them with the parent's memory; only the PNGs come back).
-_JOBS: Optional[list] = None
-
-
-def _draw_one(i: int) -> str:
-    return _JOBS[i][1]()
-
-
 def _draw_all(jobs: list) -> list[tuple[str, str]]:
-    """``(caption, base64 PNG)`` of every job, in forked processes where the diagnosis's workers
-    would run (:func:`identify.diagnose.default_workers`): the figures are independent and
-    matplotlib's rendering is most of the report's time. The same PNGs either way."""
-    from jointrig.identify.diagnose import default_workers
+    """``(caption, base64 PNG)`` of every job, in forked processes (:func:`jointrig.parallel.fork_map`):
+    the figures are independent and matplotlib's rendering is most of the report's time. The
+    same PNGs either way."""
+    from jointrig.parallel import fork_map
 
-    workers = min(default_workers(), len(jobs))
-    if workers <= 1:
-        return [(caption, draw()) for caption, draw in jobs]
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
-
-    global _JOBS
-    _JOBS = jobs
-    try:
-        with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("fork")) as pool:
-            pngs = list(pool.map(_draw_one, range(len(jobs))))
-    finally:
-        _JOBS = None
-    return [(caption, png) for (caption, _), png in zip(jobs, pngs)]
+    return list(zip([c for c, _ in jobs], fork_map(lambda job: job[1](), jobs)))
 
 
 _CSS = """

@@ -29,6 +29,7 @@ from jointrig.identify.output_error import (harmonic_balance_start, input_noise_
                                             simulate_periods, steady_rms)
 from jointrig.identify.signals import BandlimitedInput
 from jointrig.measured.silverbox import EXCITED_MAX_BIN, PERIOD, SilverboxData, load_schroeder, load_silverbox
+from jointrig.parallel import fork_map
 from jointrig.rig.oscillator import free_run_rms, simulate_free_run_reference
 from jointrig.files import write_json_atomic
 from jointrig.rig.runtime import progress_level
@@ -145,13 +146,19 @@ def main(argv=None) -> int:
     for name, v, s in zip(fit.names, fit.values, fit.std_errors):
         print(f"  {NAMES.get(name, name):12s} {v:14.6g} +- {s:.2e}")
 
-    # 4. The arrow (test data), free run in the MuJoCo rig.
-    rms_hb, _ = arrow_rms(data, m_hb, law_hb)
-    rms_nom, sim_nom = arrow_rms(data, oe.inertia, oe.law)
-    rms_ext, sim_ext = arrow_rms(data, fit.inertia, fit.law, fit.delay_s)
+    # 4. The arrow (test data), free run in the MuJoCo rig: the three models and the scipy
+    # reference are independent, so they run in forked processes (jointrig.parallel).
     ua, ya, _ = data.arrow("full")
-    ref = simulate_free_run_reference(fit.law, fit.inertia, BandlimitedInput(ua, fs), REFERENCE_SAMPLES, fs,
-                                      delay_s=fit.delay_s, method="LSODA")
+    log.info("free runs of three models over the %d arrow samples, and the scipy reference", ua.size)
+
+    def arrow_job(job):
+        if job is None:
+            return simulate_free_run_reference(fit.law, fit.inertia, BandlimitedInput(ua, fs), REFERENCE_SAMPLES, fs,
+                                               delay_s=fit.delay_s, method="LSODA")
+        return arrow_rms(data, *job)
+
+    (rms_hb, _), (rms_nom, sim_nom), (rms_ext, sim_ext), ref = fork_map(
+        arrow_job, [(m_hb, law_hb), (oe.inertia, oe.law), (fit.inertia, fit.law, fit.delay_s), None])
     agree = float(np.max(np.abs(ref - sim_ext[:REFERENCE_SAMPLES])))
     print(f"\nMuJoCo rig vs scipy LSODA on the first {REFERENCE_SAMPLES} arrow samples (extended model): "
           f"max |difference| {1e6 * agree:.3f} uV")

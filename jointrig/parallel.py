@@ -1,0 +1,72 @@
+"""Independent pieces of work in forked processes: the one place that decides how many, and how.
+
+A fork shares the parent's memory, so the work (closures, a diagnosis problem, a report) is not
+pickled; only the results come back. Each worker runs with one BLAS/OpenMP thread: the workers
+are the parallelism (forked with the parent's pools of several threads each, a diagnosis ran 3x
+slower, measured). The results are the same numbers as in one process, in the items' order.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import threading
+from concurrent.futures import ProcessPoolExecutor
+from typing import Callable, Iterator, Optional, Sequence
+
+__all__ = ["default_workers", "fork_map"]
+
+#: The function and items of the running :func:`fork_map`, set just before the workers are forked.
+_WORK: Optional[tuple] = None
+_LIMITS = None
+
+
+def default_workers() -> int:
+    """Processes for independent work: ``JOINTRIG_WORKERS`` if set, else the cores this process
+    may use (at most 4; 1 where ``fork`` is not available, or when the process runs other Python
+    threads: forking then could copy a lock another thread holds)."""
+    env = os.environ.get("JOINTRIG_WORKERS")
+    if env:
+        try:
+            n = int(env)
+        except ValueError:
+            raise ValueError(f"JOINTRIG_WORKERS must be a whole number >= 1, got {env!r}") from None
+        if n < 1:
+            raise ValueError(f"JOINTRIG_WORKERS must be a whole number >= 1, got {env!r}")
+        return n
+    if "fork" not in multiprocessing.get_all_start_methods() or threading.active_count() > 1:
+        return 1
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    return max(1, min(cores, 4))
+
+
+def _one_thread() -> None:
+    from threadpoolctl import threadpool_limits
+
+    global _LIMITS
+    _LIMITS = threadpool_limits(1)
+
+
+def _run(i: int):
+    fn, items = _WORK
+    return fn(items[i])
+
+
+def fork_map(fn: Callable, items: Sequence, workers: Optional[int] = None) -> Iterator:
+    """``fn(item)`` for every item, yielded in order as each arrives: in ``workers`` forked
+    processes (default :func:`default_workers`, at most one per item) when more than one, else
+    here. ``fn`` may be any callable, a closure included; its results must pickle."""
+    items = list(items)
+    workers = min(default_workers() if workers is None else int(workers), len(items))
+    if workers <= 1:
+        for item in items:
+            yield fn(item)
+        return
+    global _WORK
+    _WORK = (fn, items)
+    try:
+        with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("fork"),
+                                 initializer=_one_thread) as pool:
+            yield from pool.map(_run, range(len(items)))
+    finally:
+        _WORK = None
