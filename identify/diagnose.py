@@ -40,7 +40,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 from scipy.stats import chi2 as chi2_dist
 
-from .balance import LinearSystem, equivalent_system, spectral_rate, two_dof_system
+from .balance import LinearSystem, _memo_arrays, equivalent_system, spectral_rate, two_dof_system
 from .basis import Coulomb, Iwan, Jenkins, JointLaw, Power, QuadraticDamping, Stribeck, Term, Viscous
 from .harmonics import fourier_coefficients, max_harmonic, synthesize
 from .plant import Plant, effect_parameters
@@ -280,7 +280,7 @@ class Fit:
 
 
 def kink_corrected_rate(phi_rad: np.ndarray, omega_rad_s: float, band: int, jump_rad_s2: float,
-                        iterations: int = 2) -> np.ndarray:
+                        iterations: int = 2, *, band_limited_rate: Optional[np.ndarray] = None) -> np.ndarray:
     """The relative rate of one band-limited period with its dry-friction kinks restored.
 
     Dry friction makes the relative acceleration jump by ``jump_rad_s2`` (2 F_c / Je) each
@@ -296,11 +296,13 @@ def kink_corrected_rate(phi_rad: np.ndarray, omega_rad_s: float, band: int, jump
       phi_rad: one period, band-limited to ``band`` harmonics, shape (M,).
       jump_rad_s2: size of the jump of the relative acceleration (>= 0; 0 returns the
         band-limited rate).
+      band_limited_rate: ``spectral_rate(phi_rad, omega_rad_s, 1)`` if the caller has it
+        (it does not depend on the jump: a profile search reuses it for every trial).
     """
     M = phi_rad.size
     n = np.arange(M // 2 + 1)
     jw = 1j * n * omega_rad_s
-    v_bl = spectral_rate(phi_rad, omega_rad_s, 1)
+    v_bl = spectral_rate(phi_rad, omega_rad_s, 1) if band_limited_rate is None else band_limited_rate
     if jump_rad_s2 <= 0:
         return v_bl
     T = 2 * math.pi / omega_rad_s
@@ -348,12 +350,20 @@ class _Problem:
             return list(recs)
         out = []
         for r in recs:
-            rate = kink_corrected_rate(r.phi_rad, r.omega_rad_s, self.n_harmonics, jump)
+            # What does not depend on the jump is computed once per record (memoised by the
+            # angle arrays, as the harmonic-balance columns are): the relative angle and the
+            # band-limited rates.
+            angles = (r.phi1_rad,) if r.phi2_rad is None else (r.phi1_rad, r.phi2_rad)
+            phi = _memo_arrays(angles, ("phi",), lambda: r.phi_rad)
+            v_bl = _memo_arrays(angles, ("relative rate", r.omega_rad_s),
+                                lambda: spectral_rate(phi, r.omega_rad_s, 1))  # noqa: B023
+            rate = kink_corrected_rate(phi, r.omega_rad_s, self.n_harmonics, jump, band_limited_rate=v_bl)
             if r.phi2_rad is None:
                 out.append(replace(r, rate1_rad_s=rate))
             else:
                 # The relative rate carries the kinks; flywheel 2's rate stays band-limited.
-                rate2 = spectral_rate(r.phi2_rad, r.omega_rad_s, 1)
+                rate2 = _memo_arrays((r.phi2_rad,), ("rate2", r.omega_rad_s),
+                                     lambda: spectral_rate(r.phi2_rad, r.omega_rad_s, 1))
                 out.append(replace(r, rate1_rad_s=rate + rate2, rate2_rad_s=rate2))
         return out
 
