@@ -460,6 +460,8 @@ def read_runs(path: Union[str, os.PathLike], *, samples_per_period: Optional[int
         except FormatError as err:
             raise RunsFileError(str(err)) from None
     multi = len(files) > 1
+    # A folder's files are runs named by their stems, however many it holds (one included).
+    named_by_file = multi or Path(path).is_dir()
     run_ids, records, seen, any_units = [], [], set(), False
     for f, table in tables:
         cols, stated = _resolve(table, columns, units, notes)
@@ -493,7 +495,7 @@ def read_runs(path: Union[str, os.PathLike], *, samples_per_period: Optional[int
         if "run" in cols:
             labels = cols["run"]
         else:
-            labels = np.full(n, table.run if table.run is not None else (f.stem if multi else "0"), dtype=object)
+            labels = np.full(n, table.run if table.run is not None else (f.stem if named_by_file else "0"), dtype=object)
         prefix = f"{f.stem}/" if multi and ("run" in cols or table.run is not None) else ""
         for run in dict.fromkeys(labels.tolist()):
             sel = labels == run

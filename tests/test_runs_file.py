@@ -5,6 +5,7 @@ the writer itself. Signals are band-limited periodic functions of known coeffici
 column the loader returns has an exact expected value at the record's own sample times.
 """
 
+import hashlib
 import math
 import os
 
@@ -154,6 +155,8 @@ def test_relative_angle_only(tmp_path):
     loaded = read_runs(tmp_path / "rel.csv")
     rec = loaded.records[0]
     assert not loaded.has_both_angles and loaded.run_ids == ("0",)
+    # The input's SHA-256 (in every report and JSON) is the file's own: `sha256sum rel.csv` checks it.
+    assert loaded.sha256 == hashlib.sha256((tmp_path / "rel.csv").read_bytes()).hexdigest()
     np.testing.assert_allclose(rec.phi_rad, phi1(rec.time_s) - phi2(rec.time_s), atol=1e-12)
 
 
@@ -166,6 +169,17 @@ def test_folder_of_runs_one_file_each(tmp_path):
                                                         for i, ln in enumerate(txt.splitlines())) + "\n")
     loaded = read_runs(tmp_path)
     assert loaded.run_ids == ("a_run", "b_run") and len(loaded.sha256) == 64
+    # A folder's digest covers every file: changing one byte of one file changes it.
+    before = loaded.sha256
+    (tmp_path / "b_run.csv").write_text((tmp_path / "b_run.csv").read_text().replace("time", "Time", 1))
+    assert read_runs(tmp_path).sha256 != before
+    # A folder holding a single file reads as that file, with the file's own digest.
+    single = tmp_path / "one"
+    single.mkdir()
+    (single / "a_run.csv").write_bytes((tmp_path / "a_run.csv").read_bytes())
+    one = read_runs(single)
+    assert one.run_ids == ("a_run",)
+    assert one.sha256 == hashlib.sha256((single / "a_run.csv").read_bytes()).hexdigest()
     check_columns(loaded.records[1], 1e-8)  # time written to 1 ns: measured 2e-9 of the swing
 
 
