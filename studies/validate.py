@@ -24,7 +24,8 @@ from typing import Optional, Sequence
 import numpy as np
 
 from jointrig.identify.basis import JointLaw
-from jointrig.identify.diagnose import DEFAULT_FIDELITY, Diagnosis, Fit, PreparedRun, diagnose, plant_of, prepare_runs
+from jointrig.identify.diagnose import (DEFAULT_FIDELITY, Diagnosis, Fit, PreparedRun, diagnose, plant_of, prepare_runs,
+                                       shift_periodic)
 from jointrig.identify.balance import spectral_rate
 from jointrig.identify.harmonics import fourier_coefficients
 from jointrig.identify.plant import Plant, drive_of_record
@@ -320,7 +321,9 @@ def _law_torque(law: JointLaw, run: PreparedRun) -> np.ndarray:
 
 
 def _simulate(rig: RigModel, plant: Plant, J: tuple[float, float], run: PreparedRun, band: int,
-              config: SimulationConfig) -> np.ndarray:
+              config: SimulationConfig, angle2_delay_s: float = 0.0) -> np.ndarray:
+    """The relative angle the model predicts for a run, as the sensors would read it (with a
+    fitted channel skew, flywheel 2's angle as read ``angle2_delay_s`` late), band-limited."""
     rec = run.average
     coeffs = fourier_coefficients(rec.torque_Nm, 1, band)
     # Replay the harmonics the torque measurement resolves (the fundamental at least), not
@@ -332,7 +335,17 @@ def _simulate(rig: RigModel, plant: Plant, J: tuple[float, float], run: Prepared
     # The native callback: the same numbers as the Python one, bit for bit (tests/test_native_callback.py).
     sim, _ = simulate_steady_state(rig, rec.omega_rad_s, drive.amplitude_Nm, config, law=plant, drive=drive,
                                    inertias_kgm2=J, native=True)
+    if angle2_delay_s:
+        return band_limited(sim.phi1_rad - shift_periodic(sim.phi2_rad, 1, rec.omega_rad_s, angle2_delay_s), band)
     return band_limited(sim.phi_rad, band)
+
+
+def _validation_config(run: PreparedRun) -> SimulationConfig:
+    # settle_tol 1e-7: the comparison resolves about 1e-3 of the swing (noise floor). A
+    # replayed drive's many harmonics leave the free rotation a slow integration drift, so only
+    # the relative angle and the rates must repeat.
+    return SimulationConfig(samples_per_period=run.average.samples_per_period, n_periods=1, settle_tol=1e-7,
+                            absolute_angles_periodic=False, max_wall_s=VALIDATION_WALL_S)
 
 
 def generalisation_kind(fit: Sequence[tuple[float, float, int]], held: Sequence[tuple[float, float, int]]) -> str:
@@ -418,11 +431,7 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
     for i, (rid, run) in enumerate(zip(run_ids, prepared)):
         say(f"simulating run {rid} ({i + 1}/{n}) in the rig: nominal and extended")
         N = run.average.samples_per_period
-        # settle_tol 1e-7: the comparison resolves about 1e-3 of the swing (noise floor). A
-        # replayed drive's many harmonics leave the free rotation a slow integration drift,
-        # so only the relative angle and the rates must repeat.
-        config = SimulationConfig(samples_per_period=N, n_periods=1, settle_tol=1e-7,
-                                  absolute_angles_periodic=False, max_wall_s=VALIDATION_WALL_S)
+        config = _validation_config(run)
         phi = {}
         for which, plant, J in (("nominal", nominal_plant, J_nom), ("extended", ext_plant, J_ext)):
             if which == "extended" and diag.extended is diag.nominal:
@@ -436,7 +445,8 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
                 phi[which] = np.full(N, np.nan)
                 continue
             try:
-                phi[which] = _simulate(rig, plant, J, run, band, config)
+                skew = diag.extended.spec.angle2_delay_s if which == "extended" else 0.0
+                phi[which] = _simulate(rig, plant, J, run, band, config, skew)
             except SteadyStateNotReached as err:
                 # A wrong model may have no periodic response to this drive (it drifts, or is
                 # chaotic): that is a finding about the model, not a failure of the tool.

@@ -56,6 +56,10 @@ class Joint:
     b1: float = 0.0
     b2: float = 0.0
     delay: float = 0.0
+    #: a Maxwell element across the joint (outside the catalogue): a spring km (N m/rad) in series
+    #: with a dashpot cm (N m s/rad), the relaxation of a rubber joint; its torque is a state
+    km: float = 0.0
+    cm: float = 0.0
     #: an extra joint torque (phi, v) -> N m outside the catalogue (smooth)
     extra: Optional[Callable[[float, float], float]] = field(default=None, compare=False)
 
@@ -126,12 +130,16 @@ def _rhs(joint: Joint, M0: float, w: float, mode: dict):
             m += y[4] if mode["j"] == 0 else joint.Fs * mode["j"]
         if joint.Fi:
             m += joint.iwan_torque(phi, mode)
+        if joint.km:
+            m += y[-1]
         T = M0 * math.cos(w * (t - joint.delay))
         a1 = (T - m - joint.b1 * y[2]) / J1
         a2 = (m - joint.b2 * y[3]) / J2
         dy = [y[2], y[3], a1, a2]
         if joint.Fs:
             dy.append(joint.Fs / joint.r * v if mode["j"] == 0 else 0.0)
+        if joint.km:  # the Maxwell element's torque relaxes through its dashpot
+            dy.append(joint.km * (v - y[-1] / joint.cm))
         return dy
 
     return f
@@ -240,7 +248,7 @@ def _stick_torque(joint, w, M0, t, y, mode):
     """The friction torque that would hold the joint stuck now (N m): a rigid body of J1 + J2
     with common acceleration a = (T - b1 v1 - b2 v2) / (J1 + J2), so F = T - M_rest - b1 v1 - J1 a."""
     phi = y[0] - y[1]
-    m_rest = joint.smooth_torque(phi, 0.0)
+    m_rest = joint.smooth_torque(phi, 0.0) + (y[-1] if joint.km else 0.0)
     T = M0 * math.cos(w * (t - joint.delay))
     a = (T - joint.b1 * y[2] - joint.b2 * y[3]) / (joint.J1 + joint.J2)
     return T - m_rest - joint.b1 * y[2] - joint.J1 * a
@@ -254,6 +262,8 @@ def _linear_start(joint: Joint, w: float, M0: float) -> np.ndarray:
     X = np.linalg.solve(Z, F)
     y = [X[0].real, X[1].real, (1j * w * X[0]).real, (1j * w * X[1]).real]
     if joint.Fs:
+        y.append(0.0)
+    if joint.km:
         y.append(0.0)
     return np.array(y)
 
@@ -346,6 +356,12 @@ def torque_calibration(cubic: float, full_scale_Nm: float):
         return t, T + cubic * T**3 / full_scale_Nm**2, p1, p2
 
     return transform
+
+
+def maxwell(joint: Joint, km: float, relaxation_s: float) -> Joint:
+    """The joint with a Maxwell element (spring ``km`` in series with a dashpot of relaxation
+    time ``relaxation_s``) across it: stiffness and damping that depend on frequency (rubber)."""
+    return with_effect(joint, km=km, cm=km * relaxation_s)
 
 
 def cogging(amplitude_Nm: float, pitch_rad: float):
