@@ -169,7 +169,9 @@ def _read_parquet(path: Path) -> list[RawTable]:
     import pyarrow.parquet as pq
 
     try:
-        table = pq.read_table(path)
+        # ParquetFile reads the file as written; read_table's dataset layer refuses duplicate
+        # column names with an internal message before the check below can name them.
+        table = pq.ParquetFile(path).read()
     except Exception as err:  # noqa: BLE001 - pyarrow raises many types for a bad file
         raise FormatError(f"{path}: not a readable Parquet file: {err}") from None
     names = table.column_names

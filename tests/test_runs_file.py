@@ -467,3 +467,73 @@ def test_uniform_clock_names_the_first_stamp_that_does_not_increase():
     t[8] = t[6]
     with pytest.raises(ValueError, match=r"sample 4 at 0\.3"):
         uniform_clock(t)
+
+
+# --- edges the mutation run found unpinned (scripts/mutation_test.py, measured/runs.py) ---------------
+
+def _one_run_csv(tmp_path, n_samples, *, name="r.csv", omega=None):
+    dt = 2 * math.pi / W / 64  # 64 samples a period
+    t = np.arange(n_samples) * dt
+    text = csv_text(t, head="run,time,torque,phi1,phi2" + (",omega" if omega is not None else ""),
+                    extra=(lambda i: repr(omega)) if omega is not None else None)
+    (tmp_path / name).write_text(text)
+    return tmp_path / name
+
+
+def test_samples_per_period_is_at_least_16(tmp_path):
+    path = _one_run_csv(tmp_path, 3 * 64)
+    with pytest.raises(RunsFileError, match="samples_per_period must be an integer >= 16, got 15"):
+        read_runs(path, samples_per_period=15)
+    assert read_runs(path, samples_per_period=16).records[0].samples_per_period == 16
+
+
+def test_an_omega_column_must_be_positive(tmp_path):
+    with pytest.raises(RunsFileError, match="column 'omega' must be one positive value per run, got 0..0 rad/s"):
+        read_runs(_one_run_csv(tmp_path, 3 * 64, omega=0.0))
+
+
+def test_an_incomplete_last_period_is_named_in_a_note_and_a_clean_clock_in_none(tmp_path):
+    # 2 periods of 64 samples and 10 samples more, omega stated: 138 samples hold 2.156 periods.
+    loaded = read_runs(_one_run_csv(tmp_path, 2 * 64 + 10, omega=W))
+    assert loaded.records[0].n_periods == 2
+    assert any("138 samples hold 2.156 periods; the last 10 samples (an incomplete period) are not used" in n
+               for n in loaded.notes), loaded.notes
+    # The clock was written to 1e-9 s: far inside a uniform clock, so no jitter note.
+    assert not any("deviate" in n for n in loaded.notes), loaded.notes
+
+
+def test_an_empty_column_mapping_is_refused(tmp_path):
+    with pytest.raises(RunsFileError, match="'torque' needs a non-empty value"):
+        read_runs(_one_run_csv(tmp_path, 3 * 64), columns={"torque": ""})
+
+
+def test_a_folder_skips_files_that_are_not_runs(tmp_path):
+    _one_run_csv(tmp_path, 3 * 64, name="a_run.csv")
+    (tmp_path / "notes.md").write_text("# test log\nthe bench was warm\n")
+    (tmp_path / "b_run.csv.bak").write_text("not a run")
+    loaded = read_runs(tmp_path)
+    assert len(loaded.records) == 1 and loaded.run_ids == ("0",)  # the file's own run column names it
+
+
+def test_duplicate_column_names_are_refused(tmp_path):
+    # (pyarrow's read_table refused this file with an internal "Multiple matches for FieldRef"
+    # message before the reader's own check could name the column: now read with ParquetFile.)
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    t = np.arange(3 * 64) * (2 * math.pi / W / 64)
+    table = pa.Table.from_arrays([pa.array(t), pa.array(torque(t)), pa.array(phi1(t)), pa.array(phi1(t)),
+                                  pa.array(phi2(t))], names=["time", "torque", "phi1", "phi1", "phi2"])
+    pq.write_table(table, tmp_path / "dup.parquet")
+    with pytest.raises(RunsFileError, match=r"column name\(s\) \['phi1'\] appear more than once"):
+        read_runs(tmp_path / "dup.parquet")
+
+
+def test_the_writer_states_omega_and_the_comment(tmp_path):
+    loaded = read_runs(_one_run_csv(tmp_path, 3 * 64, omega=W))
+    out = write_runs(tmp_path / "out.csv", loaded.records, comment="bench 3, warm")
+    text = out.read_text().splitlines()
+    assert text[0] == "# jointrig measured runs" and text[1] == "# bench 3, warm"
+    assert "omega" in text[2]  # the header: omega is written unless asked not to
+    plain = write_runs(tmp_path / "plain.csv", loaded.records, with_omega=False).read_text().splitlines()
+    assert plain[1].startswith("run") and "omega" not in plain[1]
