@@ -72,6 +72,8 @@ class MonteCarloResult:
     n_periods: object  # int, or a tuple per run
     parameters: tuple[ParameterStats, ...]
     failures: int
+    #: the ML cost over its degrees of freedom in each realisation (about 1 for a right model)
+    cost_over_dof: tuple[float, ...] = ()
 
     def as_json(self) -> dict:
         return {"snr_db": self.snr_db, "n_runs": self.n_runs, "n_periods": self.n_periods,
@@ -113,7 +115,7 @@ def monte_carlo(noiseless: Sequence[SteadyStateRecord], terms: Sequence[Term], t
     bound = crlb(base, terms, theta0, var_phi_rad2=var_phi, var_torque_Nm2=var_u, n_periods=periods,
                  n_harmonics=n_harmonics, torque_share=torque_share)
     rng = np.random.default_rng(seed)
-    est, se, start = [], [], []
+    est, se, start, cost = [], [], [], []
     failures = 0
     for k in range(n_runs):
         noisy = [add_noise(r, snr_db, rng, encoder_resolution_rad=encoder_resolution_rad, sigma=sigma) for r in base]
@@ -122,6 +124,7 @@ def monte_carlo(noiseless: Sequence[SteadyStateRecord], terms: Sequence[Term], t
             failures += 1
         est.append(res.values)
         se.append(res.std_errors)
+        cost.append(res.cost / max(res.dof, 1))
         start.append(identify(noisy, terms, form="equivalent", n_harmonics=n_harmonics,
                               torque_share=torque_share).values)
         if progress is not None:
@@ -136,4 +139,4 @@ def monte_carlo(noiseless: Sequence[SteadyStateRecord], terms: Sequence[Term], t
             mean_std_error=float(se[:, i].mean()), ls_mean=float(start[:, i].mean()),
             ls_std=float(start[:, i].std(ddof=1))))
     return MonteCarloResult(float(snr_db), n_runs, n_periods if np.isscalar(n_periods) else tuple(periods),
-                            tuple(stats), failures)
+                            tuple(stats), failures, tuple(float(c) for c in cost))
