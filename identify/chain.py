@@ -40,7 +40,7 @@ import numpy as np
 from .balance import LinearSystem, _memo_arrays, harmonic_rows, spectral_rate, upsample
 from .basis import JointLaw, Term
 from .harmonics import fourier_coefficients, max_harmonic
-from .records import RecordError, SteadyStateRecord
+from .records import RecordError, SteadyStateRecord, WholePeriods
 from .solve import COND_WARN, IdentificationResult
 
 __all__ = ["ChainRecord", "ChainSpec", "ChainIdentifiabilityError", "identifiability", "chain_system",
@@ -86,7 +86,7 @@ def _opt_rows(name: str, rows, n: Optional[int], count: int, src: str) -> tuple:
 
 
 @dataclass(frozen=True)
-class ChainRecord:
+class ChainRecord(WholePeriods):
     """Whole periods of one steady-state run of a chain, sampled uniformly.
 
     Attributes:
@@ -137,14 +137,6 @@ class ChainRecord:
     @property
     def n_flywheels(self) -> int:
         return len(self.angles_rad)
-
-    @property
-    def n_samples(self) -> int:
-        return int(self.time_s.size)
-
-    @property
-    def samples_per_period(self) -> int:
-        return self.n_samples // self.n_periods
 
     @property
     def measured(self) -> tuple[bool, ...]:

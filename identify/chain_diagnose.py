@@ -49,7 +49,7 @@ from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpe
 from .diagnose import CAUSES, DEFAULT_FIDELITY, FINE_SAMPLES, Cause, ModelSpec
 from .harmonics import max_harmonic
 from .records import RecordError, SteadyStateRecord
-from .solve import IllConditionedWarning
+from .solve import IllConditionedWarning, NamedEstimates
 
 __all__ = ["ChainRun", "prepare_chain_runs", "ChainFit", "Candidate", "CandidateScore", "ChainDiagnosis",
            "diagnose_chain", "JOINT_CAUSES", "nominal_spec", "plant_and_inertias", "separating_drive",
@@ -144,7 +144,7 @@ def prepare_chain_runs(records: Sequence[ChainRecord], *, band: int = 20) -> lis
 
 
 @dataclass(frozen=True)
-class ChainFit:
+class ChainFit(NamedEstimates):
     """A weighted least-squares fit of one chain structure (chi-square corrected for the weights).
 
     ``profiled`` holds ``(name, value, standard error)`` of nonlinear parameters found by a
@@ -164,13 +164,8 @@ class ChainFit:
     def dof(self) -> int:
         return self.n_rows - len(self.names)
 
-    def as_dict(self) -> dict[str, float]:
-        return dict(zip(self.names, (float(v) for v in self.values)))
-
-    def std_error(self, name: str) -> float:
-        if name in self.names:
-            return float(self.std_errors[self.names.index(name)])
-        return next((se for n, _, se in self.profiled if n == name), math.nan)
+    def _profiled_std_errors(self) -> dict[str, float]:
+        return {n: se for n, _, se in self.profiled}
 
     def parameters(self) -> dict[str, float]:
         """Every parameter by its chain name: the linear ones, then what each joint's terms imply

@@ -45,7 +45,7 @@ from .basis import Coulomb, Iwan, Jenkins, JointLaw, Power, QuadraticDamping, St
 from .harmonics import fourier_coefficients, max_harmonic, synthesize
 from .plant import Plant, effect_parameters
 from .records import RecordError, SteadyStateRecord
-from .solve import IllConditionedWarning, solve
+from .solve import IllConditionedWarning, NamedEstimates, solve
 
 __all__ = [
     "DEFAULT_FIDELITY", "kink_corrected_rate", "PreparedRun", "prepare_runs", "ModelSpec", "NOMINAL", "Cause", "CAUSES", "Fit", "CauseScore",
@@ -260,7 +260,7 @@ def build_system(records: Sequence[SteadyStateRecord], spec: ModelSpec, *, form:
 
 
 @dataclass(frozen=True)
-class Fit:
+class Fit(NamedEstimates):
     """A weighted least-squares fit of one model structure.
 
     ``chi2`` is corrected for the estimated weights (module docstring, step 2).
@@ -284,14 +284,8 @@ class Fit:
     def dof(self) -> int:
         return self.n_rows - len(self.names)
 
-    def as_dict(self) -> dict[str, float]:
-        return dict(zip(self.names, (float(v) for v in self.values)))
-
-    def std_error(self, name: str) -> float:
-        """Standard error of any parameter, profiled nonlinear ones included (NaN if unknown)."""
-        if name in self.names:
-            return float(self.std_errors[self.names.index(name)])
-        return float(dict(self.profile_std_errors).get(name, math.nan))
+    def _profiled_std_errors(self) -> dict[str, float]:
+        return dict(self.profile_std_errors)
 
     def effect_parameters(self) -> dict[str, float]:
         """All parameters, with the nonlinear ones (free play, slip angle, delay) added

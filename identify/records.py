@@ -32,8 +32,21 @@ def _as_1d(name: str, x, source: str) -> np.ndarray:
     return a
 
 
+class WholePeriods:
+    """Samples of a record that holds ``n_periods`` whole periods on the clock ``time_s`` (shared
+    by :class:`SteadyStateRecord` and ``identify.chain.ChainRecord``)."""
+
+    @property
+    def n_samples(self) -> int:
+        return int(self.time_s.size)
+
+    @property
+    def samples_per_period(self) -> int:
+        return self.n_samples // self.n_periods
+
+
 @dataclass(frozen=True)
-class SteadyStateRecord:
+class SteadyStateRecord(WholePeriods):
     """Whole periods of one steady-state run at one drive setting, sampled uniformly.
 
     All arrays have shape ``(n_samples,)`` with ``n_samples = n_periods * samples_per_period``
@@ -107,14 +120,6 @@ class SteadyStateRecord:
                 f"(observed steps {steps.min():.9g}..{steps.max():.9g} s): the record must hold exactly "
                 f"{self.n_periods} period(s) of omega = {self.omega_rad_s:.9g} rad/s; trim it to whole periods"
             )
-
-    @property
-    def n_samples(self) -> int:
-        return int(self.time_s.size)
-
-    @property
-    def samples_per_period(self) -> int:
-        return self.n_samples // self.n_periods
 
     @property
     def phi_rad(self) -> np.ndarray:

@@ -42,6 +42,24 @@ class IllConditionedWarning(UserWarning):
     """The regression matrix is nearly rank-deficient: some parameters are not identifiable."""
 
 
+class NamedEstimates:
+    """Parameters addressed by name (``names``, ``values``, ``std_errors``), shared by the fits of
+    the diagnosis (``identify.diagnose.Fit``, ``identify.chain_diagnose.ChainFit``); nonlinear
+    parameters found by a profile search come from :meth:`_profiled_std_errors`."""
+
+    def as_dict(self) -> dict[str, float]:
+        return dict(zip(self.names, (float(v) for v in self.values)))
+
+    def std_error(self, name: str) -> float:
+        """Standard error of any parameter, profiled nonlinear ones included (NaN if unknown)."""
+        if name in self.names:
+            return float(self.std_errors[self.names.index(name)])
+        return float(self._profiled_std_errors().get(name, math.nan))
+
+    def _profiled_std_errors(self) -> dict[str, float]:
+        return {}
+
+
 @dataclass(frozen=True)
 class IdentificationResult:
     """Outcome of a harmonic-balance regression.

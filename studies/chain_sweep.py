@@ -27,7 +27,7 @@ from jointrig.rig.chain import ChainRig, simulate_chain
 from jointrig.rig.simulate import SettleInfo, SimulationConfig
 from jointrig.files import write_atomic, write_json_atomic
 
-from .sweep import SweepStoreMismatch
+from .sweep import SweepStoreMismatch, worker_model
 
 __all__ = ["ChainPoint", "CHAIN_PLAN", "CHAIN_CONFIG", "run_chain_sweep"]
 
@@ -91,30 +91,16 @@ def _load(path: Path, source: str) -> ChainPoint:
         return ChainPoint(rec.omega_rad_s, float(z["amplitude_Nm"]), int(z["flywheel"]), rec, settle)
 
 
-_worker_lock = threading.Lock()
 _python_callback_lock = threading.Lock()
-_worker_chains: dict = {}
 
 
 def _remote_point(model_name: str, model_text: bytes, digest: str, plant, point: tuple, config: SimulationConfig,
                   native: bool) -> ChainPoint:
     """A dask task: rebuild the chain from the model text (cached per worker process by digest),
     check it is the same model, give it the client's plant, simulate one point."""
-    import tempfile
-
     from jointrig.rig.chain import load_chain
 
-    with _worker_lock:
-        rig = _worker_chains.get(digest)
-        if rig is None:
-            with tempfile.TemporaryDirectory(prefix="jointrig-worker-") as tmp:
-                path = Path(tmp) / model_name
-                path.write_bytes(model_text)
-                rig = load_chain(path)
-            if rig.digest != digest:
-                raise RuntimeError(f"{model_name}: the worker's model digest {rig.digest} differs from the client's "
-                                   f"{digest}")
-            _worker_chains[digest] = rig
+    rig = worker_model(model_name, model_text, digest, load_chain)
     rig = rig.with_plant(plant)
     w, a, i = point
     if native:

@@ -359,8 +359,26 @@ def _longest_first(segments: list[list[int]], points, config: SimulationConfig) 
 
     return sorted(segments, key=cost, reverse=True)
 
-_worker_rigs: dict[str, RigModel] = {}
+_worker_models: dict = {}
 _worker_lock = threading.Lock()
+
+
+def worker_model(model_name: str, model_text: bytes, digest: str, load: Callable[[Path], object]):
+    """The model a dask worker process simulates: rebuilt from the client's model text by ``load``
+    (``load_rig`` or ``load_chain``), checked against the client's digest, and cached per worker
+    process by digest (both kinds of sweep share the cache: a digest names one file's text)."""
+    with _worker_lock:
+        rig = _worker_models.get(digest)
+        if rig is None:
+            with tempfile.TemporaryDirectory(prefix="jointrig-worker-") as tmp:
+                path = Path(tmp) / model_name
+                path.write_bytes(model_text)
+                rig = load(path)
+            if rig.digest != digest:
+                raise RuntimeError(f"{model_name}: the worker's model digest {rig.digest} differs from "
+                                   f"the client's {digest}")
+            _worker_models[digest] = rig
+    return rig
 
 
 _python_callback_lock = threading.Lock()
@@ -372,17 +390,7 @@ def _remote_segment(model_name: str, model_text: bytes, digest: str, plant, task
     check it is the same model, give it the client's plant (which may differ from the file's),
     simulate the segment. Python-callback simulations in one worker process run one at a time
     (the callback is process-global)."""
-    with _worker_lock:
-        rig = _worker_rigs.get(digest)
-        if rig is None:
-            with tempfile.TemporaryDirectory(prefix="jointrig-worker-") as tmp:
-                path = Path(tmp) / model_name
-                path.write_bytes(model_text)
-                rig = load_rig(path)
-            if rig.digest != digest:
-                raise RuntimeError(f"{model_name}: the worker's model digest {rig.digest} differs from "
-                                   f"the client's {digest}")
-            _worker_rigs[digest] = rig
+    rig = worker_model(model_name, model_text, digest, load_rig)
     rig = rig.with_plant(plant)
     if native:
         from jointrig.rig.native_callback import native_session
