@@ -268,20 +268,66 @@ def _linear_start(joint: Joint, w: float, M0: float) -> np.ndarray:
     return np.array(y)
 
 
-def steady_state(joint: Joint, w: float, M0: float, *, tol: float = 1e-8, max_periods: int = 3000):
+def _reduced(y: np.ndarray) -> np.ndarray:
+    """The state without the absolute angle (the dynamics depend on phi1 - phi2 only)."""
+    return np.concatenate([[y[0] - y[1]], y[2:]])
+
+
+def _extrapolated(zs: list, y_last: np.ndarray) -> Optional[np.ndarray]:
+    """Reduced rank extrapolation (Sidi 1986) of the period map's iterates ``zs`` (reduced
+    states at successive period boundaries): the combination ``sum g_i z_(i+1)``, ``sum g_i = 1``,
+    whose differences cancel best; exact for a linear map after dim + 1 periods. The absolute
+    angle phi1 is kept from the last iterate. None if the system is degenerate."""
+    Z = np.array(zs)
+    U = np.diff(Z, axis=0)  # (k, n)
+    scale = np.max(np.abs(Z), axis=0) + 1e-12
+    G = (U / scale) @ (U / scale).T
+    ones = np.ones(len(U))
+    try:
+        x = np.linalg.lstsq(G + 1e-14 * np.trace(G) * np.eye(len(U)), ones, rcond=None)[0]
+    except np.linalg.LinAlgError:
+        return None
+    if not np.all(np.isfinite(x)) or abs(x.sum()) < 1e-300:
+        return None
+    z = (x / x.sum()) @ Z[1:]
+    y = y_last.copy()
+    y[1] = y[0] - z[0]
+    y[2:] = z[1:]
+    return y
+
+
+def _discrete(mode: dict) -> tuple:
+    """The mode's discrete part (the Iwan element's last reversal point is continuous: the next
+    reversal sets it afresh)."""
+    return mode["s"], mode["j"], mode["i"], mode["kinks"], mode["xr"] is None
+
+
+def steady_state(joint: Joint, w: float, M0: float, *, tol: float = 1e-8, max_periods: int = 3000,
+                 accelerate: bool = True):
     """State, time and mode at a period boundary once the state repeats to ``tol`` of its swing
-    (DOP853 at rtol 1e-11 leaves a floor of ~5e-10 on the lightly damped joint)."""
+    (DOP853 at rtol 1e-11 leaves a floor of ~5e-10 on the lightly damped joint).
+
+    With ``accelerate`` the iteration of the period map is sped up by reduced rank
+    extrapolation over chunks of dim + 2 periods in which the mode (stuck or sliding, the free
+    play's side, the sliders) ends as it began; the acceptance test is the same (two successive
+    simulated periods agree to ``tol``), so an extrapolation that goes wrong only costs periods.
+    Measured on the independent-bench cases against plain iteration (``accelerate=False``): the
+    next period's relative angle agrees to 3e-9 of its swing (1.3e-7 for the light joint's larger
+    Iwan element, whose plain iteration stops at a per-period change of 1e-8 while still
+    decaying by 0.9 per period), far below the DAQ noise of 2e-3; settling is 1.7-6x faster.
+    The lightly damped joint settles in about 40 periods instead of 150-400."""
     T = 2 * math.pi / w
     y = _linear_start(joint, w, M0)
     phi = y[0] - y[1]
     mode = {"s": 1 if y[2] - y[3] >= 0 else -1, "j": 0, "i": 1 if y[2] - y[3] >= 0 else -1, "xr": None, "Fr": 0.0,
             "kinks": (1 if phi < joint.gap else -1, 1 if phi < -joint.gap else -1)}
     t = 0.0
-    chunk = 10
+    chunk = y.size + 2 if accelerate else 10
     prev = None
     done = 0
     while done < max_periods:
         grid = t + T * np.arange(1, chunk + 1)
+        start_y, start_mode = y, dict(mode)
         ys, y, mode = simulate(joint, w, M0, grid, y, mode, t0=t)
         t = grid[-1]
         done += chunk
@@ -290,6 +336,14 @@ def steady_state(joint: Joint, w: float, M0: float, *, tol: float = 1e-8, max_pe
         if prev is not None and change < tol:
             return t, y, mode
         prev = change
+        if accelerate and _discrete(mode) == _discrete(start_mode) and change > 10 * tol:
+            z = _extrapolated([_reduced(start_y)] + [_reduced(r) for r in ys], y)
+            if z is not None:
+                phi = z[0] - z[1]
+                side = (1 if phi < joint.gap else -1, 1 if phi < -joint.gap else -1)
+                if not joint.gap or side == mode["kinks"]:
+                    y = z
+                    prev = None  # the next chunk's own periods decide
     raise RuntimeError(f"no steady state after {max_periods} periods at omega = {w}, M0 = {M0}")
 
 
