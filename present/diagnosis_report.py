@@ -77,6 +77,8 @@ def _report_json(report: DiagnosisReport, *, source: str, notes: Sequence[str]) 
         "verdict": report.verdict.verdict,
         "verdict_reason": report.verdict.reason,
         "misfit_character": report.character.as_json() if report.verdict.verdict == "unexplained" else None,
+        "misfit_surface": report.surface.as_json() if report.verdict.verdict == "unexplained" else None,
+        "next_measurements": list(report.next_measurements) if report.verdict.verdict == "unexplained" else [],
         "extended": {"effect": effects[0] if effects else "none", "effects": list(report.adopted),
                      "tried": effects,
                      "dynamic_effects": list(d.effects_of_kind("dynamic")),
@@ -111,6 +113,9 @@ def format_report(report: DiagnosisReport, *, source: str = "", notes: Sequence[
     lines.append(f"VERDICT: {v.verdict.upper().replace('_', ' ')}: {v.reason}")
     if v.verdict == "unexplained":
         lines.append(f"  What the misfit looks like: {report.character.describe()}")
+        lines.append(f"  Its restoring-force surface: {report.surface.describe()}")
+        lines.append("  Measurements that would tell more:")
+        lines += [f"    - {m}" for m in report.next_measurements]
     lines.append("")
     lines.append(f"Diagnosis of {source or 'the runs'}: {len(report.runs)} runs, "
                  f"{'two-degree-of-freedom form (phi1, phi2)' if d.form == 'two_dof' else 'equivalent form (phi)'}, "
@@ -193,6 +198,45 @@ def _log_card(rec, card) -> None:
             rec.send_columns(path, indexes=[idx], columns=rr.Scalars.columns(scalars=[getattr(q, key) for q in pts]))
 
 
+def _log_surface(rec, report: DiagnosisReport) -> None:
+    """The unexplained misfit's restoring-force surface: ``diagnosis/misfit/surface`` (supported
+    knots as coloured squares at (phi, phi') normalised to +-1, y up, with the runs' loops), its
+    sections over the timelines ``phi_urad`` and ``rate_urad_s``, and the description."""
+    import rerun as rr
+
+    from jointrig.identify.balance import spectral_rate
+
+    srf = report.surface
+    xs, vs = srf.phi_knots_rad, srf.rate_knots_rad_s
+    top_x, top_v = float(xs[-1]), float(vs[-1])
+    i, j = np.nonzero(srf.supported)
+    val = srf.torque_Nm[i, j]
+    top = max(float(np.max(np.abs(val))), 1e-300) if val.size else 1.0
+    u = np.clip(val / top, -1, 1)
+    # red for positive, blue for negative, white at zero (as the report's RdBu colour map)
+    colours = np.column_stack([np.where(u > 0, 255, 255 * (1 + u)), 255 * (1 - np.abs(u)),
+                               np.where(u < 0, 255, 255 * (1 - u))]).astype(np.uint8)
+    rec.log("diagnosis/misfit/surface/knots", rr.Points2D(np.column_stack([xs[i] / top_x, -vs[j] / top_v]),
+                                                          colors=colours, radii=1.0 / (xs.size - 1),
+                                                          labels=[f"{v:.3g} N m" for v in val]), static=True)
+    centre = float(np.mean([np.mean(r.phi_resolved_rad) for r in report.runs]))
+    strips = []
+    for r in report.runs:
+        rate = spectral_rate(r.phi_resolved_rad, r.omega_rad_s, 1)
+        pts = np.column_stack([(r.phi_resolved_rad - centre) / top_x, -rate / top_v])
+        strips.append(np.vstack([pts, pts[:1]]))
+    rec.log("diagnosis/misfit/surface/loops", rr.LineStrips2D(strips, colors=[(90, 90, 90)]), static=True)
+    for entity, index, (x, y) in (("stiffness_section_Nm", "phi_urad", srf.stiffness_section),
+                                  ("damping_section_Nm", "rate_urad_s", srf.damping_section)):
+        rec.log(f"diagnosis/misfit/{entity}", rr.SeriesLines(colors=[(128, 0, 128)], names=[entity]), static=True)
+        rec.send_columns(f"diagnosis/misfit/{entity}",
+                         indexes=[rr.TimeColumn(index, sequence=np.round(x * 1e6).astype(np.int64))],
+                         columns=rr.Scalars.columns(scalars=np.asarray(y, dtype=float)))
+    text = (f"{report.character.describe()}.\n\n**Restoring-force surface:** {srf.describe()}.\n\n"
+            "**Measurements that would tell more:**\n\n" + "\n".join(f"- {m}" for m in report.next_measurements))
+    rec.log("diagnosis/misfit/description", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN), static=True)
+
+
 def diagnosis_blueprint(report: DiagnosisReport, with_card: bool = False):
     """The diagnosis recording's layout (rerun blueprint): a first tab that answers the question
     (the verdict and report text, the causes by name with the adopted ones marked, their scores),
@@ -224,6 +268,22 @@ def diagnosis_blueprint(report: DiagnosisReport, with_card: bool = False):
             rrb.BarChartView(origin=f"diagnosis/harmonic_residuals/{lab}/extended",
                              name="|harmonic residual| of the extended model [rad]"),
             grid_columns=2, name=f"run {r.run_id}: {r.omega_rad_s:g} rad/s, {r.amplitude_Nm:.4g} N m{held}"))
+    if report.verdict.verdict == "unexplained":
+        whole_p = rrb.VisibleTimeRange("phi_urad", start=rrb.TimeRangeBoundary.infinite(),
+                                       end=rrb.TimeRangeBoundary.infinite())
+        whole_r = rrb.VisibleTimeRange("rate_urad_s", start=rrb.TimeRangeBoundary.infinite(),
+                                       end=rrb.TimeRangeBoundary.infinite())
+        tabs.insert(1, rrb.Grid(
+            rrb.Spatial2DView(origin="diagnosis/misfit/surface",
+                              name="residual surface over (phi, phi'), normalised; red +, blue - (loops in grey)"),
+            rrb.TextDocumentView(origin="diagnosis/misfit/description", name="What the misfit looks like"),
+            rrb.TimeSeriesView(origin="diagnosis/misfit/stiffness_section_Nm",
+                               name="stiffness section S(phi, 0) [N m] (timeline phi_urad)", time_ranges=whole_p,
+                               axis_x=axis),
+            rrb.TimeSeriesView(origin="diagnosis/misfit/damping_section_Nm",
+                               name="damping section S(0, phi') [N m] (timeline rate_urad_s)", time_ranges=whole_r,
+                               axis_x=axis),
+            grid_columns=2, name="Unexplained misfit"))
     if with_card:
         whole_a = rrb.VisibleTimeRange("amplitude_urad", start=rrb.TimeRangeBoundary.infinite(),
                                        end=rrb.TimeRangeBoundary.infinite())
@@ -244,6 +304,8 @@ def log_diagnosis(rec, report: DiagnosisReport, text: str, *, card=None) -> None
     rec.send_blueprint(diagnosis_blueprint(report, card is not None))
     if card is not None:
         _log_card(rec, card)
+    if report.verdict.verdict == "unexplained":
+        _log_surface(rec, report)
     colors = {"measured": (40, 40, 40), "nominal": (214, 39, 40), "extended": (31, 119, 180)}
     for r in report.runs:
         lab = _label(r)
@@ -368,6 +430,12 @@ def _figures(report: DiagnosisReport) -> list[tuple[str, str]]:
         title(ax, r)
         ax.set(xlabel="harmonic n", ylabel="|residual| [rad]")
 
+    if report.verdict.verdict == "unexplained":
+        jobs.append(("The unexplained misfit as a restoring-force surface: the residual joint torque (measured "
+                     "minus the final model) at every sample of the runs' loops over the relative angle and rate, "
+                     "on its fitted surface (shaded where the data support it); the samples against the angle "
+                     "and the rate, with the surface's stiffness section S(phi, 0) and damping section S(0, phi')",
+                     lambda: _surface_figure(report, plt)))
     grid(2.8, time_series, "Relative angle over one period: measured (period average) vs simulated in the rig")
     grid(2.8, departure, "Where the simulation departs from the measurement: simulated minus measured relative "
                          "angle (band-limited), with the noise floor of the comparison")
@@ -394,6 +462,43 @@ def _figures(report: DiagnosisReport) -> list[tuple[str, str]]:
 
     jobs.append(("Causes ranked by evidence", cause_chart))
     return _draw_all(jobs)
+
+
+def _surface_figure(report: DiagnosisReport, plt) -> str:
+    """Three panels: the surface where the data support it, under the residual samples along the
+    runs' loops (the classic restoring-force plot); the samples against the angle with the
+    stiffness section, and against the rate with the damping section."""
+    from jointrig.identify.balance import spectral_rate
+
+    srf = report.surface
+    centre = float(np.mean([np.mean(r.phi_resolved_rad) for r in report.runs]))
+    x = np.concatenate([r.phi_resolved_rad - centre for r in report.runs])
+    v = np.concatenate([spectral_rate(r.phi_resolved_rad, r.omega_rad_s, 1) for r in report.runs])
+    res = np.concatenate([r.joint_torque_measured_Nm - r.joint_torque_extended_Nm for r in report.runs])
+    # colour limits robust to one run far off (the 98th percentile of |residual|)
+    top = max(float(np.percentile(np.abs(res), 98)), 1e-300)
+    fig, axes = plt.subplots(1, 3, figsize=(12.6, 3.9), gridspec_kw={"width_ratios": [1.35, 1, 1]})
+    ax = axes[0]
+    z = np.ma.masked_where(~srf.supported, srf.torque_Nm).T
+    ax.pcolormesh(srf.phi_knots_rad, srf.rate_knots_rad_s, z, shading="gouraud", cmap="RdBu_r", vmin=-top, vmax=top,
+                  alpha=0.45)
+    pts = ax.scatter(x, v, c=res, s=4, cmap="RdBu_r", vmin=-top, vmax=top, linewidths=0)
+    fig.colorbar(pts, ax=ax, label="residual joint torque [N m]")
+    ax.set(xlabel="phi - centre [rad]", ylabel="phi' [rad/s]", title="residual over (phi, phi'): samples on the surface")
+    for ax, data, (sx, sy), lab in ((axes[1], x, srf.stiffness_section, "phi - centre [rad]"),
+                                    (axes[2], v, srf.damping_section, "phi' [rad/s]")):
+        ax.axhline(0, color="0.7", lw=0.8)
+        ax.scatter(data, res, s=3, color="0.55", linewidths=0, label="samples")
+        ax.plot(sx, sy, "o", color="tab:purple", ms=4, label="section of the surface (supported knots)")
+        ax.set(xlabel=lab, ylabel="residual joint torque [N m]")
+    axes[1].set_title("against the angle; stiffness section S(phi, 0)", fontsize=10)
+    axes[2].set_title("against the rate; damping section S(0, phi')", fontsize=10)
+    axes[1].legend(fontsize=8)
+    fig.tight_layout()
+    try:
+        return _png(fig)
+    finally:
+        plt.close(fig)
 
 
 def _draw_all(jobs: list) -> list[tuple[str, str]]:
@@ -502,7 +607,12 @@ def _html_sections(report: DiagnosisReport, source: str, notes: Sequence[str]) -
         out.append("<h2>Extended model</h2><p>None: no cause is significant.</p>")
     if report.verdict.verdict == "unexplained":
         out.append("<h2>What the unexplained misfit looks like</h2>"
-                   f"<p>{html.escape(report.character.describe())}</p>")
+                   f"<p>{html.escape(report.character.describe())}.</p>"
+                   f"<p>Its restoring-force surface (the residual joint torque over angle and rate, Masri and "
+                   f"Caughey's method on bilinear hat functions; figure below): "
+                   f"{html.escape(report.surface.describe())}.</p>"
+                   "<h3>Measurements that would tell more</h3><ul>"
+                   + "".join(f"<li>{html.escape(m)}</li>" for m in report.next_measurements) + "</ul>")
 
     out.append("<h2>Validation in the MuJoCo rig</h2><p class='note'>Each run simulated under its measured "
                "drive; RMS of simulated minus measured relative angle over the harmonics the measurement "

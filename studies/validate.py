@@ -30,11 +30,13 @@ from jointrig.identify.balance import spectral_rate
 from jointrig.identify.harmonics import fourier_coefficients
 from jointrig.identify.plant import Plant, drive_of_record
 from jointrig.identify.records import SteadyStateRecord
+from jointrig.identify.surface import RestoringSurface, restoring_surface
 
 from jointrig.rig.model import RigModel, load_rig
 from jointrig.rig.simulate import SimulationConfig, SteadyStateNotReached, simulate_steady_state
 
-__all__ = ["generalisation_kind", "RunComparison", "DiagnosisReport", "default_holdout", "run_diagnosis", "band_limited"]
+__all__ = ["generalisation_kind", "RunComparison", "DiagnosisReport", "default_holdout", "run_diagnosis", "band_limited",
+           "misfit_character", "residual_surface", "next_measurements"]
 
 log = logging.getLogger(__name__)
 
@@ -166,6 +168,13 @@ class MisfitCharacter:
       frequency_slope, amplitude_slope: log-log slopes of the residual RMS against omega and
         against the drive amplitude (least squares over the runs).
       worst_runs: run ids with the largest relative residual.
+      phase_deg: per run, the phase of the residual's fundamental against the angle's (deg; 90:
+        in quadrature, dissipative).
+      phase_span_deg: the largest turn of the residual's axis at the fundamental (its phase
+        modulo 180 deg, so in [0, 90]: from in phase with the angle towards quadrature) between
+        runs of one drive level at different frequencies, over runs whose residual is at least
+        30% on the fundamental (a resonance-like phase change when large; 0 if none).
+      high_share: power of the residual on harmonics 4 and up over all (a ripple, a kink).
     """
 
     rms_Nm: tuple[float, ...]
@@ -176,6 +185,9 @@ class MisfitCharacter:
     frequency_slope: float
     amplitude_slope: float
     worst_runs: tuple[str, ...]
+    phase_deg: tuple[float, ...] = ()
+    phase_span_deg: float = 0.0
+    high_share: float = 0.0
 
     def describe(self) -> str:
         parity = ("even in phi (an asymmetry)" if self.even_share > 0.6 else
@@ -189,18 +201,89 @@ class MisfitCharacter:
         return (f"the residual joint torque is {max(self.relative):.2g} of the joint torque at most; it is {parity}, "
                 f"{kind} at the fundamental (share {self.dissipative_share:.2f}), sits mostly on harmonics "
                 f"{', '.join(map(str, self.top_harmonics))}, {f} (slope {self.frequency_slope:.2g}) and "
-                f"{a} (slope {self.amplitude_slope:.2g}); largest in runs {', '.join(self.worst_runs)}")
+                f"{a} (slope {self.amplitude_slope:.2g}); largest in runs {', '.join(self.worst_runs)}"
+                + (f"; {self.high_share:.0%} of it on harmonics 4 and up" if self.high_share > HIGH_SHARE else "")
+                + (f"; at one drive level its axis at the fundamental turns by {self.phase_span_deg:.0f} deg between "
+                   f"frequencies (towards or away from quadrature with the angle: a frequency-dependent stiffness "
+                   f"and damping)"
+                   if self.phase_span_deg > PHASE_SPAN_RESONANT_DEG else ""))
 
     def as_json(self) -> dict:
         return {"rms_Nm": list(self.rms_Nm), "relative": list(self.relative), "even_share": self.even_share,
                 "dissipative_share": self.dissipative_share, "top_harmonics": list(self.top_harmonics),
                 "frequency_slope": self.frequency_slope, "amplitude_slope": self.amplitude_slope,
-                "worst_runs": list(self.worst_runs), "description": self.describe()}
+                "worst_runs": list(self.worst_runs), "phase_deg": list(self.phase_deg),
+                "phase_span_deg": self.phase_span_deg, "high_share": self.high_share,
+                "description": self.describe()}
+
+
+#: A residual whose axis at the fundamental turns by more than this across frequencies at one
+#: drive level points to a stiffness and damping that depend on frequency (a dynamic element with
+#: its own time constant). Measured on the open-world bench: a Maxwell element 40 deg (paper's
+#: joint) and 86 deg (light joint); cogging 0-2 deg; a torque cell's cubic error 13-75 deg.
+PHASE_SPAN_RESONANT_DEG = 30.0
+#: A residual with more than this share of its power on harmonics 4 and up is called rippled.
+HIGH_SHARE = 0.3
+
+
+def _phase_span(omegas, amplitudes, phases_deg, on_fundamental) -> float:
+    """Largest turn (deg, in [0, 90]) of the residual's axis at the fundamental between runs of one
+    drive level (within 5%) at different frequencies, over runs with ``on_fundamental``."""
+    span = 0.0
+    for i in range(len(omegas)):
+        for j in range(len(omegas)):
+            if (on_fundamental[i] and on_fundamental[j]
+                    and abs(amplitudes[i] - amplitudes[j]) <= 0.05 * max(amplitudes[i], amplitudes[j])
+                    and abs(omegas[i] - omegas[j]) > 1e-6 * max(omegas[i], omegas[j])):
+                d = abs(phases_deg[i] - phases_deg[j]) % 180.0
+                span = max(span, min(d, 180.0 - d))
+    return span
+
+
+def _distinct(values, rel: float = 0.05) -> int:
+    """How many distinct settings (values within ``rel`` of each other are one: frequencies and
+    levels estimated from a measured torque differ in their last digits)."""
+    out: list[float] = []
+    for v in sorted(values):
+        if not out or v > out[-1] * (1 + rel):
+            out.append(v)
+    return len(out)
+
+
+def next_measurements(character: "MisfitCharacter", surface: RestoringSurface,
+                      runs: Sequence["RunComparison"]) -> tuple[str, ...]:
+    """Which measurements would tell more about an unexplained misfit (pure; from its character
+    and the runs' plan, naming no cause)."""
+    out = []
+    levels = _distinct([r.amplitude_Nm for r in runs])
+    freqs = _distinct([r.omega_rad_s for r in runs])
+    if 0.3 <= surface.elastic_share <= 0.7 and abs(character.frequency_slope) > 0.5 or \
+            character.phase_span_deg > PHASE_SPAN_RESONANT_DEG:
+        out.append(f"a stepped sine at one drive level over more frequencies (the runs hold {freqs}): a "
+                   "stiffness and damping that change with frequency at equal amplitude (a viscoelastic element "
+                   "with its own time constant) show as a turning phase of the residual")
+    if character.high_share > HIGH_SHARE and surface.elastic_share > 0.7:
+        out.append("a slow, quasi-static ramp of the joint angle with the joint torque measured: a torque that "
+                   "repeats at a fixed angle pitch (cogging, a detent, a damaged tooth) shows as ripple in the "
+                   "stiffness section against the angle")
+    if character.amplitude_slope > 1.5 and character.even_share < 0.4:
+        out.append("a static calibration of the torque cell and the angle encoders against a reference over their "
+                   "range: a misfit that grows faster than the drive on odd harmonics can be the joint's law or a "
+                   "sensor's nonlinearity, and only a reference tells them apart")
+    if character.even_share > 0.6 or surface.symmetric_share < 0.3:
+        out.append("runs with a mean (preload) torque and a check of the angle sensors' zero: an even misfit is an "
+                   "asymmetry of the joint or an offset")
+    if levels < 3:
+        out.append(f"runs at more drive levels (the runs hold {levels}): how the misfit scales with the drive "
+                   "tells a law of the motion (it grows faster) from a linear one (it scales with the drive)")
+    out.append("one run repeated at the start and the end of the test: a misfit that changes with run order is "
+               "wear, temperature or drift, not a law")
+    return tuple(out)
 
 
 def misfit_character(runs: Sequence[RunComparison], band: int) -> MisfitCharacter:
     """The character of the residual joint torque of the final model over all runs (pure)."""
-    rms, rel, even, total, diss_num, diss_den = [], [], 0.0, 0.0, 0.0, 0.0
+    rms, rel, even, total, diss_num, diss_den, phase, first = [], [], 0.0, 0.0, 0.0, 0.0, [], []
     power = np.zeros(band + 1)
     for r in runs:
         res = r.joint_torque_measured_Nm - r.joint_torque_extended_Nm
@@ -215,6 +298,8 @@ def misfit_character(runs: Sequence[RunComparison], band: int) -> MisfitCharacte
         total += float(p.sum())
         diss_num += abs((R[1] * np.conj(P[1])).imag)
         diss_den += abs(R[1]) * abs(P[1])
+        phase.append(float(np.degrees(np.angle(R[1] * np.conj(P[1])))))
+        first.append(float(p[0] / p.sum()) if p.sum() > 0 else 0.0)
     top = tuple(int(h) for h in np.argsort(power)[::-1][:3] if power[h] > 0)
     w = np.log([r.omega_rad_s for r in runs])
     a = np.log([max(r.amplitude_Nm, 1e-300) for r in runs])
@@ -224,7 +309,19 @@ def misfit_character(runs: Sequence[RunComparison], band: int) -> MisfitCharacte
     order = np.argsort(rel)[::-1][:2]
     return MisfitCharacter(tuple(rms), tuple(rel), even / total if total > 0 else 0.0,
                            float(diss_num / diss_den) if diss_den > 0 else 0.0, top, float(coef[1]), float(coef[2]),
-                           tuple(runs[i].run_id for i in order))
+                           tuple(runs[i].run_id for i in order), tuple(phase),
+                           _phase_span([r.omega_rad_s for r in runs], [r.amplitude_Nm for r in runs], phase,
+                                       [f >= 0.3 for f in first]),
+                           float(np.sum(power[4:]) / np.sum(power)) if np.sum(power) > 0 else 0.0)
+
+
+def residual_surface(runs: Sequence[RunComparison]) -> RestoringSurface:
+    """The final model's residual joint torque over (phi, phi') along every run's measured motion
+    (:func:`identify.surface.restoring_surface`; phi about the runs' common centre)."""
+    centre = float(np.mean([np.mean(r.phi_resolved_rad) for r in runs]))
+    return restoring_surface([r.phi_resolved_rad - centre for r in runs],
+                             [spectral_rate(r.phi_resolved_rad, r.omega_rad_s, 1) for r in runs],
+                             [r.joint_torque_measured_Nm - r.joint_torque_extended_Nm for r in runs])
 
 
 @dataclass(frozen=True)
@@ -293,6 +390,15 @@ class DiagnosisReport:
     @cached_property
     def character(self) -> MisfitCharacter:
         return misfit_character(self.runs, self.band)
+
+    @cached_property
+    def surface(self) -> RestoringSurface:
+        """The final model's residual as a restoring-force surface (:func:`residual_surface`)."""
+        return residual_surface(self.runs)
+
+    @property
+    def next_measurements(self) -> tuple[str, ...]:
+        return next_measurements(self.character, self.surface, self.runs)
 
 
 def _joint_torque_measured(run: PreparedRun, f: Fit, torque_share: float) -> np.ndarray:

@@ -71,16 +71,58 @@ def test_an_effect_outside_the_catalogue_is_unexplained_and_described(tmp_path, 
     info = (v, report.diagnosis.effects, ch.describe())
     assert v.verdict == "unexplained", info
     assert report.adopted == (), info
+    surface, nxt = report.surface, " | ".join(report.next_measurements)
+    info += (surface.describe(), nxt)
+    # The restoring-force surface follows the residual (measured: it carries 88-100% of its power)
+    assert surface.fit_rms_Nm < 0.7 * surface.rms_Nm, info
     if case == "maxwell":
         # linear in the motion (odd), on the fundamental, both elastic and dissipative (its
-        # stiffness and damping both change with frequency); measured shares 0.44 and 0.45
+        # stiffness and damping both change with frequency); measured shares 0.44 and 0.45, and
+        # the residual's axis turns with frequency at one level (40 and 86 deg): the next
+        # measurement is a finer frequency sweep
         assert ch.even_share < 0.4 and 1 in ch.top_harmonics and 0.25 < ch.dissipative_share < 0.75, info
+        assert ch.phase_span_deg > 30 and "more frequencies" in nxt, info
     elif case == "torque_calibration":
-        # T^3: odd, on the third harmonic, and growing with the drive level
+        # T^3: odd, on the third harmonic, and growing with the drive level; a reference
+        # calibration of the sensors is what tells a sensor from a law
         assert ch.even_share < 0.4 and 3 in ch.top_harmonics and ch.amplitude_slope > 0.5, info
+        assert "calibration of the torque cell" in nxt, info
     else:
-        # a torque of the angle alone: elastic, odd, on high harmonics
+        # a torque of the angle alone: elastic, odd, on high harmonics; as a surface a torque of
+        # the angle (measured elastic share 0.94-0.99), and a slow ramp of the angle is suggested
         assert ch.dissipative_share < 0.3 and ch.even_share < 0.4 and max(ch.top_harmonics) >= 5, info
+        assert surface.elastic_share > 0.85 and ch.high_share > 0.3 and "quasi-static ramp" in nxt, info
+    if (joint, case) == ("paper", "cogging"):
+        _check_shown(report, tmp_path)
+
+
+def _check_shown(report, tmp_path):
+    """The unexplained misfit reaches the user: the text, the JSON, the HTML report (with the
+    surface's figure) and the recording (its tab, the surface, the sections)."""
+    import json
+
+    import rerun as rr
+    from conftest import blueprint_views
+    from jointrig.present.diagnosis_report import format_report, log_diagnosis, report_json, write_html
+    from jointrig.present.recording import open_recording
+
+    text = format_report(report)
+    assert "Its restoring-force surface: as a surface over (phi, phi')" in text
+    assert "Measurements that would tell more:" in text and "quasi-static ramp" in text
+    out = json.loads(json.dumps(report_json(report)))
+    assert out["verdict"] == "unexplained"
+    assert out["misfit_surface"]["elastic_share"] == report.surface.elastic_share
+    assert len(out["misfit_surface"]["torque_Nm"]) == report.surface.phi_knots_rad.size
+    assert out["next_measurements"] == list(report.next_measurements)
+    page = write_html(tmp_path / "r.html", report, text).read_text()
+    assert "What the unexplained misfit looks like" in page and "restoring-force surface: the residual" in page
+    with open_recording(tmp_path / "r.rrd") as rec:
+        log_diagnosis(rec, report, text)
+    names, origins = blueprint_views(tmp_path / "r.rrd")
+    assert "Unexplained misfit" in names
+    paths = {str(p) for p in rr.chunk.RrdReader(str(tmp_path / "r.rrd")).store().schema().entity_paths()}
+    for entity in ("surface/knots", "surface/loops", "stiffness_section_Nm", "damping_section_Nm", "description"):
+        assert f"/diagnosis/misfit/{entity}" in paths, (entity, sorted(paths))
 
 
 @pytest.mark.parametrize("joint", ["paper", "light"])
