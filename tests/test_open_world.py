@@ -151,7 +151,8 @@ def _figures(case):
     d, floor = r.diagnosis, r.noise_floor_rad
     return (f"{joint:6s} {name:20s} {r.verdict.verdict:12s} tried {'+'.join(d.effects) or '-':30s} gain {r.gain:6.3g} "
             f"chi2/dof {d.extended.chi2 / d.extended.dof:6.3g} held-out/floor "
-            f"{r.validation_rms('extended') / floor:6.3g}\n    {r.character.describe()}")
+            f"{r.validation_rms('extended') / floor:6.3g}\n    {r.character.describe()}\n    {r.surface.describe()}\n"
+            + "".join(f"    next: {m}\n" for m in r.next_measurements))
 
 
 if __name__ == "__main__":
