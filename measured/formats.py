@@ -230,6 +230,10 @@ def _read_mat(path: Path) -> list[RawTable]:
             for i, s in enumerate(np.ravel(elems)):
                 cols = {f: np.ravel(np.asarray(getattr(s, f))) for f in s._fieldnames}
                 cols = {f: v for f, v in cols.items() if v.size > 1 or f in ("omega", "run")}
+                # a scalar omega field (rad/s) holds for every sample of its run, as a column would
+                n = max((v.size for f, v in cols.items() if f not in ("omega", "run")), default=0)
+                if "omega" in cols and cols["omega"].size == 1 and n > 1:
+                    cols["omega"] = np.full(n, cols["omega"].item(), dtype=float)
                 label = str(getattr(s, "run", None) if "run" in s._fieldnames else f"{k}({i + 1})")
                 tables.append(RawTable(f"{path} {k}({i + 1})", {c: v for c, v in cols.items() if c != "run"},
                                        {}, label))

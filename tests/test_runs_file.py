@@ -537,3 +537,74 @@ def test_the_writer_states_omega_and_the_comment(tmp_path):
     assert "omega" in text[2]  # the header: omega is written unless asked not to
     plain = write_runs(tmp_path / "plain.csv", loaded.records, with_omega=False).read_text().splitlines()
     assert plain[1].startswith("run") and "omega" not in plain[1]
+
+
+def test_a_tiny_drift_that_is_significant_is_not_refused(tmp_path):
+    # A drift is refused only when it is both significant and large against the swing: a
+    # noise-free relative angle creeping by 2e-6 rad over the record (t statistic in the
+    # thousands, but 5e-6 of the 0.4 rad swing) is a steady-state record, read unchanged.
+    dt = 2 * math.pi / W / 256
+    t = np.arange(4 * 256) * dt
+    creep = 2e-6 / t[-1]
+    lines = ["time,torque,phi1,phi2"] + [f"{float(ti)!r},{float(torque(ti))!r},{float(phi1(ti) + creep * ti)!r},"
+                                         f"{float(phi2(ti))!r}" for ti in t]
+    (tmp_path / "creep.csv").write_text("\n".join(lines) + "\n")
+    rec = read_runs(tmp_path / "creep.csv").records[0]
+    np.testing.assert_allclose(rec.phi1_rad, phi1(rec.time_s) + creep * rec.time_s, atol=1e-12)
+
+
+def _mat_v73(path, datasets: dict):
+    """A MATLAB v7.3 file as MATLAB writes it: HDF5 behind a 512-byte text header (scipy's
+    loadmat refuses it with NotImplementedError, so the loader must read it as HDF5)."""
+    import h5py
+
+    with h5py.File(path, "w", userblock_size=512) as f:
+        for k, v in datasets.items():
+            f.create_dataset(k, data=np.asarray(v)[:, None])  # MATLAB stores vectors as (n, 1)
+    head = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Mon Nov 23 12:00:00 2026 HDF5 schema 1.00 ."
+    with open(path, "r+b") as fh:
+        fh.write(head.ljust(116, b" ") + b"\x00" * 8 + b"\x00\x02" + b"IM")
+
+
+def test_matlab_struct_arrays_v73_and_hdf5_layouts(tmp_path):
+    import h5py
+    import scipy.io
+
+    dt = 2 * math.pi / W / 128
+    t = np.arange(3 * 128) * dt
+    sig = _signals(t)
+    # A struct array, one element per run, labelled by a text field; a scalar note field is not a
+    # column, omega is kept; 2-D (1, n) row vectors as MATLAB saves them.
+    runs = np.empty((1, 2), dtype=object)
+    for i, label in enumerate(("slow", "fast")):
+        runs[0, i] = {**{k: v[None, :] for k, v in sig.items()}, "run": label, "omega": W, "gain": 3.0}
+    scipy.io.savemat(tmp_path / "s.mat", {"runs": runs})
+    loaded = read_runs(tmp_path / "s.mat")
+    assert loaded.run_ids == ("slow", "fast")
+    for rec in loaded.records:
+        assert rec.omega_rad_s == W
+        check_columns(rec, 1e-12)
+    # One struct, no run label: named by the variable and its index; a matrix and a text scalar
+    # beside it are ignored.
+    scipy.io.savemat(tmp_path / "one.mat", {"test": {**sig}, "calibration": np.eye(3), "operator": "A. N. Other"})
+    assert read_runs(tmp_path / "one.mat").run_ids == ("test(1)",)
+    # Plain vectors stored as (n, 1) columns beside a matrix that is not a channel
+    scipy.io.savemat(tmp_path / "cols.mat", {**{k: v[:, None] for k, v in sig.items()}, "calibration": np.eye(3)})
+    check_columns(read_runs(tmp_path / "cols.mat").records[0], 1e-12)
+    # v7.3: HDF5 behind MATLAB's header, vectors as (n, 1) datasets
+    _mat_v73(tmp_path / "big.mat", sig)
+    rec = read_runs(tmp_path / "big.mat").records[0]
+    assert rec.omega_rad_s == pytest.approx(W, rel=1e-8)
+    check_columns(rec, 1e-12)
+    # HDF5 with units in the dataset names and in a bytes attribute "unit"; a text dataset and a
+    # compound one beside the channels are not columns
+    with h5py.File(tmp_path / "u.h5", "w") as f:
+        f.create_dataset("time [ms]", data=t * 1e3)
+        f.create_dataset("torque [kN m]", data=sig["torque"] / 1e3)
+        f.create_dataset("phi1", data=np.degrees(sig["phi1"]))
+        f["phi1"].attrs["unit"] = b"deg"
+        f.create_dataset("phi2 [mrad]", data=sig["phi2"] * 1e3)
+        f.create_dataset("operator", data=np.array([b"A. N. Other"]))
+        f.create_dataset("flags", data=np.zeros(3, dtype=[("a", "i4"), ("b", "f8")]))
+    rec = read_runs(tmp_path / "u.h5").records[0]
+    check_columns(rec, 1e-12)
