@@ -31,7 +31,7 @@ from jointrig.measured.runs import read_runs
 from jointrig.rig import DEFAULT_MODEL, SimulationConfig, load_rig, simulate_steady_state
 from jointrig.rig.runtime import limit_threads
 from jointrig.files import write_json_atomic
-from jointrig.studies.validate import default_holdout
+from jointrig.studies.validate import holdout_of_another_kind, run_setting
 
 WORN = DEFAULT_MODEL.parent / "two_flywheels_worn.xml"
 POINTS = [(w, a) for w in (25.0, 40.0, 55.0) for a in (1500.0, 2500.0, 3500.0)]
@@ -63,11 +63,11 @@ def main(argv=None) -> int:
         result = json.loads(Path(out[0]).read_text())
 
         loaded = read_runs(data)
-        hold = set(default_holdout(len(loaded.records)))
-        fit_recs = [r for i, r in enumerate(loaded.records) if i not in hold]
 
         def nominal():
-            runs = prepare_runs(fit_recs, band=20)
+            prepared = prepare_runs(loaded.records, band=20)
+            hold = set(holdout_of_another_kind([run_setting(r) for r in prepared]))
+            runs = [r for i, r in enumerate(prepared) if i not in hold]
             fit(_Problem(tuple(runs), "two_dof", 20, 0.5, 2.0 * (runs[0].n_periods - 1)), NOMINAL)
 
         t_nom = best_of(args.repeat, nominal)

@@ -35,7 +35,8 @@ from jointrig.identify.surface import RestoringSurface, restoring_surface
 from jointrig.rig.model import RigModel, load_rig
 from jointrig.rig.simulate import SimulationConfig, SteadyStateNotReached, simulate_steady_state
 
-__all__ = ["generalisation_kind", "RunComparison", "DiagnosisReport", "default_holdout", "run_diagnosis", "band_limited",
+__all__ = ["generalisation_kind", "RunComparison", "DiagnosisReport", "default_holdout", "holdout_of_another_kind",
+           "run_setting", "run_diagnosis", "band_limited",
            "misfit_character", "residual_surface", "next_measurements"]
 
 log = logging.getLogger(__name__)
@@ -73,6 +74,62 @@ def default_holdout(n_runs: int) -> tuple[int, ...]:
     if n_runs < 3:
         raise ValueError(f"{n_runs} run(s): need at least 3 to hold one out for validation")
     return tuple(range(1, n_runs, 3))
+
+
+def _settings(values, rel: float = 0.05) -> list[float]:
+    """The distinct settings among measured values (within ``rel`` of each other they are one:
+    frequencies and levels estimated from a measured torque differ in their last digits)."""
+    out: list[float] = []
+    for v in sorted(values):
+        if not out or v > out[-1] * (1 + rel):
+            out.append(v)
+    return out
+
+
+def _near(v: float, settings: Sequence[float]) -> int:
+    return int(np.argmin([abs(v - s) for s in settings])) if settings else -1
+
+
+def run_setting(run: PreparedRun) -> tuple[float, float, int]:
+    """A prepared run's setting: (omega rad/s, amplitude of the drive's fundamental N m, the
+    drive's other lines within the band that stand out of the noise)."""
+    avg = run.average
+    lines = int(np.count_nonzero(run.kept["torque"] > 1)) if "torque" in run.kept else 0
+    return avg.omega_rad_s, float(abs(fourier_coefficients(avg.torque_Nm, 1, 1)[1])), lines
+
+
+def holdout_of_another_kind(settings: Sequence[tuple[float, float, int]]) -> tuple[int, ...]:
+    """Runs to hold out so that validation tests a kind of run the fit did not see, wherever the
+    data allow (pure): ``settings`` are per run (omega rad/s, drive amplitude N m, the drive's
+    lines besides the fundamental that stand out of the noise).
+
+    In this order, the first that leaves at least three runs to fit:
+    1. another excitation: with sines and multi-line drives (multisines) both present, the
+       smaller group is held out, and the model fitted on one excitation predicts the other;
+    2. another level: with three or more drive levels, every other inner level (the middle one
+       of three), so the held-out runs sit between fitted levels at fitted frequencies;
+    3. another frequency: likewise with three or more frequencies;
+    4. else every third run (:func:`default_holdout`).
+    A sorted 3 x 3 sweep (frequency-major) gives the same runs as :func:`default_holdout`.
+    """
+    n = len(settings)
+    if n < 3:
+        raise ValueError(f"{n} run(s): need at least 3 to hold one out for validation")
+    multi = [i for i, (_, _, e) in enumerate(settings) if e > 0]
+    single = [i for i in range(n) if i not in multi]
+    if multi and single:
+        held = multi if len(multi) <= len(single) else single
+        if n - len(held) >= 3:
+            return tuple(held)
+    for axis in (1, 0):  # drive level first, then frequency
+        values = [s[axis] for s in settings]
+        levels = _settings(values)
+        if len(levels) >= 3:
+            inner = set(range(1, len(levels) - 1, 2))
+            held = [i for i, v in enumerate(values) if _near(v, levels) in inner]
+            if held and n - len(held) >= 3:
+                return tuple(held)
+    return default_holdout(n)
 
 
 @dataclass(frozen=True)
@@ -240,23 +297,13 @@ def _phase_span(omegas, amplitudes, phases_deg, on_fundamental) -> float:
     return span
 
 
-def _distinct(values, rel: float = 0.05) -> int:
-    """How many distinct settings (values within ``rel`` of each other are one: frequencies and
-    levels estimated from a measured torque differ in their last digits)."""
-    out: list[float] = []
-    for v in sorted(values):
-        if not out or v > out[-1] * (1 + rel):
-            out.append(v)
-    return len(out)
-
-
 def next_measurements(character: "MisfitCharacter", surface: RestoringSurface,
                       runs: Sequence["RunComparison"]) -> tuple[str, ...]:
     """Which measurements would tell more about an unexplained misfit (pure; from its character
     and the runs' plan, naming no cause)."""
     out = []
-    levels = _distinct([r.amplitude_Nm for r in runs])
-    freqs = _distinct([r.omega_rad_s for r in runs])
+    levels = len(_settings([r.amplitude_Nm for r in runs]))
+    freqs = len(_settings([r.omega_rad_s for r in runs]))
     if 0.3 <= surface.elastic_share <= 0.7 and abs(character.frequency_slope) > 0.5 or \
             character.phase_span_deg > PHASE_SPAN_RESONANT_DEG:
         out.append(f"a stepped sine at one drive level over more frequencies (the runs hold {freqs}): a "
@@ -510,7 +557,7 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
     """Diagnose on the fit runs, then compare nominal and extended models on every run.
 
     Args:
-      holdout: indices of runs kept out of the fit (default :func:`default_holdout`).
+      holdout: indices of runs kept out of the fit (default :func:`holdout_of_another_kind`).
       band: harmonics 0..band used for fitting and for comparison.
       torque_share: J2 / (J1 + J2) for records with only the relative angle.
       fidelity: model-fidelity floor of :func:`identify.diagnose.diagnose`.
@@ -519,15 +566,20 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
     say = progress or (lambda msg: None)
     n = len(records)
     run_ids = [str(i) for i in range(n)] if run_ids is None else [str(r) for r in run_ids]
-    holdout = default_holdout(n) if holdout is None else tuple(sorted(set(int(i) for i in holdout)))
-    bad = [i for i in holdout if not 0 <= i < n]
-    if bad:
-        raise ValueError(f"holdout indices {bad} outside 0..{n - 1}")
-    fit_idx = [i for i in range(n) if i not in holdout]
-    if not fit_idx or not holdout:
-        raise ValueError("need at least one fit run and one held-out run")
+    if holdout is not None:
+        holdout = tuple(sorted(set(int(i) for i in holdout)))
+        bad = [i for i in holdout if not 0 <= i < n]
+        if bad:
+            raise ValueError(f"holdout indices {bad} outside 0..{n - 1}")
+        if len(holdout) >= n or not holdout:
+            raise ValueError("need at least one fit run and one held-out run")
+    elif n < 3:
+        raise ValueError(f"{n} run(s): need at least 3 to hold one out for validation")
     say(f"preparing {n} runs (averaging periods, estimating noise)")
     prepared = prepare_runs(records, band=band)
+    if holdout is None:
+        holdout = holdout_of_another_kind([run_setting(r) for r in prepared])
+    fit_idx = [i for i in range(n) if i not in holdout]
     say(f"diagnosing on runs {[run_ids[i] for i in fit_idx]}, holding out {[run_ids[i] for i in holdout]}")
     diag = diagnose([prepared[i] for i in fit_idx], form=form, n_harmonics=band, torque_share=torque_share,
                     alpha=alpha, fidelity=fidelity, progress=progress)
@@ -575,7 +627,7 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
         floor = float(np.sqrt(np.sum(run.phi_noise_var[h] * np.where(h == 0, 1.0, 0.5))))
         comparisons.append(RunComparison(
             run_id=rid, omega_rad_s=avg.omega_rad_s,
-            amplitude_Nm=float(abs(fourier_coefficients(avg.torque_Nm, 1, 1)[1])), held_out=i in holdout,
+            amplitude_Nm=run_setting(run)[1], held_out=i in holdout,
             time_s=avg.time_s - avg.time_s[0], phi_measured_rad=avg.phi_rad,
             phi_resolved_rad=_resolved(run.raw_average.phi_rad, run.kept["phi"]), phi_nominal_rad=phi_nom,
             phi_extended_rad=phi_ext,
@@ -583,7 +635,7 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
             joint_torque_nominal_Nm=_law_torque(nominal_plant.law, run),
             joint_torque_extended_Nm=_law_torque(ext_plant.law, run),
             noise_floor_rad=floor, harmonics_compared=tuple(int(v) for v in h),
-            extra_drive_lines=int(np.count_nonzero(run.kept["torque"] > 1)) if "torque" in run.kept else 0,
+            extra_drive_lines=run_setting(run)[2],
         ))
     report = DiagnosisReport(diag, tuple(comparisons), holdout, band, tuple(notes))
     if diag.steps and not report.gain > 1.0:

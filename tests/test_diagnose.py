@@ -216,12 +216,11 @@ def test_causes_scored_in_forked_workers_give_the_same_diagnosis(rig, tmp_path_f
     # The causes of a round are independent: scored in two forked processes they give the
     # same numbers, bit for bit, as in one (the fixture's diagnosis ran with one).
     from jointrig.identify.diagnose import diagnose, prepare_runs
-    from jointrig.studies.validate import default_holdout
 
     report, _ = reports("backlash")
     records, _ = measured(rig, tmp_path_factory, "backlash")
     prepared = prepare_runs(records, band=report.band)
-    fit_runs = [r for i, r in enumerate(prepared) if i not in default_holdout(len(records))]
+    fit_runs = [r for i, r in enumerate(prepared) if i not in report.holdout]
     with warnings.catch_warnings():
         # Python >= 3.12 warns when a process with threads forks (an xdist worker has execnet's);
         # the workers only compute, they take no lock another thread could hold.

@@ -1,0 +1,72 @@
+"""Held-out runs of another kind than the fit (issue 13: a gain that generalises).
+
+The choice is a pure function of the runs' settings (tested on tables written by hand), and the
+whole path holds out multisines when the fit has stepped sines (tested in the rig).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from jointrig.studies.validate import default_holdout, holdout_of_another_kind
+
+
+def _sweep(freqs, levels, lines=0):
+    return [(w, a, lines) for w in freqs for a in levels]
+
+
+def test_a_sorted_sweep_holds_out_its_middle_level_as_before():
+    settings = _sweep((25.0, 40.0, 55.0), (1500.0, 2500.0, 3500.0))
+    assert holdout_of_another_kind(settings) == (1, 4, 7) == default_holdout(9)
+
+
+def test_another_level_whatever_the_order_and_with_estimated_settings():
+    # levels as a measured torque gives them (last digits differ), runs in no order
+    settings = [(40.0, 3499.7, 0), (25.0, 1500.2, 0), (55.0, 2500.4, 0), (25.0, 2499.9, 0), (40.0, 1499.8, 0),
+                (55.0, 3500.3, 0), (40.0, 2500.1, 0)]
+    assert holdout_of_another_kind(settings) == (2, 3, 6)  # the 2500 N m runs
+    # five levels: the second and the fourth are held out, the outer and middle ones fitted
+    settings = _sweep((30.0,), (1000.0, 1500.0, 2000.0, 2500.0, 3000.0)) + _sweep((50.0,), (1000.0, 3000.0))
+    assert holdout_of_another_kind(settings) == (1, 3)
+
+
+def test_another_frequency_when_there_are_two_levels():
+    settings = _sweep((90.0, 115.0, 175.0), (1000.0, 2400.0))
+    assert holdout_of_another_kind(settings) == (2, 3)  # the middle frequency at both levels
+
+
+def test_another_excitation_comes_first():
+    settings = _sweep((25.0, 40.0, 55.0), (1500.0, 3500.0)) + [(8.0, 40.0, 4), (8.0, 60.0, 4)]
+    assert holdout_of_another_kind(settings) == (6, 7)
+    # too few runs of the other kind left to fit: fall back to another level or frequency
+    settings = [(8.0, 40.0, 4), (8.0, 60.0, 4), (25.0, 1500.0, 0), (40.0, 1500.0, 0)]
+    assert holdout_of_another_kind(settings) == default_holdout(4)
+
+
+def test_too_few_runs_is_refused():
+    with pytest.raises(ValueError, match="at least 3"):
+        holdout_of_another_kind([(25.0, 1500.0, 0), (40.0, 1500.0, 0)])
+
+
+def test_the_diagnosis_holds_out_multisines_and_says_so(rig):
+    # Stepped sines and two multisines of the paper's joint (no hidden effect), 40 dB: the fit
+    # sees only the sines, the multisines are predicted, and the nominal model, which is right,
+    # predicts them to the noise.
+    from jointrig.identify.multisine import odd_multisine
+    from jointrig.rig import SimulationConfig, simulate_steady_state
+    from jointrig.rig.measurement import add_noise
+    from jointrig.studies.validate import run_diagnosis
+
+    rng = np.random.default_rng(5)
+    cfg = SimulationConfig(n_periods=8)
+    records = [simulate_steady_state(rig, w, a, cfg, native=True)[0]
+               for w, a in ((25.0, 1500.0), (25.0, 3500.0), (40.0, 2500.0), (55.0, 1500.0), (55.0, 3500.0))]
+    for seed, rms in ((0, 1500.0), (1, 2500.0)):
+        ms = odd_multisine(8.0, 11, rms, seed=seed)
+        records.append(simulate_steady_state(rig, 8.0, rms, cfg, drive=ms.drive, native=True)[0])
+    report = run_diagnosis([add_noise(r, 40.0, rng) for r in records], rig=rig)
+    assert report.holdout == (5, 6)
+    assert report.generalisation.startswith("the held-out runs test another excitation (held-out drives with "
+                                            "several lines"), report.generalisation
+    assert report.verdict.verdict == "no_misfit", (report.verdict, report.diagnosis.effects)
