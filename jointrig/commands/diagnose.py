@@ -11,7 +11,9 @@ whole periods at one drive setting, sampled at any rate (see measured/runs.py).
 The tool fits the nominal model (Je or J1, J2; c phi' + k phi + gamma phi^3), ranks the
 physical causes of what it misses by evidence, extends the model, and measures the gain by
 running both models in the MuJoCo rig under the measured drive of runs held out of the fit
-(default: every third run starting with the second, in file order).
+(default: runs of another kind than the fit where the data allow: multisines against stepped
+sines, else an inner drive level, else an inner frequency, else every third run;
+studies.validate.holdout_of_another_kind).
 
 Exit status: 0 on success, 2 on bad input (the message names the file, run, column or
 option), 1 when the identification itself fails.
@@ -52,7 +54,8 @@ def parse_args(argv=None) -> argparse.Namespace:
                    help="write the identified model (the adopted one: extended if explained, else nominal) as a "
                         "rig model file (jointrig_* fields, flywheel inertias) to simulate at once")
     p.add_argument("--holdout", nargs="+", metavar="RUN",
-                   help="run labels held out of the fit for validation (default: every third, from the second)")
+                   help="run labels held out of the fit for validation (default: runs of another kind than the "
+                        "fit: another excitation, else an inner level, else an inner frequency, else every third)")
     p.add_argument("--band", type=int, default=20, help="harmonics 0..BAND fitted and compared (default: %(default)s)")
     p.add_argument("--torque-share", type=float, default=0.5,
                    help="J2/(J1+J2), needed only for data with the relative angle 'phi' (default: %(default)s)")
@@ -99,8 +102,8 @@ def main(argv=None) -> int:
             if len(set(holdout)) >= len(ids):
                 raise BadArgument(f"--holdout holds out all {len(ids)} runs; expected at least one run left to fit")
         elif len(ids) < 3:
-            raise RunsFileError(f"{args.data}: {len(ids)} run(s); the diagnosis needs at least 3 (it holds every "
-                                f"third out for validation), or name the held-out runs with --holdout")
+            raise RunsFileError(f"{args.data}: {len(ids)} run(s); the diagnosis needs at least 3 (it holds some "
+                                f"out for validation), or name the held-out runs with --holdout")
         for n in loaded.notes:
             log.info("note: %s", n)
         report = run_diagnosis(loaded.records, run_ids=ids, holdout=holdout, band=args.band,
