@@ -200,6 +200,9 @@ class ModelSpec:
     #: the channel skew of a multiplexed DAQ or a filter's group delay: recorded phi2(t) =
     #: phi2(t - tau)
     angle2_delay_s: float = 0.0
+    #: measurement: flywheel 2's angle reads (1 + angle2_gain_error) times the truth (an
+    #: encoder's lines per revolution or a gear ratio set wrong): recorded phi2 = (1 + e) phi2
+    angle2_gain_error: float = 0.0
 
 
 NOMINAL = ModelSpec((Viscous(), Power(1), Power(3)))
@@ -243,10 +246,21 @@ def _skewed(rec: SteadyStateRecord, delay_s: float) -> SteadyStateRecord:
                    rate2_rad_s=rate2)
 
 
+def _rescaled(rec: SteadyStateRecord, gain_error: float) -> SteadyStateRecord:
+    """The record with flywheel 2's angle (and rate) as it was: a reading (1 + e) times too large
+    divided back."""
+    if gain_error == 0 or rec.phi2_rad is None:
+        return rec
+    scale = 1.0 / (1.0 + gain_error)
+    return replace(rec, phi2_rad=rec.phi2_rad * scale,
+                   rate2_rad_s=None if rec.rate2_rad_s is None else rec.rate2_rad_s * scale)
+
+
 def build_system(records: Sequence[SteadyStateRecord], spec: ModelSpec, *, form: str, n_harmonics: int,
                  torque_share: float) -> LinearSystem:
     """The harmonic-balance rows of harmonics 1..n_harmonics (not the mean: see :func:`diagnose`)."""
-    recs = [_offset(_skewed(_delayed(r, spec.drive_delay_s), spec.angle2_delay_s), spec.angle_offset_rad)
+    recs = [_offset(_skewed(_rescaled(_delayed(r, spec.drive_delay_s), spec.angle2_gain_error), spec.angle2_delay_s),
+                    spec.angle_offset_rad)
             for r in records]
     if form == "two_dof":
         system = two_dof_system(recs, spec.terms, n_harmonics=n_harmonics, bearings=spec.bearings)
@@ -296,6 +310,8 @@ class Fit(NamedEstimates):
             out["angle_offset_rad"] = self.spec.angle_offset_rad
         if self.spec.angle2_delay_s:
             out["angle2_delay_s"] = self.spec.angle2_delay_s
+        if self.spec.angle2_gain_error:
+            out["angle2_gain_error"] = self.spec.angle2_gain_error
         return out
 
 
@@ -587,6 +603,11 @@ CAUSES: tuple[Cause, ...] = (
           lambda s, h: replace(s, angle2_delay_s=float(h)), "angle2_delay_s", 0,
           bounds=lambda runs: (-_skew_bound(runs), _skew_bound(runs)), nonnegative=False, needs_two_angles=True,
           profiled="angle2_delay_s", kind="measurement", first_only=True),
+    Cause("angle_gain", "measurement: flywheel 2's angle reads a fixed factor too large or too small (an encoder's "
+          "lines per revolution or a gear ratio set wrong)",
+          lambda s, h: replace(s, angle2_gain_error=float(h)), "angle2_gain_error", 0,
+          bounds=lambda runs: (-ANGLE_GAIN_TOLERANCE, ANGLE_GAIN_TOLERANCE), nonnegative=False,
+          needs_two_angles=True, profiled="angle2_gain_error", kind="measurement", first_only=True),
 )
 
 #: A measurement cause whose chi-square drop is within 1% of the best cause's is taken first.
@@ -602,12 +623,22 @@ ANGLE_ZERO_TOLERANCE_RAD = 0.01
 ANGLE_SKEW_SHARE = 0.05
 
 
+#: Largest scale error of flywheel 2's angle sought (relative): a gear ratio or line count off by
+#: up to 20%. A torque sensor's gain error is not sought: it scales every parameter of both
+#: equations alike (inertias, damping, stiffness) and no data without a reference can see it;
+#: flywheel 1's angle's is the same as flywheel 2's and the torque's together, so one is enough.
+ANGLE_GAIN_TOLERANCE = 0.2
+
+
 def _skew_bound(runs) -> float:
     return ANGLE_SKEW_SHARE * min(2 * math.pi / r.average.omega_rad_s for r in runs)
 
 
 def _zero_bound(runs) -> float:
     return min(ANGLE_ZERO_TOLERANCE_RAD, 0.1 * _amplitude(runs))
+
+#: Magnitudes without a unit (a relative scale error: recorded over true, minus 1).
+DIMENSIONLESS = frozenset({"angle2_gain_error"})
 
 #: The parameter that states each cause's size (bearing: the larger of the two flywheels').
 EFFECT_MAGNITUDE = {c.name: c.magnitude for c in CAUSES}

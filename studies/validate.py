@@ -480,9 +480,10 @@ def _law_torque(law: JointLaw, run: PreparedRun) -> np.ndarray:
 
 
 def _simulate(rig: RigModel, plant: Plant, J: tuple[float, float], run: PreparedRun, band: int,
-              config: SimulationConfig, angle2_delay_s: float = 0.0) -> np.ndarray:
+              config: SimulationConfig, angle2_delay_s: float = 0.0, angle2_gain_error: float = 0.0) -> np.ndarray:
     """The relative angle the model predicts for a run, as the sensors would read it (with a
-    fitted channel skew, flywheel 2's angle as read ``angle2_delay_s`` late), band-limited."""
+    fitted channel skew, flywheel 2's angle as read ``angle2_delay_s`` late; with a fitted scale
+    error, as read (1 + ``angle2_gain_error``) times too large), band-limited."""
     rec = run.average
     coeffs = fourier_coefficients(rec.torque_Nm, 1, band)
     # Replay the harmonics the torque measurement resolves (the fundamental at least), not
@@ -494,8 +495,9 @@ def _simulate(rig: RigModel, plant: Plant, J: tuple[float, float], run: Prepared
     # The native callback: the same numbers as the Python one, bit for bit (tests/test_native_callback.py).
     sim, _ = simulate_steady_state(rig, rec.omega_rad_s, drive.amplitude_Nm, config, law=plant, drive=drive,
                                    inertias_kgm2=J, native=True)
-    if angle2_delay_s:
-        return band_limited(sim.phi1_rad - shift_periodic(sim.phi2_rad, 1, rec.omega_rad_s, angle2_delay_s), band)
+    if angle2_delay_s or angle2_gain_error:
+        phi2 = shift_periodic(sim.phi2_rad, 1, rec.omega_rad_s, angle2_delay_s) if angle2_delay_s else sim.phi2_rad
+        return band_limited(sim.phi1_rad - (1.0 + angle2_gain_error) * phi2, band)
     return band_limited(sim.phi_rad, band)
 
 
@@ -610,8 +612,8 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
                 phi[which] = np.full(N, np.nan)
                 continue
             try:
-                skew = diag.extended.spec.angle2_delay_s if which == "extended" else 0.0
-                phi[which] = _simulate(rig, plant, J, run, band, config, skew)
+                spec = diag.extended.spec if which == "extended" else diag.nominal.spec
+                phi[which] = _simulate(rig, plant, J, run, band, config, spec.angle2_delay_s, spec.angle2_gain_error)
             except SteadyStateNotReached as err:
                 # A wrong model may have no periodic response to this drive (it drifts, or is
                 # chaotic): that is a finding about the model, not a failure of the tool.

@@ -404,6 +404,17 @@ def late_channel(delay_s: float, channel: int = 3):
     return transform
 
 
+def scaled_channel(gain: float, channel: int = 3):
+    """A measurement artefact: one channel (3: phi2) read ``gain`` times the truth (an encoder's
+    line count or a gear ratio set wrong)."""
+    def transform(t, T, p1, p2):
+        chans = [t, T, p1, p2]
+        chans[channel] = gain * chans[channel]
+        return tuple(chans)
+
+    return transform
+
+
 def torque_calibration(cubic: float, full_scale_Nm: float):
     """A torque cell whose reading is ``T + cubic * T^3 / full_scale^2`` (a calibration error)."""
     def transform(t, T, p1, p2):

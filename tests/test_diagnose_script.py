@@ -36,7 +36,7 @@ def test_json_has_ranked_causes_extended_model_and_gain(outputs):
     causes = d["causes"]
     assert {c["effect"] for c in causes} == {"coulomb_friction", "backlash", "asymmetric_stiffness", "hysteresis", "micro_slip", "stribeck_friction",
                                              "quadratic_damping", "drive_delay", "bearing_friction", "angle_offset",
-                                             "angle_skew"}
+                                             "angle_skew", "angle_gain"}
     scores = [c["score"] for c in causes if c["note"] == ""]
     assert scores == sorted(scores, reverse=True)  # ranked by evidence
     assert all(isinstance(c["significant"], bool) for c in causes)

@@ -21,7 +21,8 @@ from __future__ import annotations
 
 import pytest
 
-from bench_sim import JOINTS, POINTS, cogging, late_channel, maxwell, measure, torque_calibration, with_effect
+from bench_sim import (JOINTS, POINTS, cogging, late_channel, maxwell, measure, scaled_channel, torque_calibration,
+                       with_effect)
 from jointrig.measured.runs import read_runs
 from jointrig.studies.validate import run_diagnosis
 
@@ -49,12 +50,13 @@ CASES = {
 }
 
 
-#: Not an open-world case any more: found by the catalogue (test below).
-LATE_PHI2 = {"late_phi2": lambda joint: (JOINTS[joint], late_channel(0.001))}
+#: Not open-world cases any more: the catalogue's measurement causes (tests below).
+MEASUREMENT = {"late_phi2": lambda joint: (JOINTS[joint], late_channel(0.001)),
+               "phi2_gain": lambda joint: (JOINTS[joint], scaled_channel(1.02))}
 
 
 def _report(tmp_path, joint, case):
-    bench, transform = {**CASES, **LATE_PHI2}[case](joint)
+    bench, transform = {**CASES, **MEASUREMENT}[case](joint)
     path = measure(bench, _points(joint), tmp_path / "bench.csv", seed=sum(map(ord, joint + case)), fs_Hz=2000.0,
                    n_periods=6.5, transform=transform)
     loaded = read_runs(path)
@@ -166,3 +168,18 @@ if __name__ == "__main__":
     with ProcessPoolExecutor(2) as pool:
         for row in pool.map(_figures, [(j, c) for c in CASES for j in ("paper", "light")]):
             print(row, flush=True)
+
+
+@pytest.mark.parametrize("joint", ["paper", "light"])
+def test_a_wrongly_scaled_angle_channel_is_found_as_an_angle_gain(tmp_path, joint):
+    # phi2 read 1.02 times the truth (an encoder's line count or a gear ratio set wrong): the
+    # measurement cause angle_gain, alone, within 3 standard errors of 0.02, and a gain >= 5.
+    # Measured: 0.02009 +- 0.00054 (paper), 0.0198 +- 0.0017 (light); gains 115 and 39.
+    report = _report(tmp_path, joint, "phi2_gain")
+    d = report.diagnosis
+    info = (report.verdict, d.effects)
+    assert report.verdict.verdict == "explained" and report.adopted == ("angle_gain",), info
+    assert d.effects_of_kind("measurement") == ("angle_gain",)
+    e, se = d.extended.effect_parameters()["angle2_gain_error"], d.extended.std_error("angle2_gain_error")
+    assert abs(e - 0.02) <= 3 * se, (e, se)
+    assert report.gain >= 5, report.gain
