@@ -229,26 +229,31 @@ def _read_mat(path: Path) -> list[RawTable]:
             elems = mat[k] if isinstance(mat[k], np.ndarray) else [mat[k]]
             for i, s in enumerate(np.ravel(elems)):
                 cols = {f: np.ravel(np.asarray(getattr(s, f))) for f in s._fieldnames}
-                cols = {f: v for f, v in cols.items() if v.size > 1 or f in ("omega", "run")}
-                # a scalar omega field (rad/s) holds for every sample of its run, as a column would
-                n = max((v.size for f, v in cols.items() if f not in ("omega", "run")), default=0)
-                if "omega" in cols and cols["omega"].size == 1 and n > 1:
-                    cols["omega"] = np.full(n, cols["omega"].item(), dtype=float)
+                cols = _scalar_omega({f: v for f, v in cols.items() if v.size > 1 or f in ("omega", "run")})
                 label = str(getattr(s, "run", None) if "run" in s._fieldnames else f"{k}({i + 1})")
                 tables.append(RawTable(f"{path} {k}({i + 1})", {c: v for c, v in cols.items() if c != "run"},
                                        {}, label))
         return tables
     cols = {}
     for k in names:
-        v = np.asarray(mat[k])
-        if v.dtype.kind in "iufb" and (v.ndim <= 1 or (v.ndim == 2 and min(v.shape) == 1)):
+        v = np.asarray(mat[k])  # squeeze_me: a vector is 1-D, a scalar 0-D, whatever MATLAB's shape
+        if v.dtype.kind in "iufb" and v.ndim <= 1 and (v.size > 1 or k == "omega"):
             cols[k] = np.ravel(v).astype(float)
         elif v.dtype.kind in "US" and v.ndim == 1:
             cols[k] = v.astype(object)
+    cols = _scalar_omega(cols)
     if not cols:
         raise FormatError(f"{path}: no numeric vectors found; expected variables time, torque, phi1, phi2 "
                           f"(or phi) as vectors, or a struct array with those fields, one element per run")
     return [RawTable(str(path), cols, {})]
+
+
+def _scalar_omega(cols: dict) -> dict:
+    """A scalar ``omega`` (rad/s) holds for every sample of its record, as a column would."""
+    n = max((v.size for f, v in cols.items() if f not in ("omega", "run")), default=0)
+    if "omega" in cols and cols["omega"].size == 1 and n > 1:
+        cols = {**cols, "omega": np.full(n, float(np.ravel(cols["omega"])[0]))}
+    return cols
 
 
 def _is_struct(v) -> bool:
@@ -314,11 +319,19 @@ def _read_hdf5(path: Path) -> list[RawTable]:
 # ------------------------------------------------------------------------------------ TDMS
 
 
+def _tdms_seconds(stamps: np.ndarray) -> np.ndarray:
+    """Seconds since the first of TDMS time stamps (whole seconds and 2^-64 s fractions)."""
+    whole = (stamps["seconds"] - stamps["seconds"][0]).astype(float)
+    frac = (stamps["second_fractions"].astype(float) - float(stamps["second_fractions"][0])) / 2.0 ** 64
+    return whole + frac
+
+
 def _read_tdms(path: Path) -> list[RawTable]:
     from nptdms import TdmsFile
 
     try:
-        tdms = TdmsFile.read(path)
+        # raw time stamps: TDMS keeps 2^-64 s, npTDMS's datetime64 would round them to 1 us
+        tdms = TdmsFile.read(path, raw_timestamps=True)
     except Exception as err:  # noqa: BLE001 - npTDMS raises many types for a bad file
         raise FormatError(f"{path}: not a readable TDMS file: {err}") from None
     tables = []
@@ -333,7 +346,9 @@ def _read_tdms(path: Path) -> list[RawTable]:
             if data.ndim != 1 or data.size == 0:
                 continue
             base, unit = split_header(ch.name)
-            if data.dtype.kind == "M":
+            if data.dtype.names is not None and {"seconds", "second_fractions"} <= set(data.dtype.names):
+                data, unit = _tdms_seconds(data), "s"
+            elif data.dtype.kind == "M":
                 data, unit = _seconds(data), "s"
             elif data.dtype.kind not in "iufb":
                 continue

@@ -608,3 +608,100 @@ def test_matlab_struct_arrays_v73_and_hdf5_layouts(tmp_path):
         f.create_dataset("flags", data=np.zeros(3, dtype=[("a", "i4"), ("b", "f8")]))
     rec = read_runs(tmp_path / "u.h5").records[0]
     check_columns(rec, 1e-12)
+
+
+def test_parquet_duration_time_and_units_in_the_schema_metadata(tmp_path):
+    # Time as a duration since the start (timedelta, as pandas writes elapsed time), units stated
+    # in the schema's metadata (as the project's writer and some loggers do), not in the names.
+    pa = pytest.importorskip("pyarrow")
+    import pyarrow.parquet as pq
+
+    dt_ns = 250_000
+    n = 3 * 419
+    t = np.arange(n) * dt_ns * 1e-9
+    elapsed = (np.arange(n) * dt_ns).astype("timedelta64[ns]")
+    table = pa.table({"time": elapsed, "torque": torque(t) / 1e3, "phi1": np.degrees(phi1(t)), "phi2": phi2(t)})
+    meta = {b"units": repr({"torque": "kN m", "phi1": "deg", "not a column": "V", 3: "rad"}).encode()}
+    pq.write_table(table.replace_schema_metadata(meta), tmp_path / "d.parquet")
+    rec = read_runs(tmp_path / "d.parquet").records[0]
+    # whole-ns stamps at a fixed rate: omega to round-off (a clock read 1e-9 off would show)
+    assert rec.omega_rad_s == pytest.approx(W, rel=1e-11)
+    check_columns(rec, 1e-11)
+
+
+def test_matlab_cell_arrays_scalars_and_element_names(tmp_path):
+    import scipy.io
+
+    dt = 2 * math.pi / W / 128
+    t = np.arange(3 * 128) * dt
+    sig = _signals(t)
+    # Vectors with a cell array of channel names, an empty cell array and omega as a scalar
+    # variable beside them: the cells are no runs, omega holds for the record.
+    scipy.io.savemat(tmp_path / "v.mat", {**sig, "omega": W, "names": np.array(["torque", "phi1"], dtype=object),
+                                         "empty": np.empty((0,), dtype=object)})
+    loaded = read_runs(tmp_path / "v.mat")
+    assert loaded.run_ids == ("0",) and loaded.records[0].omega_rad_s == W
+    check_columns(loaded.records[0], 1e-12)
+    # A struct array whose second element lacks the torque: the error names that element.
+    runs = np.empty((1, 2), dtype=object)
+    runs[0, 0] = dict(sig)
+    runs[0, 1] = {k: v for k, v in sig.items() if k != "torque"}
+    runs[0, 1]["force"] = sig["torque"]
+    scipy.io.savemat(tmp_path / "bad.mat", {"runs": runs})
+    with pytest.raises(RunsFileError, match=r"bad\.mat runs\(2\): missing column\(s\) \['torque'\]"):
+        read_runs(tmp_path / "bad.mat")
+
+
+# pyuff's writer leaves its file handles to the garbage collector (type 151 and binary 58 sets)
+@pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
+def test_tdms_and_uff_edges(tmp_path):
+    import pyuff
+    from nptdms import ChannelObject, TdmsWriter
+
+    dt = 2 * math.pi / W / 128
+    t = np.arange(3 * 128) * dt
+    sig = _signals(t)
+    # TDMS: absolute time stamps as a channel (a 1.25 kHz clock, whole microseconds: npTDMS
+    # writes stamps to the microsecond; the loader reads the file's 2^-64 s fractions raw);
+    # units in the channel names when there is no unit_string property
+    ts = np.arange(400) * 800e-6
+    s2 = _signals(ts)
+    stamps = np.datetime64("2026-11-23T10:00:00", "us") + (np.arange(400) * 800).astype("timedelta64[us]")
+    with TdmsWriter(tmp_path / "s.tdms") as w:
+        w.write_segment([ChannelObject("bench", "time", stamps),
+                         ChannelObject("bench", "torque [kN m]", s2["torque"] / 1e3),
+                         ChannelObject("bench", "phi1 [deg]", np.degrees(s2["phi1"])),
+                         ChannelObject("bench", "phi2", s2["phi2"], properties={"unit_string": "rad"})])
+    rec = read_runs(tmp_path / "s.tdms").records[0]
+    # omega and the columns to round-off (measured 0 and 2e-14 of the swing; stamps read as
+    # npTDMS's datetime64 would be whole us too here, but would drop a finer clock's digits)
+    assert rec.omega_rad_s == pytest.approx(W, rel=1e-11)
+    check_columns(rec, 1e-11)
+    # TDMS: waveform timing with a zero step is refused by name
+    with TdmsWriter(tmp_path / "z.tdms") as w:
+        w.write_segment([ChannelObject("run1", k, v, properties={"wf_increment": 0.0, "wf_start_offset": 0.0})
+                         for k, v in sig.items() if k != "time"])
+    with pytest.raises(RunsFileError, match="wf_increment = 0.0; expected a positive sample step"):
+        read_runs(tmp_path / "z.tdms")
+    # UFF: a type-151 header set is skipped; no load case id: run "0"; units from the names
+    # when the unit label is empty
+    uff = pyuff.UFF(str(tmp_path / "e.uff"))
+    uff.write_sets(pyuff.prepare_151(model_name="bench", description="jointrig test", db_app="none",
+                                     date_db_created="23-Nov-26", time_db_created="12:00:00", version_db1=0,
+                                     version_db2=0, file_type=0, date_db_saved="23-Nov-26",
+                                     time_db_saved="12:00:00", program="test", date_db_written="23-Nov-26",
+                                     time_db_written="12:00:00"), mode="add")
+    for k, name in (("torque", "torque [kN m]"), ("phi1", "phi1 [deg]"), ("phi2", "phi2")):
+        scale = {"torque": 1e-3, "phi1": 180 / math.pi, "phi2": 1.0}[k]
+        uff.write_sets(pyuff.prepare_58(binary=1, id1=name, func_type=1, rsp_node=1, rsp_dir=1, ref_node=1,
+                                        ref_dir=1, data=sig[k] * scale, x=t, abscissa_spacing=1, abscissa_min=0.0,
+                                        abscissa_inc=dt, ordinate_axis_units_lab="", abscissa_axis_units_lab="s",
+                                        abscissa_spec_data_type=17, ordinate_spec_data_type=0,
+                                        orddenom_spec_data_type=0, z_axis_spec_data_type=0, ord_data_type=4),
+                       mode="add")
+    import gc
+
+    gc.collect()  # pyuff's open handles are closed here, inside this test's warning filter
+    loaded = read_runs(tmp_path / "e.uff")
+    assert loaded.run_ids == ("0",)
+    check_columns(loaded.records[0], 1e-5)  # the increment written with 6 digits (E13.5): measured 2.2e-6
