@@ -666,9 +666,10 @@ def test_tdms_and_uff_edges(tmp_path):
     # units in the channel names when there is no unit_string property
     ts = np.arange(400) * 800e-6
     s2 = _signals(ts)
-    stamps = np.datetime64("2026-11-23T10:00:00", "us") + (np.arange(400) * 800).astype("timedelta64[us]")
+    # (the record crosses a whole second of the clock; an empty channel beside them is skipped)
+    stamps = np.datetime64("2026-11-23T10:00:59.9", "us") + (np.arange(400) * 800).astype("timedelta64[us]")
     with TdmsWriter(tmp_path / "s.tdms") as w:
-        w.write_segment([ChannelObject("bench", "time", stamps),
+        w.write_segment([ChannelObject("bench", "time", stamps), ChannelObject("bench", "spare", np.zeros(0)),
                          ChannelObject("bench", "torque [kN m]", s2["torque"] / 1e3),
                          ChannelObject("bench", "phi1 [deg]", np.degrees(s2["phi1"])),
                          ChannelObject("bench", "phi2", s2["phi2"], properties={"unit_string": "rad"})])
@@ -677,6 +678,11 @@ def test_tdms_and_uff_edges(tmp_path):
     # npTDMS's datetime64 would be whole us too here, but would drop a finer clock's digits)
     assert rec.omega_rad_s == pytest.approx(W, rel=1e-11)
     check_columns(rec, 1e-11)
+    # TDMS: no time channel and no waveform timing: the missing time is named
+    with TdmsWriter(tmp_path / "nt.tdms") as w:
+        w.write_segment([ChannelObject("run1", k, v) for k, v in sig.items() if k != "time"])
+    with pytest.raises(RunsFileError, match=r"missing column\(s\) \['time'\]"):
+        read_runs(tmp_path / "nt.tdms")
     # TDMS: waveform timing with a zero step is refused by name
     with TdmsWriter(tmp_path / "z.tdms") as w:
         w.write_segment([ChannelObject("run1", k, v, properties={"wf_increment": 0.0, "wf_start_offset": 0.0})
@@ -705,3 +711,15 @@ def test_tdms_and_uff_edges(tmp_path):
     loaded = read_runs(tmp_path / "e.uff")
     assert loaded.run_ids == ("0",)
     check_columns(loaded.records[0], 1e-5)  # the increment written with 6 digits (E13.5): measured 2.2e-6
+
+
+def test_whitespace_separated_columns(tmp_path):
+    # A text export with columns separated by spaces (MATLAB's save -ascii, many loggers' .txt)
+    dt = 2 * math.pi / W / 64
+    t = np.arange(3 * 64) * dt
+    path = tmp_path / "bench.txt"
+    path.write_text("time  torque   phi1   phi2\n" + "".join(
+        f"{float(ti)!r}   {float(torque(ti))!r}  {float(phi1(ti))!r}\t{float(phi2(ti))!r}\n" for ti in t))
+    rec = read_runs(path).records[0]
+    assert rec.omega_rad_s == pytest.approx(W, rel=1e-12)
+    check_columns(rec, 1e-12)
