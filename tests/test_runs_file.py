@@ -723,3 +723,22 @@ def test_whitespace_separated_columns(tmp_path):
     rec = read_runs(path).records[0]
     assert rec.omega_rad_s == pytest.approx(W, rel=1e-12)
     check_columns(rec, 1e-12)
+
+
+def test_a_common_rotation_is_removed_when_only_the_quieter_angle_shows_it(tmp_path):
+    # Flywheel 1 barely moves (0.03 rad swing), flywheel 2 swings 1 rad, and both rotate at
+    # 5e-4 rad/s: over the record (2e-4 rad) that is beyond the drift share (1e-3 of the swing) of
+    # flywheel 1 but not of flywheel 2. It is still a rotation of both (the relative angle is
+    # steady): removed, not refused.
+    dt = 2 * math.pi / W / 256
+    t = np.arange(4 * 256) * dt
+    p1 = 0.01 * np.cos(W * t - 0.5) + 0.005 * np.cos(3 * W * t)
+    p2 = 0.5 * np.cos(W * t - 1.5)
+    lines = ["time,torque,phi1,phi2"] + [f"{float(a)!r},{float(torque(a))!r},{float(b + 5e-4 * a)!r},{float(c + 5e-4 * a)!r}"
+                                         for a, b, c in zip(t, p1, p2)]
+    (tmp_path / "spin.csv").write_text("\n".join(lines) + "\n")
+    loaded = read_runs(tmp_path / "spin.csv")
+    assert any("rotate steadily at 0.0005 rad/s" in n for n in loaded.notes), loaded.notes
+    rec = loaded.records[0]
+    np.testing.assert_allclose(rec.phi1_rad, 0.01 * np.cos(W * rec.time_s - 0.5) + 0.005 * np.cos(3 * W * rec.time_s),
+                               atol=1e-12)
