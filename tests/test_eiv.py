@@ -262,3 +262,29 @@ def test_the_ml_cost_of_a_right_model_is_chi_square(mc40):
     mean = float(np.mean(mc40.cost_over_dof))
     assert len(mc40.cost_over_dof) == N_MC
     assert 0.8 <= mean <= 1.25, mean
+
+
+def test_every_start_of_the_ml_search_is_exact_on_consistent_rows():
+    # The ML search starts from weighted least squares, generalised least squares and
+    # instrumental variables. On rows without noise (a linear joint in closed form, as in the
+    # CRLB test) each start must return the true (Je, c, k) to round-off: a scaling or a sign
+    # slip in any of them would show here, though Levenberg-Marquardt might still recover.
+    from jointrig.identify.eiv import PeriodAverage, _gls, _instrumental, _prepare, _weighted_ls
+    from jointrig.identify.records import SteadyStateRecord
+
+    Je, c, k, s, M0, N = 1.0, 100.0, 2000.0, 0.5, 400.0, 64
+    terms = (Viscous(), Power(1))
+    runs = []
+    for w in (20.0, 45.0, 70.0):
+        X = s * M0 / (k - Je * w * w + 1j * c * w)
+        t = np.arange(N) * (2 * math.pi / w / N)
+        avg = average_periods(SteadyStateRecord(w, t, M0 * np.cos(w * t), (X * np.exp(1j * w * t)).real, None,
+                                                n_periods=1), noise_free=True)
+        # noise variances only weight the rows (the rows themselves are exact)
+        avg = PeriodAverage(avg.omega_rad_s, avg.phi_rad, avg.torque_Nm, 1e-10, 1e-2, 1, avg.source)
+        runs.append(_prepare(avg, terms, 5, s, 5, noisy=False))
+    truth = np.array([Je, c, k])
+    start = _weighted_ls(runs)
+    np.testing.assert_allclose(start, truth, rtol=1e-9)  # measured 9e-16 (GLS 6e-15, IV 2e-16)
+    np.testing.assert_allclose(_gls(runs, start * 1.1), truth, rtol=1e-9)  # from a start 10% off
+    np.testing.assert_allclose(_instrumental(runs, [(r, r) for r in runs], truth), truth, rtol=1e-9)
