@@ -50,7 +50,9 @@ MODULES = {
     "jointrig.identify.balance": ("identify/balance.py", ["tests/test_identify_analytic.py", "tests/test_basis.py",
                                                          "tests/test_eiv.py"]),
     "jointrig.identify.solve": ("identify/solve.py", ["tests/test_identify_analytic.py", "tests/test_eiv.py"]),
-    "jointrig.identify.eiv": ("identify/eiv.py", ["tests/test_eiv.py", "tests/test_identify_analytic.py"]),
+    # test_hat.py: the penalised path of eiv (solve_penalised, penalty rows) is used by the hat fit
+    "jointrig.identify.eiv": ("identify/eiv.py", ["tests/test_eiv.py", "tests/test_identify_analytic.py",
+                                                 "tests/test_hat.py"]),
     "jointrig.identify.periods": ("identify/periods.py", ["tests/test_runs_file.py", "tests/test_bad_input.py"]),
     "jointrig.measured.runs": ("measured/runs.py", ["tests/test_runs_file.py", "tests/test_bad_input.py"]),
     "jointrig.measured.formats": ("measured/formats.py", ["tests/test_runs_file.py", "tests/test_bad_input.py"]),

@@ -288,3 +288,27 @@ def test_every_start_of_the_ml_search_is_exact_on_consistent_rows():
     np.testing.assert_allclose(start, truth, rtol=1e-9)  # measured 9e-16 (GLS 6e-15, IV 2e-16)
     np.testing.assert_allclose(_gls(runs, start * 1.1), truth, rtol=1e-9)  # from a start 10% off
     np.testing.assert_allclose(_instrumental(runs, [(r, r) for r in runs], truth), truth, rtol=1e-9)
+
+
+def test_the_ml_residual_is_whitened_by_the_full_row_covariance(default_sweep, rig):
+    # |L^-1 (A theta - F)|^2 = r' C(theta)^-1 r with C = L L' the rows' covariance, which the
+    # cubic term makes non-diagonal (noise in phi enters every harmonic of phi^3): whitening by
+    # the wrong triangle, or by the diagonal alone, changes the likelihood.
+    from jointrig.identify.eiv import _whitened, linearised, prepare_runs
+
+    rng = np.random.default_rng(11)
+    recs = [add_noise(repeat_periods(r, 4), 40.0, rng) for r in default_sweep[3:6]]
+    runs = prepare_runs(recs, rig.law.terms, n_harmonics=9, torque_share=rig.torque_share)
+    # a strong cubic term (gamma 1e4 times the joint's) couples the harmonics' noise
+    theta = np.array([rig.Je_kgm2, *rig.law.values]) * np.array([1.0, 1.0, 1.0, 1e4])
+    direct = 0.0
+    for r in runs:
+        C = r.covariance(theta)
+        corr = C / np.sqrt(np.outer(np.diag(C), np.diag(C)))
+        assert np.max(np.abs(corr - np.eye(len(C)))) > 0.05  # the test needs a coupled covariance
+        res = r.A @ theta - r.F
+        direct += float(res @ np.linalg.solve(C, res))
+    w = _whitened(runs, theta)
+    assert float(w @ w) == pytest.approx(direct, rel=1e-9)  # round-off
+    A, F = linearised(runs, theta)
+    assert float(np.sum((A @ theta - F) ** 2)) == pytest.approx(direct, rel=1e-9)
