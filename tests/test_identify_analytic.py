@@ -236,3 +236,62 @@ def test_spectral_rate_and_harmonic_range():
     _check_harmonics(rec, 0)
     with pytest.raises(ValueError, match="torque_share must be in"):
         equivalent_system([rec], (Viscous(), Power(1)), n_harmonics=3, torque_share=0.0)
+
+
+def test_two_dof_form_with_bearing_drag_in_closed_form():
+    # Two flywheels, a linear joint and a viscous drag of each flywheel to ground, under M0 cos(w t)
+    # on flywheel 1: the steady state from the 2 x 2 dynamic stiffness. The direct form with
+    # bearings returns J1, J2, c, k, b1, b2 to round-off (exact rows, noise-free).
+    from jointrig.identify import two_dof_system
+
+    b1, b2, M0 = 3.0, 7.0, 400.0
+    recs = []
+    for w in (15.0, 30.0, 45.0, 70.0):
+        Z = np.array([[K - J1 * w * w + 1j * w * (C + b1), -(K + 1j * w * C)],
+                      [-(K + 1j * w * C), K - J2 * w * w + 1j * w * (C + b2)]])
+        X1, X2 = np.linalg.solve(Z, [M0, 0.0])
+        t = np.arange(N) * 2 * np.pi / (w * N)
+        e = np.exp(1j * w * t)
+        recs.append(SteadyStateRecord(w, t, M0 * np.cos(w * t), (X1 * e).real, (X2 * e).real, None, None, 1))
+    res = solve(two_dof_system(recs, (Viscous(), Power(1)), n_harmonics=4, bearings=True))
+    truth = {"J1_kgm2": J1, "J2_kgm2": J2, "c_Nms_per_rad": C, "k_Nm_per_rad": K,
+             "bearing1_damping_Nms_per_rad": b1, "bearing2_damping_Nms_per_rad": b2}
+    assert res.success
+    for name, value in truth.items():
+        assert res.value(name) == pytest.approx(value, rel=1e-9), name  # measured 1.1e-14
+
+
+def test_stacking_systems_of_different_parameters_is_refused():
+    from jointrig.identify.balance import LinearSystem
+
+    a = equivalent_system([linear_record(30.0, 100.0)], (Viscous(), Power(1)), n_harmonics=3, torque_share=0.6)
+    b = equivalent_system([linear_record(40.0, 100.0)], (Viscous(), Power(1), Power(3)), n_harmonics=3,
+                          torque_share=0.6)
+    with pytest.raises(ValueError, match="parameter names differ"):
+        LinearSystem.stack([a, b])
+    assert LinearSystem.stack([a, a]).F.size == 2 * a.F.size
+
+
+def test_torque_share_must_lie_in_the_unit_interval():
+    rec = linear_record(30.0, 100.0)
+    assert equivalent_system([rec], (Viscous(), Power(1)), n_harmonics=3, torque_share=1.0).F.size > 0
+    for bad in (0.0, 1.5):
+        with pytest.raises(ValueError, match=r"torque_share must be in \(0, 1\]"):
+            equivalent_system([rec], (Viscous(), Power(1)), n_harmonics=3, torque_share=bad)
+
+
+def test_a_rank_deficient_system_gives_the_minimum_norm_solution_and_says_so():
+    # Two copies of the stiffness column: any split of k between them fits; the pseudo-inverse
+    # returns the minimum-norm one (an even split), and the result reports the rank.
+    from jointrig.identify.balance import LinearSystem
+
+    s = equivalent_system([linear_record(w, 100.0) for w in (20.0, 40.0)], (Viscous(), Power(1)), n_harmonics=3,
+                          torque_share=J2 / (J1 + J2))
+    k_col = s.A[:, s.names.index("k_Nm_per_rad")]
+    dup = LinearSystem(np.column_stack([s.A, k_col]), s.F, s.names + ("k_copy",), s.row_record, s.row_harmonic,
+                       s.row_part, s.row_equation)
+    res = solve(dup)
+    assert not res.success and res.message.startswith("rank-deficient: rank 3 < 4 unknowns")
+    assert res.value("k_Nm_per_rad") == pytest.approx(K / 2, rel=1e-9)
+    assert res.value("k_copy") == pytest.approx(K / 2, rel=1e-9)
+    assert res.value("Je_kgm2") == pytest.approx(JE, rel=1e-9)
