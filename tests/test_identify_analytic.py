@@ -1,5 +1,7 @@
 """Layer 1-2: identification from analytic steady states (no simulation), and record checks."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -288,10 +290,29 @@ def test_a_rank_deficient_system_gives_the_minimum_norm_solution_and_says_so():
     s = equivalent_system([linear_record(w, 100.0) for w in (20.0, 40.0)], (Viscous(), Power(1)), n_harmonics=3,
                           torque_share=J2 / (J1 + J2))
     k_col = s.A[:, s.names.index("k_Nm_per_rad")]
-    dup = LinearSystem(np.column_stack([s.A, k_col]), s.F, s.names + ("k_copy",), s.row_record, s.row_harmonic,
+    # a right-hand side off the columns' span (1e-3 perturbation): the null direction must get
+    # no share of the residual either
+    F = s.F * (1 + 1e-3 * np.random.default_rng(0).standard_normal(s.F.size))
+    dup = LinearSystem(np.column_stack([s.A, k_col]), F, s.names + ("k_copy",), s.row_record, s.row_harmonic,
                        s.row_part, s.row_equation)
     res = solve(dup)
+    full = solve(LinearSystem(s.A, F, s.names, s.row_record, s.row_harmonic, s.row_part, s.row_equation))
     assert not res.success and res.message.startswith("rank-deficient: rank 3 < 4 unknowns")
-    assert res.value("k_Nm_per_rad") == pytest.approx(K / 2, rel=1e-9)
-    assert res.value("k_copy") == pytest.approx(K / 2, rel=1e-9)
-    assert res.value("Je_kgm2") == pytest.approx(JE, rel=1e-9)
+    assert res.value("k_Nm_per_rad") == pytest.approx(res.value("k_copy"), rel=1e-9)
+    assert res.value("k_Nm_per_rad") + res.value("k_copy") == pytest.approx(full.value("k_Nm_per_rad"), rel=1e-9)
+    assert res.value("Je_kgm2") == pytest.approx(full.value("Je_kgm2"), rel=1e-9)
+
+
+def test_a_zero_right_hand_side_and_the_default_harmonics():
+    from jointrig.identify.balance import LinearSystem
+
+    s = equivalent_system([linear_record(w, 100.0) for w in (20.0, 40.0)], (Viscous(), Power(1)), n_harmonics=3,
+                          torque_share=0.6)
+    res = solve(LinearSystem(s.A, np.zeros_like(s.F), s.names, s.row_record, s.row_harmonic, s.row_part,
+                             s.row_equation))
+    assert np.all(res.values == 0) and res.relative_residual == math.inf
+    # identify's default balances harmonics 0..9: per record the mean's real row and the real
+    # and imaginary rows of harmonics 1..9
+    recs = [linear_record(w, 100.0, n_periods=1) for w in (20.0, 40.0)]
+    res = identify(recs, (Viscous(), Power(1)), torque_share=J2 / (J1 + J2))
+    assert res.n_rows == 2 * (1 + 2 * 9)
