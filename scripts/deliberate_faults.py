@@ -19,7 +19,6 @@ A fault is caught when at least one of its tests fails. Exit status 1 if any fau
 from __future__ import annotations
 
 import argparse
-import json
 import subprocess
 import sys
 import time

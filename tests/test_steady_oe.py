@@ -7,7 +7,7 @@ import pytest
 
 from jointrig.identify import JointLaw, Monomial, Power, Viscous
 from jointrig.identify.extend import score_candidates
-from jointrig.identify.output_error import refine_output_error, simulate_periods
+from jointrig.identify.output_error import refine_output_error
 from jointrig.identify.signals import BandlimitedInput
 from jointrig.identify.steady import SteadyStateError, periodic_response
 
