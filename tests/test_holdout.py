@@ -70,3 +70,34 @@ def test_the_diagnosis_holds_out_multisines_and_says_so(rig):
     assert report.generalisation.startswith("the held-out runs test another excitation (held-out drives with "
                                             "several lines"), report.generalisation
     assert report.verdict.verdict == "no_misfit", (report.verdict, report.diagnosis.effects)
+
+
+def _comparison(run_id, omega, amplitude, residual_scale, *, n=256):
+    """A run comparison whose measured joint torque departs from the model's by a known residual
+    (a third harmonic of the given size on a 1000 N m fundamental)."""
+    from jointrig.studies.validate import RunComparison
+
+    t = np.arange(n) * 2 * np.pi / omega / n
+    phi = 0.1 * np.cos(omega * t)
+    model = 1000.0 * np.cos(omega * t)
+    measured = model + residual_scale * np.cos(3 * omega * t + 0.4)
+    return RunComparison(run_id, omega, amplitude, False, t, phi, phi, phi, phi, measured, model, model, 1e-6, (1,))
+
+
+def test_run_order_is_judged_only_from_repeated_settings():
+    from jointrig.studies.validate import misfit_character, next_measurements, residual_surface
+
+    sweep = [("0", 25.0, 1500.0), ("1", 40.0, 1500.0), ("2", 55.0, 1500.0)]
+    # no repeat: said to be undecidable, and a repeated run is suggested
+    ch = misfit_character([_comparison(i, w, a, 20.0) for i, w, a in sweep], 20)
+    assert np.isnan(ch.repeat_change) and "cannot be told apart" in ch.describe()
+    # the first setting repeated at the end with the same residual: no sign of run order
+    same = [_comparison(i, w, a, 20.0) for i, w, a in sweep] + [_comparison("3", 25.0, 1502.0, 20.0)]
+    ch = misfit_character(same, 20)
+    assert ch.repeat_change == pytest.approx(0.0, abs=1e-12) and ch.repeat_runs == ("0", "3")
+    assert "no sign of run order or time" in ch.describe()
+    # ... with the residual doubled (a joint that wears during the test): changes by 0.5 of its size
+    worn = [_comparison(i, w, a, 20.0) for i, w, a in sweep] + [_comparison("3", 25.0, 1502.0, 40.0)]
+    ch = misfit_character(worn, 20)
+    assert ch.repeat_change == pytest.approx(0.5, rel=1e-9) and "depends on run order or time" in ch.describe()
+    assert any("changed between runs 0 and 3" in m for m in next_measurements(ch, residual_surface(worn), worn))
