@@ -110,13 +110,6 @@ class RestoringSurface:
                 "symmetric_share": self.symmetric_share, "description": self.describe()}
 
 
-def _second_differences(n: int) -> np.ndarray:
-    D = np.zeros((max(n - 2, 0), n))
-    for i in range(n - 2):
-        D[i, i:i + 3] = (1.0, -2.0, 1.0)
-    return D
-
-
 def _share(part: np.ndarray, whole: np.ndarray) -> float:
     total = float(np.sum(whole ** 2))
     return float(np.sum(part ** 2)) / total if total > 0 else 0.0
@@ -146,8 +139,9 @@ def restoring_surface(phi_rad: Sequence[np.ndarray], rate_rad_s: Sequence[np.nda
     kv = np.linspace(-top_v, top_v, n_rate)
     Hx, Hv = hat_matrix(x, kx), hat_matrix(v, kv)
     B = (Hx[:, :, None] * Hv[:, None, :]).reshape(x.size, n_phi * n_rate)
-    Dx = np.kron(_second_differences(n_phi), np.eye(n_rate))
-    Dv = np.kron(np.eye(n_phi), _second_differences(n_rate))
+    # second differences (rows 1, -2, 1) along each axis of the grid
+    Dx = np.kron(np.diff(np.eye(n_phi), 2, axis=0), np.eye(n_rate))
+    Dv = np.kron(np.eye(n_phi), np.diff(np.eye(n_rate), 2, axis=0))
     BtB = B.T @ B
     lam = PENALTY * float(np.trace(BtB)) / BtB.shape[0]
     S = np.linalg.solve(BtB + lam * (Dx.T @ Dx + Dv.T @ Dv), B.T @ r).reshape(n_phi, n_rate)

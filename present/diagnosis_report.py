@@ -204,9 +204,7 @@ def _log_surface(rec, report: DiagnosisReport) -> None:
     sections over the timelines ``phi_urad`` and ``rate_urad_s``, and the description."""
     import rerun as rr
 
-    from jointrig.identify.balance import spectral_rate
-
-    srf = report.surface
+    srf, smp = report.surface, report.samples
     xs, vs = srf.phi_knots_rad, srf.rate_knots_rad_s
     top_x, top_v = float(xs[-1]), float(vs[-1])
     i, j = np.nonzero(srf.supported)
@@ -219,11 +217,9 @@ def _log_surface(rec, report: DiagnosisReport) -> None:
     rec.log("diagnosis/misfit/surface/knots", rr.Points2D(np.column_stack([xs[i] / top_x, -vs[j] / top_v]),
                                                           colors=colours, radii=1.0 / (xs.size - 1),
                                                           labels=[f"{v:.3g} N m" for v in val]), static=True)
-    centre = float(np.mean([np.mean(r.phi_resolved_rad) for r in report.runs]))
     strips = []
-    for r in report.runs:
-        rate = spectral_rate(r.phi_resolved_rad, r.omega_rad_s, 1)
-        pts = np.column_stack([(r.phi_resolved_rad - centre) / top_x, -rate / top_v])
+    for phi, rate in zip(smp.phi_rad, smp.rate_rad_s):
+        pts = np.column_stack([phi / top_x, -rate / top_v])
         strips.append(np.vstack([pts, pts[:1]]))
     rec.log("diagnosis/misfit/surface/loops", rr.LineStrips2D(strips, colors=[(90, 90, 90)]), static=True)
     for entity, index, (x, y) in (("stiffness_section_Nm", "phi_urad", srf.stiffness_section),
@@ -468,13 +464,8 @@ def _surface_figure(report: DiagnosisReport, plt) -> str:
     """Three panels: the surface where the data support it, under the residual samples along the
     runs' loops (the classic restoring-force plot); the samples against the angle with the
     stiffness section, and against the rate with the damping section."""
-    from jointrig.identify.balance import spectral_rate
-
-    srf = report.surface
-    centre = float(np.mean([np.mean(r.phi_resolved_rad) for r in report.runs]))
-    x = np.concatenate([r.phi_resolved_rad - centre for r in report.runs])
-    v = np.concatenate([spectral_rate(r.phi_resolved_rad, r.omega_rad_s, 1) for r in report.runs])
-    res = np.concatenate([r.joint_torque_measured_Nm - r.joint_torque_extended_Nm for r in report.runs])
+    srf, smp = report.surface, report.samples
+    x, v, res = (np.concatenate(a) for a in (smp.phi_rad, smp.rate_rad_s, smp.residual_Nm))
     # colour limits robust to one run far off (the 98th percentile of |residual|)
     top = max(float(np.percentile(np.abs(res), 98)), 1e-300)
     fig, axes = plt.subplots(1, 3, figsize=(12.6, 3.9), gridspec_kw={"width_ratios": [1.35, 1, 1]})

@@ -37,7 +37,7 @@ from jointrig.rig.simulate import SimulationConfig, SteadyStateNotReached, simul
 
 __all__ = ["generalisation_kind", "RunComparison", "DiagnosisReport", "default_holdout", "holdout_of_another_kind",
            "run_setting", "run_diagnosis", "band_limited",
-           "misfit_character", "residual_surface", "next_measurements"]
+           "misfit_character", "ResidualSamples", "residual_samples", "residual_surface", "next_measurements"]
 
 log = logging.getLogger(__name__)
 
@@ -84,6 +84,11 @@ def _settings(values, rel: float = 0.05) -> list[float]:
         if not out or v > out[-1] * (1 + rel):
             out.append(v)
     return out
+
+
+def _same(a: float, b: float, rel: float) -> bool:
+    """Two measured settings (omega, drive level) are one within ``rel`` of the larger."""
+    return abs(a - b) <= rel * max(abs(a), abs(b))
 
 
 def _near(v: float, settings: Sequence[float]) -> int:
@@ -313,8 +318,7 @@ def _repeat_change(runs, residual_coeffs) -> tuple[float, tuple[str, ...]]:
     for i in range(len(runs)):
         for j in range(i + 1, len(runs)):
             a, b = runs[i], runs[j]
-            if (abs(a.omega_rad_s - b.omega_rad_s) <= 0.01 * max(a.omega_rad_s, b.omega_rad_s)
-                    and abs(a.amplitude_Nm - b.amplitude_Nm) <= 0.05 * max(a.amplitude_Nm, b.amplitude_Nm)):
+            if _same(a.omega_rad_s, b.omega_rad_s, 0.01) and _same(a.amplitude_Nm, b.amplitude_Nm, 0.05):
                 mi, mj = np.abs(residual_coeffs[i][1:]), np.abs(residual_coeffs[j][1:])
                 size = max(float(np.linalg.norm(mi)), float(np.linalg.norm(mj)), 1e-300)
                 change = float(np.linalg.norm(mi - mj)) / size
@@ -329,9 +333,8 @@ def _phase_span(omegas, amplitudes, phases_deg, on_fundamental) -> float:
     span = 0.0
     for i in range(len(omegas)):
         for j in range(len(omegas)):
-            if (on_fundamental[i] and on_fundamental[j]
-                    and abs(amplitudes[i] - amplitudes[j]) <= 0.05 * max(amplitudes[i], amplitudes[j])
-                    and abs(omegas[i] - omegas[j]) > 1e-6 * max(omegas[i], omegas[j])):
+            if (on_fundamental[i] and on_fundamental[j] and _same(amplitudes[i], amplitudes[j], 0.05)
+                    and not _same(omegas[i], omegas[j], 1e-6)):
                 d = abs(phases_deg[i] - phases_deg[j]) % 180.0
                 span = max(span, min(d, 180.0 - d))
     return span
@@ -344,8 +347,8 @@ def next_measurements(character: "MisfitCharacter", surface: RestoringSurface,
     out = []
     levels = len(_settings([r.amplitude_Nm for r in runs]))
     freqs = len(_settings([r.omega_rad_s for r in runs]))
-    if 0.3 <= surface.elastic_share <= 0.7 and abs(character.frequency_slope) > 0.5 or \
-            character.phase_span_deg > PHASE_SPAN_RESONANT_DEG:
+    if ((0.3 <= surface.elastic_share <= 0.7 and abs(character.frequency_slope) > 0.5)
+            or character.phase_span_deg > PHASE_SPAN_RESONANT_DEG):
         out.append(f"a stepped sine at one drive level over more frequencies (the runs hold {freqs}): a "
                    "stiffness and damping that change with frequency at equal amplitude (a viscoelastic element "
                    "with its own time constant) show as a turning phase of the residual")
@@ -409,13 +412,30 @@ def misfit_character(runs: Sequence[RunComparison], band: int) -> MisfitCharacte
                            *_repeat_change(runs, coeffs))
 
 
+@dataclass(frozen=True)
+class ResidualSamples:
+    """The final model's residual joint torque at every sample of every run's measured period,
+    with where it was: the relative angle about the runs' common centre and its rate. One list
+    entry per run (SI units)."""
+
+    phi_rad: tuple[np.ndarray, ...]
+    rate_rad_s: tuple[np.ndarray, ...]
+    residual_Nm: tuple[np.ndarray, ...]
+
+
+def residual_samples(runs: Sequence[RunComparison]) -> ResidualSamples:
+    """The residual along each run's measured (resolved) motion (pure)."""
+    centre = float(np.mean([np.mean(r.phi_resolved_rad) for r in runs]))
+    return ResidualSamples(tuple(r.phi_resolved_rad - centre for r in runs),
+                           tuple(spectral_rate(r.phi_resolved_rad, r.omega_rad_s, 1) for r in runs),
+                           tuple(r.joint_torque_measured_Nm - r.joint_torque_extended_Nm for r in runs))
+
+
 def residual_surface(runs: Sequence[RunComparison]) -> RestoringSurface:
     """The final model's residual joint torque over (phi, phi') along every run's measured motion
-    (:func:`identify.surface.restoring_surface`; phi about the runs' common centre)."""
-    centre = float(np.mean([np.mean(r.phi_resolved_rad) for r in runs]))
-    return restoring_surface([r.phi_resolved_rad - centre for r in runs],
-                             [spectral_rate(r.phi_resolved_rad, r.omega_rad_s, 1) for r in runs],
-                             [r.joint_torque_measured_Nm - r.joint_torque_extended_Nm for r in runs])
+    (:func:`identify.surface.restoring_surface` on :func:`residual_samples`)."""
+    s = residual_samples(runs)
+    return restoring_surface(s.phi_rad, s.rate_rad_s, s.residual_Nm)
 
 
 @dataclass(frozen=True)
@@ -486,9 +506,15 @@ class DiagnosisReport:
         return misfit_character(self.runs, self.band)
 
     @cached_property
+    def samples(self) -> ResidualSamples:
+        """The final model's residual at every sample (:func:`residual_samples`)."""
+        return residual_samples(self.runs)
+
+    @cached_property
     def surface(self) -> RestoringSurface:
-        """The final model's residual as a restoring-force surface (:func:`residual_surface`)."""
-        return residual_surface(self.runs)
+        """The final model's residual as a restoring-force surface."""
+        s = self.samples
+        return restoring_surface(s.phi_rad, s.rate_rad_s, s.residual_Nm)
 
     @property
     def next_measurements(self) -> tuple[str, ...]:
@@ -564,14 +590,10 @@ def generalisation_kind(fit: Sequence[tuple[float, float, int]], held: Sequence[
     not see inside its range, or only interpolation between fitted levels at fitted frequencies.
     Frequencies and levels count as equal within 1%."""
     def close(a, values):
-        return any(abs(a - v) <= 0.01 * max(abs(v), 1e-12) for v in values)
+        return any(_same(a, v, 0.01) for v in values)
 
     def distinct(values):
-        out: list[float] = []
-        for v in sorted(values):
-            if not close(v, out):
-                out.append(v)
-        return ", ".join(f"{v:.4g}" for v in out)
+        return ", ".join(f"{v:.4g}" for v in _settings(values, 0.01))
 
     kinds = []
     if {e > 0 for *_, e in held} - {e > 0 for *_, e in fit}:
@@ -626,8 +648,9 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
         raise ValueError(f"{n} run(s): need at least 3 to hold one out for validation")
     say(f"preparing {n} runs (averaging periods, estimating noise)")
     prepared = prepare_runs(records, band=band)
+    settings = [run_setting(r) for r in prepared]
     if holdout is None:
-        holdout = holdout_of_another_kind([run_setting(r) for r in prepared])
+        holdout = holdout_of_another_kind(settings)
     fit_idx = [i for i in range(n) if i not in holdout]
     say(f"diagnosing on runs {[run_ids[i] for i in fit_idx]}, holding out {[run_ids[i] for i in holdout]}")
     diag = diagnose([prepared[i] for i in fit_idx], form=form, n_harmonics=band, torque_share=torque_share,
@@ -676,7 +699,7 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
         floor = float(np.sqrt(np.sum(run.phi_noise_var[h] * np.where(h == 0, 1.0, 0.5))))
         comparisons.append(RunComparison(
             run_id=rid, omega_rad_s=avg.omega_rad_s,
-            amplitude_Nm=run_setting(run)[1], held_out=i in holdout,
+            amplitude_Nm=settings[i][1], held_out=i in holdout,
             time_s=avg.time_s - avg.time_s[0], phi_measured_rad=avg.phi_rad,
             phi_resolved_rad=_resolved(run.raw_average.phi_rad, run.kept["phi"]), phi_nominal_rad=phi_nom,
             phi_extended_rad=phi_ext,
@@ -684,7 +707,7 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
             joint_torque_nominal_Nm=_law_torque(nominal_plant.law, run),
             joint_torque_extended_Nm=_law_torque(ext_plant.law, run),
             noise_floor_rad=floor, harmonics_compared=tuple(int(v) for v in h),
-            extra_drive_lines=run_setting(run)[2],
+            extra_drive_lines=settings[i][2],
         ))
     report = DiagnosisReport(diag, tuple(comparisons), holdout, band, tuple(notes))
     if diag.steps and not report.gain > 1.0:

@@ -1,7 +1,9 @@
 """Held-out runs of another kind than the fit (issue 13: a gain that generalises).
 
 The choice is a pure function of the runs' settings (tested on tables written by hand), and the
-whole path holds out multisines when the fit has stepped sines (tested in the rig).
+whole path holds out multisines when the fit has stepped sines (tested in the rig). The misfit's
+dependence on run order is judged from runs that repeat a setting, the same notion of a setting
+(tested on synthetic comparisons).
 """
 
 from __future__ import annotations

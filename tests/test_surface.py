@@ -13,7 +13,7 @@ import pytest
 from jointrig.identify.surface import restoring_surface
 
 T = np.linspace(0, 2 * np.pi, 256, endpoint=False)
-#: (amplitude rad, omega rad/s, phase of the third harmonic)
+#: (amplitude rad, omega rad/s) of each loop; each carries a third harmonic of 5% in phase
 LOOPS = [(0.1, 25.0), (0.2, 25.0), (0.3, 40.0), (0.15, 55.0), (0.25, 55.0), (0.3, 25.0)]
 
 
