@@ -335,26 +335,28 @@ def kink_corrected_rate(phi_rad: np.ndarray, omega_rad_s: float, band: int, jump
       band_limited_rate: ``spectral_rate(phi_rad, omega_rad_s, 1)`` if the caller has it
         (it does not depend on the jump: a profile search reuses it for every trial).
     """
-    M = phi_rad.size
-    n = np.arange(M // 2 + 1)
-    jw = 1j * n * omega_rad_s
     v_bl = spectral_rate(phi_rad, omega_rad_s, 1) if band_limited_rate is None else band_limited_rate
     if jump_rad_s2 <= 0:
         return v_bl
+    M = phi_rad.size
+    # Harmonics band+1 .. M/2-1 of sum_i d_i delta(t - t_i) / (i n w)^2, scaled for irfft:
+    # (2/T) (M/2) / (i n w)^2 = -(M/T) / (n w)^2, real.
     T = 2 * math.pi / omega_rad_s
-    out_band = (n > band) & (n < M // 2)
+    n_out = np.arange(band + 1, M // 2)
+    scale = -(M / T) / (n_out * omega_rad_s) ** 2
+    V = np.zeros(M // 2 + 1, complex)
     v = v_bl
     for _ in range(iterations):
-        nxt = np.roll(v, -1)
-        i = np.flatnonzero((v > 0) != (nxt > 0))
+        up = v > 0
+        i = np.flatnonzero(up != np.roll(up, -1))
         if i.size == 0 or i.size % 2:
             return v_bl
-        frac = v[i] / (v[i] - nxt[i])
+        nxt = v[(i + 1) % M]
+        frac = v[i] / (v[i] - nxt)
         t = (i + frac) * T / M
-        d = -np.sign(nxt[i] - v[i]) * jump_rad_s2  # friction always steepens the approach
-        C = (2.0 / T) * np.exp(-1j * np.outer(n, t) * omega_rad_s) @ d
-        V = np.where(out_band, C / np.where(n > 0, jw, 1.0) ** 2, 0.0)
-        v = v_bl + np.fft.irfft(V * (M / 2), n=M)
+        d = -np.sign(nxt - v[i]) * jump_rad_s2  # friction always steepens the approach
+        V[band + 1: M // 2] = scale * (d @ np.exp(1j * np.outer(-omega_rad_s * t, n_out)))
+        v = v_bl + np.fft.irfft(V, n=M)
     return v
 
 
@@ -770,11 +772,13 @@ def _profile(problem, cause: Cause, base: ModelSpec, weights) -> Fit:
         back = float
         lo_t, hi_t = lo, hi
     cache: dict[float, Fit] = {}
+    def solved(h):
+        return _solve(problem, cause.extend(base, h), weights)
 
     def obj(u):
         h = back(u)
         if h not in cache:
-            cache[h] = _solve(problem, cause.extend(base, h), weights)
+            cache[h] = solved(h)
         return cache[h].chi2
 
     grid = np.linspace(lo_t, hi_t, 17)
@@ -790,7 +794,7 @@ def _profile(problem, cause: Cause, base: ModelSpec, weights) -> Fit:
     step = max(1e-3 * abs(h_best), 1e-6 * (hi - lo))
 
     def chi2_at(h):
-        return _solve(problem, cause.extend(base, h), weights).chi2
+        return solved(h).chi2
 
     if h_best - step >= lo:
         curv = (chi2_at(h_best - step) - 2 * best.chi2 + chi2_at(h_best + step)) / step**2
@@ -949,8 +953,11 @@ def _score_all(problem: _Problem, causes: Sequence[Cause], base: Fit, weights: n
             + (", significant" if s.significant else ""))
         return s
 
-    scores = fork_map(lambda c: score_cause(problem, c, base, weights, n, alpha), causes, workers)
-    return [told(k, s) for k, s in enumerate(scores)]
+    # Causes with a profile search (tens of fits each) go first, so the processes finish together.
+    order = sorted(range(len(causes)), key=lambda k: causes[k].bounds is None)
+    scores = fork_map(lambda k: score_cause(problem, causes[k], base, weights, n, alpha), order, workers)
+    out = dict((k, told(j, s)) for j, (k, s) in enumerate(zip(order, scores)))
+    return [out[k] for k in range(len(causes))]
 
 
 def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmonics: int = 20,
@@ -1031,16 +1038,21 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
         # A cause that may only come first (a channel skew: see CAUSES) is not sought on top of others.
         remaining = [c for c in remaining if c.name != best.effect and not c.first_only]
         # Rivals: significant on the previous base, close in evidence; are they still needed?
-        for rival in scores:
-            if rival is best or not rival.significant:
-                continue
-            say(f"  is {rival.effect} still needed beside {best.effect}? (and the reverse)")
+        # Each is tested both ways; the rivals are independent of each other (forked).
+        rivals = [r for r in scores if r is not best and r.significant]
+        cause_b = next(c for c in causes if c.name == best.effect)
+
+        def both_ways(rival, current=current, wcur=wcur, cause_b=cause_b, n_left=len(remaining)):
             cause_r = next(c for c in causes if c.name == rival.effect)
-            cause_b = next(c for c in causes if c.name == best.effect)
-            r_given_b = score_cause(problem, cause_r, current, wcur, len(remaining), alpha)
+            r_given_b = score_cause(problem, cause_r, current, wcur, n_left, alpha)
             rival_fit, wr = fit(problem, rival.fit.spec)
-            b_given_r = score_cause(problem, cause_b, rival_fit, wr, len(remaining), alpha)
-            if not r_given_b.significant and not b_given_r.significant:
+            b_given_r = score_cause(problem, cause_b, rival_fit, wr, n_left, alpha)
+            return r_given_b.significant, b_given_r.significant
+
+        if rivals:
+            say(f"  are {', '.join(r.effect for r in rivals)} still needed beside {best.effect}? (and the reverse)")
+        for rival, (r_needed, b_needed) in zip(rivals, fork_map(both_ways, rivals, workers)):
+            if not r_needed and not b_needed:
                 pair = frozenset({best.effect, rival.effect})
                 ambiguous.append(Ambiguity((best.effect, rival.effect),
                                            SEPARATING_EXCITATION.get(pair, _DEFAULT_SEPARATION)))
