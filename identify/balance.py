@@ -33,9 +33,10 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from .basis import Term
+from jointrig.vocab.law import Term
 from .harmonics import fourier_coefficients, max_harmonic, synthesize
-from .records import RecordError, SteadyStateRecord
+from jointrig.vocab.records import RecordError, SteadyStateRecord
+from jointrig.vocab.params import J1, J2, JE, BEARING1, BEARING2
 
 __all__ = [
     "LinearSystem",
@@ -235,7 +236,7 @@ def single_dof_system(
     forcing: np.ndarray,
     terms: Sequence[Term],
     n_harmonics: int,
-    inertia_name: Optional[str] = "Je_kgm2",
+    inertia_name: Optional[str] = JE,
     record_index: int = 0,
 ) -> LinearSystem:
     """Rows of ``J x'' + sum_j theta_j b_j(x, x') = forcing`` for one periodic record.
@@ -283,7 +284,7 @@ def equivalent_system(
     _check_records(records)
     systems = [
         _single(rec, rec.phi_rad, rec.rate_rad_s, torque_share * rec.torque_Nm, terms, n_harmonics,
-                "Je_kgm2", i, equation=0, law_sign=1.0, oversample=oversample)
+                JE, i, equation=0, law_sign=1.0, oversample=oversample)
         for i, rec in enumerate(records)
     ]
     return LinearSystem.stack(systems)
@@ -316,14 +317,14 @@ def two_dof_system(
             fourier_coefficients(rec.torque_Nm, rec.n_periods, n_harmonics)))
         zero = np.zeros_like(acc1)
         eq_cols = [[acc1, zero, law], [zero, acc2, -law]]
-        names = ("J1_kgm2", "J2_kgm2") + tuple(t.name for t in terms)
+        names = (J1, J2) + tuple(t.name for t in terms)
         if bearings:
             jw = 1j * np.arange(n_harmonics + 1) * rec.omega_rad_s
             v1 = jw * fourier_coefficients(rec.phi1_rad, rec.n_periods, n_harmonics)
             v2 = jw * fourier_coefficients(rec.phi2_rad, rec.n_periods, n_harmonics)
             eq_cols[0] += [v1, zero]
             eq_cols[1] += [zero, v2]
-            names += ("bearing1_damping_Nms_per_rad", "bearing2_damping_Nms_per_rad")
+            names += (BEARING1, BEARING2)
         for eq, (cols, rhs) in enumerate(((np.vstack(eq_cols[0]), torque),
                                           (np.vstack(eq_cols[1]), np.zeros_like(torque)))):
             A, F, harm, part = harmonic_rows(cols, rhs, n_harmonics)

@@ -44,9 +44,9 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from .basis import JointLaw
+from jointrig.vocab.law import JointLaw
 from .harmonics import fourier_coefficients, synthesize
-from .records import SteadyStateRecord
+from jointrig.vocab.records import SteadyStateRecord
 
 __all__ = ["CardPoint", "JointCard", "MasingCheck", "MasingRun", "describing_function", "law_card", "masing_check",
            "runs_card", "dissipation_slope"]

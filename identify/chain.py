@@ -2,7 +2,7 @@
 
 Flywheel i (1..N) turns by ``phi_i``; joint j (1..N-1) joins flywheels j and j+1 and carries
 the torque ``M_j(phi_j - phi_(j+1), phi_j' - phi_(j+1)')`` (its own law, any terms of
-:mod:`identify.basis`). Flywheel i's equation of motion (paper eq. 1, one per flywheel) is
+:mod:`vocab.law`). Flywheel i's equation of motion (paper eq. 1, one per flywheel) is
 
     J_i phi_i'' + b_i phi_i' + M_i - M_(i-1) = T_i(t),
 
@@ -37,10 +37,11 @@ from typing import Optional, Sequence
 
 import numpy as np
 
+from .estimates import equilibrated_condition
 from .balance import LinearSystem, _memo_arrays, harmonic_rows, spectral_rate, upsample
-from .basis import JointLaw, Term
+from jointrig.vocab.law import JointLaw, Term
 from .harmonics import fourier_coefficients, max_harmonic
-from .records import RecordError, SteadyStateRecord, WholePeriods
+from jointrig.vocab.records import RecordError, SteadyStateRecord, WholePeriods
 from .solve import COND_WARN, IdentificationResult
 
 __all__ = ["ChainRecord", "ChainSpec", "ChainIdentifiabilityError", "identifiability", "chain_system",
@@ -92,7 +93,7 @@ class ChainRecord(WholePeriods):
     Attributes:
       omega_rad_s: drive fundamental (rad/s).
       time_s: sample times (s), ``(n_samples,)``, whole periods (checked as for
-        :class:`identify.records.SteadyStateRecord`).
+        :class:`vocab.records.SteadyStateRecord`).
       torques_Nm: per flywheel 1..N, the drive torque applied to it (N m, ``(n_samples,)``), or
         None where no drive acts.
       angles_rad: per flywheel, its angle (rad), or None where it is not measured.
@@ -162,7 +163,7 @@ class ChainSpec:
     drag to ground (1-based numbers).
 
     Attributes:
-      joints: one tuple of :class:`identify.basis.Term` per joint (N - 1 of them).
+      joints: one tuple of :class:`vocab.law.Term` per joint (N - 1 of them).
       bearings: flywheel numbers with an unknown viscous drag to ground.
     """
 
@@ -175,7 +176,7 @@ class ChainSpec:
             raise ValueError("ChainSpec needs at least one joint")
         for j, terms in enumerate(joints, start=1):
             if not terms or not all(isinstance(t, Term) for t in terms):
-                raise ValueError(f"ChainSpec: joint {j} needs at least one law term (identify.basis.Term)")
+                raise ValueError(f"ChainSpec: joint {j} needs at least one law term (vocab.law.Term)")
         N = len(joints) + 1
         bearings = tuple(sorted(set(int(b) for b in self.bearings)))
         if any(not 1 <= b <= N for b in bearings):
@@ -451,7 +452,7 @@ class ChainPlant:
     """What a chain rig simulates: every joint's law and every flywheel's drag to ground.
 
     Attributes:
-      laws: one :class:`identify.basis.JointLaw` per joint (N - 1).
+      laws: one :class:`vocab.law.JointLaw` per joint (N - 1).
       bearings_Nms_per_rad: drag of each flywheel to ground (N m s/rad, >= 0), N of them.
     """
 
@@ -647,5 +648,6 @@ def ml_identify_chain(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harm
     dof = m - p
     result = EivResult(names=tuple(names), values=fit.x, std_errors=np.sqrt(np.clip(np.diag(cov), 0, None)),
                        covariance=cov, start=start, cost=cost, dof=dof, p_value=float(stats.chi2.sf(cost, dof)),
-                       n_rows=m, n_runs=len(runs), success=bool(fit.success), message=str(fit.message))
+                       n_rows=m, n_runs=len(runs), success=bool(fit.success), message=str(fit.message),
+                       condition_number=equilibrated_condition(Jw))
     return result

@@ -43,13 +43,14 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 from scipy.stats import chi2 as chi2_dist
 
-from .basis import JointLaw, Power, Viscous
+from jointrig.vocab.law import JointLaw, Power, Viscous
 from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpec, bearing_name, chain_system,
                     identifiability, inertia_name, joint_prefix, solve_banded)
 from .diagnose import CAUSES, DEFAULT_FIDELITY, FINE_SAMPLES, Cause, ModelSpec
 from .harmonics import max_harmonic
-from .records import RecordError, SteadyStateRecord
-from .solve import IllConditionedWarning, NamedEstimates
+from jointrig.vocab.records import RecordError, SteadyStateRecord
+from .estimates import Estimates
+from .solve import IllConditionedWarning
 
 __all__ = ["ChainRun", "prepare_chain_runs", "ChainFit", "Candidate", "CandidateScore", "ChainDiagnosis",
            "diagnose_chain", "JOINT_CAUSES", "nominal_spec", "plant_and_inertias", "separating_drive",
@@ -144,7 +145,7 @@ def prepare_chain_runs(records: Sequence[ChainRecord], *, band: int = 20) -> lis
 
 
 @dataclass(frozen=True)
-class ChainFit(NamedEstimates):
+class ChainFit(Estimates):
     """A weighted least-squares fit of one chain structure (chi-square corrected for the weights).
 
     ``profiled`` holds ``(name, value, standard error)`` of nonlinear parameters found by a
@@ -159,6 +160,10 @@ class ChainFit(NamedEstimates):
     n_rows: int
     row_chi2: np.ndarray = field(repr=False)
     profiled: tuple = ()
+    #: of the banded solve's equilibrated, weighted regression matrix, and the solver's status
+    condition_number: float = math.nan
+    success: bool = True
+    message: str = "ok"
 
     @property
     def dof(self) -> int:
@@ -227,7 +232,8 @@ class _Problem:
         s2_raw = float(np.sum(weights * r**2)) / dof
         scale = max(1.0, chi2 / dof) / max(s2_raw, 1e-300)
         return ChainFit(spec, res.names, np.array(res.values), np.array(res.std_errors) * math.sqrt(scale), chi2,
-                        s.F.size, row)
+                        s.F.size, row, condition_number=res.condition_number, success=res.success,
+                        message=res.message)
 
     def fit(self, spec: ChainSpec, iterations: int = 2) -> tuple[ChainFit, np.ndarray]:
         banded = self.system(spec)
@@ -552,7 +558,7 @@ def drive_information(J_kgm2, c_Nms_per_rad, k_Nm_per_rad, omegas_rad_s, torque_
     The linear chain (inertias ``J``, each joint's ``c`` and ``k``) driven by ``torque_Nm cos(w t)``
     at flywheel d moves as ``X = Z(w)^-1 e_d torque``. Each effect's own torque along that motion
     enters the balance rows of harmonics 1..n_harmonics: a joint effect ``("joint", j, law)``
-    (``law``: a :class:`identify.basis.JointLaw` of the effect's own torque) with + on flywheel j
+    (``law``: a :class:`vocab.law.JointLaw` of the effect's own torque) with + on flywheel j
     and - on j+1, a drag ``("flywheel", i, b_Nms_per_rad)`` on flywheel i. The information that
     separates them at one frequency is the squared norm of the part of either effect's rows that
     the other cannot take up (the smaller of the two), over the rows' noise ``sigma_Nm^2``; it

@@ -41,11 +41,13 @@ from scipy.optimize import minimize_scalar
 from scipy.stats import chi2 as chi2_dist
 
 from .balance import LinearSystem, _memo_arrays, equivalent_system, spectral_rate, two_dof_system
-from .basis import Coulomb, Iwan, Jenkins, JointLaw, Power, QuadraticDamping, Stribeck, Term, Viscous
+from jointrig.vocab.law import Coulomb, Iwan, Jenkins, JointLaw, Power, QuadraticDamping, Stribeck, Term, Viscous
 from .harmonics import fourier_coefficients, max_harmonic, synthesize
-from .plant import Plant, effect_parameters
-from .records import RecordError, SteadyStateRecord
-from .solve import IllConditionedWarning, NamedEstimates, solve
+from jointrig.vocab.plant import Plant, effect_parameters
+from jointrig.vocab.records import RecordError, SteadyStateRecord
+from .estimates import Estimates
+from .solve import IllConditionedWarning, solve
+from jointrig.vocab.params import J1, J2, JE, BEARING1, BEARING2, DRIVE_DELAY
 
 __all__ = [
     "DEFAULT_FIDELITY", "kink_corrected_rate", "PreparedRun", "prepare_runs", "ModelSpec", "NOMINAL", "Cause", "CAUSES", "Fit", "CauseScore",
@@ -274,7 +276,7 @@ def build_system(records: Sequence[SteadyStateRecord], spec: ModelSpec, *, form:
 
 
 @dataclass(frozen=True)
-class Fit(NamedEstimates):
+class Fit(Estimates):
     """A weighted least-squares fit of one model structure.
 
     ``chi2`` is corrected for the estimated weights (module docstring, step 2).
@@ -293,6 +295,9 @@ class Fit(NamedEstimates):
     profile_std_errors: tuple = ()  # ((name, standard error), ...) of profiled nonlinear parameters
     #: covariance of ``values`` (scaled like ``std_errors``), for quantities derived from the fit
     covariance: Optional[np.ndarray] = field(default=None, repr=False)
+    #: the solver's status (False when the weighted regression matrix is rank-deficient)
+    success: bool = True
+    message: str = "ok"
 
     @property
     def dof(self) -> int:
@@ -303,7 +308,7 @@ class Fit(NamedEstimates):
 
     def effect_parameters(self) -> dict[str, float]:
         """All parameters, with the nonlinear ones (free play, slip angle, delay) added
-        (named by :func:`identify.plant.effect_parameters`, the one place that names them)."""
+        (named by :func:`vocab.plant.effect_parameters`, the one place that names them)."""
         law_only = Plant(_law_of(self), drive_delay_s=self.spec.drive_delay_s)
         out = {**self.as_dict(), **effect_parameters(law_only)}
         if self.spec.angle_offset_rad:
@@ -367,10 +372,10 @@ def _coulomb_jump(spec: "ModelSpec", names: Sequence[str], theta: Optional[np.nd
     p = dict(zip(names, theta))
     # At a reversal the friction is the static one: the sliding torque plus a Stribeck excess.
     fc = p.get("coulomb_torque_Nm", 0.0) + p.get("stribeck_torque_Nm", 0.0)
-    if "J1_kgm2" in p:
-        inv = (1.0 / p["J1_kgm2"] if p["J1_kgm2"] > 0 else 0.0) + (1.0 / p["J2_kgm2"] if p["J2_kgm2"] > 0 else 0.0)
+    if J1 in p:
+        inv = (1.0 / p[J1] if p[J1] > 0 else 0.0) + (1.0 / p[J2] if p[J2] > 0 else 0.0)
     else:
-        inv = 1.0 / p["Je_kgm2"] if p.get("Je_kgm2", 0) > 0 else 0.0
+        inv = 1.0 / p[JE] if p.get(JE, 0) > 0 else 0.0
     return max(2.0 * fc * inv, 0.0)
 
 
@@ -464,7 +469,7 @@ def _solve(problem: _Problem, spec: ModelSpec, weights: np.ndarray) -> Fit:
     se = res.std_errors * math.sqrt(scale)
     return Fit(spec, tuple(system.names), np.array(res.values), np.array(se), chi2, system.F.size,
                res.condition_number, row, system.row_harmonic, system.row_record,
-               covariance=np.array(res.covariance) * scale)
+               covariance=np.array(res.covariance) * scale, success=res.success, message=res.message)
 
 
 def fit(problem: _Problem, spec: ModelSpec, weights: Optional[np.ndarray] = None, *, iterations: int = 2
@@ -590,9 +595,9 @@ CAUSES: tuple[Cause, ...] = (
     Cause("quadratic_damping", "damping torque proportional to the rate squared",
           lambda s, h: _with_terms(s, (QuadraticDamping(),)), "quadratic_damping_Nms2_per_rad2", 1),
     Cause("drive_delay", "the drive torque reaches flywheel 1 later than it is recorded",
-          lambda s, h: replace(s, drive_delay_s=float(h)), "drive_delay_s", 0,
+          lambda s, h: replace(s, drive_delay_s=float(h)), DRIVE_DELAY, 0,
           bounds=lambda runs: (0.0, 0.1 * min(2 * math.pi / r.average.omega_rad_s for r in runs)),
-          profiled="drive_delay_s"),
+          profiled=DRIVE_DELAY),
     Cause("bearing_friction", "viscous drag of a flywheel to ground (not through the joint)",
           lambda s, h: replace(s, bearings=True), "bearing_damping_Nms_per_rad", 2, needs_two_angles=True),
     Cause("angle_offset", "measurement: the zero of the relative angle is off (an encoder's zero); under a cubic "
@@ -756,7 +761,7 @@ def _signature(problem: "_Problem", base: Fit, ext: Fit) -> dict:
 def _magnitude(cause: Cause, f: Fit) -> tuple[str, float, float]:
     params = f.effect_parameters()
     if cause.name == "bearing_friction":
-        i1, i2 = f.names.index("bearing1_damping_Nms_per_rad"), f.names.index("bearing2_damping_Nms_per_rad")
+        i1, i2 = f.names.index(BEARING1), f.names.index(BEARING2)
         i = i1 if abs(f.values[i1]) >= abs(f.values[i2]) else i2
         return f.names[i], float(f.values[i]), float(f.std_errors[i])
     name = cause.magnitude
@@ -839,7 +844,7 @@ def _dissipative_names(f: Fit) -> tuple[str, ...]:
     """The fit's parameters that dissipate when positive: its dissipative law terms' (each term
     says so: ``Term.dissipative``) and the bearings' drag."""
     law = tuple(t.name for t in f.spec.terms if t.dissipative)
-    return law + ("bearing1_damping_Nms_per_rad", "bearing2_damping_Nms_per_rad")
+    return law + (BEARING1, BEARING2)
 
 
 def _feeds_energy(f: Fit) -> str:
@@ -1069,11 +1074,11 @@ def plant_of(f: Fit, torque_share: float = 0.5) -> tuple[Plant, tuple[float, flo
     For the equivalent form J1 = Je / s and J2 = Je / (1 - s) with s the torque share.
     """
     p = f.as_dict()
-    plant = Plant(_law_of(f), bearing1_damping_Nms_per_rad=max(p.get("bearing1_damping_Nms_per_rad", 0.0), 0.0),
-                  bearing2_damping_Nms_per_rad=max(p.get("bearing2_damping_Nms_per_rad", 0.0), 0.0),
+    plant = Plant(_law_of(f), bearing1_damping_Nms_per_rad=max(p.get(BEARING1, 0.0), 0.0),
+                  bearing2_damping_Nms_per_rad=max(p.get(BEARING2, 0.0), 0.0),
                   drive_delay_s=f.spec.drive_delay_s)
-    if "J1_kgm2" in p:
-        J = (p["J1_kgm2"], p["J2_kgm2"])
+    if J1 in p:
+        J = (p[J1], p[J2])
     else:
-        J = (p["Je_kgm2"] / torque_share, p["Je_kgm2"] / (1 - torque_share))
+        J = (p[JE] / torque_share, p[JE] / (1 - torque_share))
     return plant, J

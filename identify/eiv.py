@@ -43,9 +43,11 @@ from typing import Optional, Sequence
 import numpy as np
 from scipy import linalg, optimize, stats
 
-from .basis import Term
+from jointrig.vocab.law import Term
+from .estimates import Estimates, equilibrated_condition
 from .harmonics import fourier_coefficients, max_harmonic
-from .records import RecordError, SteadyStateRecord
+from jointrig.vocab.records import RecordError, SteadyStateRecord
+from jointrig.vocab.params import JE
 
 __all__ = ["PeriodAverage", "average_periods", "EivResult", "ml_identify", "crlb", "DEFAULT_RATE_BAND",
            "prepare_runs", "linearised", "solve_penalised", "fisher_per_period"]
@@ -222,7 +224,7 @@ def _prepare(avg: PeriodAverage, terms: Sequence[Term], n_harmonics: int, share:
 
 
 @dataclass(frozen=True)
-class EivResult:
+class EivResult(Estimates):
     """Maximum-likelihood harmonic balance on noisy periodic records.
 
     Attributes:
@@ -245,15 +247,8 @@ class EivResult:
     n_runs: int
     success: bool
     message: str
-
-    def value(self, name: str) -> float:
-        return float(self.values[self.names.index(name)])
-
-    def std_error(self, name: str) -> float:
-        return float(self.std_errors[self.names.index(name)])
-
-    def as_dict(self) -> dict[str, float]:
-        return dict(zip(self.names, (float(v) for v in self.values)))
+    #: of the whitened Jacobian at the optimum, columns equilibrated
+    condition_number: float = math.nan
 
 
 def _whitened(runs: Sequence[_Run], theta: np.ndarray) -> np.ndarray:
@@ -311,7 +306,7 @@ def ml_identify(records: Sequence[SteadyStateRecord], terms: Sequence[Term], *, 
 
     Args:
       records: measured runs, each with at least 2 whole periods (noise from their variation).
-      terms: the law's basis terms (identify.basis).
+      terms: the law's basis terms (vocab.law).
       n_harmonics: harmonics 0..H balanced.
       torque_share: J2 / (J1 + J2), the drive's share on the relative coordinate.
       rate_band: harmonics kept in the derived rate.
@@ -328,7 +323,7 @@ def _solve(runs: Sequence[_Run], terms: Sequence[Term], halves=None, penalty: Op
     """ML fit; ``penalty`` (rows over theta, scaled by sqrt(lambda)) adds ``|penalty theta|^2`` to
     the cost (a smoothness prior); the covariance is then the posterior one,
     ``(J'J + penalty'penalty)^-1``, and ``cost`` is the data part only."""
-    names = ("Je_kgm2",) + tuple(t.name for t in terms)
+    names = (JE,) + tuple(t.name for t in terms)
     start = _gls(runs, _weighted_ls(runs), penalty=penalty)
     starts = [start] + ([_instrumental(runs, halves, start)] if halves is not None and penalty is None else [])
     # Scale each unknown by its whitened column norm at the start (steps of ~1 standard
@@ -355,7 +350,7 @@ def _solve(runs: Sequence[_Run], terms: Sequence[Term], halves=None, penalty: Op
     dof = n_rows - len(names)
     p_value = float(stats.chi2.sf(cost, dof)) if dof > 0 and penalty is None else math.nan
     return EivResult(names, theta, np.sqrt(np.diag(cov)), cov, start, cost, dof, p_value, n_rows, len(runs),
-                     bool(sol.success), str(sol.message))
+                     bool(sol.success), str(sol.message), equilibrated_condition(J[:n_rows]))
 
 
 def prepare_runs(records: Sequence[SteadyStateRecord], terms: Sequence[Term], *, n_harmonics: int,

@@ -24,7 +24,7 @@ from typing import Optional, Sequence
 import numpy as np
 from scipy.stats import chi2
 
-from .basis import JointLaw, Monomial, Power, Term
+from jointrig.vocab.law import JointLaw, Monomial, Power, Term
 from .output_error import OutputErrorResult, refine_output_error, simulate_periods
 
 __all__ = ["Candidate", "CANDIDATES", "CandidateScore", "ResidualAnalysis", "ExtensionStep", "ExtensionResult",

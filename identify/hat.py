@@ -25,10 +25,10 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from .basis import Term, Viscous, angle_hats, hat_matrix, rate_hats
+from jointrig.vocab.law import Term, Viscous, angle_hats, hat_matrix, rate_hats
 from .eiv import EivResult, _gls, _weighted_ls, average_periods, linearised, prepare_runs, solve_penalised
 from .harmonics import fourier_coefficients, synthesize
-from .records import SteadyStateRecord
+from jointrig.vocab.records import SteadyStateRecord
 
 __all__ = ["HatFit", "fit_hat_law", "knots_from_range", "rate_knots_from_range", "LAMBDA_GRID"]
 

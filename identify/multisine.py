@@ -24,8 +24,8 @@ from typing import Optional
 import numpy as np
 
 from .harmonics import fourier_coefficients, max_harmonic
-from .plant import PeriodicDrive
-from .records import SteadyStateRecord
+from jointrig.vocab.plant import PeriodicDrive
+from jointrig.vocab.records import SteadyStateRecord
 
 __all__ = ["OddMultisine", "odd_multisine", "LineLevels", "line_levels"]
 

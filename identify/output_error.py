@@ -17,8 +17,9 @@ from typing import Optional, Sequence
 import numpy as np
 from scipy.optimize import least_squares
 
+from .estimates import Estimates, equilibrated_condition
 from .balance import LinearSystem, single_dof_system
-from .basis import JointLaw, Term
+from jointrig.vocab.law import JointLaw, Term
 from .solve import IdentificationResult, solve
 from .steady import periodic_response
 
@@ -27,7 +28,7 @@ __all__ = ["OutputErrorResult", "refine_output_error", "simulate_periods", "harm
 
 
 @dataclass(frozen=True)
-class OutputErrorResult:
+class OutputErrorResult(Estimates):
     """Refined parameters ``(inertia, law values..., [delay_s])`` with standard errors.
 
     Attributes:
@@ -47,6 +48,8 @@ class OutputErrorResult:
     success: bool
     message: str
     nfev: int
+    #: of the simulation-error Jacobian at the optimum, columns equilibrated
+    condition_number: float = math.nan
 
 
 def simulate_periods(inertia: float, law: JointLaw, u_periods: np.ndarray, fs_Hz: float, *,
@@ -161,4 +164,5 @@ def refine_output_error(
         std = np.full(sol.x.size, np.nan)
     return OutputErrorResult(names=names, values=sol.x * scale, std_errors=std, law=lw, inertia=float(J),
                              delay_s=float(tau), rms_error=float(np.sqrt(np.mean(r**2))), success=bool(sol.success),
-                             message=str(sol.message), nfev=int(sol.nfev))
+                             message=str(sol.message), nfev=int(sol.nfev),
+                             condition_number=equilibrated_condition(sol.jac))

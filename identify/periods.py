@@ -3,7 +3,7 @@
 Pure functions (arrays in, frozen dataclasses out) behind :mod:`measured.runs`. A bench logs
 samples on its own clock, at its own rate, from an arbitrary phase of the drive, with time
 stamps rounded to the logger's resolution. The identifier needs whole periods sampled
-uniformly (:class:`identify.records.SteadyStateRecord`). The steps:
+uniformly (:class:`vocab.records.SteadyStateRecord`). The steps:
 
 1. **Clock** (:func:`uniform_clock`): the sample times as ``t0 + k dt`` by least squares; the
    time stamps' deviation from that clock (rounding, jitter) is measured and reported, and a

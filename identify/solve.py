@@ -23,9 +23,10 @@ import numpy as np
 
 from typing import Sequence
 
+from .estimates import Estimates
 from .balance import LinearSystem, equivalent_system, two_dof_system
-from .basis import Term
-from .records import SteadyStateRecord
+from jointrig.vocab.law import Term
+from jointrig.vocab.records import SteadyStateRecord
 
 __all__ = ["IdentificationResult", "solve", "identify", "IllConditionedWarning", "FORMS"]
 
@@ -42,26 +43,8 @@ class IllConditionedWarning(UserWarning):
     """The regression matrix is nearly rank-deficient: some parameters are not identifiable."""
 
 
-class NamedEstimates:
-    """Parameters addressed by name (``names``, ``values``, ``std_errors``), shared by the fits of
-    the diagnosis (``identify.diagnose.Fit``, ``identify.chain_diagnose.ChainFit``); nonlinear
-    parameters found by a profile search come from :meth:`_profiled_std_errors`."""
-
-    def as_dict(self) -> dict[str, float]:
-        return dict(zip(self.names, (float(v) for v in self.values)))
-
-    def std_error(self, name: str) -> float:
-        """Standard error of any parameter, profiled nonlinear ones included (NaN if unknown)."""
-        if name in self.names:
-            return float(self.std_errors[self.names.index(name)])
-        return float(self._profiled_std_errors().get(name, math.nan))
-
-    def _profiled_std_errors(self) -> dict[str, float]:
-        return {}
-
-
 @dataclass(frozen=True)
-class IdentificationResult:
+class IdentificationResult(Estimates):
     """Outcome of a harmonic-balance regression.
 
     Attributes:
@@ -88,17 +71,6 @@ class IdentificationResult:
     success: bool
     message: str
 
-    def as_dict(self) -> dict[str, float]:
-        return dict(zip(self.names, (float(v) for v in self.values)))
-
-    def value(self, name: str) -> float:
-        try:
-            return float(self.values[self.names.index(name)])
-        except ValueError:
-            raise KeyError(f"no parameter '{name}'; have {list(self.names)}") from None
-
-    def std_error(self, name: str) -> float:
-        return float(self.std_errors[self.names.index(name)])
 
 
 def solve(system: LinearSystem, *, row_weights: Optional[np.ndarray] = None) -> IdentificationResult:

@@ -24,7 +24,7 @@ from typing import Optional
 
 import numpy as np
 
-from .basis import JointLaw, Power, Viscous
+from jointrig.vocab.law import JointLaw, Power, Viscous
 
 __all__ = ["periodic_response", "SteadyStateError", "split_law"]
 

@@ -23,7 +23,7 @@ from typing import Sequence
 
 import numpy as np
 
-from .basis import hat_matrix
+from jointrig.vocab.law import hat_matrix
 
 __all__ = ["RestoringSurface", "restoring_surface"]
 

@@ -48,7 +48,7 @@ import numpy as np
 
 from jointrig.identify.periods import (MAX_CLOCK_DEVIATION, estimate_fundamental, fit_at, linear_drift,
                               ls_harmonics, periods_by_least_squares, repeat_statistic, uniform_clock)
-from jointrig.identify.records import RecordError, SteadyStateRecord
+from jointrig.vocab.records import RecordError, SteadyStateRecord
 
 from .formats import SUFFIXES, FormatError, RawTable, read_tables
 

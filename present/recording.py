@@ -27,9 +27,9 @@ from typing import Iterator, Optional, Sequence
 import numpy as np
 import rerun as rr
 
-from jointrig.identify.basis import JointLaw
+from jointrig.vocab.law import JointLaw
 from jointrig.identify.harmonics import fourier_coefficients
-from jointrig.identify.records import SteadyStateRecord
+from jointrig.vocab.records import SteadyStateRecord
 
 __all__ = ["open_recording", "run_label", "log_run", "log_restoring_force", "log_harmonics", "log_parameter_table",
            "expected_entities", "sweep_blueprint", "unknown_law_blueprint", "silverbox_blueprint", "log_silverbox"]

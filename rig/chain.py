@@ -10,7 +10,7 @@ A chain model file (``models/pump_train.xml``) has
   sensors ``rate<i>``;
 * per joint j (between flywheels j and j+1) its law's fields with the prefix
   ``jointrig_joint<j>_`` (``jointrig_joint2_k_Nm_per_rad``: every field a two-flywheel model
-  knows, read by the same term classes, :data:`identify.basis.TERM_CLASSES`), and
+  knows, read by the same term classes, :data:`vocab.law.TERM_CLASSES`), and
   ``jointrig_bearing<i>_damping_Nms_per_rad`` for a flywheel's drag to ground.
 
 The passive callback applies every joint's torque (``-M_j`` on flywheel j, ``+M_j`` on j+1),
@@ -35,7 +35,7 @@ from typing import Callable, Optional, Sequence, Union
 import mujoco
 import numpy as np
 
-from jointrig.identify.basis import FieldError, JointLaw, law_terms_from_fields
+from jointrig.vocab.law import FieldError, JointLaw, law_terms_from_fields
 from jointrig.identify.chain import ChainPlant, ChainRecord
 
 from .model import JOINT_FIELD as _JOINT_FIELD
@@ -245,7 +245,7 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
     """Drive the chain from rest to steady state and log ``config.n_periods`` whole periods.
 
     Args:
-      drives: flywheel number -> :class:`identify.plant.PeriodicDrive` (fundamental
+      drives: flywheel number -> :class:`vocab.plant.PeriodicDrive` (fundamental
         ``omega_rad_s``); every number must have a ``drive<i>`` motor in the model.
       plant: laws and bearings to simulate instead of the file's; inertias_kgm2: inertias
         instead of the file's (each body's inertia scaled).

@@ -17,9 +17,9 @@ from typing import Iterable, Optional, Union
 
 import numpy as np
 
-from jointrig.identify.basis import JointLaw
-from jointrig.identify.plant import Plant
-from jointrig.identify.records import SteadyStateRecord
+from jointrig.vocab.law import JointLaw
+from jointrig.vocab.plant import Plant
+from jointrig.vocab.records import SteadyStateRecord
 
 from .model import RigModel
 from .simulate import SimulationConfig, simulate_steady_state

@@ -16,8 +16,9 @@ from typing import Union
 import mujoco
 import numpy as np
 
-from jointrig.identify.basis import TERM_CLASSES, FieldError, JointLaw, law_terms_from_fields
-from jointrig.identify.plant import Plant
+from jointrig.vocab.law import TERM_CLASSES, FieldError, JointLaw, law_terms_from_fields
+from jointrig.vocab.plant import Plant
+from jointrig.vocab.params import BEARING1, BEARING2, DRIVE_DELAY
 
 __all__ = ["RigModel", "RigModelError", "load_rig", "law_from_model", "plant_from_model", "DEFAULT_MODEL"]
 
@@ -36,7 +37,7 @@ PREFIX = "jointrig_"
 #: A chain model's per-joint law field, without the prefix: ``joint<j>_<field>`` (rig/chain.py).
 JOINT_FIELD = re.compile(r"joint(\d+)_(.+)")
 #: Fields of the plant outside the joint law (the law's own fields are its terms': TERM_CLASSES).
-_PLANT_FIELDS = ("bearing1_damping_Nms_per_rad", "bearing2_damping_Nms_per_rad", "drive_delay_s")
+_PLANT_FIELDS = (BEARING1, BEARING2, DRIVE_DELAY)
 
 
 def _known_fields() -> tuple[str, ...]:
@@ -57,7 +58,7 @@ class RigModel:
       law: the joint law read from the file's ``jointrig_*`` numeric fields.
       plant: the law plus bearing drag and drive delay (``jointrig_bearing1_damping_Nms_per_rad``,
         ``..._bearing2_...``, ``jointrig_drive_delay_s``); the law's fields are those its term
-        classes read (``MJCF_FIELDS`` of :data:`identify.basis.TERM_CLASSES`: c, k, a, gamma,
+        classes read (``MJCF_FIELDS`` of :data:`vocab.law.TERM_CLASSES`: c, k, a, gamma,
         dry friction, quadratic damping, free play, hat knots, Jenkins and Iwan elements).
       J1_kgm2, J2_kgm2: flywheel inertias about the hinge axis (from the compiled mass matrix).
       qpos_adr, dof_adr: addresses of phi1 and phi2 in qpos and qvel.
@@ -101,7 +102,7 @@ def _numeric_fields(model: mujoco.MjModel) -> dict[str, np.ndarray]:
 
 def law_from_model(model: mujoco.MjModel, source: str = "model") -> JointLaw:
     """The joint law a model declares in its ``jointrig_*`` ``<custom><numeric>`` fields (each
-    term class reads its own: :data:`identify.basis.TERM_CLASSES`)."""
+    term class reads its own: :data:`vocab.law.TERM_CLASSES`)."""
     fields = {k[len(PREFIX):]: v for k, v in _numeric_fields(model).items() if k.startswith(PREFIX)}
     known = _known_fields()
     unknown = sorted(set(fields) - set(known))
@@ -128,9 +129,9 @@ def plant_from_model(model: mujoco.MjModel, source: str = "model") -> Plant:
             raise RigModelError(f"{source}: {PREFIX}{name} must hold one finite number >= 0, got {data}")
         return float(data[0])
 
-    return Plant(law, bearing1_damping_Nms_per_rad=get("bearing1_damping_Nms_per_rad"),
-                 bearing2_damping_Nms_per_rad=get("bearing2_damping_Nms_per_rad"),
-                 drive_delay_s=get("drive_delay_s"))
+    return Plant(law, bearing1_damping_Nms_per_rad=get(BEARING1),
+                 bearing2_damping_Nms_per_rad=get(BEARING2),
+                 drive_delay_s=get(DRIVE_DELAY))
 
 
 def _find(model, obj, name, what, source):

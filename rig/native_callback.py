@@ -30,8 +30,8 @@ from typing import Iterator, Optional, Union
 import mujoco
 import numpy as np
 
-from jointrig.identify.basis import JointLaw, play
-from jointrig.identify.plant import PeriodicDrive, Plant
+from jointrig.vocab.law import JointLaw, play
+from jointrig.vocab.plant import PeriodicDrive, Plant
 
 __all__ = ["NativeLaw", "NativeChain", "NativeBuildError", "library_path", "native_session", "session_active"]
 

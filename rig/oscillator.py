@@ -16,7 +16,7 @@ import mujoco
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from jointrig.identify.basis import JointLaw
+from jointrig.vocab.law import JointLaw
 
 from .callback import passive_callback
 from .simulate import SimulationError, _check_warnings

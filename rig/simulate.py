@@ -27,9 +27,9 @@ import mujoco
 import numpy as np
 from mujoco import rollout
 
-from jointrig.identify.basis import JointLaw
-from jointrig.identify.plant import PeriodicDrive, Plant
-from jointrig.identify.records import SteadyStateRecord
+from jointrig.vocab.law import JointLaw
+from jointrig.vocab.plant import PeriodicDrive, Plant
+from jointrig.vocab.records import SteadyStateRecord
 
 from .callback import passive_callback
 from .model import RigModel
@@ -266,7 +266,7 @@ def make_callback(rig: RigModel, plant: Union[Plant, JointLaw], drive: PeriodicD
     """The passive callback: joint law between the flywheels, bearing drag, and the drive.
 
     The drive is ``drive(d.time - plant.drive_delay_s)``. Stateful law terms
-    (:class:`identify.basis.Jenkins`) take their state from ``slider_state`` (one float per
+    (:class:`vocab.law.Jenkins`) take their state from ``slider_state`` (one float per
     stateful term, in law order), which the caller commits after every step with
     :func:`commit_state`. Exceptions raised inside are stored in ``errors`` (MuJoCo cannot
     propagate them) and the caller raises them after the step.
@@ -381,7 +381,7 @@ def simulate_steady_state(
     (:func:`_backend`) and the settle loop (:func:`_settle`) advances it period by period.
 
     Args:
-      law: joint law, or a :class:`identify.plant.Plant` (law + bearing drag + drive delay),
+      law: joint law, or a :class:`vocab.plant.Plant` (law + bearing drag + drive delay),
         to simulate; default the model's own.
       drive: a general periodic drive (its fundamental must be ``omega_rad_s``) instead of the
         cosine; ``amplitude_Nm`` is then only a label.

@@ -22,7 +22,7 @@ from pathlib import Path
 import mujoco
 
 from jointrig.identify.chain import identify_chain
-from jointrig.identify.plant import PeriodicDrive
+from jointrig.vocab.plant import PeriodicDrive
 from jointrig.rig.chain import chain_callback, load_chain, simulate_chain
 from jointrig.studies.chain_sweep import CHAIN_CONFIG, CHAIN_PLAN
 from jointrig.rig.native_callback import NativeChain

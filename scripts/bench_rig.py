@@ -31,7 +31,7 @@ import mujoco
 import numpy as np
 
 from jointrig.identify import identify
-from jointrig.identify.plant import PeriodicDrive
+from jointrig.vocab.plant import PeriodicDrive
 from jointrig.rig import SimulationConfig, load_rig, make_callback, passive_callback
 from jointrig.rig.native_callback import NativeLaw
 from jointrig.studies.sweep import DEFAULT_PLAN, records_of, run_sweep

@@ -10,7 +10,7 @@ Ctrl-C; the script refuses to start on a working tree with changes to those file
 - the errors-in-variables estimator's standard errors x3 and x0.75 (identify/eiv.py);
 - the Cramer-Rao bound x2 (identify/eiv.py);
 - flywheel 2's angle negated when a measured-runs file is read (measured/runs.py);
-- a Jenkins element's slip torque 4% high in the rig's callback (identify/basis.py, the scalar
+- a Jenkins element's slip torque 4% high in the rig's callback (jointrig/vocab/law.py, the scalar
   path the rig steps; the identifier's array path is left right).
 
 A fault is caught when at least one of its tests fails. Exit status 1 if any fault is not.
@@ -38,7 +38,7 @@ FAULTS = (
     ("phi2 negated on read", "measured/runs.py",
      'chans["phi1"], chans["phi2"] = cols["phi1"][sel], cols["phi2"][sel]',
      'chans["phi1"], chans["phi2"] = cols["phi1"][sel], -cols["phi2"][sel]', ("tests/test_runs_file.py",)),
-    ("Jenkins slip torque 4% high in the rig", "identify/basis.py",
+    ("Jenkins slip torque 4% high in the rig", "jointrig/vocab/law.py",
      "return (phi - play(phi, state[at], self.slip_rad)) / self.slip_rad",
      "return 1.04 * (phi - play(phi, state[at], self.slip_rad)) / self.slip_rad", ("tests/test_effects_rig.py",)),
 )

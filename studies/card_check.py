@@ -28,7 +28,7 @@ from typing import Callable, Optional, Sequence
 
 import numpy as np
 
-from jointrig.identify.basis import Iwan, Jenkins, JointLaw, Power, Viscous
+from jointrig.vocab.law import Iwan, Jenkins, JointLaw, Power, Viscous
 from jointrig.identify.card import JointCard, law_card, runs_card
 
 from .joint_card import identified_law, inertia_covariance

@@ -21,7 +21,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from jointrig.identify.chain import ChainRecord
-from jointrig.identify.plant import PeriodicDrive
+from jointrig.vocab.plant import PeriodicDrive
 
 from jointrig.rig.chain import ChainRig, simulate_chain
 from jointrig.rig.simulate import SettleInfo, SimulationConfig

@@ -20,7 +20,7 @@ import numpy as np
 from jointrig.identify.chain import ChainRecord
 from jointrig.identify.chain_diagnose import ChainDiagnosis, plant_and_inertias
 from jointrig.identify.harmonics import fourier_coefficients, max_harmonic
-from jointrig.identify.plant import drive_of_record
+from jointrig.vocab.plant import drive_of_record
 
 from jointrig.rig.chain import ChainRig, simulate_chain
 from jointrig.rig.simulate import SimulationConfig, SteadyStateNotReached

@@ -13,13 +13,14 @@ from typing import Optional
 
 import numpy as np
 
-from jointrig.identify.basis import Coulomb, Iwan, Jenkins, JointLaw, Power, QuadraticDamping, Viscous
-from jointrig.identify.plant import Plant
-from jointrig.identify.records import SteadyStateRecord
+from jointrig.vocab.law import Coulomb, Iwan, Jenkins, JointLaw, Power, QuadraticDamping, Viscous
+from jointrig.vocab.plant import Plant
+from jointrig.vocab.records import SteadyStateRecord
 
 from jointrig.rig.measurement import add_noise
 from jointrig.rig.model import RigModel
 from jointrig.rig.simulate import SimulationConfig, simulate_steady_state
+from jointrig.vocab.params import BEARING2, DRIVE_DELAY
 
 __all__ = ["BASE", "VALUES", "POINTS", "HIDDEN_EFFECTS", "simulate_case"]
 
@@ -44,9 +45,9 @@ HIDDEN_EFFECTS: dict[str, tuple[Plant, dict]] = {
     "micro_slip": (Plant(JointLaw(BASE + (Iwan(0.5, -0.5, 0.1),), VALUES + (80.0,))), {"iwan_slip_torque_Nm": 80.0}),
     "quadratic_damping": (Plant(JointLaw(BASE + (QuadraticDamping(),), VALUES + (1.0,))),
                           {"quadratic_damping_Nms2_per_rad2": 1.0}),
-    "drive_delay": (Plant(JointLaw(BASE, VALUES), drive_delay_s=0.001), {"drive_delay_s": 0.001}),
+    "drive_delay": (Plant(JointLaw(BASE, VALUES), drive_delay_s=0.001), {DRIVE_DELAY: 0.001}),
     "bearing_friction": (Plant(JointLaw(BASE, VALUES), bearing2_damping_Nms_per_rad=5.0),
-                         {"bearing2_damping_Nms_per_rad": 5.0}),
+                         {BEARING2: 5.0}),
     "coulomb_friction+backlash": (Plant(JointLaw(_gap(0.02) + (Coulomb(),), VALUES + (95.0,))),
                                   {"coulomb_torque_Nm": 95.0, "backlash_half_gap_rad": 0.02}),
 }

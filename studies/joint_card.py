@@ -19,9 +19,10 @@ import numpy as np
 
 from jointrig.identify.card import MASING_FIDELITY, JointCard, MasingCheck, law_card, masing_check, runs_card
 from jointrig.identify.diagnose import plant_of
-from jointrig.identify.records import SteadyStateRecord
+from jointrig.vocab.records import SteadyStateRecord
 
 from .validate import DiagnosisReport
+from jointrig.vocab import params
 
 __all__ = ["CardReport", "card_of_diagnosis", "identified_law", "inertia_covariance", "card_json", "card_png", "masing_text"]
 
@@ -55,11 +56,11 @@ def identified_law(report: DiagnosisReport, torque_share: float = 0.5):
     if f.covariance is not None:
         idx = {n: i for i, n in enumerate(f.names)}
         T = np.zeros((1 + len(law.names), len(f.names)))
-        if "Je_kgm2" in idx:
-            T[0, idx["Je_kgm2"]] = 1.0
+        if params.JE in idx:
+            T[0, idx[params.JE]] = 1.0
         else:
-            T[0, idx["J1_kgm2"]] = (J2 / (J1 + J2)) ** 2
-            T[0, idx["J2_kgm2"]] = (J1 / (J1 + J2)) ** 2
+            T[0, idx[params.J1]] = (J2 / (J1 + J2)) ** 2
+            T[0, idx[params.J2]] = (J1 / (J1 + J2)) ** 2
         for r, n in enumerate(law.names):
             if n in idx:
                 T[1 + r, idx[n]] = 1.0
@@ -76,11 +77,11 @@ def inertia_covariance(report: DiagnosisReport, torque_share: float = 0.5):
     if f.covariance is None:
         return None
     idx = {n: i for i, n in enumerate(f.names)}
-    if "J1_kgm2" in idx:
-        i = [idx["J1_kgm2"], idx["J2_kgm2"]]
+    if params.J1 in idx:
+        i = [idx[params.J1], idx[params.J2]]
         return f.covariance[np.ix_(i, i)]
     g = np.array([1.0 / torque_share, 1.0 / (1.0 - torque_share)])
-    return np.outer(g, g) * f.covariance[idx["Je_kgm2"], idx["Je_kgm2"]]
+    return np.outer(g, g) * f.covariance[idx[params.JE], idx[params.JE]]
 
 
 def card_of_diagnosis(report: DiagnosisReport, records: Sequence[SteadyStateRecord], *,

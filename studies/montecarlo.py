@@ -20,11 +20,12 @@ from typing import Callable, Optional, Sequence
 import numpy as np
 
 from jointrig.identify import identify
-from jointrig.identify.basis import Term
+from jointrig.vocab.law import Term
 from jointrig.identify.eiv import crlb, ml_identify
-from jointrig.identify.records import SteadyStateRecord
+from jointrig.vocab.records import SteadyStateRecord
 
 from jointrig.rig.measurement import add_noise, noise_std, repeat_periods
+from jointrig.vocab.params import JE
 
 __all__ = ["ParameterStats", "MonteCarloResult", "monte_carlo"]
 
@@ -101,7 +102,7 @@ def monte_carlo(noiseless: Sequence[SteadyStateRecord], terms: Sequence[Term], t
     if len(periods) != len(noiseless):
         raise ValueError(f"n_periods: {len(periods)} values for {len(noiseless)} runs")
     base = [repeat_periods(r, P) for r, P in zip(noiseless, periods)]
-    names = ("Je_kgm2",) + tuple(t.name for t in terms)
+    names = (JE,) + tuple(t.name for t in terms)
     theta0 = np.array([truth[n] for n in names])
     # Noise per channel as add_noise draws it: fixed (sigma) or from the channel's own RMS; the
     # encoder adds q^2 / 12 per angle.

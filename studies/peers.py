@@ -25,7 +25,7 @@ from typing import Sequence
 
 import numpy as np
 
-from jointrig.identify.records import SteadyStateRecord
+from jointrig.vocab.records import SteadyStateRecord
 
 __all__ = ["PeerResult", "peer_model_xml", "sysid_identify", "sindy_identify"]
 
@@ -66,7 +66,7 @@ def peer_model_xml(J1_kgm2: float, J2_kgm2: float, k: float, c: float, gamma: fl
 
 def _step_averaged_drive(record: SteadyStateRecord, h: float, n_steps: int) -> np.ndarray:
     """The rig's drive M0 cos(omega t) averaged over each step by Simpson's rule."""
-    from jointrig.identify.plant import PeriodicDrive
+    from jointrig.vocab.plant import PeriodicDrive
 
     drive = PeriodicDrive.cosine(record.omega_rad_s, record.drive_amplitude_Nm)
     s = np.arange(n_steps) * h + record.time_s[0]

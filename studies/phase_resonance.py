@@ -23,10 +23,10 @@ from typing import Optional, Sequence
 
 from scipy.optimize import brentq
 
-from jointrig.identify.basis import JointLaw
+from jointrig.vocab.law import JointLaw
 from jointrig.identify.card import CardPoint, JointCard, dissipation_slope
 from jointrig.identify.harmonics import fourier_coefficients
-from jointrig.identify.plant import Plant
+from jointrig.vocab.plant import Plant
 
 from jointrig.rig.model import RigModel
 from jointrig.rig.simulate import SimulationConfig, simulate_steady_state

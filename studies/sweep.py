@@ -26,7 +26,7 @@ from typing import Callable, Optional, Sequence
 import numpy as np
 
 from jointrig.files import write_atomic, write_json_atomic
-from jointrig.identify.records import SteadyStateRecord
+from jointrig.vocab.records import SteadyStateRecord
 
 from jointrig.rig.model import RigModel, load_rig
 from jointrig.rig.simulate import SettleInfo, SimulationConfig, StartState, simulate_steady_state

@@ -23,17 +23,18 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from jointrig.identify.basis import JointLaw
+from jointrig.vocab.law import JointLaw
 from jointrig.identify.diagnose import (DEFAULT_FIDELITY, Diagnosis, Fit, PreparedRun, diagnose, plant_of, prepare_runs,
                                        shift_periodic)
 from jointrig.identify.balance import spectral_rate
 from jointrig.identify.harmonics import fourier_coefficients
-from jointrig.identify.plant import Plant, drive_of_record
-from jointrig.identify.records import SteadyStateRecord
+from jointrig.vocab.plant import Plant, drive_of_record
+from jointrig.vocab.records import SteadyStateRecord
 from jointrig.identify.surface import RestoringSurface, restoring_surface
 
 from jointrig.rig.model import RigModel, load_rig
 from jointrig.rig.simulate import SimulationConfig, SteadyStateNotReached, simulate_steady_state
+from jointrig.vocab.params import J1, JE, BEARING1, BEARING2
 
 __all__ = ["generalisation_kind", "RunComparison", "DiagnosisReport", "default_holdout", "holdout_of_another_kind",
            "run_setting", "run_diagnosis", "band_limited",
@@ -534,14 +535,14 @@ def _joint_torque_measured(run: PreparedRun, f: Fit, torque_share: float) -> np.
 
     torque = _resolved(rec.torque_Nm, run.kept["torque"])
     p = f.as_dict()
-    if "J1_kgm2" in p:
+    if J1 in p:
         phi1 = _resolved(rec.phi1_rad, run.kept["phi1"])
-        out = torque - p["J1_kgm2"] * deriv(phi1, 2)
-        if "bearing1_damping_Nms_per_rad" in p:
-            out = out - p["bearing1_damping_Nms_per_rad"] * deriv(phi1, 1)
+        out = torque - p[J1] * deriv(phi1, 2)
+        if BEARING1 in p:
+            out = out - p[BEARING1] * deriv(phi1, 1)
         return out
     phi = _resolved(rec.phi_rad, run.kept["phi"])
-    return torque_share * torque - p["Je_kgm2"] * deriv(phi, 2)
+    return torque_share * torque - p[JE] * deriv(phi, 2)
 
 
 def _law_torque(law: JointLaw, run: PreparedRun) -> np.ndarray:
@@ -661,7 +662,7 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
     comparisons = []
     notes: list[str] = []
     fitted = diag.extended.as_dict()
-    for name in ("bearing1_damping_Nms_per_rad", "bearing2_damping_Nms_per_rad"):
+    for name in (BEARING1, BEARING2):
         if fitted.get(name, 0.0) < 0:  # within 2 standard errors of 0, else the extension was rejected
             notes.append(f"the extended model's {name} = {fitted[name]:.3g} +- {diag.extended.std_error(name):.2g} "
                          f"(not significantly below 0) is simulated as 0: a drag to ground cannot feed energy in")

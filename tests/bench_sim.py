@@ -1,6 +1,6 @@
 """An independent bench for the tests: scipy ODE solvers and a DAQ-style file writer.
 
-Nothing here uses jointrig (not the MuJoCo rig, not ``identify.basis``, not the project's
+Nothing here uses jointrig (not the MuJoCo rig, not ``vocab.law``, not the project's
 writer). The two-flywheel equations are written out again:
 
     J1 phi1'' = T(t - delay) - M - b1 phi1'

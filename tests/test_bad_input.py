@@ -17,9 +17,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from jointrig.identify.plant import Plant
-from jointrig.identify.basis import JointLaw, Viscous
-from jointrig.identify.records import RecordError, SteadyStateRecord
+from jointrig.vocab.plant import Plant
+from jointrig.vocab.law import JointLaw, Viscous
+from jointrig.vocab.records import RecordError, SteadyStateRecord
 from jointrig.measured.runs import RunsFileError, read_runs
 from jointrig.rig import RigModelError, load_rig
 

@@ -5,8 +5,9 @@ import math
 import numpy as np
 import pytest
 
-from jointrig.identify.basis import (AngleHat, Coulomb, Iwan, Jenkins, Stribeck, JointLaw, Monomial, Power, QuadraticDamping, Viscous,
-                            angle_hats, hat_law, hat_matrix, play, polynomial_law, rate_hats)
+from jointrig.vocab.law import (AngleHat, Coulomb, Iwan, Jenkins, Stribeck, JointLaw, Monomial, Power,
+                                QuadraticDamping, Viscous, angle_hats, hat_law, hat_matrix, play, polynomial_law,
+                                rate_hats)
 
 KNOTS = (-0.6, -0.3, -0.1, 0.0, 0.1, 0.3, 0.6)
 
@@ -171,7 +172,7 @@ def test_stribeck_friction_scalar_and_array_paths_and_its_model_fields(tmp_path)
     # scalar (callback) and array (identifier) paths agree; the MJCF fields read back the term.
     from jointrig.rig import load_rig
     from jointrig.rig.model import DEFAULT_MODEL, identified_model_xml
-    from jointrig.identify.plant import Plant
+    from jointrig.vocab.plant import Plant
 
     s = Stribeck(0.5)
     v = np.array([-2.0, -0.5, -1e-9, 0.0, 1e-9, 0.5, 2.0])

@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from jointrig.identify import JointLaw, Power, Viscous
-from jointrig.identify.basis import Coulomb, Iwan, Jenkins
+from jointrig.vocab import JointLaw, Power, Viscous
+from jointrig.vocab.law import Coulomb, Iwan, Jenkins
 from jointrig.identify.card import describing_function, law_card, runs_card
 from jointrig.rig import SimulationConfig, simulate_steady_state
 

@@ -8,7 +8,7 @@ import shutil
 import numpy as np
 import pytest
 
-from jointrig.identify.basis import Power, Viscous
+from jointrig.vocab.law import Power, Viscous
 from jointrig.identify.chain import (ChainIdentifiabilityError, ChainRecord, ChainSpec, chain_system, identifiability,
                                      solve_banded)
 from jointrig.identify.solve import solve
@@ -159,10 +159,10 @@ def test_chain_simulates_the_inertias_asked_for():
     # The linear train's steady state is known exactly from its dynamic stiffness: with the
     # pump train's bodies scaled to other inertias the rig must reproduce it (RK4 at 128 steps a
     # period: 1e-5 of the twist).
-    from jointrig.identify.basis import JointLaw
+    from jointrig.vocab.law import JointLaw
     from jointrig.identify.chain import ChainPlant
     from jointrig.identify.harmonics import fourier_coefficients
-    from jointrig.identify.plant import PeriodicDrive
+    from jointrig.vocab.plant import PeriodicDrive
     from jointrig.rig.chain import simulate_chain
     from jointrig.rig.simulate import SimulationConfig
 
@@ -185,9 +185,9 @@ def test_native_chain_callback_is_bit_identical_to_the_python_one(model):
     # holds free play; a Jenkins element at joint 3 adds sliders (stepped, committed per step).
     import dataclasses
 
-    from jointrig.identify.basis import Jenkins, JointLaw
+    from jointrig.vocab.law import Jenkins, JointLaw
     from jointrig.identify.chain import ChainPlant
-    from jointrig.identify.plant import PeriodicDrive
+    from jointrig.vocab.plant import PeriodicDrive
     from jointrig.rig.chain import simulate_chain
     from jointrig.studies.chain_sweep import CHAIN_CONFIG
 

@@ -53,7 +53,7 @@ def test_drive_information_respects_the_trains_symmetry():
     # twist, which depends on where the train is driven). The figure must not depend on which
     # candidate is named first, and two identical effects at one place are never separated.
     # (Round-off: 1e-9.)
-    from jointrig.identify.basis import JointLaw, QuadraticDamping
+    from jointrig.vocab.law import JointLaw, QuadraticDamping
     from jointrig.identify.chain_diagnose import drive_information
 
     J, c, k = (1.0, 0.5, 0.5, 1.0), (30.0, 20.0, 30.0), (1e4, 5e3, 1e4)

@@ -157,7 +157,7 @@ def test_noise_is_estimated_from_period_to_period_variation():
     import numpy as np
 
     from jointrig.identify.diagnose import prepare_runs
-    from jointrig.identify.records import SteadyStateRecord
+    from jointrig.vocab.records import SteadyStateRecord
 
     N, P, w = 256, 16, 10.0
     rng = np.random.default_rng(0)

@@ -118,7 +118,7 @@ def test_identified_model_written_as_mjcf_simulates_the_runs(outputs):
     # 1.00-1.28 times the true model's error (1.6e-4 to 1.5e-3 rad), the nominal model 14-120
     # times; asked at most 1.5 times (the fitted parameters are within about 1% of the truth).
     from jointrig.identify.harmonics import fourier_coefficients
-    from jointrig.identify.plant import drive_of_record
+    from jointrig.vocab.plant import drive_of_record
     from jointrig.measured.runs import read_runs
     from jointrig.rig import SimulationConfig, load_rig, simulate_steady_state
 

@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from jointrig.identify.basis import Coulomb, Jenkins, JointLaw, Power, Viscous
-from jointrig.identify.plant import PeriodicDrive, Plant
+from jointrig.vocab.law import Coulomb, Jenkins, JointLaw, Power, Viscous
+from jointrig.vocab.plant import PeriodicDrive, Plant
 from jointrig.rig import SimulationConfig, load_rig, simulate_steady_state
 from jointrig.rig.model import DEFAULT_MODEL, RigModelError
 
@@ -73,8 +73,8 @@ def test_worn_model_declares_its_effects_in_mjcf():
 
 
 def test_an_iwan_joint_written_as_mjcf_reads_back_to_the_same_plant(tmp_path):
-    from jointrig.identify.basis import Iwan, JointLaw, Power, Viscous
-    from jointrig.identify.plant import Plant
+    from jointrig.vocab.law import Iwan, JointLaw, Power, Viscous
+    from jointrig.vocab.plant import Plant
     from jointrig.rig.model import identified_model_xml
 
     plant = Plant(JointLaw((Viscous(), Power(1), Iwan(0.02, -0.3, 0.25)), (5.0, 500.0, 40.0)))

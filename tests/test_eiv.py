@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from jointrig.identify.basis import Power, Viscous
+from jointrig.vocab.law import Power, Viscous
 from jointrig.identify.eiv import _debiased, average_periods, crlb, ml_identify
-from jointrig.identify.records import RecordError
+from jointrig.vocab.records import RecordError
 from jointrig.rig.measurement import add_noise, repeat_periods
 from jointrig.studies.montecarlo import monte_carlo
 
@@ -138,7 +138,7 @@ def test_crlb_equals_the_closed_form_of_a_linear_joint():
     # (Je, c, k) with exact regressors, so the bound is the Gauss-Markov covariance
     # (sum_runs P A' A / v)^-1, v = s^2 2 sigma^2 / N the variance of one real Fourier row of the
     # averaged torque (complex coefficient (2/N) sum x e^-i.., white noise sigma^2 per sample).
-    from jointrig.identify.records import SteadyStateRecord
+    from jointrig.vocab.records import SteadyStateRecord
 
     Je, c, k, s, M0, N, P, sigma2 = 1.0, 100.0, 2000.0, 0.5, 400.0, 64, 8, 4.0
     rows, recs = [], []
@@ -187,7 +187,7 @@ def test_halves_are_the_first_and_second_half_of_the_periods():
     # Periods of constant value p (p = 0..P-1): each half's mean is the mean of its p's, its
     # noise the variance of its p's over its count (exact arithmetic); below 4 periods no halves.
     from jointrig.identify.eiv import _halves
-    from jointrig.identify.records import SteadyStateRecord
+    from jointrig.vocab.records import SteadyStateRecord
 
     def record(P, N=8):
         x = np.repeat(np.arange(P, dtype=float), N)
@@ -214,7 +214,7 @@ def test_law_derivatives_by_central_difference():
     np.testing.assert_allclose(_derivative(Power(3), phi, rate, "phi"), 3 * phi**2, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(_derivative(Viscous(), phi, rate, "rate"), 1.0, rtol=1e-9)
     np.testing.assert_allclose(_derivative(Viscous(), phi, rate, "phi"), 0.0, atol=1e-9)
-    from jointrig.identify.basis import QuadraticDamping
+    from jointrig.vocab.law import QuadraticDamping
 
     # v|v| at v = 0: the difference straddles the kink and gives h = 1e-4 instead of 0.
     np.testing.assert_allclose(_derivative(QuadraticDamping(), phi, rate, "rate"), 2 * np.abs(rate), rtol=1e-9,
@@ -230,7 +230,7 @@ def test_columns_of_a_law_nonlinear_in_the_rate_are_debiased_on_average():
     # debiased mean 1.7 of its errors off at worst, the undebiased 17).
     # Bounds: every row within 4 Monte Carlo standard errors for the debiased column (Gaussian
     # mean of 1500 draws), and the undebiased column's worst row beyond 10 of them.
-    from jointrig.identify.basis import Monomial
+    from jointrig.vocab.law import Monomial
     from jointrig.identify.eiv import PeriodAverage, _prepare
 
     n, w = 64, 10.0
@@ -270,7 +270,7 @@ def test_every_start_of_the_ml_search_is_exact_on_consistent_rows():
     # CRLB test) each start must return the true (Je, c, k) to round-off: a scaling or a sign
     # slip in any of them would show here, though Levenberg-Marquardt might still recover.
     from jointrig.identify.eiv import PeriodAverage, _gls, _instrumental, _prepare, _weighted_ls
-    from jointrig.identify.records import SteadyStateRecord
+    from jointrig.vocab.records import SteadyStateRecord
 
     Je, c, k, s, M0, N = 1.0, 100.0, 2000.0, 0.5, 400.0, 64
     terms = (Viscous(), Power(1))

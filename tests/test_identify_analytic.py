@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from jointrig.identify import (Power, RecordError, SteadyStateRecord, Viscous, equivalent_system, identify, solve,
-                      spectral_rate)
+from jointrig.identify import equivalent_system, identify, solve, spectral_rate
+from jointrig.vocab import Power, RecordError, SteadyStateRecord, Viscous
 
 J1, J2, C, K = 2.0, 3.0, 40.0, 1500.0
 JE = J1 * J2 / (J1 + J2)

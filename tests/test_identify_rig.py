@@ -5,7 +5,8 @@ import json
 import numpy as np
 import pytest
 
-from jointrig.identify import Power, Viscous, identify
+from jointrig.identify import identify
+from jointrig.vocab import Power, Viscous
 from jointrig.rig import SimulationConfig, simulate_steady_state
 from jointrig.studies.sweep import DEFAULT_PLAN, SweepPlan, SweepStoreMismatch, records_of, run_sweep
 
@@ -42,7 +43,7 @@ def test_paper_case_omega_1_alone(rig):
 
 
 def test_quadratic_term_identified_when_present(rig):
-    from jointrig.identify.basis import polynomial_law
+    from jointrig.vocab.law import polynomial_law
     law = polynomial_law(c_Nms_per_rad=100, k_Nm_per_rad=2000, a_Nm_per_rad2=-300, gamma_Nm_per_rad3=200)
     plan = SweepPlan((5.0, 30.0, 45.0, 70.0), (400.0, 4000.0))
     recs = [simulate_steady_state(rig, w, a, SimulationConfig(), law=law)[0] for w, a in plan.points()]

@@ -2,7 +2,7 @@
 
 The data come from scipy's DOP853 with event-driven dry friction (with a Stribeck peak), a
 Jenkins slider and a continuum Iwan element (not the
-MuJoCo rig, not ``identify.basis``), written as a DAQ writes them: fixed 2 kHz sampling not
+MuJoCo rig, not ``vocab.law``), written as a DAQ writes them: fixed 2 kHz sampling not
 commensurate with the drive, arbitrary start phase, small sensor offsets on all three
 channels, 0.2% white noise per channel, time stamps rounded to 0.1 us, units in brackets in
 the header, no ``omega`` column. Two joints: the paper's (J 2 + 2 kg m^2, c 100, k 2000,

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from jointrig.identify import identify
-from jointrig.identify.basis import JointLaw, Power
+from jointrig.vocab.law import JointLaw, Power
 from jointrig.identify.multisine import line_levels, odd_multisine
 from jointrig.rig import SimulationConfig, simulate_steady_state
 from jointrig.studies.sweep import DEFAULT_MULTISINE, run_multisines

@@ -4,7 +4,7 @@
 import mujoco
 import pytest
 
-from jointrig.identify.plant import PeriodicDrive
+from jointrig.vocab.plant import PeriodicDrive
 from jointrig.rig import SimulationConfig, load_rig, simulate_steady_state
 from jointrig.studies.hidden_effects import HIDDEN_EFFECTS
 
@@ -24,7 +24,7 @@ def test_every_effect_gives_identical_trajectories(rig, case):
 
 def test_an_iwan_joint_stepped_in_c_gives_identical_trajectories(rig):
     # 33 sliders committed after every step in C (jointrig_run) against the Python loop.
-    from jointrig.identify.basis import Iwan, JointLaw, Power, Viscous
+    from jointrig.vocab.law import Iwan, JointLaw, Power, Viscous
 
     law = JointLaw((Viscous(), Power(1), Iwan(0.02, -0.3, 0.1)), (5.0, 500.0, 40.0))
     cfg = SimulationConfig(n_periods=2)
@@ -33,7 +33,7 @@ def test_an_iwan_joint_stepped_in_c_gives_identical_trajectories(rig):
 
 
 def test_a_stribeck_friction_gives_identical_trajectories(rig):
-    from jointrig.identify.basis import Coulomb, JointLaw, Power, Stribeck, Viscous
+    from jointrig.vocab.law import Coulomb, JointLaw, Power, Stribeck, Viscous
 
     law = JointLaw((Viscous(), Power(1), Coulomb(), Stribeck(0.5)), (5.0, 500.0, 20.0, 15.0))
     cfg = SimulationConfig(n_periods=2)

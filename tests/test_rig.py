@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from jointrig.identify.basis import JointLaw, Term, hat_law
-from jointrig.identify.plant import PeriodicDrive
+from jointrig.vocab.law import JointLaw, Term, hat_law
+from jointrig.vocab.plant import PeriodicDrive
 from jointrig.rig import (DEFAULT_MODEL, RigModelError, SimulationConfig, SimulationError, SteadyStateNotReached, load_rig,
                  make_callback, passive_callback, simulate_steady_state)
 from jointrig.rig.model import ACTUATOR

@@ -245,7 +245,7 @@ def test_matlab_hdf5_tdms_uff_readers(tmp_path):
 def test_round_trip_of_the_projects_writer(tmp_path):
     dt = 2 * math.pi / W / 64
     t = np.arange(3 * 64) * dt
-    from jointrig.identify.records import SteadyStateRecord
+    from jointrig.vocab.records import SteadyStateRecord
 
     rec = SteadyStateRecord(W, t, torque(t), phi1(t), phi2(t), n_periods=3)
     for suffix in (".csv", ".parquet"):

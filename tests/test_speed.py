@@ -11,7 +11,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from jointrig.identify.plant import PeriodicDrive
+from jointrig.vocab.plant import PeriodicDrive
 from jointrig.rig import SimulationConfig, make_callback, passive_callback, simulate_steady_state
 from jointrig.rig.simulate import relative_departure, settle_bound
 from jointrig.studies.sweep import SweepPlan, records_of, run_sweep, simulate_segment

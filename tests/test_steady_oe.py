@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from jointrig.identify import JointLaw, Monomial, Power, Viscous
+from jointrig.vocab import JointLaw, Monomial, Power, Viscous
 from jointrig.identify.extend import score_candidates
 from jointrig.identify.output_error import refine_output_error
 from jointrig.identify.signals import BandlimitedInput

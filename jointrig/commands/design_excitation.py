@@ -29,6 +29,7 @@ from jointrig.rig.measurement import noise_std
 from jointrig.studies.montecarlo import monte_carlo
 from jointrig.studies.sweep import DEFAULT_PLAN, SweepPlan, records_of, run_sweep
 from jointrig.files import write_json_atomic
+from jointrig.vocab.params import JE
 
 CANDIDATES = SweepPlan(omegas_rad_s=(1.0, 2.5, 5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 35.0, 40.0, 42.5, 45.0, 47.5, 50.0,
                                      55.0, 60.0, 70.0, 80.0, 90.0),
@@ -69,8 +70,8 @@ def main(argv=None) -> int:
     points = CANDIDATES.points()
     records = records_of(run_sweep(rig, CANDIDATES, SimulationConfig(), native=args.native,
                                    workers=2 if args.native else 1))
-    names = ("Je_kgm2",) + tuple(t.name for t in rig.law.terms)
-    truth = {"Je_kgm2": rig.Je_kgm2, **rig.law.as_dict()}
+    names = (JE,) + tuple(t.name for t in rig.law.terms)
+    truth = {JE: rig.Je_kgm2, **rig.law.as_dict()}
     theta = [truth[n] for n in names]
     # Sensors of fixed noise, --snr-db below the default sweep's largest relative angle (both
     # encoders together) and largest torque: a per-channel SNR on every candidate would make

@@ -72,7 +72,7 @@ def main(argv=None) -> int:
     args = parse_args(argv)
     import numpy as np
 
-    from jointrig.identify.records import RecordError
+    from jointrig.vocab.records import RecordError
     from jointrig.measured.runs import RunsFileError, read_runs
     from jointrig.present.diagnosis_report import format_report, report_json
     from jointrig.rig.simulate import SimulationError

@@ -22,11 +22,13 @@ from pathlib import Path
 
 import numpy as np
 
-from jointrig.identify import Power, Viscous, identify, single_dof_system, solve
-from jointrig.identify.records import SteadyStateRecord
+from jointrig.identify import identify, single_dof_system, solve
+from jointrig.vocab import Power, Viscous
+from jointrig.vocab.records import SteadyStateRecord
 from jointrig.rig import SimulationConfig, load_rig, simulate_steady_state
 from jointrig.studies.sweep import DEFAULT_PLAN, records_of, run_sweep
 from jointrig.files import write_json_atomic
+from jointrig.vocab.params import JE
 
 PAPER_S = {"m": 1.148887957, "c": 100.0641277, "k": 2599.80183, "a": -599.70047474, "b": 199.80868402}
 PAPER_BACK = {"c/Je": 100.0641277, "k/Je": 1999.826933, "gamma/Je": 199.80868402, "M": 199.8986447}
@@ -110,7 +112,7 @@ def main(argv=None) -> int:
     print(f"\nWhy one frequency cannot fix Je: {args.snr_db:g} dB SNR noise on the torque "
           f"(seed {args.seed})")
     print(f"  {'':18s} {'omega = 1 only':>24s} {'default sweep':>24s}")
-    truth = {"Je_kgm2": rig.Je_kgm2, **rig.law.as_dict()}
+    truth = {JE: rig.Je_kgm2, **rig.law.as_dict()}
     noisy_out = {}
     for name in single_noisy.names:
         t = truth[name]

@@ -26,12 +26,13 @@ import numpy as np
 
 from jointrig.identify import FORMS, compare, format_table, identify
 from jointrig.identify.multisine import line_levels
-from jointrig.identify.basis import JointLaw
+from jointrig.vocab.law import JointLaw
 from jointrig.rig import DEFAULT_MODEL, SimulationConfig, load_rig
 from jointrig.rig.measurement import add_noise, repeat_periods
 from jointrig.rig.runtime import progress_level
 from jointrig.studies.sweep import (DEFAULT_MULTISINE, DEFAULT_PLAN, EXECUTORS, SweepPlan, records_of, run_multisines, run_sweep,
                        write_json_atomic)
+from jointrig.vocab.params import J1, J2, JE
 
 log = logging.getLogger("run_sweep")
 
@@ -100,8 +101,8 @@ def parse_args(argv=None) -> argparse.Namespace:
 
 
 def truth_of(rig, form: str) -> dict[str, float]:
-    inertia = ({"Je_kgm2": rig.Je_kgm2} if form == "equivalent"
-               else {"J1_kgm2": rig.J1_kgm2, "J2_kgm2": rig.J2_kgm2})
+    inertia = ({JE: rig.Je_kgm2} if form == "equivalent"
+               else {J1: rig.J1_kgm2, J2: rig.J2_kgm2})
     return {**inertia, **rig.law.as_dict()}
 
 

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from jointrig.identify import Power, Viscous
+from jointrig.vocab import Power, Viscous
 from jointrig.identify.extend import extend_model, indistinguishable, residual_analysis, score_candidates
 from jointrig.identify.output_error import (harmonic_balance_start, input_noise_rms, refine_output_error,
                                             simulate_periods, steady_rms)

@@ -1,7 +1,7 @@
 /* jointrig: the joint law, bearing drag and drive as a native MuJoCo passive callback.
  *
- * The same arithmetic, in the same order, as the Python reference (identify/basis.py
- * JointLaw.torque scalar path, identify/plant.py PeriodicDrive.evaluator and
+ * The same arithmetic, in the same order, as the Python reference (jointrig/vocab/law.py
+ * JointLaw.torque scalar path, jointrig/vocab/plant.py PeriodicDrive.evaluator and
  * rig/simulate.py make_callback), so both give the same numbers to the last bit: a test
  * compares whole trajectories. Parameters come from one struct the Python side fills
  * (rig/native_callback.py). Sliders (Jenkins and Iwan elements) are committed after every
@@ -88,7 +88,7 @@ static double hat(double x, const double* k, int n, int i) {
   return 0.0;
 }
 
-/* x^p for an integer p >= 0 by repeated multiplication, left to right: identify.basis.ipow. */
+/* x^p for an integer p >= 0 by repeated multiplication, left to right: vocab.law.ipow. */
 static double ipow(double x, int p) {
   double out = p == 0 ? 1.0 : x;
   for (int i = 1; i < p; i++) out = out * x;
@@ -186,7 +186,7 @@ void jointrig_passive(const mjModel* m, mjData* d) {
   for (jointrig_params* P = lookup(d); P; P = (jointrig_params*)P->next) block(P, d);
 }
 
-/* Move every slider to the accepted relative angle (identify.basis: Jenkins/Iwan.commit). */
+/* Move every slider to the accepted relative angle (vocab.law: Jenkins/Iwan.commit). */
 static void commit(jointrig_params* P, const mjData* d) {
   for (; P; P = (jointrig_params*)P->next) {
     if (P->n_sliders == 0) continue;

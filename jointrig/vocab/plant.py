@@ -2,7 +2,7 @@
 
 :class:`Plant` is what the rig simulates and what the diagnosis fits:
 
-* ``law``: the joint law (:class:`identify.basis.JointLaw`, any terms, including backlash
+* ``law``: the joint law (:class:`vocab.law.JointLaw`, any terms, including backlash
   in ``Power.gap_rad``, dry friction and hysteresis);
 * ``bearing1_damping_Nms_per_rad`` / ``bearing2_damping_Nms_per_rad``: viscous drag of
   flywheel 1 / 2 to ground (bearing friction: it acts on the absolute rate, not through the
@@ -22,7 +22,8 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from .basis import JointLaw, Power
+from .law import JointLaw, Power
+from .params import BEARING1, BEARING2, DRIVE_DELAY
 
 __all__ = ["Plant", "PeriodicDrive", "effect_parameters", "drive_of_record"]
 
@@ -117,7 +118,7 @@ class Plant:
     def __post_init__(self):
         if not isinstance(self.law, JointLaw):
             raise TypeError(f"Plant.law must be a JointLaw, got {type(self.law).__name__}")
-        for name in ("bearing1_damping_Nms_per_rad", "bearing2_damping_Nms_per_rad", "drive_delay_s"):
+        for name in (BEARING1, BEARING2, DRIVE_DELAY):
             v = float(getattr(self, name))
             if not (math.isfinite(v) and v >= 0):
                 raise ValueError(f"Plant.{name} must be a finite number >= 0, got {getattr(self, name)!r}")
@@ -143,7 +144,7 @@ def effect_parameters(plant: Plant) -> dict[str, float]:
         out["backlash_half_gap_rad"] = gaps.pop()
     for t, v in zip(plant.law.terms, plant.law.values):
         out.update(t.derived_parameters(v))
-    for name in ("bearing1_damping_Nms_per_rad", "bearing2_damping_Nms_per_rad", "drive_delay_s"):
+    for name in (BEARING1, BEARING2, DRIVE_DELAY):
         if getattr(plant, name):
             out[name] = getattr(plant, name)
     return out

@@ -1,0 +1,75 @@
+"""The result family of every identification: parameters by typed name, with standard errors and
+the status of the fit that produced them.
+
+Each fit of the project (:class:`identify.solve.IdentificationResult`, the errors-in-variables
+:class:`identify.eiv.EivResult`, the diagnosis's :class:`identify.diagnose.Fit` and
+:class:`identify.chain_diagnose.ChainFit`, the output-error
+:class:`identify.output_error.OutputErrorResult`) is a frozen dataclass that is an
+:class:`Estimates`: it holds ``names`` (unit-carrying, :class:`jointrig.vocab.params.Param`),
+``values``, ``std_errors``, ``condition_number`` (of the problem its solver inverted: the
+column-equilibrated regression matrix or Jacobian), ``success`` and ``message``, and is asked
+by name: ``fit.value(J1)``, ``fit.std_error("k_Nm_per_rad")``, ``J1 in fit``. Results that
+are more than one fit (the unknown law's :class:`identify.hat.HatFit`, the Silverbox's
+:class:`identify.extend.ExtensionResult`) carry one (``.result``, ``.fit``).
+"""
+
+from __future__ import annotations
+
+import math
+
+from jointrig.vocab.params import Param
+
+__all__ = ["Estimates", "equilibrated_condition"]
+
+
+class Estimates:
+    """Parameters addressed by name (see the module docstring). Nonlinear parameters found by a
+    profile search (a free play, a slip angle) are not among ``names``; a result that has them
+    lists ``(name, standard error)`` in :meth:`_profiled_std_errors`."""
+
+    # The attributes every member holds (as dataclass fields):
+    names: tuple
+    values: object
+    std_errors: object
+    condition_number: float
+    success: bool
+    message: str
+
+    @property
+    def params(self) -> tuple[Param, ...]:
+        """The parameter names, typed (each knows its unit)."""
+        return tuple(Param(n) for n in self.names)
+
+    def __contains__(self, name: str) -> bool:
+        return name in self.names
+
+    def value(self, name: str) -> float:
+        try:
+            return float(self.values[self.names.index(name)])
+        except ValueError:
+            raise KeyError(f"no parameter '{name}'; have {list(self.names)}") from None
+
+    def as_dict(self) -> dict[str, float]:
+        return dict(zip(self.names, (float(v) for v in self.values)))
+
+    def std_error(self, name: str) -> float:
+        """Standard error of any parameter, profiled nonlinear ones included (NaN if unknown)."""
+        if name in self.names:
+            return float(self.std_errors[self.names.index(name)])
+        return float(self._profiled_std_errors().get(name, math.nan))
+
+    def _profiled_std_errors(self) -> dict[str, float]:
+        return {}
+
+
+def equilibrated_condition(J) -> float:
+    """Condition number of ``J`` with its columns scaled to unit 2-norm (what a least-squares
+    solve of it loses in digits, whatever units its columns carry); inf if a column is zero."""
+    import numpy as np
+
+    J = np.asarray(J, dtype=float)
+    norms = np.linalg.norm(J, axis=0)
+    if J.size == 0 or np.any(norms == 0):
+        return math.inf
+    sv = np.linalg.svd(J / norms, compute_uv=False)
+    return float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf
