@@ -10,7 +10,12 @@
 3. the nominal fit alone (period averaging and the weighted harmonic balance of the nominal
    model on the fit runs);
 4. the native simulation of the same 9 runs in the rig (the C callback), the floor a diagnosis
-   that validates in the rig cannot go below.
+   that validates in the rig cannot go below;
+5. with ``--busy``: the whole diagnosis again as a separate ``jointrig diagnose`` process while
+   another process keeps one core busy (a spinning Python loop), once with the project's default
+   thread settings (BLAS/OpenMP pools limited to one thread by the command, the causes scored in
+   ``default_workers()`` forked processes) and once with everything on one thread
+   (``JOINTRIG_WORKERS=1 OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1``), and their ratio.
 
 Best of ``--repeat`` for each, then the ratios. One BLAS thread (as every jointrig command sets).
 """
@@ -18,7 +23,10 @@ Best of ``--repeat`` for each, then the ratios. One BLAS thread (as every jointr
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import os
+import subprocess
 import sys
 import tempfile
 import time
@@ -50,6 +58,8 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--repeat", type=int, default=3, help="timings per step; the best is kept (default: %(default)s)")
     p.add_argument("--json", type=Path, help="write the timings as JSON")
+    p.add_argument("--busy", action="store_true",
+                   help="also time the diagnosis with another core kept busy, default threads against one thread")
     args = p.parse_args(argv)
     limit_threads()
     with tempfile.TemporaryDirectory() as tmp:
@@ -59,7 +69,8 @@ def main(argv=None) -> int:
             return 1
         out = [str(tmp / "worn.json"), str(tmp / "worn.rrd"), str(tmp / "worn.html")]
         argv_d = [str(data), "-q", "--json", out[0], "--rrd", out[1], "--report", out[2]]
-        t_diag = best_of(args.repeat, lambda: diagnose_cmd.main(argv_d))
+        with open(os.devnull, "w") as null, contextlib.redirect_stdout(null):  # the report's text, not timed apart
+            t_diag = best_of(args.repeat, lambda: diagnose_cmd.main(argv_d))
         result = json.loads(Path(out[0]).read_text())
 
         loaded = read_runs(data)
@@ -75,22 +86,48 @@ def main(argv=None) -> int:
         rig = load_rig(WORN)
         cfg = SimulationConfig(n_periods=16)
         t_sim = best_of(args.repeat, lambda: [simulate_steady_state(rig, w, a, cfg, native=True) for w, a in POINTS])
+        busy = busy_core_timings(argv_d, args.repeat) if args.busy else None
     report = {
         "what": "worn-joint example, 9 runs x 16 periods at 40 dB; best of --repeat; one BLAS thread",
         "diagnosis_end_to_end_s": t_diag, "nominal_fit_s": t_nom, "native_simulation_of_the_runs_s": t_sim,
         "diagnosis_over_native_simulation": t_diag / t_sim, "diagnosis_over_nominal_fit": t_diag / t_nom,
         "verdict": result["verdict"], "effects": result["extended"]["effects"], "gain": result["gain"],
     }
+    if busy is not None:
+        report["busy_core"] = busy
     print(f"worn joint, 9 runs x 16 periods at 40 dB (best of {args.repeat}):")
     print(f"  diagnosis end to end (--json --rrd --report)  {t_diag:7.2f} s   verdict {result['verdict']}, "
           f"{' + '.join(result['extended']['effects']) or 'nothing'} adopted, gain {result['gain']:.3g}")
     print(f"  nominal fit alone                             {t_nom:7.2f} s")
     print(f"  native simulation of the 9 runs in the rig    {t_sim:7.2f} s")
     print(f"  diagnosis / native simulation                 {t_diag / t_sim:7.2f} x")
+    if busy is not None:
+        print(f"  with the other core busy, a separate process:  default threads {busy['default_s']:.2f} s, "
+              f"one thread {busy['one_thread_s']:.2f} s: {busy['default_over_one_thread']:.2f} x")
     if args.json:
         write_json_atomic(args.json, report)
         print(f"wrote {args.json}")
     return 0
+
+
+def busy_core_timings(argv_d: list[str], repeat: int) -> dict:
+    """The diagnosis command in a child process while a spinning process keeps one core busy: with
+    the environment as it is (the project's own thread settings) and with one thread everywhere."""
+    one = {"JOINTRIG_WORKERS": "1", "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+    base = {k: v for k, v in os.environ.items() if k not in one}
+    cmd = [sys.executable, "-m", "jointrig", "diagnose", *argv_d]
+    spinner = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+    try:
+        time.sleep(0.5)
+        out = {}
+        for label, env in (("default_s", base), ("one_thread_s", {**base, **one})):
+            out[label] = best_of(repeat, lambda env=env: subprocess.run(cmd, env=env, check=True,
+                                                                        stdout=subprocess.DEVNULL))
+    finally:
+        spinner.kill()
+        spinner.wait()
+    out["default_over_one_thread"] = out["default_s"] / out["one_thread_s"]
+    return out
 
 
 if __name__ == "__main__":
