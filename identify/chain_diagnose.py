@@ -2,7 +2,7 @@
 
 The two-flywheel diagnosis (:mod:`identify.diagnose`) asks which cause explains a misfit;
 in a chain the question is also *where*. Every catalogued joint cause (the same
-:data:`identify.diagnose.CAUSES` entries, extending a joint's terms exactly as they extend the
+:data:`identify.causes.CAUSES` entries, extending a joint's terms exactly as they extend the
 two-flywheel joint's) is scored at every joint, and bearing drag at every flywheel:
 
 1. **Prepare** (:func:`prepare_chain_runs`): average each run's P periods in the frequency
@@ -46,7 +46,8 @@ from scipy.stats import chi2 as chi2_dist
 from jointrig.vocab.law import JointLaw, Power, Viscous
 from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpec, bearing_name, chain_system,
                     identifiability, inertia_name, joint_prefix, solve_banded)
-from .diagnose import CAUSES, DEFAULT_FIDELITY, FINE_SAMPLES, Cause, ModelSpec
+from .causes import CAUSES, Cause, ModelSpec
+from .diagnose import DEFAULT_FIDELITY, FINE_SAMPLES
 from .harmonics import max_harmonic
 from jointrig.vocab.records import RecordError, SteadyStateRecord
 from .estimates import Estimates

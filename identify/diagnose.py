@@ -38,20 +38,21 @@ from typing import Callable, Optional, Sequence
 
 import numpy as np
 from scipy.optimize import minimize_scalar
-from scipy.stats import chi2 as chi2_dist
 
 from .balance import LinearSystem, _memo_arrays, equivalent_system, spectral_rate, two_dof_system
-from jointrig.vocab.law import Coulomb, Iwan, Jenkins, JointLaw, Power, QuadraticDamping, Stribeck, Term, Viscous
+from jointrig.vocab.law import Coulomb, JointLaw, Power
 from .harmonics import fourier_coefficients, max_harmonic, synthesize
 from jointrig.vocab.plant import Plant, effect_parameters
 from jointrig.vocab.records import RecordError, SteadyStateRecord
 from .estimates import Estimates
 from .solve import IllConditionedWarning, solve
-from jointrig.vocab.params import J1, J2, JE, BEARING1, BEARING2, DRIVE_DELAY
+from jointrig.vocab.params import J1, J2, JE, BEARING1, BEARING2
+from .causes import (DEFAULT_SEPARATION, CAUSES, NOMINAL, SEPARATING_EXCITATION, TIE, Cause, ModelSpec,
+                     rate_amplitudes, evidence)
 
 __all__ = [
-    "DEFAULT_FIDELITY", "kink_corrected_rate", "PreparedRun", "prepare_runs", "ModelSpec", "NOMINAL", "Cause", "CAUSES", "Fit", "CauseScore",
-    "Diagnosis", "diagnose", "fit", "plant_of", "EFFECT_MAGNITUDE", "SEPARATING_EXCITATION",
+    "DEFAULT_FIDELITY", "kink_corrected_rate", "PreparedRun", "prepare_runs", "Fit", "CauseScore",
+    "Diagnosis", "diagnose", "fit", "plant_of",
 ]
 
 
@@ -187,27 +188,6 @@ def prepare_runs(records: Sequence[SteadyStateRecord], *, band: int = 20,
 
 # --------------------------------------------------------------------------------------------
 # 2. Models and fits
-
-
-@dataclass(frozen=True)
-class ModelSpec:
-    """A model structure: joint terms, bearing drag columns, a drive delay."""
-
-    terms: tuple[Term, ...]
-    bearings: bool = False
-    drive_delay_s: float = 0.0
-    #: measurement: the relative angle's zero is off by this much; the law sees phi - offset
-    angle_offset_rad: float = 0.0
-    #: measurement: flywheel 2's angle reading lags the truth by this much (s; negative: leads),
-    #: the channel skew of a multiplexed DAQ or a filter's group delay: recorded phi2(t) =
-    #: phi2(t - tau)
-    angle2_delay_s: float = 0.0
-    #: measurement: flywheel 2's angle reads (1 + angle2_gain_error) times the truth (an
-    #: encoder's lines per revolution or a gear ratio set wrong): recorded phi2 = (1 + e) phi2
-    angle2_gain_error: float = 0.0
-
-
-NOMINAL = ModelSpec((Viscous(), Power(1), Power(3)))
 
 
 def _delayed(rec: SteadyStateRecord, delay_s: float) -> SteadyStateRecord:
@@ -491,195 +471,6 @@ def fit(problem: _Problem, spec: ModelSpec, weights: Optional[np.ndarray] = None
 
 
 @dataclass(frozen=True)
-class Cause:
-    """A physical cause: how it extends a model, with at most one nonlinear parameter.
-
-    ``extend(spec, h)`` returns the extended structure for nonlinear parameter ``h`` (ignored
-    when ``bounds`` is None); ``bounds(runs)`` gives its search interval; ``magnitude`` names
-    the parameter that says how strong the effect is.
-    """
-
-    name: str
-    description: str
-    extend: Callable[[ModelSpec, float], ModelSpec]
-    magnitude: str
-    n_linear: int
-    bounds: Optional[Callable[[Sequence[PreparedRun]], tuple[float, float]]] = None
-    log_scale: bool = False
-    needs_two_angles: bool = False
-    nonnegative: bool = True  # a negative magnitude is unphysical (friction, damping, delay)
-    profiled: Optional[str] = None  # name of the nonlinear parameter the profile search finds
-    #: "dynamic" (in the plant: the rig simulates it) or "measurement" (in the sensors: the data
-    #: are corrected for it; checked first, as a test engineer checks the instrumentation first)
-    kind: str = "dynamic"
-    #: sought only in the first round, against the nominal model. A channel skew shifts a whole
-    #: angle in time, which also bends a model whose friction or free play is a little off: on
-    #: the rig's dry friction with free play it drew a 0.1 ms skew as a third cause (p = 2e-5)
-    #: that made the held-out runs worse (gain 5.1 with it, 6.5 without). A real skew is a
-    #: misfit of the whole record and shows first.
-    first_only: bool = False
-
-
-def _amplitude(runs) -> float:
-    """Smallest relative-angle amplitude over the runs (rad)."""
-    return min(float(np.max(np.abs(r.average.phi_rad - r.average.phi_rad.mean()))) for r in runs)
-
-
-def _with_terms(spec: ModelSpec, extra: tuple[Term, ...]) -> ModelSpec:
-    have = {t.name for t in spec.terms}
-    return replace(spec, terms=spec.terms + tuple(t for t in extra if t.name not in have))
-
-
-def _with_gap(spec: ModelSpec, gap: float) -> ModelSpec:
-    terms = tuple(Power(t.power, gap) if isinstance(t, Power) and t.power >= 1 else t for t in spec.terms)
-    return replace(spec, terms=terms)
-
-
-def _with_jenkins(spec: ModelSpec, slip: float) -> ModelSpec:
-    terms = tuple(t for t in spec.terms if not isinstance(t, Jenkins)) + (Jenkins(slip),)
-    return replace(spec, terms=terms)
-
-
-def _with_iwan(spec: ModelSpec, slip: float) -> ModelSpec:
-    terms = tuple(t for t in spec.terms if not isinstance(t, Iwan)) + (Iwan(slip, IWAN_CHI, IWAN_BETA),)
-    return replace(spec, terms=terms)
-
-
-#: The micro-slip cause's Iwan shape, fixed: chi = -0.5 (the middle of Segalman's range (-1, 0])
-#: and beta = 0.1; only the largest slip angle is profiled, the macroslip torque is linear.
-IWAN_CHI, IWAN_BETA = -0.5, 0.1
-
-
-def _with_stribeck(spec: ModelSpec, velocity: float) -> ModelSpec:
-    terms = tuple(t for t in spec.terms if not isinstance(t, Stribeck))
-    if not any(isinstance(t, Coulomb) for t in terms):
-        terms += (Coulomb(),)
-    return replace(spec, terms=terms + (Stribeck(velocity),))
-
-
-def _rate_amplitudes(runs) -> list[float]:
-    """Relative-rate amplitude of every run (rad/s), from the averaged period."""
-    out = []
-    for r in runs:
-        phi = r.average.phi_rad
-        out.append(float(np.max(np.abs(spectral_rate(phi - phi.mean(), r.average.omega_rad_s, 1)))))
-    return out
-
-
-def _largest_amplitude(runs) -> float:
-    return max(float(np.max(np.abs(r.average.phi_rad - r.average.phi_rad.mean()))) for r in runs)
-
-
-CAUSES: tuple[Cause, ...] = (
-    Cause("coulomb_friction", "dry friction in the joint: a torque of constant size opposing the relative rate",
-          lambda s, h: _with_terms(s, (Coulomb(),)), "coulomb_torque_Nm", 1),
-    Cause("backlash", "free play in the elastic element: no stiffness within +-half gap",
-          _with_gap, "backlash_half_gap_rad", 0, bounds=lambda runs: (1e-4 * _amplitude(runs), 0.8 * _amplitude(runs)),
-          profiled="backlash_half_gap_rad"),
-    Cause("asymmetric_stiffness", "an even stiffness term a phi^2: even harmonics",
-          lambda s, h: _with_terms(s, (Power(2),)), "a_Nm_per_rad2", 1, nonnegative=False),
-    Cause("hysteresis", "a Jenkins (one-element Iwan) element: spring and dry-friction slider in series",
-          _with_jenkins, "hysteresis_slip_torque_Nm", 1,
-          bounds=lambda runs: (1e-3 * _amplitude(runs), 0.9 * _amplitude(runs)), log_scale=True,
-          profiled="hysteresis_slip_angle_rad"),
-    Cause("micro_slip", "micro-slip: an Iwan element (Segalman's four-parameter distribution of Jenkins elements, "
-          f"chi = {IWAN_CHI}, beta = {IWAN_BETA}), as in bolted and clamped joints",
-          _with_iwan, "iwan_slip_torque_Nm", 1,
-          bounds=lambda runs: (1e-3 * _amplitude(runs), 2.0 * _largest_amplitude(runs)), log_scale=True,
-          profiled="iwan_slip_angle_rad"),
-    Cause("stribeck_friction", "dry friction with a Stribeck peak: static friction above the sliding one, falling "
-          "off with the rate (velocity weakening)",
-          _with_stribeck, "stribeck_torque_Nm", 2,
-          bounds=lambda runs: (0.02 * min(_rate_amplitudes(runs)), 2.0 * max(_rate_amplitudes(runs))), log_scale=True,
-          profiled="stribeck_velocity_rad_s"),
-    Cause("quadratic_damping", "damping torque proportional to the rate squared",
-          lambda s, h: _with_terms(s, (QuadraticDamping(),)), "quadratic_damping_Nms2_per_rad2", 1),
-    Cause("drive_delay", "the drive torque reaches flywheel 1 later than it is recorded",
-          lambda s, h: replace(s, drive_delay_s=float(h)), DRIVE_DELAY, 0,
-          bounds=lambda runs: (0.0, 0.1 * min(2 * math.pi / r.average.omega_rad_s for r in runs)),
-          profiled=DRIVE_DELAY),
-    Cause("bearing_friction", "viscous drag of a flywheel to ground (not through the joint)",
-          lambda s, h: replace(s, bearings=True), "bearing_damping_Nms_per_rad", 2, needs_two_angles=True),
-    Cause("angle_offset", "measurement: the zero of the relative angle is off (an encoder's zero); under a cubic "
-          "term it creates even harmonics as an asymmetric spring would",
-          lambda s, h: replace(s, angle_offset_rad=float(h)), "angle_offset_rad", 0,
-          bounds=lambda runs: (-_zero_bound(runs), _zero_bound(runs)), nonnegative=False,
-          profiled="angle_offset_rad", kind="measurement"),
-    Cause("angle_skew", "measurement: flywheel 2's angle is read later (or earlier) than the torque and flywheel 1's "
-          "angle (a multiplexed DAQ's channel skew, a filter's group delay)",
-          lambda s, h: replace(s, angle2_delay_s=float(h)), "angle2_delay_s", 0,
-          bounds=lambda runs: (-_skew_bound(runs), _skew_bound(runs)), nonnegative=False, needs_two_angles=True,
-          profiled="angle2_delay_s", kind="measurement", first_only=True),
-    Cause("angle_gain", "measurement: flywheel 2's angle reads a fixed factor too large or too small (an encoder's "
-          "lines per revolution or a gear ratio set wrong)",
-          lambda s, h: replace(s, angle2_gain_error=float(h)), "angle2_gain_error", 0,
-          bounds=lambda runs: (-ANGLE_GAIN_TOLERANCE, ANGLE_GAIN_TOLERANCE), nonnegative=False,
-          needs_two_angles=True, profiled="angle2_gain_error", kind="measurement", first_only=True),
-)
-
-#: A measurement cause whose chi-square drop is within 1% of the best cause's is taken first.
-TIE = 0.99
-
-#: Largest zero error of the relative angle that a bench plausibly has (rad): about 0.6 degree.
-#: A larger apparent offset is not sought as a sensor error (it would be a preloaded joint).
-ANGLE_ZERO_TOLERANCE_RAD = 0.01
-
-
-#: Largest channel skew sought, as a share of the shortest period: a skew of a few percent of a
-#: period is a DAQ's or a filter's; more would be a wiring or clock fault, not a timing detail.
-ANGLE_SKEW_SHARE = 0.05
-
-
-#: Largest scale error of flywheel 2's angle sought (relative): a gear ratio or line count off by
-#: up to 20%. A torque sensor's gain error is not sought: it scales every parameter of both
-#: equations alike (inertias, damping, stiffness) and no data without a reference can see it;
-#: flywheel 1's angle's is the same as flywheel 2's and the torque's together, so one is enough.
-ANGLE_GAIN_TOLERANCE = 0.2
-
-
-def _skew_bound(runs) -> float:
-    return ANGLE_SKEW_SHARE * min(2 * math.pi / r.average.omega_rad_s for r in runs)
-
-
-def _zero_bound(runs) -> float:
-    return min(ANGLE_ZERO_TOLERANCE_RAD, 0.1 * _amplitude(runs))
-
-#: Magnitudes without a unit (a relative scale error: recorded over true, minus 1).
-DIMENSIONLESS = frozenset({"angle2_gain_error"})
-
-#: The parameter that states each cause's size (bearing: the larger of the two flywheels').
-EFFECT_MAGNITUDE = {c.name: c.magnitude for c in CAUSES}
-
-#: What excitation separates two causes the data cannot tell apart.
-SEPARATING_EXCITATION = {
-    frozenset({"coulomb_friction", "hysteresis"}): "runs at small amplitude (below the slip angle a Jenkins "
-    "element is a pure spring while dry friction still dissipates): add a low-amplitude run",
-    frozenset({"hysteresis", "micro_slip"}): "runs at several small amplitudes (a Jenkins element dissipates "
-    "nothing below its slip angle, an Iwan element a little at every amplitude, growing as A^(3 + chi))",
-    frozenset({"coulomb_friction", "micro_slip"}): "runs at small amplitude (there an Iwan element is mostly a "
-    "spring and dissipates as A^(3 + chi); dry friction dissipates 4 F A at every amplitude)",
-    frozenset({"coulomb_friction", "stribeck_friction"}): "runs at low rates (an amplitude sweep at a low frequency: "
-    "the Stribeck peak acts below its rate, where dry friction alone stays flat)",
-    frozenset({"coulomb_friction", "quadratic_damping"}): "an amplitude sweep at one frequency (dry friction "
-    "dissipates per cycle in proportion to amplitude, quadratic damping to amplitude cubed)",
-    frozenset({"drive_delay", "quadratic_damping"}): "a frequency sweep at constant amplitude (a delay's "
-    "phase grows linearly with frequency)",
-    frozenset({"backlash", "asymmetric_stiffness"}): "runs at several amplitudes around the free play and a "
-    "static preload test (free play is symmetric and vanishes in relative terms at large amplitude)",
-    frozenset({"coulomb_friction", "backlash"}): "a low-amplitude run (inside the free play the joint "
-    "transmits no elastic torque but still rubs)",
-    frozenset({"asymmetric_stiffness", "angle_offset"}): "a reading of the relative angle at rest without torque "
-    "(its true zero): under a cubic term gamma, an even term a phi^2 and an angle offset of -a / (3 gamma) give the "
-    "same harmonics",
-    frozenset({"bearing_friction", "drive_delay"}): "runs at several drive frequencies (at one frequency a "
-    "delay tau and a drag b1 of flywheel 1 act alike, b1 = tau omega^2 (J1 + J2); the delay's phase grows "
-    "with frequency, the drag's effect falls)",
-}
-_DEFAULT_SEPARATION = ("a sweep over amplitude at fixed frequency and over frequency at fixed amplitude, "
-                       "with both flywheel angles recorded")
-
-
-@dataclass(frozen=True)
 class CauseScore:
     """Evidence for one cause on top of a base model.
 
@@ -820,9 +611,7 @@ def score_cause(problem: _Problem, cause: Cause, base: Fit, weights: np.ndarray,
         ext = _profile(problem, cause, base.spec, weights)
     q = len(ext.names) - len(base.names) + (1 if cause.bounds is not None else 0)
     delta = base.chi2 - ext.chi2
-    p = float(chi2_dist.sf(max(delta, 0.0), q))
-    score = delta - q * math.log(base.n_rows)
-    significant = bool(p < alpha / n_causes and score > 0)
+    score, p, significant = evidence(delta, q, base.n_rows, alpha, n_causes)
     mag = _magnitude(cause, ext)
     note = ""
     if cause.nonnegative and mag[1] < 0:
@@ -877,7 +666,7 @@ def _degenerate(problem: "_Problem", cause: "Cause", ext: Fit) -> str:
     no free play. Empty if the cause stands as fitted."""
     if cause.name == "stribeck_friction":
         v = ext.effect_parameters().get("stribeck_velocity_rad_s", math.nan)
-        top = max(_rate_amplitudes(problem.runs))
+        top = max(rate_amplitudes(problem.runs))
         if v > top:
             return (f"its Stribeck rate {v:.3g} rad/s is above every run's rate amplitude (at most {top:.3g} rad/s): the "
                     f"friction does not fall off within the data; it is dry friction (see coulomb_friction)")
@@ -1060,7 +849,7 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
             if not r_needed and not b_needed:
                 pair = frozenset({best.effect, rival.effect})
                 ambiguous.append(Ambiguity((best.effect, rival.effect),
-                                           SEPARATING_EXCITATION.get(pair, _DEFAULT_SEPARATION)))
+                                           SEPARATING_EXCITATION.get(pair, DEFAULT_SEPARATION)))
     noise = {}
     for ch in runs[0].noise_std:
         noise[ch] = float(np.median([r.noise_std[ch] for r in runs]))

@@ -22,33 +22,28 @@ from dataclasses import dataclass
 from typing import Optional, Sequence
 
 import numpy as np
-from scipy.stats import chi2
 
-from jointrig.vocab.law import JointLaw, Monomial, Power, Term
+from jointrig.vocab.law import JointLaw, Term
+from jointrig.vocab.params import DRIVE_DELAY
+from .causes import OSCILLATOR_CAUSES, Cause, ModelSpec, evidence
 from .output_error import OutputErrorResult, refine_output_error, simulate_periods
 
-__all__ = ["Candidate", "CANDIDATES", "CandidateScore", "ResidualAnalysis", "ExtensionStep", "ExtensionResult",
+__all__ = ["CandidateScore", "ResidualAnalysis", "ExtensionStep", "ExtensionResult",
            "residual_analysis", "score_candidates", "extend_model", "indistinguishable", "INDISTINGUISHABLE_SHARE"]
 
 log = logging.getLogger(__name__)
 
 
-@dataclass(frozen=True)
-class Candidate:
-    """A physical effect the nominal law lacks: a basis term (None: the input delay)."""
-
-    effect: str
-    term: Optional[Term]
-    meaning: str
-
-
-CANDIDATES: tuple[Candidate, ...] = (
-    Candidate("quadratic_stiffness", Power(2), "asymmetric restoring force: even lines and a DC shift"),
-    Candidate("quintic_stiffness", Power(5), "stiffening beyond cubic: odd lines growing with amplitude"),
-    Candidate("cubic_damping", Monomial(0, 3), "damping growing with the rate, x'^3"),
-    Candidate("amplitude_damping", Monomial(2, 1), "damping growing with the amplitude, x^2 x'"),
-    Candidate("input_delay", None, "the input acts late: phase lag growing linearly with frequency"),
-)
+def _added_term(cause: Cause) -> Optional[Term]:
+    """The law term a catalogued cause adds (None: the cause is a late input, a delay of the
+    drive, which the simulation takes as a parameter rather than a term)."""
+    if cause.profiled == DRIVE_DELAY:
+        return None
+    terms = cause.extend(ModelSpec(()), 0.0).terms
+    if len(terms) != 1:
+        raise ValueError(f"cause {cause.name!r} adds {len(terms)} terms; the oscillator scores single-term "
+                         f"extensions only")
+    return terms[0]
 
 
 @dataclass(frozen=True)
@@ -95,6 +90,10 @@ def residual_analysis(y_sim: np.ndarray, y: np.ndarray, fs_Hz: float, excited: n
 
 @dataclass(frozen=True)
 class CandidateScore:
+    """A catalogued cause's evidence on the oscillator's simulation error (the score test:
+    ``chi2`` is the chi-square drop the cause would bring, judged by :func:`identify.causes.evidence`
+    like the two-flywheel diagnosis's)."""
+
     effect: str
     meaning: str
     reduction: float          # residual sum of squares the candidate can remove (data units^2)
@@ -102,6 +101,7 @@ class CandidateScore:
     chi2: float               # reduction / sigma^2
     p_value: float
     step: float               # one Gauss-Newton step for its coefficient (start value)
+    score: float = math.nan   # BIC: chi2 - ln(n samples)
 
 
 #: Two candidates whose removable residual is within this share of each other explain nearly
@@ -123,8 +123,9 @@ def _rms(x) -> float:
 
 
 def score_candidates(u: np.ndarray, y: np.ndarray, fs_Hz: float, *, inertia: float, law: JointLaw,
-                     delay_s: float = 0.0, candidates: Sequence[Candidate] = CANDIDATES) -> tuple[CandidateScore, ...]:
-    """Score test of each candidate at the present fit, best first (largest reduction)."""
+                     delay_s: float = 0.0, candidates: Sequence[Cause] = OSCILLATOR_CAUSES,
+                     alpha: float = 1e-3) -> tuple[CandidateScore, ...]:
+    """Score test of each catalogued cause at the present fit, best first (largest reduction)."""
     y0, Y0 = simulate_periods(inertia, law, u, fs_Hz, delay_s=delay_s)
     r = (y0 - y).ravel()
     n_per = y.shape[-1]
@@ -151,15 +152,16 @@ def score_candidates(u: np.ndarray, y: np.ndarray, fs_Hz: float, *, inertia: flo
     sigma2 = rss / (n - S.shape[1])
     scores = []
     for cand in candidates:
-        if cand.term is None:
+        term = _added_term(cand)
+        if term is not None and term.name in law.names:
+            continue
+        if term is None:
             hd = 1e-3 / fs_Hz
             s = sens(inertia, law, delay_s + hd, hd)
-        elif cand.term.name in law.names:
-            continue
         else:
             # sensitivity to a small coefficient of the new term: its torque is 1e-6 of the law's
-            hc = 1e-6 * torque_rms / max(_rms(cand.term(x0, v0)), 1e-300)
-            probe = JointLaw(law.terms + (cand.term,), law.values + (hc,))
+            hc = 1e-6 * torque_rms / max(_rms(term(x0, v0)), 1e-300)
+            probe = JointLaw(law.terms + (term,), law.values + (hc,))
             s = sens(inertia, probe, delay_s, hc)
         s_perp = s - Q @ (Q.T @ s)
         ss = float(s_perp @ s_perp)
@@ -168,8 +170,9 @@ def score_candidates(u: np.ndarray, y: np.ndarray, fs_Hz: float, *, inertia: flo
         proj = float(s_perp @ r)
         red = proj * proj / ss
         stat = red / sigma2
-        scores.append(CandidateScore(cand.effect, cand.meaning, red, float(np.sqrt(max(rss - red, 0) / n)), stat,
-                                     float(chi2.sf(stat, 1)), -proj / ss))
+        bic, p, _ = evidence(stat, 1, n, alpha, len(candidates))
+        scores.append(CandidateScore(cand.name, cand.description, red, float(np.sqrt(max(rss - red, 0) / n)), stat,
+                                     p, -proj / ss, bic))
     return tuple(sorted(scores, key=lambda c: -c.reduction))
 
 
@@ -206,7 +209,7 @@ def _val_rms(fit: OutputErrorResult, u, y, fs):
 
 
 def extend_model(u: np.ndarray, y: np.ndarray, fs_Hz: float, *, inertia: float, law: JointLaw,
-                 train: np.ndarray, validate: np.ndarray, candidates: Sequence[Candidate] = CANDIDATES,
+                 train: np.ndarray, validate: np.ndarray, candidates: Sequence[Cause] = OSCILLATOR_CAUSES,
                  min_gain: float = 0.02, max_effects: int = 3,
                  other: Optional[tuple[np.ndarray, np.ndarray]] = None) -> ExtensionResult:
     """Greedy forward selection of candidate effects (see the module docstring).
@@ -221,7 +224,7 @@ def extend_model(u: np.ndarray, y: np.ndarray, fs_Hz: float, *, inertia: float, 
         rather than the system). Candidates are then tried in order of evidence until one
         passes both, not only the best-evidenced one.
     """
-    by_name = {c.effect: c for c in candidates}
+    by_name = {c.name: c for c in candidates}
     ut, yt, uv, yv = u[train], y[train], u[validate], y[validate]
     delay_on = False
     fit = _fit(ut, yt, fs_Hz, inertia, law, 0.0, False)
@@ -232,7 +235,7 @@ def extend_model(u: np.ndarray, y: np.ndarray, fs_Hz: float, *, inertia: float, 
     first_scores: Optional[tuple] = None
     while len(effects) < max_effects:
         scores = score_candidates(ut, yt, fs_Hz, inertia=fit.inertia, law=fit.law, delay_s=fit.delay_s,
-                                  candidates=[c for c in candidates if c.effect not in effects])
+                                  candidates=[c for c in candidates if c.name not in effects])
         first_scores = first_scores or scores
         if not scores:
             break
@@ -242,11 +245,11 @@ def extend_model(u: np.ndarray, y: np.ndarray, fs_Hz: float, *, inertia: float, 
         # fit's excitation while the next one is not: they are tried in order.
         kept = None
         for best in (scores if other is not None else scores[:1]):
-            cand = by_name[best.effect]
-            if cand.term is None:
+            term = _added_term(by_name[best.effect])
+            if term is None:
                 trial = _fit(ut, yt, fs_Hz, fit.inertia, fit.law, fit.delay_s, True)
             else:
-                trial_law = JointLaw(fit.law.terms + (cand.term,), fit.law.values + (best.step,))
+                trial_law = JointLaw(fit.law.terms + (term,), fit.law.values + (best.step,))
                 trial = _fit(ut, yt, fs_Hz, fit.inertia, trial_law, fit.delay_s, delay_on)
             new_val = _val_rms(trial, uv, yv, fs_Hz)
             new_oth = _val_rms(trial, other[0], other[1], fs_Hz) if other is not None else math.nan
@@ -255,13 +258,13 @@ def extend_model(u: np.ndarray, y: np.ndarray, fs_Hz: float, *, inertia: float, 
             log.info("candidate %s: held-out RMS %.4g -> %.4g, other excitation %.4g -> %.4g (%s)", best.effect, val,
                      new_val, oth, new_oth, "kept" if ok else "rejected")
             if ok:
-                kept = (best, cand, trial, new_val, new_oth)
+                kept = (best, term, trial, new_val, new_oth)
                 break
         if kept is None:
             break
-        best, cand, trial, new_val, new_oth = kept
+        best, term, trial, new_val, new_oth = kept
         effects.append(best.effect)
         fit, val, oth = trial, new_val, new_oth
-        delay_on = delay_on or cand.term is None
+        delay_on = delay_on or term is None
     final = _fit(u, y, fs_Hz, fit.inertia, fit.law, fit.delay_s, delay_on)
     return ExtensionResult(tuple(effects), tuple(steps), final, first_scores or ())

@@ -34,7 +34,8 @@ from pathlib import Path
 
 from jointrig.commands import diagnose as diagnose_cmd
 from jointrig.commands import make_data as make_data_cmd
-from jointrig.identify.diagnose import NOMINAL, _Problem, fit, prepare_runs
+from jointrig.identify.causes import NOMINAL
+from jointrig.identify.diagnose import _Problem, fit, prepare_runs
 from jointrig.measured.runs import read_runs
 from jointrig.rig import DEFAULT_MODEL, SimulationConfig, load_rig, simulate_steady_state
 from jointrig.rig.runtime import limit_threads

@@ -23,7 +23,7 @@ import math
 import pytest
 
 from bench_sim import JOINTS, POINTS, measure, with_effect
-from jointrig.identify.diagnose import CAUSES
+from jointrig.identify.causes import CAUSES
 from jointrig.measured.runs import read_runs
 from jointrig.studies.validate import run_diagnosis
 

@@ -195,7 +195,8 @@ def main(argv=None) -> int:
                        "heldout_rms_mV_after": 1e3 * s.validation_rms_after,
                        "schroeder_rms_mV_before": 1e3 * s.other_rms_before,
                        "schroeder_rms_mV_after": 1e3 * s.other_rms_after} for s in ext.steps],
-        "candidate_scores": [{"effect": s.effect, "chi2": s.chi2, "predicted_rms_mV": 1e3 * s.predicted_rms}
+        "candidate_scores": [{"effect": s.effect, "chi2": s.chi2, "bic_score": s.score, "p_value": s.p_value,
+                              "predicted_rms_mV": 1e3 * s.predicted_rms}
                              for s in scores],
         "estimation_rms_mV": {"hb": est_rms["hb"], "nominal": est_rms["oe"], "extended": 1e3 * fit.rms_error},
         "mujoco_vs_scipy_max_abs_V": agree,

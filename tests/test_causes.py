@@ -1,0 +1,41 @@
+"""One cause catalogue and one evidence measure for every pipeline (identify.causes)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from jointrig.identify.causes import CATALOGUE, CAUSES, OSCILLATOR_CAUSES, by_name, evidence
+from jointrig.identify.extend import _added_term
+from jointrig.vocab.law import Monomial, Power
+
+
+def test_every_selection_is_drawn_from_the_one_catalogue():
+    names = [c.name for c in CATALOGUE]
+    assert len(names) == len(set(names))
+    for selection in (CAUSES, OSCILLATOR_CAUSES):
+        assert all(any(c is k for k in CATALOGUE) for c in selection)
+    # the causes both pipelines seek are the very same entries
+    shared = {c.name for c in CAUSES} & {c.name for c in OSCILLATOR_CAUSES}
+    assert shared == {"asymmetric_stiffness", "drive_delay"}
+    assert by_name("drive_delay") is next(c for c in OSCILLATOR_CAUSES if c.name == "drive_delay")
+    with pytest.raises(KeyError, match="quartic"):
+        by_name("quartic")
+
+
+def test_the_oscillator_adds_each_causes_own_term():
+    added = {c.name: _added_term(c) for c in OSCILLATOR_CAUSES}
+    assert added["drive_delay"] is None  # a late input is a parameter of the simulation, not a term
+    assert added["asymmetric_stiffness"] == Power(2) and added["quintic_stiffness"] == Power(5)
+    assert added["cubic_damping"] == Monomial(0, 3) and added["amplitude_damping"] == Monomial(2, 1)
+
+
+def test_evidence_by_hand():
+    # chi-square(1) survival at 10 is erfc(sqrt(5)) = 1.565e-3; BIC 10 - ln(100) = 5.395.
+    score, p, sig = evidence(10.0, 1, 100, alpha=1e-2, n_causes=1)
+    assert score == pytest.approx(10.0 - math.log(100.0), rel=1e-15)
+    assert p == pytest.approx(math.erfc(math.sqrt(5.0)), rel=1e-12)
+    assert sig  # p < 1e-2 and the score is positive
+    assert not evidence(10.0, 1, 100, alpha=1e-2, n_causes=10)[2]  # Bonferroni: p > 1e-3
+    assert not evidence(10.0, 3, 100, alpha=1.0, n_causes=1)[2]  # significant, but 3 parameters do not pay
