@@ -25,7 +25,7 @@ from typing import Sequence
 
 import numpy as np
 
-__all__ = ["Design", "d_optimal", "design_cost_s", "log_det"]
+__all__ = ["Design", "d_optimal", "design_cost_s", "log_det", "crlb_std", "d_efficiency", "chain_modes_rad_s"]
 
 
 def log_det(F: np.ndarray) -> float:
@@ -123,3 +123,27 @@ def d_optimal(fishers: Sequence[np.ndarray], period_s: Sequence[float], budget_s
     if not math.isfinite(ld):
         raise ValueError(f"a budget of {budget_s:g} s admits no design that determines all {p} parameters")
     return Design(tuple(int(x) for x in best), design_cost_s(best, T, setup_s), float(budget_s), np.linalg.inv(total), ld)
+
+
+def crlb_std(fisher: np.ndarray) -> np.ndarray:
+    """Cramer-Rao bound on each parameter's standard error: sqrt(diag(F^-1)), ``(p,)``."""
+    return np.sqrt(np.diag(np.linalg.inv(fisher)))
+
+
+def d_efficiency(log_det_design: float, fisher_reference: np.ndarray) -> float:
+    """D-efficiency of a design against a reference: (det F_design / det F_ref)^(1/p); above 1
+    the design's joint confidence region is smaller for the same test time."""
+    p = fisher_reference.shape[0]
+    return float(np.exp((log_det_design - log_det(fisher_reference)) / p))
+
+
+def chain_modes_rad_s(inertias_kgm2: Sequence[float], stiffnesses_Nm_per_rad: Sequence[float]) -> tuple[float, ...]:
+    """Undamped natural frequencies (rad/s, ascending) of flywheels in a chain, joint j a spring
+    of stiffness k_j between flywheels j and j+1: the square roots of the eigenvalues of J^-1 K,
+    the rigid-body mode (0) left out."""
+    J = np.asarray(inertias_kgm2, dtype=float)
+    K = np.zeros((J.size, J.size))
+    for j, k in enumerate(stiffnesses_Nm_per_rad):
+        K[j:j + 2, j:j + 2] += k * np.array([[1.0, -1.0], [-1.0, 1.0]])
+    modes = np.sqrt(np.clip(np.linalg.eigvals(np.linalg.solve(np.diag(J), K)).real, 0, None))
+    return tuple(sorted(float(m) for m in modes if m > 1e-6))

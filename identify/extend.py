@@ -28,7 +28,7 @@ from jointrig.vocab.params import DRIVE_DELAY
 from .causes import OSCILLATOR_CAUSES, Cause, ModelSpec, evidence
 from .output_error import OutputErrorResult, refine_output_error, simulate_periods
 
-__all__ = ["CandidateScore", "ResidualAnalysis", "ExtensionStep", "ExtensionResult",
+__all__ = ["CandidateScore", "residual_spectrum", "ResidualAnalysis", "ExtensionStep", "ExtensionResult",
            "residual_analysis", "score_candidates", "extend_model", "indistinguishable", "INDISTINGUISHABLE_SHARE"]
 
 log = logging.getLogger(__name__)
@@ -86,6 +86,12 @@ def residual_analysis(y_sim: np.ndarray, y: np.ndarray, fs_Hz: float, excited: n
     weights = np.sum(np.abs(Y[:, exc]) ** 2, axis=0)
     slope = float(np.sum(weights * w * ph) / np.sum(weights * w * w))
     return ResidualAnalysis(tuple(masks), rp, mp, slope, float(np.mean(y_sim - y)))
+
+
+def residual_spectrum(y_sim: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Mean magnitude over records of each line of the simulation residual ``y_sim - y`` of
+    ``(R, N)`` periodic records, ``(N // 2 + 1,)`` in data units per line (``|X_k| / N``)."""
+    return np.abs(np.fft.rfft(y_sim - y, axis=-1)).mean(axis=0) / y.shape[-1]
 
 
 @dataclass(frozen=True)

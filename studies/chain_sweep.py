@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import hashlib
 import json
 import logging
 import math
@@ -112,6 +113,12 @@ def _remote_point(model_name: str, model_text: bytes, digest: str, plant, point:
         with _python_callback_lock:  # the Python callback is process-global: one at a time
             rec, info = simulate_chain(rig, w, {i: PeriodicDrive.cosine(w, a)}, config, amplitude_Nm=a)
     return ChainPoint(w, a, i, rec, info)
+
+
+def default_chain_store(rig: ChainRig, config: SimulationConfig, root: Path = Path("runs/store")) -> Path:
+    """Where a chain sweep keeps its finished points by default (as :func:`studies.sweep.default_store`)."""
+    key = json.dumps(["chain", rig.digest, dataclasses.asdict(config)], sort_keys=True)
+    return root / f"{rig.path.stem}-{hashlib.sha256(key.encode()).hexdigest()[:12]}"
 
 
 def run_chain_sweep(rig: ChainRig, points: Sequence[tuple], config: SimulationConfig = CHAIN_CONFIG, *,

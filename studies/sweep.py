@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import hashlib
 import json
 import logging
 import math
@@ -229,6 +230,14 @@ def simulate_segment(rig: RigModel, tasks: Sequence[tuple[float, float, Optional
         if on_point is not None:
             on_point(j, point)
     return out
+
+
+def default_store(rig: RigModel, config: SimulationConfig, root: Path = Path("runs/store")) -> Path:
+    """Where a sweep of ``rig`` under ``config`` keeps its finished points by default: a folder
+    named by the model and a digest of the model file and the simulation settings, so a sweep
+    with other settings never resumes from these."""
+    key = json.dumps([rig.digest, dataclasses.asdict(config)], sort_keys=True)
+    return root / f"{rig.path.stem}-{hashlib.sha256(key.encode()).hexdigest()[:12]}"
 
 
 def run_sweep(

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 
 import numpy as np
 import pytest
@@ -57,3 +58,17 @@ def test_design_beats_the_default_sweep_on_its_budget_in_a_monte_carlo(tmp_path)
     ratios = {n: design["parameters"][n]["std"] / default["parameters"][n]["std"] for n in data["crlb_std"]}
     assert all(r < 1.0 for r in ratios.values()), ratios
     assert np.exp(np.mean(np.log(1 / np.square(list(ratios.values()))))) > 2.0, ratios
+
+
+def test_chain_modes_d_efficiency_and_crlb_by_hand():
+    # Two flywheels of 2 kg m^2 on a 2000 N m/rad spring: one mode at sqrt(k (1/J1 + 1/J2)) =
+    # sqrt(2000) rad/s; three equal flywheels on equal springs k: sqrt(k/J) and sqrt(3 k/J).
+    from jointrig.identify.design import chain_modes_rad_s, crlb_std, d_efficiency, log_det
+
+    assert chain_modes_rad_s([2.0, 2.0], [2000.0]) == pytest.approx((math.sqrt(2000.0),), rel=1e-12)
+    assert chain_modes_rad_s([1.0, 1.0, 1.0], [4.0, 4.0]) == pytest.approx((2.0, math.sqrt(12.0)), rel=1e-12)
+    F = np.array([[4.0, 1.0], [1.0, 2.0]])
+    # Twice the information in every direction: det ratio 2^p, so an efficiency of exactly 2.
+    assert d_efficiency(log_det(2 * F), F) == pytest.approx(2.0, rel=1e-12)
+    # (F^-1) = [[2, -1], [-1, 4]] / 7
+    assert crlb_std(F) == pytest.approx(np.sqrt([2 / 7, 4 / 7]), rel=1e-12)

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from jointrig.identify.design import d_optimal, design_cost_s, log_det
+from jointrig.identify.design import chain_modes_rad_s, crlb_std, d_efficiency, d_optimal, design_cost_s
 from jointrig.identify.eiv import fisher_per_period
 from jointrig.rig import SimulationConfig, load_rig
 from jointrig.rig.measurement import noise_std
@@ -90,8 +90,7 @@ def main(argv=None) -> int:
     budget = args.budget_s if args.budget_s is not None else design_cost_s(default, T, args.setup_s)
     F_default = sum(k * f for k, f in zip(default, F))
     design = d_optimal(F, T, budget, setup_s=args.setup_s)
-    cov_default = np.linalg.inv(F_default)
-    d_eff = float(np.exp((design.log_det_fisher - log_det(F_default)) / len(names)))
+    d_eff = d_efficiency(design.log_det_fisher, F_default)
     print(f"Budget {budget:.1f} s of test time (the default sweep: 18 runs x {DEFAULT_PERIODS} periods + "
           f"{args.setup_s:g} s setup each); sensor noise {sigma[0]:.3g} rad per encoder, {sigma[1]:.3g} N m "
           f"({args.snr_db:g} dB below the default sweep's largest relative angle and torque, RMS).")
@@ -101,7 +100,7 @@ def main(argv=None) -> int:
             print(f"  omega {w:5.1f} rad/s, M0 {a:6.0f} N m: {k:3d} periods ({k * 2 * np.pi / w:6.2f} s)")
     print(f"  uses {design.cost_s:.1f} s")
     print(f"{'parameter':20s} {'CRLB std default':>17s} {'CRLB std design':>16s} {'ratio':>7s}")
-    sd_def, sd_des = np.sqrt(np.diag(cov_default)), np.sqrt(np.diag(design.covariance))
+    sd_def, sd_des = crlb_std(F_default), np.sqrt(np.diag(design.covariance))
     for n, a, b in zip(names, sd_def, sd_des):
         print(f"{n:20s} {a:17.4g} {b:16.4g} {b / a:7.3f}")
     print(f"D-efficiency of the design relative to the default sweep: {d_eff:.2f} "
@@ -131,14 +130,7 @@ CHAIN_RELATIVE_OMEGAS = tuple(float(x) for x in np.geomspace(0.05, 1.3, 12))
 
 def chain_candidates(rig, amplitude_Nm: float) -> list[tuple[float, float, int]]:
     """(omega rad/s, amplitude N m, driven flywheel) candidates for a chain (see CHAIN_RELATIVE_OMEGAS)."""
-    J = np.array(rig.inertias_kgm2)
-    N = J.size
-    K = np.zeros((N, N))
-    for j, law in enumerate(rig.plant.laws):
-        k = law.as_dict().get("k_Nm_per_rad", 0.0)
-        K[j:j + 2, j:j + 2] += k * np.array([[1, -1], [-1, 1]])
-    modes = np.sqrt(np.clip(np.linalg.eigvals(np.linalg.solve(np.diag(J), K)).real, 0, None))
-    modes = sorted(float(m) for m in modes if m > 1e-6)
+    modes = chain_modes_rad_s(rig.inertias_kgm2, [law.as_dict().get("k_Nm_per_rad", 0.0) for law in rig.plant.laws])
     top = modes[-1]
     omegas = sorted({round(top * r, 1) for r in CHAIN_RELATIVE_OMEGAS} | {round(m, 1) for m in modes})
     return [(w, a, i) for i in rig.driven for a in (amplitude_Nm, 2 * amplitude_Nm) for w in omegas]
@@ -187,8 +179,7 @@ def chain_main(args) -> int:
     budget = args.budget_s if args.budget_s is not None else design_cost_s(default, T, args.setup_s)
     F_default = sum(k * f for k, f in zip(default, F))
     design = d_optimal(F, T, budget, setup_s=args.setup_s)
-    p_ = len(spec.names)
-    d_eff = float(np.exp((design.log_det_fisher - log_det(F_default)) / p_))
+    d_eff = d_efficiency(design.log_det_fisher, F_default)
     print(f"Budget {budget:.2f} s of test time (the default chain plan: {len(default_points)} runs x {DEFAULT_PERIODS} "
           f"periods + {args.setup_s:g} s setup each); sensor noise {sigma[0]:.3g} rad per encoder, {sigma[1]:.3g} N m "
           f"({args.snr_db:g} dB below the default plan's largest joint twist and drive torque, RMS); "
@@ -198,7 +189,7 @@ def chain_main(args) -> int:
         if k:
             print(f"  drive flywheel {i}, omega {w:7.1f} rad/s, {a:5.0f} N m: {k:3d} periods ({k * 2 * np.pi / w:6.3f} s)")
     print(f"  uses {design.cost_s:.2f} s")
-    sd_def, sd_des = np.sqrt(np.diag(np.linalg.inv(F_default))), np.sqrt(np.diag(design.covariance))
+    sd_def, sd_des = crlb_std(F_default), np.sqrt(np.diag(design.covariance))
     print(f"{'parameter':26s} {'CRLB std default':>17s} {'CRLB std design':>16s} {'ratio':>7s}")
     for n, a, b in zip(spec.names, sd_def, sd_des):
         print(f"{n:26s} {a:17.4g} {b:16.4g} {b / a:7.3f}")

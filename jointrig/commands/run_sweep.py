@@ -16,8 +16,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import hashlib
-import json
 import logging
 import math
 from pathlib import Path
@@ -30,8 +28,8 @@ from jointrig.vocab.law import JointLaw
 from jointrig.rig import DEFAULT_MODEL, SimulationConfig, load_rig
 from jointrig.rig.measurement import add_noise, repeat_periods
 from jointrig.rig.runtime import progress_level
-from jointrig.studies.sweep import (DEFAULT_MULTISINE, DEFAULT_PLAN, EXECUTORS, SweepPlan, records_of, run_multisines, run_sweep,
-                       write_json_atomic)
+from jointrig.studies.sweep import (DEFAULT_MULTISINE, DEFAULT_PLAN, EXECUTORS, SweepPlan, default_store, records_of,
+                                    run_multisines, run_sweep, write_json_atomic)
 from jointrig.vocab.params import J1, J2, JE
 
 log = logging.getLogger("run_sweep")
@@ -129,12 +127,12 @@ def main(argv=None) -> int:
 
     if is_chain_model(args.model):
         return chain_main(args)
-    args.omegas = list(DEFAULT_PLAN.omegas_rad_s) if args.omegas is None else args.omegas
-    args.amplitudes = list(DEFAULT_PLAN.amplitudes_Nm) if args.amplitudes is None else args.amplitudes
-    check_each(args.omegas, "--omegas", lo=0, hi=1e4, lo_open=True)
-    check_each(args.amplitudes, "--amplitudes", lo=0, hi=1e7, lo_open=True)
+    omegas = list(DEFAULT_PLAN.omegas_rad_s) if args.omegas is None else args.omegas
+    amplitudes = list(DEFAULT_PLAN.amplitudes_Nm) if args.amplitudes is None else args.amplitudes
+    check_each(omegas, "--omegas", lo=0, hi=1e4, lo_open=True)
+    check_each(amplitudes, "--amplitudes", lo=0, hi=1e7, lo_open=True)
     rig = load_rig(args.model)
-    plan = SweepPlan(tuple(args.omegas), tuple(args.amplitudes))
+    plan = SweepPlan(tuple(omegas), tuple(amplitudes))
     if args.sample_rate_hz is not None:
         plan = plan.coherent(args.sample_rate_hz)
         log.info("sampling at %g Hz: frequencies moved to %s rad/s (whole samples per period)", args.sample_rate_hz,
@@ -142,14 +140,11 @@ def main(argv=None) -> int:
     config = SimulationConfig(max_step_s=args.max_step, samples_per_period=args.samples_per_period,
                               settle_tol=args.settle_tol, integrator=args.integrator,
                               sample_rate_Hz=args.sample_rate_hz)
-    store = None
-    if not args.no_store:
-        key = json.dumps([rig.digest, dataclasses.asdict(config)], sort_keys=True)
-        store = args.store or Path("runs/store") / f"{rig.path.stem}-{hashlib.sha256(key.encode()).hexdigest()[:12]}"
+    store = None if args.no_store else (args.store or default_store(rig, config))
     log.info("model %s: law %s, J1 %.6g, J2 %.6g kg m^2; %d sweep points; store %s", rig.path,
              rig.law.as_dict(), rig.J1_kgm2, rig.J2_kgm2, len(plan.points()), store)
     if args.excitation == "stepped":
-        args.harmonics = 9 if args.harmonics is None else args.harmonics
+        harmonics = 9 if args.harmonics is None else args.harmonics
         points = run_sweep(rig, plan, config, store=store, native=args.native, workers=args.workers,
                            continuation=args.continuation, executor=args.executor, scheduler=args.scheduler)
         runs_json = [{"omega_rad_s": p.record.omega_rad_s, "amplitude_Nm": p.record.drive_amplitude_Nm,
@@ -159,9 +154,9 @@ def main(argv=None) -> int:
         excitations = None
     else:
         ms_plan = DEFAULT_MULTISINE
-        args.harmonics = ms_plan.n_harmonics if args.harmonics is None else args.harmonics
+        harmonics = ms_plan.n_harmonics if args.harmonics is None else args.harmonics
         ms_config = dataclasses.replace(config, samples_per_period=max(config.samples_per_period,
-                                                                       2 * args.harmonics + 2))
+                                                                       2 * harmonics + 2))
         done = run_multisines(rig, ms_plan, ms_config, native=args.native)
         records = [r for r, _, _ in done]
         excitations = [m for _, _, m in done]
@@ -178,25 +173,25 @@ def main(argv=None) -> int:
             return f"{10 * math.log10(x / ref):6.0f} dB" if x > 0 else "  -inf dB"
 
         for rec, m, rj in zip(records, excitations, runs_json):
-            lv = line_levels(rec, m, args.harmonics)
+            lv = line_levels(rec, m, harmonics)
             rj["line_levels_rad2"] = {"excited": lv.excited, "odd_detection": lv.odd_detection, "even": lv.even,
                                       "noise": lv.noise}
             print(f"  RMS {m.rms_Nm:6.0f} N m: odd detection lines {db(lv.odd_detection, lv.excited)} (odd "
                   f"distortion), even lines {db(lv.even, lv.excited)} (even distortion)"
                   + (f", noise {db(lv.noise, lv.excited)}" if lv.noise > 0 else ""))
     if args.noise_db is None:
-        result = identify(records, rig.law.terms, form=args.form, n_harmonics=args.harmonics,
+        result = identify(records, rig.law.terms, form=args.form, n_harmonics=harmonics,
                           torque_share=rig.torque_share)
         print(f"\nHarmonic-balance identification ({args.form} form) from {len(records)} runs, "
-              f"harmonics 0..{args.harmonics}: {result.n_rows} equations, condition number "
+              f"harmonics 0..{harmonics}: {result.n_rows} equations, condition number "
               f"{result.condition_number:.3g}, status: {result.message}\n")
     else:
         from jointrig.identify.eiv import ml_identify  # scipy.optimize and .stats: loaded when used
 
-        result = ml_identify(records, rig.law.terms, n_harmonics=args.harmonics, torque_share=rig.torque_share)
+        result = ml_identify(records, rig.law.terms, n_harmonics=harmonics, torque_share=rig.torque_share)
         print(f"\nErrors-in-variables maximum-likelihood harmonic balance (equivalent form) from {len(records)} "
               f"runs x {args.periods} periods measured at SNR {args.noise_db:g} dB (seed {args.seed}), harmonics "
-              f"0..{args.harmonics}: {result.n_rows} equations; cost {result.cost:.1f} for {result.dof} degrees of "
+              f"0..{harmonics}: {result.n_rows} equations; cost {result.cost:.1f} for {result.dof} degrees of "
               f"freedom (chi-square p = {result.p_value:.2g}), status: {result.message}\n")
     rows = compare(result, truth_of(rig, args.form))
     print(format_table(rows))
@@ -237,7 +232,7 @@ def main(argv=None) -> int:
             rec.send_blueprint(sweep_blueprint(records))
             for r in records:
                 log_run(rec, r)
-            log_harmonics(rec, records, args.harmonics)
+            log_harmonics(rec, records, harmonics)
             phi_all = np.concatenate([r.phi_rad for r in records])
             log_restoring_force(rec, rig.law, identified_law, (float(phi_all.min()), float(phi_all.max())))
             log_parameter_table(rec, format_table(rows, markdown=True))
@@ -252,7 +247,7 @@ def chain_main(args: argparse.Namespace) -> int:
     joint law at once (identify/chain.py), report and record."""
     from jointrig.identify.chain import identify_chain, joint_law
     from jointrig.rig.chain import load_chain
-    from jointrig.studies.chain_sweep import CHAIN_CONFIG, CHAIN_PLAN, run_chain_sweep
+    from jointrig.studies.chain_sweep import CHAIN_CONFIG, CHAIN_PLAN, default_chain_store, run_chain_sweep
     from jointrig.present.recording import (chain_blueprint, log_chain_laws, log_chain_run, log_parameter_table,
                                          open_recording)
     from jointrig.rig.runtime import check_each
@@ -285,10 +280,7 @@ def chain_main(args: argparse.Namespace) -> int:
         samples_per_period=(args.samples_per_period if args.samples_per_period != d.samples_per_period
                             else CHAIN_CONFIG.samples_per_period))
     harmonics = 9 if args.harmonics is None else args.harmonics
-    store = None
-    if not args.no_store:
-        key = json.dumps(["chain", rig.digest, dataclasses.asdict(config)], sort_keys=True)
-        store = args.store or Path("runs/store") / f"{rig.path.stem}-{hashlib.sha256(key.encode()).hexdigest()[:12]}"
+    store = None if args.no_store else (args.store or default_chain_store(rig, config))
     log.info("chain model %s: %d flywheels, inertias %s kg m^2, %d sweep points; store %s", rig.path,
              rig.n_flywheels, rig.inertias_kgm2, len(points), store)
     done = run_chain_sweep(rig, points, config, store=store, native=args.native, workers=args.workers,

@@ -24,11 +24,12 @@ from pathlib import Path
 import numpy as np
 
 from jointrig.vocab import Power, Viscous
-from jointrig.identify.extend import extend_model, indistinguishable, residual_analysis, score_candidates
+from jointrig.identify.extend import (extend_model, indistinguishable, residual_analysis, residual_spectrum,
+                                     score_candidates)
 from jointrig.identify.output_error import (harmonic_balance_start, input_noise_rms, refine_output_error,
                                             simulate_periods, steady_rms)
 from jointrig.identify.signals import BandlimitedInput
-from jointrig.measured.silverbox import EXCITED_MAX_BIN, PERIOD, SilverboxData, load_schroeder, load_silverbox
+from jointrig.measured.silverbox import EXCITED_MAX_BIN, SilverboxData, load_schroeder, load_silverbox
 from jointrig.parallel import fork_map
 from jointrig.rig.oscillator import free_run_rms, simulate_free_run_reference
 from jointrig.files import write_json_atomic
@@ -209,9 +210,9 @@ def main(argv=None) -> int:
     if args.rrd:
         from jointrig.present.recording import log_silverbox, open_recording
 
-        R = np.abs(np.fft.rfft(y_oe - y, axis=-1)).mean(axis=0) / PERIOD
+        R = residual_spectrum(y_oe, y)
         yext, _ = simulate_periods(fit.inertia, fit.law, u, fs, delay_s=fit.delay_s)
-        Rx = np.abs(np.fft.rfft(yext - y, axis=-1)).mean(axis=0) / PERIOD
+        Rx = residual_spectrum(yext, y)
         table = "\n".join(["| model | full mV | no extrap. mV |", "|---|---|---|"] +
                           [f"| {n} | {r['full']:.3f} | {r['no_extrapolation']:.3f} |" for n, r, _, _ in rows] +
                           [f"| {n} (published) | {v:.2f} | - |" for n, v, _, _ in PUBLISHED])
