@@ -251,6 +251,8 @@ EFFECT_MAGNITUDE = {c.name: c.magnitude for c in CATALOGUE}
 
 #: What excitation separates two causes the data cannot tell apart.
 SEPARATING_EXCITATION = {
+    frozenset({"cubic_damping", "amplitude_damping"}): "multisines at several amplitude levels (the damping of one "
+    "grows with rate, of the other with amplitude)",
     frozenset({"coulomb_friction", "hysteresis"}): "runs at small amplitude (below the slip angle a Jenkins "
     "element is a pure spring while dry friction still dissipates): add a low-amplitude run",
     frozenset({"hysteresis", "micro_slip"}): "runs at several small amplitudes (a Jenkins element dissipates "

@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from jointrig.vocab import Power, Viscous
+from jointrig.identify.causes import DEFAULT_SEPARATION, SEPARATING_EXCITATION
 from jointrig.identify.extend import (extend_model, indistinguishable, residual_analysis, residual_spectrum,
                                      score_candidates)
 from jointrig.identify.output_error import (harmonic_balance_start, input_noise_rms, refine_output_error,
@@ -126,10 +127,10 @@ def main(argv=None) -> int:
         print(f"  {s.effect:20s} {s.reduction:13.3e} {1e3 * s.predicted_rms:8.4f}mV {s.chi2:9.0f}  {s.meaning}")
     tie = indistinguishable(scores)
     if tie is not None:
+        separation = SEPARATING_EXCITATION.get(frozenset(tie[:2]), DEFAULT_SEPARATION)
         print(f"  note: {tie[0]} and {tie[1]} explain nearly the same part of the residual "
               f"(within {100 * tie[2]:.0f}%): these data cannot tell "
-              f"them apart; multisines at several amplitude levels (the damping of one grows with rate, of "
-              f"the other with amplitude) would")
+              f"them apart; {separation} would")
     sch = load_schroeder(args.data)
     other = (sch.u_V, sch.y_V)
     print(f"\nAnother excitation of the same circuit, for selection only (never fitted): {sch.u_V.shape[0]} steady "
