@@ -23,7 +23,7 @@ from jointrig.vocab.params import DRIVE_DELAY
 from .balance import spectral_rate
 
 __all__ = ["ModelSpec", "NOMINAL", "Cause", "CATALOGUE", "CAUSES", "OSCILLATOR_CAUSES", "by_name", "evidence",
-           "EFFECT_MAGNITUDE", "SEPARATING_EXCITATION", "DEFAULT_SEPARATION", "DIMENSIONLESS", "TIE", "IWAN_CHI",
+           "SEPARATING_EXCITATION", "DEFAULT_SEPARATION", "DIMENSIONLESS", "TIE", "IWAN_CHI",
            "IWAN_BETA", "rate_amplitudes"]
 
 
@@ -206,7 +206,8 @@ def by_name(name: str) -> Cause:
     raise KeyError(f"no cause {name!r}; the catalogue has {[c.name for c in CATALOGUE]}")
 
 
-def evidence(delta_chi2: float, q: int, n_rows: int, alpha: float, n_causes: int) -> tuple[float, float, bool]:
+def evidence(delta_chi2: float, q: int, n_rows: int, alpha: float = 1e-3, n_causes: int = 1
+             ) -> tuple[float, float, bool]:
     """One evidence measure for every pipeline: a cause with ``q`` parameters lowers chi-square
     by ``delta_chi2`` over ``n_rows`` equations. Returns ``(score, p, significant)``: the BIC
     score ``delta - q ln(n_rows)`` (twice the log Bayes factor against the model without it),
@@ -245,9 +246,6 @@ def _zero_bound(runs) -> float:
 
 #: Magnitudes without a unit (a relative scale error: recorded over true, minus 1).
 DIMENSIONLESS = frozenset({"angle2_gain_error"})
-
-#: The parameter that states each cause's size (bearing: the larger of the two flywheels').
-EFFECT_MAGNITUDE = {c.name: c.magnitude for c in CATALOGUE}
 
 #: What excitation separates two causes the data cannot tell apart.
 SEPARATING_EXCITATION = {

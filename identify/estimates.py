@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from jointrig.vocab.params import Param
 
 __all__ = ["Estimates", "equilibrated_condition"]
@@ -65,8 +67,6 @@ class Estimates:
 def equilibrated_condition(J) -> float:
     """Condition number of ``J`` with its columns scaled to unit 2-norm (what a least-squares
     solve of it loses in digits, whatever units its columns carry); inf if a column is zero."""
-    import numpy as np
-
     J = np.asarray(J, dtype=float)
     norms = np.linalg.norm(J, axis=0)
     if J.size == 0 or np.any(norms == 0):

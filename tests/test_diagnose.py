@@ -19,7 +19,7 @@ import warnings
 import numpy as np
 import pytest
 
-from jointrig.identify.causes import CAUSES, DIMENSIONLESS, EFFECT_MAGNITUDE
+from jointrig.identify.causes import CAUSES, DIMENSIONLESS
 from jointrig.measured.runs import read_runs, write_runs
 from jointrig.studies.hidden_effects import HIDDEN_EFFECTS as CASES
 from jointrig.studies.hidden_effects import simulate_case
@@ -100,7 +100,7 @@ def test_nominal_data_invents_nothing(reports):
 def test_magnitude_names_carry_units():
     # The two-flywheel diagnosis reports in SI; the oscillator's monomials (x^2 x', x'^3) are in
     # the units of its data (volts for the Silverbox) and are named by their powers.
-    for name in (EFFECT_MAGNITUDE[c.name] for c in CAUSES):
+    for name in (c.magnitude for c in CAUSES):
         assert name.split("_")[-1] in {"Nm", "rad", "rad2", "s"} or "_per_" in name or name in DIMENSIONLESS, name
 
 
