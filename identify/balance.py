@@ -28,7 +28,7 @@ chooses how much of the data is used.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Optional, Sequence
 
 import numpy as np
@@ -40,6 +40,7 @@ from jointrig.vocab.params import J1, J2, JE, BEARING1, BEARING2
 
 __all__ = [
     "LinearSystem",
+    "assemble",
     "harmonic_rows",
     "equivalent_system",
     "two_dof_system",
@@ -109,12 +110,51 @@ def _check_harmonics(record: SteadyStateRecord, n_harmonics: int) -> None:
         )
 
 
+def assemble(columns: np.ndarray, rhs: np.ndarray, names: Sequence[str], *,
+             first_harmonic: int = 0) -> LinearSystem:
+    """The real rows of the harmonic balance from complex Fourier coefficients: the one place
+    that lays the rows out.
+
+    Args:
+      columns: coefficients of every column signal in every equation of every record,
+        ``(n_params, n_records, n_equations, H + 1)`` (zero where a parameter does not enter).
+      rhs: coefficients of the right-hand sides, ``(n_records, n_equations, H + 1)``.
+      first_harmonic: 0 keeps the mean (its cosine row only); 1 balances harmonics 1..H.
+
+    Rows run by record, then equation, then harmonic: the mean's cosine row (if kept), then a
+    cosine (real part, ``part`` 0) and a sine (imaginary part, ``part`` 1) row per harmonic.
+    """
+    columns = np.asarray(columns, dtype=complex)
+    rhs = np.asarray(rhs, dtype=complex)
+    n_params, n_rec, n_eq, n_coef = columns.shape
+    if rhs.shape != (n_rec, n_eq, n_coef):
+        raise ValueError(f"assemble: rhs {rhs.shape} does not match columns {columns.shape}")
+    if first_harmonic not in (0, 1):
+        raise ValueError(f"assemble: first_harmonic must be 0 or 1, got {first_harmonic}")
+    H = n_coef - 1
+
+    def real_rows(C):  # (..., H + 1) complex -> (..., rows) real: [Re C_1, Im C_1, Re C_2, ...]
+        out = np.stack([C.real, C.imag], axis=-1)[..., first_harmonic:, :].reshape(C.shape[:-1] + (-1,))
+        return np.delete(out, 1, axis=-1) if first_harmonic == 0 else out
+
+    A = real_rows(columns).reshape(n_params, -1).T
+    F = real_rows(rhs).reshape(-1)
+    per = 2 * H + (1 if first_harmonic == 0 else 0)
+    harm = np.repeat(np.arange(first_harmonic, H + 1), 2)
+    part = np.tile([0, 1], H + 1 - first_harmonic)
+    if first_harmonic == 0:  # the mean has no sine row
+        harm, part = np.delete(harm, 1), np.delete(part, 1)
+    k = n_rec * n_eq
+    return LinearSystem(np.ascontiguousarray(A), F, tuple(names), np.repeat(np.arange(n_rec), n_eq * per),
+                        np.tile(harm, k), np.tile(part, k), np.tile(np.repeat(np.arange(n_eq), per), n_rec))
+
+
 def harmonic_rows(
     columns: np.ndarray,
     rhs: np.ndarray,
     n_harmonics: int,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Real rows of the harmonic balance of one record and one equation.
+    """Real rows of the harmonic balance of one record and one equation (:func:`assemble`).
 
     Args:
       columns: complex Fourier coefficients of every column signal, ``(n_params, H + 1)``.
@@ -124,12 +164,10 @@ def harmonic_rows(
       ``A (n_rows, n_params)``, ``F (n_rows,)``, harmonic ``(n_rows,)`` and part ``(n_rows,)``:
       harmonic 0 gives its cosine row only; harmonics 1..H give cosine and sine rows.
     """
-    harm = np.concatenate([[0], np.repeat(np.arange(1, n_harmonics + 1), 2)])
-    part = np.concatenate([[0], np.tile([0, 1], n_harmonics)])
-    sel = columns[:, harm]
-    A = np.where(part == 0, sel.real, sel.imag).T
-    F = np.where(part == 0, rhs[harm].real, rhs[harm].imag)
-    return A, F, harm, part
+    columns = np.asarray(columns)[:, : n_harmonics + 1]
+    s = assemble(columns[:, None, None, :], np.asarray(rhs)[None, None, : n_harmonics + 1],
+                 ("",) * columns.shape[0])
+    return s.A, s.F, s.row_harmonic, s.row_part
 
 
 def upsample(x: np.ndarray, factor: int) -> np.ndarray:
@@ -261,9 +299,8 @@ def _single(rec, x, rate, forcing, terms, n_harmonics, inertia_name, record_inde
         cols.insert(0, _acceleration_coeffs(x, rate, rec, n_harmonics)[None, :])
         names.insert(0, inertia_name)
     rhs = fourier_coefficients(forcing, rec.n_periods, n_harmonics)
-    A, F, harm, part = harmonic_rows(np.vstack(cols), rhs, n_harmonics)
-    n = F.size
-    return LinearSystem(A, F, tuple(names), np.full(n, record_index), harm, part, np.full(n, equation))
+    s = assemble(np.vstack(cols)[:, None, None, :], rhs[None, None, :], names)
+    return replace(s, row_record=np.full(s.F.size, record_index), row_equation=np.full(s.F.size, equation))
 
 
 def equivalent_system(
@@ -305,8 +342,8 @@ def two_dof_system(
     ``J1 phi1'' + M_v + b1 phi1' = T``, ``J2 phi2'' - M_v + b2 phi2' = 0``.
     """
     _check_records(records)
-    systems = []
-    for i, rec in enumerate(records):
+    columns = []
+    for rec in records:
         if rec.phi2_rad is None:
             raise RecordError(f"{rec.source}: the two-degree-of-freedom form needs 'phi2_rad'")
         _check_harmonics(rec, n_harmonics)
@@ -316,21 +353,16 @@ def two_dof_system(
             _acceleration_coeffs(rec.phi2_rad, rec.rate2_rad_s, rec, n_harmonics),
             fourier_coefficients(rec.torque_Nm, rec.n_periods, n_harmonics)))
         zero = np.zeros_like(acc1)
-        eq_cols = [[acc1, zero, law], [zero, acc2, -law]]
-        names = (J1, J2) + tuple(t.name for t in terms)
+        eq1, eq2 = [acc1, zero, *law], [zero, acc2, *(-law)]
         if bearings:
             jw = 1j * np.arange(n_harmonics + 1) * rec.omega_rad_s
-            v1 = jw * fourier_coefficients(rec.phi1_rad, rec.n_periods, n_harmonics)
-            v2 = jw * fourier_coefficients(rec.phi2_rad, rec.n_periods, n_harmonics)
-            eq_cols[0] += [v1, zero]
-            eq_cols[1] += [zero, v2]
-            names += (BEARING1, BEARING2)
-        for eq, (cols, rhs) in enumerate(((np.vstack(eq_cols[0]), torque),
-                                          (np.vstack(eq_cols[1]), np.zeros_like(torque)))):
-            A, F, harm, part = harmonic_rows(cols, rhs, n_harmonics)
-            n = F.size
-            systems.append(LinearSystem(A, F, names, np.full(n, i), harm, part, np.full(n, eq)))
-    return LinearSystem.stack(systems)
+            eq1 += [jw * fourier_coefficients(rec.phi1_rad, rec.n_periods, n_harmonics), zero]
+            eq2 += [zero, jw * fourier_coefficients(rec.phi2_rad, rec.n_periods, n_harmonics)]
+        columns.append((np.array(eq1), np.array(eq2), torque))
+    names = (J1, J2) + tuple(t.name for t in terms) + ((BEARING1, BEARING2) if bearings else ())
+    cols = np.stack([np.stack([a, b], axis=1) for a, b, _ in columns], axis=1)  # (params, records, 2, H+1)
+    rhs = np.stack([np.stack([t, np.zeros_like(t)]) for _, _, t in columns])
+    return assemble(cols, rhs, names)
 
 
 def _check_records(records: Sequence[SteadyStateRecord]) -> None:

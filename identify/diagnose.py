@@ -34,13 +34,14 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from typing import Callable, Optional, Sequence
 
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from .balance import LinearSystem, _memo_arrays, equivalent_system, spectral_rate, two_dof_system
-from jointrig.vocab.law import Coulomb, JointLaw, Power
+from .balance import LinearSystem, assemble, spectral_rate
+from jointrig.vocab.law import Coulomb, JointLaw, Power, Viscous
 from .harmonics import fourier_coefficients, max_harmonic, synthesize
 from jointrig.vocab.plant import Plant, effect_parameters
 from jointrig.vocab.records import RecordError, SteadyStateRecord
@@ -190,69 +191,146 @@ def prepare_runs(records: Sequence[SteadyStateRecord], *, band: int = 20,
 # 2. Models and fits
 
 
-def _delayed(rec: SteadyStateRecord, delay_s: float) -> SteadyStateRecord:
-    """The torque that acted: the recorded one delayed by ``delay_s`` (exact for whole periods)."""
-    if delay_s == 0:
-        return rec
-    N = rec.samples_per_period
-    C = fourier_coefficients(rec.torque_Nm, rec.n_periods, max_harmonic(N))
-    n = np.arange(C.size)
-    return replace(rec, torque_Nm=synthesize(C * np.exp(-1j * n * rec.omega_rad_s * delay_s), rec.n_samples,
-                                             rec.n_periods))
-
-
-def _offset(rec: SteadyStateRecord, offset_rad: float) -> SteadyStateRecord:
-    """The record with its relative angle's zero moved by ``offset_rad`` (flywheel 1's angle
-    shifted: the inertia and rate columns see no constant)."""
-    if offset_rad == 0:
-        return rec
-    return replace(rec, phi1_rad=rec.phi1_rad - offset_rad)
-
-
-def shift_periodic(x: np.ndarray, n_periods: int, omega_rad_s: float, shift_s: float) -> np.ndarray:
+def shift_periodic(x: np.ndarray, n_periods: int, omega_rad_s, shift_s: float) -> np.ndarray:
     """Whole periods of a band-limited signal moved later in time by ``shift_s`` (negative:
-    earlier), exactly on its harmonics: ``x(t - shift_s)``."""
-    C = fourier_coefficients(x, n_periods, max_harmonic(x.size // n_periods))
-    n = np.arange(C.size)
-    return synthesize(C * np.exp(-1j * n * omega_rad_s * shift_s), x.size, n_periods)
+    earlier), exactly on its harmonics: ``x(t - shift_s)``. ``x`` may hold several records
+    ``(..., n_samples)``, with one ``omega_rad_s`` each (shape ``(..., 1)``)."""
+    C = fourier_coefficients(x, n_periods, max_harmonic(x.shape[-1] // n_periods))
+    n = np.arange(C.shape[-1])
+    return synthesize(C * np.exp(-1j * n * np.asarray(omega_rad_s) * shift_s), x.shape[-1], n_periods)
 
 
-def _skewed(rec: SteadyStateRecord, delay_s: float) -> SteadyStateRecord:
-    """The record with flywheel 2's angle as it was: a reading that lags by ``delay_s`` moved
-    back into step (recorded phi2(t + tau))."""
-    if delay_s == 0 or rec.phi2_rad is None:
-        return rec
-    rate2 = None if rec.rate2_rad_s is None else shift_periodic(rec.rate2_rad_s, rec.n_periods, rec.omega_rad_s,
-                                                                 -delay_s)
-    return replace(rec, phi2_rad=shift_periodic(rec.phi2_rad, rec.n_periods, rec.omega_rad_s, -delay_s),
-                   rate2_rad_s=rate2)
+def _spectral_rates(x: np.ndarray, omega_rad_s: np.ndarray) -> np.ndarray:
+    """:func:`identify.balance.spectral_rate` of one-period records ``(n, M)``, each with its own
+    ``omega_rad_s`` ``(n, 1)``."""
+    C = fourier_coefficients(x, 1, max_harmonic(x.shape[-1]))
+    return synthesize(1j * np.arange(C.shape[-1]) * omega_rad_s * C, x.shape[-1], 1)
 
 
-def _rescaled(rec: SteadyStateRecord, gain_error: float) -> SteadyStateRecord:
-    """The record with flywheel 2's angle (and rate) as it was: a reading (1 + e) times too large
-    divided back."""
-    if gain_error == 0 or rec.phi2_rad is None:
-        return rec
-    scale = 1.0 / (1.0 + gain_error)
-    return replace(rec, phi2_rad=rec.phi2_rad * scale,
-                   rate2_rad_s=None if rec.rate2_rad_s is None else rec.rate2_rad_s * scale)
+class _Columns:
+    """The harmonic-balance columns of a set of band-limited one-period records (a problem's
+    period averages, or one run's periods), each computed once.
 
+    A structure (:class:`ModelSpec`) and the jump of the relative acceleration at a rate
+    reversal (dry friction's kinks, :func:`kink_corrected_rate`) choose the columns; a column
+    depends only on its own term and on the sensor corrections and jump it sees, so a profile
+    search recomputes only the cause's columns and, with dry friction in the model, the columns
+    of the terms nonlinear in the rate. In the band, a kink-corrected rate equals the
+    band-limited one (the kinks add harmonics above the band only), so the inertia, torque,
+    bearing and viscous columns never depend on the jump.
 
-def build_system(records: Sequence[SteadyStateRecord], spec: ModelSpec, *, form: str, n_harmonics: int,
-                 torque_share: float) -> LinearSystem:
-    """The harmonic-balance rows of harmonics 1..n_harmonics (not the mean: see :func:`diagnose`)."""
-    recs = [_offset(_skewed(_rescaled(_delayed(r, spec.drive_delay_s), spec.angle2_gain_error), spec.angle2_delay_s),
-                    spec.angle_offset_rad)
-            for r in records]
-    if form == "two_dof":
-        system = two_dof_system(recs, spec.terms, n_harmonics=n_harmonics, bearings=spec.bearings)
-    elif spec.bearings:
-        raise ValueError("bearing drag needs both flywheel angles (form 'two_dof')")
-    else:
-        system = equivalent_system(recs, spec.terms, n_harmonics=n_harmonics, torque_share=torque_share)
-    keep = system.row_harmonic > 0
-    return LinearSystem(system.A[keep], system.F[keep], system.names, system.row_record[keep],
-                        system.row_harmonic[keep], system.row_part[keep], system.row_equation[keep])
+    The sensor corrections: the torque that acted is the recorded one delayed by the drive
+    delay; flywheel 2's angle as it was is the reading divided by ``1 + angle2_gain_error`` and
+    moved back by ``angle2_delay_s``; the law sees the relative angle minus ``angle_offset_rad``.
+    """
+
+    #: the records' rates kept for this many jumps (arrays of the records' size; a profile
+    #: search asks for a handful of jumps in turn, never back)
+    _RATES_KEPT = 4
+    #: column memo emptied when it holds this many entries (a profile search adds tens)
+    _MEMO_MAX = 20000
+
+    def __init__(self, records: Sequence[SteadyStateRecord], n_harmonics: int, form: str, torque_share: float):
+        if len({r.n_samples for r in records}) != 1 or any(r.n_periods != 1 for r in records):
+            raise ValueError("_Columns: the records must be single periods of one size (the fine grid)")
+        self.H, self.form, self.torque_share = n_harmonics, form, torque_share
+        self.omega = np.array([r.omega_rad_s for r in records])[:, None]
+        self.jw = 1j * np.arange(n_harmonics + 1) * self.omega
+        self.phi1 = np.stack([r.phi1_rad for r in records])
+        two = all(r.phi2_rad is not None for r in records)
+        self.phi2 = np.stack([r.phi2_rad for r in records]) if two else None
+        self.torque = np.stack([r.torque_Nm for r in records])
+        self._memo: dict = {}
+        self._big: dict = {}  # arrays of the records' size, by key (a few kept)
+
+    def _fc(self, x: np.ndarray) -> np.ndarray:
+        return fourier_coefficients(x, 1, self.H)
+
+    def _get(self, key: tuple, compute, big: bool = False):
+        store = self._big if big else self._memo
+        hit = store.get(key)
+        if hit is None:
+            hit = compute()
+            if len(store) >= (self._RATES_KEPT * 4 if big else self._MEMO_MAX):
+                store.pop(next(iter(store)))
+            store[key] = hit
+        return hit
+
+    def _phi2t(self, gain: float, skew_s: float) -> np.ndarray:
+        """Flywheel 2's angle as it was."""
+        def compute():
+            x = self.phi2 if gain == 0 else self.phi2 * (1.0 / (1.0 + gain))
+            return x if skew_s == 0 else shift_periodic(x, 1, self.omega, -skew_s)
+        return self._get(("phi2", gain, skew_s), compute, big=True)
+
+    def _phi(self, offset: float, gain: float, skew_s: float) -> np.ndarray:
+        """The relative angle the law sees."""
+        def compute():
+            phi1 = self.phi1 - offset if offset else self.phi1
+            return phi1 if self.phi2 is None else phi1 - self._phi2t(gain, skew_s)
+        return self._get(("phi", offset, gain, skew_s), compute, big=True)
+
+    def _rate2(self, gain: float, skew_s: float) -> np.ndarray:
+        return self._get(("rate2", gain, skew_s), lambda: _spectral_rates(self._phi2t(gain, skew_s), self.omega),
+                         big=True)
+
+    def _rate(self, jump: float, gain: float, skew_s: float) -> np.ndarray:
+        """The relative rate the law sees: the recorded relative rate with its kinks restored for
+        ``jump`` (:func:`kink_corrected_rate`), flywheel 2's part corrected."""
+        v_bl = self._get(("v_bl",), lambda: _spectral_rates(self._phi(0.0, 0.0, 0.0), self.omega), big=True)
+        v = v_bl
+        if jump > 0:
+            phi = self._phi(0.0, 0.0, 0.0)
+            v = self._get(("kinked", jump), lambda: kink_corrected_rate(phi, self.omega[:, 0], self.H, jump,
+                                                                        band_limited_rate=v_bl), big=True)
+        if self.phi2 is None or (gain == 0 and skew_s == 0):
+            return v
+        return v + (self._rate2(0.0, 0.0) - self._rate2(gain, skew_s))
+
+    def law(self, term, offset: float, gain: float, skew_s: float, jump: float) -> np.ndarray:
+        """Coefficients of one law term along the records, ``(n_records, H + 1)``."""
+        angle_only = term.elastic or term.stateful
+        if angle_only:
+            key = (term, offset, gain, skew_s)
+        elif isinstance(term, Viscous):  # linear in the rate: the kinks do not reach the band
+            key, jump = (term, gain, skew_s), 0.0
+        else:
+            key = (term, offset, gain, skew_s, jump)
+
+        def compute():
+            phi = self._phi(offset, gain, skew_s)
+            rate = np.zeros_like(phi) if angle_only else self._rate(jump, gain, skew_s)
+            return self._fc(np.stack([np.broadcast_to(np.asarray(term(p, r), dtype=float), p.shape)
+                                      for p, r in zip(phi, rate)]))
+        return self._get(("law",) + key, compute)
+
+    def system(self, spec: ModelSpec, jump: float) -> LinearSystem:
+        """The rows of harmonics 1..H (not the mean: see :func:`diagnose`) of ``spec``."""
+        offset, gain, skew, delay = (spec.angle_offset_rad, spec.angle2_gain_error, spec.angle2_delay_s,
+                                     spec.drive_delay_s)
+        if self.phi2 is None:
+            gain = skew = 0.0
+        law = [self.law(t, offset, gain, skew, jump) for t in spec.terms]
+        jw = self.jw
+        torque = self._get(("torque", delay), lambda: self._fc(self.torque) * np.exp(-jw * delay))
+        zero = np.zeros_like(torque)
+        names = tuple(t.name for t in spec.terms)
+        if self.form == "two_dof":
+            acc1 = self._get(("acc1",), lambda: jw**2 * self._fc(self.phi1))
+            acc2 = self._get(("acc2", gain, skew), lambda: jw**2 * self._fc(self._phi2t(gain, skew)))
+            eq1, eq2 = [acc1, zero, *law], [zero, acc2, *(-c for c in law)]
+            names = (J1, J2) + names
+            if spec.bearings:
+                eq1 += [self._get(("v1",), lambda: jw * self._fc(self.phi1)), zero]
+                eq2 += [zero, self._get(("v2", gain, skew), lambda: jw * self._fc(self._phi2t(gain, skew)))]
+                names += (BEARING1, BEARING2)
+            return assemble(np.stack([np.stack(eq1), np.stack(eq2)], axis=2), np.stack([torque, zero], axis=1),
+                            names, first_harmonic=1)
+        if spec.bearings:
+            raise ValueError("bearing drag needs both flywheel angles (form 'two_dof')")
+        acc = self._get(("acc", offset, gain, skew), lambda: jw**2 * self._fc(self._phi(offset, gain, skew)))
+        return assemble(np.stack([acc, *law])[:, :, None, :], (self.torque_share * torque)[:, None, :],
+                        (JE,) + names, first_harmonic=1)
 
 
 @dataclass(frozen=True)
@@ -300,7 +378,7 @@ class Fit(Estimates):
         return out
 
 
-def kink_corrected_rate(phi_rad: np.ndarray, omega_rad_s: float, band: int, jump_rad_s2: float,
+def kink_corrected_rate(phi_rad: np.ndarray, omega_rad_s, band: int, jump_rad_s2: float,
                         iterations: int = 2, *, band_limited_rate: Optional[np.ndarray] = None) -> np.ndarray:
     """The relative rate of one band-limited period with its dry-friction kinks restored.
 
@@ -314,35 +392,59 @@ def kink_corrected_rate(phi_rad: np.ndarray, omega_rad_s: float, band: int, jump
     harmonics above ``band`` back and locating the crossings again converges in two passes.
 
     Args:
-      phi_rad: one period, band-limited to ``band`` harmonics, shape (M,).
+      phi_rad: one period, band-limited to ``band`` harmonics, shape (M,); or several periods
+        of the same size at once, ``(n, M)``, with ``omega_rad_s`` one per period ``(n,)``.
       jump_rad_s2: size of the jump of the relative acceleration (>= 0; 0 returns the
         band-limited rate).
       band_limited_rate: ``spectral_rate(phi_rad, omega_rad_s, 1)`` if the caller has it
         (it does not depend on the jump: a profile search reuses it for every trial).
+
+    A period whose rate does not cross zero an even, non-zero number of times keeps its
+    band-limited rate.
     """
-    v_bl = spectral_rate(phi_rad, omega_rad_s, 1) if band_limited_rate is None else band_limited_rate
+    phi = np.atleast_2d(phi_rad)
+    n_rec, M = phi.shape
+    omega = np.broadcast_to(np.asarray(omega_rad_s, dtype=float).reshape(-1), (n_rec,))
+    if band_limited_rate is None:
+        v_bl = np.stack([spectral_rate(p, w, 1) for p, w in zip(phi, omega)])
+    else:
+        v_bl = np.atleast_2d(band_limited_rate)
     if jump_rad_s2 <= 0:
-        return v_bl
-    M = phi_rad.size
+        return v_bl.reshape(np.shape(phi_rad))
     # Harmonics band+1 .. M/2-1 of sum_i d_i delta(t - t_i) / (i n w)^2, scaled for irfft:
     # (2/T) (M/2) / (i n w)^2 = -(M/T) / (n w)^2, real.
-    T = 2 * math.pi / omega_rad_s
+    T = 2 * math.pi / omega
     n_out = np.arange(band + 1, M // 2)
-    scale = -(M / T) / (n_out * omega_rad_s) ** 2
-    V = np.zeros(M // 2 + 1, complex)
+    scale = -(M / T)[:, None] / (n_out * omega[:, None]) ** 2
+    V = np.zeros((n_rec, M // 2 + 1), complex)
     v = v_bl
+    kept = np.ones(n_rec, bool)  # periods whose crossings stayed even and non-zero
     for _ in range(iterations):
         up = v > 0
-        i = np.flatnonzero(up != np.roll(up, -1))
-        if i.size == 0 or i.size % 2:
-            return v_bl
-        nxt = v[(i + 1) % M]
-        frac = v[i] / (v[i] - nxt)
-        t = (i + frac) * T / M
-        d = -np.sign(nxt - v[i]) * jump_rad_s2  # friction always steepens the approach
-        V[band + 1: M // 2] = scale * (d @ np.exp(1j * np.outer(-omega_rad_s * t, n_out)))
-        v = v_bl + np.fft.irfft(V, n=M)
-    return v
+        rec, i = np.nonzero(up != np.roll(up, -1, axis=1))
+        counts = np.bincount(rec, minlength=n_rec)
+        kept &= (counts > 0) & (counts % 2 == 0)
+        on = kept[rec]
+        rec, i = rec[on], i[on]
+        nxt = v[rec, (i + 1) % M]
+        now = v[rec, i]
+        frac = now / (now - nxt)
+        t = (i + frac) * T[rec] / M
+        d = -np.sign(nxt - now) * jump_rad_s2  # friction always steepens the approach
+        # each period's sum over its own crossings: a (periods x crossings) matrix of the jumps
+        S = np.zeros((n_rec, rec.size))
+        S[rec, np.arange(rec.size)] = d
+        # exp(-i n w t) for n = band+1 .. M/2-1, by recurrence (a complex exponential per term
+        # would be most of this function's time; the product's round-off stays ~1e-13)
+        E = np.empty((rec.size, n_out.size), complex)
+        E[:, 0] = np.exp(-1j * n_out[0] * omega[rec] * t)
+        E[:, 1:] = np.exp(-1j * omega[rec] * t)[:, None]
+        np.cumprod(E, axis=1, out=E)
+        V[:, band + 1: M // 2] = scale * (S @ E)
+        V[~kept] = 0.0
+        v = v_bl + np.fft.irfft(V, n=M, axis=1)
+    v = np.where(kept[:, None], v, v_bl)
+    return v.reshape(np.shape(phi_rad))
 
 
 def _coulomb_jump(spec: "ModelSpec", names: Sequence[str], theta: Optional[np.ndarray]) -> float:
@@ -368,31 +470,16 @@ class _Problem:
     nu: float  # degrees of freedom of each row weight
     fidelity: float = DEFAULT_FIDELITY  # model-fidelity floor relative to each run's torque (see diagnose)
 
-    def _records(self, recs: Sequence[SteadyStateRecord], jump: float) -> list[SteadyStateRecord]:
-        if jump <= 0:
-            return list(recs)
-        out = []
-        for r in recs:
-            # What does not depend on the jump is computed once per record (memoised by the
-            # angle arrays, as the harmonic-balance columns are): the relative angle and the
-            # band-limited rates.
-            angles = (r.phi1_rad,) if r.phi2_rad is None else (r.phi1_rad, r.phi2_rad)
-            phi = _memo_arrays(angles, ("phi",), lambda: r.phi_rad)
-            v_bl = _memo_arrays(angles, ("relative rate", r.omega_rad_s),
-                                lambda: spectral_rate(phi, r.omega_rad_s, 1))  # noqa: B023
-            rate = kink_corrected_rate(phi, r.omega_rad_s, self.n_harmonics, jump, band_limited_rate=v_bl)
-            if r.phi2_rad is None:
-                out.append(replace(r, rate1_rad_s=rate))
-            else:
-                # The relative rate carries the kinks; flywheel 2's rate stays band-limited.
-                rate2 = _memo_arrays((r.phi2_rad,), ("rate2", r.omega_rad_s),
-                                     lambda: spectral_rate(r.phi2_rad, r.omega_rad_s, 1))
-                out.append(replace(r, rate1_rad_s=rate + rate2, rate2_rad_s=rate2))
-        return out
+    @cached_property
+    def _averages(self) -> _Columns:
+        return _Columns([r.fine_average for r in self.runs], self.n_harmonics, self.form, self.torque_share)
+
+    @cached_property
+    def _periods(self) -> tuple[_Columns, ...]:
+        return tuple(_Columns(r.fine_periods, self.n_harmonics, self.form, self.torque_share) for r in self.runs)
 
     def system(self, spec: ModelSpec, jump: float = 0.0) -> LinearSystem:
-        return build_system(self._records([r.fine_average for r in self.runs], jump), spec, form=self.form,
-                            n_harmonics=self.n_harmonics, torque_share=self.torque_share)
+        return self._averages.system(spec, jump)
 
     def row_variance(self, spec: ModelSpec, theta: np.ndarray, like: LinearSystem) -> np.ndarray:
         """Variance of every averaged row: noise from period-to-period residual variation, plus
@@ -400,12 +487,8 @@ class _Problem:
         var = np.empty(like.F.size)
         jump = _coulomb_jump(spec, like.names, theta)
         for i, run in enumerate(self.runs):
-            res = []
-            for p in self._records(run.fine_periods, jump):
-                s = build_system([p], spec, form=self.form, n_harmonics=self.n_harmonics,
-                                 torque_share=self.torque_share)
-                res.append(s.F - s.A @ theta)
-            res = np.array(res)
+            s = self._periods[i].system(spec, jump)
+            res = (s.F - s.A @ theta).reshape(run.n_periods, -1)  # the rows run by period (record)
             v = res.var(axis=0, ddof=1) / len(run.fine_periods)
             rows = np.flatnonzero(like.row_record == i)
             sub_h, sub_e = like.row_harmonic[rows], like.row_equation[rows]
@@ -807,12 +890,14 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
     remaining = list(causes)
     ambiguous: list[Ambiguity] = []
     for rnd in range(max_effects):
-        # Ranked by evidence; causes rejected as unphysical or untestable go last.
+        # Ranked by evidence; causes rejected as unphysical or untestable go last. Causes the data
+        # cannot tell apart at all (an angle offset and an asymmetric stiffness bend the model alike)
+        # score the same to round-off: ranked to 9 digits, they keep the catalogue's order.
         say(f"round {rnd + 1}: scoring {len(remaining)} causes on "
             + (" + ".join(s.effect for s in steps) or "the nominal model")
             + (f" ({workers} processes)" if workers > 1 else ""))
         scores = sorted(_score_all(problem, remaining, current, wcur, len(remaining), alpha, workers, say),
-                        key=lambda s: (bool(s.note), -s.score))
+                        key=lambda s: (bool(s.note), -float(f"{s.score:.9g}")))
         if rnd == 0:
             first = scores
         best = next((c for c in scores if c.significant), None)
