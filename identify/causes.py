@@ -15,7 +15,7 @@ from dataclasses import dataclass, replace
 from typing import Callable, Optional, Sequence
 
 import numpy as np
-from scipy.stats import chi2 as chi2_dist
+from scipy.special import chdtrc
 
 from jointrig.vocab.law import Coulomb, Iwan, Jenkins, Monomial, Power, QuadraticDamping, Stribeck, Term, Viscous
 from jointrig.vocab.params import DRIVE_DELAY
@@ -213,7 +213,7 @@ def evidence(delta_chi2: float, q: int, n_rows: int, alpha: float = 1e-3, n_caus
     score ``delta - q ln(n_rows)`` (twice the log Bayes factor against the model without it),
     the chi-square(q) probability of a drop this large without the cause, and whether it is
     significant at the family-wise ``alpha`` over ``n_causes`` (Bonferroni) with a positive score."""
-    p = float(chi2_dist.sf(max(delta_chi2, 0.0), q))
+    p = float(chdtrc(q, max(delta_chi2, 0.0)))
     score = delta_chi2 - q * math.log(n_rows)
     return float(score), p, bool(p < alpha / n_causes and score > 0)
 

@@ -41,7 +41,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 from scipy.optimize import minimize_scalar
-from scipy.stats import chi2 as chi2_dist
+from scipy.special import chdtrc
 
 from jointrig.vocab.law import JointLaw, Power, Viscous
 from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpec, bearing_name, chain_system,
@@ -416,7 +416,7 @@ def score(problem: _Problem, cand: Candidate, base: ChainFit, weights: np.ndarra
            else _profile(problem, cand, base.spec, weights))
     q = len(ext.names) - len(base.names) + (1 if cand.cause.bounds is not None else 0)
     delta = base.chi2 - ext.chi2
-    p = float(chi2_dist.sf(max(delta, 0.0), q))
+    p = float(chdtrc(q, max(delta, 0.0)))
     bic = delta - q * math.log(base.n_rows)
     name = cand.magnitude_name()
     params = ext.parameters()

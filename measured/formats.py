@@ -132,25 +132,27 @@ def _read_csv(path: Path) -> list[RawTable]:
         body = body[1:]
     decimal_comma = delim in (";", "\t", "|", None) and any(
         _DECIMAL_COMMA.match(v.strip()) for row in body[:20] for v in row)
-    cols: dict[str, list] = {}
+    seen = set()
     for name in names:
-        if name in cols:
+        if name in seen:
             raise FormatError(f"{path}: column name {name!r} appears twice in the header; expected unique names")
-        cols[name] = []
+        seen.add(name)
     for i, row in enumerate(body, start=1):
         if len(row) != len(names):
             raise FormatError(f"{path}: data row {i} has {len(row)} fields, the header has {len(names)} "
                               f"({', '.join(names)})")
-        for name, v in zip(names, row):
-            cols[name].append(v)
+    columns = list(zip(*body)) if body else [()] * len(names)
     out = {}
-    for name, vals in cols.items():
+    for name, vals in zip(names, columns):
         if decimal_comma:
             vals = [v.replace(",", ".") for v in vals]
         try:
-            out[name] = np.array([_to_float(v) for v in vals], dtype=float)
+            out[name] = np.array(vals, dtype=float)  # plain numbers: converted in numpy, ~10x faster
         except ValueError:
-            out[name] = np.array([v.strip().strip('"') for v in vals], dtype=object)
+            try:
+                out[name] = np.array([_to_float(v) for v in vals], dtype=float)  # quoted, blank, NA
+            except ValueError:
+                out[name] = np.array([v.strip().strip('"') for v in vals], dtype=object)
     return [RawTable(str(path), out, units)]
 
 

@@ -393,7 +393,9 @@ def _figures(report: DiagnosisReport) -> list[tuple[str, str]]:
         return " (held out)" if r.held_out else ""
 
     def title(ax, r):
-        ax.set_title(f"run {r.run_id}: {r.omega_rad_s:.4g} rad/s, {r.amplitude_Nm:.4g} N m{held(r)}", fontsize=9)
+        # y given: matplotlib then does not measure the axis to place the title (a fifth of a figure's time)
+        ax.set_title(f"run {r.run_id}: {r.omega_rad_s:.4g} rad/s, {r.amplitude_Nm:.4g} N m{held(r)}", fontsize=9,
+                     y=1.0)
 
     def time_series(ax, r):
         for w, phi in (("measured", r.phi_measured_rad), ("nominal", r.phi_nominal_rad),
@@ -420,9 +422,19 @@ def _figures(report: DiagnosisReport) -> list[tuple[str, str]]:
     h = np.arange(report.band + 1)
 
     def residuals(ax, r):
-        ax.bar(h - 0.2, r.harmonic_residuals("nominal", report.band), width=0.4, color="tab:red", label="nominal")
-        ax.bar(h + 0.2, r.harmonic_residuals("extended", report.band), width=0.4, color="tab:blue", label="extended")
+        # Bars as thick vertical lines from below the smallest residual: one artist per model, not
+        # one patch per bar (378 patches took half of this figure's time).
+        nom, ext = r.harmonic_residuals("nominal", report.band), r.harmonic_residuals("extended", report.band)
+        pos = np.concatenate([nom, ext])
+        pos = pos[pos > 0]
+        floor = float(pos.min()) / 3 if pos.size else 1e-12
+        width_pt = 0.4 * ax.get_position().width * ax.figure.get_figwidth() * 72 / (report.band + 1.5)
+        for dx, vals, colour, label in ((-0.2, nom, "tab:red", "nominal"), (0.2, ext, "tab:blue", "extended")):
+            ax.vlines(h + dx, floor, np.maximum(vals, floor), colors=colour, lw=width_pt, label=label)
         ax.set_yscale("log")
+        ax.set_ylim(bottom=floor)
+        ax.set_xlim(-0.75, report.band + 0.75)
+        ax.minorticks_off()
         title(ax, r)
         ax.set(xlabel="harmonic n", ylabel="|residual| [rad]")
 
