@@ -25,6 +25,8 @@ import numpy as np
 
 from jointrig.vocab.law import JointLaw, Term
 from jointrig.vocab.params import DRIVE_DELAY
+from jointrig.parallel import fork_map
+
 from .causes import OSCILLATOR_CAUSES, Cause, ModelSpec, evidence
 from .output_error import OutputErrorResult, refine_output_error, simulate_periods
 
@@ -250,15 +252,21 @@ def extend_model(u: np.ndarray, y: np.ndarray, fs_Hz: float, *, inertia: float, 
         # output-error fit). With one, a candidate that fails there may be an artefact of the
         # fit's excitation while the next one is not: they are tried in order.
         kept = None
-        for best in (scores if other is not None else scores[:1]):
+        tried = scores if other is not None else scores[:1]
+
+        def trial_of(best, fit=fit, delay_on=delay_on):
             term = _added_term(by_name[best.effect])
             if term is None:
                 trial = _fit(ut, yt, fs_Hz, fit.inertia, fit.law, fit.delay_s, True)
             else:
                 trial_law = JointLaw(fit.law.terms + (term,), fit.law.values + (best.step,))
                 trial = _fit(ut, yt, fs_Hz, fit.inertia, trial_law, fit.delay_s, delay_on)
-            new_val = _val_rms(trial, uv, yv, fs_Hz)
             new_oth = _val_rms(trial, other[0], other[1], fs_Hz) if other is not None else math.nan
+            return term, trial, _val_rms(trial, uv, yv, fs_Hz), new_oth
+
+        # The trials are independent: all of the round's are fitted at once in forked processes
+        # (jointrig.parallel), then taken in order up to the first that passes, as one by one.
+        for best, (term, trial, new_val, new_oth) in zip(tried, fork_map(trial_of, tried)):
             ok = new_val < (1 - min_gain) * val and (other is None or new_oth < oth)
             steps.append(ExtensionStep(best.effect, ok, val, new_val, oth, new_oth))
             log.info("candidate %s: held-out RMS %.4g -> %.4g, other excitation %.4g -> %.4g (%s)", best.effect, val,

@@ -71,6 +71,9 @@ class _Params(ctypes.Structure):
         ("cache_t", ctypes.c_double),
         ("cache_u", ctypes.c_double),
         ("next", ctypes.c_void_p),
+        ("input_n", ctypes.c_int),
+        ("input", ctypes.c_void_p),
+        ("input_rate", ctypes.c_double),
     ]
 
 
@@ -235,6 +238,29 @@ class NativeLaw:
     @property
     def error(self) -> bool:
         return bool(self.params.error)
+
+
+class NativeOscillator(NativeLaw):
+    """The native callback of a one-degree-of-freedom oscillator (:mod:`rig.oscillator`): the
+    law between the hinge and the ground and a sampled input ``u(t - delay)`` on the fine grid
+    of an :class:`identify.signals.BandlimitedInput`, added to the hinge's passive force as
+    ``u - tau``, operation for operation as the Python callback (the same numbers)."""
+
+    def __init__(self, law: JointLaw, qpos_adr: int, dof_adr: int, grid: np.ndarray, grid_rate_Hz: float,
+                 delay_s: float = 0.0):
+        if any(t.stateful for t in law.terms):
+            raise ValueError("the oscillator's native callback takes laws without sliders (Jenkins, Iwan)")
+        p = _Params()
+        _pack_law(p, law)
+        p.q1, p.q2, p.v1, p.v2, p.act = int(qpos_adr), -1, int(dof_adr), -1, -1
+        p.delay = float(delay_s)
+        self._grid = np.ascontiguousarray(grid, dtype=float)  # the block points into it: kept alive here
+        p.input_n = self._grid.size
+        p.input = self._grid.ctypes.data
+        p.input_rate = float(grid_rate_Hz)
+        self.params = p
+        self.lib = _load()
+        self.function = self.lib.jointrig_passive
 
 
 def _pack_law(p: _Params, law: JointLaw) -> None:

@@ -47,12 +47,18 @@ def simulate_free_run(
     substeps: int = 4,
     delay_s: float = 0.0,
     model_path: Union[str, Path] = OSCILLATOR_MODEL,
+    backend: str = "auto",
 ) -> np.ndarray:
     """Free-run response x at the sample times ``n / fs_Hz``, n = 0..n_samples-1, from rest.
 
     Args:
       u: input as a function of time (s), e.g. :class:`identify.signals.BandlimitedInput`.
       substeps: RK4 steps per sample.
+      backend: ``"native"`` (the C callback, :class:`rig.native_callback.NativeOscillator`,
+        stepped in C: for a :class:`~identify.signals.BandlimitedInput` and a law without
+        sliders), ``"python"`` (the callback in Python), or ``"auto"``: native where it
+        applies and a C compiler builds it, else Python. The same numbers either way
+        (tests/test_native_callback.py); native is ~40x faster.
 
     Raises:
       SimulationError: MuJoCo warned or the response went non-finite (diverging model).
@@ -62,6 +68,26 @@ def simulate_free_run(
     m.opt.integrator = mujoco.mjtIntegrator.mjINT_RK4
     d = mujoco.MjData(m)
     adr = int(m.sensor_adr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, "x")])
+    where = f"free run of {n_samples} samples at {fs_Hz:g} Hz"
+    if backend not in ("auto", "native", "python"):
+        raise ValueError(f"backend must be 'auto', 'native' or 'python', got {backend!r}")
+    if backend != "python":
+        from jointrig.identify.signals import BandlimitedInput
+
+        from .native_callback import NativeBuildError, NativeOscillator
+
+        fits = isinstance(u, BandlimitedInput) and not any(t.stateful for t in law.terms)
+        if backend == "native" and not fits:
+            raise ValueError("the native free run needs a BandlimitedInput and a law without sliders")
+        if fits:
+            j = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "x")
+            try:
+                nat = NativeOscillator(law, m.jnt_qposadr[j], m.jnt_dofadr[j], u.grid, u.fs_Hz * u.upsample, delay_s)
+            except NativeBuildError:
+                if backend == "native":
+                    raise
+            else:
+                return _native_free_run(nat, m, d, adr, n_samples, substeps, where)
     torque = law.torque
     errors: list = []
 
@@ -73,7 +99,6 @@ def simulate_free_run(
                 errors.append(err)
 
     out = np.empty(n_samples)
-    where = f"free run of {n_samples} samples at {fs_Hz:g} Hz"
     with passive_callback(callback):
         for i in range(n_samples):
             mujoco.mj_step(m, d)  # sensordata: state at t = i / fs
@@ -86,6 +111,26 @@ def simulate_free_run(
                 _check_warnings(d, where)
                 if not math.isfinite(out[i]) or abs(out[i]) > 1e6:
                     raise SimulationError(f"{where}: response diverged at sample {i}")
+    return out
+
+
+def _native_free_run(nat, m, d, adr: int, n_samples: int, substeps: int, where: str) -> np.ndarray:
+    """:func:`simulate_free_run` stepped in C, 1024 samples at a time between the checks."""
+    from .simulate import _activated
+
+    out = np.empty(n_samples)
+    idx = np.array([adr])
+    with passive_callback(nat.function), _activated(nat, d):
+        for start in range(0, n_samples, 1024):
+            n = min(1024, n_samples - start)
+            buf, _ = nat.run(m, d, n, substeps, idx)
+            out[start: start + n] = buf[:, 0]
+            if nat.error:
+                raise SimulationError(f"{where}: the native callback met a law term it does not know")
+            _check_warnings(d, where)
+            bad = np.flatnonzero(~np.isfinite(out[start: start + n]) | (np.abs(out[start: start + n]) > 1e6))
+            if bad.size:
+                raise SimulationError(f"{where}: response diverged at sample {start + int(bad[0])}")
     return out
 
 

@@ -23,18 +23,9 @@ from pathlib import Path
 
 import numpy as np
 
-from jointrig.vocab import Power, Viscous
-from jointrig.identify.causes import DEFAULT_SEPARATION, SEPARATING_EXCITATION
-from jointrig.identify.extend import (extend_model, indistinguishable, residual_analysis, residual_spectrum,
-                                     score_candidates)
-from jointrig.identify.output_error import (harmonic_balance_start, input_noise_rms, refine_output_error,
-                                            simulate_periods, steady_rms)
-from jointrig.identify.signals import BandlimitedInput
-from jointrig.measured.silverbox import EXCITED_MAX_BIN, SilverboxData, load_schroeder, load_silverbox
-from jointrig.parallel import fork_map
-from jointrig.rig.oscillator import free_run_rms, simulate_free_run_reference
-from jointrig.files import write_json_atomic
 from jointrig.rig.runtime import progress_level
+
+# The numerical stack is imported in main, after the arguments are parsed: --help answers at once.
 
 log = logging.getLogger("silverbox")
 
@@ -63,8 +54,11 @@ NAMES = {"inertia": "m_s2", "c_Nms_per_rad": "d_s", "k_Nm_per_rad": "a", "gamma_
          "p5_Nm_per_rad5": "b5_per_V4", "delay_s": "delay_s"}
 
 
-def arrow_rms(data: SilverboxData, inertia, law, delay_s=0.0) -> tuple[dict, np.ndarray]:
-    """Free-run RMS errors (mV) over the arrow's two scored ranges, and the simulated output (V)."""
+def arrow_rms(data, inertia, law, delay_s=0.0) -> tuple[dict, np.ndarray]:
+    """Free-run RMS errors (mV) over the arrow's two scored ranges (``data``: a
+    :class:`measured.silverbox.SilverboxData`), and the simulated output (V)."""
+    from jointrig.rig.oscillator import free_run_rms
+
     u, y, full = data.arrow("full")
     _, _, noext = data.arrow("no_extrapolation")
     rms, sim = free_run_rms(law, inertia, u, y, data.fs_Hz, {"full": full, "no_extrapolation": noext},
@@ -83,6 +77,18 @@ def main(argv=None) -> int:
     p.add_argument("--rrd", type=Path, default=None, help="rerun recording of the arrow test and the residual spectra")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     args = p.parse_args(argv)
+    from jointrig.vocab import Power, Viscous
+    from jointrig.identify.causes import DEFAULT_SEPARATION, SEPARATING_EXCITATION
+    from jointrig.identify.extend import (extend_model, indistinguishable, residual_analysis, residual_spectrum,
+                                         score_candidates)
+    from jointrig.identify.output_error import (harmonic_balance_start, input_noise_rms, refine_output_error,
+                                                simulate_periods, steady_rms)
+    from jointrig.identify.signals import BandlimitedInput
+    from jointrig.measured.silverbox import EXCITED_MAX_BIN, load_schroeder, load_silverbox
+    from jointrig.parallel import fork_map
+    from jointrig.rig.oscillator import simulate_free_run_reference
+    from jointrig.files import write_json_atomic
+
     logging.basicConfig(level=progress_level(args.quiet), format="%(levelname)s %(name)s: %(message)s")
     t0 = time.perf_counter()
     data = load_silverbox(args.data)
@@ -159,8 +165,9 @@ def main(argv=None) -> int:
                                                delay_s=fit.delay_s, method="LSODA")
         return arrow_rms(data, *job)
 
-    (rms_hb, _), (rms_nom, sim_nom), (rms_ext, sim_ext), ref = fork_map(
-        arrow_job, [(m_hb, law_hb), (oe.inertia, oe.law), (fit.inertia, fit.law, fit.delay_s), None])
+    # The scipy reference (the longest) first: the other process takes the three free runs meanwhile.
+    ref, (rms_hb, _), (rms_nom, sim_nom), (rms_ext, sim_ext) = fork_map(
+        arrow_job, [None, (m_hb, law_hb), (oe.inertia, oe.law), (fit.inertia, fit.law, fit.delay_s)])
     agree = float(np.max(np.abs(ref - sim_ext[:REFERENCE_SAMPLES])))
     print(f"\nMuJoCo rig vs scipy LSODA on the first {REFERENCE_SAMPLES} arrow samples (extended model): "
           f"max |difference| {1e6 * agree:.3f} uV")

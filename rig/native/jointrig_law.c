@@ -42,6 +42,13 @@ typedef struct {
   int cache_valid;           /* the drive at the last time asked (RK4 asks t + h/2 twice) */
   double cache_t, cache_u;
   void* next;                /* a chain: the next block (another joint, or a drive), or 0 */
+  /* A one-degree-of-freedom oscillator (rig/oscillator.py): the law between q1 and the ground
+   * (q2, v2 < 0) and a sampled input u(t - delay) added to the passive force, both at once as
+   * the Python callback does: qfrc_passive[v1] += u - tau. The input is linear between the
+   * points of a grid of input_rate points per second (identify.signals.BandlimitedInput). */
+  int input_n;               /* points of the input grid (0: no sampled input) */
+  const double* input;
+  double input_rate;
 } jointrig_params;
 
 /* One parameter block per simulation, found by its mjData: simulations in several threads
@@ -130,10 +137,21 @@ static double play(double phi, double z, double s) {
  * its drive (none if act < 0). A two-flywheel rig has one block; a chain one per joint and one
  * per drive (rig/native_callback.py NativeChain), applied in the order of rig/chain.py's
  * Python callback, so that every generalised force is summed in the same order. */
+/* The sampled input at time t: BandlimitedInput.__call__'s float path, operation for operation. */
+static double sampled_input(const jointrig_params* P, double t) {
+  double pos = t * P->input_rate;
+  if (pos <= 0.0) return pos < 0.0 ? 0.0 : P->input[0];
+  if (pos >= (double)(P->input_n - 1)) return P->input[P->input_n - 1];
+  int i = (int)pos;
+  if (i >= P->input_n - 1) return P->input[P->input_n - 1];
+  double f = pos - i;
+  return P->input[i] + f * (P->input[i + 1] - P->input[i]);
+}
+
 static void block(jointrig_params* P, mjData* d) {
-  if (P->n_terms > 0) {
-    double phi = d->qpos[P->q1] - d->qpos[P->q2];
-    double rate = d->qvel[P->v1] - d->qvel[P->v2];
+  if (P->n_terms > 0 || P->input_n > 0) {
+    double phi = P->q2 < 0 ? d->qpos[P->q1] : d->qpos[P->q1] - d->qpos[P->q2];
+    double rate = P->v2 < 0 ? d->qvel[P->v1] : d->qvel[P->v1] - d->qvel[P->v2];
     double tau = 0.0;
     for (int t = 0; t < P->n_terms; t++) {
       if (P->kind[t] == JR_JENKINS || P->kind[t] == JR_IWAN) continue;
@@ -150,8 +168,12 @@ static void block(jointrig_params* P, mjData* d) {
         tau += P->value[t] * u;
       }
     }
+    if (P->input_n > 0) {
+      d->qfrc_passive[P->v1] += sampled_input(P, d->time - P->delay) - tau;
+      return;
+    }
     d->qfrc_passive[P->v1] -= tau;
-    d->qfrc_passive[P->v2] += tau;
+    if (P->v2 >= 0) d->qfrc_passive[P->v2] += tau;
   }
   if (P->b1 != 0.0) d->qfrc_passive[P->v1] -= P->b1 * d->qvel[P->v1];
   if (P->b2 != 0.0) d->qfrc_passive[P->v2] -= P->b2 * d->qvel[P->v2];
@@ -190,7 +212,7 @@ void jointrig_passive(const mjModel* m, mjData* d) {
 static void commit(jointrig_params* P, const mjData* d) {
   for (; P; P = (jointrig_params*)P->next) {
     if (P->n_sliders == 0) continue;
-    double phi = d->qpos[P->q1] - d->qpos[P->q2];
+    double phi = P->q2 < 0 ? d->qpos[P->q1] : d->qpos[P->q1] - d->qpos[P->q2];
     for (int j = 0; j < P->n_sliders; j++) P->slider[j] = play(phi, P->slider[j], P->slider_slip[j]);
   }
 }
