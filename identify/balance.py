@@ -92,8 +92,9 @@ class LinearSystem:
                             cat("row_harmonic"), cat("row_part"), cat("row_equation"))
 
 
-def spectral_rate(x: np.ndarray, omega_rad_s: float, n_periods: int) -> np.ndarray:
-    """Time derivative of a periodic record by FFT (all harmonics below Nyquist), (n_samples,)."""
+def spectral_rate(x: np.ndarray, omega_rad_s, n_periods: int) -> np.ndarray:
+    """Time derivative of a periodic record by FFT (all harmonics below Nyquist), (n_samples,);
+    or of several records ``(n, n_samples)`` with one ``omega_rad_s`` each, shape ``(n, 1)``."""
     n = x.shape[-1]
     per = n // n_periods
     coeffs = fourier_coefficients(x, n_periods, max_harmonic(per))

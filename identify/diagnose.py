@@ -200,13 +200,6 @@ def shift_periodic(x: np.ndarray, n_periods: int, omega_rad_s, shift_s: float) -
     return synthesize(C * np.exp(-1j * n * np.asarray(omega_rad_s) * shift_s), x.shape[-1], n_periods)
 
 
-def _spectral_rates(x: np.ndarray, omega_rad_s: np.ndarray) -> np.ndarray:
-    """:func:`identify.balance.spectral_rate` of one-period records ``(n, M)``, each with its own
-    ``omega_rad_s`` ``(n, 1)``."""
-    C = fourier_coefficients(x, 1, max_harmonic(x.shape[-1]))
-    return synthesize(1j * np.arange(C.shape[-1]) * omega_rad_s * C, x.shape[-1], 1)
-
-
 class _Columns:
     """The harmonic-balance columns of a set of band-limited one-period records (a problem's
     period averages, or one run's periods), each computed once.
@@ -271,13 +264,13 @@ class _Columns:
         return self._get(("phi", offset, gain, skew_s), compute, big=True)
 
     def _rate2(self, gain: float, skew_s: float) -> np.ndarray:
-        return self._get(("rate2", gain, skew_s), lambda: _spectral_rates(self._phi2t(gain, skew_s), self.omega),
+        return self._get(("rate2", gain, skew_s), lambda: spectral_rate(self._phi2t(gain, skew_s), self.omega, 1),
                          big=True)
 
     def _rate(self, jump: float, gain: float, skew_s: float) -> np.ndarray:
         """The relative rate the law sees: the recorded relative rate with its kinks restored for
         ``jump`` (:func:`kink_corrected_rate`), flywheel 2's part corrected."""
-        v_bl = self._get(("v_bl",), lambda: _spectral_rates(self._phi(0.0, 0.0, 0.0), self.omega), big=True)
+        v_bl = self._get(("v_bl",), lambda: spectral_rate(self._phi(0.0, 0.0, 0.0), self.omega, 1), big=True)
         v = v_bl
         if jump > 0:
             phi = self._phi(0.0, 0.0, 0.0)
