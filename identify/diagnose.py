@@ -217,10 +217,10 @@ class _Columns:
     moved back by ``angle2_delay_s``; the law sees the relative angle minus ``angle_offset_rad``.
     """
 
-    #: the records' rates kept for this many jumps (arrays of the records' size; a profile
-    #: search asks for a handful of jumps in turn, never back)
-    _RATES_KEPT = 4
-    #: column memo emptied when it holds this many entries (a profile search adds tens)
+    #: arrays of the records' size kept (angles and rates under a correction or a jump; a profile
+    #: search asks for a few in turn, never back), oldest dropped first
+    _BIG_KEPT = 16
+    #: coefficient columns kept (a profile search adds tens), oldest dropped first
     _MEMO_MAX = 20000
 
     def __init__(self, records: Sequence[SteadyStateRecord], n_harmonics: int, form: str, torque_share: float):
@@ -244,7 +244,7 @@ class _Columns:
         hit = store.get(key)
         if hit is None:
             hit = compute()
-            if len(store) >= (self._RATES_KEPT * 4 if big else self._MEMO_MAX):
+            if len(store) >= (self._BIG_KEPT if big else self._MEMO_MAX):
                 store.pop(next(iter(store)))
             store[key] = hit
         return hit
@@ -305,7 +305,8 @@ class _Columns:
             gain = skew = 0.0
         law = [self.law(t, offset, gain, skew, jump) for t in spec.terms]
         jw = self.jw
-        torque = self._get(("torque", delay), lambda: self._fc(self.torque) * np.exp(-jw * delay))
+        recorded = self._get(("torque", 0.0), lambda: self._fc(self.torque))
+        torque = recorded if delay == 0 else self._get(("torque", delay), lambda: recorded * np.exp(-jw * delay))
         zero = np.zeros_like(torque)
         names = tuple(t.name for t in spec.terms)
         if self.form == "two_dof":
@@ -399,7 +400,7 @@ def kink_corrected_rate(phi_rad: np.ndarray, omega_rad_s, band: int, jump_rad_s2
     n_rec, M = phi.shape
     omega = np.broadcast_to(np.asarray(omega_rad_s, dtype=float).reshape(-1), (n_rec,))
     if band_limited_rate is None:
-        v_bl = np.stack([spectral_rate(p, w, 1) for p, w in zip(phi, omega)])
+        v_bl = spectral_rate(phi, omega[:, None], 1)
     else:
         v_bl = np.atleast_2d(band_limited_rate)
     if jump_rad_s2 <= 0:
@@ -433,8 +434,7 @@ def kink_corrected_rate(phi_rad: np.ndarray, omega_rad_s, band: int, jump_rad_s2
         E[:, 0] = np.exp(-1j * n_out[0] * omega[rec] * t)
         E[:, 1:] = np.exp(-1j * omega[rec] * t)[:, None]
         np.cumprod(E, axis=1, out=E)
-        V[:, band + 1: M // 2] = scale * (S @ E)
-        V[~kept] = 0.0
+        V[:, band + 1: M // 2] = scale * (S @ E)  # zero for a period not kept: S has none of its crossings
         v = v_bl + np.fft.irfft(V, n=M, axis=1)
     v = np.where(kept[:, None], v, v_bl)
     return v.reshape(np.shape(phi_rad))

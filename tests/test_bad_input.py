@@ -68,6 +68,11 @@ LOADER = {
                        r"column 'torque' holds a non-number \('abc' in data row 1\)"),
     "nan in phi1": ("run,time,torque,phi1,phi2\n" + "\n".join(_edit(_good_rows(), 5, 3, "nan")) + "\n",
                     r"column 'phi1' holds 1 missing.*run 0, data row 6"),
+    # a blank cell and a spreadsheet's "NA": not numbers numpy parses, read as missing by the loader's own parser
+    "blank cell in phi1": ("run,time,torque,phi1,phi2\n" + "\n".join(_edit(_good_rows(), 5, 3, "")) + "\n",
+                           r"column 'phi1' holds 1 missing.*run 0, data row 6"),
+    "NA in phi2": ("run,time,torque,phi1,phi2\n" + "\n".join(_edit(_good_rows(), 2, 4, "NA")) + "\n",
+                   r"column 'phi2' holds 1 missing.*run 0, data row 3"),
     "inf value": (good_csv().replace("1000.0", "inf", 1), r"column 'torque' holds 1 missing, non-finite.*run 0, data row 1"),
     "huge value": (good_csv().replace("1000.0", "1e300", 1), r"implausibly large.*1e\+300"),
     "duplicate column": ("run,time,torque,phi1,phi1\n0,0,1,2,3\n", "appears twice"),

@@ -67,8 +67,8 @@ def test_parallel_native_sweep_equals_the_serial_python_sweep(rig, tmp_path):
 
 def test_the_oscillator_free_run_in_c_is_the_python_free_run_to_the_last_bit():
     # The Silverbox's free runs: a one-degree-of-freedom law with even and odd stiffness, a rate
-    # monomial and an input delay, under a sampled random input (a grid point hit exactly, the
-    # input zero before t = 0); the C block against the Python callback, every sample equal.
+    # monomial and an input delay (so the input is zero for the first stage times), under a
+    # sampled random input; the C block against the Python callback, every sample equal.
     import numpy as np
 
     from jointrig.identify.signals import BandlimitedInput

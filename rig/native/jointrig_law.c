@@ -133,21 +133,20 @@ static double play(double phi, double z, double s) {
   return m < hi ? m : hi;       /* min(., phi + s) */
 }
 
-/* One block: its joint's law between q1 and q2 (none if it has no terms), its bearings, and
- * its drive (none if act < 0). A two-flywheel rig has one block; a chain one per joint and one
- * per drive (rig/native_callback.py NativeChain), applied in the order of rig/chain.py's
- * Python callback, so that every generalised force is summed in the same order. */
 /* The sampled input at time t: BandlimitedInput.__call__'s float path, operation for operation. */
 static double sampled_input(const jointrig_params* P, double t) {
   double pos = t * P->input_rate;
   if (pos <= 0.0) return pos < 0.0 ? 0.0 : P->input[0];
   if (pos >= (double)(P->input_n - 1)) return P->input[P->input_n - 1];
-  int i = (int)pos;
-  if (i >= P->input_n - 1) return P->input[P->input_n - 1];
+  int i = (int)pos;  /* < input_n - 1 here (the check above, before the cast) */
   double f = pos - i;
   return P->input[i] + f * (P->input[i + 1] - P->input[i]);
 }
 
+/* One block: its joint's law between q1 and q2 (none if it has no terms), its bearings, and
+ * its drive (none if act < 0). A two-flywheel rig has one block; a chain one per joint and one
+ * per drive (rig/native_callback.py NativeChain), applied in the order of rig/chain.py's
+ * Python callback, so that every generalised force is summed in the same order. */
 static void block(jointrig_params* P, mjData* d) {
   if (P->n_terms > 0 || P->input_n > 0) {
     double phi = P->q2 < 0 ? d->qpos[P->q1] : d->qpos[P->q1] - d->qpos[P->q2];
