@@ -29,6 +29,10 @@ from jointrig.vocab.law import JointLaw, Power, Viscous
 __all__ = ["periodic_response", "SteadyStateError", "split_law"]
 
 
+#: relative change below which the iteration keeps its equivalent linearisation (see _iterate)
+SLOPES_FROZEN_BELOW = 1e-4
+
+
 class SteadyStateError(RuntimeError):
     """The steady-state iteration did not converge (response too nonlinear or unstable model)."""
 
@@ -116,14 +120,19 @@ def _iterate(X, Ue, L, jw, rest, n_samples, n_bins, oversample, scale, eps, tol,
         x = _upsampled(X, n_samples, oversample)
         v = _upsampled(jw * X, n_samples, oversample)
         g = rest.torque(x, v)
-        span = max(float(np.std(x)), 1e-300)
-        vspan = max(float(np.std(v)), 1e-300)
-        dk = float(np.mean((rest.torque(x + eps * span, v) - g))) / (eps * span)
-        dc = float(np.mean((rest.torque(x, v + eps * vspan) - g))) / (eps * vspan)
+        if change > SLOPES_FROZEN_BELOW:
+            # the equivalent linearisation only steers the iteration (its fixed point does not
+            # depend on it): once the response has nearly settled it is kept, which saves two of
+            # the three law evaluations of every later step
+            span = max(float(np.std(x)), 1e-300)
+            vspan = max(float(np.std(v)), 1e-300)
+            dk = float(np.mean((rest.torque(x + eps * span, v) - g))) / (eps * span)
+            dc = float(np.mean((rest.torque(x, v + eps * vspan) - g))) / (eps * vspan)
+            dK = dk + jw * dc
+            denom = L + dK
+            denom = np.where(denom != 0, denom, np.inf)
         G = np.fft.rfft(np.broadcast_to(g, x.shape), axis=-1)[..., :n_bins] / oversample
-        dK = dk + jw * dc
-        denom = L + dK
-        X_new = (Ue - G + dK * X) / np.where(denom != 0, denom, np.inf)
+        X_new = (Ue - G + dK * X) / denom
         if not np.all(np.isfinite(X_new)):
             raise SteadyStateError(f"non-finite response at iteration {it}: the model diverges under this input")
         new_change = float(np.max(np.abs(X_new - X))) / scale

@@ -14,7 +14,7 @@ from typing import Callable, Union
 
 import mujoco
 import numpy as np
-from scipy.integrate import solve_ivp
+from scipy.integrate import odeint
 
 from jointrig.vocab.law import JointLaw
 
@@ -155,20 +155,23 @@ def simulate_free_run_reference(
     *,
     delay_s: float = 0.0,
     rtol: float = 1e-9,
-    method: str = "LSODA",
 ) -> np.ndarray:
-    """The same free run with scipy's ``solve_ivp`` (adaptive, ``rtol``): the reference path.
+    """The same free run with scipy's LSODA (``scipy.integrate.odeint``, adaptive, ``rtol``): the
+    reference path, sampled at ``n / fs_Hz``.
 
     LSODA is the fastest of scipy's methods here (the piecewise-linear input interpolation has a
-    kink at every fine-grid point, which costs the high-order methods many rejected steps).
+    kink at every fine-grid point, which costs the high-order methods many rejected steps), and
+    ``odeint`` calls it with a third of ``solve_ivp``'s Python work per right-hand side (1.7 M
+    calls on 4096 Silverbox samples: 3.5 s instead of 8.8 s, the same trajectory to 7e-10 V).
     """
+    inv_inertia = 1.0 / inertia
 
-    def rhs(t, s):
-        x, v = s
-        return (v, (u(float(t) - delay_s) - law.torque(float(x), float(v))) / inertia)
+    def rhs(s, t):
+        x, v = float(s[0]), float(s[1])
+        return (v, (u(t - delay_s) - law.torque(x, v)) * inv_inertia)
 
     t_eval = np.arange(n_samples) / fs_Hz
-    sol = solve_ivp(rhs, (0.0, t_eval[-1]), (0.0, 0.0), method=method, t_eval=t_eval, rtol=rtol, atol=1e-14)
-    if not sol.success:
-        raise SimulationError(f"scipy reference failed: {sol.message}")
-    return sol.y[0]
+    y, info = odeint(rhs, (0.0, 0.0), t_eval, rtol=rtol, atol=1e-14, mxstep=1_000_000, full_output=True)
+    if info["message"] != "Integration successful.":
+        raise SimulationError(f"scipy reference (LSODA) failed: {info['message']}")
+    return y[:, 0]

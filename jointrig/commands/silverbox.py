@@ -162,7 +162,7 @@ def main(argv=None) -> int:
     def arrow_job(job):
         if job is None:
             return simulate_free_run_reference(fit.law, fit.inertia, BandlimitedInput(ua, fs), REFERENCE_SAMPLES, fs,
-                                               delay_s=fit.delay_s, method="LSODA")
+                                               delay_s=fit.delay_s)
         return arrow_rms(data, *job)
 
     # The scipy reference (the longest) first: the other process takes the three free runs meanwhile.

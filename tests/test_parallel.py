@@ -1,0 +1,81 @@
+"""jointrig.parallel.fork_map: results in order, errors where they belong, and nothing left
+running (or waited for) when the caller stops early."""
+
+from __future__ import annotations
+
+import os
+import time
+
+import numpy as np
+import pytest
+
+from jointrig.parallel import fork_map
+
+
+def _no_children_left() -> bool:
+    try:
+        os.waitpid(-1, os.WNOHANG)
+    except ChildProcessError:
+        return True
+    return False
+
+
+def test_results_come_in_the_items_order_whatever_order_they_finish_in():
+    delays = [0.3, 0.0, 0.2, 0.0, 0.1]
+    out = list(fork_map(lambda d: (time.sleep(d), d)[1], delays, workers=2))
+    assert out == delays
+    assert _no_children_left()
+
+
+def test_a_closure_runs_on_the_parents_memory_and_large_results_come_back_whole():
+    table = np.arange(10.0)  # not passed: the forked child sees it
+    out = list(fork_map(lambda n: np.full(n, table.sum()), [10, 3_000_000], workers=2))  # 24 MB > a pipe
+    assert out[0].shape == (10,) and out[1].shape == (3_000_000,)
+    assert np.all(out[1] == 45.0)
+
+
+def test_an_error_in_an_item_is_raised_at_its_turn_as_itself():
+    def f(x):
+        if x == 2:
+            raise ValueError("item two is bad")
+        return x
+
+    seen = []
+    with pytest.raises(ValueError, match="item two is bad"):
+        for r in fork_map(f, [0, 1, 2, 3], workers=2):
+            seen.append(r)
+    assert seen == [0, 1]
+    assert _no_children_left()
+
+
+def test_a_worker_that_dies_is_named_not_waited_for():
+    def f(x):
+        if x:
+            os.kill(os.getpid(), 9)
+        return x
+
+    with pytest.raises(RuntimeError, match="worker for item 1 died"):
+        list(fork_map(f, [0, 1], workers=2))
+    assert _no_children_left()
+
+
+def test_stopping_early_stops_the_speculative_items(tmp_path):
+    # Items 1 and 2 would sleep 30 s and then leave a file. The caller stops after item 0: they
+    # must be stopped (no file, no child process), not waited for (which would leave the files).
+    def f(x):
+        if x:
+            time.sleep(30)
+            (tmp_path / f"done{x}").write_text("finished")
+        return x
+
+    for r in fork_map(f, [0, 1, 2], workers=2):
+        assert r == 0
+        break
+    assert _no_children_left()
+    assert not list(tmp_path.iterdir())
+
+
+def test_one_worker_runs_here():
+    pid = os.getpid()
+    assert list(fork_map(lambda _: os.getpid(), [0, 1], workers=1)) == [pid, pid]
+    assert set(fork_map(lambda _: os.getpid(), [0, 1], workers=2)).isdisjoint({pid})
