@@ -39,6 +39,7 @@ __all__ = [
     "SettleInfo",
     "StartState",
     "settle_bound",
+    "settles_in_time",
     "relative_departure",
     "SimulationError",
     "SteadyStateNotReached",
@@ -250,6 +251,31 @@ def settle_bound(changes: list[float], settle_tol: float) -> tuple[bool, float, 
     r_d = decayed[-1]
     bound = c / (1 - r_d)
     return bound < settle_tol, bound, r_d
+
+
+#: Periods over which :func:`settles_in_time` measures the decay of the changes.
+DECAY_WINDOW = 100
+
+
+def settles_in_time(changes: list[float], settle_tol: float, periods_left: int) -> bool:
+    """Whether a run can still settle before its cap (pure): False when, at the average decay of
+    the changes over the last :data:`DECAY_WINDOW` periods, they would need more than twice the
+    ``periods_left`` to fall to ``settle_tol``, or did not decay at all over the window (a model
+    without a periodic response under this drive). True while the history is shorter.
+
+    A run that is stopped here would have run to its cap and failed there, unless its decay sped
+    up more than twofold later: the answer is the same, only sooner (a fitted Stribeck friction
+    under cogging, which has no periodic response, took 1000 periods per held-out run).
+    """
+    if len(changes) <= DECAY_WINDOW:
+        return True
+    now, then = changes[-1], changes[-1 - DECAY_WINDOW]
+    if now <= settle_tol or not then > 0:
+        return True
+    r = (now / then) ** (1.0 / DECAY_WINDOW)
+    if r >= 1.0:
+        return False
+    return math.log(settle_tol / now) / math.log(r) <= 2 * periods_left
 
 
 def relative_departure(record: SteadyStateRecord, reference: SteadyStateRecord) -> float:
@@ -652,6 +678,13 @@ def _settle(advance: Callable[[], tuple], watched: Callable[[tuple], np.ndarray]
                 done, bound, ratio = settle_bound(changes, config.settle_tol)
                 if p >= config.min_periods and done:
                     settled_at = p
+                elif not settles_in_time(changes, config.settle_tol, config.max_periods - p):
+                    window = changes[-1 - DECAY_WINDOW:]
+                    raise SteadyStateNotReached(
+                        f"{where}: no steady state in sight after {p} periods: over the last {DECAY_WINDOW} "
+                        f"periods the period-to-period change went from {window[0]:.3g} to {window[-1]:.3g}, "
+                        f"too slow a decay to reach settle_tol {config.settle_tol:g} within max_periods "
+                        f"{config.max_periods} (worst channel '{worst}')")
             periods = [payload]
             if (settled_at is None and config.max_wall_s is not None
                     and _time.perf_counter() - t_start > config.max_wall_s):

@@ -53,6 +53,42 @@ def test_settle_bound_refuses_without_decay():
     assert settle_bound([1e-2, 1e-9], 1e-3)[0]                    # round-off level: settle_tol * 1e-3
 
 
+def test_a_run_that_cannot_settle_before_its_cap_is_foreseen_and_one_that_can_is_not():
+    from jointrig.rig.simulate import DECAY_WINDOW, settles_in_time
+
+    tol = 1e-7
+    # no history to judge on yet
+    assert settles_in_time([0.1] * DECAY_WINDOW, tol, 10)
+    # no periodic response: the changes wander around 2% without decaying
+    wander = [0.02 * (1 + 0.3 * math.sin(p)) for p in range(DECAY_WINDOW + 20)]
+    assert not settles_in_time(wander, tol, 900)
+    # the slowest transient of the validation runs (r = 0.9): at 2.7e-5 after 100 periods, 1e-7
+    # is 53 periods away: fine with 30 left (twice is the margin), not with 20
+    fast = [0.9 ** p for p in range(DECAY_WINDOW + 1)]
+    assert settles_in_time(fast, tol, 30)
+    assert not settles_in_time(fast, tol, 20)
+    # a light transient (r = 0.995, from 1): ln(1e-7 / 0.6) / ln(0.995) = 3100 more periods,
+    # more than twice the 1500 left but not more than twice 1600
+    slow = [0.995 ** p for p in range(DECAY_WINDOW + 1)]
+    assert not settles_in_time(slow, tol, 1500)
+    assert settles_in_time(slow, tol, 1600)
+    # at the tolerance already: nothing to foresee
+    assert settles_in_time(wander[:-1] + [1e-8], tol, 0)
+
+
+def test_a_model_without_a_periodic_response_is_refused_long_before_its_cap(rig):
+    # An undamped joint driven off its resonance (44.7 rad/s against 30 rad/s): the free
+    # oscillation started from rest never decays, so the response never repeats from period to
+    # period. The run is stopped by the foresight rule, with the message saying so, not after
+    # max_periods: within a hundred periods of the window filling up (measured: period 103).
+    from jointrig.rig import SteadyStateNotReached
+    from jointrig.vocab.law import JointLaw, Power, Viscous
+
+    undamped = JointLaw((Viscous(), Power(1)), (0.0, 2000.0))
+    with pytest.raises(SteadyStateNotReached, match=r"no steady state in sight after 1\d\d periods"):
+        simulate_steady_state(rig, 30.0, 1000.0, SimulationConfig(max_periods=100_000), law=undamped, native=True)
+
+
 # --- the rig -------------------------------------------------------------------------------
 
 @needs_cc
