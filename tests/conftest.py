@@ -75,11 +75,17 @@ def default_sweep(rig):
 
 
 def pytest_collection_modifyitems(config, items):
-    """Keep ``--dist loadgroup`` working: pytest-xdist 3.8 marks a grouped test by appending
-    ``@group`` to ``item._nodeid``, which pytest 9 no longer reads (the node's id is ``_id``), so
-    every group was split over both workers and its session fixture computed twice. Here the
-    suffix is set where this pytest reads it (measured: the worn-joint diagnosis of
-    test_diagnose_script ran once per worker before)."""
+    """Schedule the long tests first and keep ``--dist loadgroup`` working.
+
+    * Tests marked ``slow`` (about 3-20 s each) come first, in their order: pytest-xdist hands
+      out tests in collection order, so a long test collected last kept one core busy alone at
+      the end of the run.
+    * pytest-xdist 3.8 marks a grouped test by appending ``@group`` to ``item._nodeid``, which
+      pytest 9 no longer reads (the node's id is ``_id``), so every group was split over both
+      workers and its session fixture computed twice. Here the suffix is set where this pytest
+      reads it (measured: the worn-joint diagnosis of test_diagnose_script ran once per worker
+      before)."""
+    items.sort(key=lambda item: item.get_closest_marker("slow") is None)  # stable: order kept within
     if not getattr(config.option, "loadgroup", False):  # set by xdist in its workers
         return
     for item in items:

@@ -183,6 +183,7 @@ def test_iwan_joint_dissipation_in_closed_form_and_its_slopes():
     assert macro.dissipation_slope == pytest.approx(1.0, abs=0.03)
 
 
+@pytest.mark.slow
 def test_virtual_phase_resonance_of_an_iwan_joint_in_micro_slip(rig):
     # A lightly damped joint (c = 0.5 N m s/rad, k = 500 N m/rad) with an Iwan element (40 N m,
     # s_max = 0.05 rad, chi = -0.5, beta = 0.1): at 3, 6 and 12 N m it stays in micro-slip

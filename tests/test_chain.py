@@ -274,6 +274,7 @@ def test_chain_fisher_information_predicts_the_scatter_of_the_estimates():
     assert np.allclose(np.mean(est, axis=0), theta, rtol=1e-3)
 
 
+@pytest.mark.slow
 @needs_cc
 def test_chain_excitation_design_beats_the_default_plan_on_its_budget(tmp_path, monkeypatch):
     # Where to drive and which frequencies: the D-optimal allocation over (frequency, motor,

@@ -17,6 +17,7 @@ import pytest
 from chain_cases import EFFECTS, run_case
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("cause,place", [("backlash", 2), ("coulomb_friction", 3), ("bearing_friction", 4)])
 def test_the_right_joint_and_cause_ranked_first_with_a_gain_of_5(cause, place):
     # Bounds of the issue: right place and cause first, gain >= 5 on held-out runs of another

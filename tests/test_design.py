@@ -40,6 +40,7 @@ def test_budget_too_small_is_refused():
         d_optimal([np.diag([1.0, 0.0]), np.diag([0.0, 1.0])], [1.0, 1.0], budget_s=6.0, setup_s=1.0, min_periods=4)
 
 
+@pytest.mark.slow
 def test_design_beats_the_default_sweep_on_its_budget_in_a_monte_carlo(tmp_path):
     # Graded by what the design is for, the spread of the estimates over noise realisations
     # (--verify: 12 per design, seed fixed), not by the CRLB it maximises. Measured: CRLB

@@ -101,6 +101,7 @@ def _diagnose(tmp_path, joint: str, case: str):
     return run_diagnosis(loaded.records, run_ids=loaded.run_ids, holdout=HOLDOUT)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("joint, case", [(j, c) for j in CASES for c in CASES[j]])
 def test_independent_bench_effect_is_found_sized_and_pays_off(tmp_path, joint, case):
     report = _diagnose(tmp_path, joint, case)

@@ -64,6 +64,7 @@ def _report(tmp_path, joint, case):
     return run_diagnosis(loaded.records, run_ids=loaded.run_ids, holdout=holdout)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("joint", ["paper", "light"])
 @pytest.mark.parametrize("case", list(CASES))
 def test_an_effect_outside_the_catalogue_is_unexplained_and_described(tmp_path, joint, case):
@@ -136,6 +137,7 @@ FOUND = {"late_phi2": ("angle_skew", "angle2_delay_s", 0.001),
          "phi2_gain": ("angle_gain", "angle2_gain_error", 0.02)}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("joint", ["paper", "light"])
 @pytest.mark.parametrize("case", list(FOUND))
 def test_a_measurement_artefact_is_found_as_its_sensor_cause(tmp_path, joint, case):
