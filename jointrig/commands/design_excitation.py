@@ -18,6 +18,8 @@ realisations of both and reports the observed standard deviations.
 from __future__ import annotations
 
 import argparse
+import logging
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -30,6 +32,8 @@ from jointrig.studies.montecarlo import monte_carlo
 from jointrig.studies.sweep import DEFAULT_PLAN, SweepPlan, records_of, run_sweep
 from jointrig.files import write_json_atomic
 from jointrig.vocab.params import JE
+
+log = logging.getLogger("design")
 
 CANDIDATES = SweepPlan(omegas_rad_s=(1.0, 2.5, 5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 35.0, 40.0, 42.5, 45.0, 47.5, 50.0,
                                      55.0, 60.0, 70.0, 80.0, 90.0),
@@ -49,7 +53,11 @@ def main(argv=None) -> int:
     p.add_argument("--model", type=Path, default=None,
                    help="a chain model (models/pump_train.xml): design where to drive and which frequencies "
                         "(default: the two-flywheel rig)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     args = p.parse_args(argv)
+    from jointrig.rig.runtime import progress_level
+
+    logging.basicConfig(level=progress_level(args.quiet), format="%(message)s", stream=sys.stderr)
     if args.model is not None:
         from jointrig.rig.chain import is_chain_model
 
@@ -68,6 +76,8 @@ def main(argv=None) -> int:
     check_output(args.json, "--json")
     rig = load_rig()
     points = CANDIDATES.points()
+    log.info("simulating the %d candidate runs to steady state (%s callback)", len(points),
+             "native" if args.native else "Python")
     records = records_of(run_sweep(rig, CANDIDATES, SimulationConfig(), native=args.native,
                                    workers=2 if args.native else 1))
     names = (JE,) + tuple(t.name for t in rig.law.terms)
@@ -111,6 +121,7 @@ def main(argv=None) -> int:
     if args.verify:
         for label, alloc in (("default", default), ("design", design.periods)):
             sel = [i for i, k in enumerate(alloc) if k]
+            log.info("Monte Carlo of the %s: %d realisations", label, args.verify)
             mc = monte_carlo([records[i] for i in sel], rig.law.terms, truth, snr_db=args.snr_db, n_runs=args.verify,
                              n_periods=[alloc[i] for i in sel], n_harmonics=args.harmonics,
                              torque_share=rig.torque_share, seed=7, sigma=sigma)
