@@ -40,7 +40,7 @@ from jointrig.identify.chain import ChainPlant, ChainRecord
 
 from .model import JOINT_FIELD as _JOINT_FIELD
 from .model import PREFIX, RigModelError, compile_model, is_chain_model
-from .simulate import SettleInfo, SimulationConfig, SimulationError, _activated, _settle, passive_callback, set_inertias
+from .simulate import SettleInfo, SimulationConfig, SimulationError, _activated, _Jump, _settle, passive_callback, set_inertias
 
 __all__ = ["ChainRig", "load_chain", "is_chain_model", "simulate_chain", "chain_callback", "MAX_FLYWHEELS"]
 
@@ -370,7 +370,8 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
     with installed, _activated(nat, d):
         periods, (p, change, bound, ratio) = _settle(
             advance, watched, names, lambda pl: bool(np.all(np.isfinite(pl[0])) and np.all(np.isfinite(pl[1]))),
-            failure, config, d, where, t_start)
+            failure, config, d, where, t_start,
+            _Jump(d, rig.qpos_adr, rig.dof_adr, J) if config.accelerate and not stateful else None)
     pos = np.vstack([x[0] for x in periods]).T
     vel = np.vstack([x[1] for x in periods]).T
     tq = np.vstack([x[2] for x in periods]).T

@@ -21,7 +21,7 @@ import logging
 import math
 import time as _time
 from dataclasses import dataclass
-from typing import Callable, Iterator, Optional, Union
+from typing import Callable, Iterator, Optional, Sequence, Union
 
 import mujoco
 import numpy as np
@@ -106,6 +106,12 @@ class SimulationConfig:
         relative angle and the rates only: a drive replayed from many measured harmonics
         leaves the free rotation an integration-error drift (~1e-8 of the swing per period)
         that has no bearing on the joint.
+      accelerate: jump toward the periodic steady state by reduced rank extrapolation of the
+        period map (:func:`extrapolated_fixed_point`) every few periods while the transient
+        decays, for laws without sliders; steady state is still declared only by the settle
+        test on simulated periods after the last jump, so ``settle_tol`` holds either way. A
+        lightly damped joint (decay 0.87 per period) then settles in tens of periods instead of
+        about 150. False: plain period-by-period settling.
     """
 
     max_step_s: float = 5e-4
@@ -118,6 +124,7 @@ class SimulationConfig:
     n_periods: int = 1
     integrator: str = "RK4"
     absolute_angles_periodic: bool = True
+    accelerate: bool = True
 
     def __post_init__(self):
         if not (self.max_step_s > 0 and math.isfinite(self.max_step_s)):
@@ -215,7 +222,7 @@ class StartState:
                    float(record.rate1_rad_s[0]), float(record.rate2_rad_s[0]))
 
 
-def settle_bound(changes: list[float], settle_tol: float) -> tuple[bool, float, float]:
+def settle_bound(changes: list[float], settle_tol: float, decay_seen: float = math.nan) -> tuple[bool, float, float]:
     """Adaptive steady-state test on the history of period-to-period changes (pure).
 
     ``changes`` are the largest relative period-to-period changes so far; r is the larger of
@@ -230,6 +237,11 @@ def settle_bound(changes: list[float], settle_tol: float) -> tuple[bool, float, 
       is left beneath it still decaying at r_d: bound = change / (1 - r_d) (the floor plus
       the transient's geometric rest), settled if below ``settle_tol``;
     * otherwise (no decay seen yet, or a transient slower than r = 0.9): not settled.
+
+    ``decay_seen``: a decay ratio below 0.9 measured before the history restarted (after an
+    extrapolation jump, ``SimulationConfig.accelerate``): a jump that lands beneath the floor
+    shows no decay of its own, and the transient left beneath the floor decays at the rate
+    seen before it.
     """
     c = changes[-1]
     if c <= settle_tol * 1e-3:
@@ -246,9 +258,9 @@ def settle_bound(changes: list[float], settle_tol: float) -> tuple[bool, float, 
         bound = c * r / (1 - r)
         return bound < settle_tol, bound, r
     decayed = [max(ratios[i - 1:i + 1]) for i in range(1, len(ratios)) if max(ratios[i - 1:i + 1]) < 0.9]
-    if not decayed:
+    if not decayed and not decay_seen < 0.9:
         return False, math.inf, r
-    r_d = decayed[-1]
+    r_d = decayed[-1] if decayed else decay_seen
     bound = c / (1 - r_d)
     return bound < settle_tol, bound, r_d
 
@@ -261,7 +273,10 @@ def settles_in_time(changes: list[float], settle_tol: float, periods_left: int) 
     """Whether a run can still settle before its cap (pure): False when, at the average decay of
     the changes over the last :data:`DECAY_WINDOW` periods, they would need more than twice the
     ``periods_left`` to fall to ``settle_tol``, or did not decay at all over the window (a model
-    without a periodic response under this drive). True while the history is shorter.
+    without a periodic response under this drive, or changes that hover below ``settle_tol``
+    without the decay :func:`settle_bound` needs to certify them: an undamped mode whose
+    transient an extrapolation jump took away). True while the history is shorter, or at the
+    round-off level (``settle_tol * 1e-3``) where :func:`settle_bound` settles outright.
 
     A run that is stopped here would have run to its cap and failed there, unless its decay sped
     up more than twofold later: the answer is the same, only sooner (a fitted Stribeck friction
@@ -270,12 +285,64 @@ def settles_in_time(changes: list[float], settle_tol: float, periods_left: int) 
     if len(changes) <= DECAY_WINDOW:
         return True
     now, then = changes[-1], changes[-1 - DECAY_WINDOW]
-    if now <= settle_tol or not then > 0:
+    if now <= settle_tol * 1e-3 or not then > 0:
         return True
     r = (now / then) ** (1.0 / DECAY_WINDOW)
     if r >= 1.0:
         return False
     return math.log(settle_tol / now) / math.log(r) <= 2 * periods_left
+
+
+def extrapolated_fixed_point(states: Sequence[np.ndarray]) -> Optional[np.ndarray]:
+    """Reduced rank extrapolation (Sidi 1986) of a map's iterates ``states`` (z_0, z_1, ...):
+    the combination ``sum g_i z_(i+1)`` with ``sum g_i = 1`` whose differences
+    ``sum g_i (z_(i+1) - z_i)`` cancel best, each component scaled by its largest magnitude.
+    Exact for a linear map ``z -> A z + b`` once there are dim + 1 differences; near the fixed
+    point of a smooth map the error is second order in the distance (pure). None when the
+    iterates do not determine a combination (no movement, or a singular system)."""
+    Z = np.asarray(states, dtype=float)
+    U = np.diff(Z, axis=0)
+    scale = np.max(np.abs(Z), axis=0) + 1e-300
+    Us = U / scale
+    G = Us @ Us.T
+    tr = float(np.trace(G))
+    if not (tr > 0 and math.isfinite(tr)):
+        return None
+    try:
+        x = np.linalg.solve(G + 1e-14 * tr * np.eye(len(U)), np.ones(len(U)))
+    except np.linalg.LinAlgError:
+        return None
+    if not np.all(np.isfinite(x)) or abs(x.sum()) < 1e-300:
+        return None
+    return (x / x.sum()) @ Z[1:]
+
+
+class _Jump:
+    """The period map's state as :func:`_settle` extrapolates it: ``state()`` reads the relative
+    angles and the rates from the MjData, ``put(z)`` writes an extrapolated one back. The free
+    rotation is kept as it is: the first flywheel's absolute angle, and the angular momentum
+    (the rates are shifted together to the momentum before the jump; the extrapolation's
+    round-off in it would otherwise leave the absolute angles a drift that never decays)."""
+
+    def __init__(self, d: mujoco.MjData, qpos_adr: Sequence[int], dof_adr: Sequence[int],
+                 inertias_kgm2: Sequence[float]):
+        self.d, self.q, self.v = d, list(qpos_adr), list(dof_adr)
+        self.J = np.asarray(inertias_kgm2, dtype=float)
+        self.dim = 2 * len(self.q) - 1
+
+    def state(self) -> np.ndarray:
+        pos = self.d.qpos[self.q]
+        return np.concatenate([pos[:-1] - pos[1:], self.d.qvel[self.v]])
+
+    def put(self, z: np.ndarray) -> None:
+        n = len(self.q)
+        pos = self.d.qpos[self.q].copy()
+        for i in range(1, n):
+            pos[i] = pos[i - 1] - z[i - 1]
+        self.d.qpos[self.q] = pos
+        rates = np.asarray(z[n - 1:], dtype=float)
+        momentum = float(self.J @ self.d.qvel[self.v])
+        self.d.qvel[self.v] = rates + (momentum - float(self.J @ rates)) / float(self.J.sum())
 
 
 def relative_departure(record: SteadyStateRecord, reference: SteadyStateRecord) -> float:
@@ -449,9 +516,12 @@ def simulate_steady_state(
     n, k = config.samples_for(omega_rad_s), config.steps_per_sample(omega_rad_s)
     stepper = _backend(backend, rig, plant, drive, m, d, n, k)
     watched, names = _watched_two_flywheels(config)
+    jump = (_Jump(d, rig.qpos_adr, rig.dof_adr, J)
+            if config.accelerate and not any(t.stateful for t in plant.law.terms) else None)
     with stepper.installed():
         periods, settle = _settle(stepper.advance, watched, names, lambda pl: bool(np.all(np.isfinite(pl[0]))),
-                                  lambda: stepper.errors[0] if stepper.errors else None, config, d, where, t_start)
+                                  lambda: stepper.errors[0] if stepper.errors else None, config, d, where, t_start,
+                                  jump)
     data = np.vstack([pl[0] for pl in periods])
     t_rec = np.concatenate([pl[1] for pl in periods])
     torque = data[:, 4] if plant.drive_delay_s == 0 else drive(t_rec)
@@ -639,7 +709,8 @@ def _backend(name: str, rig: RigModel, plant: Plant, drive: PeriodicDrive, m, d,
 
 def _settle(advance: Callable[[], tuple], watched: Callable[[tuple], np.ndarray], names: tuple[str, ...],
             finite: Callable[[tuple], bool], failure: Callable[[], Optional[BaseException]],
-            config: SimulationConfig, d: mujoco.MjData, where: str, t_start: float):
+            config: SimulationConfig, d: mujoco.MjData, where: str, t_start: float,
+            jump: Optional[_Jump] = None):
     """Advance period by period until steady state (:func:`settle_bound`), then log
     ``config.n_periods``; shared by the two-flywheel rig and the chains (rig/chain.py).
 
@@ -648,15 +719,30 @@ def _settle(advance: Callable[[], tuple], watched: Callable[[tuple], np.ndarray]
       watched: the payload's channels the settle test compares (columns; ``names`` names them).
       finite: whether a payload's state is finite.
       failure: the callback's stored exception, if any (MuJoCo cannot propagate one).
+      jump: the period map's state, to extrapolate (``SimulationConfig.accelerate``): every
+        ``dim + 2`` periods of a transient still well above ``settle_tol`` and decaying, the
+        state jumps to :func:`extrapolated_fixed_point` of the period-boundary states, and the
+        settle test starts afresh on the periods simulated from there. A jump farther than ten
+        times the chunk's own movement is not taken; after one that made the change grow, the
+        next waits until the change is a tenth of what it was then (nearer the fixed point,
+        where the period map is nearly linear). At most :data:`MAX_JUMPS` per run, so a model
+        whose transient does not decay (no attracting periodic response) is still refused by
+        :func:`settles_in_time` on its plain periods.
 
     Returns ``(payloads, (periods simulated, last change, error bound, decay ratio))``.
     """
     periods: list[tuple] = []
-    changes: list[float] = []
+    changes: list[float] = []  # since the last jump: what settle_bound reads
+    history: list[float] = []  # every period's change: what settles_in_time reads
     change, bound, ratio = math.inf, math.inf, math.nan
     worst = "?"
     settled_at = None
     p = 0
+    boundary = [jump.state()] if jump is not None else None
+    before_jump = None  # the change just before the last jump, until the first change after it
+    decay_seen = math.nan  # the last decay ratio below 0.9 that settle_bound measured
+    jump_below = math.inf  # jump only while the change is below this (a tenth of a failed jump's)
+    jumps = 0
     while True:
         payload = advance()
         p += 1
@@ -675,17 +761,34 @@ def _settle(advance: Callable[[], tuple], watched: Callable[[tuple], np.ndarray]
                 change = float(np.max(rel))
                 worst = names[int(np.argmax(rel))]
                 changes.append(change)
-                done, bound, ratio = settle_bound(changes, config.settle_tol)
+                history.append(change)
+                if before_jump is not None:
+                    if change > before_jump:  # too far from the linear regime: wait for a tenth
+                        jump_below = before_jump / 10
+                    before_jump = None
+                done, bound, ratio = settle_bound(changes, config.settle_tol, decay_seen)
+                if ratio < 0.9:
+                    decay_seen = ratio
                 if p >= config.min_periods and done:
                     settled_at = p
-                elif not settles_in_time(changes, config.settle_tol, config.max_periods - p):
-                    window = changes[-1 - DECAY_WINDOW:]
+                elif not settles_in_time(history, config.settle_tol, config.max_periods - p):
+                    window = history[-1 - DECAY_WINDOW:]
                     raise SteadyStateNotReached(
                         f"{where}: no steady state in sight after {p} periods: over the last {DECAY_WINDOW} "
                         f"periods the period-to-period change went from {window[0]:.3g} to {window[-1]:.3g}, "
                         f"too slow a decay to reach settle_tol {config.settle_tol:g} within max_periods "
                         f"{config.max_periods} (worst channel '{worst}')")
             periods = [payload]
+            if settled_at is None and boundary is not None:
+                boundary.append(jump.state())
+                if len(boundary) == jump.dim + 3:
+                    if (jumps < MAX_JUMPS and changes and changes[-1] < jump_below
+                            and _jumped(jump, boundary, changes, config.settle_tol)):
+                        jumps += 1
+                        before_jump, periods, changes = change, [], []
+                        boundary = [jump.state()]
+                    else:
+                        boundary = boundary[-1:]
             if (settled_at is None and config.max_wall_s is not None
                     and _time.perf_counter() - t_start > config.max_wall_s):
                 raise SteadyStateNotReached(
@@ -702,6 +805,32 @@ def _settle(advance: Callable[[], tuple], watched: Callable[[tuple], np.ndarray]
             periods.append(payload)
         if settled_at is not None and len(periods) == config.n_periods:
             return periods, (p, change, bound, ratio)
+
+
+#: Extrapolation jumps per run (``SimulationConfig.accelerate``): a decaying transient needs
+#: two to four (each cuts the change by 10^2..10^4 near the fixed point).
+MAX_JUMPS = 6
+
+
+def _jumped(jump: _Jump, boundary: list[np.ndarray], changes: list[float], settle_tol: float) -> bool:
+    """Jump to the extrapolated steady state when the transient is still well above the
+    tolerance and fell by at least a tenth over the chunk, and the extrapolation stays within ten times the
+    chunk's own movement (a far jump means the map is not yet near its fixed point's linear
+    regime). Returns whether it jumped."""
+    if len(changes) < 2 or changes[-1] <= 10 * settle_tol:
+        return False
+    if not changes[-1] < 0.9 * changes[0]:
+        return False  # no decay over the chunk (an undamped mode, or not yet settling)
+    z = extrapolated_fixed_point(boundary)
+    if z is None or not np.all(np.isfinite(z)):
+        return False
+    Z = np.asarray(boundary)
+    scale = np.max(np.abs(Z), axis=0) + 1e-300
+    moved = float(np.sum(np.linalg.norm(np.diff(Z, axis=0) / scale, axis=1)))
+    if not float(np.linalg.norm((z - Z[-1]) / scale)) <= 10 * moved:
+        return False
+    jump.put(z)
+    return True
 
 
 def _watched_two_flywheels(config: SimulationConfig):
