@@ -40,6 +40,7 @@ from jointrig.identify.chain import ChainPlant, ChainRecord
 
 from .model import JOINT_FIELD as _JOINT_FIELD
 from .model import PREFIX, RigModelError, compile_model, is_chain_model
+from .native_callback import NativeChain, choose_native, session_active
 from .simulate import SettleInfo, SimulationConfig, SimulationError, _activated, _Jump, _settle, passive_callback, set_inertias
 
 __all__ = ["ChainRig", "load_chain", "is_chain_model", "simulate_chain", "chain_callback", "MAX_FLYWHEELS"]
@@ -241,7 +242,7 @@ def chain_callback(rig: ChainRig, plant: ChainPlant, drives: dict, errors: list,
 
 def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: SimulationConfig = SimulationConfig(), *,
                    plant: Optional[ChainPlant] = None, inertias_kgm2: Optional[Sequence[float]] = None,
-                   amplitude_Nm: float = math.nan, native: bool = False) -> tuple[ChainRecord, SettleInfo]:
+                   amplitude_Nm: float = math.nan, native: Optional[bool] = None) -> tuple[ChainRecord, SettleInfo]:
     """Drive the chain from rest to steady state and log ``config.n_periods`` whole periods.
 
     Args:
@@ -253,6 +254,8 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
       native: every joint's law, the bearings and the drives in the compiled C callback
         (rig/native_callback.py ``NativeChain``): bit-identical records; a chain without
         sliders is integrated a period per ``mujoco.rollout`` call (no Python between steps).
+        False: the Python callback; None (the default): native wherever the machine can build
+        it and it knows every law's terms (:func:`rig.native_callback.choose_native`).
 
     The flywheels start with the common velocity that keeps the rigid rotation periodic
     (:meth:`PeriodicDrive.mean_free_impulse` summed over the drives, over the total inertia).
@@ -269,6 +272,7 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
         if abs(drv.omega_rad_s - omega_rad_s) > 1e-12 * omega_rad_s:
             raise ValueError(f"drive on flywheel {i}: fundamental {drv.omega_rad_s} differs from {omega_rad_s}")
     plant = rig.plant if plant is None else plant
+    native = choose_native(native, plant.laws)
     if plant.n_flywheels != rig.n_flywheels:
         raise ValueError(f"plant of {plant.n_flywheels} flywheels for a chain of {rig.n_flywheels}")
     N = rig.n_flywheels
@@ -296,8 +300,6 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
 
     nat = None
     if native:
-        from .native_callback import NativeChain
-
         nat = NativeChain(rig, plant, drives)
         callback = nat.function
 
@@ -364,8 +366,6 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
 
     # Inside a native_session the callback is installed already (shared by threads; each
     # simulation finds its own blocks by its MjData).
-    from .native_callback import session_active
-
     installed = contextlib.nullcontext() if native and session_active() else passive_callback(callback)
     with installed, _activated(nat, d):
         periods, (p, change, bound, ratio) = _settle(

@@ -139,6 +139,47 @@ def _mj_step_address() -> int:
     return _step_address
 
 
+_unavailable: Optional[str] = None
+_checked = False
+
+
+def unavailable() -> Optional[str]:
+    """Why the native callback cannot run on this machine (no C compiler, a failed build, a
+    library that does not load), or None when it can; checked once per process."""
+    global _unavailable, _checked
+    if not _checked:
+        try:
+            _load()
+        except (NativeBuildError, OSError) as e:
+            _unavailable = str(e).splitlines()[0]
+        _checked = True
+    return _unavailable
+
+
+def unsupported(laws) -> Optional[str]:
+    """Why the native callback cannot simulate these joint laws (or plants): the machine has
+    none (:func:`unavailable`), or a law has a term without a C case or more terms, knots or
+    sliders than a parameter block holds; None when it can."""
+    why = unavailable()
+    if why is not None:
+        return why
+    for law in laws:
+        try:
+            _pack_law(_Params(), law.law if isinstance(law, Plant) else law)
+        except ValueError as e:
+            return str(e)
+    return None
+
+
+def choose_native(native: Optional[bool], laws) -> bool:
+    """The backend a simulation uses: ``True``/``False`` as asked; ``None`` ("auto") the
+    native callback wherever it can simulate ``laws`` (:func:`unsupported`), which gives the
+    same numbers bit for bit (tests/test_native_callback.py), else the Python callback."""
+    if native is not None:
+        return bool(native)
+    return unsupported(laws) is None
+
+
 _registry_lock = threading.Lock()
 _session_lock = threading.Lock()
 _session_active = False

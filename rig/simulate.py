@@ -33,6 +33,7 @@ from jointrig.vocab.records import SteadyStateRecord
 
 from .callback import passive_callback
 from .model import RigModel
+from .native_callback import NativeLaw, choose_native, session_active
 
 __all__ = [
     "SimulationConfig",
@@ -456,7 +457,7 @@ def simulate_steady_state(
     law: Optional[Union[JointLaw, Plant]] = None,
     drive: Optional[PeriodicDrive] = None,
     inertias_kgm2: Optional[tuple[float, float]] = None,
-    native: bool = False,
+    native: Optional[bool] = None,
     start: Optional[StartState] = None,
     backend: Optional[str] = None,
 ) -> tuple[SteadyStateRecord, SettleInfo]:
@@ -485,11 +486,13 @@ def simulate_steady_state(
         terms is then integrated a whole period per ``mujoco.rollout`` call (no Python
         between steps, the GIL released); a law with sliders (Jenkins, Iwan) is stepped in C
         with its sliders committed after every step; the records are bit-identical to stepping.
-        Shorthand for ``backend="native"``.
+        Shorthand for ``backend="native"``; False: the Python callback; None (the default):
+        native wherever the machine can build it and it knows every term of the law
+        (:func:`rig.native_callback.choose_native`), else Python.
       start: start from this state at t = 0 instead of rest (continuation from the previous
         sweep point's steady state). Its rigid-body velocity is replaced by the one that
         keeps the rotation periodic under this drive; the relative motion is kept.
-      backend: one of :data:`BACKENDS`; default ``"native"`` if ``native`` else ``"python"``.
+      backend: one of :data:`BACKENDS`; default from ``native``.
 
     The record's torque is the drive as recorded: with a drive delay it is the torque before
     the delay (what a torque cell upstream of the delay reads), otherwise the actuator force.
@@ -504,7 +507,7 @@ def simulate_steady_state(
     plant = rig.plant if law is None else Plant.of(law)
     drive = _checked_drive(omega_rad_s, amplitude_Nm, drive, inertias_kgm2, start)
     if backend is None:
-        backend = "native" if native else "python"
+        backend = "native" if choose_native(native, (plant,)) else "python"
     elif backend not in BACKENDS:
         raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
     where = f"{rig.path.name} at omega = {omega_rad_s:g} rad/s, M0 = {amplitude_Nm:g} N m"
@@ -651,16 +654,12 @@ class _NativeStepper(_Stepper):
     """The C callback stepped from Python (sliders committed by the native law)."""
 
     def __init__(self, rig, plant: Plant, drive: PeriodicDrive, m, d, n, k):
-        from .native_callback import NativeLaw
-
         super().__init__(rig, m, d, n, k)
         self.nat = NativeLaw(rig, plant, drive)
         self.stateful = any(t.stateful for t in plant.law.terms)
 
     @contextlib.contextmanager
     def installed(self):
-        from .native_callback import session_active
-
         # Inside a native_session the callback is installed already (shared by threads).
         with (contextlib.nullcontext() if session_active() else passive_callback(self.nat.function)), \
                 _activated(self.nat, self.d):

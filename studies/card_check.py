@@ -134,7 +134,7 @@ def check_card(rig: RigModel, case: str, *, snr_db: float = 40.0, seed: int = 1,
     rng = np.random.default_rng(seed)
     config = SimulationConfig(n_periods=n_periods, settle_tol=c.settle_tol)
     say(f"{case}: simulating {len(c.omegas_rad_s) * len(c.levels_Nm)} stepped-sine runs")
-    records = [add_noise(simulate_steady_state(rig, w, m, config, law=law, native=True)[0], snr_db, rng)
+    records = [add_noise(simulate_steady_state(rig, w, m, config, law=law)[0], snr_db, rng)
                for w in c.omegas_rad_s for m in c.levels_Nm]
     say(f"{case}: diagnosing")
     report = run_diagnosis(records, rig=rig)
@@ -147,7 +147,7 @@ def check_card(rig: RigModel, case: str, *, snr_db: float = 40.0, seed: int = 1,
     true = law_card(law, rig.Je_kgm2, amps)
     # The lab's own runs: each phase-resonance point simulated again over n_periods and measured.
     levels = [float(p.run.split()[0]) for p in pr.points]
-    measured = [add_noise(simulate_steady_state(rig, p.omega_rad_s, m, config, law=law, native=True)[0], snr_db, rng)
+    measured = [add_noise(simulate_steady_state(rig, p.omega_rad_s, m, config, law=law)[0], snr_db, rng)
                 for p, m in zip(pr.points, levels)]
     runs = runs_card(measured, J1, J2, run_ids=[p.run for p in pr.points],
                      inertia_covariance=inertia_covariance(report))

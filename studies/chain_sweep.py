@@ -26,6 +26,7 @@ from jointrig.vocab.plant import PeriodicDrive
 
 from jointrig.rig.chain import ChainRig, simulate_chain
 from jointrig.rig.simulate import SettleInfo, SimulationConfig
+from jointrig.rig.native_callback import choose_native
 from jointrig.files import write_atomic, write_json_atomic
 
 from .sweep import SweepStoreMismatch, worker_model
@@ -111,7 +112,7 @@ def _remote_point(model_name: str, model_text: bytes, digest: str, plant, point:
             rec, info = simulate_chain(rig, w, {i: PeriodicDrive.cosine(w, a)}, config, amplitude_Nm=a, native=True)
     else:
         with _python_callback_lock:  # the Python callback is process-global: one at a time
-            rec, info = simulate_chain(rig, w, {i: PeriodicDrive.cosine(w, a)}, config, amplitude_Nm=a)
+            rec, info = simulate_chain(rig, w, {i: PeriodicDrive.cosine(w, a)}, config, amplitude_Nm=a, native=False)
     return ChainPoint(w, a, i, rec, info)
 
 
@@ -122,7 +123,7 @@ def default_chain_store(rig: ChainRig, config: SimulationConfig, root: Path = Pa
 
 
 def run_chain_sweep(rig: ChainRig, points: Sequence[tuple], config: SimulationConfig = CHAIN_CONFIG, *,
-                    store: Optional[Path] = None, native: bool = False, workers: int = 1, executor: str = "local",
+                    store: Optional[Path] = None, native: Optional[bool] = None, workers: int = 1, executor: str = "local",
                     scheduler: Optional[str] = None) -> list[ChainPoint]:
     """Simulate every ``(omega, amplitude, flywheel)`` point (loading those already in ``store``;
     ``native``: the C callback, bit-identical, so stored points serve either way).
@@ -143,8 +144,10 @@ def run_chain_sweep(rig: ChainRig, points: Sequence[tuple], config: SimulationCo
         raise ValueError(f"workers must be >= 1, got {workers}")
     if executor not in ("local", "dask"):
         raise ValueError(f"unknown executor {executor!r}; expected 'local' or 'dask'")
+    native = choose_native(native, rig.plant.laws)
     if workers > 1 and not native and executor == "local":
-        raise ValueError("chain sweeps in threads need the native callback (native=True): a Python callback "
+        raise ValueError("chain sweeps in threads need the native callback (native=True, or the default where a C "
+                         "compiler builds it): a Python callback "
                          "holds the GIL and MuJoCo's passive callback is global")
     for w, a, i in points:
         if not (math.isfinite(w) and w > 0 and math.isfinite(a) and a > 0):

@@ -84,7 +84,7 @@ def _noise(meas: ChainRecord, band: int) -> float:
 
 def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[ChainRecord], *,
                    band: int = 10, config: SimulationConfig = SimulationConfig(samples_per_period=128, max_step_s=5e-5),
-                   max_wall_s: Optional[float] = 120.0, native: bool = False) -> ChainValidation:
+                   max_wall_s: Optional[float] = 120.0, native: Optional[bool] = None) -> ChainValidation:
     """Replay every held-out run's drives on the nominal and the extended plant (module docstring)."""
     cfg = replace(config, absolute_angles_periodic=False, max_wall_s=max_wall_s, n_periods=1)
     models = {"nominal": plant_and_inertias(diagnosis.nominal), "extended": plant_and_inertias(diagnosis.final)}

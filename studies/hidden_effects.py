@@ -61,7 +61,7 @@ def simulate_case(rig: RigModel, case: str, *, snr_db: Optional[float] = 40.0, s
     micro-slip case took 14 s with the Python callback)."""
     plant = HIDDEN_EFFECTS[case][0]
     rng = np.random.default_rng(zlib.crc32(case.encode()) if seed is None else seed)
-    clean = [simulate_steady_state(rig, w, a, SimulationConfig(n_periods=n_periods), law=plant, native=True)[0]
+    clean = [simulate_steady_state(rig, w, a, SimulationConfig(n_periods=n_periods), law=plant)[0]
              for w, a in POINTS]
     law = plant.law
     stateless = JointLaw(tuple(t for t in law.terms if not t.stateful),

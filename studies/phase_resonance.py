@@ -35,7 +35,7 @@ __all__ = ["phase_resonance"]
 
 
 def _fundamentals(rig: RigModel, omega: float, level: float, law, config: SimulationConfig) -> tuple[complex, complex]:
-    rec, _ = simulate_steady_state(rig, omega, level, config, law=law, native=True)
+    rec, _ = simulate_steady_state(rig, omega, level, config, law=law)
     phi = fourier_coefficients(rec.phi_rad, rec.n_periods, 1)[1]
     m = fourier_coefficients(rec.torque_Nm, rec.n_periods, 1)[1]
     return phi, m

@@ -31,6 +31,7 @@ from jointrig.vocab.records import SteadyStateRecord
 
 from jointrig.rig.model import RigModel, load_rig
 from jointrig.rig.simulate import SettleInfo, SimulationConfig, StartState, simulate_steady_state
+from jointrig.rig.native_callback import choose_native
 
 __all__ = ["SweepPlan", "SweepPoint", "SweepStoreMismatch", "run_sweep", "simulate_segment", "DEFAULT_PLAN",
            "EXECUTORS", "records_of", "MultisinePlan", "DEFAULT_MULTISINE",
@@ -113,7 +114,7 @@ DEFAULT_MULTISINE = MultisinePlan(omega0_rad_s=2.5, max_harmonic_excited=35, rms
 
 def run_multisines(rig: RigModel, plan: MultisinePlan = DEFAULT_MULTISINE,
                    config: SimulationConfig = SimulationConfig(samples_per_period=512), *,
-                   native: bool = False) -> list[tuple[SteadyStateRecord, SettleInfo, object]]:
+                   native: Optional[bool] = None) -> list[tuple[SteadyStateRecord, SettleInfo, object]]:
     """Simulate every multisine run to steady state: ``(record, settle info, excitation)``.
 
     Raises:
@@ -247,7 +248,7 @@ def run_sweep(
     *,
     store: Optional[Path] = None,
     progress: Optional[Callable[[int, int, SweepPoint], None]] = None,
-    native: bool = False,
+    native: Optional[bool] = None,
     workers: int = 1,
     continuation: bool = False,
     executor: str = "local",
@@ -260,7 +261,9 @@ def run_sweep(
         Points are saved as they finish, by the calling process, also with a cluster.
       progress: called as ``progress(i, n, point)`` after each point (in completion order
         when ``workers > 1``).
-      native: simulate with the native C callback (the same numbers, faster).
+      native: simulate with the native C callback (the same numbers, faster); False: the
+        Python callback; None (the default): native wherever it can run
+        (:func:`rig.native_callback.choose_native`).
       workers: simulate this many points at once: threads for the ``local`` executor (needs
         ``native``: MuJoCo's stepping releases the GIL, a Python callback would take it back at
         every force evaluation), processes for a local ``dask`` cluster. Results are
@@ -294,9 +297,11 @@ def run_sweep(
         raise ValueError(f"workers must be >= 1, got {workers}")
     if executor not in EXECUTORS:
         raise ValueError(f"executor must be one of {EXECUTORS}, got {executor!r}")
+    native = choose_native(native, (rig.plant,))
     if executor == "local" and workers > 1 and not native:
-        raise ValueError("workers > 1 needs native=True: the Python passive callback is one global that holds "
-                         "the GIL, so threads would neither share it safely nor run in parallel")
+        raise ValueError("workers > 1 needs the native callback (native=True, or the default where a C compiler "
+                         "builds it): the Python passive callback is one global that holds the GIL, so threads "
+                         "would neither share it safely nor run in parallel")
     if scheduler is not None and executor != "dask":
         raise ValueError("scheduler is an address of a dask cluster: use executor='dask'")
     points = plan.points()

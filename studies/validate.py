@@ -566,9 +566,10 @@ def _simulate(rig: RigModel, plant: Plant, J: tuple[float, float], run: Prepared
     keep[1] = True
     keep[run.kept["torque"][run.kept["torque"] <= band]] = True
     drive = drive_of_record(rec.omega_rad_s, np.where(keep, coeffs, 0))
-    # The native callback: the same numbers as the Python one, bit for bit (tests/test_native_callback.py).
+    # The native callback where it runs (the same numbers as the Python one, bit for bit:
+    # tests/test_native_callback.py), the Python one on a machine without a C compiler.
     sim, _ = simulate_steady_state(rig, rec.omega_rad_s, drive.amplitude_Nm, config, law=plant, drive=drive,
-                                   inertias_kgm2=J, native=True)
+                                   inertias_kgm2=J)
     if angle2_delay_s or angle2_gain_error:
         phi2 = shift_periodic(sim.phi2_rad, 1, rec.omega_rad_s, angle2_delay_s) if angle2_delay_s else sim.phi2_rad
         return band_limited(sim.phi1_rad - (1.0 + angle2_gain_error) * phi2, band)

@@ -56,13 +56,13 @@ def test_parallel_native_sweep_equals_the_serial_python_sweep(rig, tmp_path):
     from jointrig.studies.sweep import SweepPlan, records_of, run_sweep
 
     plan = SweepPlan(omegas_rad_s=(10.0, 45.0, 90.0), amplitudes_Nm=(400.0, 4000.0))
-    serial = records_of(run_sweep(rig, plan, SimulationConfig()))
+    serial = records_of(run_sweep(rig, plan, SimulationConfig(), native=False))
     parallel = records_of(run_sweep(rig, plan, SimulationConfig(), native=True, workers=2, store=tmp_path / "s"))
     for a, b in zip(serial, parallel):
         _identical(a, b)
     assert mujoco.get_mjcb_passive() is None
-    with pytest.raises(ValueError, match="needs native=True"):
-        run_sweep(rig, plan, SimulationConfig(), workers=2)
+    with pytest.raises(ValueError, match="needs the native callback"):
+        run_sweep(rig, plan, SimulationConfig(), native=False, workers=2)
 
 
 def test_the_oscillator_free_run_in_c_is_the_python_free_run_to_the_last_bit():
@@ -81,3 +81,34 @@ def test_the_oscillator_free_run_in_c_is_the_python_free_run_to_the_last_bit():
             for b in ("python", "native")}
     assert np.std(runs["python"]) > 1e-4  # it moves
     np.testing.assert_array_equal(runs["native"], runs["python"])
+
+
+def test_auto_backend_falls_back_to_python_where_native_cannot_run(rig, monkeypatch):
+    # No compiler on the machine: "auto" simulates with the Python callback (and says why not),
+    # an explicit choice is kept; with a compiler, a law with a term that has no C case falls
+    # back too. The Python run is checked to be the very run the explicit Python backend gives.
+    from jointrig.rig import native_callback as nc
+    from jointrig.vocab.law import JointLaw, Power, Term, Viscous
+
+    monkeypatch.setattr(nc, "_checked", True)
+    monkeypatch.setattr(nc, "_unavailable", "no C compiler found (set CC)")
+    assert nc.unsupported([rig.plant]) == "no C compiler found (set CC)"
+    assert nc.choose_native(None, [rig.plant]) is False
+    assert nc.choose_native(True, [rig.plant]) is True
+    cfg = SimulationConfig(n_periods=1)
+    auto, _ = simulate_steady_state(rig, 40.0, 2500.0, cfg)
+    python, _ = simulate_steady_state(rig, 40.0, 2500.0, cfg, native=False)
+    _identical(auto, python)
+
+    monkeypatch.setattr(nc, "_unavailable", None)
+
+    class Cubed(Term):  # a user's own term: Python only
+        name = "cubed_rate_Nms3_per_rad3"
+
+        def __call__(self, phi, rate):
+            return rate**3
+
+    law = JointLaw((Viscous(), Power(1), Cubed()), (100.0, 2000.0, 0.01))
+    assert "no term Cubed" in nc.unsupported([law])
+    assert nc.choose_native(None, [law]) is False
+    assert nc.choose_native(None, [rig.plant]) is True

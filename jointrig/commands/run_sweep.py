@@ -2,10 +2,10 @@
 
     python3 scripts/run_sweep.py                       # default sweep, runs/sweep.{json,rrd}
     python3 scripts/run_sweep.py --form two_dof --spawn # J1, J2 and the law; live viewer
-    python3 scripts/run_sweep.py --native --workers 2   # native callback, 2 threads
+    python3 scripts/run_sweep.py --workers 2            # 2 threads (native callback)
     python3 scripts/run_sweep.py --noise-db 40          # measured at 40 dB SNR: ML, +- std errors
     python3 scripts/run_sweep.py --excitation multisine # two odd random-phase multisines
-    python3 scripts/run_sweep.py --native --executor dask --scheduler tcp://head:8786  # a cluster
+    python3 scripts/run_sweep.py --executor dask --scheduler tcp://head:8786  # a cluster
 
 Frequencies are in rad/s, drive amplitudes in N m (torque on flywheel 1). Finished sweep
 points are kept in ``--store`` (default: runs/store/<model>-<settings hash>) so an
@@ -27,7 +27,7 @@ from jointrig.identify.multisine import line_levels
 from jointrig.vocab.law import JointLaw
 from jointrig.rig import DEFAULT_MODEL, SimulationConfig, load_rig
 from jointrig.rig.measurement import add_noise, repeat_periods
-from jointrig.rig.runtime import progress_level
+from jointrig.rig.runtime import add_backend_option, backend_native, progress_level
 from jointrig.studies.sweep import (DEFAULT_MULTISINE, DEFAULT_PLAN, EXECUTORS, SweepPlan, default_store, records_of,
                                     run_multisines, run_sweep, write_json_atomic)
 from jointrig.vocab.params import J1, J2, JE
@@ -74,10 +74,9 @@ def parse_args(argv=None) -> argparse.Namespace:
     viewer = p.add_mutually_exclusive_group()
     viewer.add_argument("--spawn", action="store_true", help="also stream to a newly spawned rerun viewer")
     viewer.add_argument("--connect", metavar="URL", help="also stream to a running viewer (gRPC URL)")
-    p.add_argument("--native", action="store_true",
-                   help="simulate with the native C callback (identical numbers, ~2.7x faster; needs a C compiler)")
+    add_backend_option(p)
     p.add_argument("--workers", type=int, default=1,
-                   help="simulate this many sweep points at once: threads with --executor local (needs --native), "
+                   help="simulate this many sweep points at once: threads with --executor local (native backend), "
                         "worker processes of a local dask cluster (default: %(default)s)")
     p.add_argument("--executor", choices=EXECUTORS, default="local",
                    help="local: this process; dask: a dask.distributed cluster (default: %(default)s)")
@@ -145,7 +144,7 @@ def main(argv=None) -> int:
              rig.law.as_dict(), rig.J1_kgm2, rig.J2_kgm2, len(plan.points()), store)
     if args.excitation == "stepped":
         harmonics = 9 if args.harmonics is None else args.harmonics
-        points = run_sweep(rig, plan, config, store=store, native=args.native, workers=args.workers,
+        points = run_sweep(rig, plan, config, store=store, native=backend_native(args.backend), workers=args.workers,
                            continuation=args.continuation, executor=args.executor, scheduler=args.scheduler)
         runs_json = [{"omega_rad_s": p.record.omega_rad_s, "amplitude_Nm": p.record.drive_amplitude_Nm,
                       "periods_to_steady_state": p.settle.periods_simulated, "last_change": p.settle.last_change,
@@ -157,7 +156,7 @@ def main(argv=None) -> int:
         harmonics = ms_plan.n_harmonics if args.harmonics is None else args.harmonics
         ms_config = dataclasses.replace(config, samples_per_period=max(config.samples_per_period,
                                                                        2 * harmonics + 2))
-        done = run_multisines(rig, ms_plan, ms_config, native=args.native)
+        done = run_multisines(rig, ms_plan, ms_config, native=backend_native(args.backend))
         records = [r for r, _, _ in done]
         excitations = [m for _, _, m in done]
         runs_json = [{"omega0_rad_s": ms_plan.omega0_rad_s, "rms_Nm": m.rms_Nm, "excited_harmonics": list(m.excited),
@@ -254,14 +253,14 @@ def chain_main(args: argparse.Namespace) -> int:
 
     unsupported = [flag for flag, on in (("--form two_dof", args.form != "equivalent"),
                                          ("--excitation multisine", args.excitation != "stepped"),
-                                         ("--workers without --native or --executor dask",
-                                          args.workers > 1 and not args.native and args.executor == "local"),
+                                         ("--workers with --backend python",
+                                          args.workers > 1 and args.backend == "python" and args.executor == "local"),
                                          ("--continuation", args.continuation),
                                          ("--sample-rate-hz", args.sample_rate_hz is not None)) if on]
     if unsupported:
         raise ValueError(f"{args.model} is a chain model: {', '.join(unsupported)} is not available for chains yet "
                          f"(they are identified from noise-free stepped sweeps, simulated here, in threads with "
-                         f"--native --workers N)")
+                         f"--workers N)")
     rig = load_chain(args.model)
     if args.omegas is None and args.amplitudes is None:
         points = list(CHAIN_PLAN)
@@ -283,7 +282,7 @@ def chain_main(args: argparse.Namespace) -> int:
     store = None if args.no_store else (args.store or default_chain_store(rig, config))
     log.info("chain model %s: %d flywheels, inertias %s kg m^2, %d sweep points; store %s", rig.path,
              rig.n_flywheels, rig.inertias_kgm2, len(points), store)
-    done = run_chain_sweep(rig, points, config, store=store, native=args.native, workers=args.workers,
+    done = run_chain_sweep(rig, points, config, store=store, native=backend_native(args.backend), workers=args.workers,
                            executor=args.executor, scheduler=args.scheduler)
     records = [p.record for p in done]
     spec = rig.plant.spec()
