@@ -4,13 +4,15 @@
     python3 scripts/bench_steady.py [--json OUT]
 
 For the default sweep, on the paper's joint (c = 100 N m s/rad, damping ratio 1.1) and on a
-lightly damped one (c = 5 N m s/rad, damping ratio 0.056), it runs every point three ways:
+lightly damped one (c = 5 N m s/rad, damping ratio 0.056), it runs every point four ways:
 
-* ``rest``: from rest, adaptive steady-state detection at ``settle_tol`` (1e-9);
-* ``continuation``: each frequency starts from the previous one's steady state;
-* ``reference``: from rest, 30 periods beyond where ``rest`` stopped (the transients here
-  shrink by r <= 0.84 per period, so what is left of them is 0.84^30 = 5e-3 of what ``rest``
-  left; what remains is the integration floor, ~1e-11 of the swing).
+* ``plain``: from rest, period by period, adaptive steady-state detection at ``settle_tol``
+  (1e-9) (``SimulationConfig(accelerate=False)``);
+* ``rest``: the same with the default extrapolation jumps (``SimulationConfig.accelerate``);
+* ``continuation``: each frequency starts from the previous one's steady state (with jumps);
+* ``reference``: plain, from rest, 30 periods beyond where ``plain`` stopped (the transients
+  here shrink by r <= 0.84 per period, so what is left of them is 0.84^30 = 5e-3 of what
+  ``plain`` left; what remains is the integration floor, ~1e-11 of the swing).
 
 It reports periods simulated, the estimated error bound of each run and the error measured
 against the reference (relative angle and rates, relative to their swing), and the largest
@@ -50,13 +52,15 @@ def _sweep(rig, config, continuation: bool):
 
 def bench(rig, label: str) -> dict:
     cfg = SimulationConfig()
-    runs = {"rest": _sweep(rig, cfg, False), "continuation": _sweep(rig, cfg, True),
-            }
-    # The reference: each point from rest again, REFERENCE_EXTRA periods beyond where it settled.
+    plain = dataclasses.replace(cfg, accelerate=False)
+    runs = {"plain": _sweep(rig, plain, False), "rest": _sweep(rig, cfg, False), "continuation": _sweep(rig, cfg, True)}
+    # The reference: each point from rest again, plainly, REFERENCE_EXTRA periods beyond where
+    # the plain run settled.
     ref = []
-    for p in runs["rest"]:
+    for p in runs["plain"]:
         n = p.settle.periods_simulated + REFERENCE_EXTRA
-        c = dataclasses.replace(cfg, min_periods=n, max_periods=n + 1, settle_tol=0.5, absolute_angles_periodic=False)
+        c = dataclasses.replace(plain, min_periods=n, max_periods=n + 1, settle_tol=0.5,
+                                absolute_angles_periodic=False)
         ref.extend(simulate_segment(rig, [(p.record.omega_rad_s, p.record.drive_amplitude_Nm, None)], c,
                                     native=True, continuation=False))
     runs["reference"] = ref
@@ -64,7 +68,7 @@ def bench(rig, label: str) -> dict:
               for k, v in runs.items()}
     names = [t.name for t in rig.law.terms]
     out = {"model": label, "settle_tol": cfg.settle_tol}
-    for k in ("rest", "continuation"):
+    for k in ("plain", "rest", "continuation"):
         pts = runs[k]
         errs = [relative_departure(p.record, r.record) for p, r in zip(pts, ref)]
         if VERBOSE:
@@ -99,7 +103,7 @@ def main(argv=None) -> int:
     results = [bench(rig, "paper joint, c = 100 N m s/rad"), bench(light, "light damping, c = 5 N m s/rad")]
     for r in results:
         print(f"{r['model']} (settle_tol {r['settle_tol']:g}; reference {r['reference_periods']} periods):")
-        for k in ("rest", "continuation"):
+        for k in ("plain", "rest", "continuation"):
             x = r[k]
             print(f"  {k:13s} {x['periods']:5d} periods {x['steps']:8d} steps  error {x['max_error']:.2e} "
                   f"(bound {x['max_bound']:.2e}; within bound at {x['errors_within_bound']}/{x['n_points']} points, all within settle_tol: {x['errors_within_settle_tol']})  parameters vs "
