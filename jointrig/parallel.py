@@ -42,10 +42,16 @@ def default_workers() -> int:
 
 
 def _one_thread() -> None:
-    from threadpoolctl import threadpool_limits
+    """Limit the worker's BLAS/OpenMP pools to one thread, touching only pools that have more:
+    setting OpenBLAS's threads in a forked child, even to the one it has, restarts its thread
+    server, whose threads then spin for ~60 ms of CPU per worker (measured; every jointrig
+    command has limited the parent already, so its workers skip this)."""
+    from threadpoolctl import ThreadpoolController
 
     global _LIMITS
-    _LIMITS = threadpool_limits(1)
+    controller = ThreadpoolController()
+    if any(lib.num_threads > 1 for lib in controller.lib_controllers):
+        _LIMITS = controller.limit(limits=1)
 
 
 def _run(i: int):

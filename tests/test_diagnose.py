@@ -260,3 +260,35 @@ def test_kink_correction_adds_only_out_of_band_harmonics_and_batches_exactly():
     assert np.abs(C[:, : band + 1] - C_bl[:, : band + 1]).max() < 1e-12 * scale
     assert np.abs(C[:, band + 1:]).max() > 1e-4 * scale
     assert np.array_equal(kink_corrected_rate(phi, omegas, band, 0.0), v_bl)
+
+
+def test_kink_iteration_from_a_neighbours_jump_settles_where_it_does_from_zero(rig, tmp_path_factory, reports,
+                                                                              monkeypatch):
+    # A profile search starts each trial's kink iteration from its nearest solved neighbour's jump
+    # (identify.diagnose._solve, start_jump). Started 10% off, or at the settled jump itself, the
+    # fit lands where it lands from no kinks at all: the jump settles to KINK_RTOL (1e-6), and the
+    # whole kink correction moves the friction torque by ~1e-4 of itself, so the values agree to
+    # 1e-9 of each (with margin). At the settled jump one fit suffices, not three.
+    import jointrig.identify.diagnose as D
+
+    report, _ = reports("coulomb_friction")
+    records, _ = measured(rig, tmp_path_factory, "coulomb_friction")
+    prepared = D.prepare_runs(records, band=report.band)
+    runs = tuple(r for i, r in enumerate(prepared) if i not in report.holdout)
+    problem = D._Problem(runs, report.diagnosis.form, report.diagnosis.n_harmonics, 0.5,
+                         2.0 * (min(r.n_periods for r in runs) - 1))
+    spec = report.diagnosis.extended.spec
+    _, w = D.fit(problem, spec)
+    calls = []
+    solve_once = D._solve_once
+    monkeypatch.setattr(D, "_solve_once", lambda *a: calls.append(a[-1]) or solve_once(*a))
+    cold = D._solve(problem, spec, w)
+    assert len(calls) == 3 and calls[0] == 0.0
+    settled = D._coulomb_jump(spec, cold.names, cold.values)
+    assert settled > 0
+    for start in (0.9 * settled, 1.1 * settled, settled):
+        calls.clear()
+        warm = D._solve(problem, spec, w, start)
+        np.testing.assert_allclose(warm.values, cold.values, rtol=1e-9, atol=0)
+        assert abs(warm.chi2 - cold.chi2) <= 1e-9 * cold.chi2
+    assert calls == [settled]

@@ -93,3 +93,21 @@ def test_one_worker_runs_here():
     pid = os.getpid()
     assert list(fork_map(lambda _: os.getpid(), [0, 1], workers=1)) == [pid, pid]
     assert set(fork_map(lambda _: os.getpid(), [0, 1], workers=2)).isdisjoint({pid})
+
+
+def test_workers_run_one_blas_thread_whatever_the_parent_runs(no_children_left):
+    """The workers are the parallelism: each runs its BLAS pools with one thread, whether the
+    parent had limited them already (every command does; the workers then leave the pools
+    alone) or runs several (a library user's session; the workers then limit them)."""
+    from threadpoolctl import ThreadpoolController, threadpool_limits
+
+    if not ThreadpoolController().lib_controllers:
+        pytest.skip("no BLAS/OpenMP pool loaded that threadpoolctl can see")
+
+    def threads(_):
+        return max(lib.num_threads for lib in ThreadpoolController().lib_controllers)
+
+    for parent in (1, 2):
+        with threadpool_limits(parent):
+            assert threads(0) == parent
+            assert list(fork_map(threads, range(2), 2)) == [1, 1]
