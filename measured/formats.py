@@ -107,21 +107,20 @@ def _read_csv(path: Path) -> list[RawTable]:
         k = len(next(csv.reader([head], delimiter=d)))
         if k > best:
             best, delim = k, d
-    if delim is None:
-        if len(head.split()) > 1:
-            rows = [ln.split() for ln in lines]
-        else:
-            rows = [[ln.strip()] for ln in lines]
-    else:
-        rows = list(csv.reader(io.StringIO("\n".join(lines)), delimiter=delim))
-    header = rows[0]
-    body = rows[1:]
+
+    def parse(block: list[str]) -> list[list[str]]:
+        if delim is None:
+            return [ln.split() for ln in block] if len(head.split()) > 1 else [[ln.strip()] for ln in block]
+        return list(csv.reader(io.StringIO("\n".join(block)), delimiter=delim))
+
+    header, *body = parse(lines[:2])  # the header and what may be a row of units
     names, units = [], {}
     for h in header:
         name, unit = split_header(h)
         names.append(name)
         if unit:
             units[name] = unit
+    first = 1  # the body's first line
     # A second header row of units (LabVIEW, DASYLab exports): no numbers at all in it.
     if body and len(body[0]) == len(names) and not any(_is_number(v) for v in body[0]) \
             and any(v.strip() for v in body[0]):
@@ -129,14 +128,25 @@ def _read_csv(path: Path) -> list[RawTable]:
             u = u.strip().strip("[]()")
             if u and name not in units:
                 units[name] = u
-        body = body[1:]
+        first = 2
     decimal_comma = delim in (";", "\t", "|", None) and any(
-        _DECIMAL_COMMA.match(v.strip()) for row in body[:20] for v in row)
+        _DECIMAL_COMMA.match(v.strip()) for row in parse(lines[first:first + 20]) for v in row)
     seen = set()
     for name in names:
         if name in seen:
             raise FormatError(f"{path}: column name {name!r} appears twice in the header; expected unique names")
         seen.add(name)
+    if delim is not None and not decimal_comma and len(lines) > first:
+        # Plain numbers in every field (a DAQ's usual export): parsed in numpy's C reader, ~5x
+        # faster than the csv module; anything else (quotes, blanks, labels, a short row) raises
+        # and takes the general path below, with its messages.
+        try:
+            data = np.loadtxt(lines[first:], delimiter=delim, dtype=float, comments=None, ndmin=2)
+        except ValueError:
+            data = None
+        if data is not None and data.shape[1] == len(names):
+            return [RawTable(str(path), {n: data[:, k].copy() for k, n in enumerate(names)}, units)]
+    body = parse(lines[first:])
     for i, row in enumerate(body, start=1):
         if len(row) != len(names):
             raise FormatError(f"{path}: data row {i} has {len(row)} fields, the header has {len(names)} "

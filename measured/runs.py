@@ -201,7 +201,11 @@ def _resolve(table: RawTable, columns: dict, units: dict, notes: list) -> tuple[
     for canon, src in found.items():
         col = np.asarray(table.columns[src])
         if canon == "run":
-            out[canon] = np.array([_label(v) for v in col], dtype=object)
+            if col.dtype.kind in "iuf":  # numbers: each distinct value labelled once
+                distinct, where_in = np.unique(col, return_inverse=True)
+                out[canon] = np.array([_label(v) for v in distinct], dtype=object)[where_in.reshape(-1)]
+            else:
+                out[canon] = np.array([_label(v) for v in col], dtype=object)
             continue
         if col.dtype.kind not in "iufb":
             bad = next((i for i, v in enumerate(col) if not _is_float(v)), 0)

@@ -381,6 +381,9 @@ def _figures(report: DiagnosisReport) -> list[tuple[str, str]]:
                             wspace=gap_w / ax_w, hspace=gap_h / ax_h)
         for ax, r in zip(axes.flat, runs):
             draw(ax, r)
+            for axis in (ax.xaxis, ax.yaxis):
+                if axis.get_scale() == "linear":
+                    axis.set_major_locator(matplotlib.ticker.MaxNLocator(5))
         for ax in list(axes.flat)[n:]:
             ax.axis("off")
         axes.flat[0].legend(fontsize=8)
