@@ -212,7 +212,11 @@ def evidence(delta_chi2: float, q: int, n_rows: int, alpha: float = 1e-3, n_caus
     by ``delta_chi2`` over ``n_rows`` equations. Returns ``(score, p, significant)``: the BIC
     score ``delta - q ln(n_rows)`` (twice the log Bayes factor against the model without it),
     the chi-square(q) probability of a drop this large without the cause, and whether it is
-    significant at the family-wise ``alpha`` over ``n_causes`` (Bonferroni) with a positive score."""
+    significant at the family-wise ``alpha`` over ``n_causes`` (Bonferroni) with a positive score.
+    A cause that adds no parameter (``q = 0``: it is in the model already, as dry friction is in
+    a Stribeck law) is never significant, whatever round-off its refit leaves in ``delta_chi2``."""
+    if q <= 0:
+        return float(delta_chi2), 1.0, False
     p = float(chdtrc(q, max(delta_chi2, 0.0)))
     score = delta_chi2 - q * math.log(n_rows)
     return float(score), p, bool(p < alpha / n_causes and score > 0)

@@ -830,22 +830,43 @@ class Diagnosis:
 from jointrig.parallel import default_workers, fork_map  # noqa: E402
 
 
+def _cost_rank(problem: _Problem, cause: Cause, base: Fit) -> int:
+    """0: a profile search over a law with sliders (its columns are stepped sample by sample at
+    every trial value: the longest), 1: another profile search (tens of fits), 2: one fit."""
+    if cause.bounds is None:
+        return 2
+    lo, hi = cause.bounds(problem.runs)
+    return 0 if any(t.stateful for t in cause.extend(base.spec, 0.5 * (lo + hi)).terms) else 1
+
+
 def _score_all(problem: _Problem, causes: Sequence[Cause], base: Fit, weights: np.ndarray, n: int, alpha: float,
-               workers: int, progress: Optional[Callable[[str], None]] = None) -> list[CauseScore]:
+               workers: int, progress: Optional[Callable[[str], None]] = None,
+               known: Optional[dict] = None) -> list[CauseScore]:
     """:func:`score_cause` for every cause, in ``workers`` forked processes when more than one
     (the causes of a round are independent; the scores are the same numbers either way).
+    ``known``: cause name -> its score on this same base, weights and ``n``, computed already
+    (the previous round's rival check); not computed again.
     ``progress`` hears of each cause as its score arrives (in the causes' order)."""
     say = progress or (lambda msg: None)
+    known = known or {}
+    out = {}
+    for k, c in enumerate(causes):
+        if c.name in known:
+            out[k] = s = known[c.name]
+            say(f"  scored {s.effect} ({len(out)}/{len(causes)}): evidence {s.score:.4g}"
+                + (", significant" if s.significant else "") + " (in the rival check)")
+    done = len(out)
 
-    def told(k: int, s: CauseScore) -> CauseScore:
-        say(f"  scored {s.effect} ({k + 1}/{len(causes)}): evidence {s.score:.4g}"
+    def told(j: int, s: CauseScore) -> CauseScore:
+        say(f"  scored {s.effect} ({done + j + 1}/{len(causes)}): evidence {s.score:.4g}"
             + (", significant" if s.significant else ""))
         return s
 
-    # Causes with a profile search (tens of fits each) go first, so the processes finish together.
-    order = sorted(range(len(causes)), key=lambda k: causes[k].bounds is None)
+    # The longest first (sliders, then other profile searches), so the processes finish together.
+    order = sorted((k for k in range(len(causes)) if k not in out),
+                   key=lambda k: _cost_rank(problem, causes[k], base))
     scores = fork_map(lambda k: score_cause(problem, causes[k], base, weights, n, alpha), order, workers)
-    out = dict((k, told(j, s)) for j, (k, s) in enumerate(zip(order, scores)))
+    out.update((k, told(j, s)) for j, (k, s) in enumerate(zip(order, scores)))
     return [out[k] for k in range(len(causes))]
 
 
@@ -901,6 +922,7 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
     steps: list[CauseScore] = []
     remaining = list(causes)
     ambiguous: list[Ambiguity] = []
+    known: dict[str, CauseScore] = {}  # scores on the current base from the last rival check
     for rnd in range(max_effects):
         # Ranked by evidence; causes rejected as unphysical or untestable go last. Causes the data
         # cannot tell apart at all (an angle offset and an asymmetric stiffness bend the model alike)
@@ -908,7 +930,7 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
         say(f"round {rnd + 1}: scoring {len(remaining)} causes on "
             + (" + ".join(s.effect for s in steps) or "the nominal model")
             + (f" ({workers} processes)" if workers > 1 else ""))
-        scores = sorted(_score_all(problem, remaining, current, wcur, len(remaining), alpha, workers, say),
+        scores = sorted(_score_all(problem, remaining, current, wcur, len(remaining), alpha, workers, say, known),
                         key=lambda s: (bool(s.note), -float(f"{s.score:.9g}")))
         if rnd == 0:
             first = scores
@@ -938,12 +960,16 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
             r_given_b = score_cause(problem, cause_r, current, wcur, n_left, alpha)
             rival_fit, wr = fit(problem, rival.fit.spec)
             b_given_r = score_cause(problem, cause_b, rival_fit, wr, n_left, alpha)
-            return r_given_b.significant, b_given_r.significant
+            return r_given_b, b_given_r.significant
 
         if rivals:
             say(f"  are {', '.join(r.effect for r in rivals)} still needed beside {best.effect}? (and the reverse)")
-        for rival, (r_needed, b_needed) in zip(rivals, fork_map(both_ways, rivals, workers)):
-            if not r_needed and not b_needed:
+        names_left = {c.name for c in remaining}
+        known = {}
+        for rival, (r_given_b, b_needed) in zip(rivals, fork_map(both_ways, rivals, workers)):
+            if rival.effect in names_left:  # the next round scores it on the same base: it is known
+                known[rival.effect] = r_given_b
+            if not r_given_b.significant and not b_needed:
                 pair = frozenset({best.effect, rival.effect})
                 ambiguous.append(Ambiguity((best.effect, rival.effect),
                                            SEPARATING_EXCITATION.get(pair, DEFAULT_SEPARATION)))

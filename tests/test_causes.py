@@ -39,3 +39,5 @@ def test_evidence_by_hand():
     assert sig  # p < 1e-2 and the score is positive
     assert not evidence(10.0, 1, 100, alpha=1e-2, n_causes=10)[2]  # Bonferroni: p > 1e-3
     assert not evidence(10.0, 3, 100, alpha=1.0, n_causes=1)[2]  # significant, but 3 parameters do not pay
+    # A cause already in the model adds no parameter: its refit's round-off is no evidence.
+    assert evidence(2.6e-8, 0, 100, alpha=1.0, n_causes=1) == (2.6e-8, 1.0, False)
