@@ -32,6 +32,7 @@ from jointrig.vocab.plant import Plant, drive_of_record
 from jointrig.vocab.records import SteadyStateRecord
 from jointrig.identify.surface import RestoringSurface, restoring_surface
 
+from jointrig.parallel import fork_map
 from jointrig.rig.model import RigModel, load_rig
 from jointrig.rig.simulate import SimulationConfig, SteadyStateNotReached, simulate_steady_state
 from jointrig.vocab.params import J1, JE, BEARING1, BEARING2
@@ -667,20 +668,23 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
         if fitted.get(name, 0.0) < 0:  # within 2 standard errors of 0, else the extension was rejected
             notes.append(f"the extended model's {name} = {fitted[name]:.3g} +- {diag.extended.std_error(name):.2g} "
                          f"(not significantly below 0) is simulated as 0: a drag to ground cannot feed energy in")
-    for i, (rid, run) in enumerate(zip(run_ids, prepared)):
-        say(f"simulating run {rid} ({i + 1}/{n}) in the rig: nominal and extended")
+
+    def simulated(i: int) -> tuple[dict, list[str]]:
+        """Run ``i`` simulated under its measured drive: the nominal and the extended model's
+        relative angle over one period, and what to note."""
+        rid, run = run_ids[i], prepared[i]
         N = run.average.samples_per_period
         config = _validation_config(run)
-        phi = {}
+        phi, said = {}, []
         for which, plant, J in (("nominal", nominal_plant, J_nom), ("extended", ext_plant, J_ext)):
             if which == "extended" and diag.extended is diag.nominal:
                 phi[which] = phi["nominal"]  # nothing was added: the same model, simulated once
                 continue
             if not all(math.isfinite(j) and j > 0 for j in J):
                 if i == 0:
-                    notes.append(f"the {which} model's inertias {J} kg m^2 are not positive (are the runs at one "
-                                 f"frequency only? inertia and stiffness then cannot be separated): it cannot be "
-                                 f"simulated; its RMS counts as infinite")
+                    said.append(f"the {which} model's inertias {J} kg m^2 are not positive (are the runs at one "
+                                f"frequency only? inertia and stiffness then cannot be separated): it cannot be "
+                                f"simulated; its RMS counts as infinite")
                 phi[which] = np.full(N, np.nan)
                 continue
             try:
@@ -689,9 +693,17 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
             except SteadyStateNotReached as err:
                 # A wrong model may have no periodic response to this drive (it drifts, or is
                 # chaotic): that is a finding about the model, not a failure of the tool.
-                notes.append(f"run {rid}: the {which} model reaches no periodic steady state under the "
-                             f"measured drive ({err}); its RMS there counts as infinite")
+                said.append(f"run {rid}: the {which} model reaches no periodic steady state under the "
+                            f"measured drive ({err}); its RMS there counts as infinite")
                 phi[which] = np.full(N, np.nan)
+        return phi, said
+
+    say(f"simulating the {n} runs in the rig under their measured drives: nominal and extended model")
+    # The runs are independent: simulated in forked processes (jointrig.parallel), the same numbers.
+    for i, (phi, said) in enumerate(fork_map(simulated, range(n))):
+        rid, run = run_ids[i], prepared[i]
+        say(f"  simulated run {rid} ({i + 1}/{n})")
+        notes.extend(said)
         phi_nom, phi_ext = phi["nominal"], phi["extended"]
         avg = run.average
         # Harmonics 1.. only: the angle sensors' zero is arbitrary (see identify.diagnose.diagnose).

@@ -214,25 +214,28 @@ def test_the_report_says_which_generalisation_the_held_out_runs_test(reports):
     assert report.generalisation == ("the held-out runs test drive levels between the fitted ones (2500 N m)")
 
 
-def test_causes_scored_in_forked_workers_give_the_same_diagnosis(rig, tmp_path_factory, reports):
-    # The causes of a round are independent: scored in two forked processes they give the
-    # same numbers, bit for bit, as in one (the fixture's diagnosis ran with one).
-    from jointrig.identify.diagnose import diagnose, prepare_runs
-
+def test_causes_scored_and_runs_validated_in_forked_workers_give_the_same_report(rig, tmp_path_factory, reports,
+                                                                                  monkeypatch):
+    # The causes of a round are independent, and so are the validation runs: in two forked
+    # processes they give the same numbers, bit for bit, as in one (the fixture's report ran in
+    # one: an xdist worker runs threads, so jointrig.parallel.default_workers gives 1 there).
     report, _ = reports("backlash")
     records, _ = measured(rig, tmp_path_factory, "backlash")
-    prepared = prepare_runs(records, band=report.band)
-    fit_runs = [r for i, r in enumerate(prepared) if i not in report.holdout]
+    monkeypatch.setenv("JOINTRIG_WORKERS", "2")
     with warnings.catch_warnings():
         # Python >= 3.12 warns when a process with threads forks (an xdist worker has execnet's);
         # the workers only compute, they take no lock another thread could hold.
         warnings.simplefilter("ignore", DeprecationWarning)
-        two = diagnose(fit_runs, n_harmonics=report.band, workers=2)
+        two = run_diagnosis(records, rig=rig)
     one = report.diagnosis
-    assert [c.effect for c in two.causes] == [c.effect for c in one.causes]
-    assert [c.delta_chi2 for c in two.causes] == [c.delta_chi2 for c in one.causes]
-    assert two.effects == one.effects
-    np.testing.assert_array_equal(two.extended.values, one.extended.values)
+    assert [c.effect for c in two.diagnosis.causes] == [c.effect for c in one.causes]
+    assert [c.delta_chi2 for c in two.diagnosis.causes] == [c.delta_chi2 for c in one.causes]
+    assert two.diagnosis.effects == one.effects
+    np.testing.assert_array_equal(two.diagnosis.extended.values, one.extended.values)
+    for a, b in zip(two.runs, report.runs, strict=True):
+        np.testing.assert_array_equal(a.phi_nominal_rad, b.phi_nominal_rad)
+        np.testing.assert_array_equal(a.phi_extended_rad, b.phi_extended_rad)
+    assert two.gain == report.gain
 
 
 def test_kink_correction_adds_only_out_of_band_harmonics_and_batches_exactly():
