@@ -218,7 +218,7 @@ def test_causes_scored_and_runs_validated_in_forked_workers_give_the_same_report
                                                                                   monkeypatch):
     # The causes of a round are independent, and so are the validation runs: in two forked
     # processes they give the same numbers, bit for bit, as in one (the fixture's report ran in
-    # one: an xdist worker runs threads, so jointrig.parallel.default_workers gives 1 there).
+    # one: tests/conftest.py sets JOINTRIG_WORKERS=1).
     report, _ = reports("backlash")
     records, _ = measured(rig, tmp_path_factory, "backlash")
     monkeypatch.setenv("JOINTRIG_WORKERS", "2")
