@@ -41,6 +41,7 @@ from .estimates import equilibrated_condition
 from .balance import LinearSystem, _memo_arrays, harmonic_rows, spectral_rate, upsample
 from jointrig.vocab.law import JointLaw, Term
 from .harmonics import fourier_coefficients, max_harmonic
+from .periods import period_spectra, white_variance
 from jointrig.vocab.records import RecordError, SteadyStateRecord, WholePeriods
 from .solve import COND_WARN, IdentificationResult
 
@@ -576,7 +577,7 @@ def average_chain(record: ChainRecord) -> tuple[ChainRecord, np.ndarray, np.ndar
         if x is None:
             return None, 0.0
         y = x.reshape(P, n)
-        return y.mean(axis=0), float(np.sqrt(y.var(axis=0, ddof=1).mean() / P))
+        return y.mean(axis=0), math.sqrt(white_variance(period_spectra(y, P)[2], n))
 
     angles = [split(a) for a in record.angles_rad]
     torques = [split(t) for t in record.torques_Nm]

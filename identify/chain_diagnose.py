@@ -49,6 +49,7 @@ from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpe
 from .causes import CAUSES, Cause, ModelSpec
 from .diagnose import DEFAULT_FIDELITY, FINE_SAMPLES
 from .harmonics import max_harmonic
+from .periods import period_spectra, raw_noise_std
 from jointrig.vocab.records import RecordError, SteadyStateRecord
 from .estimates import Estimates
 from .solve import IllConditionedWarning
@@ -119,10 +120,8 @@ def prepare_chain_runs(records: Sequence[ChainRecord], *, band: int = 20) -> lis
         noise = {}
 
         def split(x, name):
-            X = np.fft.rfft(x.reshape(P, N), axis=1) / N
-            mean = X.mean(axis=0)
-            var = np.sum(np.abs(X - mean) ** 2, axis=0) / (P * (P - 1))
-            noise[name] = float(np.sqrt(np.median(var[1:N // 2]) * P * N))
+            X, mean, var = period_spectra(x, P)
+            noise[name] = raw_noise_std(var, P, N)
             return (np.fft.irfft(np.where(keep, mean, 0) * Nf, n=Nf),
                     np.fft.irfft(np.where(keep, X, 0) * Nf, n=Nf, axis=1))
 

@@ -43,6 +43,7 @@ from scipy.optimize import minimize_scalar
 from .balance import LinearSystem, assemble, spectral_rate
 from jointrig.vocab.law import Coulomb, JointLaw, Power, Viscous
 from .harmonics import fourier_coefficients, max_harmonic, synthesize
+from .periods import period_spectra, raw_noise_std
 from jointrig.vocab.plant import Plant, effect_parameters
 from jointrig.vocab.records import RecordError, SteadyStateRecord
 from .estimates import Estimates
@@ -103,12 +104,11 @@ OVERSAMPLE = 16
 FINE_SAMPLES = OVERSAMPLE * 256
 
 
-def _period_spectra(x: np.ndarray, P: int, N: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per-period spectra ``(P, N/2 + 1)`` (coefficients divided by N), their mean, and the
-    noise variance of the mean from period-to-period variation (pooled over neighbours)."""
-    X = np.fft.rfft(x.reshape(P, N), axis=1) / N
-    mean = X.mean(axis=0)
-    return X, mean, _pooled(np.sum(np.abs(X - mean) ** 2, axis=0) / (P * (P - 1)))
+def _period_spectra(x: np.ndarray, P: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`identify.periods.period_spectra` with the variance of the mean pooled over
+    neighbouring harmonics."""
+    X, mean, var = period_spectra(x, P)
+    return X, mean, _pooled(var)
 
 
 def _pooled(var: np.ndarray, half_width: int = 4) -> np.ndarray:
@@ -156,13 +156,13 @@ def prepare_runs(records: Sequence[SteadyStateRecord], *, band: int = 20,
         in_band = np.arange(H + 1) <= band
         # The fine grid has the same size whatever the file's rate: the law columns alias alike.
         Nf = FINE_SAMPLES
-        _, phi_mean, phi_var = _period_spectra(rec.phi_rad, P, N)
+        _, phi_mean, phi_var = _period_spectra(rec.phi_rad, P)
         kept = {"phi": np.flatnonzero(in_band & (np.abs(phi_mean) > significance_sigma * np.sqrt(phi_var)))}
         noise, avg, raw, favg, fper = {}, {}, {}, {}, {}
         for name, x in chans.items():
-            X, mean, var_mean = _period_spectra(x, P, N)
+            X, mean, var_mean = _period_spectra(x, P)
             kept[name] = np.flatnonzero(in_band & (np.abs(mean) > significance_sigma * np.sqrt(var_mean)))
-            noise[name] = float(np.sqrt(np.median(var_mean[1:H]) * P * N))  # per raw sample
+            noise[name] = raw_noise_std(var_mean, P, N)
             avg[name] = np.fft.irfft(np.where(in_band, mean, 0) * N, n=N)
             raw[name] = np.fft.irfft(mean * N, n=N)
             favg[name] = np.fft.irfft(np.where(in_band, mean, 0) * Nf, n=Nf)

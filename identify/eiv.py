@@ -46,11 +46,13 @@ from scipy import linalg, optimize, stats
 from jointrig.vocab.law import Term
 from .estimates import Estimates, equilibrated_condition
 from .harmonics import fourier_coefficients, max_harmonic
+from .periods import period_spectra, white_variance
 from jointrig.vocab.records import RecordError, SteadyStateRecord
 from jointrig.vocab.params import JE
 
 __all__ = ["PeriodAverage", "average_periods", "EivResult", "ml_identify", "crlb", "DEFAULT_RATE_BAND",
-           "prepare_runs", "linearised", "solve_penalised", "fisher_per_period"]
+           "prepare_eiv_runs", "linearised", "iterated_gls", "scaled_ls_start", "solve_penalised",
+           "fisher_per_period"]
 
 #: Harmonics kept in the derived rate (the noise of a spectral derivative grows with n).
 DEFAULT_RATE_BAND = 20
@@ -98,8 +100,8 @@ def average_periods(record: SteadyStateRecord, *, noise_free: bool = False,
     if k < 2:
         raise RecordError(f"{record.source}: {k} period(s); the noise estimate needs at least 2 "
                           f"measured periods (8 give 7 degrees of freedom per sample)")
-    var_phi = float(phi.var(axis=0, ddof=1).mean()) / k
-    var_u = float(u.var(axis=0, ddof=1).mean()) / k
+    var_phi = white_variance(period_spectra(phi, k)[2], N)
+    var_u = white_variance(period_spectra(u, k)[2], N)
     return PeriodAverage(record.omega_rad_s, phi.mean(axis=0), u.mean(axis=0), var_phi, var_u, k, record.source)
 
 
@@ -261,7 +263,7 @@ def _whitened(runs: Sequence[_Run], theta: np.ndarray) -> np.ndarray:
     return np.concatenate(out)
 
 
-def _gls(runs: Sequence[_Run], theta: np.ndarray, iterations: int = 6, penalty: Optional[np.ndarray] = None
+def iterated_gls(runs: Sequence[_Run], theta: np.ndarray, iterations: int = 6, penalty: Optional[np.ndarray] = None
          ) -> np.ndarray:
     """Iterated generalised least squares: rows weighted by C(theta) of the previous iterate.
 
@@ -292,7 +294,7 @@ def _instrumental(runs: Sequence[_Run], halves: Sequence[tuple[_Run, _Run]], the
     return np.linalg.solve(lhs, rhs)
 
 
-def _weighted_ls(runs: Sequence[_Run]) -> np.ndarray:
+def scaled_ls_start(runs: Sequence[_Run]) -> np.ndarray:
     """Start: least squares with each run's rows scaled by its rhs size (columns equilibrated)."""
     A = np.vstack([r.A / max(np.linalg.norm(r.F), 1e-300) for r in runs])
     F = np.concatenate([r.F / max(np.linalg.norm(r.F), 1e-300) for r in runs])
@@ -311,7 +313,7 @@ def ml_identify(records: Sequence[SteadyStateRecord], terms: Sequence[Term], *, 
       torque_share: J2 / (J1 + J2), the drive's share on the relative coordinate.
       rate_band: harmonics kept in the derived rate.
     """
-    runs = prepare_runs(records, terms, n_harmonics=n_harmonics, torque_share=torque_share, rate_band=rate_band)
+    runs = prepare_eiv_runs(records, terms, n_harmonics=n_harmonics, torque_share=torque_share, rate_band=rate_band)
     split = [_halves(r) for r in records]
     halves = None if any(h is None for h in split) else [
         tuple(_prepare(h, terms, n_harmonics, torque_share, rate_band) for h in pair) for pair in split]
@@ -324,7 +326,7 @@ def _solve(runs: Sequence[_Run], terms: Sequence[Term], halves=None, penalty: Op
     the cost (a smoothness prior); the covariance is then the posterior one,
     ``(J'J + penalty'penalty)^-1``, and ``cost`` is the data part only."""
     names = (JE,) + tuple(t.name for t in terms)
-    start = _gls(runs, _weighted_ls(runs), penalty=penalty)
+    start = iterated_gls(runs, scaled_ls_start(runs), penalty=penalty)
     starts = [start] + ([_instrumental(runs, halves, start)] if halves is not None and penalty is None else [])
     # Scale each unknown by its whitened column norm at the start (steps of ~1 standard
     # error), not by its start value: a start near 0 (gamma under heavy noise) would freeze it.
@@ -353,9 +355,11 @@ def _solve(runs: Sequence[_Run], terms: Sequence[Term], halves=None, penalty: Op
                      bool(sol.success), str(sol.message), equilibrated_condition(J[:n_rows]))
 
 
-def prepare_runs(records: Sequence[SteadyStateRecord], terms: Sequence[Term], *, n_harmonics: int,
+def prepare_eiv_runs(records: Sequence[SteadyStateRecord], terms: Sequence[Term], *, n_harmonics: int,
                  torque_share: float, rate_band: int = DEFAULT_RATE_BAND) -> list:
-    """The per-run pieces of :func:`ml_identify` (for estimators built on it, e.g. identify.hat)."""
+    """The per-run pieces of :func:`ml_identify` (for estimators built on it, e.g. identify.hat):
+    the errors-in-variables rows and covariance of every run. (The diagnosis's run preparation,
+    :func:`identify.diagnose.prepare_runs`, averages and band-limits for the causes instead.)"""
     if not records:
         raise ValueError("at least one record is needed")
     if not 0 < torque_share <= 1:

@@ -26,7 +26,8 @@ from typing import Optional, Sequence
 import numpy as np
 
 from jointrig.vocab.law import Term, Viscous, angle_hats, hat_matrix, rate_hats
-from .eiv import EivResult, _gls, _weighted_ls, average_periods, linearised, prepare_runs, solve_penalised
+from .eiv import (EivResult, average_periods, iterated_gls, linearised, prepare_eiv_runs, scaled_ls_start,
+                  solve_penalised)
 from .harmonics import fourier_coefficients, synthesize
 from jointrig.vocab.records import SteadyStateRecord
 
@@ -154,7 +155,7 @@ def fit_hat_law(records: Sequence[SteadyStateRecord], *, n_knots: int, n_harmoni
         rh = rate_hats(rknots)
         damping = tuple(h for i, h in enumerate(rh) if i != len(rh) // 2)  # f(0) = 0
     terms = tuple(damping) + hats
-    runs = prepare_runs(records, terms, n_harmonics=n_harmonics, torque_share=torque_share)
+    runs = prepare_eiv_runs(records, terms, n_harmonics=n_harmonics, torque_share=torque_share)
     p = 1 + len(terms)
     first = 1 + len(damping)
     m = len(hats)
@@ -162,7 +163,7 @@ def fit_hat_law(records: Sequence[SteadyStateRecord], *, n_knots: int, n_harmoni
     if n_rate_knots is not None:
         blocks.append(_second_differences(p, 1, n_rate_knots, skip=n_rate_knots // 2))
     # Make lambda dimensionless: each block on the scale of its columns in the whitened data.
-    ls = _weighted_ls(runs)
+    ls = scaled_ls_start(runs)
     J0, _ = linearised(runs, ls)
     scaled = []
     for D in blocks:
@@ -171,7 +172,7 @@ def fit_hat_law(records: Sequence[SteadyStateRecord], *, n_knots: int, n_harmoni
     P = np.vstack(scaled)
     gcv: list[tuple[float, float]] = []
     if lam is None:
-        theta0 = _gls(runs, ls, penalty=np.sqrt(LAMBDA_GRID[0]) * P)
+        theta0 = iterated_gls(runs, ls, penalty=np.sqrt(LAMBDA_GRID[0]) * P)
         J, y = linearised(runs, theta0)
         JtJ, Jty, PtP = J.T @ J, J.T @ y, P.T @ P
         n = y.size

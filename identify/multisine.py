@@ -24,6 +24,7 @@ from typing import Optional
 import numpy as np
 
 from .harmonics import fourier_coefficients, max_harmonic
+from .periods import period_spectra
 from jointrig.vocab.plant import PeriodicDrive
 from jointrig.vocab.records import SteadyStateRecord
 
@@ -111,7 +112,7 @@ def line_levels(record: SteadyStateRecord, excitation: OddMultisine, n_harmonics
     even = list(range(2, H + 1, 2))
     noise = 0.0
     if P >= 2:
-        per = fourier_coefficients(record.phi_rad.reshape(P, N), 1, H)  # (P, H + 1)
-        noise = float(np.mean(np.var(per[:, 1:], axis=0, ddof=1))) / P / 2
+        # of the power |C_n|^2 / 2 of each line, C_n = 2 X_n: 4 var(X_n) / 2
+        noise = 2.0 * float(np.mean(period_spectra(record.phi_rad, P)[2][1:H + 1]))
     return LineLevels(float(power[ex].mean()), float(power[det].mean()) if det else 0.0,
                       float(power[even].mean()) if even else 0.0, noise, H)

@@ -25,6 +25,10 @@ uniformly (:class:`vocab.records.SteadyStateRecord`). The steps:
    residual of the fit is reported.
 5. **Drift** (:func:`linear_drift`): a linear trend under the periodic model (a slipping
    encoder, an unsettled transient, a rotating shaft), with its t-statistic.
+6. **Noise** (:func:`period_spectra`): the one noise estimator of every identifier: the mean
+   period's spectrum and the variance of that mean at each harmonic from the period-to-period
+   variation; :func:`white_variance` sums it into the variance per sample of the mean period
+   (Parseval), :func:`raw_noise_std` into a robust standard deviation per raw sample.
 """
 
 from __future__ import annotations
@@ -39,7 +43,7 @@ from scipy.optimize import minimize_scalar
 __all__ = [
     "MAX_CLOCK_DEVIATION", "UniformClock", "uniform_clock", "Fundamental", "estimate_fundamental", "fit_at",
     "periodic_rss", "repeat_statistic", "PeriodFit", "MAX_LS_HARMONICS", "ls_harmonics", "periods_by_least_squares",
-    "Drift", "linear_drift",
+    "Drift", "linear_drift", "period_spectra", "white_variance", "raw_noise_std",
 ]
 
 #: Largest deviation of a time stamp from the fitted uniform clock, in sample steps. Rounding
@@ -311,3 +315,39 @@ def linear_drift(t: np.ndarray, x: np.ndarray, omega: float, *, harmonics: int =
     se = math.sqrt(var * cov[-1, -1])
     slope = float(coef[-1])
     return Drift(slope, se, slope / se if se > 0 else math.inf, slope * float(tc[-1] - tc[0] + dt))
+
+
+def period_spectra(x: np.ndarray, n_periods: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The noise estimator shared by the identifiers: ``(X, mean, var_of_mean)``.
+
+    ``x``: ``n_periods`` whole periods of N samples each, ``(P N,)`` or ``(P, N)``. ``X`` holds
+    every period's spectrum ``(P, N/2 + 1)`` (rfft divided by N, so ``x`` is the sum over the
+    two-sided spectrum), ``mean`` their mean, and ``var_of_mean`` the variance of that mean at
+    each harmonic, ``sum_p |X_p - mean|^2 / (P (P - 1))`` (unbiased; needs P >= 2)."""
+    x = np.asarray(x, dtype=float)
+    P = int(n_periods)
+    if P < 2:
+        raise ValueError(f"period_spectra: {P} period(s); the period-to-period variation needs at least 2")
+    X = np.fft.rfft(x.reshape(P, -1), axis=1) / (x.size // P)
+    mean = X.mean(axis=0)
+    return X, mean, np.sum(np.abs(X - mean) ** 2, axis=0) / (P * (P - 1))
+
+
+def white_variance(var_of_mean: np.ndarray, samples_per_period: int) -> float:
+    """Variance per sample of the mean period (the mean over its samples of each sample's
+    variance) from :func:`period_spectra`'s per-harmonic variances, by Parseval: the mean and
+    (for even N) the Nyquist line once, every other line twice (it stands for +-n)."""
+    v = np.asarray(var_of_mean, dtype=float)
+    w = np.full(v.size, 2.0)
+    w[0] = 1.0
+    if samples_per_period % 2 == 0:
+        w[-1] = 1.0
+    return float(np.sum(w * v))
+
+
+def raw_noise_std(var_of_mean: np.ndarray, n_periods: int, samples_per_period: int) -> float:
+    """Standard deviation of the noise per raw sample from :func:`period_spectra`'s (or a pooled)
+    per-harmonic variance of the mean: the median over the harmonics 1 .. N/2 - 1, so a few lines
+    the signal leaks into (a drive's jitter) do not raise it."""
+    N = samples_per_period
+    return float(np.sqrt(np.median(np.asarray(var_of_mean)[1:N // 2]) * n_periods * N))

@@ -20,6 +20,7 @@ import numpy as np
 from jointrig.identify.chain import ChainRecord
 from jointrig.identify.chain_diagnose import ChainDiagnosis, plant_and_inertias
 from jointrig.identify.harmonics import fourier_coefficients, max_harmonic
+from jointrig.identify.periods import period_spectra
 from jointrig.vocab.plant import drive_of_record
 
 from jointrig.rig.chain import ChainRig, simulate_chain
@@ -76,9 +77,8 @@ def _noise(meas: ChainRecord, band: int) -> float:
         return 0.0
     total = 0.0
     for j in range(meas.n_flywheels - 1):
-        x = (meas.angles_rad[j] - meas.angles_rad[j + 1]).reshape(P, N)
-        X = np.fft.rfft(x, axis=1)[:, 1:band + 1] / N * 2  # each period's coefficients C_1..C_band
-        total += float(np.sum(np.abs(X - X.mean(axis=0)) ** 2)) / (P * (P - 1))
+        _, _, var = period_spectra(meas.angles_rad[j] - meas.angles_rad[j + 1], P)
+        total += 4.0 * float(np.sum(var[1:band + 1]))  # of the coefficients C_n = 2 X_n, n = 1..band
     return total
 
 

@@ -269,7 +269,7 @@ def test_every_start_of_the_ml_search_is_exact_on_consistent_rows():
     # instrumental variables. On rows without noise (a linear joint in closed form, as in the
     # CRLB test) each start must return the true (Je, c, k) to round-off: a scaling or a sign
     # slip in any of them would show here, though Levenberg-Marquardt might still recover.
-    from jointrig.identify.eiv import PeriodAverage, _gls, _instrumental, _prepare, _weighted_ls
+    from jointrig.identify.eiv import PeriodAverage, iterated_gls, _instrumental, _prepare, scaled_ls_start
     from jointrig.vocab.records import SteadyStateRecord
 
     Je, c, k, s, M0, N = 1.0, 100.0, 2000.0, 0.5, 400.0, 64
@@ -284,9 +284,9 @@ def test_every_start_of_the_ml_search_is_exact_on_consistent_rows():
         avg = PeriodAverage(avg.omega_rad_s, avg.phi_rad, avg.torque_Nm, 1e-10, 1e-2, 1, avg.source)
         runs.append(_prepare(avg, terms, 5, s, 5, noisy=False))
     truth = np.array([Je, c, k])
-    start = _weighted_ls(runs)
+    start = scaled_ls_start(runs)
     np.testing.assert_allclose(start, truth, rtol=1e-9)  # measured 9e-16 (GLS 6e-15, IV 2e-16)
-    np.testing.assert_allclose(_gls(runs, start * 1.1), truth, rtol=1e-9)  # from a start 10% off
+    np.testing.assert_allclose(iterated_gls(runs, start * 1.1), truth, rtol=1e-9)  # from a start 10% off
     np.testing.assert_allclose(_instrumental(runs, [(r, r) for r in runs], truth), truth, rtol=1e-9)
 
 
@@ -294,11 +294,11 @@ def test_the_ml_residual_is_whitened_by_the_full_row_covariance(default_sweep, r
     # |L^-1 (A theta - F)|^2 = r' C(theta)^-1 r with C = L L' the rows' covariance, which the
     # cubic term makes non-diagonal (noise in phi enters every harmonic of phi^3): whitening by
     # the wrong triangle, or by the diagonal alone, changes the likelihood.
-    from jointrig.identify.eiv import _whitened, linearised, prepare_runs
+    from jointrig.identify.eiv import _whitened, linearised, prepare_eiv_runs
 
     rng = np.random.default_rng(11)
     recs = [add_noise(repeat_periods(r, 4), 40.0, rng) for r in default_sweep[3:6]]
-    runs = prepare_runs(recs, rig.law.terms, n_harmonics=9, torque_share=rig.torque_share)
+    runs = prepare_eiv_runs(recs, rig.law.terms, n_harmonics=9, torque_share=rig.torque_share)
     # a strong cubic term (gamma 1e4 times the joint's) couples the harmonics' noise
     theta = np.array([rig.Je_kgm2, *rig.law.values]) * np.array([1.0, 1.0, 1.0, 1e4])
     direct = 0.0
