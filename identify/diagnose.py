@@ -506,15 +506,17 @@ def _solve_once(problem: _Problem, spec: ModelSpec, weights: np.ndarray, jump: f
 
 
 #: The kink iteration of :func:`_solve` stops when the next jump is within this of the one the
-#: fit used (relative). The whole kink correction moves a friction torque by ~4e-5 of itself
-#: (worn joint), so a jump this close changes no fitted value beyond ~1e-10 of it.
+#: fit used (relative). The whole kink correction moves a friction torque by 4e-5 (the worn
+#: joint's Coulomb friction) to 1e-2 (a Stribeck law's excess) of itself, so a jump this close
+#: changes no fitted value beyond ~1e-8 of it.
 KINK_RTOL = 1e-6
 
 
 def _solve(problem: _Problem, spec: ModelSpec, weights: np.ndarray, start_jump: float = 0.0) -> Fit:
     """Weighted fit of ``spec``; with dry friction, the rate's kinks restored at the fitted
     friction (:func:`kink_corrected_rate`) and refitted until the jump settles (to
-    ``KINK_RTOL``; at most two refits, the iteration contracts by ~1e-7 per pass).
+    ``KINK_RTOL``; at most two refits: the iteration contracts by 3e-5 per pass on the worn
+    joint, by 1e-4 to 6e-3 on the independent bench's Stribeck law, measured).
 
     ``start_jump``: the jump to fit at first (rad/s^2): 0 (no kinks), or a neighbour's settled
     jump, which a profile search passes from trial to trial (a trial next to a solved one then
