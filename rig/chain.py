@@ -41,7 +41,8 @@ from jointrig.identify.chain import ChainPlant, ChainRecord
 from .model import JOINT_FIELD as _JOINT_FIELD
 from .model import PREFIX, RigModelError, compile_model, is_chain_model
 from .native_callback import NativeChain, choose_native, session_active
-from .simulate import SettleInfo, SimulationConfig, SimulationError, _activated, _Jump, _settle, passive_callback, set_inertias
+from .simulate import (SettleInfo, SimulationConfig, SimulationError, _activated, _Jump, _settle, passive_callback,
+                       set_inertias)
 
 __all__ = ["ChainRig", "load_chain", "is_chain_model", "simulate_chain", "chain_callback", "MAX_FLYWHEELS"]
 

@@ -94,7 +94,8 @@ def main(argv=None) -> int:
         busy = busy_core_timings(argv_d, args.repeat) if args.busy else None
     report = {
         "what": "worn-joint example, 9 runs x 16 periods at 40 dB; best of --repeat; one BLAS thread",
-        "diagnosis_end_to_end_s": t_diag, "diagnosis_as_a_command_s": t_cmd, "nominal_fit_s": t_nom, "native_simulation_of_the_runs_s": t_sim,
+        "diagnosis_end_to_end_s": t_diag, "diagnosis_as_a_command_s": t_cmd,
+        "nominal_fit_s": t_nom, "native_simulation_of_the_runs_s": t_sim,
         "diagnosis_over_native_simulation": t_diag / t_sim, "diagnosis_over_nominal_fit": t_diag / t_nom,
         "verdict": result["verdict"], "effects": result["extended"]["effects"], "gain": result["gain"],
     }

@@ -123,7 +123,8 @@ def default_chain_store(rig: ChainRig, config: SimulationConfig, root: Path = Pa
 
 
 def run_chain_sweep(rig: ChainRig, points: Sequence[tuple], config: SimulationConfig = CHAIN_CONFIG, *,
-                    store: Optional[Path] = None, native: Optional[bool] = None, workers: int = 1, executor: str = "local",
+                    store: Optional[Path] = None, native: Optional[bool] = None,
+                    workers: int = 1, executor: str = "local",
                     scheduler: Optional[str] = None) -> list[ChainPoint]:
     """Simulate every ``(omega, amplitude, flywheel)`` point (loading those already in ``store``;
     ``native``: the C callback, bit-identical, so stored points serve either way).
