@@ -42,6 +42,8 @@ __all__ = [
     "LinearSystem",
     "assemble",
     "harmonic_rows",
+    "law_rows",
+    "memo_arrays",
     "equivalent_system",
     "two_dof_system",
     "single_dof_system",
@@ -204,7 +206,7 @@ _MEMO: dict = {}
 _MEMO_MAX = 1024  # at most ~150 records held (about 35 MB at 4096 samples per period)
 
 
-def _memo_arrays(arrays: tuple, key: tuple, compute):
+def memo_arrays(arrays: tuple, key: tuple, compute):
     """The memoised ``compute()``, keyed by the identity of the objects it is computed from (held
     in the entry, so no id is reused while cached): records that share their angles (a record
     whose rate alone was replaced, as the dry-friction kink correction does) share angle-only
@@ -221,37 +223,45 @@ def _memo_arrays(arrays: tuple, key: tuple, compute):
 
 
 def _memo(rec: SteadyStateRecord, key: tuple, compute):
-    """:func:`_memo_arrays` keyed by the record itself."""
-    return _memo_arrays((rec,), key, compute)
+    """:func:`memo_arrays` keyed by the record itself."""
+    return memo_arrays((rec,), key, compute)
+
+
+def law_rows(terms: Sequence[Term], angles: tuple, rates: tuple, fine_phi, fine_rate, n_periods: int,
+             n_harmonics: int, oversample: int) -> np.ndarray:
+    """Fourier coefficients (harmonics 0..n_harmonics) of each term's torque along one relative
+    motion, one memoised row per term: the rows of every builder (two flywheels, chains).
+
+    The motion is that of ``angles`` (the two absolute angles, first minus second) and
+    ``rates`` (their rates, entries may be None): ``fine_phi()`` and ``fine_rate()`` give the
+    relative angle and rate oversampled ``oversample`` times; each is computed once per set of
+    arrays. A term of the angle alone (elastic, or with memory of the angle: Jenkins, Iwan) is
+    keyed by the angles only, any other also by the rates, so a profile search that varies one
+    term's parameter, or a kink correction that replaces the rate, re-evaluates only what changed.
+    """
+    motion = angles + rates
+
+    def row(term):
+        angle_only = term.elastic or term.stateful
+
+        def compute():
+            phi = memo_arrays(angles, ("fine_phi", oversample), fine_phi)
+            rate = np.zeros_like(phi) if angle_only else memo_arrays(motion, ("fine_rate", oversample), fine_rate)
+            sig = np.broadcast_to(np.asarray(term(phi, rate), dtype=float), phi.shape)
+            return fourier_coefficients(sig, n_periods, n_harmonics)
+        return memo_arrays(angles if angle_only else motion, ("term", term, n_periods, n_harmonics, oversample),
+                           compute)
+
+    return np.vstack([row(t) for t in terms])
 
 
 def _record_term_coeffs(rec: SteadyStateRecord, terms: Sequence[Term], n_harmonics: int,
                         oversample: int) -> np.ndarray:
-    """:func:`_term_coeffs` of the relative motion of ``rec``, one memoised row per term: a term
-    of the angle alone (elastic, or with memory of the angle: Jenkins, Iwan) by the record's
-    angles, any other also by its rates."""
-    angles = (rec.phi1_rad, rec.phi2_rad)
-    motion = angles + (rec.rate1_rad_s, rec.rate2_rad_s)
-
-    def fine_phi():
-        return upsample(rec.phi_rad, oversample)
-
-    def fine_rate():
-        return upsample(_rate_or_spectral(rec.rate_rad_s, rec.phi_rad, rec), oversample)
-
-    def row(term):
-        angle_only = term.elastic or term.stateful
-        on = angles if angle_only else motion
-
-        def compute():
-            phi = _memo_arrays(angles, ("fine_phi", oversample), fine_phi)
-            rate = (np.zeros_like(phi) if angle_only
-                    else _memo_arrays(motion, ("fine_rate", oversample), fine_rate))
-            sig = np.broadcast_to(np.asarray(term(phi, rate), dtype=float), phi.shape)
-            return fourier_coefficients(sig, rec.n_periods, n_harmonics)
-        return _memo_arrays(on, ("term", term, rec.n_periods, n_harmonics, oversample), compute)
-
-    return np.vstack([row(t) for t in terms])
+    """:func:`law_rows` along the relative motion of ``rec``."""
+    return law_rows(terms, (rec.phi1_rad, rec.phi2_rad), (rec.rate1_rad_s, rec.rate2_rad_s),
+                    lambda: upsample(rec.phi_rad, oversample),
+                    lambda: upsample(_rate_or_spectral(rec.rate_rad_s, rec.phi_rad, rec), oversample),
+                    rec.n_periods, n_harmonics, oversample)
 
 
 def _rate_or_spectral(rate: Optional[np.ndarray], x: np.ndarray, rec: SteadyStateRecord) -> np.ndarray:

@@ -38,7 +38,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from .estimates import equilibrated_condition
-from .balance import LinearSystem, _memo_arrays, harmonic_rows, spectral_rate, upsample
+from .balance import LinearSystem, harmonic_rows, law_rows, memo_arrays, spectral_rate, upsample
 from jointrig.vocab.law import JointLaw, Term
 from .harmonics import fourier_coefficients, max_harmonic
 from .periods import period_spectra, white_variance
@@ -227,25 +227,12 @@ def identifiability(n_flywheels: int, measured: Sequence[bool], driven: Sequence
 
 
 def _law_coeffs(rec: "ChainRecord", j: int, terms: Sequence[Term], n_harmonics: int, oversample: int) -> np.ndarray:
-    """Fourier coefficients of joint j's terms (0-based) along the record, one memoised row per
-    term (keyed by the record's arrays, which are read-only): a profile search that varies one
-    term's nonlinear parameter re-evaluates that term only."""
-    a, b = rec.angles_rad[j], rec.angles_rad[j + 1]
-    ra, rb = rec.rates_rad_s[j], rec.rates_rad_s[j + 1]
-    keys = (a, b) + tuple(x for x in (ra, rb) if x is not None)
-
-    def motion():
-        phi, rate = rec.relative(j)
-        return upsample(phi, oversample), upsample(rate, oversample)
-
-    def row(term):
-        def compute():
-            phi, rate = _memo_arrays(keys, ("chain_motion", j, oversample), motion)
-            sig = np.broadcast_to(np.asarray(term(phi, rate), dtype=float), phi.shape)
-            return fourier_coefficients(sig, rec.n_periods, n_harmonics)
-        return _memo_arrays(keys, ("chain_term", term, rec.n_periods, n_harmonics, oversample), compute)
-
-    return np.vstack([row(t) for t in terms])
+    """Fourier coefficients of joint j's terms (0-based) along the record
+    (:func:`identify.balance.law_rows`, keyed by the record's arrays, which are read-only): a
+    profile search that varies one term's nonlinear parameter re-evaluates that term only."""
+    return law_rows(terms, (rec.angles_rad[j], rec.angles_rad[j + 1]), (rec.rates_rad_s[j], rec.rates_rad_s[j + 1]),
+                    lambda: upsample(rec.relative(j)[0], oversample), lambda: upsample(rec.relative(j)[1], oversample),
+                    rec.n_periods, n_harmonics, oversample)
 
 
 @dataclass(frozen=True)
@@ -305,7 +292,7 @@ def chain_system(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics
         for i in range(N):
             cols = np.zeros((p, H + 1), dtype=complex)
             keys = (rec.angles_rad[i],) + ((rec.rates_rad_s[i],) if rec.rates_rad_s[i] is not None else ())
-            rate_c = _memo_arrays(keys, ("chain_rate", P, H),
+            rate_c = memo_arrays(keys, ("chain_rate", P, H),
                                   lambda: fourier_coefficients(rec.rate(i), P, H))  # noqa: B023 - called at once
             cols[col[inertia_name(i + 1)]] = jw * rate_c
             if i + 1 in spec.bearings:
@@ -317,7 +304,7 @@ def chain_system(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics
                 for t, c in zip(spec.joints[i - 1], laws[i - 1]):
                     cols[col[joint_prefix(i) + t.name]] -= c
             torque = rec.torques_Nm[i]
-            rhs = (_memo_arrays((torque,), ("chain_torque", P, H), lambda: fourier_coefficients(torque, P, H))  # noqa: B023
+            rhs = (memo_arrays((torque,), ("chain_torque", P, H), lambda: fourier_coefficients(torque, P, H))  # noqa: B023
                    if torque is not None else np.zeros(H + 1, dtype=complex))
             A, F, harm, part = harmonic_rows(cols, rhs, H)
             keep = harm >= first_harmonic
