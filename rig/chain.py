@@ -243,7 +243,7 @@ def chain_callback(rig: ChainRig, plant: ChainPlant, drives: dict, errors: list,
 
 def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: SimulationConfig = SimulationConfig(), *,
                    plant: Optional[ChainPlant] = None, inertias_kgm2: Optional[Sequence[float]] = None,
-                   amplitude_Nm: float = math.nan, native: Optional[bool] = None) -> tuple[ChainRecord, SettleInfo]:
+                   amplitude_Nm: float = math.nan, backend: str = "auto") -> tuple[ChainRecord, SettleInfo]:
     """Drive the chain from rest to steady state and log ``config.n_periods`` whole periods.
 
     Args:
@@ -252,11 +252,12 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
       plant: laws and bearings to simulate instead of the file's; inertias_kgm2: inertias
         instead of the file's (each body's inertia scaled).
       amplitude_Nm: a label for the record.
-      native: every joint's law, the bearings and the drives in the compiled C callback
-        (rig/native_callback.py ``NativeChain``): bit-identical records; a chain without
-        sliders is integrated a period per ``mujoco.rollout`` call (no Python between steps).
-        False: the Python callback; None (the default): native wherever the machine can build
-        it and it knows every law's terms (:func:`rig.native_callback.choose_native`).
+      backend: ``"native"``: every joint's law, the bearings and the drives in the compiled C
+        callback (rig/native_callback.py ``NativeChain``): bit-identical records; a chain
+        without sliders is integrated a period per ``mujoco.rollout`` call (no Python between
+        steps). ``"python"``: the Python callback; ``"auto"`` (the default): native wherever the
+        machine can build it and it knows every law's terms
+        (:func:`rig.native_callback.choose_native`).
 
     The flywheels start with the common velocity that keeps the rigid rotation periodic
     (:meth:`PeriodicDrive.mean_free_impulse` summed over the drives, over the total inertia).
@@ -273,7 +274,7 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
         if abs(drv.omega_rad_s - omega_rad_s) > 1e-12 * omega_rad_s:
             raise ValueError(f"drive on flywheel {i}: fundamental {drv.omega_rad_s} differs from {omega_rad_s}")
     plant = rig.plant if plant is None else plant
-    native = choose_native(native, plant.laws)
+    native = choose_native(backend, plant.laws)
     if plant.n_flywheels != rig.n_flywheels:
         raise ValueError(f"plant of {plant.n_flywheels} flywheels for a chain of {rig.n_flywheels}")
     N = rig.n_flywheels

@@ -33,7 +33,8 @@ import numpy as np
 from jointrig.vocab.law import JointLaw, play
 from jointrig.vocab.plant import PeriodicDrive, Plant
 
-__all__ = ["NativeLaw", "NativeChain", "NativeBuildError", "library_path", "native_session", "session_active"]
+__all__ = ["BACKENDS", "NativeLaw", "NativeChain", "NativeBuildError", "choose_native", "library_path", "native_session",
+           "session_active"]
 
 SOURCE = Path(__file__).resolve().parent / "native" / "jointrig_law.c"
 MAX_TERMS, MAX_KNOTS, MAX_HARM, MAX_SLIDERS = 64, 512, 64, 512
@@ -171,13 +172,27 @@ def unsupported(laws) -> Optional[str]:
     return None
 
 
-def choose_native(native: Optional[bool], laws) -> bool:
-    """The backend a simulation uses: ``True``/``False`` as asked; ``None`` ("auto") the
-    native callback wherever it can simulate ``laws`` (:func:`unsupported`), which gives the
-    same numbers bit for bit (tests/test_native_callback.py), else the Python callback."""
-    if native is not None:
-        return bool(native)
-    return unsupported(laws) is None
+#: How a simulation evaluates the joint law, as every simulation's ``backend`` argument and the
+#: commands' ``--backend`` spell it: ``"native"`` the C callback, ``"python"`` the Python one,
+#: ``"auto"`` (the default) native wherever it can run (:func:`choose_native`). The numbers are
+#: the same bit for bit (tests/test_native_callback.py), so the backend is not part of a run's
+#: :class:`rig.simulate.SimulationConfig` (nor of a sweep store's key).
+BACKENDS = ("auto", "native", "python")
+
+
+def choose_native(backend: str, laws, allowed: tuple[str, ...] = BACKENDS) -> bool:
+    """Whether a simulation with ``backend`` runs the native callback: ``"python"`` no; any
+    other name but ``"auto"`` (``"native"``, the two-flywheel rig's ``"native-stepped"``) yes;
+    ``"auto"`` wherever it can simulate ``laws`` (:func:`unsupported`), else the Python callback.
+
+    Raises:
+      ValueError: ``backend`` is not one of ``allowed``.
+    """
+    if backend not in allowed:
+        raise ValueError(f"backend must be one of {allowed}, got {backend!r}")
+    if backend == "auto":
+        return unsupported(laws) is None
+    return backend != "python"
 
 
 _registry_lock = threading.Lock()

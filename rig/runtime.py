@@ -109,22 +109,16 @@ def progress_level(quiet: bool) -> int:
     return logging.WARNING
 
 
-#: ``--backend`` names and the ``native`` argument of the simulations each stands for.
-BACKEND_CHOICES = {"auto": None, "native": True, "python": False}
-
-
 def add_backend_option(parser) -> None:
-    """``--backend {auto,native,python}`` (default auto: the native C callback wherever it can
-    run, bit-identical to the Python one) and ``--native``, kept as its old spelling."""
+    """``--backend {auto,native,python}`` (:data:`rig.native_callback.BACKENDS`; default auto:
+    the native C callback wherever it can run, bit-identical to the Python one), passed on as
+    the simulations' ``backend``, and ``--native``, kept as its old spelling."""
+    from .native_callback import BACKENDS
+
     g = parser.add_mutually_exclusive_group()
-    g.add_argument("--backend", choices=tuple(BACKEND_CHOICES), default="auto",
+    g.add_argument("--backend", choices=BACKENDS, default="auto",
                    help="the joint law's callback: native (C, compiled on first use; the same numbers, 3-5x "
                         "faster), python, or auto: native wherever a C compiler builds it and it knows every "
                         "term, else python (default: %(default)s)")
     g.add_argument("--native", dest="backend", action="store_const", const="native",
                    help="same as --backend native")
-
-
-def backend_native(name: str):
-    """The ``native`` argument (True, False, or None for auto) of a ``--backend`` name."""
-    return BACKEND_CHOICES[name]

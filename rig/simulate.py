@@ -33,7 +33,7 @@ from jointrig.vocab.records import SteadyStateRecord
 
 from .callback import passive_callback
 from .model import RigModel
-from .native_callback import NativeLaw, choose_native, session_active
+from .native_callback import BACKENDS as _CALLBACK_BACKENDS, NativeLaw, choose_native, session_active
 
 __all__ = [
     "SimulationConfig",
@@ -55,13 +55,13 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-#: How a run is integrated (``simulate_steady_state(..., backend=...)``):
-#: ``"python"``: the Python passive callback, stepped from Python (the reference);
-#: ``"native"``: the C callback (:mod:`rig.native_callback`), a whole period per ``mujoco.rollout``
-#: call for a law without sliders, else stepped in C with the sliders committed after each step;
-#: ``"native-stepped"``: the C callback stepped from Python (what the other two are checked
-#: against, bit for bit, and what benchmarks time them against).
-BACKENDS = ("python", "native", "native-stepped")
+#: How a two-flywheel run is integrated (``simulate_steady_state(..., backend=...)``): the
+#: backends every simulation takes (:data:`rig.native_callback.BACKENDS`: auto, native, python)
+#: and ``"native-stepped"``, the C callback stepped from Python (what the native one is checked
+#: against, bit for bit, and what benchmarks time it against). ``"native"`` integrates a whole
+#: period per ``mujoco.rollout`` call for a law without sliders, else steps in C with the sliders
+#: committed after each step.
+BACKENDS = _CALLBACK_BACKENDS + ("native-stepped",)
 
 
 class SimulationError(RuntimeError):
@@ -457,9 +457,8 @@ def simulate_steady_state(
     law: Optional[Union[JointLaw, Plant]] = None,
     drive: Optional[PeriodicDrive] = None,
     inertias_kgm2: Optional[tuple[float, float]] = None,
-    native: Optional[bool] = None,
     start: Optional[StartState] = None,
-    backend: Optional[str] = None,
+    backend: str = "auto",
 ) -> tuple[SteadyStateRecord, SettleInfo]:
     """Drive flywheel 1 with ``amplitude_Nm * cos(omega_rad_s * t)`` from rest at t = 0 until
     steady state, then log ``config.n_periods`` whole periods.
@@ -481,18 +480,18 @@ def simulate_steady_state(
         cosine; ``amplitude_Nm`` is then only a label.
       inertias_kgm2: (J1, J2) to simulate instead of the model's (each body's inertia tensor
         is scaled, so the moment about the hinge becomes the given value).
-      native: use the compiled C callback (:mod:`rig.native_callback`): the same numbers,
-        without the Python interpreter in every force evaluation. A law without stateful
-        terms is then integrated a whole period per ``mujoco.rollout`` call (no Python
-        between steps, the GIL released); a law with sliders (Jenkins, Iwan) is stepped in C
-        with its sliders committed after every step; the records are bit-identical to stepping.
-        Shorthand for ``backend="native"``; False: the Python callback; None (the default):
-        native wherever the machine can build it and it knows every term of the law
-        (:func:`rig.native_callback.choose_native`), else Python.
+      backend: one of :data:`BACKENDS`: ``"native"``, the compiled C callback
+        (:mod:`rig.native_callback`): the same numbers, without the Python interpreter in every
+        force evaluation. A law without stateful terms is then integrated a whole period per
+        ``mujoco.rollout`` call (no Python between steps, the GIL released); a law with sliders
+        (Jenkins, Iwan) is stepped in C with its sliders committed after every step; the
+        records are bit-identical to stepping. ``"python"``: the Python callback;
+        ``"native-stepped"``: the C callback stepped from Python (what the other two are checked
+        against); ``"auto"`` (the default): native wherever the machine can build it and it
+        knows every term of the law (:func:`rig.native_callback.choose_native`), else Python.
       start: start from this state at t = 0 instead of rest (continuation from the previous
         sweep point's steady state). Its rigid-body velocity is replaced by the one that
         keeps the rotation periodic under this drive; the relative motion is kept.
-      backend: one of :data:`BACKENDS`; default from ``native``.
 
     The record's torque is the drive as recorded: with a drive delay it is the torque before
     the delay (what a torque cell upstream of the delay reads), otherwise the actuator force.
@@ -506,10 +505,10 @@ def simulate_steady_state(
     """
     plant = rig.plant if law is None else Plant.of(law)
     drive = _checked_drive(omega_rad_s, amplitude_Nm, drive, inertias_kgm2, start)
-    if backend is None:
-        backend = "native" if choose_native(native, (plant,)) else "python"
-    elif backend not in BACKENDS:
-        raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+    if choose_native(backend, (plant,), BACKENDS):
+        backend = "native-stepped" if backend == "native-stepped" else "native"
+    else:
+        backend = "python"
     where = f"{rig.path.name} at omega = {omega_rad_s:g} rad/s, M0 = {amplitude_Nm:g} N m"
     t_start = _time.perf_counter()
     m = _run_model(rig, config, omega_rad_s, inertias_kgm2)

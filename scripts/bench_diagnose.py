@@ -90,7 +90,7 @@ def main(argv=None) -> int:
         t_nom = best_of(args.repeat, nominal)
         rig = load_rig(WORN)
         cfg = SimulationConfig(n_periods=16)
-        t_sim = best_of(args.repeat, lambda: [simulate_steady_state(rig, w, a, cfg, native=True) for w, a in POINTS])
+        t_sim = best_of(args.repeat, lambda: [simulate_steady_state(rig, w, a, cfg, backend="native") for w, a in POINTS])
         busy = busy_core_timings(argv_d, args.repeat) if args.busy else None
     report = {
         "what": "worn-joint example, 9 runs x 16 periods at 40 dB; best of --repeat; one BLAS thread",

@@ -100,7 +100,7 @@ def main(argv=None) -> int:
         abs(ident[label].value(n) / ident["python_serial"].value(n) - 1)
         for label in ident for n in ident[label].names)
     # The same identification three ways, on the same records.
-    points = run_sweep(sweep_rig, DEFAULT_PLAN, SimulationConfig(), native=True, workers=args.workers)
+    points = run_sweep(sweep_rig, DEFAULT_PLAN, SimulationConfig(), backend="native", workers=args.workers)
     records = records_of(points)
     truth = sweep_rig.law.as_dict()
 

@@ -46,7 +46,7 @@ def _sweep(rig, config, continuation: bool):
     out = []
     for amp in DEFAULT_PLAN.amplitudes_Nm:
         tasks = [(w, amp, None) for w in DEFAULT_PLAN.omegas_rad_s]
-        out.extend(simulate_segment(rig, tasks, config, native=True, continuation=continuation))
+        out.extend(simulate_segment(rig, tasks, config, backend="native", continuation=continuation))
     return out
 
 
@@ -62,7 +62,7 @@ def bench(rig, label: str) -> dict:
         c = dataclasses.replace(plain, min_periods=n, max_periods=n + 1, settle_tol=0.5,
                                 absolute_angles_periodic=False)
         ref.extend(simulate_segment(rig, [(p.record.omega_rad_s, p.record.drive_amplitude_Nm, None)], c,
-                                    native=True, continuation=False))
+                                    backend="native", continuation=False))
     runs["reference"] = ref
     params = {k: identify([p.record for p in v], rig.law.terms, n_harmonics=9, torque_share=rig.torque_share)
               for k, v in runs.items()}

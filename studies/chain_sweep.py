@@ -97,7 +97,7 @@ _python_callback_lock = threading.Lock()
 
 
 def _remote_point(model_name: str, model_text: bytes, digest: str, plant, point: tuple, config: SimulationConfig,
-                  native: bool) -> ChainPoint:
+                  backend: str) -> ChainPoint:
     """A dask task: rebuild the chain from the model text (cached per worker process by digest),
     check it is the same model, give it the client's plant, simulate one point."""
     from jointrig.rig.chain import load_chain
@@ -105,14 +105,14 @@ def _remote_point(model_name: str, model_text: bytes, digest: str, plant, point:
     rig = worker_model(model_name, model_text, digest, load_chain)
     rig = rig.with_plant(plant)
     w, a, i = point
-    if native:
+    if backend == "native":
         from jointrig.rig.native_callback import native_session
 
         with native_session():
-            rec, info = simulate_chain(rig, w, {i: PeriodicDrive.cosine(w, a)}, config, amplitude_Nm=a, native=True)
+            rec, info = simulate_chain(rig, w, {i: PeriodicDrive.cosine(w, a)}, config, amplitude_Nm=a, backend=backend)
     else:
         with _python_callback_lock:  # the Python callback is process-global: one at a time
-            rec, info = simulate_chain(rig, w, {i: PeriodicDrive.cosine(w, a)}, config, amplitude_Nm=a, native=False)
+            rec, info = simulate_chain(rig, w, {i: PeriodicDrive.cosine(w, a)}, config, amplitude_Nm=a, backend=backend)
     return ChainPoint(w, a, i, rec, info)
 
 
@@ -123,14 +123,15 @@ def default_chain_store(rig: ChainRig, config: SimulationConfig, root: Path = Pa
 
 
 def run_chain_sweep(rig: ChainRig, points: Sequence[tuple], config: SimulationConfig = CHAIN_CONFIG, *,
-                    store: Optional[Path] = None, native: Optional[bool] = None,
+                    store: Optional[Path] = None, backend: str = "auto",
                     workers: int = 1, executor: str = "local",
                     scheduler: Optional[str] = None) -> list[ChainPoint]:
     """Simulate every ``(omega, amplitude, flywheel)`` point (loading those already in ``store``;
-    ``native``: the C callback, bit-identical, so stored points serve either way).
+    ``backend``: ``"native"``, ``"python"`` or ``"auto"``, as :func:`rig.chain.simulate_chain`'s;
+    the records are bit-identical either way, so stored points serve any backend).
 
     ``workers > 1`` simulates that many points at once in threads sharing one installed native
-    callback (:func:`rig.native_callback.native_session`; needs ``native``: a Python callback
+    callback (:func:`rig.native_callback.native_session`; needs the native backend: a Python callback
     holds the GIL). ``executor="dask"`` sends each point to a dask.distributed cluster instead
     (``scheduler``: its address; default a local cluster of ``workers`` processes) with the
     model text and the plant. The points come back in the order given, bit-identical to a
@@ -138,16 +139,16 @@ def run_chain_sweep(rig: ChainRig, points: Sequence[tuple], config: SimulationCo
 
     Raises:
       ValueError: a point whose flywheel has no motor, or a non-positive frequency or amplitude
-        (checked for all points before any simulation); ``workers > 1`` without ``native``.
+        (checked for all points before any simulation); ``workers > 1`` without the native backend.
       SweepStoreMismatch: ``store`` holds points of another model or other settings.
     """
     if workers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
     if executor not in ("local", "dask"):
         raise ValueError(f"unknown executor {executor!r}; expected 'local' or 'dask'")
-    native = choose_native(native, rig.plant.laws)
-    if workers > 1 and not native and executor == "local":
-        raise ValueError("chain sweeps in threads need the native callback (native=True, or the default where a C "
+    backend = "native" if choose_native(backend, rig.plant.laws) else "python"
+    if workers > 1 and backend != "native" and executor == "local":
+        raise ValueError("chain sweeps in threads need the native callback (backend 'native', or 'auto' where a C "
                          "compiler builds it): a Python callback "
                          "holds the GIL and MuJoCo's passive callback is global")
     for w, a, i in points:
@@ -179,7 +180,7 @@ def run_chain_sweep(rig: ChainRig, points: Sequence[tuple], config: SimulationCo
             pt = _load(path, where)
             log.info("[%d/%d] %s: loaded from the store", k, total, where)
             return pt
-        rec, info = simulate_chain(rig, w, {i: PeriodicDrive.cosine(w, a)}, config, amplitude_Nm=a, native=native)
+        rec, info = simulate_chain(rig, w, {i: PeriodicDrive.cosine(w, a)}, config, amplitude_Nm=a, backend=backend)
         pt = ChainPoint(w, a, i, rec, info)
         if path is not None:
             _save(path, pt)
@@ -188,7 +189,7 @@ def run_chain_sweep(rig: ChainRig, points: Sequence[tuple], config: SimulationCo
         return pt
 
     if executor == "dask":
-        return _run_dask(rig, points, config, native, workers, scheduler, store, total)
+        return _run_dask(rig, points, config, backend, workers, scheduler, store, total)
     if workers == 1:
         return [one(k, p) for k, p in enumerate(points, start=1)]
     from concurrent.futures import ThreadPoolExecutor
@@ -199,7 +200,7 @@ def run_chain_sweep(rig: ChainRig, points: Sequence[tuple], config: SimulationCo
         return list(pool.map(one, range(1, total + 1), points))
 
 
-def _run_dask(rig: ChainRig, points, config, native, workers, scheduler, store, total) -> list[ChainPoint]:
+def _run_dask(rig: ChainRig, points, config, backend, workers, scheduler, store, total) -> list[ChainPoint]:
     from dask.distributed import Client, LocalCluster, as_completed
 
     out: list = [None] * len(points)
@@ -220,7 +221,7 @@ def _run_dask(rig: ChainRig, points, config, native, workers, scheduler, store, 
             client = stack.enter_context(Client(scheduler))
         log.info("dask cluster %s: %d chain point(s)", client.scheduler.address, len(todo))
         futures = {client.submit(_remote_point, Path(rig.path).name, text, rig.digest, rig.plant, points[k], config,
-                                 native, pure=False): k for k in todo}
+                                 backend, pure=False): k for k in todo}
         for n, fut in enumerate(as_completed(futures), start=1):
             k = futures[fut]
             pt = fut.result()

@@ -72,7 +72,7 @@ def twist_error(sim: ChainRecord, meas: ChainRecord, band: int) -> tuple[float, 
 
 def _noise(meas: ChainRecord, band: int) -> float:
     """Expected sum |noise|^2 of the averaged twist harmonics (from period-to-period spread)."""
-    P, N = meas.n_periods, meas.samples_per_period
+    P = meas.n_periods
     if P < 2:
         return 0.0
     total = 0.0
@@ -84,8 +84,9 @@ def _noise(meas: ChainRecord, band: int) -> float:
 
 def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[ChainRecord], *,
                    band: int = 10, config: SimulationConfig = SimulationConfig(samples_per_period=128, max_step_s=5e-5),
-                   max_wall_s: Optional[float] = 120.0, native: Optional[bool] = None) -> ChainValidation:
-    """Replay every held-out run's drives on the nominal and the extended plant (module docstring)."""
+                   max_wall_s: Optional[float] = 120.0, backend: str = "auto") -> ChainValidation:
+    """Replay every held-out run's drives on the nominal and the extended plant (module docstring);
+    ``backend`` as :func:`rig.chain.simulate_chain`'s."""
     cfg = replace(config, absolute_angles_periodic=False, max_wall_s=max_wall_s, n_periods=1)
     models = {"nominal": plant_and_inertias(diagnosis.nominal), "extended": plant_and_inertias(diagnosis.final)}
     num = {k: 0.0 for k in models}
@@ -101,7 +102,7 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
         for name, (plant, J) in models.items():
             try:
                 sim, _ = simulate_chain(rig.with_plant(plant), meas.omega_rad_s, drives, cfg, inertias_kgm2=J,
-                                        native=native)
+                                        backend=backend)
             except SteadyStateNotReached as err:
                 return ChainValidation(math.nan, math.nan, math.nan, tuple(per_run),
                                        note=f"the {name} model did not settle on {meas.source}: {err}")

@@ -114,8 +114,9 @@ DEFAULT_MULTISINE = MultisinePlan(omega0_rad_s=2.5, max_harmonic_excited=35, rms
 
 def run_multisines(rig: RigModel, plan: MultisinePlan = DEFAULT_MULTISINE,
                    config: SimulationConfig = SimulationConfig(samples_per_period=512), *,
-                   native: Optional[bool] = None) -> list[tuple[SteadyStateRecord, SettleInfo, object]]:
-    """Simulate every multisine run to steady state: ``(record, settle info, excitation)``.
+                   backend: str = "auto") -> list[tuple[SteadyStateRecord, SettleInfo, object]]:
+    """Simulate every multisine run to steady state: ``(record, settle info, excitation)``;
+    ``backend`` as :func:`rig.simulate.simulate_steady_state`'s.
 
     Raises:
       ValueError: too few samples per period for the harmonics to balance.
@@ -128,7 +129,7 @@ def run_multisines(rig: RigModel, plan: MultisinePlan = DEFAULT_MULTISINE,
                          f"(at least {2 * plan.n_harmonics + 1} samples per period)")
     out = []
     for ms in plan.excitations():
-        rec, info = simulate_steady_state(rig, plan.omega0_rad_s, ms.rms_Nm, config, drive=ms.drive, native=native)
+        rec, info = simulate_steady_state(rig, plan.omega0_rad_s, ms.rms_Nm, config, drive=ms.drive, backend=backend)
         out.append((rec, info, ms))
         log.info("multisine RMS %.0f N m: %d lines, steady after %d periods (bound %.1e)", ms.rms_Nm,
                  len(ms.excited), info.periods_simulated, info.error_bound)
@@ -211,9 +212,10 @@ def _segments(points: list[tuple[float, float]], continuation: bool, parts: int)
 
 
 def simulate_segment(rig: RigModel, tasks: Sequence[tuple[float, float, Optional[SweepPoint]]],
-                     config: SimulationConfig, native: bool, continuation: bool,
+                     config: SimulationConfig, backend: str, continuation: bool,
                      on_point: Optional[Callable[[int, SweepPoint], None]] = None) -> list[SweepPoint]:
-    """Simulate a segment's points in order; ``tasks`` are ``(omega, amplitude, stored)``.
+    """Simulate a segment's points in order; ``tasks`` are ``(omega, amplitude, stored)``;
+    ``backend`` as :func:`rig.simulate.simulate_steady_state`'s.
 
     A stored point is reused as is (and, with continuation, starts the next point).
     """
@@ -224,7 +226,7 @@ def simulate_segment(rig: RigModel, tasks: Sequence[tuple[float, float, Optional
             point = stored
         else:
             start = StartState.of_record(prev) if continuation and prev is not None else None
-            record, info = simulate_steady_state(rig, omega, amp, config, native=native, start=start)
+            record, info = simulate_steady_state(rig, omega, amp, config, backend=backend, start=start)
             point = SweepPoint(record, info, from_store=False)
         prev = point.record
         out.append(point)
@@ -248,7 +250,7 @@ def run_sweep(
     *,
     store: Optional[Path] = None,
     progress: Optional[Callable[[int, int, SweepPoint], None]] = None,
-    native: Optional[bool] = None,
+    backend: str = "auto",
     workers: int = 1,
     continuation: bool = False,
     executor: str = "local",
@@ -261,11 +263,11 @@ def run_sweep(
         Points are saved as they finish, by the calling process, also with a cluster.
       progress: called as ``progress(i, n, point)`` after each point (in completion order
         when ``workers > 1``).
-      native: simulate with the native C callback (the same numbers, faster); False: the
-        Python callback; None (the default): native wherever it can run
+      backend: ``"native"``: the native C callback (the same numbers, faster); ``"python"``: the
+        Python callback; ``"auto"`` (the default): native wherever it can run
         (:func:`rig.native_callback.choose_native`).
       workers: simulate this many points at once: threads for the ``local`` executor (needs
-        ``native``: MuJoCo's stepping releases the GIL, a Python callback would take it back at
+        the native callback: MuJoCo's stepping releases the GIL, a Python callback would take it back at
         every force evaluation), processes for a local ``dask`` cluster. Results are
         identical to a serial sweep: the segments are independent.
       continuation: start each point from the previous frequency's steady state at the same
@@ -297,9 +299,9 @@ def run_sweep(
         raise ValueError(f"workers must be >= 1, got {workers}")
     if executor not in EXECUTORS:
         raise ValueError(f"executor must be one of {EXECUTORS}, got {executor!r}")
-    native = choose_native(native, (rig.plant,))
-    if executor == "local" and workers > 1 and not native:
-        raise ValueError("workers > 1 needs the native callback (native=True, or the default where a C compiler "
+    backend = "native" if choose_native(backend, (rig.plant,)) else "python"
+    if executor == "local" and workers > 1 and backend != "native":
+        raise ValueError("workers > 1 needs the native callback (backend 'native', or 'auto' where a C compiler "
                          "builds it): the Python passive callback is one global that holds the GIL, so threads "
                          "would neither share it safely nor run in parallel")
     if scheduler is not None and executor != "dask":
@@ -344,11 +346,11 @@ def run_sweep(
         return [(points[i][0], points[i][1], stored(i)) for i in seg]
 
     def local(seg: list[int]) -> None:
-        simulate_segment(rig, tasks_of(seg), config, native, continuation,
+        simulate_segment(rig, tasks_of(seg), config, backend, continuation,
                          on_point=lambda j, point: finished(seg[j], point))
 
     if executor == "dask":
-        _run_dask(rig, segments, points, tasks_of, config, native, continuation, workers, scheduler, finished)
+        _run_dask(rig, segments, points, tasks_of, config, backend, continuation, workers, scheduler, finished)
     elif workers == 1:
         for seg in segments:
             local(seg)
@@ -399,23 +401,23 @@ _python_callback_lock = threading.Lock()
 
 
 def _remote_segment(model_name: str, model_text: bytes, digest: str, plant, tasks, config: SimulationConfig,
-                    native: bool, continuation: bool) -> list[SweepPoint]:
+                    backend: str, continuation: bool) -> list[SweepPoint]:
     """A dask task: rebuild the rig from the model text (cached per worker process by digest),
     check it is the same model, give it the client's plant (which may differ from the file's),
     simulate the segment. Python-callback simulations in one worker process run one at a time
     (the callback is process-global)."""
     rig = worker_model(model_name, model_text, digest, load_rig)
     rig = rig.with_plant(plant)
-    if native:
+    if backend == "native":
         from jointrig.rig.native_callback import native_session
 
         with native_session():
-            return simulate_segment(rig, tasks, config, native, continuation)
+            return simulate_segment(rig, tasks, config, backend, continuation)
     with _python_callback_lock:
-        return simulate_segment(rig, tasks, config, native, continuation)
+        return simulate_segment(rig, tasks, config, backend, continuation)
 
 
-def _run_dask(rig: RigModel, segments, points_of, tasks_of, config, native, continuation, workers, scheduler,
+def _run_dask(rig: RigModel, segments, points_of, tasks_of, config, backend, continuation, workers, scheduler,
               finished) -> None:
     try:
         from dask.distributed import Client, LocalCluster, as_completed
@@ -433,7 +435,7 @@ def _run_dask(rig: RigModel, segments, points_of, tasks_of, config, native, cont
         futures = {}
         for seg in _longest_first(segments, points_of, config):
             fut = client.submit(_remote_segment, Path(rig.path).name, text, rig.digest, rig.plant, tasks_of(seg),
-                                config, native, continuation, pure=False)
+                                config, backend, continuation, pure=False)
             futures[fut] = seg
         for fut in as_completed(futures):
             for i, point in zip(futures[fut], fut.result()):

@@ -14,7 +14,6 @@ its torque-like effects are halved), what a worn or fretting coupling shows.
 from __future__ import annotations
 
 import math
-import shutil
 import time
 from dataclasses import dataclass
 
@@ -88,8 +87,8 @@ def run_case(cause: str, place: int, *, snr_db: float = 40.0, seed: int = 0) -> 
     est = records(measured_runs(train, ESTIMATION, snr_db=snr_db, seed=seed))
     held = records(measured_runs(train, HELD_OUT, snr_db=snr_db, seed=seed + 1000, n_periods=HELD_OUT_PERIODS))
     d = diagnose_chain(prepare_chain_runs(est))
-    native = bool(shutil.which("cc") or shutil.which("gcc"))  # bit-identical, 4x faster
-    v = validate_chain(load_chain(_pump_train()), d, held, config=RIG_CONFIG, native=native) if d.steps else None
+    # "auto": native wherever a C compiler builds it (bit-identical, 4x faster), else Python
+    v = validate_chain(load_chain(_pump_train()), d, held, config=RIG_CONFIG, backend="auto") if d.steps else None
     found = d.steps[0].label if d.steps else "nothing"
     where = "nowhere" if cause == "none" else f"{'flywheel' if cause == 'bearing_friction' else 'joint'} {place}"
     return CaseResult(cause, where, found, d.first_round[0].label, v.gain if v else math.nan,

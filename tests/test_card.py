@@ -223,7 +223,7 @@ def test_masing_check_on_rig_runs(rig, name, law, follows):
     from jointrig.rig.measurement import add_noise
 
     runs = ((20.0, 150.0), (22.0, 250.0), (25.0, 400.0))
-    records = [simulate_steady_state(rig, w, m, SimulationConfig(n_periods=4), law=law, native=True)[0]
+    records = [simulate_steady_state(rig, w, m, SimulationConfig(n_periods=4), law=law, backend="native")[0]
                for w, m in runs]
     check = masing_check(records, 2.0, 2.0)
     assert check.follows is follows and not check.skipped and len(check.runs) == 3

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import shutil
 
 import numpy as np
 import pytest
@@ -203,7 +202,7 @@ def test_native_chain_callback_is_bit_identical_to_the_python_one(model):
         plants.append(ChainPlant(tuple(laws), (0.0, 1.5, 0.0, 2.0)))
     for plant in plants:
         a, _ = simulate_chain(rig, w, drives, cfg, plant=plant)
-        b, _ = simulate_chain(rig, w, drives, cfg, plant=plant, native=True)
+        b, _ = simulate_chain(rig, w, drives, cfg, plant=plant, backend="native")
         for x, y in zip(a.angles_rad + a.rates_rad_s + a.torques_Nm + (a.time_s,),
                         b.angles_rad + b.rates_rad_s + b.torques_Nm + (b.time_s,)):
             if x is None:
@@ -220,14 +219,14 @@ def test_chain_sweep_in_threads_is_bit_identical_to_serial():
 
     rig = load_chain(MODELS_DIR / "pump_train_worn.xml")
     points = [(300.0, 60.0, 1), (1200.0, 60.0, 1), (400.0, 30.0, 4), (600.0, 60.0, 1)]
-    serial = run_chain_sweep(rig, points, CHAIN_CONFIG, native=True)
-    threaded = run_chain_sweep(rig, points, CHAIN_CONFIG, native=True, workers=2)
+    serial = run_chain_sweep(rig, points, CHAIN_CONFIG, backend="native")
+    threaded = run_chain_sweep(rig, points, CHAIN_CONFIG, backend="native", workers=2)
     for a, b in zip(serial, threaded):
         assert (a.omega_rad_s, a.flywheel) == (b.omega_rad_s, b.flywheel)
         for x, y in zip(a.record.angles_rad + (a.record.time_s,), b.record.angles_rad + (b.record.time_s,)):
             np.testing.assert_array_equal(x, y)
     with pytest.raises(ValueError, match="need the native callback"):
-        run_chain_sweep(rig, points, CHAIN_CONFIG, native=False, workers=2)
+        run_chain_sweep(rig, points, CHAIN_CONFIG, backend="python", workers=2)
 
 
 def test_chain_fisher_information_predicts_the_scatter_of_the_estimates():
@@ -317,7 +316,7 @@ def test_chain_maximum_likelihood_standard_errors_hold_at_40_db():
     from jointrig.rig.measurement import measure_chain
 
     rig = load_chain(PUMP_TRAIN)
-    clean = [p.record for p in run_chain_sweep(rig, CHAIN_PLAN, CHAIN_CONFIG, native=True)]
+    clean = [p.record for p in run_chain_sweep(rig, CHAIN_PLAN, CHAIN_CONFIG, backend="native")]
     truth = {**{f"J{i}_kgm2": J for i, J in enumerate(rig.inertias_kgm2, start=1)}, **rig.plant.parameters()}
     z = []
     for seed in range(5):
@@ -338,11 +337,11 @@ def test_chain_sweep_on_a_dask_cluster_gives_the_local_records(tmp_path):
 
     rig = load_chain(MODELS_DIR / "pump_train.xml")
     points = [(1200.0, 60.0, 1), (400.0, 30.0, 4), (2000.0, 60.0, 1)]
-    native = bool(shutil.which("cc") or shutil.which("gcc"))
-    local = run_chain_sweep(rig, points, CHAIN_CONFIG, native=native)
-    remote = run_chain_sweep(rig, points, CHAIN_CONFIG, native=native, workers=2, executor="dask",
+    backend = "auto"  # native wherever a C compiler builds it, else Python: bit-identical either way
+    local = run_chain_sweep(rig, points, CHAIN_CONFIG, backend=backend)
+    remote = run_chain_sweep(rig, points, CHAIN_CONFIG, backend=backend, workers=2, executor="dask",
                              store=tmp_path / "store")
-    again = run_chain_sweep(rig, points, CHAIN_CONFIG, native=native, store=tmp_path / "store")
+    again = run_chain_sweep(rig, points, CHAIN_CONFIG, backend=backend, store=tmp_path / "store")
     for a, b, c in zip(local, remote, again):
         assert (a.omega_rad_s, a.flywheel) == (b.omega_rad_s, b.flywheel) == (c.omega_rad_s, c.flywheel)
         for x, y, z in zip(a.record.angles_rad, b.record.angles_rad, c.record.angles_rad):

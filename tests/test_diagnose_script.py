@@ -140,7 +140,7 @@ def test_identified_model_written_as_mjcf_simulates_the_runs(outputs):
         drive = drive_of_record(run.omega_rad_s, fourier_coefficients(run.torque_Nm, run.n_periods, 20))
         sim, _ = simulate_steady_state(model, run.omega_rad_s, drive.amplitude_Nm,
                                        SimulationConfig(samples_per_period=n, n_periods=1, settle_tol=1e-7,
-                                                        absolute_angles_periodic=False), drive=drive, native=True)
+                                                        absolute_angles_periodic=False), drive=drive, backend="native")
         band = lambda x: np.fft.irfft(np.fft.rfft(x)[:21] * (np.arange(21) > 0), n=n)  # noqa: E731
         return float(np.sqrt(np.mean((band(sim.phi_rad) - band(avg)) ** 2)))
 

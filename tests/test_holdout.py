@@ -62,11 +62,11 @@ def test_the_diagnosis_holds_out_multisines_and_says_so(rig):
 
     rng = np.random.default_rng(5)
     cfg = SimulationConfig(n_periods=8)
-    records = [simulate_steady_state(rig, w, a, cfg, native=True)[0]
+    records = [simulate_steady_state(rig, w, a, cfg, backend="native")[0]
                for w, a in ((25.0, 1500.0), (25.0, 3500.0), (40.0, 2500.0), (55.0, 1500.0), (55.0, 3500.0))]
     for seed, rms in ((0, 1500.0), (1, 2500.0)):
         ms = odd_multisine(8.0, 11, rms, seed=seed)
-        records.append(simulate_steady_state(rig, 8.0, rms, cfg, drive=ms.drive, native=True)[0])
+        records.append(simulate_steady_state(rig, 8.0, rms, cfg, drive=ms.drive, backend="native")[0])
     report = run_diagnosis([add_noise(r, 40.0, rng) for r in records], rig=rig)
     assert report.holdout == (5, 6)
     assert report.generalisation.startswith("the held-out runs test another excitation (held-out drives with "

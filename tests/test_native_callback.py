@@ -18,7 +18,7 @@ def test_every_effect_gives_identical_trajectories(rig, case):
     plant = HIDDEN_EFFECTS[case][0]
     cfg = SimulationConfig(n_periods=2)
     python, _ = simulate_steady_state(rig, 40.0, 2500.0, cfg, law=plant)
-    native, _ = simulate_steady_state(rig, 40.0, 2500.0, cfg, law=plant, native=True)
+    native, _ = simulate_steady_state(rig, 40.0, 2500.0, cfg, law=plant, backend="native")
     _identical(python, native)
 
 
@@ -29,7 +29,7 @@ def test_an_iwan_joint_stepped_in_c_gives_identical_trajectories(rig):
     law = JointLaw((Viscous(), Power(1), Iwan(0.02, -0.3, 0.1)), (5.0, 500.0, 40.0))
     cfg = SimulationConfig(n_periods=2)
     _identical(simulate_steady_state(rig, 25.0, 400.0, cfg, law=law)[0],
-               simulate_steady_state(rig, 25.0, 400.0, cfg, law=law, native=True)[0])
+               simulate_steady_state(rig, 25.0, 400.0, cfg, law=law, backend="native")[0])
 
 
 def test_a_stribeck_friction_gives_identical_trajectories(rig):
@@ -38,16 +38,16 @@ def test_a_stribeck_friction_gives_identical_trajectories(rig):
     law = JointLaw((Viscous(), Power(1), Coulomb(), Stribeck(0.5)), (5.0, 500.0, 20.0, 15.0))
     cfg = SimulationConfig(n_periods=2)
     _identical(simulate_steady_state(rig, 25.0, 400.0, cfg, law=law)[0],
-               simulate_steady_state(rig, 25.0, 400.0, cfg, law=law, native=True)[0])
+               simulate_steady_state(rig, 25.0, 400.0, cfg, law=law, backend="native")[0])
 
 
 def test_hat_law_and_a_replayed_multiharmonic_drive(rig):
     drive = PeriodicDrive(30.0, (0, 1000.0, 50 - 20j, 0, 10j))
     _identical(simulate_steady_state(rig, 30.0, 1000.0, SimulationConfig(), drive=drive)[0],
-               simulate_steady_state(rig, 30.0, 1000.0, SimulationConfig(), drive=drive, native=True)[0])
+               simulate_steady_state(rig, 30.0, 1000.0, SimulationConfig(), drive=drive, backend="native")[0])
     hat = load_rig(MODELS_DIR / "two_flywheels_hat.xml")
     _identical(simulate_steady_state(hat, 30.0, 1000.0, SimulationConfig())[0],
-               simulate_steady_state(hat, 30.0, 1000.0, SimulationConfig(), native=True)[0])
+               simulate_steady_state(hat, 30.0, 1000.0, SimulationConfig(), backend="native")[0])
 
 
 def test_parallel_native_sweep_equals_the_serial_python_sweep(rig, tmp_path):
@@ -56,13 +56,13 @@ def test_parallel_native_sweep_equals_the_serial_python_sweep(rig, tmp_path):
     from jointrig.studies.sweep import SweepPlan, records_of, run_sweep
 
     plan = SweepPlan(omegas_rad_s=(10.0, 45.0, 90.0), amplitudes_Nm=(400.0, 4000.0))
-    serial = records_of(run_sweep(rig, plan, SimulationConfig(), native=False))
-    parallel = records_of(run_sweep(rig, plan, SimulationConfig(), native=True, workers=2, store=tmp_path / "s"))
+    serial = records_of(run_sweep(rig, plan, SimulationConfig(), backend="python"))
+    parallel = records_of(run_sweep(rig, plan, SimulationConfig(), backend="native", workers=2, store=tmp_path / "s"))
     for a, b in zip(serial, parallel):
         _identical(a, b)
     assert mujoco.get_mjcb_passive() is None
     with pytest.raises(ValueError, match="needs the native callback"):
-        run_sweep(rig, plan, SimulationConfig(), native=False, workers=2)
+        run_sweep(rig, plan, SimulationConfig(), backend="python", workers=2)
 
 
 def test_the_oscillator_free_run_in_c_is_the_python_free_run_to_the_last_bit():
@@ -93,11 +93,16 @@ def test_auto_backend_falls_back_to_python_where_native_cannot_run(rig, monkeypa
     monkeypatch.setattr(nc, "_checked", True)
     monkeypatch.setattr(nc, "_unavailable", "no C compiler found (set CC)")
     assert nc.unsupported([rig.plant]) == "no C compiler found (set CC)"
-    assert nc.choose_native(None, [rig.plant]) is False
-    assert nc.choose_native(True, [rig.plant]) is True
+    assert nc.choose_native("auto", [rig.plant]) is False
+    assert nc.choose_native("native", [rig.plant]) is True
+    assert nc.choose_native("python", [rig.plant]) is False
+    with pytest.raises(ValueError, match="backend must be one of .*'auto'.*got 'C'"):
+        nc.choose_native("C", [rig.plant])
+    with pytest.raises(ValueError, match="backend must be one of"):
+        simulate_steady_state(rig, 40.0, 2500.0, SimulationConfig(), backend="fast")
     cfg = SimulationConfig(n_periods=1)
     auto, _ = simulate_steady_state(rig, 40.0, 2500.0, cfg)
-    python, _ = simulate_steady_state(rig, 40.0, 2500.0, cfg, native=False)
+    python, _ = simulate_steady_state(rig, 40.0, 2500.0, cfg, backend="python")
     _identical(auto, python)
 
     monkeypatch.setattr(nc, "_unavailable", None)
@@ -110,5 +115,5 @@ def test_auto_backend_falls_back_to_python_where_native_cannot_run(rig, monkeypa
 
     law = JointLaw((Viscous(), Power(1), Cubed()), (100.0, 2000.0, 0.01))
     assert "no term Cubed" in nc.unsupported([law])
-    assert nc.choose_native(None, [law]) is False
-    assert nc.choose_native(None, [rig.plant]) is True
+    assert nc.choose_native("auto", [law]) is False
+    assert nc.choose_native("auto", [rig.plant]) is True

@@ -77,10 +77,10 @@ def test_callback_torque_equals_law_evaluated_independently(path):
                                    rtol=1e-14)
 
 
-@pytest.mark.parametrize("native", [False, pytest.param(True, marks=needs_cc)])
-def test_callback_is_scoped_and_refuses_to_share(rig, native):
+@pytest.mark.parametrize("backend", ["python", pytest.param("native", marks=needs_cc)])
+def test_callback_is_scoped_and_refuses_to_share(rig, backend):
     assert mujoco.get_mjcb_passive() is None
-    simulate_steady_state(rig, 40.0, 100.0, SimulationConfig(max_step_s=2e-3, samples_per_period=16), native=native)
+    simulate_steady_state(rig, 40.0, 100.0, SimulationConfig(max_step_s=2e-3, samples_per_period=16), backend=backend)
     assert mujoco.get_mjcb_passive() is None  # restored after use
 
     def foreign(m, d):

@@ -118,8 +118,8 @@ def test_accelerated_settling_agrees_with_plain_settling_in_fewer_periods(rig, o
     # shorten the settling, never move the steady state beyond what the two bounds allow
     # (<= settle_tol = 1e-9 each) plus the integration floor (~1e-11 of the swing).
     light = _light(rig)
-    plain, p_info = simulate_steady_state(light, omega, amplitude, SimulationConfig(accelerate=False), native=True)
-    fast, f_info = simulate_steady_state(light, omega, amplitude, SimulationConfig(), native=True)
+    plain, p_info = simulate_steady_state(light, omega, amplitude, SimulationConfig(accelerate=False), backend="native")
+    fast, f_info = simulate_steady_state(light, omega, amplitude, SimulationConfig(), backend="native")
     assert relative_departure(fast, plain) <= p_info.error_bound + f_info.error_bound + 1e-10
     # the absolute angles repeat too (the jumps keep the angular momentum)
     assert f_info.error_bound < 1e-9
@@ -137,7 +137,7 @@ def test_a_model_without_a_periodic_response_is_refused_long_before_its_cap(rig)
 
     undamped = JointLaw((Viscous(), Power(1)), (0.0, 2000.0))
     with pytest.raises(SteadyStateNotReached, match=r"no steady state in sight after 1\d\d periods"):
-        simulate_steady_state(rig, 30.0, 1000.0, SimulationConfig(max_periods=100_000), law=undamped, native=True)
+        simulate_steady_state(rig, 30.0, 1000.0, SimulationConfig(max_periods=100_000), law=undamped, backend="native")
 
 
 # --- the rig -------------------------------------------------------------------------------
@@ -145,7 +145,7 @@ def test_a_model_without_a_periodic_response_is_refused_long_before_its_cap(rig)
 @needs_cc
 @pytest.mark.parametrize("omega", [20.0, 90.0])  # 3 and 1 integrator steps per sample
 def test_native_rollout_periods_are_bit_identical_to_stepping(rig, omega):
-    rolled, info_r = simulate_steady_state(rig, omega, 2500.0, SimulationConfig(n_periods=2), native=True)
+    rolled, info_r = simulate_steady_state(rig, omega, 2500.0, SimulationConfig(n_periods=2), backend="native")
     stepped, info_s = simulate_steady_state(rig, omega, 2500.0, SimulationConfig(n_periods=2),
                                             backend="native-stepped")
     _identical(rolled, stepped)
@@ -159,10 +159,10 @@ def test_error_bound_holds_against_a_longer_run(rig):
     # (0.7^60 ~ 5e-10 of what is left: exact to 1e-15).
     light = _light(rig)
     cfg = SimulationConfig(settle_tol=1e-6, absolute_angles_periodic=False)
-    rec, info = simulate_steady_state(light, 45.0, 4000.0, cfg, native=True)
+    rec, info = simulate_steady_state(light, 45.0, 4000.0, cfg, backend="native")
     n = info.periods_simulated + 60
     ref, _ = simulate_steady_state(light, 45.0, 4000.0, dataclasses.replace(cfg, min_periods=n, max_periods=n + 1,
-                                                                            settle_tol=0.5), native=True)
+                                                                            settle_tol=0.5), backend="native")
     err = relative_departure(rec, ref)
     assert 0.3 < info.decay_ratio < 0.95
     assert err <= info.error_bound
@@ -175,8 +175,8 @@ def test_continuation_reaches_the_same_steady_state(rig):
     light = _light(rig)
     cfg = SimulationConfig()
     tasks = [(w, 4000.0, None) for w in (40.0, 45.0, 50.0)]
-    rest = simulate_segment(light, tasks, cfg, native=True, continuation=False)
-    cont = simulate_segment(light, tasks, cfg, native=True, continuation=True)
+    rest = simulate_segment(light, tasks, cfg, backend="native", continuation=False)
+    cont = simulate_segment(light, tasks, cfg, backend="native", continuation=True)
     for a, b in zip(rest, cont):
         # Both within their bounds (<= settle_tol = 1e-9) of the same steady state, plus the
         # integration floor (~1e-11).
@@ -224,13 +224,13 @@ def test_native_sessions_overlap_across_threads():
 
 # --- a dask cluster ------------------------------------------------------------------------
 
-@pytest.mark.parametrize("native", [pytest.param(True, marks=needs_cc), False])
-def test_dask_local_cluster_of_two_workers_gives_the_local_records(rig, native, tmp_path):
+@pytest.mark.parametrize("backend", [pytest.param("native", marks=needs_cc), "python"])
+def test_dask_local_cluster_of_two_workers_gives_the_local_records(rig, backend, tmp_path):
     pytest.importorskip("dask.distributed")
     plan = SweepPlan((10.0, 45.0, 90.0), (2500.0,))
-    local = run_sweep(rig, plan, SimulationConfig(), native=native)
+    local = run_sweep(rig, plan, SimulationConfig(), backend=backend)
     store = tmp_path / "store"
-    remote = run_sweep(rig, plan, SimulationConfig(), native=native, workers=2, executor="dask", store=store)
+    remote = run_sweep(rig, plan, SimulationConfig(), backend=backend, workers=2, executor="dask", store=store)
     for a, b in zip(records_of(local), records_of(remote)):
         _identical(a, b)
     # The client stored every point; a second run resumes from the store without a cluster.

@@ -28,7 +28,7 @@ from jointrig.identify.design import chain_modes_rad_s, crlb_std, d_efficiency, 
 from jointrig.identify.eiv import fisher_per_period
 from jointrig.rig import SimulationConfig, load_rig
 from jointrig.rig.measurement import noise_std
-from jointrig.rig.runtime import add_backend_option, backend_native
+from jointrig.rig.runtime import add_backend_option
 from jointrig.rig.native_callback import choose_native
 from jointrig.studies.montecarlo import monte_carlo
 from jointrig.studies.sweep import DEFAULT_PLAN, SweepPlan, records_of, run_sweep
@@ -78,10 +78,11 @@ def main(argv=None) -> int:
     check_output(args.json, "--json")
     rig = load_rig()
     points = CANDIDATES.points()
-    native = choose_native(backend_native(args.backend), (rig.plant,))
+    native = choose_native(args.backend, (rig.plant,))
     log.info("simulating the %d candidate runs to steady state (%s callback)", len(points),
              "native" if native else "Python")
-    records = records_of(run_sweep(rig, CANDIDATES, SimulationConfig(), native=native, workers=2 if native else 1))
+    records = records_of(run_sweep(rig, CANDIDATES, SimulationConfig(),
+                                   backend="native" if native else "python", workers=2 if native else 1))
     names = (JE,) + tuple(t.name for t in rig.law.terms)
     truth = {JE: rig.Je_kgm2, **rig.law.as_dict()}
     theta = [truth[n] for n in names]
@@ -175,8 +176,9 @@ def chain_main(args) -> int:
     candidates = chain_candidates(rig, 60.0)
     points = list(dict.fromkeys(candidates + default_points))
     cfg = dataclasses.replace(CHAIN_CONFIG, settle_tol=1e-8)
-    native = choose_native(backend_native(args.backend), rig.plant.laws)
-    done = run_chain_sweep(rig, points, cfg, native=native, workers=2 if native else 1)
+    native = choose_native(args.backend, rig.plant.laws)
+    done = run_chain_sweep(rig, points, cfg, backend="native" if native else "python",
+                           workers=2 if native else 1)
     records = [p.record for p in done]
     spec = rig.plant.spec()
     truth = {**{f"J{i}_kgm2": J for i, J in enumerate(rig.inertias_kgm2, start=1)}, **rig.plant.parameters()}

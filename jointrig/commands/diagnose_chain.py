@@ -29,7 +29,7 @@ from jointrig.rig.model import DEFAULT_MODEL
 from jointrig.studies.chain_sweep import CHAIN_CONFIG, CHAIN_PLAN, run_chain_sweep
 from jointrig.studies.chain_validate import validate_chain
 from jointrig.rig.measurement import measure_chain
-from jointrig.rig.runtime import add_backend_option, backend_native, check_output, check_range, progress_level
+from jointrig.rig.runtime import add_backend_option, check_output, check_range, progress_level
 from jointrig.files import write_json_atomic
 
 log = logging.getLogger("diagnose_chain")
@@ -83,9 +83,9 @@ def main(argv=None) -> int:
     log.info("simulating the measured train %s: %d estimation and %d held-out runs", truth.path.name,
              len(CHAIN_PLAN), len(args.held_out))
     est = run_chain_sweep(truth, CHAIN_PLAN, CHAIN_CONFIG, store=store / "estimation" if store else None,
-                          native=backend_native(args.backend))
+                          backend=args.backend)
     held = run_chain_sweep(truth, args.held_out, CHAIN_CONFIG, store=store / "held_out" if store else None,
-                           native=backend_native(args.backend))
+                           backend=args.backend)
     rng = np.random.default_rng(args.seed)
     est_recs = [measure_chain(p.record, args.snr_db, rng, n_periods=args.periods) for p in est]
     held_recs = [measure_chain(p.record, args.snr_db, rng, n_periods=args.periods) for p in held]
@@ -97,7 +97,7 @@ def main(argv=None) -> int:
 
     d = diagnose_chain(runs, progress=progress)
     log.info("replaying the held-out runs on the nominal and the extended model")
-    v = validate_chain(nominal, d, held_recs, native=backend_native(args.backend)) if d.steps else None
+    v = validate_chain(nominal, d, held_recs, backend=args.backend) if d.steps else None
     N = nominal.n_flywheels
     print(f"\nDiagnosis of a {N}-flywheel chain from {len(runs)} runs x {args.periods} periods at SNR "
           f"{args.snr_db:g} dB (truth {truth.path.name}; the diagnosis knows only the nominal structure):")

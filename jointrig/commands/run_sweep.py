@@ -27,7 +27,7 @@ from jointrig.identify.multisine import line_levels
 from jointrig.vocab.law import JointLaw
 from jointrig.rig import DEFAULT_MODEL, SimulationConfig, load_rig
 from jointrig.rig.measurement import add_noise, repeat_periods
-from jointrig.rig.runtime import add_backend_option, backend_native, progress_level
+from jointrig.rig.runtime import add_backend_option, progress_level
 from jointrig.studies.sweep import (DEFAULT_MULTISINE, DEFAULT_PLAN, EXECUTORS, SweepPlan, default_store, records_of,
                                     run_multisines, run_sweep, write_json_atomic)
 from jointrig.vocab.params import J1, J2, JE
@@ -144,7 +144,7 @@ def main(argv=None) -> int:
              rig.law.as_dict(), rig.J1_kgm2, rig.J2_kgm2, len(plan.points()), store)
     if args.excitation == "stepped":
         harmonics = 9 if args.harmonics is None else args.harmonics
-        points = run_sweep(rig, plan, config, store=store, native=backend_native(args.backend), workers=args.workers,
+        points = run_sweep(rig, plan, config, store=store, backend=args.backend, workers=args.workers,
                            continuation=args.continuation, executor=args.executor, scheduler=args.scheduler)
         runs_json = [{"omega_rad_s": p.record.omega_rad_s, "amplitude_Nm": p.record.drive_amplitude_Nm,
                       "periods_to_steady_state": p.settle.periods_simulated, "last_change": p.settle.last_change,
@@ -156,7 +156,7 @@ def main(argv=None) -> int:
         harmonics = ms_plan.n_harmonics if args.harmonics is None else args.harmonics
         ms_config = dataclasses.replace(config, samples_per_period=max(config.samples_per_period,
                                                                        2 * harmonics + 2))
-        done = run_multisines(rig, ms_plan, ms_config, native=backend_native(args.backend))
+        done = run_multisines(rig, ms_plan, ms_config, backend=args.backend)
         records = [r for r, _, _ in done]
         excitations = [m for _, _, m in done]
         runs_json = [{"omega0_rad_s": ms_plan.omega0_rad_s, "rms_Nm": m.rms_Nm, "excited_harmonics": list(m.excited),
@@ -282,7 +282,7 @@ def chain_main(args: argparse.Namespace) -> int:
     store = None if args.no_store else (args.store or default_chain_store(rig, config))
     log.info("chain model %s: %d flywheels, inertias %s kg m^2, %d sweep points; store %s", rig.path,
              rig.n_flywheels, rig.inertias_kgm2, len(points), store)
-    done = run_chain_sweep(rig, points, config, store=store, native=backend_native(args.backend), workers=args.workers,
+    done = run_chain_sweep(rig, points, config, store=store, backend=args.backend, workers=args.workers,
                            executor=args.executor, scheduler=args.scheduler)
     records = [p.record for p in done]
     spec = rig.plant.spec()
