@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import Callable, Optional, Sequence
+from typing import Callable, Generic, Optional, Sequence, TypeVar
 
 import numpy as np
 from scipy.special import chdtrc
@@ -24,7 +24,7 @@ from .balance import spectral_rate
 
 __all__ = ["ModelSpec", "NOMINAL", "Cause", "CATALOGUE", "CAUSES", "OSCILLATOR_CAUSES", "by_name", "evidence",
            "SEPARATING_EXCITATION", "DEFAULT_SEPARATION", "DIMENSIONLESS", "TIE", "IWAN_CHI",
-           "IWAN_BETA", "rate_amplitudes"]
+           "IWAN_BETA", "rate_amplitudes", "Selection", "forward_select"]
 
 
 @dataclass(frozen=True)
@@ -220,6 +220,66 @@ def evidence(delta_chi2: float, q: int, n_rows: int, alpha: float = 1e-3, n_caus
     p = float(chdtrc(q, max(delta_chi2, 0.0)))
     score = delta_chi2 - q * math.log(n_rows)
     return float(score), p, bool(p < alpha / n_causes and score > 0)
+
+Base = TypeVar("Base")
+Score = TypeVar("Score")
+
+
+@dataclass(frozen=True)
+class Selection(Generic[Base, Score]):
+    """What :func:`forward_select` chose.
+
+    Attributes:
+      base: the final model (whatever the pipeline's base is: a fit and its weights).
+      adopted: the adopted causes' scores, in the order adopted.
+      rounds: every round's scores, best first (the first round's rank the causes against the
+        nominal model).
+    """
+
+    base: Base
+    adopted: tuple
+    rounds: tuple
+
+
+def forward_select(base: Base, causes: Sequence[Cause], *,
+                   rank: Callable[[Base, list, int], Sequence[Score]],
+                   adopt: Callable[[Base, Sequence[Score]], Optional[tuple[Score, Base]]],
+                   max_effects: int,
+                   after: Optional[Callable[[Base, Score, Sequence[Score], list], None]] = None,
+                   name_of: Callable[[Score], str] = lambda s: s.effect) -> Selection:
+    """The one extension loop of every pipeline: greedy forward selection over ``causes``.
+
+    Each round ``rank(base, remaining causes, round)`` scores the causes not yet adopted on the
+    present model, best first; ``adopt(base, ranked)`` returns the cause it takes with the
+    extended (refitted) model, or None to stop. What earns adoption is the pipeline's own: the
+    two-flywheel diagnosis (:func:`identify.diagnose.diagnose`) takes the best significant
+    :func:`evidence` (its harmonic-balance fits are cheap; the simulated held-out runs judge
+    the result afterwards, :mod:`studies.validate`); the oscillator's extension
+    (:func:`identify.extend.extend_model`) tries causes in order of evidence and takes the first
+    that lowers the simulation error on held-out records (each trial is a full output-error fit).
+    A cause adopted leaves the pool, and so does every ``first_only`` cause (sought only against
+    the nominal model). ``after(base, adopted, ranked, remaining)`` may look at the round once
+    the cause is adopted (the diagnosis checks its rivals there). At most ``max_effects`` rounds
+    adopt a cause; the loop also stops when no cause is left.
+    """
+    remaining = list(causes)
+    adopted: list = []
+    rounds: list = []
+    for rnd in range(max_effects):
+        if not remaining:
+            break
+        ranked = tuple(rank(base, remaining, rnd))
+        rounds.append(ranked)
+        pick = adopt(base, ranked)
+        if pick is None:
+            break
+        chosen, base = pick
+        adopted.append(chosen)
+        remaining = [c for c in remaining if c.name != name_of(chosen) and not c.first_only]
+        if after is not None:
+            after(base, chosen, ranked, remaining)
+    return Selection(base, tuple(adopted), tuple(rounds))
+
 
 #: A measurement cause whose chi-square drop is within 1% of the best cause's is taken first.
 TIE = 0.99

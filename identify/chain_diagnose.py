@@ -46,7 +46,7 @@ from scipy.special import chdtrc
 from jointrig.vocab.law import JointLaw, Power, Viscous
 from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpec, bearing_name, chain_system,
                     identifiability, inertia_name, joint_prefix, solve_banded)
-from .causes import CAUSES, Cause, ModelSpec
+from .causes import CAUSES, Cause, ModelSpec, forward_select
 from .diagnose import DEFAULT_FIDELITY, FINE_SAMPLES
 from .harmonics import max_harmonic
 from .periods import period_spectra, raw_noise_std
@@ -263,6 +263,16 @@ class Candidate:
     @property
     def label(self) -> str:
         return f"{self.cause.name} at {'joint' if self.at_joint else 'flywheel'} {self.place}"
+
+    @property
+    def name(self) -> str:
+        """The label (:func:`identify.causes.forward_select` drops an adopted candidate by name:
+        every cause at most once per place, the same cause may still be found elsewhere)."""
+        return self.label
+
+    @property
+    def first_only(self) -> bool:
+        return self.cause.first_only
 
     def extend(self, spec: ChainSpec, h: float) -> ChainSpec:
         if not self.at_joint:
@@ -510,31 +520,29 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
     nu = 2.0 * (min(r.n_periods for r in runs) - 1)
     problem = _Problem(runs, H, nu, fidelity)
     nominal, w = problem.fit(nominal_spec(N))
-    current, wcur = nominal, w
-    pool = candidates(N, causes)
-    first: tuple = ()
-    steps: list[CandidateScore] = []
     ambiguous: list[Ambiguity] = []
-    for rnd in range(max_effects):
+    by_label = {c.label: c for c in candidates(N, causes)}
+
+    def rank(base, pool, rnd):
+        current, wcur = base
         n = len(pool)
         scored = []
         for k, cand in enumerate(pool, start=1):
             scored.append(score(problem, cand, current, wcur, n, alpha))
             if progress is not None:
                 progress(k, n, cand.label)
-        scored.sort(key=lambda s: (bool(s.note), -s.score))
-        if rnd == 0:
-            first = tuple(scored)
+        return sorted(scored, key=lambda s: (bool(s.note), -s.score))
+
+    def adopt(base, scored):
         best = next((s for s in scored if s.significant), None)
         if best is None:
-            break
-        steps.append(best)
-        profiled = current.profiled + best.fit.profiled
+            return None
+        profiled = base[0].profiled + best.fit.profiled
         current, wcur = problem.fit(best.fit.spec)
-        current = replace(current, profiled=profiled)
-        # Every cause at most once per place; the same cause may still be found elsewhere.
-        pool = [c for c in pool if c.label != best.label]
-        by_label = {c.label: c for c in candidates(N, causes)}
+        return best, (replace(current, profiled=profiled), wcur)
+
+    def rivals_of(base, best, scored, pool):
+        current, wcur = base
         for rival in scored:
             if rival is best or not rival.significant or rival.place == best.place and rival.at_joint == best.at_joint:
                 continue
@@ -546,6 +554,12 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
             if not r_given_b.significant and not b_given_r.significant:
                 drive, why = separating_drive(problem, by_label[best.label], by_label[rival.label], best, rival)
                 ambiguous.append(Ambiguity((best.label, rival.label), drive, why))
+
+    chosen = forward_select((nominal, w), candidates(N, causes), rank=rank, adopt=adopt, after=rivals_of,
+                            max_effects=max_effects, name_of=lambda s: s.label)
+    current = chosen.base[0]
+    first = chosen.rounds[0] if chosen.rounds else ()
+    steps = list(chosen.adopted)
     channels = sorted({ch for r in runs for ch in r.noise_std})
     noise = {ch: float(np.median([r.noise_std[ch] for r in runs if ch in r.noise_std])) for ch in channels}
     return ChainDiagnosis(nominal, first, tuple(steps), current, tuple(ambiguous), H, noise, nu)

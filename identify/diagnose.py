@@ -50,7 +50,7 @@ from .estimates import Estimates
 from .solve import IllConditionedWarning, solve
 from jointrig.vocab.params import J1, J2, JE, BEARING1, BEARING2
 from .causes import (DEFAULT_SEPARATION, CAUSES, NOMINAL, SEPARATING_EXCITATION, TIE, Cause, ModelSpec,
-                     rate_amplitudes, evidence)
+                     evidence, forward_select, rate_amplitudes)
 
 __all__ = [
     "DEFAULT_FIDELITY", "kink_corrected_rate", "PreparedRun", "prepare_runs", "Fit", "CauseScore",
@@ -919,45 +919,45 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
     say = progress or (lambda msg: None)
     say(f"fitting the nominal model (paper eq. 11) to {len(runs)} runs, harmonics 1..{H}")
     nominal, w = fit(problem, NOMINAL)
-    current, wcur = nominal, w
-    first: list[CauseScore] = []
-    steps: list[CauseScore] = []
-    remaining = list(causes)
     ambiguous: list[Ambiguity] = []
     known: dict[str, CauseScore] = {}  # scores on the current base from the last rival check
-    for rnd in range(max_effects):
+    kind_of = {c.name: c.kind for c in causes}
+    adopted: list[CauseScore] = []
+
+    def rank(base, remaining, rnd):
         # Ranked by evidence; causes rejected as unphysical or untestable go last. Causes the data
         # cannot tell apart at all (an angle offset and an asymmetric stiffness bend the model alike)
         # score the same to round-off: ranked to 9 digits, they keep the catalogue's order.
+        current, wcur = base
         say(f"round {rnd + 1}: scoring {len(remaining)} causes on "
-            + (" + ".join(s.effect for s in steps) or "the nominal model")
+            + (" + ".join(s.effect for s in adopted) or "the nominal model")
             + (f" ({workers} processes)" if workers > 1 else ""))
-        scores = sorted(_score_all(problem, remaining, current, wcur, len(remaining), alpha, workers, say, known),
-                        key=lambda s: (bool(s.note), -float(f"{s.score:.9g}")))
-        if rnd == 0:
-            first = scores
+        return sorted(_score_all(problem, remaining, current, wcur, len(remaining), alpha, workers, say, known),
+                      key=lambda s: (bool(s.note), -float(f"{s.score:.9g}")))
+
+    def adopt(base, scores):
         best = next((c for c in scores if c.significant), None)
-        kind_of = {c.name: c.kind for c in causes}
         sensor = next((c for c in scores if c.significant and kind_of[c.effect] == "measurement"), None)
         if best is not None and sensor is not None and sensor.delta_chi2 >= TIE * best.delta_chi2:
             # As good as the best dynamic cause (they explain the same data): the sensors are
             # checked first, as a test engineer checks the instrumentation before the joint.
             best = sensor
         if best is None:
-            break
-        steps.append(best)
+            return None
+        adopted.append(best)
         # Re-estimate the weights with the extended structure, then refit.
-        carried = current.profile_std_errors + best.fit.profile_std_errors
+        carried = base[0].profile_std_errors + best.fit.profile_std_errors
         current, wcur = fit(problem, best.fit.spec)
-        current = replace(current, profile_std_errors=carried)
-        # A cause that may only come first (a channel skew: see CAUSES) is not sought on top of others.
-        remaining = [c for c in remaining if c.name != best.effect and not c.first_only]
+        return best, (replace(current, profile_std_errors=carried), wcur)
+
+    def rivals_of(base, best, scores, remaining):
         # Rivals: significant on the previous base, close in evidence; are they still needed?
         # Each is tested both ways; the rivals are independent of each other (forked).
+        current, wcur = base
         rivals = [r for r in scores if r is not best and r.significant]
         cause_b = next(c for c in causes if c.name == best.effect)
 
-        def both_ways(rival, current=current, wcur=wcur, cause_b=cause_b, n_left=len(remaining)):
+        def both_ways(rival, n_left=len(remaining)):
             cause_r = next(c for c in causes if c.name == rival.effect)
             r_given_b = score_cause(problem, cause_r, current, wcur, n_left, alpha)
             rival_fit, wr = fit(problem, rival.fit.spec)
@@ -967,7 +967,7 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
         if rivals:
             say(f"  are {', '.join(r.effect for r in rivals)} still needed beside {best.effect}? (and the reverse)")
         names_left = {c.name for c in remaining}
-        known = {}
+        known.clear()
         for rival, (r_given_b, b_needed) in zip(rivals, fork_map(both_ways, rivals, workers)):
             if rival.effect in names_left:  # the next round scores it on the same base: it is known
                 known[rival.effect] = r_given_b
@@ -975,6 +975,11 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
                 pair = frozenset({best.effect, rival.effect})
                 ambiguous.append(Ambiguity((best.effect, rival.effect),
                                            SEPARATING_EXCITATION.get(pair, DEFAULT_SEPARATION)))
+
+    chosen = forward_select((nominal, w), causes, rank=rank, adopt=adopt, after=rivals_of, max_effects=max_effects)
+    current = chosen.base[0]
+    first = list(chosen.rounds[0]) if chosen.rounds else []
+    steps = list(chosen.adopted)
     noise = {}
     for ch in runs[0].noise_std:
         noise[ch] = float(np.median([r.noise_std[ch] for r in runs]))

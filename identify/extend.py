@@ -8,9 +8,11 @@ extension that fixes it.
   part of the output-error residual that the candidate's sensitivity explains after the present
   parameters' sensitivities are projected out; ``reduction / sigma^2`` is chi-square(1) under
   "no such effect", with sigma^2 the residual variance (conservative: it holds model error too).
-* :func:`extend_model`: greedy forward selection: fit the best-ranked candidate by output error
-  on training records and keep it only if the simulation error on held-out records drops by at
-  least ``min_gain``; re-rank and repeat; stop at the first rejection. Ranking by evidence, acceptance by validation, never by order.
+* :func:`extend_model`: greedy forward selection (the loop every pipeline shares,
+  :func:`identify.causes.forward_select`): fit the best-ranked candidate by output error on
+  training records and keep it only if the simulation error on held-out records drops by at
+  least ``min_gain``; re-rank and repeat; stop at the first rejection. Ranking by evidence,
+  acceptance by validation, never by order.
 """
 
 from __future__ import annotations
@@ -27,7 +29,7 @@ from jointrig.vocab.law import JointLaw, Term
 from jointrig.vocab.params import DRIVE_DELAY
 from jointrig.parallel import fork_map
 
-from .causes import OSCILLATOR_CAUSES, Cause, ModelSpec, evidence
+from .causes import OSCILLATOR_CAUSES, Cause, ModelSpec, evidence, forward_select
 from .output_error import OutputErrorResult, refine_output_error, simulate_periods
 
 __all__ = ["CandidateScore", "residual_spectrum", "ResidualAnalysis", "ExtensionStep", "ExtensionResult",
@@ -234,27 +236,26 @@ def extend_model(u: np.ndarray, y: np.ndarray, fs_Hz: float, *, inertia: float, 
     """
     by_name = {c.name: c for c in candidates}
     ut, yt, uv, yv = u[train], y[train], u[validate], y[validate]
-    delay_on = False
-    fit = _fit(ut, yt, fs_Hz, inertia, law, 0.0, False)
-    val = _val_rms(fit, uv, yv, fs_Hz)
-    oth = _val_rms(fit, other[0], other[1], fs_Hz) if other is not None else math.nan
-    effects: list[str] = []
+    fit0 = _fit(ut, yt, fs_Hz, inertia, law, 0.0, False)
+    val0 = _val_rms(fit0, uv, yv, fs_Hz)
+    oth0 = _val_rms(fit0, other[0], other[1], fs_Hz) if other is not None else math.nan
     steps: list[ExtensionStep] = []
-    first_scores: Optional[tuple] = None
-    while len(effects) < max_effects:
-        scores = score_candidates(ut, yt, fs_Hz, inertia=fit.inertia, law=fit.law, delay_s=fit.delay_s,
-                                  candidates=[c for c in candidates if c.name not in effects])
-        first_scores = first_scores or scores
-        if not scores:
-            break
+
+    # The base is (fit, held-out RMS, other excitation's RMS, delay estimated).
+    def rank(base, remaining, rnd):
+        fit = base[0]
+        return score_candidates(ut, yt, fs_Hz, inertia=fit.inertia, law=fit.law, delay_s=fit.delay_s,
+                                candidates=remaining)
+
+    def adopt(base, scores):
+        fit, val, oth, delay_on = base
         # Without another excitation only the best-evidenced candidate is tried per round: if
         # it does not generalise, weaker evidence will not either (each trial is a full
         # output-error fit). With one, a candidate that fails there may be an artefact of the
         # fit's excitation while the next one is not: they are tried in order.
-        kept = None
         tried = scores if other is not None else scores[:1]
 
-        def trial_of(best, fit=fit, delay_on=delay_on):
+        def trial_of(best):
             term = _added_term(by_name[best.effect])
             if term is None:
                 trial = _fit(ut, yt, fs_Hz, fit.inertia, fit.law, fit.delay_s, True)
@@ -272,13 +273,12 @@ def extend_model(u: np.ndarray, y: np.ndarray, fs_Hz: float, *, inertia: float, 
             log.info("candidate %s: held-out RMS %.4g -> %.4g, other excitation %.4g -> %.4g (%s)", best.effect, val,
                      new_val, oth, new_oth, "kept" if ok else "rejected")
             if ok:
-                kept = (best, term, trial, new_val, new_oth)
-                break
-        if kept is None:
-            break
-        best, term, trial, new_val, new_oth = kept
-        effects.append(best.effect)
-        fit, val, oth = trial, new_val, new_oth
-        delay_on = delay_on or term is None
+                return best, (trial, new_val, new_oth, delay_on or term is None)
+        return None
+
+    chosen = forward_select((fit0, val0, oth0, False), candidates, rank=rank, adopt=adopt, max_effects=max_effects)
+    fit, _, _, delay_on = chosen.base
+    effects = [s.effect for s in chosen.adopted]
+    first_scores = chosen.rounds[0] if chosen.rounds else None
     final = _fit(u, y, fs_Hz, fit.inertia, fit.law, fit.delay_s, delay_on)
     return ExtensionResult(tuple(effects), tuple(steps), final, first_scores or ())
