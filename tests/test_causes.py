@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from jointrig.identify.causes import CATALOGUE, CAUSES, OSCILLATOR_CAUSES, by_name, evidence
+from jointrig.identify.causes import CATALOGUE, CAUSES, OSCILLATOR_CAUSES, by_name, evidence, forward_select
 from jointrig.identify.extend import _added_term
 from jointrig.vocab.law import Monomial, Power
 
@@ -41,3 +41,33 @@ def test_evidence_by_hand():
     assert not evidence(10.0, 3, 100, alpha=1.0, n_causes=1)[2]  # significant, but 3 parameters do not pay
     # A cause already in the model adds no parameter: its refit's round-off is no evidence.
     assert evidence(2.6e-8, 0, 100, alpha=1.0, n_causes=1) == (2.6e-8, 1.0, False)
+
+
+def test_forward_select_adopts_until_nothing_earns_it_and_drops_first_only_causes():
+    # A toy pipeline whose base is the tuple of adopted names: each round ranks the causes left
+    # by a fixed strength, adoption takes the best if it is strong enough. "angle_skew" is
+    # first_only: it stays in the pool of round 1 only.
+    strength = {"coulomb_friction": 5.0, "backlash": 3.0, "angle_skew": 4.0, "drive_delay": 0.5}
+    pool = [by_name(n) for n in strength]
+    seen, looked = [], []
+
+    def rank(base, remaining, rnd):
+        seen.append((rnd, tuple(c.name for c in remaining)))
+        return sorted(((c.name, strength[c.name]) for c in remaining), key=lambda s: -s[1])
+
+    def adopt(base, ranked):
+        best = ranked[0]
+        return (best, base + (best[0],)) if best[1] > 1.0 else None
+
+    sel = forward_select((), pool, rank=rank, adopt=adopt, max_effects=5, name_of=lambda s: s[0],
+                         after=lambda base, chosen, ranked, remaining: looked.append((base, len(remaining))))
+    assert sel.base == ("coulomb_friction", "backlash")
+    assert [s[0] for s in sel.adopted] == ["coulomb_friction", "backlash"]
+    assert seen == [(0, ("coulomb_friction", "backlash", "angle_skew", "drive_delay")),
+                    (1, ("backlash", "drive_delay")), (2, ("drive_delay",))]
+    assert looked == [(("coulomb_friction",), 2), (("coulomb_friction", "backlash"), 1)]
+    assert len(sel.rounds) == 3 and sel.rounds[0][0] == ("coulomb_friction", 5.0)
+    # max_effects caps the rounds that adopt; an empty pool ends the loop without a round
+    assert forward_select((), pool, rank=rank, adopt=adopt, max_effects=1, name_of=lambda s: s[0]).base == \
+        ("coulomb_friction",)
+    assert forward_select((), [], rank=rank, adopt=adopt, max_effects=3).rounds == ()
