@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from jointrig.vocab.law import (AngleHat, Coulomb, Iwan, Jenkins, Stribeck, JointLaw, Monomial, Power,
+from jointrig.vocab.law import (AngleHat, Coulomb, Iwan, Jenkins, Stribeck, TanhFriction, JointLaw, Monomial, Power,
                                 QuadraticDamping, Viscous, angle_hats, hat_law, hat_matrix, play, polynomial_law,
                                 rate_hats)
 
@@ -184,3 +184,31 @@ def test_stribeck_friction_scalar_and_array_paths_and_its_model_fields(tmp_path)
     path.write_text(identified_model_xml(Plant(law), (2.0, 2.0), template=DEFAULT_MODEL))
     back = load_rig(path)
     assert back.law == law and back.plant.parameters()["stribeck_velocity_rad_s"] == 0.5
+
+
+def test_tanh_friction_scalar_and_array_paths_and_its_model_fields(tmp_path):
+    # tanh(v / vt): 0 at rest, tanh(1) at v = vt, odd, -> sign(v) far beyond (dry friction);
+    # the scalar (callback) and array (identifier) paths agree to round-off (libm's tanh and
+    # numpy's differ in the last bit); the MJCF fields read back the term and a negative torque
+    # (energy fed in) or a missing transition rate is refused, naming the field.
+    from jointrig.rig import load_rig
+    from jointrig.rig.model import DEFAULT_MODEL, identified_model_xml
+    from jointrig.vocab.law import FieldError, law_terms_from_fields
+    from jointrig.vocab.plant import Plant
+
+    f = TanhFriction(0.5)
+    v = np.array([-50.0, -0.5, -1e-9, 0.0, 1e-9, 0.5, 50.0])
+    np.testing.assert_allclose(f(None, v), [-1, -math.tanh(1), -2e-9, 0, 2e-9, math.tanh(1), 1], rtol=1e-15)
+    assert [f(0.0, float(x)) for x in v] == pytest.approx(list(f(None, v)), rel=1e-15, abs=0)
+    assert f.dissipative and not f.elastic
+    law = JointLaw((Viscous(), Power(1), f), (5.0, 500.0, 20.0))
+    path = tmp_path / "tanh.xml"
+    path.write_text(identified_model_xml(Plant(law), (2.0, 2.0), template=DEFAULT_MODEL))
+    back = load_rig(path)
+    assert back.law == law and back.plant.parameters()["tanh_friction_velocity_rad_s"] == 0.5
+    with pytest.raises(FieldError, match="jointrig_tanh_friction_torque_Nm must be >= 0"):
+        law_terms_from_fields({"tanh_friction_torque_Nm": [-1.0], "tanh_friction_velocity_rad_s": [0.5]})
+    with pytest.raises(FieldError, match="go together"):
+        law_terms_from_fields({"tanh_friction_torque_Nm": [1.0]})
+    with pytest.raises(ValueError, match="velocity_rad_s"):
+        TanhFriction(0.0)

@@ -41,6 +41,15 @@ def test_a_stribeck_friction_gives_identical_trajectories(rig):
                simulate_steady_state(rig, 25.0, 400.0, cfg, law=law, backend="native")[0])
 
 
+def test_a_tanh_friction_gives_identical_trajectories(rig):
+    from jointrig.vocab.law import JointLaw, Power, TanhFriction, Viscous
+
+    law = JointLaw((Viscous(), Power(1), TanhFriction(0.5)), (5.0, 500.0, 20.0))
+    cfg = SimulationConfig(n_periods=2)
+    _identical(simulate_steady_state(rig, 25.0, 400.0, cfg, law=law, backend="python")[0],
+               simulate_steady_state(rig, 25.0, 400.0, cfg, law=law, backend="native")[0])
+
+
 def test_hat_law_and_a_replayed_multiharmonic_drive(rig):
     drive = PeriodicDrive(30.0, (0, 1000.0, 50 - 20j, 0, 10j))
     _identical(simulate_steady_state(rig, 30.0, 1000.0, SimulationConfig(), drive=drive)[0],

@@ -49,6 +49,7 @@ __all__ = [
     "Jenkins",
     "Iwan",
     "Stribeck",
+    "TanhFriction",
     "dead_zone",
     "play",
     "AngleHat",
@@ -428,6 +429,58 @@ class Stribeck(Term):
         x = np.asarray(rate, dtype=float)
         r = x / self.velocity_rad_s
         return np.sign(x) * np.exp(-(r * r))
+
+
+@dataclass(frozen=True)
+class TanhFriction(Term):
+    """Regularised dry friction ``tanh(phi' / v_t)`` -> ``tanh_friction_torque_Nm``: sliding
+    friction that builds up smoothly over the transition rate ``velocity_rad_s`` instead of
+    jumping at rest (the form many multibody and robot models use, so a test engineer can
+    state their simulation's law as it is; ``F tanh(phi'/v_t)`` tends to :class:`Coulomb`'s
+    ``F sign(phi')`` as ``v_t -> 0``)."""
+
+    velocity_rad_s: float
+
+    def __post_init__(self):
+        v = float(self.velocity_rad_s)
+        if not (math.isfinite(v) and v > 0):
+            raise ValueError(f"TanhFriction.velocity_rad_s must be a finite number > 0, got {self.velocity_rad_s!r}")
+        object.__setattr__(self, "velocity_rad_s", v)
+
+    MJCF_FIELDS = ("tanh_friction_torque_Nm", "tanh_friction_velocity_rad_s")
+    dissipative = True
+
+    def native(self):
+        return NativeTerm(10, dpar=self.velocity_rad_s)
+
+    @classmethod
+    def read_fields(cls, fields):
+        if not _pair(fields, "tanh_friction_torque_Nm", "tanh_friction_velocity_rad_s"):
+            return []
+        torque = _scalar(fields, "tanh_friction_torque_Nm", dissipates=True)
+        velocity = _scalar(fields, "tanh_friction_velocity_rad_s", nonnegative=True)
+        if not velocity > 0:
+            raise FieldError(f"jointrig_tanh_friction_velocity_rad_s must be > 0, got {velocity:g}")
+        return [(cls(velocity), torque)]
+
+    def fields(self, value):
+        return {"tanh_friction_torque_Nm": [value], "tanh_friction_velocity_rad_s": [self.velocity_rad_s]}
+
+    def derived_parameters(self, value):
+        return {"tanh_friction_velocity_rad_s": self.velocity_rad_s}
+
+    @property
+    def name(self) -> str:
+        return "tanh_friction_torque_Nm"
+
+    @property
+    def elastic(self) -> bool:
+        return False
+
+    def __call__(self, phi, rate):
+        if isinstance(rate, float):
+            return math.tanh(rate / self.velocity_rad_s)
+        return np.tanh(np.asarray(rate, dtype=float) / self.velocity_rad_s)
 
 
 @dataclass(frozen=True)
@@ -836,7 +889,7 @@ def rate_hats(knots: Sequence[float]) -> tuple[RateHat, ...]:
 #: Every term a model file can declare, in the order its terms enter the law (the order of the
 #: sums in both callbacks, so it is part of the bits of every trajectory).
 TERM_CLASSES: tuple[type[Term], ...] = (Viscous, Power, Coulomb, QuadraticDamping, AngleHat, RateHat, Jenkins, Iwan,
-                                        Stribeck)
+                                        Stribeck, TanhFriction)
 
 
 def law_terms_from_fields(fields: dict) -> list[tuple[Term, float]]:
