@@ -474,6 +474,15 @@ class _Problem:
     def system(self, spec: ModelSpec, jump: float = 0.0) -> LinearSystem:
         return self._averages.system(spec, jump)
 
+    @property
+    def columns_memo(self) -> dict:
+        """The averaged records' coefficient columns computed so far, by key."""
+        return self._averages._memo
+
+    def keep_columns(self, columns: dict) -> None:
+        """Add columns computed elsewhere (a forked worker) to :attr:`columns_memo`."""
+        self._averages._memo.update(columns)
+
     def row_variance(self, spec: ModelSpec, theta: np.ndarray, like: LinearSystem) -> np.ndarray:
         """Variance of every averaged row: noise from period-to-period residual variation, plus
         ``(fidelity * size)^2`` with ``size`` the run's largest balanced term."""
@@ -867,9 +876,24 @@ def _score_all(problem: _Problem, causes: Sequence[Cause], base: Fit, weights: n
     # The longest first (sliders, then other profile searches), so the processes finish together.
     order = sorted((k for k in range(len(causes)) if k not in out),
                    key=lambda k: _cost_rank(problem, causes[k], base))
-    scores = fork_map(lambda k: score_cause(problem, causes[k], base, weights, n, alpha), order, workers)
-    out.update((k, told(j, s)) for j, (k, s) in enumerate(zip(order, scores)))
+    results = fork_map(lambda k: _with_new_columns(problem, lambda: score_cause(problem, causes[k], base, weights, n,
+                                                                                 alpha)), order, workers)
+    for j, (k, (s, cols)) in enumerate(zip(order, results)):
+        problem.keep_columns(cols)
+        out[k] = told(j, s)
     return [out[k] for k in range(len(causes))]
+
+
+def _with_new_columns(problem: _Problem, work: Callable):
+    """``(work(), the harmonic-balance columns it computed)``: a forked worker's columns die
+    with it, so it hands them back for the next rounds' workers (:meth:`_Problem.keep_columns`).
+    A profile search's grid of trial values is the same in every round, and a column of an
+    angle-only term (free play, a Jenkins or Iwan element) does not depend on the base: the
+    later rounds find them computed. The same numbers either way."""
+    memo = problem.columns_memo
+    before = set(memo)
+    value = work()
+    return value, {k: v for k, v in memo.items() if k not in before}
 
 
 def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmonics: int = 20,
@@ -959,16 +983,20 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
 
         def both_ways(rival, n_left=len(remaining)):
             cause_r = next(c for c in causes if c.name == rival.effect)
-            r_given_b = score_cause(problem, cause_r, current, wcur, n_left, alpha)
-            rival_fit, wr = fit(problem, rival.fit.spec)
-            b_given_r = score_cause(problem, cause_b, rival_fit, wr, n_left, alpha)
-            return r_given_b, b_given_r.significant
+
+            def work():
+                r_given_b = score_cause(problem, cause_r, current, wcur, n_left, alpha)
+                rival_fit, wr = fit(problem, rival.fit.spec)
+                b_given_r = score_cause(problem, cause_b, rival_fit, wr, n_left, alpha)
+                return r_given_b, b_given_r.significant
+            return _with_new_columns(problem, work)
 
         if rivals:
             say(f"  are {', '.join(r.effect for r in rivals)} still needed beside {best.effect}? (and the reverse)")
         names_left = {c.name for c in remaining}
         known.clear()
-        for rival, (r_given_b, b_needed) in zip(rivals, fork_map(both_ways, rivals, workers)):
+        for rival, ((r_given_b, b_needed), cols) in zip(rivals, fork_map(both_ways, rivals, workers)):
+            problem.keep_columns(cols)
             if rival.effect in names_left:  # the next round scores it on the same base: it is known
                 known[rival.effect] = r_given_b
             if not r_given_b.significant and not b_needed:

@@ -295,3 +295,36 @@ def test_kink_iteration_from_a_neighbours_jump_settles_where_it_does_from_zero(r
         np.testing.assert_allclose(warm.values, cold.values, rtol=1e-9, atol=0)
         assert abs(warm.chi2 - cold.chi2) <= 1e-9 * cold.chi2
     assert calls == [settled]
+
+
+def test_columns_computed_in_forked_workers_serve_the_next_rounds(rig, tmp_path_factory, reports):
+    # A forked worker's harmonic-balance columns would die with it; it hands them back
+    # (identify.diagnose._with_new_columns) and the parent keeps them, so the next round's
+    # workers find a slider law's profile grid computed. Scoring the cause again here then
+    # computes no column of its law term and gives the same score bit for bit.
+    import jointrig.identify.diagnose as D
+    from jointrig.identify.causes import by_name
+    from jointrig.vocab.law import Jenkins
+
+    report, _ = reports("coulomb_friction")
+    records, _ = measured(rig, tmp_path_factory, "coulomb_friction")
+    prepared = D.prepare_runs(records, band=report.band)
+    runs = tuple(r for i, r in enumerate(prepared) if i not in report.holdout)
+    problem = D._Problem(runs, report.diagnosis.form, report.diagnosis.n_harmonics, 0.5,
+                         2.0 * (min(r.n_periods for r in runs) - 1))
+    base, w = D.fit(problem, D.NOMINAL)
+    causes = [by_name("hysteresis"), by_name("quadratic_damping")]
+
+    def jenkins_columns():
+        return {k for k in problem.columns_memo if k[0] == "law" and isinstance(k[1], Jenkins)}
+
+    assert not jenkins_columns()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)  # see the test above
+        forked = D._score_all(problem, causes, base, w, 2, 1e-3, workers=2)
+    kept = jenkins_columns()
+    assert len(kept) >= 17  # the profile's grid, at least
+    again = D.score_cause(problem, causes[0], base, w, 2, 1e-3)
+    assert jenkins_columns() == kept
+    assert again.delta_chi2 == forked[0].delta_chi2
+    np.testing.assert_array_equal(again.fit.values, forked[0].fit.values)
