@@ -265,6 +265,19 @@ def test_kink_correction_adds_only_out_of_band_harmonics_and_batches_exactly():
     assert np.array_equal(kink_corrected_rate(phi, omegas, band, 0.0), v_bl)
 
 
+def _fit_problem(rig, tmp_path_factory, reports, kind: str):
+    """The fixture case's report and the diagnosis's harmonic-balance problem on its fit runs,
+    as ``identify.diagnose.diagnose`` builds it."""
+    import jointrig.identify.diagnose as D
+
+    report, _ = reports(kind)
+    records, _ = measured(rig, tmp_path_factory, kind)
+    prepared = D.prepare_runs(records, band=report.band)
+    runs = tuple(r for i, r in enumerate(prepared) if i not in report.holdout)
+    return report, D._Problem(runs, report.diagnosis.form, report.diagnosis.n_harmonics, 0.5,
+                              2.0 * (min(r.n_periods for r in runs) - 1))
+
+
 def test_kink_iteration_from_a_neighbours_jump_settles_where_it_does_from_zero(rig, tmp_path_factory, reports,
                                                                               monkeypatch):
     # A profile search starts each trial's kink iteration from its nearest solved neighbour's jump
@@ -274,12 +287,7 @@ def test_kink_iteration_from_a_neighbours_jump_settles_where_it_does_from_zero(r
     # 1e-9 of each (with margin). At the settled jump one fit suffices, not three.
     import jointrig.identify.diagnose as D
 
-    report, _ = reports("coulomb_friction")
-    records, _ = measured(rig, tmp_path_factory, "coulomb_friction")
-    prepared = D.prepare_runs(records, band=report.band)
-    runs = tuple(r for i, r in enumerate(prepared) if i not in report.holdout)
-    problem = D._Problem(runs, report.diagnosis.form, report.diagnosis.n_harmonics, 0.5,
-                         2.0 * (min(r.n_periods for r in runs) - 1))
+    report, problem = _fit_problem(rig, tmp_path_factory, reports, "coulomb_friction")
     spec = report.diagnosis.extended.spec
     _, w = D.fit(problem, spec)
     calls = []
@@ -306,12 +314,7 @@ def test_columns_computed_in_forked_workers_serve_the_next_rounds(rig, tmp_path_
     from jointrig.identify.causes import by_name
     from jointrig.vocab.law import Jenkins
 
-    report, _ = reports("coulomb_friction")
-    records, _ = measured(rig, tmp_path_factory, "coulomb_friction")
-    prepared = D.prepare_runs(records, band=report.band)
-    runs = tuple(r for i, r in enumerate(prepared) if i not in report.holdout)
-    problem = D._Problem(runs, report.diagnosis.form, report.diagnosis.n_harmonics, 0.5,
-                         2.0 * (min(r.n_periods for r in runs) - 1))
+    report, problem = _fit_problem(rig, tmp_path_factory, reports, "coulomb_friction")
     base, w = D.fit(problem, D.NOMINAL)
     causes = [by_name("hysteresis"), by_name("quadratic_damping")]
 

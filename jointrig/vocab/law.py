@@ -378,49 +378,62 @@ class Coulomb(_OneField, Term):
 
 
 @dataclass(frozen=True)
-class Stribeck(Term):
+class _RateFriction(Term):
+    """A friction term of the rate alone, shaped by one transition rate ``velocity_rad_s``
+    (> 0), declared in a model file by the pair ``MJCF_FIELDS = (torque field, rate field)``;
+    the torque field names its parameter (dissipative: refused negative). Its C case
+    ``NATIVE_KIND`` reads the transition rate as its float."""
+
+    velocity_rad_s: float
+
+    NATIVE_KIND: ClassVar[int]
+    dissipative: ClassVar[bool] = True
+
+    def __post_init__(self):
+        v = float(self.velocity_rad_s)
+        if not (math.isfinite(v) and v > 0):
+            raise ValueError(f"{type(self).__name__}.velocity_rad_s must be a finite number > 0, "
+                             f"got {self.velocity_rad_s!r}")
+        object.__setattr__(self, "velocity_rad_s", v)
+
+    def native(self):
+        return NativeTerm(self.NATIVE_KIND, dpar=self.velocity_rad_s)
+
+    @classmethod
+    def read_fields(cls, fields):
+        torque_field, rate_field = cls.MJCF_FIELDS
+        if not _pair(fields, torque_field, rate_field):
+            return []
+        torque = _scalar(fields, torque_field, dissipates=True)
+        velocity = _scalar(fields, rate_field, nonnegative=True)
+        if not velocity > 0:
+            raise FieldError(f"jointrig_{rate_field} must be > 0, got {velocity:g}")
+        return [(cls(velocity), torque)]
+
+    def fields(self, value):
+        return {self.MJCF_FIELDS[0]: [value], self.MJCF_FIELDS[1]: [self.velocity_rad_s]}
+
+    def derived_parameters(self, value):
+        return {self.MJCF_FIELDS[1]: self.velocity_rad_s}
+
+    @property
+    def name(self) -> str:
+        return self.MJCF_FIELDS[0]
+
+    @property
+    def elastic(self) -> bool:
+        return False
+
+
+@dataclass(frozen=True)
+class Stribeck(_RateFriction):
     """The Stribeck part of dry friction: ``sign(phi') exp(-(phi'/v_s)^2)`` ->
     ``stribeck_torque_Nm``, the static friction's excess over the sliding one (with
     :class:`Coulomb` of torque ``F_c``: ``F(phi') = sign(phi') (F_c + F_x exp(-(phi'/v_s)^2))``,
     velocity-weakening below the Stribeck rate ``velocity_rad_s``)."""
 
-    velocity_rad_s: float
-
-    def __post_init__(self):
-        v = float(self.velocity_rad_s)
-        if not (math.isfinite(v) and v > 0):
-            raise ValueError(f"Stribeck.velocity_rad_s must be a finite number > 0, got {self.velocity_rad_s!r}")
-        object.__setattr__(self, "velocity_rad_s", v)
-
     MJCF_FIELDS = ("stribeck_torque_Nm", "stribeck_velocity_rad_s")
-    dissipative = True
-
-    def native(self):
-        return NativeTerm(9, dpar=self.velocity_rad_s)
-
-    @classmethod
-    def read_fields(cls, fields):
-        if not _pair(fields, "stribeck_torque_Nm", "stribeck_velocity_rad_s"):
-            return []
-        torque = _scalar(fields, "stribeck_torque_Nm", dissipates=True)
-        velocity = _scalar(fields, "stribeck_velocity_rad_s", nonnegative=True)
-        if not velocity > 0:
-            raise FieldError(f"jointrig_stribeck_velocity_rad_s must be > 0, got {velocity:g}")
-        return [(cls(velocity), torque)]
-
-    def fields(self, value):
-        return {"stribeck_torque_Nm": [value], "stribeck_velocity_rad_s": [self.velocity_rad_s]}
-
-    def derived_parameters(self, value):
-        return {"stribeck_velocity_rad_s": self.velocity_rad_s}
-
-    @property
-    def name(self) -> str:
-        return "stribeck_torque_Nm"
-
-    @property
-    def elastic(self) -> bool:
-        return False
+    NATIVE_KIND = 9
 
     def __call__(self, phi, rate):
         if isinstance(rate, float):
@@ -432,50 +445,15 @@ class Stribeck(Term):
 
 
 @dataclass(frozen=True)
-class TanhFriction(Term):
+class TanhFriction(_RateFriction):
     """Regularised dry friction ``tanh(phi' / v_t)`` -> ``tanh_friction_torque_Nm``: sliding
     friction that builds up smoothly over the transition rate ``velocity_rad_s`` instead of
     jumping at rest (the form many multibody and robot models use, so a test engineer can
     state their simulation's law as it is; ``F tanh(phi'/v_t)`` tends to :class:`Coulomb`'s
     ``F sign(phi')`` as ``v_t -> 0``)."""
 
-    velocity_rad_s: float
-
-    def __post_init__(self):
-        v = float(self.velocity_rad_s)
-        if not (math.isfinite(v) and v > 0):
-            raise ValueError(f"TanhFriction.velocity_rad_s must be a finite number > 0, got {self.velocity_rad_s!r}")
-        object.__setattr__(self, "velocity_rad_s", v)
-
     MJCF_FIELDS = ("tanh_friction_torque_Nm", "tanh_friction_velocity_rad_s")
-    dissipative = True
-
-    def native(self):
-        return NativeTerm(10, dpar=self.velocity_rad_s)
-
-    @classmethod
-    def read_fields(cls, fields):
-        if not _pair(fields, "tanh_friction_torque_Nm", "tanh_friction_velocity_rad_s"):
-            return []
-        torque = _scalar(fields, "tanh_friction_torque_Nm", dissipates=True)
-        velocity = _scalar(fields, "tanh_friction_velocity_rad_s", nonnegative=True)
-        if not velocity > 0:
-            raise FieldError(f"jointrig_tanh_friction_velocity_rad_s must be > 0, got {velocity:g}")
-        return [(cls(velocity), torque)]
-
-    def fields(self, value):
-        return {"tanh_friction_torque_Nm": [value], "tanh_friction_velocity_rad_s": [self.velocity_rad_s]}
-
-    def derived_parameters(self, value):
-        return {"tanh_friction_velocity_rad_s": self.velocity_rad_s}
-
-    @property
-    def name(self) -> str:
-        return "tanh_friction_torque_Nm"
-
-    @property
-    def elastic(self) -> bool:
-        return False
+    NATIVE_KIND = 10
 
     def __call__(self, phi, rate):
         if isinstance(rate, float):
