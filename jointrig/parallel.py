@@ -9,13 +9,15 @@ slower, measured). The results are the same numbers as in one process, in the it
 from __future__ import annotations
 
 import gc
+import importlib
 import multiprocessing
 import os
+import signal
 import threading
 from concurrent.futures import ProcessPoolExecutor
 from typing import Callable, Iterator, Optional, Sequence
 
-__all__ = ["default_workers", "fork_map"]
+__all__ = ["WarmProcess", "default_workers", "fork_map"]
 
 #: The function and items of the running :func:`fork_map`, set just before the workers are forked.
 _WORK: Optional[tuple] = None
@@ -107,3 +109,93 @@ def fork_map(fn: Callable, items: Sequence, workers: Optional[int] = None) -> It
             pool.shutdown(wait=True)
         else:
             _stop(pool)
+
+
+class WarmProcess:
+    """A process forked now, while the command is still light, that imports ``modules`` at once
+    and then runs the one call it is sent: work at the end of a command that needs a heavy stack
+    of its own (the report's matplotlib, the recording's rerun: half a second of imports, and
+    their interpreter teardown) has it imported meanwhile, on the core the command's own start
+    leaves idle, instead of after the results.
+
+    ``call(fn, *args)`` pickles ``fn`` (a module-level function) and its arguments to the
+    process, runs it there and returns its result, or raises its exception here. Leaving the
+    ``with`` block without a call (bad input, an error, Ctrl-C) kills the process at once,
+    whatever it is importing. The process ignores SIGINT: Ctrl-C stops the command, and the
+    process ends when the command does (its pipe closes), so files it is writing are either
+    finished (atomically) or not there."""
+
+    def __init__(self, modules: Sequence[str]):
+        ctx = multiprocessing.get_context("fork")
+        self._conn, child = ctx.Pipe()
+        self._process = ctx.Process(target=_warm_main, args=(child, self._conn, tuple(modules)), name="jointrig-warm")
+        self._process.start()
+        child.close()
+
+    @property
+    def pid(self) -> Optional[int]:
+        """The process's id while it runs (None once it has answered or been stopped)."""
+        return None if self._process is None else self._process.pid
+
+    def call(self, fn: Callable, /, *args, **kwargs):
+        if self._process is None:
+            raise RuntimeError("WarmProcess.call: the process has run its call already")
+        try:
+            self._conn.send((fn, args, kwargs))
+            ok, value = self._conn.recv()
+        except (EOFError, BrokenPipeError, ConnectionResetError):
+            self._process.join()
+            code = self._process.exitcode
+            self._process = None
+            raise RuntimeError(f"the process that was to run {getattr(fn, '__qualname__', fn)} ended "
+                               f"(exit code {code}) without an answer") from None
+        self._process.join()
+        self._process = None
+        self._conn.close()
+        if ok:
+            return value
+        raise value
+
+    def close(self) -> None:
+        """Stop the process if it has not run its call (idempotent)."""
+        if self._process is not None:
+            self._process.kill()
+            self._process.join()
+            self._process = None
+            self._conn.close()
+
+    def __enter__(self) -> "WarmProcess":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def _warm_main(conn, parents_end, modules: tuple) -> None:
+    parents_end.close()  # else the pipe would never end here when the command does
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    failed = None
+    for name in modules:
+        try:
+            importlib.import_module(name)
+        except Exception as err:  # raised where the call is made, as the call would raise it
+            failed = err
+            break
+    try:
+        fn, args, kwargs = conn.recv()
+    except EOFError:  # the command ended without a call
+        return
+    try:
+        if failed is not None:
+            raise failed
+        answer = (True, fn(*args, **kwargs))
+    except Exception as err:
+        answer = (False, err)
+    try:
+        conn.send(answer)
+    except BrokenPipeError:  # the command is gone
+        pass
+    except Exception as err:  # a result or an exception that does not pickle: say what it was
+        what = answer[1] if not answer[0] else f"a result of type {type(answer[1]).__name__}"
+        conn.send((False, RuntimeError(f"{getattr(fn, '__qualname__', fn)} in the warm process: {what!r} "
+                                       f"could not be sent back ({type(err).__name__}: {err})")))

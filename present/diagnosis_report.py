@@ -20,14 +20,14 @@ import html
 import io
 import math
 from pathlib import Path
-from typing import Sequence
+from typing import Callable, Optional, Sequence
 
 import numpy as np
 
 from .formatting import quantity_of, sig, unit_of, with_se
 from jointrig.studies.validate import CHI2_PER_DOF_OK, DiagnosisReport
 
-__all__ = ["report_json", "format_report", "log_diagnosis", "write_html"]
+__all__ = ["report_json", "format_report", "log_diagnosis", "write_html", "write_outputs"]
 
 # Units of the measured channels whose noise is reported (angles are in rad).
 _CHANNEL_UNIT = {"torque": "N m"}
@@ -350,7 +350,8 @@ def _png(fig) -> str:
     return base64.b64encode(buf.getvalue()).decode("ascii")
 
 
-def _figures(report: DiagnosisReport) -> list[tuple[str, str]]:
+def _figure_jobs(report: DiagnosisReport) -> list[tuple[str, Callable[[], str]]]:
+    """``(caption, draw)`` of every figure of the report: ``draw()`` returns the base64 PNG."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -365,7 +366,7 @@ def _figures(report: DiagnosisReport) -> list[tuple[str, str]]:
              "extended": dict(color="tab:blue", lw=1.2)}
 
     def grid(height, draw, caption):
-        """One panel per run, drawn by ``draw(ax, run)``: a job for :func:`_draw_all`."""
+        """One panel per run, drawn by ``draw(ax, run)``: a job."""
         jobs.append((caption, lambda: _grid(height, draw)))
 
     def _grid(height, draw):
@@ -474,7 +475,7 @@ def _figures(report: DiagnosisReport) -> list[tuple[str, str]]:
             plt.close(fig)
 
     jobs.append(("Causes ranked by evidence", cause_chart))
-    return _draw_all(jobs)
+    return jobs
 
 
 def _surface_figure(report: DiagnosisReport, plt) -> str:
@@ -507,15 +508,6 @@ def _surface_figure(report: DiagnosisReport, plt) -> str:
         return _png(fig)
     finally:
         plt.close(fig)
-
-
-def _draw_all(jobs: list) -> list[tuple[str, str]]:
-    """``(caption, base64 PNG)`` of every job, in forked processes (:func:`jointrig.parallel.fork_map`):
-    the figures are independent and matplotlib's rendering is most of the report's time. The
-    same PNGs either way."""
-    from jointrig.parallel import fork_map
-
-    return list(zip([c for c, _ in jobs], fork_map(lambda job: job[1](), jobs)))
 
 
 _CSS = """
@@ -673,12 +665,46 @@ def _card_section(card) -> list[str]:
             f"src='data:image/png;base64,{png}'></figure>"]
 
 
+def write_outputs(report: DiagnosisReport, text: str, *, rrd: Optional[Path] = None, html_path: Optional[Path] = None,
+                  title: str = "jointrig diagnosis", input_sha256: str = "", source: str = "",
+                  notes: Sequence[str] = (), card=None) -> None:
+    """The rerun recording (``rrd``) and the HTML report (``html_path``, :func:`write_html`), each
+    written atomically: the report's figures and the recording are independent pieces of work,
+    done in forked processes (:func:`jointrig.parallel.fork_map`; matplotlib's rendering is most
+    of the time). The same files either way."""
+    from jointrig.parallel import fork_map
+
+    figures = _figure_jobs(report) if html_path is not None else []
+    jobs = [draw for _, draw in figures]
+    if rrd is not None:
+        jobs.append(lambda: _write_recording(rrd, report, text, card))
+    done = list(fork_map(lambda job: job(), jobs))
+    if html_path is not None:
+        _write_page(html_path, report, text, [(caption, png) for (caption, _), png in zip(figures, done)],
+                    title=title, input_sha256=input_sha256, source=source, notes=notes, card=card)
+
+
+def _write_recording(rrd: Path, report: DiagnosisReport, text: str, card) -> None:
+    from .recording import open_recording
+
+    with open_recording(rrd) as rec:
+        log_diagnosis(rec, report, text, card=card)
+
+
 def write_html(path: Path, report: DiagnosisReport, text: str, *, title: str = "jointrig diagnosis",
                input_sha256: str = "", source: str = "", notes: Sequence[str] = (), card=None) -> Path:
     """A self-contained HTML report, written atomically: the verdict as its headline, provenance
     (tool version, date, input SHA-256), tables with units and numbers to the precision of their
     standard errors (adopted causes marked), embedded PNG figures with every run panel titled by
     its omega and M0, and the console text folded at the end."""
+    write_outputs(report, text, html_path=path, title=title, input_sha256=input_sha256, source=source, notes=notes,
+                  card=card)
+    return Path(path)
+
+
+def _write_page(path: Path, report: DiagnosisReport, text: str, figures: Sequence[tuple[str, str]], *, title: str,
+                input_sha256: str, source: str, notes: Sequence[str], card) -> None:
+    """The HTML page of :func:`write_html` with its figures ``(caption, base64 PNG)`` drawn."""
     import datetime
 
     from jointrig import __version__
@@ -696,7 +722,7 @@ def write_html(path: Path, report: DiagnosisReport, text: str, *, title: str = "
     parts += _html_sections(report, source, notes)
     if card is not None:
         parts += _card_section(card)
-    for caption, png in _figures(report):
+    for caption, png in figures:
         parts.append(f"<figure><figcaption>{html.escape(caption)}</figcaption><img alt='{html.escape(caption)}' "
                      f"src='data:image/png;base64,{png}'></figure>")
     parts.append(f"<details><summary>The same report as console text</summary><pre>{html.escape(text)}</pre></details>")
@@ -705,4 +731,3 @@ def write_html(path: Path, report: DiagnosisReport, text: str, *, title: str = "
 
     path = Path(path)
     write_atomic(path, lambda tmp: tmp.write_text("\n".join(parts), encoding="utf-8"))
-    return path

@@ -34,6 +34,30 @@ def blueprint_views(rrd_path) -> tuple[list[str], list[str]]:
     return names, origins
 
 
+def _children() -> set[int]:
+    """This process's child processes, zombies included (from /proc: Linux, like CI)."""
+    me, out = os.getpid(), set()
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                with open(f"/proc/{entry}/stat") as f:
+                    stat = f.read()
+            except OSError:  # gone meanwhile
+                continue
+            if int(stat.rsplit(")", 1)[1].split()[1]) == me:
+                out.add(int(entry))
+    return out
+
+
+@pytest.fixture
+def no_children_left():
+    """Whatever children the test process had before (pytest-xdist's own), fork_map leaves none
+    of its own behind: every worker it forked has exited and been reaped."""
+    before = _children()
+    yield
+    assert _children() <= before
+
+
 #: Tests of the native callback need a C compiler to build it.
 needs_cc = pytest.mark.skipif(not (shutil.which("cc") or shutil.which("gcc")),
                               reason="no C compiler to build the native callback")

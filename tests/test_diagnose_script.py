@@ -1,6 +1,8 @@
 """scripts/make_data.py and scripts/diagnose.py end to end: JSON schema, recording, report, errors."""
 
+import contextlib
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -27,8 +29,26 @@ def outputs(tmp_path_factory):
     argv = [str(out / "worn.parquet"), "--json", str(out / "d.json"), "--rrd", str(out / "d.rrd"),
             "--report", str(out / "d.html"), "--card", str(out / "card.json"), "--card-png", str(out / "card.png"),
             "--mjcf", str(out / "identified.xml"), "-q"]
-    assert diagnose.main(argv) == 0
+    # Two workers, as on a user's machine (tests/conftest.py sets one): the causes are scored in
+    # forked processes and the recording and report come from the writer process
+    # (jointrig.parallel.WarmProcess), whose files the tests below read.
+    with _env(JOINTRIG_WORKERS="2"):
+        assert diagnose.main(argv) == 0
     return out
+
+
+@contextlib.contextmanager
+def _env(**values):
+    old = {k: os.environ.get(k) for k in values}
+    os.environ.update(values)
+    try:
+        yield
+    finally:
+        for k, v in old.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
 
 
 def test_json_has_ranked_causes_extended_model_and_gain(outputs):
@@ -153,6 +173,16 @@ def test_identified_model_written_as_mjcf_simulates_the_runs(outputs):
 def test_unknown_holdout_run_is_refused(outputs, capsys):
     assert diagnose.main([str(outputs / "worn.parquet"), "--holdout", "99", "-q"]) == 2
     assert "--holdout names run(s) ['99']" in capsys.readouterr().err
+
+
+def test_bad_input_stops_the_writer_process_too(outputs, capsys, no_children_left):
+    # With outputs asked for and two workers, the writer process is forked before the input is
+    # read: bad input still exits 2 at once and leaves no process behind.
+    with _env(JOINTRIG_WORKERS="2"):
+        assert diagnose.main([str(outputs / "worn.parquet"), "--holdout", "99", "-q",
+                              "--report", str(outputs / "never.html")]) == 2
+    assert "--holdout names run(s) ['99']" in capsys.readouterr().err
+    assert not (outputs / "never.html").exists()
 
 
 def _chromium():

@@ -1,5 +1,6 @@
-"""jointrig.parallel.fork_map: results in order, errors where they belong, and nothing left
-running (or waited for) when the caller stops early."""
+"""jointrig.parallel: fork_map's results in order, errors where they belong, and nothing left
+running (or waited for) when the caller stops early; WarmProcess's one call, its errors, and
+its end when no call comes."""
 
 from __future__ import annotations
 
@@ -9,31 +10,7 @@ import time
 import numpy as np
 import pytest
 
-from jointrig.parallel import fork_map
-
-
-def _children() -> set[int]:
-    """This process's child processes, zombies included (from /proc: Linux, like CI)."""
-    me, out = os.getpid(), set()
-    for entry in os.listdir("/proc"):
-        if entry.isdigit():
-            try:
-                with open(f"/proc/{entry}/stat") as f:
-                    stat = f.read()
-            except OSError:  # gone meanwhile
-                continue
-            if int(stat.rsplit(")", 1)[1].split()[1]) == me:
-                out.add(int(entry))
-    return out
-
-
-@pytest.fixture
-def no_children_left():
-    """Whatever children the test process had before (pytest-xdist's own), fork_map leaves none
-    of its own behind: every worker it forked has exited and been reaped."""
-    before = _children()
-    yield
-    assert _children() <= before
+from jointrig.parallel import WarmProcess, fork_map
 
 
 def test_results_come_in_the_items_order_whatever_order_they_finish_in(no_children_left):
@@ -111,3 +88,87 @@ def test_workers_run_one_blas_thread_whatever_the_parent_runs(no_children_left):
         with threadpool_limits(parent):
             assert threads(0) == parent
             assert list(fork_map(threads, range(2), 2)) == [1, 1]
+
+
+# --------------------------------------------------------------------------------------------
+# WarmProcess: a process that imports a heavy stack while the command works, then runs one call
+
+
+def _where(name):
+    import sys
+
+    return os.getpid(), name in sys.modules
+
+
+def _fail(message):
+    raise ValueError(message)
+
+
+def _unpicklable():
+    return lambda: None
+
+
+def test_a_warm_process_imports_its_modules_there_and_answers_its_call(no_children_left):
+    import sys
+
+    module = "tabnanny"  # a standard module nothing here imports
+    assert module not in sys.modules
+    with WarmProcess([module]) as warm:
+        pid, imported = warm.call(_where, module)
+    assert pid != os.getpid() and imported
+    assert module not in sys.modules
+
+
+def test_an_error_in_the_call_is_raised_here_as_itself(no_children_left):
+    with WarmProcess([]) as warm:
+        with pytest.raises(ValueError, match="the disk is full"):
+            warm.call(_fail, "the disk is full")
+    with WarmProcess(["jointrig.no_such_module"]) as warm:
+        with pytest.raises(ModuleNotFoundError, match="no_such_module"):
+            warm.call(_where, "x")
+    with WarmProcess([]) as warm:
+        with pytest.raises(RuntimeError, match="_unpicklable.*could not be sent back"):
+            warm.call(_unpicklable)
+
+
+def test_leaving_without_a_call_stops_the_process_at_once(tmp_path, monkeypatch, no_children_left):
+    # A command that stops on bad input must not wait for the writer's imports: the module
+    # below would import for 30 s and then leave a file. Killed, it leaves neither.
+    (tmp_path / "slow_to_import.py").write_text(
+        "import time, pathlib\ntime.sleep(30)\n"
+        f"pathlib.Path({str(tmp_path / 'imported')!r}).write_text('done')\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    with WarmProcess(["slow_to_import"]):
+        time.sleep(0.2)
+    assert not (tmp_path / "imported").exists()
+
+
+def test_the_process_ends_when_the_command_dies_without_closing_it():
+    # A command killed (or ending by os._exit) never calls close: the process must see its pipe
+    # end and exit, not wait for a call for ever.
+    import subprocess
+    import sys
+
+    code = ("import os\nfrom jointrig.parallel import WarmProcess\nw = WarmProcess([])\n"
+            "print(w.pid, flush=True)\nos._exit(0)\n")
+    # Only the first line is read: the warm process shares the pipe, so waiting for its end
+    # would wait for the process this test is about.
+    command = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
+    pid = int(command.stdout.readline())
+    command.wait()
+    command.stdout.close()
+
+    def running():
+        try:
+            with open(f"/proc/{pid}/stat") as f:
+                return f.read().rsplit(")", 1)[1].split()[0] != "Z"  # a zombie has ended
+        except OSError:
+            return False
+
+    deadline = time.monotonic() + 20  # generous: it ends within milliseconds when it works
+    while running() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    left = running()
+    if left:
+        os.kill(pid, 9)
+    assert not left, f"the warm process {pid} outlived its command"

@@ -68,8 +68,26 @@ def parse_args(argv=None) -> argparse.Namespace:
     return p.parse_args(argv)
 
 
+#: What writing the recording and the report imports beyond the diagnosis (rerun, matplotlib: half
+#: a second): imported meanwhile by the process that will write them (jointrig.parallel.WarmProcess).
+OUTPUT_MODULES = ("matplotlib.pyplot", "jointrig.present.recording")
+
+
 def main(argv=None) -> int:
     args = parse_args(argv)
+    from jointrig.parallel import WarmProcess, default_workers
+    from jointrig.present.diagnosis_report import format_report  # noqa: F401  (the diagnosis's stack)
+
+    limit_threads()
+    if (args.rrd or args.report) and default_workers() > 1:
+        # Forked once this process has its own stack (the writer shares it), so the writer's
+        # imports overlap the reading and fitting, on the core they leave idle.
+        with WarmProcess(OUTPUT_MODULES) as writer:
+            return _main(args, writer)
+    return _main(args, None)
+
+
+def _main(args: argparse.Namespace, writer) -> int:
     import numpy as np
 
     from jointrig.vocab.records import RecordError
@@ -79,7 +97,6 @@ def main(argv=None) -> int:
     from jointrig.files import write_json_atomic
     from jointrig.studies.validate import run_diagnosis
 
-    limit_threads()
     logging.basicConfig(level=progress_level(args.quiet), format="%(message)s",
                         stream=sys.stderr)
     t0 = time.perf_counter()
@@ -128,19 +145,19 @@ def main(argv=None) -> int:
 
         log.info("computing the joint card")
         card = card_of_diagnosis(report, loaded.records, run_ids=loaded.run_ids, torque_share=args.torque_share)
-    if args.rrd:
-        from jointrig.present.diagnosis_report import log_diagnosis
-        from jointrig.present.recording import open_recording
+    if args.rrd or args.report:
+        from jointrig.present.diagnosis_report import write_outputs
 
-        with open_recording(args.rrd) as rec:
-            log_diagnosis(rec, report, text, card=card)
-        log.info("wrote %s", args.rrd)
-    if args.report:
-        from jointrig.present.diagnosis_report import write_html
-
-        write_html(args.report, report, text, title=f"jointrig diagnosis of {args.data.name}",
-                   input_sha256=loaded.sha256, source=str(args.data), notes=loaded.notes, card=card)
-        log.info("wrote %s", args.report)
+        log.info("writing %s", " and ".join(str(p) for p in (args.rrd, args.report) if p))
+        options = dict(rrd=args.rrd, html_path=args.report, title=f"jointrig diagnosis of {args.data.name}",
+                       input_sha256=loaded.sha256, source=str(args.data), notes=loaded.notes, card=card)
+        if writer is not None:
+            writer.call(write_outputs, report, text, **options)
+        else:
+            write_outputs(report, text, **options)
+        for path in (args.rrd, args.report):
+            if path:
+                log.info("wrote %s", path)
     if card is not None:
         write_card(args, loaded, card)
     if args.mjcf:
