@@ -8,7 +8,8 @@
 2. the whole diagnosis, end to end: ``jointrig diagnose DATA --json --rrd --report`` in this
    process (reading, fitting, ranking, validating in the rig, writing; the modules imported
    already), and the same as a user runs it, a new ``jointrig diagnose`` process (Python's start
-   and the imports of numpy, scipy, MuJoCo, rerun and matplotlib included);
+   and the imports of numpy, scipy and MuJoCo included; rerun and matplotlib are imported
+   meanwhile by the process that writes the recording and the report);
 3. the nominal fit alone (period averaging and the weighted harmonic balance of the nominal
    model on the fit runs);
 4. the native simulation of the same 9 runs in the rig (the C callback), the floor a diagnosis
