@@ -53,7 +53,7 @@ from .causes import (DEFAULT_SEPARATION, CAUSES, NOMINAL, SEPARATING_EXCITATION,
                      evidence, forward_select, rate_amplitudes)
 
 __all__ = [
-    "DEFAULT_FIDELITY", "kink_corrected_rate", "PreparedRun", "prepare_runs", "Fit", "CauseScore",
+    "DEFAULT_FIDELITY", "kink_corrected_rate", "kink_first_pass", "KinkPass", "PreparedRun", "prepare_runs", "Fit", "CauseScore",
     "Diagnosis", "diagnose", "fit", "plant_of",
 ]
 
@@ -274,8 +274,10 @@ class _Columns:
         v = v_bl
         if jump > 0:
             phi = self._phi(0.0, 0.0, 0.0)
+            first = self._get(("kink_first_pass",), lambda: kink_first_pass(phi, self.omega[:, 0], self.H,
+                                                                            band_limited_rate=v_bl))
             v = self._get(("kinked", jump), lambda: kink_corrected_rate(phi, self.omega[:, 0], self.H, jump,
-                                                                        band_limited_rate=v_bl), big=True)
+                                                                        first_pass=first), big=True)
         if self.phi2 is None or (gain == 0 and skew_s == 0):
             return v
         return v + (self._rate2(0.0, 0.0) - self._rate2(gain, skew_s))
@@ -373,7 +375,8 @@ class Fit(Estimates):
 
 
 def kink_corrected_rate(phi_rad: np.ndarray, omega_rad_s, band: int, jump_rad_s2: float,
-                        iterations: int = 2, *, band_limited_rate: Optional[np.ndarray] = None) -> np.ndarray:
+                        iterations: int = 2, *, band_limited_rate: Optional[np.ndarray] = None,
+                        first_pass: Optional["KinkPass"] = None) -> np.ndarray:
     """The relative rate of one band-limited period with its dry-friction kinks restored.
 
     Dry friction makes the relative acceleration jump by ``jump_rad_s2`` (2 F_c / Je) each
@@ -392,52 +395,87 @@ def kink_corrected_rate(phi_rad: np.ndarray, omega_rad_s, band: int, jump_rad_s2
         band-limited rate).
       band_limited_rate: ``spectral_rate(phi_rad, omega_rad_s, 1)`` if the caller has it
         (it does not depend on the jump: a profile search reuses it for every trial).
+      first_pass: :func:`kink_first_pass` of the same records, if the caller has it: the first
+        pass locates the crossings of the band-limited rate, which do not depend on the jump,
+        so its correction is the jump times a fixed one (a profile search reuses it for every
+        trial; half of this function's time).
 
     A period whose rate does not cross zero an even, non-zero number of times keeps its
     band-limited rate.
     """
     phi = np.atleast_2d(phi_rad)
-    n_rec, M = phi.shape
-    omega = np.broadcast_to(np.asarray(omega_rad_s, dtype=float).reshape(-1), (n_rec,))
-    if band_limited_rate is None:
-        v_bl = spectral_rate(phi, omega[:, None], 1)
-    else:
-        v_bl = np.atleast_2d(band_limited_rate)
-    if jump_rad_s2 <= 0:
+    if jump_rad_s2 <= 0 or iterations < 1:
+        v_bl = spectral_rate(phi, _omegas(omega_rad_s, phi.shape[0])[:, None], 1) if band_limited_rate is None \
+            else np.atleast_2d(band_limited_rate)
         return v_bl.reshape(np.shape(phi_rad))
+    if first_pass is None:
+        first_pass = kink_first_pass(phi, omega_rad_s, band, band_limited_rate=band_limited_rate)
+    v_bl, kept = first_pass.rate_rad_s, first_pass.kept
+    v = v_bl + jump_rad_s2 * first_pass.unit_correction
+    for _ in range(iterations - 1):
+        correction, kept = _kink_pass(v, first_pass.omega_rad_s, band, kept)
+        v = v_bl + jump_rad_s2 * correction
+    v = np.where(kept[:, None], v, v_bl)
+    return v.reshape(np.shape(phi_rad))
+
+
+@dataclass(frozen=True)
+class KinkPass:
+    """The first pass of :func:`kink_corrected_rate` over records ``(n, M)``: their band-limited
+    rate, the correction it gives for a unit jump (1 rad/s^2), and which periods crossed zero an
+    even, non-zero number of times."""
+    rate_rad_s: np.ndarray
+    omega_rad_s: np.ndarray
+    unit_correction: np.ndarray
+    kept: np.ndarray
+
+
+def _omegas(omega_rad_s, n: int) -> np.ndarray:
+    return np.broadcast_to(np.asarray(omega_rad_s, dtype=float).reshape(-1), (n,))
+
+
+def kink_first_pass(phi_rad: np.ndarray, omega_rad_s, band: int, *,
+                    band_limited_rate: Optional[np.ndarray] = None) -> KinkPass:
+    """The jump-free first pass of :func:`kink_corrected_rate` (arguments as there)."""
+    phi = np.atleast_2d(phi_rad)
+    omega = _omegas(omega_rad_s, phi.shape[0])
+    v_bl = spectral_rate(phi, omega[:, None], 1) if band_limited_rate is None else np.atleast_2d(band_limited_rate)
+    correction, kept = _kink_pass(v_bl, omega, band, np.ones(phi.shape[0], bool))
+    return KinkPass(v_bl, omega, correction, kept)
+
+
+def _kink_pass(v: np.ndarray, omega: np.ndarray, band: int, kept: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """One pass: the out-of-band correction of the rate for a unit jump at the zero crossings of
+    ``v`` (``(n, M)``), and ``kept`` narrowed to the periods whose crossings are even and non-zero."""
+    n_rec, M = v.shape
     # Harmonics band+1 .. M/2-1 of sum_i d_i delta(t - t_i) / (i n w)^2, scaled for irfft:
     # (2/T) (M/2) / (i n w)^2 = -(M/T) / (n w)^2, real.
     T = 2 * math.pi / omega
     n_out = np.arange(band + 1, M // 2)
     scale = -(M / T)[:, None] / (n_out * omega[:, None]) ** 2
+    up = v > 0
+    rec, i = np.nonzero(up != np.roll(up, -1, axis=1))
+    counts = np.bincount(rec, minlength=n_rec)
+    kept = kept & (counts > 0) & (counts % 2 == 0)
+    on = kept[rec]
+    rec, i = rec[on], i[on]
+    nxt = v[rec, (i + 1) % M]
+    now = v[rec, i]
+    frac = now / (now - nxt)
+    t = (i + frac) * T[rec] / M
+    d = -np.sign(nxt - now)  # friction always steepens the approach
+    # each period's sum over its own crossings: a (periods x crossings) matrix of the jumps
+    S = np.zeros((n_rec, rec.size))
+    S[rec, np.arange(rec.size)] = d
+    # exp(-i n w t) for n = band+1 .. M/2-1, by recurrence (a complex exponential per term
+    # would be most of this function's time; the product's round-off stays ~1e-13)
+    E = np.empty((rec.size, n_out.size), complex)
+    E[:, 0] = np.exp(-1j * n_out[0] * omega[rec] * t)
+    E[:, 1:] = np.exp(-1j * omega[rec] * t)[:, None]
+    np.cumprod(E, axis=1, out=E)
     V = np.zeros((n_rec, M // 2 + 1), complex)
-    v = v_bl
-    kept = np.ones(n_rec, bool)  # periods whose crossings stayed even and non-zero
-    for _ in range(iterations):
-        up = v > 0
-        rec, i = np.nonzero(up != np.roll(up, -1, axis=1))
-        counts = np.bincount(rec, minlength=n_rec)
-        kept &= (counts > 0) & (counts % 2 == 0)
-        on = kept[rec]
-        rec, i = rec[on], i[on]
-        nxt = v[rec, (i + 1) % M]
-        now = v[rec, i]
-        frac = now / (now - nxt)
-        t = (i + frac) * T[rec] / M
-        d = -np.sign(nxt - now) * jump_rad_s2  # friction always steepens the approach
-        # each period's sum over its own crossings: a (periods x crossings) matrix of the jumps
-        S = np.zeros((n_rec, rec.size))
-        S[rec, np.arange(rec.size)] = d
-        # exp(-i n w t) for n = band+1 .. M/2-1, by recurrence (a complex exponential per term
-        # would be most of this function's time; the product's round-off stays ~1e-13)
-        E = np.empty((rec.size, n_out.size), complex)
-        E[:, 0] = np.exp(-1j * n_out[0] * omega[rec] * t)
-        E[:, 1:] = np.exp(-1j * omega[rec] * t)[:, None]
-        np.cumprod(E, axis=1, out=E)
-        V[:, band + 1: M // 2] = scale * (S @ E)  # zero for a period not kept: S has none of its crossings
-        v = v_bl + np.fft.irfft(V, n=M, axis=1)
-    v = np.where(kept[:, None], v, v_bl)
-    return v.reshape(np.shape(phi_rad))
+    V[:, band + 1: M // 2] = scale * (S @ E)  # zero for a period not kept: S has none of its crossings
+    return np.fft.irfft(V, n=M, axis=1), kept
 
 
 def _coulomb_jump(spec: "ModelSpec", names: Sequence[str], theta: Optional[np.ndarray]) -> float:

@@ -245,7 +245,7 @@ def test_kink_correction_adds_only_out_of_band_harmonics_and_batches_exactly():
     # (1e-12 of the largest), and out of band it adds something. Periods corrected together are
     # corrected as one by one, and without a given band-limited rate it is computed the same.
     from jointrig.identify.balance import spectral_rate
-    from jointrig.identify.diagnose import kink_corrected_rate
+    from jointrig.identify.diagnose import kink_corrected_rate, kink_first_pass
     from jointrig.identify.harmonics import fourier_coefficients
 
     M, band = 4096, 20
@@ -263,6 +263,12 @@ def test_kink_correction_adds_only_out_of_band_harmonics_and_batches_exactly():
     assert np.abs(C[:, : band + 1] - C_bl[:, : band + 1]).max() < 1e-12 * scale
     assert np.abs(C[:, band + 1:]).max() > 1e-4 * scale
     assert np.array_equal(kink_corrected_rate(phi, omegas, band, 0.0), v_bl)
+    # The first pass does not depend on the jump: one computed for the records serves every jump
+    # (a profile search's trials), with the same result as computing it afresh.
+    first = kink_first_pass(phi, omegas, band, band_limited_rate=v_bl)
+    for jump in (300.0, 45.0, 2000.0):
+        np.testing.assert_array_equal(kink_corrected_rate(phi, omegas, band, jump, first_pass=first),
+                                      kink_corrected_rate(phi, omegas, band, jump))
 
 
 def _fit_problem(rig, tmp_path_factory, reports, kind: str):
