@@ -888,38 +888,67 @@ def _cost_rank(problem: _Problem, cause: Cause, base: Fit) -> int:
     return 0 if any(t.stateful for t in cause.extend(base.spec, 0.5 * (lo + hi)).terms) else 1
 
 
-def _score_all(problem: _Problem, causes: Sequence[Cause], base: Fit, weights: np.ndarray, n: int, alpha: float,
-               workers: int, progress: Optional[Callable[[str], None]] = None,
-               known: Optional[dict] = None) -> list[CauseScore]:
-    """:func:`score_cause` for every cause, in ``workers`` forked processes when more than one
-    (the causes of a round are independent; the scores are the same numbers either way).
-    ``known``: cause name -> its score on this same base, weights and ``n``, computed already
-    (the previous round's rival check); not computed again.
-    ``progress`` hears of each cause as its score arrives (in the causes' order)."""
-    say = progress or (lambda msg: None)
-    known = known or {}
-    out = {}
-    for k, c in enumerate(causes):
-        if c.name in known:
-            out[k] = s = known[c.name]
-            say(f"  scored {s.effect} ({len(out)}/{len(causes)}): evidence {s.score:.4g}"
-                + (", significant" if s.significant else "") + " (in the rival check)")
-    done = len(out)
+@dataclass(frozen=True)
+class _RivalCheck:
+    """Rivals of a cause just adopted: significant beside it on the previous base, are they still
+    needed on the new one (``base``, with ``n`` causes left), and is the adopted cause still
+    needed on each rival's model instead (the reverse)? Checked together with the next round's
+    causes (:func:`_score_all`): a rival's score on the new base is that round's score of it."""
+    adopted: CauseScore
+    cause: Cause
+    rivals: tuple[CauseScore, ...]
+    base: tuple[Fit, np.ndarray]
+    n: int
 
-    def told(j: int, s: CauseScore) -> CauseScore:
-        say(f"  scored {s.effect} ({done + j + 1}/{len(causes)}): evidence {s.score:.4g}"
-            + (", significant" if s.significant else ""))
-        return s
+
+def _score_all(problem: _Problem, causes: Sequence[Cause], base: Fit, weights: np.ndarray, n: int, alpha: float,
+               workers: int, progress: Optional[Callable[[str], None]] = None, *, rivals_by_name: Optional[dict] = None,
+               check: Optional[_RivalCheck] = None) -> tuple[list[CauseScore], list[tuple[CauseScore, CauseScore]]]:
+    """:func:`score_cause` for every cause, and the rival check ``check`` (on this same base,
+    weights and ``n``), in ``workers`` forked processes when more than one: the causes of a round
+    and the checks are independent, the scores the same numbers either way. ``rivals_by_name``:
+    the catalogue's causes by name (a rival checked need not be among ``causes``).
+
+    Returns the causes' scores and, per rival of ``check``, ``(its score on this base, the
+    adopted cause's score on the rival's refitted model)``.
+    ``progress`` hears of each cause as its score arrives."""
+    say = progress or (lambda msg: None)
+    index = {c.name: k for k, c in enumerate(causes)}
+    rivals = check.rivals if check is not None else ()
+    # Work items: ("score", cause) on this base; ("reverse", rival) the adopted cause on the
+    # rival's refitted model. A rival among the causes is scored once, as a cause.
+    items = [("score", c) for c in causes] + [("score", (rivals_by_name or {})[r.effect]) for r in rivals
+                                              if r.effect not in index]
+    items += [("reverse", r) for r in rivals]
+
+    def cost(item) -> int:
+        kind, what = item
+        return (_cost_rank(problem, what, base) if kind == "score"
+                else _cost_rank(problem, check.cause, what.fit))
+
+    def work(item):
+        kind, what = item
+        if kind == "score":
+            return score_cause(problem, what, base, weights, n, alpha)
+        rival_fit, wr = fit(problem, what.fit.spec)
+        return score_cause(problem, check.cause, rival_fit, wr, n, alpha)
 
     # The longest first (sliders, then other profile searches), so the processes finish together.
-    order = sorted((k for k in range(len(causes)) if k not in out),
-                   key=lambda k: _cost_rank(problem, causes[k], base))
-    results = fork_map(lambda k: _with_new_columns(problem, lambda: score_cause(problem, causes[k], base, weights, n,
-                                                                                 alpha)), order, workers)
-    for j, (k, (s, cols)) in enumerate(zip(order, results)):
+    order = sorted(range(len(items)), key=lambda k: cost(items[k]))
+    out: dict = {}
+    told = 0
+    for k, (value, cols) in zip(order, fork_map(lambda k: _with_new_columns(problem, lambda: work(items[k])),
+                                                order, workers)):
         problem.keep_columns(cols)
-        out[k] = told(j, s)
-    return [out[k] for k in range(len(causes))]
+        out[k] = value
+        if k < len(causes):
+            told += 1
+            say(f"  scored {value.effect} ({told}/{len(causes)}): evidence {value.score:.4g}"
+                + (", significant" if value.significant else ""))
+    scores = [out[k] for k in range(len(causes))]
+    by_name = {items[k][1].name: out[k] for k in range(len(items)) if items[k][0] == "score"}
+    first_reverse = len(items) - len(rivals)
+    return scores, [(by_name[r.effect], out[first_reverse + i]) for i, r in enumerate(rivals)]
 
 
 def _with_new_columns(problem: _Problem, work: Callable):
@@ -982,20 +1011,38 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
     say(f"fitting the nominal model (paper eq. 11) to {len(runs)} runs, harmonics 1..{H}")
     nominal, w = fit(problem, NOMINAL)
     ambiguous: list[Ambiguity] = []
-    known: dict[str, CauseScore] = {}  # scores on the current base from the last rival check
     kind_of = {c.name: c.kind for c in causes}
+    by_name = {c.name: c for c in causes}
     adopted: list[CauseScore] = []
+    pending: list[_RivalCheck] = []  # the last adopted cause's rival check, done with the next round
+
+    def resolve(check: _RivalCheck, outcome) -> None:
+        for rival, (r_given_b, b_given_r) in zip(check.rivals, outcome):
+            if not r_given_b.significant and not b_given_r.significant:
+                pair = frozenset({check.adopted.effect, rival.effect})
+                ambiguous.append(Ambiguity((check.adopted.effect, rival.effect),
+                                           SEPARATING_EXCITATION.get(pair, DEFAULT_SEPARATION)))
+
+    def announce(check: _RivalCheck) -> None:
+        say(f"  are {', '.join(r.effect for r in check.rivals)} still needed beside {check.adopted.effect}? "
+            f"(and the reverse)")
 
     def rank(base, remaining, rnd):
         # Ranked by evidence; causes rejected as unphysical or untestable go last. Causes the data
         # cannot tell apart at all (an angle offset and an asymmetric stiffness bend the model alike)
         # score the same to round-off: ranked to 9 digits, they keep the catalogue's order.
         current, wcur = base
+        check = pending.pop() if pending else None
         say(f"round {rnd + 1}: scoring {len(remaining)} causes on "
             + (" + ".join(s.effect for s in adopted) or "the nominal model")
             + (f" ({workers} processes)" if workers > 1 else ""))
-        return sorted(_score_all(problem, remaining, current, wcur, len(remaining), alpha, workers, say, known),
-                      key=lambda s: (bool(s.note), -float(f"{s.score:.9g}")))
+        if check is not None:
+            announce(check)
+        scores, outcome = _score_all(problem, remaining, current, wcur, len(remaining), alpha, workers, say,
+                                     rivals_by_name=by_name, check=check)
+        if check is not None:
+            resolve(check, outcome)
+        return sorted(scores, key=lambda s: (bool(s.note), -float(f"{s.score:.9g}")))
 
     def adopt(base, scores):
         best = next((c for c in scores if c.significant), None)
@@ -1014,35 +1061,19 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
 
     def rivals_of(base, best, scores, remaining):
         # Rivals: significant on the previous base, close in evidence; are they still needed?
-        # Each is tested both ways; the rivals are independent of each other (forked).
-        current, wcur = base
-        rivals = [r for r in scores if r is not best and r.significant]
-        cause_b = next(c for c in causes if c.name == best.effect)
-
-        def both_ways(rival, n_left=len(remaining)):
-            cause_r = next(c for c in causes if c.name == rival.effect)
-
-            def work():
-                r_given_b = score_cause(problem, cause_r, current, wcur, n_left, alpha)
-                rival_fit, wr = fit(problem, rival.fit.spec)
-                b_given_r = score_cause(problem, cause_b, rival_fit, wr, n_left, alpha)
-                return r_given_b, b_given_r.significant
-            return _with_new_columns(problem, work)
-
+        # Each is tested both ways, with the next round's causes (one set of forked processes);
+        # after the last round, on their own.
+        rivals = tuple(r for r in scores if r is not best and r.significant)
         if rivals:
-            say(f"  are {', '.join(r.effect for r in rivals)} still needed beside {best.effect}? (and the reverse)")
-        names_left = {c.name for c in remaining}
-        known.clear()
-        for rival, ((r_given_b, b_needed), cols) in zip(rivals, fork_map(both_ways, rivals, workers)):
-            problem.keep_columns(cols)
-            if rival.effect in names_left:  # the next round scores it on the same base: it is known
-                known[rival.effect] = r_given_b
-            if not r_given_b.significant and not b_needed:
-                pair = frozenset({best.effect, rival.effect})
-                ambiguous.append(Ambiguity((best.effect, rival.effect),
-                                           SEPARATING_EXCITATION.get(pair, DEFAULT_SEPARATION)))
+            pending.append(_RivalCheck(best, by_name[best.effect], rivals, base, len(remaining)))
 
     chosen = forward_select((nominal, w), causes, rank=rank, adopt=adopt, after=rivals_of, max_effects=max_effects)
+    if pending:  # no round followed the last adoption
+        check = pending.pop()
+        announce(check)
+        (current, wcur), n_left = check.base, check.n
+        resolve(check, _score_all(problem, [], current, wcur, n_left, alpha, workers, say, rivals_by_name=by_name,
+                                  check=check)[1])
     current = chosen.base[0]
     first = list(chosen.rounds[0]) if chosen.rounds else []
     steps = list(chosen.adopted)

@@ -330,10 +330,40 @@ def test_columns_computed_in_forked_workers_serve_the_next_rounds(rig, tmp_path_
     assert not jenkins_columns()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)  # see the test above
-        forked = D._score_all(problem, causes, base, w, 2, 1e-3, workers=2)
+        forked, _ = D._score_all(problem, causes, base, w, 2, 1e-3, workers=2)
     kept = jenkins_columns()
     assert len(kept) >= 17  # the profile's grid, at least
     again = D.score_cause(problem, causes[0], base, w, 2, 1e-3)
     assert jenkins_columns() == kept
     assert again.delta_chi2 == forked[0].delta_chi2
     np.testing.assert_array_equal(again.fit.values, forked[0].fit.values)
+
+
+def test_a_rival_check_done_with_the_next_round_gives_what_it_gives_alone(rig, tmp_path_factory, reports):
+    # The rivals of an adopted cause are checked together with the next round's causes, in the
+    # same forked processes (identify.diagnose._score_all, check=): a rival's score on the new base
+    # is the round's own score of it (scored once), a rival outside the round is scored too, and
+    # the reverse (the adopted cause on the rival's refitted model) is what it is computed alone,
+    # bit for bit.
+    import jointrig.identify.diagnose as D
+    from jointrig.identify.causes import by_name
+
+    report, problem = _fit_problem(rig, tmp_path_factory, reports, "coulomb_friction")
+    base, w = D.fit(problem, D.NOMINAL)
+    names = ("coulomb_friction", "hysteresis", "quadratic_damping")
+    first = {n: D.score_cause(problem, by_name(n), base, w, 3, 1e-3) for n in names}
+    best, rivals = first["coulomb_friction"], (first["hysteresis"], first["quadratic_damping"])
+    new_base = D.fit(problem, best.fit.spec)
+    check = D._RivalCheck(best, by_name("coulomb_friction"), rivals, new_base, 2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)  # see the test above
+        scores, outcome = D._score_all(problem, [by_name("quadratic_damping")], *new_base, 2, 1e-3, workers=2,
+                                       rivals_by_name={n: by_name(n) for n in names}, check=check)
+    assert [s.effect for s in scores] == ["quadratic_damping"]
+    assert outcome[1][0] is scores[0]  # the rival in the round: its round score
+    for rival, (r_given_b, b_given_r) in zip(rivals, outcome):
+        alone = D.score_cause(problem, by_name(rival.effect), *new_base, 2, 1e-3)
+        assert (r_given_b.effect, r_given_b.delta_chi2) == (rival.effect, alone.delta_chi2)
+        reverse = D.score_cause(problem, by_name("coulomb_friction"), *D.fit(problem, rival.fit.spec), 2, 1e-3)
+        assert (b_given_r.effect, b_given_r.delta_chi2) == ("coulomb_friction", reverse.delta_chi2)
+        assert b_given_r.delta_chi2 > 0
