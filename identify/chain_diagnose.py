@@ -40,9 +40,9 @@ from types import SimpleNamespace
 from typing import Optional, Sequence
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 from scipy.special import chdtrc
 
+from .scalar import minimize_bounded
 from jointrig.vocab.law import JointLaw, Power, Viscous
 from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpec, bearing_name, chain_system,
                     identifiability, inertia_name, joint_prefix, solve_banded)
@@ -373,8 +373,7 @@ def _profile(problem: _Problem, cand: Candidate, base: ChainSpec, weights) -> Ch
     grid = np.linspace(a, b, 13)
     vals = [obj(u) for u in grid]
     k = int(np.argmin(vals))
-    minimize_scalar(obj, bounds=(grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]), method="bounded",
-                    options={"xatol": 1e-5 * (b - a)})
+    minimize_bounded(obj, (grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]), xatol=1e-5 * (b - a))
     h = min(cache, key=lambda x: penalised(cache[x]))
     best = cache[h]
     step = max(1e-3 * abs(h), 1e-6 * (hi - lo))

@@ -38,8 +38,8 @@ from functools import cached_property
 from typing import Callable, Optional, Sequence
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
+from .scalar import minimize_bounded
 from .balance import LinearSystem, assemble, spectral_rate
 from jointrig.vocab.law import Coulomb, JointLaw, Power, Viscous
 from .harmonics import fourier_coefficients, max_harmonic, synthesize
@@ -724,7 +724,7 @@ def _profile(problem, cause: Cause, base: ModelSpec, weights, start_jump: float 
     vals = [obj(u) for u in grid]
     k = int(np.argmin(vals))
     a, b = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
-    minimize_scalar(obj, bounds=(a, b), method="bounded", options={"xatol": 1e-6 * (hi_t - lo_t)})
+    minimize_bounded(obj, (a, b), xatol=1e-6 * (hi_t - lo_t))
     h_best = min(cache, key=lambda h: cache[h].chi2)
     best = cache[h_best]
     # Standard error of the profiled parameter from the curvature of chi2 (it rises by 1 at

@@ -2,6 +2,7 @@
 
 import argparse
 import importlib
+import os
 import subprocess
 import sys
 
@@ -69,3 +70,22 @@ def test_help_answers_without_loading_the_numerical_stack(name, heavy):
             "print('loaded:' + ','.join(m for m in %r if m in sys.modules))" % (name, heavy))
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.splitlines()[-1] == "loaded:", f"{name} --help {out.splitlines()[-1]}"
+
+
+def test_the_diagnosis_imports_no_optimiser_package(tmp_path):
+    # The diagnosis's one optimiser is a bounded scalar search (identify.scalar, a port of scipy's):
+    # scipy.optimize would bring linear programming, global optimisers and sparse algebra into
+    # every diagnosis's start (0.15 s, identify/scalar.py). A whole diagnosis of a small file,
+    # then what it loaded.
+    from jointrig.commands import make_data
+    from jointrig.rig import DEFAULT_MODEL
+
+    data = tmp_path / "worn.csv"
+    worn = DEFAULT_MODEL.parent / "two_flywheels_worn.xml"
+    assert make_data.main([str(data), "--model", str(worn), "-q", "--periods", "4"]) == 0
+    code = ("import sys\nfrom jointrig.cli import main\nassert main(['diagnose', %r, '-q']) == 0\n"
+            "print('loaded:' + ','.join(m for m in ('scipy.optimize', 'scipy.linalg', 'scipy.integrate') "
+            "if m in sys.modules))" % str(data))
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         env={**os.environ, "JOINTRIG_WORKERS": "1"}).stdout
+    assert out.splitlines()[-1] == "loaded:", out.splitlines()[-1]
