@@ -72,11 +72,12 @@ def test_help_answers_without_loading_the_numerical_stack(name, heavy):
     assert out.splitlines()[-1] == "loaded:", f"{name} --help {out.splitlines()[-1]}"
 
 
-def test_the_diagnosis_imports_no_optimiser_package(tmp_path):
+def test_the_diagnosis_imports_no_optimiser_package_and_no_gl_backend(tmp_path):
     # The diagnosis's one optimiser is a bounded scalar search (identify.scalar, a port of scipy's):
     # scipy.optimize would bring linear programming, global optimisers and sparse algebra into
-    # every diagnosis's start (0.15 s, identify/scalar.py). A whole diagnosis of a small file,
-    # then what it loaded.
+    # every diagnosis's start (0.15 s, identify/scalar.py); MuJoCo's OpenGL backend (GLFW) another
+    # 0.05 s, and no command renders with MuJoCo (jointrig.cli sets MUJOCO_GL=disable unless the
+    # user set it). A whole diagnosis of a small file, then what it loaded.
     from jointrig.commands import make_data
     from jointrig.rig import DEFAULT_MODEL
 
@@ -84,8 +85,8 @@ def test_the_diagnosis_imports_no_optimiser_package(tmp_path):
     worn = DEFAULT_MODEL.parent / "two_flywheels_worn.xml"
     assert make_data.main([str(data), "--model", str(worn), "-q", "--periods", "4"]) == 0
     code = ("import sys\nfrom jointrig.cli import main\nassert main(['diagnose', %r, '-q']) == 0\n"
-            "print('loaded:' + ','.join(m for m in ('scipy.optimize', 'scipy.linalg', 'scipy.integrate') "
+            "print('loaded:' + ','.join(m for m in ('scipy.optimize', 'scipy.linalg', 'scipy.integrate', 'glfw') "
             "if m in sys.modules))" % str(data))
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
-                         env={**os.environ, "JOINTRIG_WORKERS": "1"}).stdout
+                         env={**{k: v for k, v in os.environ.items() if k != "MUJOCO_GL"}, "JOINTRIG_WORKERS": "1"}).stdout
     assert out.splitlines()[-1] == "loaded:", out.splitlines()[-1]
