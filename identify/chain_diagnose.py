@@ -40,13 +40,12 @@ from types import SimpleNamespace
 from typing import Optional, Sequence
 
 import numpy as np
-from scipy.special import chdtrc
 
 from .scalar import minimize_bounded
 from jointrig.vocab.law import JointLaw, Power, Viscous
 from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpec, bearing_name, chain_system,
                     identifiability, inertia_name, joint_prefix, solve_banded)
-from .causes import CAUSES, Cause, ModelSpec, forward_select
+from .causes import CAUSES, Cause, ModelSpec, chi2_survival, forward_select
 from .diagnose import DEFAULT_FIDELITY, FINE_SAMPLES
 from .harmonics import max_harmonic
 from .periods import period_spectra, raw_noise_std
@@ -424,7 +423,7 @@ def score(problem: _Problem, cand: Candidate, base: ChainFit, weights: np.ndarra
            else _profile(problem, cand, base.spec, weights))
     q = len(ext.names) - len(base.names) + (1 if cand.cause.bounds is not None else 0)
     delta = base.chi2 - ext.chi2
-    p = float(chdtrc(q, max(delta, 0.0)))
+    p = chi2_survival(max(delta, 0.0), q)
     bic = delta - q * math.log(base.n_rows)
     name = cand.magnitude_name()
     params = ext.parameters()

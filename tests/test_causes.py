@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from jointrig.identify.causes import CATALOGUE, CAUSES, OSCILLATOR_CAUSES, by_name, evidence, forward_select
@@ -71,3 +72,23 @@ def test_forward_select_adopts_until_nothing_earns_it_and_drops_first_only_cause
     assert forward_select((), pool, rank=rank, adopt=adopt, max_effects=1, name_of=lambda s: s[0]).base == \
         ("coulomb_friction",)
     assert forward_select((), [], rank=rank, adopt=adopt, max_effects=3).rounds == ()
+
+
+@pytest.mark.parametrize("dof", range(1, 9))
+def test_chi2_survival_is_scipys(dof):
+    # identify.causes.chi2_survival (closed form for whole degrees of freedom) against
+    # scipy.special.chdtrc, from p ~ 1 to p ~ 1e-300: 1e-13 relative (a sum of a few positive
+    # terms, each exp(log) to ~10 ulp; where p underflows to 0 both give 0 or a subnormal).
+    from scipy.special import chdtrc
+
+    from jointrig.identify.causes import chi2_survival
+
+    for x in np.concatenate([[0.0, 1e-12], np.geomspace(1e-6, 1400.0, 400)]):
+        ref = float(chdtrc(dof, x))
+        got = chi2_survival(float(x), dof)
+        if ref > 1e-290:
+            assert abs(got - ref) <= 1e-13 * ref, (dof, x, got, ref)
+        else:
+            assert got <= 1e-290
+    with pytest.raises(ValueError, match="whole number"):
+        chi2_survival(1.0, 0)
