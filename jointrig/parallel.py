@@ -116,7 +116,10 @@ class WarmProcess:
     and then runs the one call it is sent: work at the end of a command that needs a heavy stack
     of its own (the report's matplotlib, the recording's rerun: half a second of imports, and
     their interpreter teardown) has it imported meanwhile, on the core the command's own start
-    leaves idle, instead of after the results.
+    leaves idle, instead of after the results. An entry ``"module:function"`` also calls
+    ``module.function()`` once the module is imported: a warm-up that loads what the first use
+    would load lazily (the report's fonts and renderer, :func:`present.diagnosis_report.warm_up`),
+    which the processes the call forks then inherit.
 
     ``call(fn, *args)`` pickles ``fn`` (a module-level function) and its arguments to the
     process, runs it there and returns its result, or raises its exception here. Leaving the
@@ -175,9 +178,12 @@ def _warm_main(conn, parents_end, modules: tuple) -> None:
     parents_end.close()  # else the pipe would never end here when the command does
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     failed = None
-    for name in modules:
+    for entry in modules:
+        name, _, warm = entry.partition(":")
         try:
-            importlib.import_module(name)
+            module = importlib.import_module(name)
+            if warm:
+                getattr(module, warm)()
         except Exception as err:  # raised where the call is made, as the call would raise it
             failed = err
             break

@@ -68,9 +68,10 @@ def parse_args(argv=None) -> argparse.Namespace:
     return p.parse_args(argv)
 
 
-#: What writing the recording and the report imports beyond the diagnosis (rerun, matplotlib: half
-#: a second): imported meanwhile by the process that will write them (jointrig.parallel.WarmProcess).
-OUTPUT_MODULES = ("matplotlib.pyplot", "jointrig.present.recording")
+#: What writing the recording and the report imports beyond the diagnosis (rerun, matplotlib: 0.9
+#: s), and the report's figure warm-up (fonts, renderer: what its forked workers then inherit):
+#: done meanwhile by the process that will write them (jointrig.parallel.WarmProcess).
+OUTPUT_MODULES = ("jointrig.present.recording", "jointrig.present.diagnosis_report:warm_up")
 
 
 def main(argv=None) -> int:
