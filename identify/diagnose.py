@@ -1033,6 +1033,7 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
         # score the same to round-off: ranked to 9 digits, they keep the catalogue's order.
         current, wcur = base
         check = pending.pop() if pending else None
+        assert check is None or check.base is base, "a rival check runs on the base it was made for"
         say(f"round {rnd + 1}: scoring {len(remaining)} causes on "
             + (" + ".join(s.effect for s in adopted) or "the nominal model")
             + (f" ({workers} processes)" if workers > 1 else ""))
