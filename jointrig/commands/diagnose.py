@@ -68,10 +68,11 @@ def parse_args(argv=None) -> argparse.Namespace:
     return p.parse_args(argv)
 
 
-#: What writing the recording and the report imports beyond the diagnosis (rerun, matplotlib: 0.9
-#: s), and the report's figure warm-up (fonts, renderer: what its forked workers then inherit):
-#: done meanwhile by the process that will write them (jointrig.parallel.WarmProcess).
-OUTPUT_MODULES = ("jointrig.present.recording", "jointrig.present.diagnosis_report:warm_up")
+#: What writing the recording (rerun: 0.3 s) and the report (matplotlib: 0.4 s, and the figure
+#: warm-up whose fonts and renderer its forked workers then inherit) imports beyond the diagnosis:
+#: done meanwhile by the process that will write them (jointrig.parallel.WarmProcess), for the
+#: outputs asked for only.
+OUTPUT_MODULES = {"rrd": "jointrig.present.recording", "report": "jointrig.present.diagnosis_report:warm_up"}
 
 
 def main(argv=None) -> int:
@@ -83,7 +84,7 @@ def main(argv=None) -> int:
     if (args.rrd or args.report) and default_workers() > 1:
         # Forked once this process has its own stack (the writer shares it), so the writer's
         # imports overlap the reading and fitting, on the core they leave idle.
-        with WarmProcess(OUTPUT_MODULES) as writer:
+        with WarmProcess([m for option, m in OUTPUT_MODULES.items() if getattr(args, option)]) as writer:
             return _main(args, writer)
     return _main(args, None)
 
