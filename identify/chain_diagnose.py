@@ -41,7 +41,6 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from .scalar import minimize_bounded
 from jointrig.vocab.law import JointLaw, Power, Viscous
 from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpec, bearing_name, chain_system,
                     identifiability, inertia_name, joint_prefix, solve_banded)
@@ -49,6 +48,7 @@ from .causes import CAUSES, Cause, ModelSpec, chi2_survival, forward_select
 from .diagnose import DEFAULT_FIDELITY, FINE_SAMPLES
 from .harmonics import max_harmonic
 from .periods import period_spectra, raw_noise_std
+from .scalar import minimize_bounded
 from jointrig.vocab.records import RecordError, SteadyStateRecord
 from .estimates import Estimates
 from .solve import IllConditionedWarning

@@ -39,7 +39,6 @@ from typing import Callable, Optional, Sequence
 
 import numpy as np
 
-from .scalar import minimize_bounded
 from .balance import LinearSystem, assemble, spectral_rate
 from jointrig.vocab.law import Coulomb, JointLaw, Power, Viscous
 from .harmonics import fourier_coefficients, max_harmonic, synthesize
@@ -47,6 +46,7 @@ from .periods import period_spectra, raw_noise_std
 from jointrig.vocab.plant import Plant, effect_parameters
 from jointrig.vocab.records import RecordError, SteadyStateRecord
 from .estimates import Estimates
+from .scalar import minimize_bounded
 from .solve import IllConditionedWarning, solve
 from jointrig.vocab.params import J1, J2, JE, BEARING1, BEARING2
 from .causes import (DEFAULT_SEPARATION, CAUSES, NOMINAL, SEPARATING_EXCITATION, TIE, Cause, ModelSpec,
