@@ -114,12 +114,9 @@ def fork_map(fn: Callable, items: Sequence, workers: Optional[int] = None) -> It
 class WarmProcess:
     """A process forked now, while the command is still light, that imports ``modules`` at once
     and then runs the one call it is sent: work at the end of a command that needs a heavy stack
-    of its own (the report's matplotlib, the recording's rerun: half a second of imports, and
-    their interpreter teardown) has it imported meanwhile, on the core the command's own start
-    leaves idle, instead of after the results. An entry ``"module:function"`` also calls
-    ``module.function()`` once the module is imported: a warm-up that loads what the first use
-    would load lazily (the report's fonts and renderer, :func:`present.diagnosis_report.warm_up`),
-    which the processes the call forks then inherit.
+    of its own (the recording's rerun: 0.3 s of imports, and its interpreter teardown) has it
+    imported meanwhile, on the core the command's own start leaves idle, instead of after the
+    results.
 
     ``call(fn, *args)`` pickles ``fn`` (a module-level function) and its arguments to the
     process, runs it there and returns its result, or raises its exception here. Leaving the
@@ -178,12 +175,9 @@ def _warm_main(conn, parents_end, modules: tuple) -> None:
     parents_end.close()  # else the pipe would never end here when the command does
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     failed = None
-    for entry in modules:
-        name, _, warm = entry.partition(":")
+    for name in modules:
         try:
-            module = importlib.import_module(name)
-            if warm:
-                getattr(module, warm)()
+            importlib.import_module(name)
         except Exception as err:  # raised where the call is made, as the call would raise it
             failed = err
             break

@@ -17,10 +17,9 @@ from __future__ import annotations
 
 import base64
 import html
-import io
 import math
 from pathlib import Path
-from typing import Callable, Optional, Sequence
+from typing import Optional, Sequence
 
 import numpy as np
 
@@ -342,201 +341,122 @@ def log_diagnosis(rec, report: DiagnosisReport, text: str, *, card=None) -> None
             static=True)
 
 
-def _png(fig) -> str:
-    buf = io.BytesIO()
-    # The figures are laid out by tight_layout already: bbox_inches="tight" would lay them out
-    # (draw them) a second time.
-    fig.savefig(buf, format="png", dpi=90)
-    return base64.b64encode(buf.getvalue()).decode("ascii")
-
-
-def warm_up() -> None:
-    """Load what the report's first figure loads on first use (the Agg renderer, the PNG encoder,
-    the fonts in both weights, the mathtext parser of log-axis labels, numpy.ma) by drawing a small
-    figure with the same kinds of elements. A process that forks the figures' workers afterwards
-    (the diagnosis's writer, :class:`jointrig.parallel.WarmProcess`, while the diagnosis runs)
-    hands all of it to each of them instead of each loading it again."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, (ax, bx) = plt.subplots(1, 2, figsize=(3.0, 1.5))
-    ax.axhspan(0.1, 0.2, color="0.85", label="band")
-    ax.plot([0.0, 1.0], [0.01, 1.0], label="line", ls="--")
-    ax.vlines([0.5], 1e-3, 1.0, lw=2.0)
-    ax.set_yscale("log")
-    ax.set_title("title", fontsize=9, y=1.0)
-    ax.set(xlabel="x", ylabel="y")
-    ax.legend(fontsize=8)
-    bx.barh(["a", "b"], [1.0, 10.0], edgecolor=["k", "none"], linewidth=1.2)
-    bx.get_yticklabels()[0].set_fontweight("bold")
-    bx.set_xscale("symlog")
-    fig.tight_layout()
-    try:
-        _png(fig)
-    finally:
-        plt.close(fig)
-
-
-def _figure_jobs(report: DiagnosisReport) -> list[tuple[str, Callable[[], str]]]:
-    """``(caption, draw)`` of every figure of the report: ``draw()`` returns the base64 PNG."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+def figures(report: DiagnosisReport) -> list[tuple[str, str]]:
+    """``(caption, SVG document)`` of every figure of the report (:mod:`present.svg`): a panel per
+    run (titled by its omega and M0, held-out runs marked) for the relative angle, its departure
+    from the measurement, the restoring-force loops and the harmonic residuals; the causes ranked
+    by evidence; for an unexplained misfit its restoring-force surface first."""
+    from . import svg
 
     runs = report.runs
-    n = len(runs)
-    cols = min(3, n)
-    rows = math.ceil(n / cols)
-    jobs = []
-    style = {"measured": dict(color="k", lw=2.2, alpha=0.5), "nominal": dict(color="tab:red", lw=1.2, ls="--"),
-             "extended": dict(color="tab:blue", lw=1.2)}
+    cols = min(3, len(runs))
+    style = {"measured": dict(color=svg.COLORS["black"], width=2.2, opacity=0.5),
+             "nominal": dict(color=svg.COLORS["red"], width=1.2, dash="5 3"),
+             "extended": dict(color=svg.COLORS["blue"], width=1.2)}
+    out = []
 
-    def grid(height, draw, caption):
-        """One panel per run, drawn by ``draw(ax, run)``: a job."""
-        jobs.append((caption, lambda: _grid(height, draw)))
+    def title(r):
+        return f"run {r.run_id}: {r.omega_rad_s:.4g} rad/s, {r.amplitude_Nm:.4g} N m" + (
+            " (held out)" if r.held_out else "")
 
-    def _grid(height, draw):
-        width, tall = 4.2 * cols, height * rows
-        fig, axes = plt.subplots(rows, cols, figsize=(width, tall), squeeze=False)
-        # Margins fixed in inches (tight_layout would draw every figure once more to measure it:
-        # a third of the report's time): room for the y label and tick labels on the left, a
-        # title above and an x label below each panel.
-        left, right, bottom, top, gap_w, gap_h = 0.8, 0.15, 0.5, 0.3, 0.95, 0.8  # inches
-        ax_w = (width - left - right - (cols - 1) * gap_w) / cols
-        ax_h = (tall - bottom - top - (rows - 1) * gap_h) / rows
-        fig.subplots_adjust(left=left / width, right=1 - right / width, bottom=bottom / tall, top=1 - top / tall,
-                            wspace=gap_w / ax_w, hspace=gap_h / ax_h)
-        for ax, r in zip(axes.flat, runs):
-            draw(ax, r)
-            # At most 4 intervals per linear axis: a small panel reads as well, and creating
-            # ticks was a third of a figure's time (9 -> 5 ticks per axis: figures 1.45 -> 1.1 s)
-            for axis in (ax.xaxis, ax.yaxis):
-                if axis.get_scale() == "linear":
-                    axis.set_major_locator(matplotlib.ticker.MaxNLocator(4))
-        for ax in list(axes.flat)[n:]:
-            ax.axis("off")
-        axes.flat[0].legend(fontsize=8)
-        try:
-            return _png(fig)
-        finally:
-            plt.close(fig)
+    def grid(caption, height, panel_of):
+        panels = [panel_of(r) for r in runs]
+        panels[0].legend = True
+        out.append((caption, svg.figure(panels, cols=cols, panel_width=378, panel_height=height, title=caption)))
 
-    def held(r):
-        return " (held out)" if r.held_out else ""
-
-    def title(ax, r):
-        # y given: matplotlib then does not measure the axis to place the title (a fifth of a figure's time)
-        ax.set_title(f"run {r.run_id}: {r.omega_rad_s:.4g} rad/s, {r.amplitude_Nm:.4g} N m{held(r)}", fontsize=9,
-                     y=1.0)
-
-    def time_series(ax, r):
+    def time_series(r):
+        p = svg.Panel(title(r), "t [s]", "phi [rad]")
         for w, phi in (("measured", r.phi_measured_rad), ("nominal", r.phi_nominal_rad),
                        ("extended", r.phi_extended_rad)):
-            ax.plot(r.time_s, phi, label=w, **style[w])
-        title(ax, r)
-        ax.set(xlabel="t [s]", ylabel="phi [rad]")
+            p.line(r.time_s, phi, label=w, **style[w])
+        return p
 
-    def departure(ax, r):
-        ax.axhspan(-r.noise_floor_rad, r.noise_floor_rad, color="0.85", label="noise floor")
+    def departure(r):
+        p = svg.Panel(title(r), "t [s]", "simulated - measured [rad]")
+        p.band(-r.noise_floor_rad, r.noise_floor_rad, color=svg.COLORS["band"], label="noise floor")
         for w, phi in (("nominal", r.phi_nominal_rad), ("extended", r.phi_extended_rad)):
-            ax.plot(r.time_s, phi - r.phi_measured_rad, label=w, **style[w])
-        title(ax, r)
-        ax.set(xlabel="t [s]", ylabel="simulated - measured [rad]")
+            p.line(r.time_s, phi - r.phi_measured_rad, label=w, **style[w])
+        return p
 
-    def loops(ax, r):
+    def loops(r):
+        p = svg.Panel(title(r), "phi [rad]", "joint torque [N m]")
         x = np.append(r.phi_resolved_rad, r.phi_resolved_rad[0])
         for w, tau in (("measured", r.joint_torque_measured_Nm), ("nominal", r.joint_torque_nominal_Nm),
                        ("extended", r.joint_torque_extended_Nm)):
-            ax.plot(x, np.append(tau, tau[0]), label=w, **style[w])
-        title(ax, r)
-        ax.set(xlabel="phi [rad]", ylabel="joint torque [N m]")
+            p.line(x, np.append(tau, tau[0]), label=w, **style[w])
+        return p
 
     h = np.arange(report.band + 1)
 
-    def residuals(ax, r):
-        # Bars as thick vertical lines from below the smallest residual: one artist per model, not
-        # one patch per bar (378 patches took half of this figure's time).
+    def residuals(r):
         nom, ext = r.harmonic_residuals("nominal", report.band), r.harmonic_residuals("extended", report.band)
         pos = np.concatenate([nom, ext])
         pos = pos[pos > 0]
         floor = float(pos.min()) / 3 if pos.size else 1e-12
-        width_pt = 0.4 * ax.get_position().width * ax.figure.get_figwidth() * 72 / (report.band + 1.5)
-        for dx, vals, colour, label in ((-0.2, nom, "tab:red", "nominal"), (0.2, ext, "tab:blue", "extended")):
-            ax.vlines(h + dx, floor, np.maximum(vals, floor), colors=colour, lw=width_pt, label=label)
-        ax.set_yscale("log")
-        ax.set_ylim(bottom=floor)
-        ax.set_xlim(-0.75, report.band + 0.75)
-        ax.minorticks_off()
-        title(ax, r)
-        ax.set(xlabel="harmonic n", ylabel="|residual| [rad]")
+        p = svg.Panel(title(r), "harmonic n", "|residual| [rad]", yscale="log", ylim=(floor, None),
+                      xlim=(-0.75, report.band + 0.75))
+        width = 0.4 * 300 / (report.band + 1.5)  # px: 0.4 of a harmonic's slot on a ~300 px wide frame
+        for dx, vals, colour, label in ((-0.2, nom, "red", "nominal"), (0.2, ext, "blue", "extended")):
+            p.vlines(h + dx, floor, np.maximum(vals, floor), color=svg.COLORS[colour], width=width, label=label)
+        return p
 
     if report.verdict.verdict == "unexplained":
-        jobs.append(("The unexplained misfit as a restoring-force surface: the residual joint torque (measured "
-                     "minus the final model) at every sample of the runs' loops over the relative angle and rate, "
-                     "on its fitted surface (shaded where the data support it); the samples against the angle "
-                     "and the rate, with the surface's stiffness section S(phi, 0) and damping section S(0, phi')",
-                     lambda: _surface_figure(report, plt)))
-    grid(2.8, time_series, "Relative angle over one period: measured (period average) vs simulated in the rig")
-    grid(2.8, departure, "Where the simulation departs from the measurement: simulated minus measured relative "
-                         "angle (band-limited), with the noise floor of the comparison")
-    grid(3.2, loops, "Restoring-force loops: joint torque against relative angle (measured from the equation of "
-                     "motion with the extended model's inertia; models from their laws along the measured motion)")
-    grid(2.8, residuals, "Harmonic residuals per run: |Phi_n simulated - Phi_n measured|")
+        out.append(("The unexplained misfit as a restoring-force surface: the residual joint torque (measured "
+                    "minus the final model) at every sample of the runs' loops over the relative angle and rate, "
+                    "on its fitted surface (shaded where the data support it); the samples against the angle "
+                    "and the rate, with the surface's stiffness section S(phi, 0) and damping section S(0, phi')",
+                    _surface_figure(report)))
+    grid("Relative angle over one period: measured (period average) vs simulated in the rig", 252, time_series)
+    grid("Where the simulation departs from the measurement: simulated minus measured relative angle "
+         "(band-limited), with the noise floor of the comparison", 252, departure)
+    grid("Restoring-force loops: joint torque against relative angle (measured from the equation of motion with "
+         "the extended model's inertia; models from their laws along the measured motion)", 288, loops)
+    grid("Harmonic residuals per run: |Phi_n simulated - Phi_n measured|", 252, residuals)
 
-    def cause_chart():
-        causes = [c for c in report.diagnosis.causes if math.isfinite(c.score)][::-1]
-        adopted = set(report.adopted)
-        fig, ax = plt.subplots(figsize=(7, 0.45 * len(causes) + 1.2))
-        ax.barh([c.effect + (" (adopted)" if c.effect in adopted else "") for c in causes], [c.score for c in causes],
-                color=["tab:blue" if c.effect in adopted else "tab:gray" for c in causes],
-                edgecolor=["k" if c.significant else "none" for c in causes], linewidth=1.2)
-        for lbl, c in zip(ax.get_yticklabels(), causes):
-            lbl.set_fontweight("bold" if c.effect in adopted else "normal")
-        ax.set_xscale("symlog")
-        ax.set_xlabel("evidence score (blue: adopted; black edge: significant)")
-        fig.tight_layout()
-        try:
-            return _png(fig)
-        finally:
-            plt.close(fig)
-
-    jobs.append(("Causes ranked by evidence", cause_chart))
-    return jobs
+    causes = [c for c in report.diagnosis.causes if math.isfinite(c.score)][::-1]
+    adopted = set(report.adopted)
+    chart = svg.Panel(xlabel="evidence score (blue: adopted; black edge: significant)", xscale="symlog",
+                      ycategories=tuple(c.effect + (" (adopted)" if c.effect in adopted else "") for c in causes),
+                      ybold=tuple(c.effect in adopted for c in causes))
+    chart.barh([c.score for c in causes], colors=[svg.COLORS["blue" if c.effect in adopted else "gray"]
+                                                  for c in causes],
+               edges=["#000" if c.significant else None for c in causes])
+    out.append(("Causes ranked by evidence", svg.figure([chart], cols=1, panel_width=640,
+                                                          panel_height=30 * len(causes) + 70,
+                                                          title="Causes ranked by evidence")))
+    return out
 
 
-def _surface_figure(report: DiagnosisReport, plt) -> str:
+def _surface_figure(report: DiagnosisReport) -> str:
     """Three panels: the surface where the data support it, under the residual samples along the
     runs' loops (the classic restoring-force plot); the samples against the angle with the
     stiffness section, and against the rate with the damping section."""
+    from . import svg
+
     srf, smp = report.surface, report.samples
     x, v, res = (np.concatenate(a) for a in (smp.phi_rad, smp.rate_rad_s, smp.residual_Nm))
     # colour limits robust to one run far off (the 98th percentile of |residual|)
     top = max(float(np.percentile(np.abs(res), 98)), 1e-300)
-    fig, axes = plt.subplots(1, 3, figsize=(12.6, 3.9), gridspec_kw={"width_ratios": [1.35, 1, 1]})
-    ax = axes[0]
-    z = np.ma.masked_where(~srf.supported, srf.torque_Nm).T
-    ax.pcolormesh(srf.phi_knots_rad, srf.rate_knots_rad_s, z, shading="gouraud", cmap="RdBu_r", vmin=-top, vmax=top,
-                  alpha=0.45)
-    pts = ax.scatter(x, v, c=res, s=4, cmap="RdBu_r", vmin=-top, vmax=top, linewidths=0)
-    fig.colorbar(pts, ax=ax, label="residual joint torque [N m]")
-    ax.set(xlabel="phi - centre [rad]", ylabel="phi' [rad/s]", title="residual over (phi, phi'): samples on the surface")
-    for ax, data, (sx, sy), lab in ((axes[1], x, srf.stiffness_section, "phi - centre [rad]"),
-                                    (axes[2], v, srf.damping_section, "phi' [rad/s]")):
-        ax.axhline(0, color="0.7", lw=0.8)
-        ax.scatter(data, res, s=3, color="0.55", linewidths=0, label="samples")
-        ax.plot(sx, sy, "o", color="tab:purple", ms=4, label="section of the surface (supported knots)")
-        ax.set(xlabel=lab, ylabel="residual joint torque [N m]")
-    axes[1].set_title("against the angle; stiffness section S(phi, 0)", fontsize=10)
-    axes[2].set_title("against the rate; damping section S(0, phi')", fontsize=10)
-    axes[1].legend(fontsize=8)
-    fig.tight_layout()
-    try:
-        return _png(fig)
-    finally:
-        plt.close(fig)
+    shade = svg.colormap_rdbu(np.ravel(srf.torque_Nm), -top, top)
+    n_phi, n_rate = srf.torque_Nm.shape
+    cells = [[shade[i * n_rate + j] if srf.supported[i, j] else None for j in range(n_rate)] for i in range(n_phi)]
+    surface = svg.Panel("residual over (phi, phi'): samples on the surface", "phi - centre [rad]", "phi' [rad/s]",
+                        colorbar=(-top, top, "residual joint torque [N m]"))
+    surface.grid(srf.phi_knots_rad, srf.rate_knots_rad_s, cells, opacity=0.45)
+    surface.points(x, v, color=svg.colormap_rdbu(res, -top, top), radius=1.3)
+    panels = [surface]
+    for data, (sx, sy), lab, name in ((x, srf.stiffness_section, "phi - centre [rad]",
+                                       "against the angle; stiffness section S(phi, 0)"),
+                                      (v, srf.damping_section, "phi' [rad/s]",
+                                       "against the rate; damping section S(0, phi')")):
+        p = svg.Panel(name, lab, "residual joint torque [N m]")
+        p.hline(0.0, color=svg.COLORS["light"])
+        p.points(data, res, color=svg.COLORS["mid"], radius=1.1, label="samples")
+        p.line(sx, sy, color=svg.COLORS["purple"], marker=True, label="surface section (supported knots)")
+        panels.append(p)
+    panels[1].legend = True
+    return svg.figure(panels, cols=3, panel_width=420, panel_height=350, widths=[1.45, 1, 1],
+                      title="the unexplained misfit as a restoring-force surface")
 
 
 _CSS = """
@@ -698,19 +618,18 @@ def write_outputs(report: DiagnosisReport, text: str, *, rrd: Optional[Path] = N
                   title: str = "jointrig diagnosis", input_sha256: str = "", source: str = "",
                   notes: Sequence[str] = (), card=None) -> None:
     """The rerun recording (``rrd``) and the HTML report (``html_path``, :func:`write_html`), each
-    written atomically: the report's figures and the recording are independent pieces of work,
-    done in forked processes (:func:`jointrig.parallel.fork_map`; matplotlib's rendering is most
-    of the time). The same files either way."""
+    written atomically: the two are independent pieces of work, done in forked processes
+    (:func:`jointrig.parallel.fork_map`) when both are asked for. The same files either way."""
     from jointrig.parallel import fork_map
 
-    figures = _figure_jobs(report) if html_path is not None else []
-    jobs = [draw for _, draw in figures]
+    jobs = []
     if rrd is not None:
         jobs.append(lambda: _write_recording(rrd, report, text, card))
-    done = list(fork_map(lambda job: job(), jobs))
     if html_path is not None:
-        _write_page(html_path, report, text, [(caption, png) for (caption, _), png in zip(figures, done)],
-                    title=title, input_sha256=input_sha256, source=source, notes=notes, card=card)
+        jobs.append(lambda: _write_page(html_path, report, text, figures(report), title=title,
+                                        input_sha256=input_sha256, source=source, notes=notes, card=card))
+    for _ in fork_map(lambda job: job(), jobs):
+        pass
 
 
 def _write_recording(rrd: Path, report: DiagnosisReport, text: str, card) -> None:
@@ -724,16 +643,16 @@ def write_html(path: Path, report: DiagnosisReport, text: str, *, title: str = "
                input_sha256: str = "", source: str = "", notes: Sequence[str] = (), card=None) -> Path:
     """A self-contained HTML report, written atomically: the verdict as its headline, provenance
     (tool version, date, input SHA-256), tables with units and numbers to the precision of their
-    standard errors (adopted causes marked), embedded PNG figures with every run panel titled by
+    standard errors (adopted causes marked), embedded SVG figures with every run panel titled by
     its omega and M0, and the console text folded at the end."""
     write_outputs(report, text, html_path=path, title=title, input_sha256=input_sha256, source=source, notes=notes,
                   card=card)
     return Path(path)
 
 
-def _write_page(path: Path, report: DiagnosisReport, text: str, figures: Sequence[tuple[str, str]], *, title: str,
+def _write_page(path: Path, report: DiagnosisReport, text: str, drawn: Sequence[tuple[str, str]], *, title: str,
                 input_sha256: str, source: str, notes: Sequence[str], card) -> None:
-    """The HTML page of :func:`write_html` with its figures ``(caption, base64 PNG)`` drawn."""
+    """The HTML page of :func:`write_html` with its figures ``drawn`` (``(caption, SVG document)``)."""
     import datetime
 
     from jointrig import __version__
@@ -751,9 +670,10 @@ def _write_page(path: Path, report: DiagnosisReport, text: str, figures: Sequenc
     parts += _html_sections(report, source, notes)
     if card is not None:
         parts += _card_section(card)
-    for caption, png in figures:
+    for caption, image in drawn:
+        data = base64.b64encode(image.encode("utf-8")).decode("ascii")
         parts.append(f"<figure><figcaption>{html.escape(caption)}</figcaption><img alt='{html.escape(caption)}' "
-                     f"src='data:image/png;base64,{png}'></figure>")
+                     f"src='data:image/svg+xml;base64,{data}'></figure>")
     parts.append(f"<details><summary>The same report as console text</summary><pre>{html.escape(text)}</pre></details>")
     parts.append("</body></html>")
     from jointrig.files import write_atomic

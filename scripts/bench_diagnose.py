@@ -8,15 +8,15 @@
 2. the whole diagnosis, end to end: ``jointrig diagnose DATA --json --rrd --report`` in this
    process (reading, fitting, ranking, validating in the rig, writing; the modules imported
    already), and the same as a user runs it, a new ``jointrig diagnose`` process (Python's start
-   and the imports of numpy, scipy and MuJoCo included; rerun and matplotlib are imported
-   meanwhile by the process that writes the recording and the report);
+   and the imports of numpy and MuJoCo included; rerun is imported meanwhile by the process
+   that writes the recording and the report);
 3. the nominal fit alone (period averaging and the weighted harmonic balance of the nominal
    model on the fit runs);
 4. the native simulation of the same 9 runs in the rig (the C callback), the floor a diagnosis
    that validates in the rig cannot go below;
    and, in one process each, the two largest pieces of work the end-to-end time holds: the
    scoring of the causes (``identify.diagnose.diagnose`` with one worker: every round's profile
-   searches and fits) and the report's figures (drawn one after another, matplotlib warmed up);
+   searches and fits) and the report's figures (SVG, drawn one after another);
 5. with ``--busy``: the whole diagnosis again as a separate ``jointrig diagnose`` process while
    another process keeps one core busy (a spinning Python loop), once with the project's default
    thread settings (BLAS/OpenMP pools limited to one thread by the command, the causes scored in
@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import gc
 import json
 import os
 import subprocess
@@ -131,18 +130,13 @@ def main(argv=None) -> int:
 
 
 def figure_time(loaded, repeat: int) -> float:
-    """The report's figures drawn one after another in this process (matplotlib warmed up, as the
-    diagnosis's writer does), from the worn joint's report (the diagnosis itself not timed)."""
-    from jointrig.present.diagnosis_report import _figure_jobs, warm_up
+    """The report's figures (:func:`present.diagnosis_report.figures`, SVG) drawn in this process
+    from the worn joint's report (the diagnosis itself not timed)."""
+    from jointrig.present.diagnosis_report import figures
     from jointrig.studies.validate import run_diagnosis
 
     report = run_diagnosis(loaded.records, run_ids=loaded.run_ids)
-    warm_up()
-    gc.freeze()  # as in the writer's forked workers: this process's heap out of the collector's sight
-    try:
-        return best_of(repeat, lambda: [draw() for _, draw in _figure_jobs(report)])
-    finally:
-        gc.unfreeze()
+    return best_of(repeat, lambda: figures(report))
 
 
 def busy_core_timings(argv_d: list[str], repeat: int) -> dict:

@@ -95,6 +95,18 @@ def test_recording_and_report(outputs):
     assert any(n.startswith("damping ratio [-] against A") for n in names)
     html = (outputs / "d.html").read_text()
     assert html.count("<img") == 6 and "Restoring-force loops" in html and "coulomb_friction" in html
+    # five figures as SVG (the joint card's is a PNG): well-formed, a titled panel per run in each
+    # of the four run figures, held-out runs marked, and the causes' chart with the adopted ones
+    import base64
+    import re
+    import xml.etree.ElementTree as ET
+
+    docs = [base64.b64decode(d).decode() for d in re.findall(r"data:image/svg\+xml;base64,([A-Za-z0-9+/=]+)", html)]
+    assert len(docs) == 5
+    titles = [[t.text for t in ET.fromstring(d).iter("{http://www.w3.org/2000/svg}text")] for d in docs]
+    for texts in titles[:4]:
+        assert sum(t.startswith("run ") for t in texts) == 9 and "run 1: 25 rad/s, 2500 N m (held out)" in texts
+    assert {"coulomb_friction (adopted)", "backlash (adopted)"} <= set(titles[4])
     assert "Joint card (extended: coulomb_friction + backlash)" in html
     assert "departs from the measurement" in html
 

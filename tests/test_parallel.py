@@ -119,27 +119,6 @@ def test_a_warm_process_imports_its_modules_there_and_answers_its_call(no_childr
     assert module not in sys.modules
 
 
-def test_a_warm_up_named_with_its_module_runs_there_before_the_call(tmp_path, monkeypatch, no_children_left):
-    # "module:function" imports the module and calls function() once (the report's figure
-    # warm-up): the call then finds what it did, in that process only; a warm-up that fails
-    # raises where the call is made, as an import that fails does.
-    (tmp_path / "warmable.py").write_text("import os\nDONE = []\ndef warm():\n    DONE.append(os.getpid())\n"
-                                          "def broken():\n    raise OSError('no fonts')\n")
-    monkeypatch.syspath_prepend(str(tmp_path))
-    with WarmProcess(["warmable:warm"]) as warm:
-        pid, done = warm.call(_warmed)
-    assert done == [pid] and pid != os.getpid()
-    with WarmProcess(["warmable:broken"]) as warm:
-        with pytest.raises(OSError, match="no fonts"):
-            warm.call(_warmed)
-
-
-def _warmed():
-    import warmable
-
-    return os.getpid(), list(warmable.DONE)
-
-
 def test_an_error_in_the_call_is_raised_here_as_itself(no_children_left):
     with WarmProcess([]) as warm:
         with pytest.raises(ValueError, match="the disk is full"):

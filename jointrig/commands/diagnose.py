@@ -68,11 +68,20 @@ def parse_args(argv=None) -> argparse.Namespace:
     return p.parse_args(argv)
 
 
-#: What writing the recording (rerun: 0.3 s) and the report (matplotlib: 0.4 s, and the figure
-#: warm-up whose fonts and renderer its forked workers then inherit) imports beyond the diagnosis:
-#: done meanwhile by the process that will write them (jointrig.parallel.WarmProcess), for the
-#: outputs asked for only.
-OUTPUT_MODULES = {"rrd": "jointrig.present.recording", "report": "jointrig.present.diagnosis_report:warm_up"}
+def writer_modules(args: argparse.Namespace) -> list[str]:
+    """What writing the outputs asked for imports beyond the diagnosis, imported meanwhile by the
+    process that will write them (:class:`jointrig.parallel.WarmProcess`): rerun for the
+    recording (0.3 s); the report's SVG figures need nothing more, its joint-card figure
+    (``--card`` with ``--report``) matplotlib."""
+    modules = []
+    if args.rrd:
+        modules.append("jointrig.present.recording")
+    if args.report:
+        modules.append("jointrig.present.svg")
+        if args.card or args.card_png or args.card_only:
+            modules.append("jointrig.studies.joint_card")
+            modules.append("matplotlib.pyplot")
+    return modules
 
 
 def main(argv=None) -> int:
@@ -84,7 +93,7 @@ def main(argv=None) -> int:
     if (args.rrd or args.report) and default_workers() > 1:
         # Forked once this process has its own stack (the writer shares it), so the writer's
         # imports overlap the reading and fitting, on the core they leave idle.
-        with WarmProcess([m for option, m in OUTPUT_MODULES.items() if getattr(args, option)]) as writer:
+        with WarmProcess(writer_modules(args)) as writer:
             return _main(args, writer)
     return _main(args, None)
 
