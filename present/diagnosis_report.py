@@ -362,7 +362,7 @@ def figures(report: DiagnosisReport) -> list[tuple[str, str]]:
     def grid(caption, height, panel_of):
         panels = [panel_of(r) for r in runs]
         panels[0].legend = True
-        out.append((caption, svg.figure(panels, cols=cols, panel_width=378, panel_height=height, title=caption)))
+        out.append((caption, svg.figure(panels, cols=cols, panel_width=400, panel_height=height, title=caption)))
 
     def time_series(r):
         p = svg.Panel(title(r), "t [s]", "phi [rad]")
