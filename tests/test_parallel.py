@@ -5,6 +5,7 @@ its end when no call comes."""
 from __future__ import annotations
 
 import os
+import pickle
 import time
 
 import numpy as np
@@ -172,3 +173,30 @@ def test_the_process_ends_when_the_command_dies_without_closing_it():
     if left:
         os.kill(pid, 9)
     assert not left, f"the warm process {pid} outlived its command"
+
+
+def _record(k: int):
+    from jointrig.vocab.records import SteadyStateRecord
+
+    t = np.arange(32) * 2 * np.pi / (16 * 3.0)  # two periods of 16 samples
+    return SteadyStateRecord(3.0, t, np.sin(3 * t) * k, np.cos(3 * t), np.sin(3 * t), n_periods=2, source=f"run {k}")
+
+
+def test_records_from_forked_workers_keep_read_only_arrays(no_children_left):
+    # The diagnosis's validation runs come back from forked workers: pickle alone would hand
+    # their arrays back writeable, and a record's arrays are read-only (the harmonic-balance
+    # columns are cached per record). A chain record likewise.
+    from jointrig.identify.chain import ChainRecord
+
+    got = list(fork_map(_record, [1, 2], workers=2))
+    here = [_record(1), _record(2)]
+    assert [g.source for g in got] == ["run 1", "run 2"]
+    for g, h in zip(got, here):
+        assert all(np.array_equal(getattr(g, f), getattr(h, f)) for f in ("time_s", "torque_Nm", "phi1_rad", "phi2_rad"))
+    for r in got:
+        assert not any(a.flags.writeable for a in (r.time_s, r.torque_Nm, r.phi1_rad, r.phi2_rad))
+    t = here[0].time_s
+    chain = ChainRecord(3.0, t, (np.sin(3 * t), None), (np.cos(3 * t), np.sin(3 * t)), n_periods=2)
+    back = pickle.loads(pickle.dumps(chain))
+    assert np.array_equal(back.angles_rad[1], chain.angles_rad[1]) and back.torques_Nm[1] is None
+    assert not back.time_s.flags.writeable and not back.angles_rad[1].flags.writeable

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Optional
 
 import numpy as np
@@ -35,6 +35,12 @@ def _as_1d(name: str, x, source: str) -> np.ndarray:
 class WholePeriods:
     """Samples of a record that holds ``n_periods`` whole periods on the clock ``time_s`` (shared
     by :class:`SteadyStateRecord` and ``identify.chain.ChainRecord``)."""
+
+    def __reduce__(self):
+        """Pickled as its constructor's arguments: a record that comes back from a forked worker
+        (:func:`jointrig.parallel.fork_map`) is checked again and its arrays are read-only again
+        (pickle alone restores numpy arrays writeable)."""
+        return type(self), tuple(getattr(self, f.name) for f in fields(self))
 
     @property
     def n_samples(self) -> int:
