@@ -160,14 +160,23 @@ def main(argv=None) -> int:
     log.info("free runs of three models over the %d arrow samples, and the scipy reference", ua.size)
 
     def arrow_job(job):
-        if job is None:
-            return simulate_free_run_reference(fit.law, fit.inertia, BandlimitedInput(ua, fs), REFERENCE_SAMPLES, fs,
-                                               delay_s=fit.delay_s)
-        return arrow_rms(data, *job)
+        # Said where the job ends (in its worker: the lines come as each finishes, not in order).
+        name, model = job
+        t_job = time.perf_counter()
+        if model is None:
+            out = simulate_free_run_reference(fit.law, fit.inertia, BandlimitedInput(ua, fs), REFERENCE_SAMPLES, fs,
+                                              delay_s=fit.delay_s)
+        else:
+            out = arrow_rms(data, *model)
+        log.info("  %s done in %.1f s", name, time.perf_counter() - t_job)
+        return out
 
     # The scipy reference (the longest) first: the other process takes the three free runs meanwhile.
     ref, (rms_hb, _), (rms_nom, sim_nom), (rms_ext, sim_ext) = fork_map(
-        arrow_job, [None, (m_hb, law_hb), (oe.inertia, oe.law), (fit.inertia, fit.law, fit.delay_s)])
+        arrow_job, [(f"scipy LSODA reference over the first {REFERENCE_SAMPLES} samples", None),
+                    ("free run of the harmonic-balance model", (m_hb, law_hb)),
+                    ("free run of the nominal model (output error)", (oe.inertia, oe.law)),
+                    ("free run of the extended model", (fit.inertia, fit.law, fit.delay_s))])
     agree = float(np.max(np.abs(ref - sim_ext[:REFERENCE_SAMPLES])))
     print(f"\nMuJoCo rig vs scipy LSODA on the first {REFERENCE_SAMPLES} arrow samples (extended model): "
           f"max |difference| {1e6 * agree:.3f} uV")
