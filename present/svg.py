@@ -31,8 +31,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-__all__ = ["Panel", "figure", "nice_ticks", "log_ticks", "tick_labels", "colormap_rdbu", "to_svg_number",
-           "COLORS"]
+__all__ = ["Panel", "figure", "nice_ticks", "log_ticks", "tick_labels", "colormap_rdbu", "COLORS"]
 
 #: The colours of the report (matplotlib's "tab" palette and greys, so the report reads as before).
 COLORS = {"blue": "#1f77b4", "red": "#d62728", "purple": "#9467bd", "gray": "#7f7f7f", "black": "#000000",
@@ -45,11 +44,6 @@ TITLE_PX = 11.5
 CHAR_EM = 0.6    # a generous mean advance of a character, in em (layout only: the browser sets the text)
 _SUPER = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
 MINUS = "\u2212"
-
-
-def to_svg_number(v: float) -> str:
-    """A coordinate to 0.1 px (the browser's rendering is no finer)."""
-    return f"{v:.1f}"
 
 
 def nice_ticks(lo: float, hi: float, max_ticks: int = 4) -> np.ndarray:
