@@ -270,13 +270,13 @@ def _limits(kind: str, values: np.ndarray, fixed: tuple, margin: float = 0.05) -
         lo, hi = lo - d, hi + d
     lo = fixed[0] if fixed[0] is not None else lo
     hi = fixed[1] if fixed[1] is not None else hi
+    if not hi > lo:  # a fixed end beyond the data's other end: a decade (or a unit) of room
+        hi = lo * 10.0 if kind == "log" else lo + (abs(lo) or 1.0)
     return lo, hi
 
 
 def _data_x(s: _Series) -> list:
-    if s.kind in ("line", "points", "vlines"):
-        return [s.data[0]]
-    if s.kind == "grid":
+    if s.kind in ("line", "points", "vlines", "grid"):
         return [s.data[0]]
     if s.kind == "barh":
         return [np.append(s.data[0], 0.0)]
@@ -288,9 +288,7 @@ def _data_y(s: _Series) -> list:
         return [s.data[1]]
     if s.kind == "vlines":
         return [s.data[1], s.data[2]]
-    if s.kind == "band":
-        return [np.array(s.data)]
-    if s.kind == "hline":
+    if s.kind in ("band", "hline"):
         return [np.array(s.data)]
     if s.kind == "grid":
         return [s.data[1]]

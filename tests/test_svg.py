@@ -118,14 +118,17 @@ def test_bad_ranges_are_refused_by_name():
 
 
 def test_degenerate_data_still_make_a_readable_panel():
-    # a constant line (no range), a line with no finite value, a log axis with zeros and
-    # negatives: limits padded, defaults taken, the non-positive values left out
+    # a constant line (no range), a lower limit fixed above all the data, a line with no
+    # finite value, a log axis with zeros and negatives: limits padded, room made, defaults
+    # taken, the non-positive values left out
     panels = [svg.Panel("flat").line([0.0, 1.0, 2.0], [5.0, 5.0, 5.0], color="#000"),
+              svg.Panel("above", ylim=(10.0, None)).line([0.0, 1.0], [1.0, 2.0], color="#000"),
               svg.Panel("empty").line([0.0, 1.0], [np.nan, np.inf], color="#000"),
               svg.Panel("log", yscale="log").line([0.0, 1.0, 2.0, 3.0], [0.0, -1.0, 1e-3, 1e-1], color="#000")]
-    root = ET.fromstring(svg.figure(panels, cols=3, panel_width=300, panel_height=200))
+    root = ET.fromstring(svg.figure(panels, cols=4, panel_width=300, panel_height=200))
     texts = [t.text for t in root.iter("{http://www.w3.org/2000/svg}text")]
     assert "5.0" in texts or "5.00" in texts, texts
+    assert {"10.0", "15.0", "20.0"} <= set(texts)  # 10 to 20 above the fixed 10
     assert "10⁻³" in texts and "10⁻¹" in texts
     d = [p.get("d") for p in root.iter("{http://www.w3.org/2000/svg}path") if p.get("fill") == "none"]
-    assert d[1] == "" and d[2].count("M") == 1 and d[2].count("L") == 1  # only the two positive points
+    assert d[2] == "" and d[3].count("M") == 1 and d[3].count("L") == 1  # only the two positive points
