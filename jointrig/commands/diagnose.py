@@ -30,8 +30,8 @@ from pathlib import Path
 from jointrig.identify.defaults import DEFAULT_FIDELITY
 from jointrig.rig.runtime import BadArgument, check_output, check_range, limit_threads, progress_level
 
-# The numerical stack (scipy, MuJoCo, rerun, matplotlib) is imported in main, after the
-# arguments are parsed: ``--help`` and bad options answer at once.
+# The numerical stack (MuJoCo; rerun for --rrd; matplotlib for a joint card's figure) is
+# imported in main, after the arguments are parsed: ``--help`` and bad options answer at once.
 
 log = logging.getLogger("diagnose")
 
@@ -45,7 +45,7 @@ def parse_args(argv=None) -> argparse.Namespace:
                    help="units of the file's columns when not SI, e.g. time=ms,phi1=deg,phi2=deg,torque=Nmm")
     p.add_argument("--json", type=Path, help="write the diagnosis as JSON")
     p.add_argument("--rrd", type=Path, help="write a rerun recording")
-    p.add_argument("--report", type=Path, help="write a self-contained HTML report")
+    p.add_argument("--report", type=Path, help="write a self-contained HTML report (tables, SVG figures)")
     p.add_argument("--card", type=Path, metavar="OUT.json",
                    help="also write the joint card (amplitude-dependent stiffness, damping, dissipation) as JSON")
     p.add_argument("--card-png", type=Path, metavar="OUT.png", help="also write the joint card's figure")
