@@ -295,6 +295,13 @@ def _data_y(s: _Series) -> list:
     return []
 
 
+def _cell_edges(knots: np.ndarray) -> np.ndarray:
+    """Edges of the cells around knots (at least 2): halfway between neighbours, half a spacing
+    beyond the end knots."""
+    k = np.asarray(knots, dtype=float)
+    return np.concatenate([[k[0] - (k[1] - k[0]) / 2], (k[1:] + k[:-1]) / 2, [k[-1] + (k[-1] - k[-2]) / 2]])
+
+
 def _path(px: np.ndarray, py: np.ndarray) -> str:
     """An SVG path through the points, broken where a coordinate is not finite."""
     ok = np.isfinite(px) & np.isfinite(py)
@@ -428,9 +435,7 @@ def _panel_svg(panel: Panel, box: tuple, clip_id: str) -> str:
                                             for a, b, c in zip(px[ok].tolist(), py[ok].tolist(), cols)) + "</g>")
         elif s.kind == "grid":
             xk, yk, colors = s.data
-            xe = np.concatenate([[xk[0] - (xk[1] - xk[0]) / 2], (xk[1:] + xk[:-1]) / 2, [xk[-1] + (xk[-1] - xk[-2]) / 2]])
-            ye = np.concatenate([[yk[0] - (yk[1] - yk[0]) / 2], (yk[1:] + yk[:-1]) / 2, [yk[-1] + (yk[-1] - yk[-2]) / 2]])
-            pxe, pye = sx(xe), sy(ye)
+            pxe, pye = sx(_cell_edges(xk)), sy(_cell_edges(yk))
             cells = []
             for i in range(len(xk)):
                 for j in range(len(yk)):
