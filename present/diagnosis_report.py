@@ -579,10 +579,10 @@ def _html_sections(report: DiagnosisReport, source: str, notes: Sequence[str]) -
     return out
 
 
-def _card_section(card) -> list[str]:
+def _card_section(card, png_bytes: bytes) -> list[str]:
     """The joint card (studies/joint_card.py): runs beside the model at the same amplitude and
-    frequency, the slopes, and the card's figure."""
-    from jointrig.studies.joint_card import card_png, masing_text
+    frequency, the slopes, and the card's figure (``png_bytes``, :func:`studies.joint_card.card_png`)."""
+    from jointrig.studies.joint_card import masing_text
 
     rows = []
     for p, m in zip(card.runs.points, card.model_at_runs.points):
@@ -599,7 +599,7 @@ def _card_section(card) -> list[str]:
             text += f", rate exponent {with_se(c.rate_exponent, c.rate_exponent_std)}"
         return text
 
-    png = base64.b64encode(card_png(card, title=f"joint card: {card.model_name}")).decode("ascii")
+    png = base64.b64encode(png_bytes).decode("ascii")
     return [f"<h2>Joint card ({html.escape(card.model_name)})</h2>",
             "<p class='note'>The joint's mode (relative angle, inertia Je = "
             f"{sig(card.model.inertia_kgm2, 4)} kg m²): each run beside the model at the same amplitude and drive "
@@ -616,20 +616,43 @@ def _card_section(card) -> list[str]:
 
 def write_outputs(report: DiagnosisReport, text: str, *, rrd: Optional[Path] = None, html_path: Optional[Path] = None,
                   title: str = "jointrig diagnosis", input_sha256: str = "", source: str = "",
-                  notes: Sequence[str] = (), card=None) -> None:
-    """The rerun recording (``rrd``) and the HTML report (``html_path``, :func:`write_html`), each
-    written atomically: the two are independent pieces of work, done in forked processes
-    (:func:`jointrig.parallel.fork_map`) when both are asked for. The same files either way."""
+                  notes: Sequence[str] = (), card=None, card_png_path: Optional[Path] = None,
+                  card_title: str = "") -> None:
+    """The rerun recording (``rrd``), the HTML report (``html_path``, :func:`write_html`) and the
+    joint card's figure as a PNG (``card_png_path``, of ``card``), each written atomically: the
+    recording and the page are independent pieces of work, done in forked processes
+    (:func:`jointrig.parallel.fork_map`) when both are asked for. The card's figure is drawn once
+    (matplotlib: half a second), for the page and the PNG alike, titled ``card_title`` (default
+    "joint card: " and the card's model). The same files either way."""
     from jointrig.parallel import fork_map
 
+    if card_png_path is not None and card is None:
+        raise ValueError("write_outputs: card_png_path needs the card")
     jobs = []
     if rrd is not None:
         jobs.append(lambda: _write_recording(rrd, report, text, card))
-    if html_path is not None:
-        jobs.append(lambda: _write_page(html_path, report, text, figures(report), title=title,
-                                        input_sha256=input_sha256, source=source, notes=notes, card=card))
+    if html_path is not None or card_png_path is not None:
+        jobs.append(lambda: _write_page_and_card(html_path, report, text, title=title, input_sha256=input_sha256,
+                                                 source=source, notes=notes, card=card, card_png_path=card_png_path,
+                                                 card_title=card_title))
     for _ in fork_map(lambda job: job(), jobs):
         pass
+
+
+def _write_page_and_card(html_path: Optional[Path], report: DiagnosisReport, text: str, *, card, card_png_path,
+                         card_title: str, **page) -> None:
+    """The page (if ``html_path``) and the card's PNG (if ``card_png_path``), the card's figure drawn once."""
+    from jointrig.files import write_atomic
+
+    png = None
+    if card is not None:
+        from jointrig.studies.joint_card import card_png
+
+        png = card_png(card, title=card_title or f"joint card: {card.model_name}")
+    if card_png_path is not None:
+        write_atomic(Path(card_png_path), lambda tmp: tmp.write_bytes(png))
+    if html_path is not None:
+        _write_page(html_path, report, text, figures(report), card=card, card_png=png, **page)
 
 
 def _write_recording(rrd: Path, report: DiagnosisReport, text: str, card) -> None:
@@ -651,7 +674,7 @@ def write_html(path: Path, report: DiagnosisReport, text: str, *, title: str = "
 
 
 def _write_page(path: Path, report: DiagnosisReport, text: str, drawn: Sequence[tuple[str, str]], *, title: str,
-                input_sha256: str, source: str, notes: Sequence[str], card) -> None:
+                input_sha256: str, source: str, notes: Sequence[str], card, card_png: Optional[bytes]) -> None:
     """The HTML page of :func:`write_html` with its figures ``drawn`` (``(caption, SVG document)``)."""
     import datetime
 
@@ -669,7 +692,7 @@ def _write_page(path: Path, report: DiagnosisReport, text: str, drawn: Sequence[
              f"{html.escape(v.reason)}</p>"]
     parts += _html_sections(report, source, notes)
     if card is not None:
-        parts += _card_section(card)
+        parts += _card_section(card, card_png)
     for caption, image in drawn:
         data = base64.b64encode(image.encode("utf-8")).decode("ascii")
         parts.append(f"<figure><figcaption>{html.escape(caption)}</figcaption><img alt='{html.escape(caption)}' "

@@ -135,6 +135,12 @@ def test_joint_card_of_the_worn_joint(outputs):
     assert abs(slope["runs"] - slope["model_at_runs"]) < 3 * (slope["runs_std"] ** 2 + slope["model_at_runs_std"] ** 2) ** 0.5
     assert 1.7 < slope["runs"] < 2.2 and 0.8 < rate["runs"] < 1.1
     assert (outputs / "card.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # drawn once (matplotlib: half a second), for the report and the file alike
+    import base64
+    import re
+
+    embedded = re.findall(r"data:image/png;base64,([A-Za-z0-9+/=]+)", (outputs / "d.html").read_text())
+    assert [base64.b64decode(e) for e in embedded] == [(outputs / "card.png").read_bytes()]
     # The paper's viscous damping makes the loops rate-dependent: not Masing (backbones 299%
     # apart between runs at 25 and 40 rad/s, measured, against a noise of 6.2%).
     masing = d["masing"]

@@ -79,10 +79,16 @@ def writer_modules(args: argparse.Namespace) -> list[str]:
         modules += ["jointrig.present.recording", "pyarrow.compute", "numpy.ma"]
     if args.report:
         modules.append("jointrig.present.svg")
-        if args.card or args.card_png or args.card_only:
-            modules.append("jointrig.studies.joint_card")
-            modules.append("matplotlib.pyplot")
+    if card_drawn_by_writer(args) or (args.report and (args.card or args.card_only)):
+        modules += ["jointrig.studies.joint_card", "matplotlib.pyplot"]
     return modules
+
+
+def card_drawn_by_writer(args: argparse.Namespace) -> bool:
+    """Whether the joint card's PNG (``--card-png``) is written with the recording and the report
+    (:func:`present.diagnosis_report.write_outputs`: the figure drawn once, for the report too),
+    not by the command itself."""
+    return bool(args.card_png and (args.rrd or args.report))
 
 
 def main(argv=None) -> int:
@@ -160,14 +166,17 @@ def _main(args: argparse.Namespace, writer) -> int:
     if args.rrd or args.report:
         from jointrig.present.diagnosis_report import write_outputs
 
-        log.info("writing %s", " and ".join(str(p) for p in (args.rrd, args.report) if p))
+        log.info("writing %s", " and ".join(str(p) for p in (args.rrd, args.report,
+                                                             args.card_png if card_drawn_by_writer(args) else None) if p))
         options = dict(rrd=args.rrd, html_path=args.report, title=f"jointrig diagnosis of {args.data.name}",
                        input_sha256=loaded.sha256, source=str(args.data), notes=loaded.notes, card=card)
+        if card_drawn_by_writer(args):
+            options.update(card_png_path=args.card_png, card_title=card_title(args, card))
         if writer is not None:
             writer.call(write_outputs, report, text, **options)
         else:
             write_outputs(report, text, **options)
-        for path in (args.rrd, args.report):
+        for path in (args.rrd, args.report, args.card_png if card_drawn_by_writer(args) else None):
             if path:
                 log.info("wrote %s", path)
     if card is not None:
@@ -187,10 +196,14 @@ def write_card(args, loaded, card) -> None:
     if args.card:
         write_json_atomic(args.card, card_json(card, source=str(args.data), input_sha256=loaded.sha256))
         log.info("wrote %s", args.card)
-    if args.card_png:
-        png = card_png(card, title=f"joint card of {args.data.name}: {card.model_name}")
+    if args.card_png and not card_drawn_by_writer(args):
+        png = card_png(card, title=card_title(args, card))
         write_atomic(args.card_png, lambda tmp: tmp.write_bytes(png))
         log.info("wrote %s", args.card_png)
+
+
+def card_title(args: argparse.Namespace, card) -> str:
+    return f"joint card of {args.data.name}: {card.model_name}"
 
 
 def format_card(card) -> str:
