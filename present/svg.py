@@ -1,10 +1,11 @@
 """Figures as SVG text: the HTML report's plots, drawn without a plotting library.
 
 The diagnosis report's figures are small multiples of line plots (a panel per run), bars and a
-scatter; matplotlib drew them in 1.3 s of CPU and imported in 0.4 s more, half of a diagnosis's
-CPU (measured: ``jointrig diagnose runs.csv --json`` 2.9 s of CPU, with ``--report`` 5.3 s). Here
-a panel is a few SVG elements written from numpy arrays (milliseconds a figure), vector graphics
-that stay sharp when a reader zooms into a report.
+scatter; matplotlib drew them in 1.3 s of CPU and imported and warmed up in 0.4 s more, 40% of
+a diagnosis's CPU (measured on the worn joint: ``jointrig diagnose runs.csv --json OUT --rrd OUT``
+3.4 s of CPU, with ``--report OUT`` too 5.3-5.8 s). Here a panel is a few SVG elements written
+from numpy arrays (all five figures in 0.02 s), vector graphics that stay sharp when a reader
+zooms into a report.
 
 What is drawn and how:
 
