@@ -295,8 +295,10 @@ class _Columns:
         def compute():
             phi = self._phi(offset, gain, skew_s)
             rate = np.zeros_like(phi) if angle_only else self._rate(jump, gain, skew_s)
-            return self._fc(np.stack([np.broadcast_to(np.asarray(term(p, r), dtype=float), p.shape)
-                                      for p, r in zip(phi, rate)]))
+            if not term.stateful:  # elementwise: all records in one call, the same numbers
+                return self._fc(np.broadcast_to(np.asarray(term(phi, rate), dtype=float), phi.shape))
+            # a term with sliders runs its play operator along each record
+            return self._fc(np.stack([np.asarray(term(p, r), dtype=float) for p, r in zip(phi, rate)]))
         return self._get(("law",) + key, compute)
 
     def system(self, spec: ModelSpec, jump: float) -> LinearSystem:

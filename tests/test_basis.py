@@ -43,6 +43,26 @@ def test_scalar_path_equals_array_path(term):
     np.testing.assert_allclose(scal, arr, rtol=1e-15, atol=1e-15)
 
 
+STATELESS = [Viscous(), Power(0), Power(1), Power(3), Monomial(0, 3), Monomial(2, 1), Power(1, 0.2), Power(3, 0.2),
+             Coulomb(), QuadraticDamping(), Stribeck(2.0), TanhFriction(0.5), *angle_hats(KNOTS),
+             *rate_hats((-2.0, 0.0, 2.0))]
+
+
+@pytest.mark.parametrize("term", STATELESS)
+def test_a_term_without_sliders_evaluates_records_at_once_bit_for_bit(term):
+    # The diagnosis evaluates such a term on all its records at once, (records, samples), and a
+    # term with sliders record by record (identify.diagnose._Columns.law): the same bits as row
+    # by row, whatever the rows' lengths relative to numpy's SIMD blocks.
+    assert not term.stateful
+    rng = np.random.default_rng(2)
+    phi = rng.uniform(-1, 1, (6, 1027))
+    rate = rng.uniform(-3, 3, (6, 1027))
+    rate[0, :5] = 0.0
+    whole = np.broadcast_to(np.asarray(term(phi, rate), dtype=float), phi.shape)
+    rows = np.stack([np.broadcast_to(np.asarray(term(p, r), dtype=float), p.shape) for p, r in zip(phi, rate)])
+    assert np.array_equal(whole, rows)
+
+
 def test_polynomial_law_names_and_values():
     law = polynomial_law(c_Nms_per_rad=100, k_Nm_per_rad=2000, gamma_Nm_per_rad3=200)
     assert law.as_dict() == {"c_Nms_per_rad": 100.0, "k_Nm_per_rad": 2000.0, "gamma_Nm_per_rad3": 200.0}
