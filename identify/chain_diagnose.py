@@ -44,7 +44,7 @@ import numpy as np
 from jointrig.vocab.law import JointLaw, Power, Viscous
 from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpec, bearing_name, chain_system,
                     identifiability, inertia_name, joint_prefix, solve_banded)
-from .causes import CAUSES, Cause, ModelSpec, chi2_survival, forward_select
+from .causes import CAUSES, Cause, ModelSpec, evidence, forward_select
 from .diagnose import DEFAULT_FIDELITY, FINE_SAMPLES
 from .harmonics import max_harmonic
 from .periods import period_spectra, raw_noise_std
@@ -423,12 +423,13 @@ def score(problem: _Problem, cand: Candidate, base: ChainFit, weights: np.ndarra
            else _profile(problem, cand, base.spec, weights))
     q = len(ext.names) - len(base.names) + (1 if cand.cause.bounds is not None else 0)
     delta = base.chi2 - ext.chi2
-    p = chi2_survival(max(delta, 0.0), q)
-    bic = delta - q * math.log(base.n_rows)
+    # The one evidence measure (identify.causes.evidence): BIC score, chi-square(q) p-value,
+    # Bonferroni over the round; a candidate that adds no parameter (q = 0: dry friction where a
+    # Stribeck law already holds it) is never significant.
+    bic, p, significant = evidence(delta, q, base.n_rows, alpha, n_tests)
     name = cand.magnitude_name()
     params = ext.parameters()
     mag = (name, float(params.get(name, math.nan)), ext.std_error(name))
-    significant = bool(p < alpha / n_tests and bic > 0)
     note = _rejection(problem, cand, ext, mag) if significant or (cand.cause.nonnegative and mag[1] < 0) else ""
     if note:
         significant = False
