@@ -83,8 +83,8 @@ def main(argv=None) -> int:
     # The default sweep, three ways (fresh model: the timing above changed the step).
     sweep_rig = load_rig()
     runs = {}
-    for label, kw in (("python_serial", {}), ("native_serial", {"native": True}),
-                      ("native_threads", {"native": True, "workers": args.workers})):
+    for label, kw in (("python_serial", {"backend": "python"}), ("native_serial", {"backend": "native"}),
+                      ("native_threads", {"backend": "native", "workers": args.workers})):
         best = float("inf")
         for _ in range(args.sweep_repeats):
             t0 = time.perf_counter()
