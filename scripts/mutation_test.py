@@ -56,6 +56,8 @@ MODULES = {
     "jointrig.identify.periods": ("identify/periods.py", ["tests/test_runs_file.py", "tests/test_bad_input.py"]),
     "jointrig.measured.runs": ("measured/runs.py", ["tests/test_runs_file.py", "tests/test_bad_input.py"]),
     "jointrig.measured.formats": ("measured/formats.py", ["tests/test_runs_file.py", "tests/test_bad_input.py"]),
+    # the diagnosis's port of scipy's bounded scalar search (its tests hold it to scipy's path)
+    "jointrig.identify.scalar": ("identify/scalar.py", ["tests/test_scalar.py"]),
 }
 #: tests that exercise other parts of the project and only cost time here
 DESELECT = "not killed_sweep_resumes and not truncated_store_point and not dask"

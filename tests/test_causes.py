@@ -42,6 +42,12 @@ def test_evidence_by_hand():
     assert not evidence(10.0, 3, 100, alpha=1.0, n_causes=1)[2]  # significant, but 3 parameters do not pay
     # A cause already in the model adds no parameter: its refit's round-off is no evidence.
     assert evidence(2.6e-8, 0, 100, alpha=1.0, n_causes=1) == (2.6e-8, 1.0, False)
+    # a drop below one: chi-square(1) survival at 0.5 is erfc(0.5); a rise counts as no drop
+    assert evidence(0.5, 1, 100)[1] == pytest.approx(math.erfc(0.5), rel=1e-12)
+    assert evidence(-3.0, 2, 100)[1] == 1.0
+    # the default family-wise level is 1e-3: a drop of 12 with one parameter (p = 5.3e-4) passes
+    # it, a drop of 10 (p = 1.6e-3) does not
+    assert evidence(12.0, 1, 100)[2] and not evidence(10.0, 1, 100)[2]
 
 
 def test_forward_select_adopts_until_nothing_earns_it_and_drops_first_only_causes():

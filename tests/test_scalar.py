@@ -18,6 +18,15 @@ CASES = [
     ("flat", lambda x: 1.0, (0.0, 1.0), 1e-6),
     ("log-spaced chi-square", lambda u: (math.exp(u) - 3e-3) ** 2 * 1e6 + 5.0, (math.log(1e-5), math.log(1e-1)), 1e-6),
     ("a point interval", lambda x: x * x, (2.0, 2.0), 1e-6),
+    # ties, as a profile over a law whose columns do not change between trials gives them: the
+    # search's comparisons of equal values (<= against <) decide its path
+    ("steps", lambda x: math.floor(8.0 * x), (0.0, 1.0), 1e-6),
+    ("flat bottom", lambda x: max(0.0, abs(x - 0.5) - 0.2), (0.0, 1.0), 1e-8),
+    ("quantised parabola", lambda x: round((x - 0.3) ** 2, 3), (-1.0, 2.0), 1e-9),
+    ("steps down", lambda x: -math.floor(8.0 * x), (0.0, 1.0), 1e-6),
+    # a region where the objective is not a number (a fit that failed)
+    ("nan above 0.7", lambda x: math.nan if x > 0.7 else (x - 0.2) ** 2, (0.0, 1.0), 1e-8),
+    ("nan below 0.4", lambda x: math.nan if x < 0.4 else (x - 0.6) ** 2, (0.0, 1.0), 1e-8),
 ]
 
 
@@ -28,7 +37,8 @@ def test_the_port_visits_what_scipy_visits(name, f, bounds, xatol):
     ref = minimize_scalar(lambda x: seen_scipy.append(x) or f(x), bounds=bounds, method="bounded",
                           options={"xatol": xatol})
     assert seen_ours == [float(x) for x in seen_scipy]
-    assert (ours.x, ours.fun, ours.nfev, ours.success) == (float(ref.x), float(ref.fun), ref.nfev, ref.success)
+    assert (ours.x, ours.nfev, ours.success) == (float(ref.x), ref.nfev, ref.success)
+    assert ours.fun == float(ref.fun) or (math.isnan(ours.fun) and math.isnan(ref.fun))
 
 
 def test_the_budget_and_bad_bounds():
