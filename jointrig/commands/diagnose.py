@@ -73,7 +73,8 @@ def writer_modules(args: argparse.Namespace) -> list[str]:
     process that will write them (:class:`jointrig.parallel.WarmProcess`): rerun for the
     recording (0.3 s), and what its first recording would load lazily (pyarrow's compute
     functions and numpy.ma: 0.035 s off the end of the command); the report's SVG figures need
-    nothing more, its joint-card figure (``--card`` with ``--report``) matplotlib."""
+    nothing more; the joint card's figure (in the report, or ``--card-png`` beside an output the
+    writer writes) matplotlib."""
     modules = []
     if args.rrd:
         modules += ["jointrig.present.recording", "pyarrow.compute", "numpy.ma"]
@@ -166,8 +167,8 @@ def _main(args: argparse.Namespace, writer) -> int:
     if args.rrd or args.report:
         from jointrig.present.diagnosis_report import write_outputs
 
-        log.info("writing %s", " and ".join(str(p) for p in (args.rrd, args.report,
-                                                             args.card_png if card_drawn_by_writer(args) else None) if p))
+        outputs = [p for p in (args.rrd, args.report, args.card_png if card_drawn_by_writer(args) else None) if p]
+        log.info("writing %s", " and ".join(str(p) for p in outputs))
         options = dict(rrd=args.rrd, html_path=args.report, title=f"jointrig diagnosis of {args.data.name}",
                        input_sha256=loaded.sha256, source=str(args.data), notes=loaded.notes, card=card)
         if card_drawn_by_writer(args):
@@ -176,9 +177,8 @@ def _main(args: argparse.Namespace, writer) -> int:
             writer.call(write_outputs, report, text, **options)
         else:
             write_outputs(report, text, **options)
-        for path in (args.rrd, args.report, args.card_png if card_drawn_by_writer(args) else None):
-            if path:
-                log.info("wrote %s", path)
+        for path in outputs:
+            log.info("wrote %s", path)
     if card is not None:
         write_card(args, loaded, card)
     if args.mjcf:
