@@ -136,12 +136,18 @@ def check_card(rig: RigModel, case: str, *, snr_db: float = 40.0, seed: int = 1,
     say(f"{case}: simulating {len(c.omegas_rad_s) * len(c.levels_Nm)} stepped-sine runs")
     records = [add_noise(simulate_steady_state(rig, w, m, config, law=law)[0], snr_db, rng)
                for w in c.omegas_rad_s for m in c.levels_Nm]
+    def step(msg: str) -> None:  # the diagnosis's and the phase resonance's own progress, under this case
+        say(f"{case}:   {msg.strip()}")
+
     say(f"{case}: diagnosing")
-    report = run_diagnosis(records, rig=rig)
+    report = run_diagnosis(records, rig=rig, progress=step)
     id_law, je, cov, name, (J1, J2) = identified_law(report)
     say(f"{case}: phase resonance at {', '.join(f'{m:g}' for m in c.pr_levels_Nm)} N m")
     pr = phase_resonance(rig, c.pr_levels_Nm, law=law, omega_bracket_rad_s=c.pr_bracket_rad_s,
-                         xtol_rad_s=c.pr_xtol_rad_s, config=SimulationConfig(n_periods=2, settle_tol=c.settle_tol))
+                         xtol_rad_s=c.pr_xtol_rad_s, config=SimulationConfig(n_periods=2, settle_tol=c.settle_tol),
+                         progress=step)
+    say(f"{case}: measuring the {len(pr.points)} resonance points as a lab would ({n_periods} periods, "
+        f"{snr_db:g} dB)")
     amps = [p.amplitude_rad for p in pr.points]
     card = law_card(id_law, je, amps, covariance=cov, inertia_index=0)
     true = law_card(law, rig.Je_kgm2, amps)
