@@ -147,19 +147,22 @@ class _Run:
 
     The noise map is linear in theta: ``G(theta) = sum_i theta_i B_i`` with ``B_0 = M D2``
     (inertia) and ``B_j = M diag(db_j/dphi) + M diag(db_j/dphi') D1``, so
-    ``C(theta) = var_phi sum_ij theta_i theta_j B_i B_j' + var_u s^2 M M'`` from the
-    precomputed products ``T_ij = B_i B_j'``.
+    ``C(theta) = var_phi G G' + var_u s^2 M M'``. ``G`` is formed for each theta (p R N
+    multiply-adds) rather than the products ``B_i B_j'`` kept (p^2 R^2 of them): for a law on
+    41 hat functions those are 5 MB a run, read at every evaluation of the likelihood
+    (``jointrig unknown-law`` 13 -> 7 s).
     """
 
     A: np.ndarray          # (R, p) regression rows: Je column, then the law's columns
     F: np.ndarray          # (R,) share * M u
-    T: np.ndarray          # (p, p, R, R) B_i B_j'
+    B: np.ndarray          # (p, R, N) the noise map's pieces B_i
     U: np.ndarray          # (R, R) torque-noise covariance of the rows
     var_phi: float
     var_u: float
 
     def covariance(self, theta: np.ndarray) -> np.ndarray:
-        return self.var_phi * np.einsum("i,j,ijrs->rs", theta, theta, self.T) + self.U
+        G = np.tensordot(theta, self.B, axes=1)
+        return self.var_phi * (G @ G.T) + self.U
 
 
 def _derivative(term: Term, phi: np.ndarray, rate: np.ndarray, wrt: str) -> np.ndarray:
@@ -220,9 +223,8 @@ def _prepare(avg: PeriodAverage, terms: Sequence[Term], n_harmonics: int, share:
     for t in terms:
         B.append(M * _derivative(t, phi, rate, "phi") + (M * _derivative(t, phi, rate, "rate")) @ D1)
     B = np.array(B)
-    T = np.einsum("irn,jsn->ijrs", B, B)
     U = avg.var_torque_Nm2 * share**2 * (M @ M.T)
-    return _Run(A, F, T, U, avg.var_phi_rad2, avg.var_torque_Nm2)
+    return _Run(A, F, B, U, avg.var_phi_rad2, avg.var_torque_Nm2)
 
 
 @dataclass(frozen=True)

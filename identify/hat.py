@@ -21,7 +21,7 @@ Bayesian intervals of penalised splines, whose coverage is nominal on average ov
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Optional, Sequence
+from typing import Callable, Optional, Sequence
 
 import numpy as np
 
@@ -135,7 +135,8 @@ def _second_differences(n_params: int, first: int, n: int, skip: int = -1) -> np
 
 def fit_hat_law(records: Sequence[SteadyStateRecord], *, n_knots: int, n_harmonics: int, torque_share: float,
                 damping: Sequence[Term] = (Viscous(),), lam: Optional[float] = None,
-                knots_rad: Optional[Sequence[float]] = None, n_rate_knots: Optional[int] = None) -> HatFit:
+                knots_rad: Optional[Sequence[float]] = None, n_rate_knots: Optional[int] = None,
+                progress: Optional[Callable[[str], None]] = None) -> HatFit:
     """Identify ``g(phi)`` on hat functions (and the damping, and Je) from noisy runs.
 
     Args:
@@ -145,7 +146,9 @@ def fit_hat_law(records: Sequence[SteadyStateRecord], *, n_knots: int, n_harmoni
       lam: penalty weight; None chooses it by GCV over :data:`LAMBDA_GRID`; 0 turns it off.
       n_rate_knots: identify the damping torque f(phi') on this many hat functions of the rate
         (odd; eq. 9) instead of ``damping``; the penalty then smooths f too.
+      progress: optional callable ``(message) -> None``: the penalty chosen, then the ML fit.
     """
+    say = progress or (lambda msg: None)
     knots = (np.asarray(knots_rad, dtype=float) if knots_rad is not None
              else knots_from_range(records, n_knots, n_harmonics))
     hats = angle_hats(knots)
@@ -183,6 +186,8 @@ def fit_hat_law(records: Sequence[SteadyStateRecord], *, n_knots: int, n_harmoni
             tr = float(np.trace(np.linalg.solve(M, JtJ)))
             gcv.append((lg, float(n * (r @ r) / (n - tr) ** 2)))
         lam = min(gcv, key=lambda x: x[1])[0]
+        say(f"penalty lambda = {lam:.2g}, the least GCV of {len(gcv)} values")
+    say(f"maximum likelihood over {p} unknowns and {sum(r.F.size for r in runs)} rows")
     res = solve_penalised(runs, terms, np.sqrt(lam) * P if lam > 0 else None)
     g = res.values[first:]
     cov = res.covariance[first:, first:]

@@ -17,6 +17,7 @@ true law and the best quintic.
 from __future__ import annotations
 
 import argparse
+import logging
 from pathlib import Path
 
 import numpy as np
@@ -29,6 +30,7 @@ from jointrig.studies.sweep import DEFAULT_PLAN, records_of, run_sweep
 from jointrig.files import write_atomic
 
 MODEL = DEFAULT_MODEL.parent / "two_flywheels_kink.xml"
+log = logging.getLogger("jointrig.unknown-law")
 
 
 def main(argv=None) -> int:
@@ -45,8 +47,11 @@ def main(argv=None) -> int:
     p.add_argument("--seed", type=int, default=0, help="noise seed (default: %(default)s)")
     p.add_argument("--rrd", type=Path, default=Path("runs/unknown_law.rrd"), help="rerun recording (default: %(default)s)")
     p.add_argument("--png", type=Path, default=Path("runs/unknown_law.png"), help="static figure (default: %(default)s)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     args = p.parse_args(argv)
-    from jointrig.rig.runtime import check_output, check_range
+    from jointrig.rig.runtime import check_output, check_range, progress_level
+
+    logging.basicConfig(level=progress_level(args.quiet), format="%(levelname)s %(name)s: %(message)s")
 
     if not args.model.is_file():
         raise ValueError(f"--model {args.model}: no such file")
@@ -61,11 +66,15 @@ def main(argv=None) -> int:
     check_output(args.rrd, "--rrd")
     check_output(args.png, "--png")
     rig = load_rig(args.model)
-    records = records_of(run_sweep(rig, DEFAULT_PLAN, SimulationConfig()))
+    log.info("simulating the default sweep of %s (%d points)", rig.path.name, len(DEFAULT_PLAN.points()))
+    records = records_of(run_sweep(rig, DEFAULT_PLAN, SimulationConfig()))  # the sweep says each point
     rng = np.random.default_rng(args.seed)
     noisy = [add_noise(repeat_periods(r, args.periods), args.noise_db, rng) for r in records]
+    log.info("fitting g(phi) on %d hat functions%s by errors-in-variables ML (%s)", args.knots,
+             f" and f(phi') on {args.rate_knots}" if args.rate_knots else "",
+             "the penalty by generalised cross-validation" if args.lam is None else f"penalty {args.lam:g}")
     fit = fit_hat_law(noisy, n_knots=args.knots, n_harmonics=args.harmonics, torque_share=rig.torque_share,
-                      lam=args.lam, n_rate_knots=args.rate_knots)
+                      lam=args.lam, n_rate_knots=args.rate_knots, progress=lambda msg: log.info("  %s", msg))
     phi = np.linspace(fit.knots_rad[0], fit.knots_rad[-1], 801)
     g, lo, hi = fit.band(phi)
     true = np.asarray(rig.law.elastic_torque(phi), dtype=float)
