@@ -53,8 +53,8 @@ from .causes import (DEFAULT_SEPARATION, CAUSES, NOMINAL, SEPARATING_EXCITATION,
                      evidence, forward_select, rate_amplitudes)
 
 __all__ = [
-    "DEFAULT_FIDELITY", "kink_corrected_rate", "kink_first_pass", "KinkPass", "PreparedRun", "prepare_runs", "Fit", "CauseScore",
-    "Diagnosis", "diagnose", "fit", "plant_of",
+    "DEFAULT_FIDELITY", "kink_corrected_rate", "kink_first_pass", "KinkPass", "PreparedRun", "prepare_runs", "Fit",
+    "CauseScore", "Diagnosis", "diagnose", "fit", "plant_of",
 ]
 
 
@@ -407,9 +407,7 @@ def kink_corrected_rate(phi_rad: np.ndarray, omega_rad_s, band: int, jump_rad_s2
     """
     phi = np.atleast_2d(phi_rad)
     if jump_rad_s2 <= 0 or iterations < 1:
-        v_bl = spectral_rate(phi, _omegas(omega_rad_s, phi.shape[0])[:, None], 1) if band_limited_rate is None \
-            else np.atleast_2d(band_limited_rate)
-        return v_bl.reshape(np.shape(phi_rad))
+        return _band_limited_rate(phi, _omegas(omega_rad_s, phi.shape[0]), band_limited_rate).reshape(np.shape(phi_rad))
     if first_pass is None:
         first_pass = kink_first_pass(phi, omega_rad_s, band, band_limited_rate=band_limited_rate)
     v_bl, kept = first_pass.rate_rad_s, first_pass.kept
@@ -436,12 +434,17 @@ def _omegas(omega_rad_s, n: int) -> np.ndarray:
     return np.broadcast_to(np.asarray(omega_rad_s, dtype=float).reshape(-1), (n,))
 
 
+def _band_limited_rate(phi: np.ndarray, omega: np.ndarray, given: Optional[np.ndarray]) -> np.ndarray:
+    """The records' band-limited rate ``(n, M)``: ``given`` if the caller has it, else computed."""
+    return spectral_rate(phi, omega[:, None], 1) if given is None else np.atleast_2d(given)
+
+
 def kink_first_pass(phi_rad: np.ndarray, omega_rad_s, band: int, *,
                     band_limited_rate: Optional[np.ndarray] = None) -> KinkPass:
     """The jump-free first pass of :func:`kink_corrected_rate` (arguments as there)."""
     phi = np.atleast_2d(phi_rad)
     omega = _omegas(omega_rad_s, phi.shape[0])
-    v_bl = spectral_rate(phi, omega[:, None], 1) if band_limited_rate is None else np.atleast_2d(band_limited_rate)
+    v_bl = _band_limited_rate(phi, omega, band_limited_rate)
     correction, kept = _kink_pass(v_bl, omega, band, np.ones(phi.shape[0], bool))
     return KinkPass(v_bl, omega, correction, kept)
 

@@ -157,7 +157,7 @@ def test_the_play_operators_last_state_from_the_runs_ends_is_the_full_pass_s():
     # sample, taken from each monotone run's last sample only (vocab.law._play_end): the same
     # number, bit for bit, as running the whole pass, for one slider or several, on random walks
     # with flat steps, a single sample and a constant record.
-    from jointrig.vocab.law import _play_array, _play_end
+    from jointrig.vocab.law import _monotone_runs, _play_array, _play_end
 
     rng = np.random.default_rng(11)
     records = [np.cumsum(rng.normal(0, 0.1, int(rng.integers(2, 300)))) for _ in range(40)]
@@ -166,7 +166,8 @@ def test_the_play_operators_last_state_from_the_runs_ends_is_the_full_pass_s():
     records += [np.array([0.3]), np.full(5, -0.2)]
     for x in records:
         for slip, z0 in ((0.05, 0.0), (np.array([0.01, 0.1, 0.7]), np.array([0.0, 0.2, -0.4]))):
-            assert np.array_equal(_play_end(x, slip, z0), _play_array(x, slip, z0)[..., -1])
+            runs = _monotone_runs(x)
+            assert np.array_equal(_play_end(x, slip, z0, runs), _play_array(x, slip, z0, runs)[..., -1])
 
 
 @pytest.mark.parametrize("chi, beta", [(-0.5, 0.1), (-0.2, 0.0), (0.0, 1.0)])

@@ -72,7 +72,7 @@ def writer_modules(args: argparse.Namespace) -> list[str]:
     """What writing the outputs asked for imports beyond the diagnosis, imported meanwhile by the
     process that will write them (:class:`jointrig.parallel.WarmProcess`): rerun for the
     recording (0.3 s), and what its first recording would load lazily (pyarrow's compute
-    functions and numpy.ma: 0.035 s off the end of the command); the report's SVG figures need
+    functions and numpy.ma, else loaded while the recording is written); the report's SVG figures need
     nothing more; the joint card's figure (in the report, or ``--card-png`` beside an output the
     writer writes) matplotlib."""
     modules = []

@@ -570,22 +570,20 @@ def _periodic_play(x: np.ndarray, slip, z0) -> np.ndarray:
     """:func:`_play_array` over one period in its periodic state: started where a first pass
     from ``z0`` ends (:func:`_play_end`), the record's monotone runs found once for both."""
     runs = _monotone_runs(x)
-    return _play_array(x, slip, _play_end(x, slip, z0, runs=runs), runs=runs)
+    return _play_array(x, slip, _play_end(x, slip, z0, runs), runs)
 
 
-def _play_array(x: np.ndarray, slip, z0, *, runs=False) -> np.ndarray:
+def _play_array(x: np.ndarray, slip, z0, runs: Optional[list[tuple[int, int, bool]]]) -> np.ndarray:
     """:func:`play` applied along ``x`` from slider state ``z0``, vectorised by monotone runs:
     while x rises the slider is ``max(z_before, x - slip)``, while it falls
     ``min(z_before, x + slip)`` (the same numbers as stepping :func:`play` sample by sample).
     ``slip`` and ``z0`` may be arrays of shape (m,) (m sliders along the same ``x``, as in an
-    Iwan element): the result is then (m, x.size). ``runs``: :func:`_monotone_runs` of ``x`` if
-    the caller has it."""
+    Iwan element): the result is then (m, x.size). ``runs``: :func:`_monotone_runs` of ``x``."""
     slip_a = np.asarray(slip, dtype=float)[..., None]
     z = np.empty(slip_a.shape[:-1] + x.shape)
     if x.size == 0:
         return z
     z[..., 0] = _play_start(x, slip_a, z0)
-    runs = _monotone_runs(x) if runs is False else runs
     if runs is None:
         z[..., 1:] = z[..., :1]
         return z
@@ -597,7 +595,7 @@ def _play_array(x: np.ndarray, slip, z0, *, runs=False) -> np.ndarray:
     return z
 
 
-def _play_end(x: np.ndarray, slip, z0, *, runs=False) -> np.ndarray:
+def _play_end(x: np.ndarray, slip, z0, runs: Optional[list[tuple[int, int, bool]]]) -> np.ndarray:
     """The last sample of :func:`_play_array` (``(m,)`` or a scalar array), the same numbers: a
     run moves the slider only towards its last sample's bound, so each run's last sample is all
     it needs (the periodic state for the second pass at a tenth of a pass's cost). ``runs`` as
@@ -606,7 +604,7 @@ def _play_end(x: np.ndarray, slip, z0, *, runs=False) -> np.ndarray:
     if x.size == 0:
         raise ValueError("_play_end: an empty record has no last sample")
     before = _play_start(x, slip_a, z0)[..., None]
-    for a, b, rising in (_monotone_runs(x) if runs is False else runs) or ():
+    for a, b, rising in runs or ():
         last = x[b - 1:b]
         before = np.maximum(before, last - slip_a) if rising else np.minimum(before, last + slip_a)
     return before[..., 0]
