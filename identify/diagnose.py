@@ -235,6 +235,9 @@ class _Columns:
         self.torque = np.stack([r.torque_Nm for r in records])
         self._memo: dict = {}
         self._big: dict = {}  # arrays of the records' size, by key (a few kept)
+        #: (gain, skew, jump) -> a jump whose kink-corrected rate was computed and has the signs of
+        #: the one at ``jump`` in every sample (:meth:`same_system`)
+        self._anchor: dict = {}
 
     def _fc(self, x: np.ndarray) -> np.ndarray:
         return fourier_coefficients(x, 1, self.H)
@@ -270,17 +273,48 @@ class _Columns:
     def _rate(self, jump: float, gain: float, skew_s: float) -> np.ndarray:
         """The relative rate the law sees: the recorded relative rate with its kinks restored for
         ``jump`` (:func:`kink_corrected_rate`), flywheel 2's part corrected."""
-        v_bl = self._get(("v_bl",), lambda: spectral_rate(self._phi(0.0, 0.0, 0.0), self.omega, 1), big=True)
-        v = v_bl
-        if jump > 0:
-            phi = self._phi(0.0, 0.0, 0.0)
-            first = self._get(("kink_first_pass",), lambda: kink_first_pass(phi, self.omega[:, 0], self.H,
-                                                                            band_limited_rate=v_bl))
-            v = self._get(("kinked", jump), lambda: kink_corrected_rate(phi, self.omega[:, 0], self.H, jump,
-                                                                        first_pass=first), big=True)
+        v = self._kinked(jump).rate_rad_s if jump > 0 else self._v_bl()
         if self.phi2 is None or (gain == 0 and skew_s == 0):
             return v
         return v + (self._rate2(0.0, 0.0) - self._rate2(gain, skew_s))
+
+    def _v_bl(self) -> np.ndarray:
+        return self._get(("v_bl",), lambda: spectral_rate(self._phi(0.0, 0.0, 0.0), self.omega, 1), big=True)
+
+    def _first_pass(self) -> KinkPass:
+        return self._get(("kink_first_pass",), lambda: kink_first_pass(self._phi(0.0, 0.0, 0.0), self.omega[:, 0],
+                                                                       self.H, band_limited_rate=self._v_bl()))
+
+    def _kinked(self, jump: float) -> "_Kinked":
+        return self._get(("kinked", jump), lambda: _kinked(self._first_pass(), self.H, jump), big=True)
+
+    def same_system(self, spec: ModelSpec, jump: float, other: float) -> bool:
+        """True when :meth:`system` of ``spec`` at jump ``other`` equals the one at ``jump`` bit for
+        bit: the only terms it holds that see the kinks are dry friction's, ``sign(rate)``, and the
+        kink-corrected rate has the same signs at both jumps in every sample. Proven without the
+        rate at ``other`` where it can be (:func:`_sign_proof`, the common case in a profile
+        search: a trial's jump moves by 1e-6 to 1e-2 of itself), else compared."""
+        seeing = [t for t in spec.terms if not (t.elastic or t.stateful or isinstance(t, Viscous))]
+        if not seeing or any(type(t) is not Coulomb for t in seeing) or jump <= 0 or other <= 0:
+            return False
+        gain, skew = ((0.0, 0.0) if self.phi2 is None else (spec.angle2_gain_error, spec.angle2_delay_s))
+        # the jump whose rate was computed, with the signs of the one at ``jump``
+        anchor = self._anchor.get((gain, skew, jump), jump)
+        here = self._rate(anchor, gain, skew)
+        same = _sign_proof(self._first_pass(), self.H, self._kinked(anchor), anchor, other, here)
+        if not same:
+            there = self._rate(other, gain, skew)
+            same = np.array_equal(here > 0, there > 0) and np.array_equal(here < 0, there < 0)
+        if same:
+            # the columns at ``other`` are those at ``jump``: the next trial, which starts at
+            # ``other``, finds them without the rate there
+            self._anchor[(gain, skew, other)] = anchor
+            for t in seeing:
+                key = ("law", t, spec.angle_offset_rad, gain, skew)
+                col = self._memo.get(key + (jump,))
+                if col is not None:
+                    self._get(key + (other,), lambda: col)
+        return same
 
     def law(self, term, offset: float, gain: float, skew_s: float, jump: float) -> np.ndarray:
         """Coefficients of one law term along the records, ``(n_records, H + 1)``."""
@@ -410,13 +444,7 @@ def kink_corrected_rate(phi_rad: np.ndarray, omega_rad_s, band: int, jump_rad_s2
         return _band_limited_rate(phi, _omegas(omega_rad_s, phi.shape[0]), band_limited_rate).reshape(np.shape(phi_rad))
     if first_pass is None:
         first_pass = kink_first_pass(phi, omega_rad_s, band, band_limited_rate=band_limited_rate)
-    v_bl, kept = first_pass.rate_rad_s, first_pass.kept
-    v = v_bl + jump_rad_s2 * first_pass.unit_correction
-    for _ in range(iterations - 1):
-        correction, kept = _kink_pass(v, first_pass.omega_rad_s, band, kept)
-        v = v_bl + jump_rad_s2 * correction
-    v = np.where(kept[:, None], v, v_bl)
-    return v.reshape(np.shape(phi_rad))
+    return _kinked(first_pass, band, jump_rad_s2, iterations).rate_rad_s.reshape(np.shape(phi_rad))
 
 
 @dataclass(frozen=True)
@@ -445,13 +473,33 @@ def kink_first_pass(phi_rad: np.ndarray, omega_rad_s, band: int, *,
     phi = np.atleast_2d(phi_rad)
     omega = _omegas(omega_rad_s, phi.shape[0])
     v_bl = _band_limited_rate(phi, omega, band_limited_rate)
-    correction, kept = _kink_pass(v_bl, omega, band, np.ones(phi.shape[0], bool))
-    return KinkPass(v_bl, omega, correction, kept)
+    correction, crossings = _kink_pass(v_bl, omega, band, np.ones(phi.shape[0], bool))
+    return KinkPass(v_bl, omega, correction, crossings.kept)
 
 
-def _kink_pass(v: np.ndarray, omega: np.ndarray, band: int, kept: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+@dataclass(frozen=True)
+class _Crossings:
+    """Where a pass of :func:`_kink_pass` found the rate crossing zero: record ``rec``, between
+    samples ``idx`` and ``idx + 1`` (cyclic), at time ``t_s`` from the record's start; only the
+    crossings of the periods it ``kept``."""
+    rec: np.ndarray
+    idx: np.ndarray
+    t_s: np.ndarray
+    kept: np.ndarray
+
+
+def _crossing_times(v: np.ndarray, rec: np.ndarray, idx: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """Times (s) of the zero crossings of ``v`` (``(n, M)``) between samples ``idx`` and
+    ``idx + 1`` of records ``rec`` (linear interpolation); ``T``: the records' periods (s)."""
+    M = v.shape[1]
+    now, nxt = v[rec, idx], v[rec, (idx + 1) % M]
+    return (idx + now / (now - nxt)) * T[rec] / M
+
+
+def _kink_pass(v: np.ndarray, omega: np.ndarray, band: int, kept: np.ndarray) -> tuple[np.ndarray, _Crossings]:
     """One pass: the out-of-band correction of the rate for a unit jump at the zero crossings of
-    ``v`` (``(n, M)``), and ``kept`` narrowed to the periods whose crossings are even and non-zero."""
+    ``v`` (``(n, M)``), and those crossings, with ``kept`` narrowed to the periods whose crossings
+    are even and non-zero."""
     n_rec, M = v.shape
     # Harmonics band+1 .. M/2-1 of sum_i d_i delta(t - t_i) / (i n w)^2, scaled for irfft:
     # (2/T) (M/2) / (i n w)^2 = -(M/T) / (n w)^2, real.
@@ -464,11 +512,8 @@ def _kink_pass(v: np.ndarray, omega: np.ndarray, band: int, kept: np.ndarray) ->
     kept = kept & (counts > 0) & (counts % 2 == 0)
     on = kept[rec]
     rec, i = rec[on], i[on]
-    nxt = v[rec, (i + 1) % M]
-    now = v[rec, i]
-    frac = now / (now - nxt)
-    t = (i + frac) * T[rec] / M
-    d = -np.sign(nxt - now)  # friction always steepens the approach
+    t = _crossing_times(v, rec, i, T)
+    d = -np.sign(v[rec, (i + 1) % M] - v[rec, i])  # friction always steepens the approach
     # each period's sum over its own crossings: a (periods x crossings) matrix of the jumps
     S = np.zeros((n_rec, rec.size))
     S[rec, np.arange(rec.size)] = d
@@ -480,7 +525,75 @@ def _kink_pass(v: np.ndarray, omega: np.ndarray, band: int, kept: np.ndarray) ->
     np.cumprod(E, axis=1, out=E)
     V = np.zeros((n_rec, M // 2 + 1), complex)
     V[:, band + 1: M // 2] = scale * (S @ E)  # zero for a period not kept: S has none of its crossings
-    return np.fft.irfft(V, n=M, axis=1), kept
+    return np.fft.irfft(V, n=M, axis=1), _Crossings(rec, i, t, kept)
+
+
+@dataclass(frozen=True)
+class _Kinked:
+    """:func:`kink_corrected_rate`'s result with what its last pass saw: the rate it corrected
+    (``seen``, the band-limited rate plus the previous pass's correction), that rate's crossings,
+    and the largest magnitude of the last pass's unit-jump correction in every record (s)."""
+    rate_rad_s: np.ndarray
+    seen: np.ndarray
+    crossings: _Crossings
+    correction_max_s: np.ndarray
+
+
+def _kinked(first_pass: KinkPass, band: int, jump_rad_s2: float, iterations: int = 2) -> _Kinked:
+    """:func:`kink_corrected_rate` for ``jump_rad_s2 > 0`` and ``iterations >= 1``, from its first pass."""
+    v_bl, kept = first_pass.rate_rad_s, first_pass.kept
+    correction = first_pass.unit_correction
+    seen, crossings = v_bl, None
+    for _ in range(iterations - 1):
+        seen = v_bl + jump_rad_s2 * correction
+        correction, crossings = _kink_pass(seen, first_pass.omega_rad_s, band, kept)
+        kept = crossings.kept
+    v = np.where(kept[:, None], v_bl + jump_rad_s2 * correction, v_bl)
+    return _Kinked(v, seen, crossings, np.abs(correction).max(axis=1))
+
+
+def _rate_move_bound(first_pass: KinkPass, band: int, at: _Kinked, jump_at: float, jump: float
+                     ) -> Optional[np.ndarray]:
+    """A bound on how far every sample of the two-pass kink-corrected rate moves from jump
+    ``jump_at`` (``at`` is the rate there) to ``jump`` (both > 0), per record (rad/s), found
+    without the rate at ``jump``; None when the first pass crosses zero between other samples
+    there (the second pass then changes in kind).
+
+    The rate at a jump j is ``v_bl + j c(v1)``, where ``v1 = v_bl + j c0`` (the first pass) and
+    the correction ``c`` is the irfft of harmonics band+1..M/2-1 of ``-(M/T) / (n w)^2 sum_i
+    d_i exp(-i n w t_i)`` over v1's zero crossings t_i. When v1 at ``jump`` crosses zero between
+    the same samples as at ``jump_at``, each crossing moves by ``dt_i`` and, as
+    ``|exp(-i a) - exp(-i b)| <= |a - b|``, every sample of ``c`` by at most
+    ``dc = (2 / (T w)) sum_n 1/n sum_i |dt_i|``; so the rate moves by at most
+    ``|jump - jump_at| (max|c(at)| + dc) + jump_at dc`` (zero in a period not kept, which keeps
+    its band-limited rate at every jump)."""
+    if at.crossings is None or jump <= 0 or jump_at <= 0:
+        return None
+    v1 = first_pass.rate_rad_s + jump * first_pass.unit_correction
+    if not np.array_equal(v1 > 0, at.seen > 0):
+        return None
+    cr = at.crossings
+    omega = first_pass.omega_rad_s
+    T = 2 * math.pi / omega
+    M = v1.shape[1]
+    moved = np.bincount(cr.rec, np.abs(_crossing_times(v1, cr.rec, cr.idx, T) - cr.t_s), minlength=omega.size)
+    s1 = float(np.sum(1.0 / np.arange(band + 1, M // 2)))
+    dc = 2.0 / (T * omega) * s1 * moved
+    return np.where(cr.kept, abs(jump - jump_at) * (at.correction_max_s + dc) + jump_at * dc, 0.0)
+
+
+def _sign_proof(first_pass: KinkPass, band: int, at: _Kinked, jump_at: float, jump: float,
+                rate_at: np.ndarray) -> bool:
+    """True when the two-pass kink-corrected rate at ``jump`` has the sign of ``rate_at`` in
+    every sample, proven without computing it: ``at`` is the corrected rate at ``jump_at``,
+    ``rate_at`` that rate with any fixed addition (flywheel 2's correction). A sample whose
+    magnitude exceeds :func:`_rate_move_bound` (with a round-off margin of 1e-9 of the record's
+    largest rate) keeps its sign."""
+    bound = _rate_move_bound(first_pass, band, at, jump_at, jump)
+    if bound is None:
+        return False
+    margin = 1e-9 * np.abs(first_pass.rate_rad_s).max(axis=1)
+    return bool(np.all(np.abs(rate_at).min(axis=1) > bound + margin))
 
 
 def _coulomb_jump(spec: "ModelSpec", names: Sequence[str], theta: Optional[np.ndarray]) -> float:
@@ -516,6 +629,9 @@ class _Problem:
 
     def system(self, spec: ModelSpec, jump: float = 0.0) -> LinearSystem:
         return self._averages.system(spec, jump)
+
+    def same_system(self, spec: ModelSpec, jump: float, other: float) -> bool:
+        return self._averages.same_system(spec, jump, other)
 
     @property
     def columns_memo(self) -> dict:
@@ -572,13 +688,17 @@ def _solve(problem: _Problem, spec: ModelSpec, weights: np.ndarray, start_jump: 
 
     ``start_jump``: the jump to fit at first (rad/s^2): 0 (no kinks), or a neighbour's settled
     jump, which a profile search passes from trial to trial (a trial next to a solved one then
-    needs one fit, not three)."""
+    needs one fit, not three). A refit whose system would be the last one bit for bit
+    (:meth:`_Problem.same_system`: only dry friction's signs see the jump, and they stay) is
+    skipped: its fit is the last one, already settled."""
     jump = start_jump
     system, res = _solve_once(problem, spec, weights, jump)
     for _ in range(2):
         new = _coulomb_jump(spec, system.names, res.values)
         if new <= 0 or abs(new - jump) <= KINK_RTOL * new:
             break
+        if problem.same_system(spec, jump, new):
+            break  # the fit at the new jump is this one, bit for bit: it is settled
         jump = new
         system, res = _solve_once(problem, spec, weights, jump)
     r = system.F - system.A @ res.values
