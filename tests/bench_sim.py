@@ -117,6 +117,7 @@ def _rhs(joint: Joint, M0: float, w: float, mode: dict):
     J1, J2 = joint.J1, joint.J2
 
     def f(t, y):
+        y = y.tolist()  # Python floats: the same arithmetic, at a third of numpy scalars' cost
         if joint.static and mode["s"] == 0:  # stuck: the flywheels move as one body
             T = M0 * math.cos(w * (t - joint.delay))
             a = (T - joint.b1 * y[2] - joint.b2 * y[3]) / (J1 + J2)
