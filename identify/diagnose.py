@@ -40,7 +40,7 @@ from typing import Callable, Optional, Sequence
 import numpy as np
 
 from .balance import LinearSystem, assemble, spectral_rate
-from jointrig.vocab.law import Coulomb, JointLaw, Power, Viscous
+from jointrig.vocab.law import Coulomb, JointLaw, Power, Viscous, monotone_runs
 from .harmonics import fourier_coefficients, max_harmonic, synthesize
 from .periods import period_spectra, raw_noise_std
 from jointrig.vocab.plant import Plant, effect_parameters
@@ -328,11 +328,14 @@ class _Columns:
 
         def compute():
             phi = self._phi(offset, gain, skew_s)
+            if term.stateful:
+                # a term with sliders runs its play operator along each record, whose monotone
+                # runs (the same for every trial of a profile search) are found once
+                runs = self._get(("runs", offset, gain, skew_s), lambda: [monotone_runs(p) for p in phi])
+                return self._fc(np.stack([term.along(p, r) for p, r in zip(phi, runs)]))
+            # elementwise: all records in one call, the same numbers
             rate = np.zeros_like(phi) if angle_only else self._rate(jump, gain, skew_s)
-            if not term.stateful:  # elementwise: all records in one call, the same numbers
-                return self._fc(np.broadcast_to(np.asarray(term(phi, rate), dtype=float), phi.shape))
-            # a term with sliders runs its play operator along each record
-            return self._fc(np.stack([np.asarray(term(p, r), dtype=float) for p, r in zip(phi, rate)]))
+            return self._fc(np.broadcast_to(np.asarray(term(phi, rate), dtype=float), phi.shape))
         return self._get(("law",) + key, compute)
 
     def system(self, spec: ModelSpec, jump: float) -> LinearSystem:

@@ -157,7 +157,7 @@ def test_the_play_operators_last_state_from_the_runs_ends_is_the_full_pass_s():
     # sample, taken from each monotone run's last sample only (vocab.law._play_end): the same
     # number, bit for bit, as running the whole pass, for one slider or several, on random walks
     # with flat steps, a single sample and a constant record.
-    from jointrig.vocab.law import _monotone_runs, _play_array, _play_end
+    from jointrig.vocab.law import monotone_runs, _play_array, _play_end
 
     rng = np.random.default_rng(11)
     records = [np.cumsum(rng.normal(0, 0.1, int(rng.integers(2, 300)))) for _ in range(40)]
@@ -166,7 +166,7 @@ def test_the_play_operators_last_state_from_the_runs_ends_is_the_full_pass_s():
     records += [np.array([0.3]), np.full(5, -0.2)]
     for x in records:
         for slip, z0 in ((0.05, 0.0), (np.array([0.01, 0.1, 0.7]), np.array([0.0, 0.2, -0.4]))):
-            runs = _monotone_runs(x)
+            runs = monotone_runs(x)
             assert np.array_equal(_play_end(x, slip, z0, runs), _play_array(x, slip, z0, runs)[..., -1])
 
 
@@ -176,7 +176,7 @@ def test_the_weighted_sum_of_sliders_without_forming_them_is_the_sum_of_the_form
     # On random walks with flat steps, a single sample and a constant record, for 1, 3 and 33
     # sliders from arbitrary states, it equals the formed sum to 1e-13 of the largest torque
     # (measured 1.6e-14: cumulative sums that cancel).
-    from jointrig.vocab.law import _monotone_runs, _play_array, _play_sum
+    from jointrig.vocab.law import monotone_runs, _play_array, _play_sum
 
     rng = np.random.default_rng(5)
     records = [np.cumsum(rng.normal(0, 0.1, int(rng.integers(2, 300)))) for _ in range(60)]
@@ -186,7 +186,7 @@ def test_the_weighted_sum_of_sliders_without_forming_them_is_the_sum_of_the_form
     for x in records:
         for m in (1, 3, 33):
             slip, k, z0 = np.sort(rng.uniform(0.01, 0.7, m)), rng.uniform(0.1, 2.0, m), rng.uniform(-0.3, 0.3, m)
-            runs = _monotone_runs(x)
+            runs = monotone_runs(x)
             formed = k @ (x[None, :] - _play_array(x, slip, z0, runs))
             np.testing.assert_allclose(_play_sum(x, slip, k, z0, runs), formed, rtol=0,
                                        atol=1e-13 * np.abs(formed).max())

@@ -52,6 +52,7 @@ __all__ = [
     "TanhFriction",
     "dead_zone",
     "play",
+    "monotone_runs",
     "AngleHat",
     "Monomial",
     "RateHat",
@@ -562,15 +563,14 @@ class Jenkins(Term):
         if isinstance(phi, float):
             raise TypeError("Jenkins has state: the rig evaluates it with Jenkins.torque(phi, state)")
         x = np.asarray(phi, dtype=float)
-        z = _periodic_play(x, self.slip_rad, 0.0)
+        return self.along(x, monotone_runs(x))
+
+    def along(self, x: np.ndarray, runs: Optional[list[tuple[int, int, bool]]]) -> np.ndarray:
+        """The column along one period ``x`` whose monotone runs (:func:`monotone_runs`) are
+        known (a profile search's trials share them): the play operator in its periodic state,
+        started where a first pass from rest ends (:func:`_play_end`). The numbers of ``self(x, None)``."""
+        z = _play_array(x, self.slip_rad, _play_end(x, self.slip_rad, 0.0, runs), runs)
         return (x - z) / self.slip_rad
-
-
-def _periodic_play(x: np.ndarray, slip, z0) -> np.ndarray:
-    """:func:`_play_array` over one period in its periodic state: started where a first pass
-    from ``z0`` ends (:func:`_play_end`), the record's monotone runs found once for both."""
-    runs = _monotone_runs(x)
-    return _play_array(x, slip, _play_end(x, slip, z0, runs), runs)
 
 
 def _play_array(x: np.ndarray, slip, z0, runs: Optional[list[tuple[int, int, bool]]]) -> np.ndarray:
@@ -578,7 +578,7 @@ def _play_array(x: np.ndarray, slip, z0, runs: Optional[list[tuple[int, int, boo
     while x rises the slider is ``max(z_before, x - slip)``, while it falls
     ``min(z_before, x + slip)`` (the same numbers as stepping :func:`play` sample by sample).
     ``slip`` and ``z0`` may be arrays of shape (m,) (m sliders along the same ``x``, as in an
-    Iwan element): the result is then (m, x.size). ``runs``: :func:`_monotone_runs` of ``x``."""
+    Iwan element): the result is then (m, x.size). ``runs``: :func:`monotone_runs` of ``x``."""
     slip_a = np.asarray(slip, dtype=float)[..., None]
     z = np.empty(slip_a.shape[:-1] + x.shape)
     if x.size == 0:
@@ -653,7 +653,7 @@ def _play_start(x: np.ndarray, slip_a: np.ndarray, z0) -> np.ndarray:
     return np.minimum(np.maximum(np.asarray(z0, dtype=float), x0 - slip_a[..., 0]), x0 + slip_a[..., 0])
 
 
-def _monotone_runs(x: np.ndarray) -> Optional[list[tuple[int, int, bool]]]:
+def monotone_runs(x: np.ndarray) -> Optional[list[tuple[int, int, bool]]]:
     """``(first, end, rising)`` of the monotone runs of ``x`` after its first sample (a flat step
     keeps the direction of the step before it); None when ``x`` is constant or a single sample."""
     if x.size < 2:
@@ -803,8 +803,12 @@ class Iwan(Term):
         if isinstance(phi, float):
             raise TypeError("Iwan has state: the rig evaluates it with Iwan.step_torque(phi, state, at)")
         x = np.asarray(phi, dtype=float)
+        return self.along(x, monotone_runs(x))
+
+    def along(self, x: np.ndarray, runs: Optional[list[tuple[int, int, bool]]]) -> np.ndarray:
+        """The column along one period ``x`` whose monotone runs are known (as :meth:`Jenkins.along`):
+        every slider in its periodic state from rest, their weighted sum (:func:`_play_sum`)."""
         slips, stiff = (np.asarray(v) for v in self.slips_and_stiffnesses)
-        runs = _monotone_runs(x)  # the periodic state as in _periodic_play, then the weighted sum
         return _play_sum(x, slips, stiff, _play_end(x, slips, np.zeros(slips.size), runs), runs)
 
 
