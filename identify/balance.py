@@ -28,6 +28,7 @@ chooses how much of the data is used.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, replace
 from typing import Optional, Sequence
 
@@ -134,22 +135,32 @@ def assemble(columns: np.ndarray, rhs: np.ndarray, names: Sequence[str], *,
         raise ValueError(f"assemble: rhs {rhs.shape} does not match columns {columns.shape}")
     if first_harmonic not in (0, 1):
         raise ValueError(f"assemble: first_harmonic must be 0 or 1, got {first_harmonic}")
-    H = n_coef - 1
+    keep, row_record, row_harmonic, row_part, row_equation = _row_layout(n_rec, n_eq, n_coef - 1, first_harmonic)
 
     def real_rows(C):  # (..., H + 1) complex -> (..., rows) real: [Re C_1, Im C_1, Re C_2, ...]
-        out = np.stack([C.real, C.imag], axis=-1)[..., first_harmonic:, :].reshape(C.shape[:-1] + (-1,))
-        return np.delete(out, 1, axis=-1) if first_harmonic == 0 else out
+        return np.stack([C.real, C.imag], axis=-1).reshape(C.shape[:-1] + (-1,))[..., keep]
 
     A = real_rows(columns).reshape(n_params, -1).T
     F = real_rows(rhs).reshape(-1)
-    per = 2 * H + (1 if first_harmonic == 0 else 0)
-    harm = np.repeat(np.arange(first_harmonic, H + 1), 2)
-    part = np.tile([0, 1], H + 1 - first_harmonic)
+    return LinearSystem(np.ascontiguousarray(A), F, tuple(names), row_record, row_harmonic, row_part, row_equation)
+
+
+@functools.lru_cache(maxsize=64)
+def _row_layout(n_rec: int, n_eq: int, H: int, first_harmonic: int) -> tuple[np.ndarray, ...]:
+    """:func:`assemble`'s row layout for a shape (computed once, read-only): which of the
+    interleaved real and imaginary parts of harmonics 0..H are rows, and every row's record,
+    harmonic, part and equation."""
+    keep = np.arange(2 * first_harmonic, 2 * (H + 1))
     if first_harmonic == 0:  # the mean has no sine row
-        harm, part = np.delete(harm, 1), np.delete(part, 1)
+        keep = np.delete(keep, 1)
+    per = keep.size
+    harm, part = keep // 2, keep % 2
     k = n_rec * n_eq
-    return LinearSystem(np.ascontiguousarray(A), F, tuple(names), np.repeat(np.arange(n_rec), n_eq * per),
-                        np.tile(harm, k), np.tile(part, k), np.tile(np.repeat(np.arange(n_eq), per), n_rec))
+    out = (keep, np.repeat(np.arange(n_rec), n_eq * per), np.tile(harm, k), np.tile(part, k),
+           np.tile(np.repeat(np.arange(n_eq), per), n_rec))
+    for a in out:
+        a.setflags(write=False)
+    return out
 
 
 def harmonic_rows(
