@@ -212,7 +212,8 @@ def test_iwan_elements_keep_the_stiffness_and_the_macroslip_torque(chi, beta):
 
 def test_iwan_array_path_equals_stepping_its_sliders():
     # The rig evaluates Iwan.step_torque and commits every slider after each step; the
-    # identifier's array path runs the play operator per element over the record twice.
+    # identifier's array path finds every slider's periodic state from a first pass's run ends,
+    # then sums the sliders along the record (vocab.law._play_sum) without forming them.
     iw = Iwan(0.05, -0.3, 0.2, elements=8)
     t = np.linspace(0, 2 * np.pi, 256, endpoint=False)
     phi = 0.04 * np.cos(t) + 0.01 * np.cos(3 * t + 0.4)
