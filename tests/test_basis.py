@@ -152,6 +152,15 @@ def test_jenkins_vectorised_play_equals_sample_by_sample_on_rough_signals():
         np.testing.assert_allclose(j(x, None), out, rtol=0, atol=1e-14)
 
 
+def _walks(rng: np.random.Generator, n: int) -> list[np.ndarray]:
+    """``n`` random walks of 2-299 samples with three flat steps each, a single sample and a
+    constant record: what a play operator's runs must handle."""
+    records = [np.cumsum(rng.normal(0, 0.1, int(rng.integers(2, 300)))) for _ in range(n)]
+    for x in records:
+        x[rng.integers(1, x.size, 3)] = x[rng.integers(0, x.size, 3)]
+    return records + [np.array([0.3]), np.full(5, -0.2)]
+
+
 def test_the_play_operators_last_state_from_the_runs_ends_is_the_full_pass_s():
     # The periodic state a Jenkins or Iwan column starts its pass from is the first pass's last
     # sample, taken from each monotone run's last sample only (vocab.law._play_end): the same
@@ -159,12 +168,7 @@ def test_the_play_operators_last_state_from_the_runs_ends_is_the_full_pass_s():
     # with flat steps, a single sample and a constant record.
     from jointrig.vocab.law import monotone_runs, _play_array, _play_end
 
-    rng = np.random.default_rng(11)
-    records = [np.cumsum(rng.normal(0, 0.1, int(rng.integers(2, 300)))) for _ in range(40)]
-    for x in records:
-        x[rng.integers(1, x.size, 3)] = x[rng.integers(0, x.size, 3)]
-    records += [np.array([0.3]), np.full(5, -0.2)]
-    for x in records:
+    for x in _walks(np.random.default_rng(11), 40):
         for slip, z0 in ((0.05, 0.0), (np.array([0.01, 0.1, 0.7]), np.array([0.0, 0.2, -0.4]))):
             runs = monotone_runs(x)
             assert np.array_equal(_play_end(x, slip, z0, runs), _play_array(x, slip, z0, runs)[..., -1])
@@ -179,11 +183,7 @@ def test_the_weighted_sum_of_sliders_without_forming_them_is_the_sum_of_the_form
     from jointrig.vocab.law import monotone_runs, _play_array, _play_sum
 
     rng = np.random.default_rng(5)
-    records = [np.cumsum(rng.normal(0, 0.1, int(rng.integers(2, 300)))) for _ in range(60)]
-    for x in records:
-        x[rng.integers(1, x.size, 3)] = x[rng.integers(0, x.size, 3)]
-    records += [np.array([0.3]), np.full(5, -0.2)]
-    for x in records:
+    for x in _walks(rng, 60):
         for m in (1, 3, 33):
             slip, k, z0 = np.sort(rng.uniform(0.01, 0.7, m)), rng.uniform(0.1, 2.0, m), rng.uniform(-0.3, 0.3, m)
             runs = monotone_runs(x)
