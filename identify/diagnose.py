@@ -34,7 +34,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, field, replace
-from functools import cached_property
+from functools import cached_property, lru_cache
 from typing import Callable, Optional, Sequence
 
 import numpy as np
@@ -593,9 +593,14 @@ def _rate_move_bound(first_pass: KinkPass, band: int, at: _Kinked, jump_at: floa
     T = 2 * math.pi / omega
     M = v1.shape[1]
     moved = np.bincount(cr.rec, np.abs(_crossing_times(v1, cr.rec, cr.idx, T) - cr.t_s), minlength=omega.size)
-    s1 = float(np.sum(1.0 / np.arange(band + 1, M // 2)))
-    dc = 2.0 / (T * omega) * s1 * moved
+    dc = 2.0 / (T * omega) * _out_of_band_harmonic_sum(band, M) * moved
     return np.where(cr.kept, abs(jump - jump_at) * (at.correction_max_s + dc) + jump_at * dc, 0.0)
+
+
+@lru_cache(maxsize=16)
+def _out_of_band_harmonic_sum(band: int, M: int) -> float:
+    """``sum 1/n`` over the harmonics band+1 .. M/2-1 the kink correction adds."""
+    return float(np.sum(1.0 / np.arange(band + 1, M // 2)))
 
 
 def _sign_proof(first_pass: KinkPass, band: int, at: _Kinked, jump_at: float, jump: float,

@@ -574,9 +574,8 @@ class Jenkins(Term):
 
 
 def _play_array(x: np.ndarray, slip, z0, runs: Optional[list[tuple[int, int, bool]]]) -> np.ndarray:
-    """:func:`play` applied along ``x`` from slider state ``z0``, vectorised by monotone runs:
-    while x rises the slider is ``max(z_before, x - slip)``, while it falls
-    ``min(z_before, x + slip)`` (the same numbers as stepping :func:`play` sample by sample).
+    """:func:`play` applied along ``x`` from slider state ``z0``, vectorised by monotone runs
+    (:func:`_slide`; the same numbers as stepping :func:`play` sample by sample).
     ``slip`` and ``z0`` may be arrays of shape (m,) (m sliders along the same ``x``, as in an
     Iwan element): the result is then (m, x.size). ``runs``: :func:`monotone_runs` of ``x``."""
     slip_a = np.asarray(slip, dtype=float)[..., None]
@@ -589,10 +588,16 @@ def _play_array(x: np.ndarray, slip, z0, runs: Optional[list[tuple[int, int, boo
         return z
     before = z[..., 0:1]
     for a, b, rising in runs:
-        seg = x[a:b]
-        z[..., a:b] = np.maximum(before, seg - slip_a) if rising else np.minimum(before, seg + slip_a)
+        z[..., a:b] = _slide(before, x[a:b], slip_a, rising)
         before = z[..., b - 1:b]
     return z
+
+
+def _slide(before, x, slip, rising: bool):
+    """The play operator over a monotone run ``x`` from slider state ``before``: while x rises
+    the slider is ``max(before, x - slip)``, while it falls ``min(before, x + slip)`` (the one
+    place of that rule for :func:`_play_array`, :func:`_play_end` and :func:`_play_sum`)."""
+    return np.maximum(before, x - slip) if rising else np.minimum(before, x + slip)
 
 
 def _play_end(x: np.ndarray, slip, z0, runs: Optional[list[tuple[int, int, bool]]]) -> np.ndarray:
@@ -605,8 +610,7 @@ def _play_end(x: np.ndarray, slip, z0, runs: Optional[list[tuple[int, int, bool]
         raise ValueError("_play_end: an empty record has no last sample")
     before = _play_start(x, slip_a, z0)[..., None]
     for a, b, rising in runs or ():
-        last = x[b - 1:b]
-        before = np.maximum(before, last - slip_a) if rising else np.minimum(before, last + slip_a)
+        before = _slide(before, x[b - 1:b], slip_a, rising)
     return before[..., 0]
 
 
@@ -614,7 +618,7 @@ def _play_sum(x: np.ndarray, slip: np.ndarray, weight: np.ndarray, z0: np.ndarra
               runs: Optional[list[tuple[int, int, bool]]]) -> np.ndarray:
     """``sum_i weight_i (x - z_i)`` along ``x`` for the sliders ``z_i`` of :func:`_play_array`
     (slip angles ``slip`` and states ``z0``, shape (m,)), without forming them: an Iwan element's
-    torque at a twentieth of the cost for its 33 sliders (round-off ~1e-15 of the torque).
+    torque at a ninth of the cost for its 33 sliders (round-off ~2e-14 of the torque).
 
     Within a monotone run the sliders that have started to slip stay slipping: rising from state
     z_i, slider i holds (``x - z_i``) while ``x <= z_i + s_i`` and slips (``s_i``) beyond; falling,
@@ -644,7 +648,7 @@ def _play_sum(x: np.ndarray, slip: np.ndarray, weight: np.ndarray, z0: np.ndarra
         else:  # the first j sorted (thresholds at or below x) hold
             j = np.searchsorted(thr[order], seg, side="right")
             out[a:b] = K[j] * seg - KZ[j] - (KS[-1] - KS[j])
-        z = np.maximum(z, x[b - 1] - s) if rising else np.minimum(z, x[b - 1] + s)
+        z = _slide(z, x[b - 1], s, rising)
     return out
 
 
