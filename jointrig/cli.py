@@ -60,12 +60,15 @@ def main(argv=None) -> int:
         print(f"jointrig: error: unknown subcommand {name!r}; expected one of {', '.join(SUBCOMMANDS)}",
               file=sys.stderr)
         return 2
-    from jointrig.rig.runtime import run_cli
+    from jointrig.rig.runtime import limit_threads, run_cli
 
     # No command renders with MuJoCo (the recordings are rerun's): without this, importing
     # mujoco loads its OpenGL backend (GLFW), 0.05 s of every command's start. A value the
     # user set is kept.
     os.environ.setdefault("MUJOCO_GL", "disable")
+    # One BLAS/OpenMP thread per process for every command, set before numpy loads (a pool
+    # the user sized is kept): the project's parallelism is its own (forked workers, threads).
+    limit_threads()
     module = importlib.import_module(f"jointrig.commands.{SUBCOMMANDS[name][0]}")
     # argparse names the program after argv[0]: "usage: jointrig diagnose ...", not "jointrig".
     argv0, sys.argv[0] = sys.argv[0], f"jointrig {name}"

@@ -5,21 +5,45 @@ from __future__ import annotations
 __all__ = ["limit_threads"]
 
 _LIMITER = None
+_USER_SIZED = None  # the pool kinds the user's environment sized (frozenset), once known
+
+#: The environment variables that size each kind of thread pool when its library loads.
+THREAD_VARIABLES = {"blas": ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"), "openmp": ("OMP_NUM_THREADS",)}
 
 
 def limit_threads(n: int = 1) -> None:
-    """Limit the BLAS and OpenMP thread pools of numpy/scipy to ``n`` threads.
+    """Limit the BLAS and OpenMP thread pools to ``n`` threads, in this process and its children,
+    wherever the user has not sized them (a pool kind whose variable in
+    :data:`THREAD_VARIABLES` is set is left as the user asked). Called once, by ``jointrig.cli``
+    before it imports a command, so every command runs so.
+
+    Both ways at once: the environment variables, which a library reads when it loads (numpy's
+    and scipy's OpenBLAS load after this in a command; a child process inherits them), and
+    threadpoolctl for the pools loaded already (a test session, a script that imported numpy;
+    only numpy and scipy load them here, so without either nothing is loaded and threadpoolctl,
+    20 ms of imports, is not needed).
 
     The harmonic-balance systems are small (hundreds of rows, tens of columns): a BLAS thread
     pool does not pay for itself on them, and on a busy 2-core machine the default pools
     oversubscribe the cores (measured: the worn-joint diagnosis took 143 s with the default
-    OpenBLAS threads and 33 s with one). Parallel work in jointrig is explicit (sweep workers,
-    dask), never the BLAS's.
+    OpenBLAS threads and 33 s with one; ``scripts/silverbox.py`` 14.9 s and 24.8 s of CPU with
+    the default pools, 14.0 s and 21.3 s with one). Parallel work in jointrig is explicit (forked
+    workers, sweep threads, dask), never the BLAS's.
     """
-    global _LIMITER
-    from threadpoolctl import threadpool_limits
+    global _LIMITER, _USER_SIZED
+    import os
+    import sys
 
-    _LIMITER = threadpool_limits(limits=n)
+    if _USER_SIZED is None:  # what the environment sized before any call here
+        _USER_SIZED = frozenset(api for api, names in THREAD_VARIABLES.items() if any(v in os.environ for v in names))
+    limits = {api: n for api in THREAD_VARIABLES if api not in _USER_SIZED}
+    for api in limits:
+        for v in THREAD_VARIABLES[api]:
+            os.environ[v] = str(n)
+    if limits and any(m in sys.modules for m in ("numpy", "scipy")):  # a pool may be loaded already
+        from threadpoolctl import threadpool_limits
+
+        _LIMITER = threadpool_limits(limits=limits)
 
 
 class BadArgument(ValueError):

@@ -9,21 +9,28 @@
    process (reading, fitting, ranking, validating in the rig, writing; the modules imported
    already), and the same as a user runs it, a new ``jointrig diagnose`` process (Python's start
    and the imports of numpy and MuJoCo included; rerun is imported meanwhile by the process
-   that writes the recording and the report);
+   that writes the recording and the report); the in-process run's parts, from the times its
+   progress lines arrive: reading the file, preparing the runs and the nominal fit, scoring the
+   causes, validating in the rig (the JSON written), writing the recording and the report;
 3. the nominal fit alone (period averaging and the weighted harmonic balance of the nominal
    model on the fit runs);
 4. the native simulation of the same 9 runs in the rig (the C callback), the floor a diagnosis
    that validates in the rig cannot go below;
    and, in one process each, the two largest pieces of work the end-to-end time holds: the
    scoring of the causes (``identify.diagnose.diagnose`` with one worker: every round's profile
-   searches and fits) and the report's figures (SVG, drawn one after another);
+   searches and fits), the same in ``default_workers()`` processes side by side (what the
+   machine's cores give this work at once: they share caches and memory) and the report's
+   figures (SVG, drawn one after another);
 5. with ``--busy``: the whole diagnosis again as a separate ``jointrig diagnose`` process while
    another process keeps one core busy (a spinning Python loop), once with the project's default
    thread settings (BLAS/OpenMP pools limited to one thread by the command, the causes scored in
    ``default_workers()`` forked processes) and once with everything on one thread
    (``JOINTRIG_WORKERS=1 OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1``), and their ratio.
 
-Best of ``--repeat`` for each, then the ratios. One BLAS thread (as every jointrig command sets).
+Best of ``--repeat`` for each, then the ratios, and the least end to end the scoring's work
+allows: all parts but the scoring, plus the one-process scoring split evenly over the
+``default_workers()`` processes (no fork, no pickling, no round waiting for its slowest cause).
+One BLAS thread (as every jointrig command sets).
 """
 
 from __future__ import annotations
@@ -31,6 +38,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
+import logging
 import os
 import subprocess
 import sys
@@ -44,6 +52,7 @@ from jointrig.identify.causes import NOMINAL
 from jointrig.identify.diagnose import _Problem, diagnose, fit, prepare_runs
 from jointrig.measured.runs import read_runs
 from jointrig.rig import DEFAULT_MODEL, SimulationConfig, load_rig, simulate_steady_state
+from jointrig.parallel import default_workers
 from jointrig.rig.runtime import limit_threads
 from jointrig.files import write_json_atomic
 from jointrig.studies.validate import holdout_of_another_kind, run_setting
@@ -76,8 +85,7 @@ def main(argv=None) -> int:
             return 1
         out = [str(tmp / "worn.json"), str(tmp / "worn.rrd"), str(tmp / "worn.html")]
         argv_d = [str(data), "-q", "--json", out[0], "--rrd", out[1], "--report", out[2]]
-        with open(os.devnull, "w") as null, contextlib.redirect_stdout(null):  # the report's text, not timed apart
-            t_diag = best_of(args.repeat, lambda: diagnose_cmd.main(argv_d))
+        t_diag, parts = end_to_end(argv_d, args.repeat)
         result = json.loads(Path(out[0]).read_text())
         cmd = [sys.executable, "-m", "jointrig", "diagnose", *argv_d]
         t_cmd = best_of(args.repeat, lambda: subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL))
@@ -94,6 +102,7 @@ def main(argv=None) -> int:
         t_nom = best_of(args.repeat, nominal)
         fit_runs = prepare_runs(fit_recs, band=20)
         t_score = best_of(args.repeat, lambda: diagnose(fit_runs, workers=1))
+        t_pair = side_by_side(lambda: diagnose(fit_runs, workers=1), default_workers(), args.repeat)
         t_fig = figure_time(loaded, args.repeat)
         rig = load_rig(WORN)
         cfg = SimulationConfig(n_periods=16)
@@ -105,6 +114,8 @@ def main(argv=None) -> int:
         "nominal_fit_s": t_nom, "native_simulation_of_the_runs_s": t_sim,
         "scoring_one_process_s": t_score, "report_figures_one_process_s": t_fig,
         "diagnosis_over_native_simulation": t_diag / t_sim, "diagnosis_over_nominal_fit": t_diag / t_nom,
+        "parts_s": parts,
+        "scoring_side_by_side_s": t_pair, "floor": floor_of(t_diag, parts["scoring"], t_score, t_pair, t_sim),
         "verdict": result["verdict"], "effects": result["extended"]["effects"], "gain": result["gain"],
     }
     if busy is not None:
@@ -117,9 +128,22 @@ def main(argv=None) -> int:
     print(f"  nominal fit alone                             {t_nom:7.2f} s")
     print(f"  scoring of the causes, one process            {t_score:7.2f} s   "
           f"({t_score / t_sim:.2f} x the native simulation)")
+    print(f"  the same in {default_workers()} processes side by side, each     {t_pair:7.2f} s   "
+          f"({t_pair / t_score:.2f} x alone: what {default_workers()} cores give this work)")
     print(f"  the report's figures, one process             {t_fig:7.2f} s")
     print(f"  native simulation of the 9 runs in the rig    {t_sim:7.2f} s")
     print(f"  diagnosis / native simulation                 {t_diag / t_sim:7.2f} x")
+    print(f"  where the end to end goes (the scoring on {default_workers()} processes):")
+    for name, value in report["parts_s"].items():
+        print(f"    {name.replace('_', ' '):<42}  {value:7.2f} s")
+    floor = report["floor"]
+    print(f"  all but the scoring                           {floor['outside_the_scoring_s']:7.2f} s   "
+          f"({floor['outside_the_scoring_s'] / t_sim:.2f} x the native simulation)")
+    print(f"  + the one-process scoring split evenly        {floor['least_end_to_end_s']:7.2f} s   "
+          f"({floor['over_native_simulation']:.2f} x: the least this much scoring allows on "
+          f"{floor['processes']} cores)")
+    print(f"  + the same at the side-by-side speed          {floor['least_at_side_by_side_speed_s']:7.2f} s   "
+          f"({floor['at_side_by_side_speed_over_native_simulation']:.2f} x)")
     if busy is not None:
         print(f"  with the other core busy, a separate process:  default threads {busy['default_s']:.2f} s, "
               f"one thread {busy['one_thread_s']:.2f} s: {busy['default_over_one_thread']:.2f} x")
@@ -127,6 +151,91 @@ def main(argv=None) -> int:
         write_json_atomic(args.json, report)
         print(f"wrote {args.json}")
     return 0
+
+
+def floor_of(t_diag: float, t_scoring: float, t_score_one: float, t_pair: float, t_sim: float) -> dict:
+    """The least end-to-end time the scoring's work allows: everything but the scoring (the end
+    to end less its scoring part) plus the scoring's one-process time split evenly over
+    :func:`default_workers` processes, with no fork, no pickling and no round that waits for its
+    slowest cause; once at the speed of one process alone, once at the speed each of them has
+    when all run side by side (``t_pair``: the cores share caches and memory)."""
+    n = default_workers()
+    outside = t_diag - t_scoring
+    least = outside + t_score_one / n
+    shared = outside + t_pair / n
+    return {"outside_the_scoring_s": outside, "processes": n, "least_end_to_end_s": least,
+            "over_native_simulation": least / t_sim, "least_at_side_by_side_speed_s": shared,
+            "at_side_by_side_speed_over_native_simulation": shared / t_sim}
+
+
+def side_by_side(fn, n: int, repeat: int) -> float:
+    """``fn()`` in ``n`` forked processes started together: the mean of their times, best of
+    ``repeat``. Against ``fn`` alone, what the machine's cores give work like this at once."""
+    import multiprocessing
+
+    ctx = multiprocessing.get_context("fork")
+    best = float("inf")
+    for _ in range(repeat):
+        gate, times = ctx.Barrier(n), ctx.SimpleQueue()
+
+        def one():
+            gate.wait()
+            t0 = time.perf_counter()
+            fn()
+            times.put(time.perf_counter() - t0)
+
+        procs = [ctx.Process(target=one) for _ in range(n)]
+        for proc in procs:
+            proc.start()
+        for proc in procs:
+            proc.join()
+        if any(proc.exitcode != 0 for proc in procs):
+            raise RuntimeError(f"a side-by-side process failed (exit codes {[proc.exitcode for proc in procs]})")
+        best = min(best, sum(times.get() for _ in range(n)) / n)
+    return best
+
+
+#: The end to end's parts, each from the progress line that starts it (the first of its kind)
+#: to the next part's; the reading from the command's start.
+PARTS = (("reading", None), ("preparing_and_the_nominal_fit", "preparing "), ("scoring", "round 1:"),
+         ("validating_in_the_rig", "simulating the "), ("writing_the_recording_and_report", "writing "))
+
+
+def end_to_end(argv_d: list[str], repeat: int) -> tuple[float, dict]:
+    """The diagnosis command in this process (its progress lines heard, not printed; the report's
+    text to /dev/null), best of ``repeat``: its time and that run's parts (:data:`PARTS`), from
+    the times its progress lines arrive. The JSON is written in the validation's part."""
+    root = logging.getLogger()
+    saved = root.level, root.handlers[:]
+    best = None
+    for _ in range(repeat):
+        seen: dict[str, float] = {}
+
+        class Hear(logging.Handler):
+            def emit(self, record: logging.LogRecord) -> None:
+                msg = record.getMessage()
+                for name, prefix in PARTS[1:]:
+                    if msg.startswith(prefix) and name not in seen:
+                        seen[name] = time.perf_counter()
+
+        root.handlers[:] = [Hear()]  # the command's own logging setup then leaves them alone
+        root.setLevel(logging.INFO)
+        try:
+            with open(os.devnull, "w") as null, contextlib.redirect_stdout(null):
+                t0 = time.perf_counter()
+                if diagnose_cmd.main([a for a in argv_d if a != "-q"]) != 0:
+                    raise RuntimeError(f"jointrig diagnose {' '.join(argv_d)} failed")
+                end = time.perf_counter()
+        finally:
+            root.setLevel(saved[0])
+            root.handlers[:] = saved[1]
+        missing = [prefix for name, prefix in PARTS[1:] if name not in seen]
+        if missing:
+            raise RuntimeError(f"no progress line starting with {missing}: the diagnosis's messages changed")
+        starts = [t0] + [seen[name] for name, _ in PARTS[1:]] + [end]
+        if best is None or end - t0 < best[0]:
+            best = end - t0, {name: starts[k + 1] - starts[k] for k, (name, _) in enumerate(PARTS)}
+    return best
 
 
 def figure_time(loaded, repeat: int) -> float:

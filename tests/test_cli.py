@@ -94,3 +94,23 @@ def test_the_diagnosis_imports_neither_scipy_nor_a_gl_backend_nor_matplotlib(tmp
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                          env={**{k: v for k, v in os.environ.items() if k != "MUJOCO_GL"}, "JOINTRIG_WORKERS": "1"}).stdout
     assert out.splitlines()[-1] == "loaded:", out.splitlines()[-1]
+
+
+@pytest.mark.skipif((os.cpu_count() or 1) < 2, reason="one core: OpenBLAS's default pool is one thread already")
+@pytest.mark.parametrize("user", [None, "2"])
+def test_every_command_runs_with_one_blas_thread_unless_the_user_sized_the_pool(user):
+    # jointrig.cli sets the pools before the command loads numpy (rig.runtime.limit_threads): the
+    # environment variables for the libraries that load later (numpy's OpenBLAS here, scipy's
+    # own after it) and for child processes. A pool size the user exported is kept. make-data is
+    # a command that never set its pools itself; the parent's variables (conftest limits this
+    # test session) are removed so the child starts as a user's shell would.
+    code = ("import os, sys\nfrom jointrig.cli import main\ntry:\n    main(['make-data', '--help'])\nexcept SystemExit:\n"
+            "    pass\nimport numpy, scipy.linalg\nfrom threadpoolctl import threadpool_info\n"
+            "print(sorted({(i['internal_api'], i['num_threads']) for i in threadpool_info()}), "
+            "os.environ.get('OPENBLAS_NUM_THREADS'))")
+    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}
+    if user is not None:
+        env["OPENBLAS_NUM_THREADS"] = user
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env).stdout
+    want = user or "1"
+    assert out.splitlines()[-1] == f"[('openblas', {want})] {want}", out

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from jointrig.rig import load_rig
 from jointrig.studies.card_check import CARD_CASES, check_card, check_text, worst
-from jointrig.rig.runtime import check_output, check_range, limit_threads, progress_level
+from jointrig.rig.runtime import check_output, check_range, progress_level
 from jointrig.files import write_json_atomic
 
 log = logging.getLogger("jointrig.card-check")
@@ -40,7 +40,6 @@ def main(argv=None) -> int:
     check_range(args.snr_db, "--snr-db", lo=0, hi=200)
     check_range(args.periods, "--periods", lo=2, hi=1000, integer=True)
     check_output(args.json, "--json")
-    limit_threads()
     rig = load_rig()
     checks = []
     for case in args.cases or list(CARD_CASES):

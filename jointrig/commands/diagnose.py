@@ -28,7 +28,7 @@ import time
 from pathlib import Path
 
 from jointrig.identify.defaults import DEFAULT_FIDELITY
-from jointrig.rig.runtime import BadArgument, check_output, check_range, limit_threads, progress_level
+from jointrig.rig.runtime import BadArgument, check_output, check_range, progress_level
 
 # The numerical stack (MuJoCo; rerun for --rrd; matplotlib for a joint card's figure) is
 # imported in main, after the arguments are parsed: ``--help`` and bad options answer at once.
@@ -97,7 +97,6 @@ def main(argv=None) -> int:
     from jointrig.parallel import WarmProcess, default_workers
     from jointrig.present.diagnosis_report import format_report  # noqa: F401  (the diagnosis's stack)
 
-    limit_threads()
     if (args.rrd or args.report) and default_workers() > 1:
         # Forked once this process has its own stack (the writer shares it), so the writer's
         # imports overlap the reading and fitting, on the core they leave idle.
