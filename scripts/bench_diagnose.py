@@ -128,7 +128,7 @@ def main(argv=None) -> int:
     print(f"  nominal fit alone                             {t_nom:7.2f} s")
     print(f"  scoring of the causes, one process            {t_score:7.2f} s   "
           f"({t_score / t_sim:.2f} x the native simulation)")
-    print(f"  the same in {default_workers()} processes side by side, each     {t_pair:7.2f} s   "
+    print(f"  {f'the same in {default_workers()} processes side by side, each':<46}{t_pair:7.2f} s   "
           f"({t_pair / t_score:.2f} x alone: what {default_workers()} cores give this work)")
     print(f"  the report's figures, one process             {t_fig:7.2f} s")
     print(f"  native simulation of the 9 runs in the rig    {t_sim:7.2f} s")
