@@ -358,6 +358,38 @@ def _fit_problem(rig, tmp_path_factory, reports, kind: str):
                               2.0 * (min(r.n_periods for r in runs) - 1))
 
 
+def test_row_variance_pools_each_harmonic_and_equation_as_the_mean_of_its_rows(rig, tmp_path_factory, reports):
+    # The weights' noise variance is pooled per run over the rows of one harmonic in one
+    # equation (its real and imaginary part), plus the fidelity floor (identify.diagnose
+    # _Problem.row_variance, by bincount). Against the per-group loop it replaced, on the
+    # dry-friction case's nominal and extended models: the same bits (numpy's mean sums fewer
+    # than 8 values in order, as bincount does).
+    import jointrig.identify.diagnose as D
+
+    report, problem = _fit_problem(rig, tmp_path_factory, reports, "coulomb_friction")
+    for spec in (D.NOMINAL, report.diagnosis.extended.spec):
+        f, _ = D.fit(problem, spec)
+        like = problem.system(spec)
+        got = problem.row_variance(spec, f.values, like)
+        want = np.empty(like.F.size)
+        jump = D._coulomb_jump(spec, like.names, f.values)
+        for i, run in enumerate(problem.runs):
+            s = problem._periods[i].system(spec, jump)
+            v = (s.F - s.A @ f.values).reshape(run.n_periods, -1).var(axis=0, ddof=1) / len(run.fine_periods)
+            rows = np.flatnonzero(like.row_record == i)
+            h, e = like.row_harmonic[rows], like.row_equation[rows]
+            size2 = float(np.max(np.abs(np.column_stack([like.A[rows] * f.values, like.F[rows]])))) ** 2
+            pooled = v.copy()
+            for hh in np.unique(h):
+                for ee in np.unique(e):
+                    sel = (h == hh) & (e == ee)
+                    assert sel.sum() == 2  # the real and the imaginary part
+                    pooled[sel] = v[sel].mean() + problem.fidelity**2 * size2
+            want[rows] = pooled
+        scale = np.max(np.abs(like.F))
+        np.testing.assert_array_equal(got, np.maximum(want, (1e-12 * scale) ** 2))
+
+
 def test_kink_iteration_from_a_neighbours_jump_settles_where_it_does_from_zero(rig, tmp_path_factory, reports,
                                                                               monkeypatch):
     # A profile search starts each trial's kink iteration from its nearest solved neighbour's jump
