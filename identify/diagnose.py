@@ -843,6 +843,14 @@ def _magnitude(cause: Cause, f: Fit) -> tuple[str, float, float]:
     return name, float(params.get(name, 0.0)), f.std_error(name)
 
 
+#: A profile search's grid of trial values over the cause's bounds (log-spaced for a log-scale
+#: parameter), then Brent's bounded search between the best grid point's neighbours to this
+#: fraction of the range. A coarser search changes the adopted magnitudes beyond 1e-6 of
+#: themselves (``scripts/bench_diagnose.py --coarse-search``).
+PROFILE_GRID_POINTS = 17
+PROFILE_XATOL = 1e-6
+
+
 def _profile(problem, cause: Cause, base: ModelSpec, weights, start_jump: float = 0.0) -> Fit:
     lo, hi = cause.bounds(problem.runs)
     if cause.log_scale:
@@ -865,11 +873,11 @@ def _profile(problem, cause: Cause, base: ModelSpec, weights, start_jump: float 
             cache[h] = solved(h)
         return cache[h].chi2
 
-    grid = np.linspace(lo_t, hi_t, 17)
+    grid = np.linspace(lo_t, hi_t, PROFILE_GRID_POINTS)
     vals = [obj(u) for u in grid]
     k = int(np.argmin(vals))
     a, b = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
-    minimize_bounded(obj, (a, b), xatol=1e-6 * (hi_t - lo_t))
+    minimize_bounded(obj, (a, b), xatol=PROFILE_XATOL * (hi_t - lo_t))
     h_best = min(cache, key=lambda h: cache[h].chi2)
     best = cache[h_best]
     # Standard error of the profiled parameter from the curvature of chi2 (it rises by 1 at

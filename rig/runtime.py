@@ -14,8 +14,9 @@ THREAD_VARIABLES = {"blas": ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"), "openmp
 def limit_threads(n: int = 1) -> None:
     """Limit the BLAS and OpenMP thread pools to ``n`` threads, in this process and its children,
     wherever the user has not sized them (a pool kind whose variable in
-    :data:`THREAD_VARIABLES` is set is left as the user asked). Called once, by ``jointrig.cli``
-    before it imports a command, so every command runs so.
+    :data:`THREAD_VARIABLES` is set is left as the user asked). ``jointrig.cli`` calls it before
+    it imports a command, so every command runs so; a script or test session that imports numpy
+    first calls it too (threadpoolctl then limits the loaded pools).
 
     Both ways at once: the environment variables, which a library reads when it loads (numpy's
     and scipy's OpenBLAS load after this in a command; a child process inherits them), and

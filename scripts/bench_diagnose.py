@@ -21,7 +21,9 @@
    searches and fits), the same in ``default_workers()`` processes side by side (what the
    machine's cores give this work at once: they share caches and memory) and the report's
    figures (SVG, drawn one after another);
-5. with ``--busy``: the whole diagnosis again as a separate ``jointrig diagnose`` process while
+5. with ``--coarse-search``: the scoring again with a coarser profile search (9 grid points
+   instead of 17, a 100x looser tolerance), and how far that moves the final model;
+6. with ``--busy``: the whole diagnosis again as a separate ``jointrig diagnose`` process while
    another process keeps one core busy (a spinning Python loop), once with the project's default
    thread settings (BLAS/OpenMP pools limited to one thread by the command, the causes scored in
    ``default_workers()`` forked processes) and once with everything on one thread
@@ -74,6 +76,9 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--repeat", type=int, default=3, help="timings per step; the best is kept (default: %(default)s)")
     p.add_argument("--json", type=Path, help="write the timings as JSON")
+    p.add_argument("--coarse-search", action="store_true",
+                   help="also score the causes with a coarser profile search (9 grid points, 100x looser "
+                        "tolerance): its time and how far the final model moves")
     p.add_argument("--busy", action="store_true",
                    help="also time the diagnosis with another core kept busy, default threads against one thread")
     args = p.parse_args(argv)
@@ -103,6 +108,7 @@ def main(argv=None) -> int:
         fit_runs = prepare_runs(fit_recs, band=20)
         t_score = best_of(args.repeat, lambda: diagnose(fit_runs, workers=1))
         t_pair = side_by_side(lambda: diagnose(fit_runs, workers=1), default_workers(), args.repeat)
+        coarse = coarse_search(fit_runs, args.repeat) if args.coarse_search else None
         t_fig = figure_time(loaded, args.repeat)
         rig = load_rig(WORN)
         cfg = SimulationConfig(n_periods=16)
@@ -120,6 +126,8 @@ def main(argv=None) -> int:
     }
     if busy is not None:
         report["busy_core"] = busy
+    if coarse is not None:
+        report["coarse_search"] = coarse
     print(f"worn joint, 9 runs x 16 periods at 40 dB (best of {args.repeat}):")
     print(f"  diagnosis end to end (--json --rrd --report)  {t_diag:7.2f} s   verdict {result['verdict']}, "
           f"{' + '.join(result['extended']['effects']) or 'nothing'} adopted, gain {result['gain']:.3g}")
@@ -144,6 +152,10 @@ def main(argv=None) -> int:
           f"{floor['processes']} cores)")
     print(f"  + the same at the side-by-side speed          {floor['least_at_side_by_side_speed_s']:7.2f} s   "
           f"({floor['at_side_by_side_speed_over_native_simulation']:.2f} x)")
+    if coarse is not None:
+        worst = ", ".join(f"{k} by {v:.2g}" for k, v in coarse["largest_relative_moves"].items())
+        print(f"  {'scoring with the coarse profile search':<46}{coarse['scoring_one_process_s']:7.2f} s   "
+              f"({1 - coarse['scoring_one_process_s'] / t_score:.0%} less; the final model moves: {worst})")
     if busy is not None:
         print(f"  with the other core busy, a separate process:  default threads {busy['default_s']:.2f} s, "
               f"one thread {busy['one_thread_s']:.2f} s: {busy['default_over_one_thread']:.2f} x")
@@ -166,6 +178,34 @@ def floor_of(t_diag: float, t_scoring: float, t_score_one: float, t_pair: float,
     return {"outside_the_scoring_s": outside, "processes": n, "least_end_to_end_s": least,
             "over_native_simulation": least / t_sim, "least_at_side_by_side_speed_s": shared,
             "at_side_by_side_speed_over_native_simulation": shared / t_sim}
+
+
+def coarse_search(fit_runs, repeat: int, grid_points: int = 9, looser: float = 100.0) -> dict:
+    """The scoring in one process with a coarser profile search (``grid_points`` trial values,
+    a ``looser`` tolerance: ``identify.diagnose.PROFILE_GRID_POINTS`` and ``PROFILE_XATOL`` set
+    for it, then restored), best of ``repeat``; and the largest relative moves of the final
+    model's parameters (the profiled ones included) against the search as it is."""
+    from jointrig.identify import diagnose as D
+
+    def parameters(d):
+        f = d.extended
+        return {**dict(zip(f.names, map(float, f.values))), **f.effect_parameters()}
+
+    as_is = parameters(diagnose(fit_runs, workers=1))
+    saved = D.PROFILE_GRID_POINTS, D.PROFILE_XATOL
+    D.PROFILE_GRID_POINTS, D.PROFILE_XATOL = grid_points, saved[1] * looser
+    try:
+        found = {}
+        t = best_of(repeat, lambda: found.update(d=diagnose(fit_runs, workers=1)))
+    finally:
+        D.PROFILE_GRID_POINTS, D.PROFILE_XATOL = saved
+    moved = parameters(found["d"])
+    if set(moved) != set(as_is):
+        raise RuntimeError(f"the coarse search adopts other causes: {sorted(moved)} against {sorted(as_is)}")
+    rel = {k: abs(moved[k] - v) / abs(v) for k, v in as_is.items() if v}
+    top = dict(sorted(rel.items(), key=lambda kv: -kv[1])[:3])
+    return {"grid_points": grid_points, "xatol_over_range": saved[1] * looser, "scoring_one_process_s": t,
+            "largest_relative_moves": top}
 
 
 def side_by_side(fn, n: int, repeat: int) -> float:
