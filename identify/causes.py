@@ -77,6 +77,11 @@ class Cause:
     #: that made the held-out runs worse (gain 5.1 with it, 6.5 without). A real skew is a
     #: misfit of the whole record and shows first.
     first_only: bool = False
+    #: the simpler cause this one reduces to when its extra parameters vanish (a Stribeck friction
+    #: without its peak is dry friction): where both are significant in one round, this one is
+    #: adopted over the simpler only if its extra parameters are significant by themselves (a
+    #: nested chi-square test at the round's alpha), so pure dry friction is named as such.
+    reduces_to: Optional[str] = None
 
 
 def _amplitude(runs) -> float:
@@ -153,7 +158,7 @@ CATALOGUE: tuple[Cause, ...] = (
           "off with the rate (velocity weakening)",
           _with_stribeck, "stribeck_torque_Nm", 2,
           bounds=lambda runs: (0.02 * min(rate_amplitudes(runs)), 2.0 * max(rate_amplitudes(runs))), log_scale=True,
-          profiled="stribeck_velocity_rad_s"),
+          profiled="stribeck_velocity_rad_s", reduces_to="coulomb_friction"),
     Cause("quadratic_damping", "damping torque proportional to the rate squared",
           lambda s, h: _with_terms(s, (QuadraticDamping(),)), "quadratic_damping_Nms2_per_rad2", 1),
     Cause("drive_delay", "the drive acts later than it is recorded: a phase lag growing linearly with frequency",

@@ -1196,7 +1196,8 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
                                      rivals_by_name=by_name, check=check)
         if check is not None:
             resolve(check, outcome)
-        return sorted(scores, key=lambda s: (bool(s.note), -float(f"{s.score:.9g}")))
+        return _parsimonious(sorted(scores, key=lambda s: (bool(s.note), -float(f"{s.score:.9g}"))), by_name,
+                             current.n_rows, alpha)
 
     def adopt(base, scores):
         best = next((c for c in scores if c.significant), None)
@@ -1236,6 +1237,27 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
         noise[ch] = float(np.median([r.noise_std[ch] for r in runs]))
     return Diagnosis(nominal, tuple(first), tuple(steps), current, tuple(ambiguous), form, torque_share, H,
                      noise, tuple(notes))
+
+
+def _parsimonious(ranked: list[CauseScore], by_name: dict, n_rows: int, alpha: float) -> list[CauseScore]:
+    """The ranking with each cause that reduces to a simpler one (``Cause.reduces_to``) placed
+    right after it, when the simpler one is significant too and the richer one's extra
+    parameters do not lower chi-square significantly beyond it (a nested test: the difference
+    of the two drops against chi-square with the difference of their parameter counts). A
+    Stribeck friction whose peak the data do not show then never names the extension: pure
+    dry friction is named dry friction."""
+    out = list(ranked)
+    for richer in ranked:
+        cause = by_name.get(richer.effect)
+        simpler = next((s for s in out if cause is not None and s.effect == cause.reduces_to and s.significant), None)
+        if simpler is None or out.index(richer) > out.index(simpler):
+            continue
+        _, _, extra = evidence(richer.delta_chi2 - simpler.delta_chi2, richer.n_params - simpler.n_params, n_rows,
+                               alpha)
+        if not extra:
+            out.remove(richer)
+            out.insert(out.index(simpler) + 1, richer)
+    return out
 
 
 def plant_of(f: Fit, torque_share: float = 0.5) -> tuple[Plant, tuple[float, float]]:

@@ -250,6 +250,21 @@ def estimate_omega(time_s: np.ndarray, torque_Nm: np.ndarray) -> float:
         raise RunsFileError(f"torque: {err}") from None
 
 
+#: Smallest spread (in the column's SI unit) a channel must show to carry a signal: below it the
+#: squares the noise estimates form underflow (1e-300 rad squared is 0.0) or no motion was
+#: recorded. A real encoder resolves far more than 1e-100 rad; this only refuses a dead channel.
+MIN_SPREAD = 1e-100
+
+
+def _check_varies(where: str, run: str, name: str, x: np.ndarray) -> None:
+    """Refuse an angle channel that does not vary (a disconnected sensor, a wrong column)."""
+    spread = float(np.max(x) - np.min(x))
+    if not spread > MIN_SPREAD:
+        raise RunsFileError(f"{where}: run {run}: column '{name}' does not vary (spread {spread:.3g} rad); expected "
+                            f"the measured angle of the flywheels' motion: is the sensor connected and the column "
+                            f"mapped right (--columns)?")
+
+
 def _to_record(where: str, run: str, t: np.ndarray, chans: dict, omega: Optional[float],
                samples_per_period: Optional[int], notes: list) -> SteadyStateRecord:
     n = t.size
@@ -278,6 +293,10 @@ def _to_record(where: str, run: str, t: np.ndarray, chans: dict, omega: Optional
     except ValueError:
         raise RunsFileError(f"{where}: run {run}: column 'torque' does not vary: no drive to identify from; "
                             f"expected a periodic drive torque") from None
+    for name in ("phi1", "phi2"):
+        if name in chans:
+            _check_varies(where, run, name if "phi2" in chans else "phi", chans[name])
+    _check_varies(where, run, "phi1 - phi2" if "phi2" in chans else "phi", phi)
     refs = [(torque, best), (phi, fit_at(tu, phi, best))]
 
     def stat(w: float) -> float:

@@ -23,7 +23,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from .formatting import quantity_of, sig, unit_of, with_se
+from .formatting import quantity_of, sig, sig_or, unit_of, with_se
 from jointrig.studies.validate import CHI2_PER_DOF_OK, DiagnosisReport
 
 __all__ = ["report_json", "format_report", "log_diagnosis", "write_html", "write_outputs"]
@@ -96,9 +96,14 @@ def _report_json(report: DiagnosisReport, *, source: str, notes: Sequence[str]) 
                                    "harmonics the measurement resolves, on the held-out runs"},
         "gain": report.gain,
         "generalisation": report.generalisation,
+        # Models rejected because the rig finds no periodic steady state for them under a run's
+        # measured drive (their RMS there is null): run -> reason.
+        "no_steady_state": {which: {r.run_id: r.failure(which) for r in runs if r.failure(which)}
+                            for which in ("nominal", "extended")},
         "runs": [{"run": r.run_id, "omega_rad_s": r.omega_rad_s, "amplitude_Nm": r.amplitude_Nm,
                   "held_out": r.held_out, "rms_nominal_rad": r.rms("nominal"),
-                  "rms_extended_rad": r.rms("extended"), "noise_floor_rad": r.noise_floor_rad}
+                  "rms_extended_rad": r.rms("extended"), "noise_floor_rad": r.noise_floor_rad,
+                  "no_steady_state": dict(r.failures)}
                  for r in runs],
     }
 
@@ -166,12 +171,27 @@ def format_report(report: DiagnosisReport, *, source: str = "", notes: Sequence[
                  f"{'floor':>10s}")
     for r in report.runs:
         lines.append(f"  {r.run_id:>6s} {r.omega_rad_s:8.4g} {r.amplitude_Nm:8.4g} {'yes' if r.held_out else '':>8s} "
-                     f"{r.rms('nominal'):10.3g} {r.rms('extended'):10.3g} {r.noise_floor_rad:10.3g}")
-    lines.append(f"  held-out runs: nominal {report.validation_rms('nominal'):.3g} rad, extended "
-                 f"{report.validation_rms('extended'):.3g} rad, noise floor {report.noise_floor_rad:.3g} rad; "
-                 f"gain {report.gain:.3g}")
+                     f"{_rms_cell(r, 'nominal'):>10s} {_rms_cell(r, 'extended'):>10s} {r.noise_floor_rad:10.3g}")
+    lines.append(f"  held-out runs: nominal {_held_out_rms(report, 'nominal')}, extended "
+                 f"{_held_out_rms(report, 'extended')}, noise floor {report.noise_floor_rad:.3g} rad; "
+                 f"gain {sig_or(report.gain, 'not computed (a model has no steady state in a held-out run)')}")
+    for which in ("nominal", "extended"):
+        if report.unsimulated(which):
+            lines.append(f"  the {which} model has no steady state in run(s) {', '.join(report.unsimulated(which))}: "
+                         f"rejected for that reason (see the notes)")
     lines.append(f"  generalisation: {report.generalisation}")
     return "\n".join(lines)
+
+
+def _rms_cell(r, which: str) -> str:
+    """A run's validation RMS (rad), or why it has none ("diverges", "never settles")."""
+    why = r.failure(which)
+    return sig_or(r.rms(which), "diverges" if why == "it diverges" else "no steady" if why else "not computed")
+
+
+def _held_out_rms(report, which: str) -> str:
+    v = report.validation_rms(which)
+    return f"{v:.3g} rad" if math.isfinite(v) else "none (no steady state in a held-out run)"
 
 
 def _label(r) -> str:
@@ -471,7 +491,7 @@ th{background:#f3f3f3} td.unit{white-space:nowrap} td.num{text-align:right;font-
 tr.adopted td{background:#e8f1fb;font-weight:600} tr.heldout td:first-child::after{content:" (held out)";
 color:#666;font-weight:normal}
 .tag{display:inline-block;padding:0 6px;border-radius:3px;background:#1565c0;color:#fff;font-size:0.8em}
-.note{color:#555;font-size:0.9em} img{max-width:100%;height:auto} figure{margin:12px 0}
+.note{color:#555;font-size:0.9em} .warning{background:#fff3cd;border-left:4px solid #c80;padding:6px 10px} img{max-width:100%;height:auto} figure{margin:12px 0}
 figcaption{color:#444;font-size:0.92em;margin-bottom:4px}
 details pre{background:#f6f6f6;padding:8px;overflow-x:auto;font-size:0.8em}
 """
@@ -567,14 +587,20 @@ def _html_sections(report: DiagnosisReport, source: str, notes: Sequence[str]) -
                "drive; RMS of simulated minus measured relative angle over the harmonics the measurement "
                "resolves, against the noise floor of that comparison.</p>")
     rows = [_row([r.run_id, (sig(r.omega_rad_s, 4), "num"), (sig(r.amplitude_Nm, 4), "num"),
-                  (sig(r.rms("nominal")), "num"), (sig(r.rms("extended")), "num"), (sig(r.noise_floor_rad), "num")],
+                  (_rms_cell(r, "nominal"), "num"), (_rms_cell(r, "extended"), "num"), (sig(r.noise_floor_rad), "num")],
                  "heldout" if r.held_out else "") for r in report.runs]
-    rows.append(_row(["held-out runs", "", "", (sig(report.validation_rms("nominal")), "num"),
-                      (sig(report.validation_rms("extended")), "num"), (sig(report.noise_floor_rad), "num")],
+    rows.append(_row(["held-out runs", "", "", (sig_or(report.validation_rms("nominal"), "none"), "num"),
+                      (sig_or(report.validation_rms("extended"), "none"), "num"), (sig(report.noise_floor_rad), "num")],
                      "adopted"))
     out.append(_table(["run", "omega [rad/s]", "M0 [N m]", "nominal [rad]", "extended [rad]", "noise floor [rad]"],
                       rows))
-    out.append(f"<p>Held-out gain (nominal error / extended error): <b>{sig(report.gain)}</b>; "
+    for which in ("nominal", "extended"):
+        if report.unsimulated(which):
+            out.append(f"<p>The {which} model reaches no periodic steady state in run(s) "
+                       f"{html.escape(', '.join(report.unsimulated(which)))} under the measured drive: it is rejected "
+                       f"for that reason, and its error there has no number.</p>")
+    out.append(f"<p>Held-out gain (nominal error / extended error): "
+               f"<b>{sig_or(report.gain, 'not computed (a model has no steady state in a held-out run)')}</b>; "
                f"{html.escape(report.generalisation)}.</p>")
     return out
 
@@ -600,10 +626,12 @@ def _card_section(card, png_bytes: bytes) -> list[str]:
         return text
 
     png = base64.b64encode(png_bytes).decode("ascii")
-    return [f"<h2>Joint card ({html.escape(card.model_name)})</h2>",
+    warning = [f"<p class='warning'><b>Warning:</b> {html.escape(card.warning)}</p>"] if card.warning else []
+    return [f"<h2>Joint card ({html.escape(card.model_name)})</h2>"] + warning + [
             "<p class='note'>The joint's mode (relative angle, inertia Je = "
             f"{sig(card.model.inertia_kgm2, 4)} kg m²): each run beside the model at the same amplitude and drive "
-            "frequency; damping ratio = E / (2 pi k A²), half the loss factor.</p>",
+            f"frequency (the runs' rows measured with {html.escape(card.runs_inertias)} inertias); damping ratio = "
+            "E / (2 pi k A²), half the loss factor.</p>",
             _table(["run", "A [rad]", "omega [rad/s]", "k_sec [N m/rad]", "omega_n [rad/s]", "damping ratio",
                     "E per cycle [J]"], rows),
             f"<p>Dissipation slope d lnE / d lnA: runs {html.escape(slope(card.runs))}; model at the runs "

@@ -23,6 +23,12 @@ def sig(value: float, digits: int = 3) -> str:
     return f"{value:.{digits}g}"
 
 
+def sig_or(value: float, words: str, digits: int = 3) -> str:
+    """``value`` to ``digits`` significant digits, or ``words`` (why there is no number) if it
+    is not finite: no "inf" or "nan" reaches a table."""
+    return f"{value:.{digits}g}" if math.isfinite(value) else words
+
+
 def with_se(value: float, se: float) -> str:
     """``value ± se`` with the standard error to two significant digits and the value to the same
     decimal place (the digits beyond carry no information). A common power of ten is factored

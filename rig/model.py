@@ -20,7 +20,7 @@ from jointrig.vocab.law import TERM_CLASSES, FieldError, JointLaw, law_terms_fro
 from jointrig.vocab.plant import Plant
 from jointrig.vocab.params import BEARING1, BEARING2, DRIVE_DELAY
 
-__all__ = ["RigModel", "RigModelError", "load_rig", "law_from_model", "plant_from_model", "DEFAULT_MODEL"]
+__all__ = ["RigModel", "RigModelError", "load_rig", "law_from_model", "plant_from_model", "DEFAULT_MODEL", "TWIST_TENDON"]
 
 DEFAULT_MODEL = Path(__file__).resolve().parent.parent / "models" / "two_flywheels.xml"
 
@@ -65,6 +65,10 @@ class RigModel:
       actuator_id: the drive motor.
       sensor_adr: sensor name -> address in sensordata.
       digest: SHA-256 of the file (ties stored sweep results to the model that made them).
+      twist_tendon: the fixed tendon ``phi1 - phi2`` the rig adds to the file's bodies
+        (:data:`TWIST_TENDON`): its ``frictionloss`` holds the joint's dry friction as a
+        constraint (:func:`rig.simulate.dry_friction_split`); 0 in the compiled model, so a law
+        without dry friction is simulated as the file has it.
     """
 
     path: Path
@@ -78,6 +82,7 @@ class RigModel:
     actuator_id: int
     sensor_adr: dict
     digest: str
+    twist_tendon: int = -1
 
     @property
     def Je_kgm2(self) -> float:
@@ -93,6 +98,35 @@ class RigModel:
         """The same rig simulating another law (or plant) than its file declares."""
         plant = Plant.of(plant)
         return dataclasses.replace(self, law=plant.law, plant=plant)
+
+
+#: The fixed tendon ``phi1 - phi2`` :func:`load_rig` adds to a two-flywheel model: dry friction
+#: in the joint is its ``frictionloss``, which MuJoCo solves as a constraint, so a sticking joint
+#: stays stuck (a ``sign(rate)`` torque in the passive callback chatters while it sticks, and the
+#: rig then finds no periodic steady state).
+TWIST_TENDON = "jointrig_twist"
+#: The constraint's softness: MuJoCo clamps the time constant to two steps (its ``refsafe``),
+#: so the friction acts over the shortest time the step allows; an impedance of 0.9999 lets a
+#: stuck joint creep by 1e-4 of the acceleration it would have free. Measured against the
+#: independent bench's event-driven Coulomb friction (``tests/test_dry_friction_rig.py``).
+TWIST_SOLREF = (1e-6, 1.0)
+TWIST_SOLIMP = (0.9999, 0.9999, 0.001, 0.5, 2.0)
+
+
+def _with_twist_tendon(path: Path, source: str) -> mujoco.MjModel:
+    """The file's model with the :data:`TWIST_TENDON` added (frictionloss 0)."""
+    # MuJoCo picks the file's decoder by its suffix: a model written under another name (an
+    # atomic writer's temporary file) is read from its text.
+    spec = (mujoco.MjSpec.from_file(str(path)) if path.suffix.lower() == ".xml"
+            else mujoco.MjSpec.from_string(path.read_text(encoding="utf-8")))
+    if any(t.name == TWIST_TENDON for t in spec.tendons):
+        raise RigModelError(f"{source}: a tendon named '{TWIST_TENDON}' is the rig's own (dry friction in the joint); "
+                            f"rename yours")
+    tendon = spec.add_tendon(name=TWIST_TENDON, frictionloss=0.0, solref_friction=list(TWIST_SOLREF),
+                             solimp_friction=list(TWIST_SOLIMP))
+    tendon.wrap_joint(JOINTS[0], 1.0)
+    tendon.wrap_joint(JOINTS[1], -1.0)
+    return spec.compile()
 
 
 def _numeric_fields(model: mujoco.MjModel) -> dict[str, np.ndarray]:
@@ -199,6 +233,7 @@ def load_rig(path: Union[str, os.PathLike] = DEFAULT_MODEL) -> RigModel:
         sensor_adr[name] = int(model.sensor_adr[sid])
     plant = plant_from_model(model, src)
     law = plant.law
+    model = _with_twist_tendon(path, src)
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     mass = np.zeros((model.nv, model.nv))
@@ -211,6 +246,7 @@ def load_rig(path: Union[str, os.PathLike] = DEFAULT_MODEL) -> RigModel:
         J1_kgm2=float(mass[dofs[0], dofs[0]]), J2_kgm2=float(mass[dofs[1], dofs[1]]),
         qpos_adr=tuple(int(model.jnt_qposadr[j]) for j in joint_ids), dof_adr=dofs,
         actuator_id=int(act), sensor_adr=sensor_adr, digest=hashlib.sha256(text).hexdigest(),
+        twist_tendon=int(mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TENDON, TWIST_TENDON)),
     )
 
 

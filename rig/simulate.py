@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import contextlib
 import copy
+import dataclasses
 import logging
 import math
 import time as _time
@@ -27,12 +28,12 @@ import mujoco
 import numpy as np
 from mujoco import rollout
 
-from jointrig.vocab.law import JointLaw
+from jointrig.vocab.law import JointLaw, Viscous
 from jointrig.vocab.plant import PeriodicDrive, Plant
 from jointrig.vocab.records import SteadyStateRecord
 
 from .callback import passive_callback
-from .model import RigModel
+from .model import TWIST_TENDON, RigModel
 from .native_callback import BACKENDS as _CALLBACK_BACKENDS, NativeLaw, choose_native, session_active
 
 __all__ = [
@@ -49,6 +50,8 @@ __all__ = [
     "commit_state",
     "simulate_steady_state",
     "coherent_omega",
+    "dry_friction_split",
+    "sticks",
     "set_inertias",
     "BACKENDS",
 ]
@@ -62,6 +65,12 @@ log = logging.getLogger(__name__)
 #: period per ``mujoco.rollout`` call for a law without sliders, else steps in C with the sliders
 #: committed after each step.
 BACKENDS = _CALLBACK_BACKENDS + ("native-stepped",)
+
+
+#: How the rig simulates a law, versioned: a sweep store (studies/sweep.py) is keyed by it, so a
+#: resumed sweep never reuses points of an older simulation of the same law. 2: dry friction
+#: held as a constraint on the twist tendon (:func:`dry_friction_split`).
+SIMULATOR_VERSION = 2
 
 
 class SimulationError(RuntimeError):
@@ -176,6 +185,37 @@ class SimulationConfig:
     def timestep_s(self, omega_rad_s: float) -> float:
         period = 2 * math.pi / omega_rad_s
         return period / (self.samples_for(omega_rad_s) * self.steps_per_sample(omega_rad_s))
+
+
+def dry_friction_split(plant: Union[Plant, JointLaw]) -> tuple[Plant, float]:
+    """The plant the passive callback evaluates and the static friction (N m) the rig holds as a
+    constraint on the twist (pure).
+
+    Dry friction jumps at zero rate: as a force in the callback it chatters while the joint
+    sticks, and a fixed step across the jump of ``sign(rate)`` leaves an error of the order of a
+    step. Each term with a jump (``Term.dry_friction``: Coulomb, Stribeck) gives its static
+    friction to the :data:`rig.model.TWIST_TENDON`'s ``frictionloss``, which MuJoCo's
+    constraint solver holds exactly while the joint sticks and applies fully while it slides,
+    and leaves its continuous remainder to the callback. Without dry friction, or with a static
+    friction that is not positive (a fit's nonphysical value), the plant is returned as it is
+    and the static friction is 0."""
+    plant = Plant.of(plant)
+    static, merged = 0.0, {}
+    for term, value in zip(plant.law.terms, plant.law.values):
+        split = term.dry_friction(value)
+        if split is None:
+            pieces = [(term, value)]
+        else:
+            static += split[0]
+            pieces = split[1]
+        for t, v in pieces:
+            old = merged.get(t.name)
+            merged[t.name] = (t, v + (old[1] if old else 0.0))
+    if not static > 0:
+        return plant, 0.0
+    kept = [(t, v) for t, v in merged.values() if v != 0.0] or [(Viscous(), 0.0)]
+    law = JointLaw(tuple(t for t, _ in kept), tuple(v for _, v in kept))
+    return dataclasses.replace(plant, law=law), static
 
 
 def coherent_omega(omega_rad_s: float, sample_rate_Hz: float) -> float:
@@ -505,13 +545,58 @@ def simulate_steady_state(
     """
     plant = rig.plant if law is None else Plant.of(law)
     drive = _checked_drive(omega_rad_s, amplitude_Nm, drive, inertias_kgm2, start)
+    t_start = _time.perf_counter()
+    held, static_friction = dry_friction_split(plant)
+    if not static_friction:
+        return _simulate(rig, omega_rad_s, amplitude_Nm, config, plant, 0.0, drive, inertias_kgm2, start, backend,
+                         t_start)
+    record, info = _simulate(rig, omega_rad_s, amplitude_Nm, config, held, static_friction, drive, inertias_kgm2,
+                             start, backend, t_start)
+    if sticks(record):
+        return record, info
+    # The joint only slides through zero rate: the constraint's softness switches the friction
+    # about a step early, while sign(rate) in the callback switches within the step; from the
+    # constraint's steady state the callback settles in a few periods. Should it not (it
+    # sticks after all), the constraint's steady state stands.
+    try:
+        slid, more = _simulate(rig, omega_rad_s, amplitude_Nm, config, plant, 0.0, drive, inertias_kgm2,
+                               StartState.of_record(record), backend, t_start)
+    except SimulationError:
+        return record, info
+    return slid, dataclasses.replace(more, periods_simulated=info.periods_simulated + more.periods_simulated)
+
+
+#: A joint with dry friction counts as sticking when two successive samples of its steady state
+#: have a relative rate below this share of the largest: stuck under the constraint, the rate
+#: creeps at <= 1e-7 of it; sliding through zero, two successive samples of a period of N are
+#: about 2 pi / N of it apart (measured on the independent bench's points of
+#: tests/test_dry_friction_rig.py: 8e-5 at N = 2048 for the smaller of the two).
+STICK_RATE = 1e-5
+
+
+def sticks(record: SteadyStateRecord) -> bool:
+    """Whether the joint sticks somewhere in a steady-state record (:data:`STICK_RATE`)."""
+    v = np.abs(record.rate1_rad_s - record.rate2_rad_s)
+    r = v / max(float(np.max(v)), 1e-300)
+    return bool(np.any(np.maximum(r, np.roll(r, -1)) < STICK_RATE))
+
+
+def _simulate(rig: RigModel, omega_rad_s: float, amplitude_Nm: float, config: SimulationConfig, plant: Plant,
+              static_friction: float, drive: PeriodicDrive, inertias_kgm2, start: Optional[StartState], backend: str,
+              t_start: float) -> tuple[SteadyStateRecord, SettleInfo]:
+    """One run of :func:`simulate_steady_state` with ``plant`` in the callback and
+    ``static_friction`` (N m) held by the twist tendon."""
     if choose_native(backend, (plant,), BACKENDS):
         backend = "native-stepped" if backend == "native-stepped" else "native"
     else:
         backend = "python"
     where = f"{rig.path.name} at omega = {omega_rad_s:g} rad/s, M0 = {amplitude_Nm:g} N m"
-    t_start = _time.perf_counter()
     m = _run_model(rig, config, omega_rad_s, inertias_kgm2)
+    if static_friction:
+        if rig.twist_tendon < 0:
+            raise SimulationError(f"{where}: the law has dry friction but the model has no '{TWIST_TENDON}' tendon "
+                                  f"to hold it (load the model with rig.model.load_rig)")
+        m.tendon_frictionloss[rig.twist_tendon] = static_friction
     d = mujoco.MjData(m)
     J = (rig.J1_kgm2, rig.J2_kgm2) if inertias_kgm2 is None else inertias_kgm2
     _set_initial_state(rig, d, drive, plant, J, start)

@@ -24,7 +24,8 @@ from jointrig.vocab.records import SteadyStateRecord
 from .validate import DiagnosisReport
 from jointrig.vocab import params
 
-__all__ = ["CardReport", "card_of_diagnosis", "identified_law", "inertia_covariance", "card_json", "card_png", "masing_text"]
+__all__ = ["CardReport", "card_of_diagnosis", "identified_law", "inertia_covariance", "card_json", "card_png", "masing_text",
+           "runs_fit", "card_warning"]
 
 #: amplitudes of the model's curves, spaced geometrically over the runs' range
 N_CURVE_POINTS = 25
@@ -39,6 +40,38 @@ class CardReport:
     model_name: str
     model_at_runs: JointCard  # the model at each run's amplitude and drive frequency  # e.g. "extended: coulomb_friction + backlash" or "nominal (paper eq. 11)"
     masing: MasingCheck  # do the runs' loops follow from one backbone (Masing's rule)?
+    #: why the card's model may not be the joint ("" when the diagnosis adopted it): shown in the
+    #: text, the JSON and the report
+    warning: str = ""
+    #: which fit's inertias the runs' rows use (the best-supported one: :func:`runs_fit`)
+    runs_inertias: str = ""
+
+
+def runs_fit(report: DiagnosisReport):
+    """``(fit, name)``: the fit whose inertias the runs' rows use: the adopted model's, or, when
+    the verdict adopts nothing, whichever of the nominal and the tried extended model fits the
+    data better (smaller chi-square per degree of freedom). The runs' joint torque is measured
+    through J1 phi1'' (or Je phi''); a nominal fit that misses a friction biases its inertias
+    (Je 0.945 for 1.0 on a 20 N m dry-friction joint) and with them every row from the runs."""
+    d = report.diagnosis
+    if report.verdict.verdict == "explained" and d.extended is not d.nominal:
+        return d.extended, "the extended model's (adopted)"
+    if report.verdict.verdict == "no_misfit" or d.extended is d.nominal:
+        return d.nominal, "the nominal model's"
+    better = d.extended.chi2 / max(d.extended.dof, 1) < d.nominal.chi2 / max(d.nominal.dof, 1)
+    return ((d.extended, f"the tried extension's ({' + '.join(d.effects)}; it fits the runs better than the nominal "
+                         f"model, though not adopted)") if better else (d.nominal, "the nominal model's"))
+
+
+def card_warning(report: DiagnosisReport) -> str:
+    """Why the card's model may describe the wrong joint: empty when the diagnosis adopted it."""
+    v = report.verdict
+    if v.verdict != "unexplained":
+        return ""
+    return (f"this card describes the nominal model, which the diagnosis did NOT adopt: the verdict is unexplained "
+            f"({v.reason}). The data show a misfit this model does not hold; its stiffness, damping ratio and "
+            f"dissipation may be those of another joint. Compare the rows from the runs with the model's before using "
+            f"it.")
 
 
 def identified_law(report: DiagnosisReport, torque_share: float = 0.5):
@@ -69,11 +102,10 @@ def identified_law(report: DiagnosisReport, torque_share: float = 0.5):
 
 
 def inertia_covariance(report: DiagnosisReport, torque_share: float = 0.5):
-    """The ``(2, 2)`` covariance of the flywheel inertias (J1, J2) in kg^2 m^4 of the model
-    :func:`identified_law` uses, or None when the fit has none (for the equivalent form,
+    """The ``(2, 2)`` covariance of the flywheel inertias (J1, J2) in kg^2 m^4 of the fit the
+    runs' rows use (:func:`runs_fit`), or None when the fit has none (for the equivalent form,
     J1 = Je / s and J2 = Je / (1 - s) with s the torque share)."""
-    d = report.diagnosis
-    f = d.extended if (report.verdict.verdict == "explained" and d.extended is not d.nominal) else d.nominal
+    f = runs_fit(report)[0]
     if f.covariance is None:
         return None
     idx = {n: i for i, n in enumerate(f.names)}
@@ -86,7 +118,9 @@ def inertia_covariance(report: DiagnosisReport, torque_share: float = 0.5):
 
 def card_of_diagnosis(report: DiagnosisReport, records: Sequence[SteadyStateRecord], *,
                       run_ids: Sequence[str] | None = None, torque_share: float = 0.5) -> CardReport:
-    law, je, cov, name, (J1, J2) = identified_law(report, torque_share)
+    law, je, cov, name, _ = identified_law(report, torque_share)
+    fit_for_runs, runs_inertias = runs_fit(report)
+    _, (J1, J2) = plant_of(fit_for_runs, torque_share)
     runs = runs_card(records, J1, J2, run_ids=run_ids, n_harmonics=report.band,
                      inertia_covariance=inertia_covariance(report, torque_share))
     amps = [p.amplitude_rad for p in runs.points]
@@ -95,7 +129,7 @@ def card_of_diagnosis(report: DiagnosisReport, records: Sequence[SteadyStateReco
     at_runs = law_card(law, je, amps, covariance=cov, inertia_index=0,
                        omegas_rad_s=[p.omega_rad_s for p in runs.points])
     masing = masing_check(records, J1, J2, run_ids=run_ids)
-    return CardReport(model, runs, name, at_runs, masing)
+    return CardReport(model, runs, name, at_runs, masing, card_warning(report), runs_inertias)
 
 
 def masing_text(check: MasingCheck) -> str:
@@ -123,6 +157,8 @@ def card_json(card: CardReport, *, source: str = "", input_sha256: str = "") -> 
                  for p, r in zip(card.model_at_runs.points, card.runs.points)]
               + [{"source": "model", **p.as_json()} for p in card.model.points])
     return {"source": source, "input_sha256": input_sha256, "model": card.model_name,
+            "model_adopted": not card.warning, "warning": card.warning or None,
+            "runs_inertias": card.runs_inertias,
             "units": "SI: rad, rad/s, N m/rad, N m s/rad, J per cycle; damping ratio dimensionless",
             "what": "amplitude-dependent joint card: secant stiffness, natural frequency and damping ratio of the "
                     "joint's mode (relative coordinate, inertia Je), dissipation per cycle; model by the "

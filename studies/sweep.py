@@ -30,7 +30,7 @@ from jointrig.files import write_atomic, write_json_atomic
 from jointrig.vocab.records import SteadyStateRecord
 
 from jointrig.rig.model import RigModel, load_rig
-from jointrig.rig.simulate import SettleInfo, SimulationConfig, StartState, simulate_steady_state
+from jointrig.rig.simulate import SIMULATOR_VERSION, SettleInfo, SimulationConfig, StartState, simulate_steady_state
 from jointrig.rig.native_callback import choose_native
 
 __all__ = ["SweepPlan", "SweepPoint", "SweepStoreMismatch", "run_sweep", "simulate_segment", "DEFAULT_PLAN",
@@ -150,6 +150,7 @@ class SweepStoreMismatch(ValueError):
 def _manifest(rig: RigModel, config: SimulationConfig) -> dict:
     return {
         "format": FORMAT_VERSION,
+        "simulator": SIMULATOR_VERSION,
         "units": "SI: time_s in s, angles in rad, rates in rad/s, torque in N m",
         "model": str(rig.path),
         "model_sha256": rig.digest,

@@ -34,7 +34,7 @@ from jointrig.identify.surface import RestoringSurface, restoring_surface
 
 from jointrig.parallel import fork_map
 from jointrig.rig.model import RigModel, load_rig
-from jointrig.rig.simulate import SimulationConfig, SteadyStateNotReached, simulate_steady_state
+from jointrig.rig.simulate import SimulationConfig, SimulationError, SteadyStateNotReached, simulate_steady_state
 from jointrig.vocab.params import J1, JE, BEARING1, BEARING2
 
 __all__ = ["generalisation_kind", "RunComparison", "DiagnosisReport", "default_holdout", "holdout_of_another_kind",
@@ -164,6 +164,13 @@ class RunComparison:
     harmonics_compared: tuple[int, ...]
     #: the drive's torque lines that stand out of the noise besides the fundamental (0: a sine)
     extra_drive_lines: int = 0
+    #: why a model could not be simulated for this run ("nominal" / "extended" -> the reason in
+    #: words: it diverged, or reached no periodic steady state); its angle is then NaN
+    failures: tuple[tuple[str, str], ...] = ()
+
+    def failure(self, which: str) -> str:
+        """Why ``which`` model has no steady state in this run ("" if it has one)."""
+        return dict(self.failures).get(which, "")
 
     def rms(self, which: str) -> float:
         """RMS (rad) of model minus measurement over the compared harmonics (Parseval)."""
@@ -448,6 +455,11 @@ class DiagnosisReport:
     band: int
     notes: tuple[str, ...] = ()
 
+    def unsimulated(self, which: str) -> tuple[str, ...]:
+        """Runs in which ``which`` model reached no periodic steady state (diverged or never
+        settled) under the measured drive: a finding about that model."""
+        return tuple(r.run_id for r in self.runs if r.failure(which))
+
     def validation_rms(self, which: str) -> float:
         held = [r for r in self.runs if r.held_out]
         return float(np.sqrt(np.mean([r.rms(which) ** 2 for r in held])))
@@ -455,9 +467,9 @@ class DiagnosisReport:
     @property
     def gain(self) -> float:
         ext, nom = self.validation_rms("extended"), self.validation_rms("nominal")
-        if not math.isfinite(ext):
-            return 0.0 if math.isfinite(nom) else math.nan
-        return nom / ext if ext > 0 else math.inf
+        if not (math.isfinite(ext) and math.isfinite(nom)) or not ext > 0:
+            return math.nan  # a model without a steady state in some held-out run: no gain to state
+        return nom / ext
 
     @property
     def noise_floor_rad(self) -> float:
@@ -480,6 +492,16 @@ class DiagnosisReport:
             f, which = d.nominal, "nominal"
         else:
             f, which = d.extended, "extended"
+        failed = self.unsimulated(which)
+        if failed:
+            why = next(r.failure(which) for r in self.runs if r.failure(which))
+            runs = ", ".join(failed)
+            if not d.steps:
+                return Verdict("unexplained", f"the nominal model reaches no periodic steady state in the rig under the "
+                                              f"measured drive of run(s) {runs} ({why}): it cannot be the joint")
+            return Verdict("unexplained", f"the best extension ({' + '.join(d.effects)}) is rejected: in the rig it "
+                                          f"reaches no periodic steady state under the measured drive of run(s) {runs} "
+                                          f"({why}); nothing is adopted")
         c2 = f.chi2 / max(f.dof, 1)
         ratio = self.validation_rms(which) / floor if floor > 0 else math.inf
         bound = HELDOUT_OK if not d.steps else HELDOUT_EXTENDED_OK
@@ -675,32 +697,38 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
         rid, run = run_ids[i], prepared[i]
         N = run.average.samples_per_period
         config = _validation_config(run)
-        phi, said = {}, []
+        phi, said, failed = {}, [], {}
         for which, plant, J in (("nominal", nominal_plant, J_nom), ("extended", ext_plant, J_ext)):
             if which == "extended" and diag.extended is diag.nominal:
                 phi[which] = phi["nominal"]  # nothing was added: the same model, simulated once
+                if "nominal" in failed:
+                    failed[which] = failed["nominal"]
                 continue
             if not all(math.isfinite(j) and j > 0 for j in J):
                 if i == 0:
                     said.append(f"the {which} model's inertias {J} kg m^2 are not positive (are the runs at one "
                                 f"frequency only? inertia and stiffness then cannot be separated): it cannot be "
-                                f"simulated; its RMS counts as infinite")
+                                f"simulated")
+                failed[which] = "its inertias are not positive"
                 phi[which] = np.full(N, np.nan)
                 continue
             try:
                 spec = diag.extended.spec if which == "extended" else diag.nominal.spec
                 phi[which] = _simulate(rig, plant, J, run, band, config, spec.angle2_delay_s, spec.angle2_gain_error)
-            except SteadyStateNotReached as err:
-                # A wrong model may have no periodic response to this drive (it drifts, or is
-                # chaotic): that is a finding about the model, not a failure of the tool.
+            except SimulationError as err:
+                # A wrong model may have no periodic response to this drive (it drifts, is
+                # chaotic, or diverges): that is a finding about the model, not a failure of the tool.
+                kind = ("it never settles to a periodic response" if isinstance(err, SteadyStateNotReached)
+                        else "it diverges")
                 said.append(f"run {rid}: the {which} model reaches no periodic steady state under the "
-                            f"measured drive ({err}); its RMS there counts as infinite")
+                            f"measured drive: {kind} ({err})")
+                failed[which] = kind
                 phi[which] = np.full(N, np.nan)
-        return phi, said
+        return phi, said, failed
 
     say(f"simulating the {n} runs in the rig under their measured drives: nominal and extended model")
     # The runs are independent: simulated in forked processes (jointrig.parallel), the same numbers.
-    for i, (phi, said) in enumerate(fork_map(simulated, range(n))):
+    for i, (phi, said, failed) in enumerate(fork_map(simulated, range(n))):
         rid, run = run_ids[i], prepared[i]
         say(f"  simulated run {rid} ({i + 1}/{n})")
         notes.extend(said)
@@ -721,10 +749,10 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
             joint_torque_nominal_Nm=_law_torque(nominal_plant.law, run),
             joint_torque_extended_Nm=_law_torque(ext_plant.law, run),
             noise_floor_rad=floor, harmonics_compared=tuple(int(v) for v in h),
-            extra_drive_lines=settings[i][2],
+            extra_drive_lines=settings[i][2], failures=tuple(sorted(failed.items())),
         ))
     report = DiagnosisReport(diag, tuple(comparisons), holdout, band, tuple(notes))
-    if diag.steps and not report.gain > 1.0:
+    if diag.steps and not report.unsimulated("extended") and not report.gain > 1.0:
         report = replace(report, notes=report.notes + (
             f"the extended model predicts the held-out runs no better than the nominal one (gain "
             f"{report.gain:.3g}): treat the effects as unconfirmed (at low SNR the noise in the angles "

@@ -289,6 +289,10 @@ def test_diagnose_command_refuses_before_any_work(tmp_path, data3, capsys, case)
     ("two_runs.csv", r"2 run\(s\); the diagnosis needs at least 3"),
     ("header_only.csv", "no data rows"),
     ("nan.csv", "non-finite"),
+    # a dead channel: all-zero angles, and angles so small that their squares underflow (issue 35:
+    # both ended in a ZeroDivisionError traceback in the noise estimate)
+    ("zero_angles.csv", r"run 0: column 'phi1' does not vary \(spread 0 rad\)"),
+    ("tiny_angles.csv", r"run 0: column 'phi1' does not vary \(spread 2e-300 rad\)"),
 ])
 def test_diagnose_command_refuses_bad_data(tmp_path, capsys, data, match):
     if data == "two_runs.csv":
@@ -298,6 +302,16 @@ def test_diagnose_command_refuses_bad_data(tmp_path, capsys, data, match):
         (tmp_path / data).write_text("run,time,torque,phi1,phi2,speed\n")
     elif data == "nan.csv":
         (tmp_path / data).write_text("run,time,torque,phi\n0,0,1,nan\n")
+    elif data.endswith("_angles.csv"):
+        scale = 0.0 if data.startswith("zero") else 1e-300
+        rows = []
+        for r in range(3):
+            w = W * (1 + 0.2 * r)
+            for k in range(192):
+                t = k * 2 * math.pi / w / 64
+                rows.append(f"{r},{t!r},{1000 * math.cos(w * t)!r},{scale * math.cos(w * t)!r},"
+                            f"{0.5 * scale * math.sin(w * t)!r}")
+        (tmp_path / data).write_text("run,time,torque,phi1,phi2\n" + "\n".join(rows) + "\n")
     code = _script("diagnose").main([str(tmp_path / data), "-q"])
     err = capsys.readouterr().err
     import re

@@ -221,8 +221,10 @@ def format_card(card) -> str:
             text += f" (rate exponent {with_se(c.rate_exponent, c.rate_exponent_std)})"
         return text
 
-    lines = [f"Joint card ({card.model_name}; mode of the relative angle, Je = {sig(card.model.inertia_kgm2, 4)} "
-             f"kg m^2); runs at their drive frequency omega, the model there and on its backbone (omega = omega_n):",
+    lines = ([f"WARNING: {card.warning}"] if card.warning else []) + [
+             f"Joint card ({card.model_name}; mode of the relative angle, Je = {sig(card.model.inertia_kgm2, 4)} "
+             f"kg m^2); runs at their drive frequency omega (measured with {card.runs_inertias} inertias), the model "
+             f"there and on its backbone (omega = omega_n):",
              f"  {'source':13s} {'run':>4s} {'A [rad]':>9s} {'omega':>7s} {'k_sec [N m/rad]':>18s} "
              f"{'omega_n [rad/s]':>18s} {'damping ratio':>20s} {'E per cycle [J]':>18s}"]
     for p, m in zip(card.runs.points, card.model_at_runs.points):

@@ -176,6 +176,14 @@ class Term:
         """Named parameters that follow from the term and its value (a slip angle, a stiffness)."""
         return {}
 
+    def dry_friction(self, value: float) -> Optional[tuple[float, list[tuple["Term", float]]]]:
+        """For a term with a jump at zero rate: ``(static friction N m, continuous remainder)``,
+        the torque that holds the joint at rest and the terms (with values) that make up the
+        rest of the term's torque, continuous at zero rate. The rig holds the first as a
+        constraint (:func:`rig.simulate.dry_friction_split`) and evaluates the second in its
+        callback. None for a term continuous in the rate."""
+        return None
+
     #: True for a term with memory (:class:`Jenkins`, :class:`Iwan`): no scalar ``__call__``;
     #: the rig keeps ``n_states`` floats for it and calls :meth:`step_torque` and :meth:`commit`.
     stateful = False
@@ -377,6 +385,9 @@ class Coulomb(_OneField, Term):
             return (rate > 0.0) - (rate < 0.0) + 0.0
         return np.sign(np.asarray(rate, dtype=float))
 
+    def dry_friction(self, value):
+        return value, []
+
 
 @dataclass(frozen=True)
 class _RateFriction(Term):
@@ -435,6 +446,11 @@ class Stribeck(_RateFriction):
 
     MJCF_FIELDS = ("stribeck_torque_Nm", "stribeck_velocity_rad_s")
     NATIVE_KIND = 9
+
+    def dry_friction(self, value):
+        # F_x sign(v) exp(-(v/v_s)^2) = F_x sign(v) - F_x sign(v) (1 - exp(-(v/v_s)^2)): the jump
+        # F_x at rest, and a remainder that is continuous at v = 0 (the two signs cancel there).
+        return value, [(Coulomb(), -value), (self, value)]
 
     def __call__(self, phi, rate):
         if isinstance(rate, float):
