@@ -141,7 +141,7 @@ CATALOGUE: tuple[Cause, ...] = (
     Cause("coulomb_friction", "dry friction in the joint: a torque of constant size opposing the relative rate",
           lambda s, h: _with_terms(s, (Coulomb(),)), "coulomb_torque_Nm", 1),
     Cause("backlash", "free play in the elastic element: no stiffness within +-half gap",
-          _with_gap, "backlash_half_gap_rad", 0, bounds=lambda runs: (1e-4 * _amplitude(runs), 0.8 * _amplitude(runs)),
+          _with_gap, "backlash_half_gap_rad", 0, bounds=lambda runs: (1e-4 * _amplitude(runs), 0.8 * _largest_amplitude(runs)),
           profiled="backlash_half_gap_rad"),
     Cause("asymmetric_stiffness", "an even stiffness term a phi^2 (an asymmetric restoring force): even harmonics",
           lambda s, h: _with_terms(s, (Power(2),)), "a_Nm_per_rad2", 1, nonnegative=False),

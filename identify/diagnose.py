@@ -1232,11 +1232,51 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
     current = chosen.base[0]
     first = list(chosen.rounds[0]) if chosen.rounds else []
     steps = list(chosen.adopted)
+    if len(steps) > 1:
+        steps, current = _needed(problem, steps, chosen.base, by_name, alpha, say)
     noise = {}
     for ch in runs[0].noise_std:
         noise[ch] = float(np.median([r.noise_std[ch] for r in runs]))
     return Diagnosis(nominal, tuple(first), tuple(steps), current, tuple(ambiguous), form, torque_share, H,
                      noise, tuple(notes))
+
+
+def _spec_of(steps: Sequence[CauseScore], final: Fit, by_name: dict) -> ModelSpec:
+    """The nominal structure extended by ``steps``' causes, each nonlinear parameter at its
+    value in ``final``."""
+    params = final.effect_parameters()
+    spec = NOMINAL
+    for step in steps:
+        cause = by_name[step.effect]
+        spec = cause.extend(spec, params.get(cause.profiled, 0.0) if cause.profiled else 0.0)
+    return spec
+
+
+def _needed(problem: _Problem, steps: list[CauseScore], base: tuple, by_name: dict, alpha: float,
+            say: Callable[[str], None]) -> tuple[list[CauseScore], Fit]:
+    """Parsimony after the forward selection: a cause stays adopted only if the model without it
+    fails, i.e. removing it (the others kept at their fitted nonlinear parameters, the final
+    model's weights) raises chi-square significantly (:func:`identify.causes.evidence` at
+    ``alpha`` for its parameters). The least needed cause goes first, then the rest are tested
+    again on the refitted model. Returns the kept steps and the final fit."""
+    current, weights = base
+    while len(steps) > 1:
+        start = _coulomb_jump(current.spec, current.names, current.values)
+        tests = []
+        for step in steps:
+            rest = [s for s in steps if s is not step]
+            without = _solve(problem, _spec_of(rest, current, by_name), weights, start)
+            tests.append((evidence(without.chi2 - current.chi2, step.n_params, current.n_rows, alpha), step))
+        (score, _, needed), weakest = min(tests, key=lambda t: t[0][0])
+        if needed:
+            break
+        say(f"  {weakest.effect} is not needed beside {' + '.join(s.effect for s in steps if s is not weakest)} "
+            f"(the model without it explains the data as well): dropped")
+        steps = [s for s in steps if s is not weakest]
+        carried = tuple(pe for s in steps for pe in s.fit.profile_std_errors)
+        current, weights = fit(problem, _spec_of(steps, current, by_name))
+        current = replace(current, profile_std_errors=carried)
+    return steps, current
 
 
 def _parsimonious(ranked: list[CauseScore], by_name: dict, n_rows: int, alpha: float) -> list[CauseScore]:

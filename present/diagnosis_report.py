@@ -96,6 +96,7 @@ def _report_json(report: DiagnosisReport, *, source: str, notes: Sequence[str]) 
                                    "harmonics the measurement resolves, on the held-out runs"},
         "gain": report.gain,
         "generalisation": report.generalisation,
+        "validation": {"kind": report.validation_kind, "statement": report.validation_statement},
         # Models rejected because the rig finds no periodic steady state for them under a run's
         # measured drive (their RMS there is null): run -> reason.
         "no_steady_state": {which: {r.run_id: r.failure(which) for r in runs if r.failure(which)}
@@ -179,7 +180,8 @@ def format_report(report: DiagnosisReport, *, source: str = "", notes: Sequence[
         if report.unsimulated(which):
             lines.append(f"  the {which} model has no steady state in run(s) {', '.join(report.unsimulated(which))}: "
                          f"rejected for that reason (see the notes)")
-    lines.append(f"  generalisation: {report.generalisation}")
+    lines.append(f"  {'generalisation' if report.validation_kind == 'held_out_runs' else 'validation'}: "
+                 f"{report.validation_statement}")
     return "\n".join(lines)
 
 
@@ -601,7 +603,7 @@ def _html_sections(report: DiagnosisReport, source: str, notes: Sequence[str]) -
                        f"for that reason, and its error there has no number.</p>")
     out.append(f"<p>Held-out gain (nominal error / extended error): "
                f"<b>{sig_or(report.gain, 'not computed (a model has no steady state in a held-out run)')}</b>; "
-               f"{html.escape(report.generalisation)}.</p>")
+               f"{html.escape(report.validation_statement)}.</p>")
     return out
 
 

@@ -473,3 +473,24 @@ def test_a_rival_check_done_with_the_next_round_gives_what_it_gives_alone(rig, t
         reverse = D.score_cause(problem, by_name("coulomb_friction"), *D.fit(problem, rival.fit.spec), 2, 1e-3)
         assert (b_given_r.effect, b_given_r.delta_chi2) == ("coulomb_friction", reverse.delta_chi2)
         assert b_given_r.delta_chi2 > 0
+
+
+def test_a_cause_stays_adopted_only_if_the_model_without_it_fails(rig, tmp_path_factory, reports):
+    # Parsimony after the forward selection (identify.diagnose._needed): on the dry-friction
+    # case, a quadratic damping forced in beside the friction is dropped (the model without it
+    # explains the data as well), the friction stays; on dry friction with free play both stay.
+    import jointrig.identify.diagnose as D
+    from jointrig.identify.causes import CAUSES
+
+    by_name = {c.name: c for c in CAUSES}
+    for case, forced, kept in (("coulomb_friction", "quadratic_damping", ["coulomb_friction"]),
+                               ("coulomb_friction+backlash", "backlash", ["coulomb_friction", "backlash"])):
+        report, problem = _fit_problem(rig, tmp_path_factory, reports, case)
+        nominal, w = D.fit(problem, D.NOMINAL)
+        first = D.score_cause(problem, by_name["coulomb_friction"], nominal, w, 1, 1e-3)
+        with_first, w1 = D.fit(problem, first.fit.spec)
+        second = D.score_cause(problem, by_name[forced], with_first, w1, 1, 1e-3)
+        final = D.fit(problem, second.fit.spec)
+        steps, current = D._needed(problem, [first, second], final, by_name, 1e-3, lambda msg: None)
+        assert [s.effect for s in steps] == kept, (case, second.delta_chi2)
+        assert {t.name for t in current.spec.terms} == {t.name for t in D._spec_of(steps, current, by_name).terms}

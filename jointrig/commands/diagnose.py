@@ -113,7 +113,7 @@ def _main(args: argparse.Namespace, writer) -> int:
     from jointrig.present.diagnosis_report import format_report, report_json
     from jointrig.rig.simulate import SimulationError
     from jointrig.files import write_json_atomic
-    from jointrig.studies.validate import run_diagnosis
+    from jointrig.studies.validate import MIN_PERIODS_TO_SPLIT, MIN_RUNS_TO_HOLD_OUT, run_diagnosis
 
     logging.basicConfig(level=progress_level(args.quiet), format="%(message)s",
                         stream=sys.stderr)
@@ -136,9 +136,14 @@ def _main(args: argparse.Namespace, writer) -> int:
             holdout = [ids.index(h) for h in args.holdout]
             if len(set(holdout)) >= len(ids):
                 raise BadArgument(f"--holdout holds out all {len(ids)} runs; expected at least one run left to fit")
-        elif len(ids) < 3:
-            raise RunsFileError(f"{args.data}: {len(ids)} run(s); the diagnosis needs at least 3 (it holds some "
-                                f"out for validation), or name the held-out runs with --holdout")
+        elif len(ids) < MIN_RUNS_TO_HOLD_OUT:
+            short = [f"{rid} ({r.n_periods})" for rid, r in zip(ids, loaded.records)
+                     if r.n_periods < MIN_PERIODS_TO_SPLIT]
+            if short:
+                raise RunsFileError(f"{args.data}: {len(ids)} run(s), and run(s) {', '.join(short)} hold fewer than "
+                                    f"{MIN_PERIODS_TO_SPLIT} whole periods: the diagnosis needs {MIN_RUNS_TO_HOLD_OUT} "
+                                    f"runs (some held out for validation) or runs of at least {MIN_PERIODS_TO_SPLIT} "
+                                    f"periods (the later half held out)")
         for n in loaded.notes:
             log.info("note: %s", n)
         report = run_diagnosis(loaded.records, run_ids=ids, holdout=holdout, band=args.band,
