@@ -17,7 +17,7 @@ import threading
 from concurrent.futures import ProcessPoolExecutor
 from typing import Callable, Iterator, Optional, Sequence
 
-__all__ = ["WarmProcess", "default_workers", "fork_map"]
+__all__ = ["WarmProcess", "default_workers", "die_with_parent", "fork_map"]
 
 #: The function and items of the running :func:`fork_map`, set just before the workers are forked.
 _WORK: Optional[tuple] = None
@@ -42,6 +42,40 @@ def default_workers() -> int:
         return 1
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
     return max(1, min(cores, 4))
+
+
+def die_with_parent(parent_pid: int) -> None:
+    """Make this forked child end when ``parent_pid``, the process that forked it, ends, however
+    it ends: SIGTERM from ``timeout``, a CI runner or a scheduler, or SIGKILL, which run no
+    cleanup in the parent. On Linux the kernel sends the child SIGKILL (``prctl``
+    ``PR_SET_PDEATHSIG``); elsewhere a daemon thread watches the parent's pid. A parent gone
+    before this call ends the child at once."""
+    if os.getppid() != parent_pid:
+        os._exit(1)
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        if libc.prctl(1, int(signal.SIGKILL), 0, 0, 0) == 0:  # PR_SET_PDEATHSIG = 1
+            if os.getppid() != parent_pid:  # the parent ended between the check and the call
+                os._exit(1)
+            return
+    except (OSError, AttributeError):
+        pass
+
+    def watch():
+        import time
+
+        while os.getppid() == parent_pid:
+            time.sleep(0.5)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="jointrig-parent-watch", daemon=True).start()
+
+
+def _worker_start(parent_pid: int) -> None:
+    die_with_parent(parent_pid)
+    _one_thread()
 
 
 def _one_thread() -> None:
@@ -97,7 +131,7 @@ def fork_map(fn: Callable, items: Sequence, workers: Optional[int] = None) -> It
     # 3.2 -> 3.1 s, measured with scripts/bench_diagnose.py).
     gc.freeze()
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("fork"),
-                               initializer=_one_thread)
+                               initializer=_worker_start, initargs=(os.getpid(),))
     finished = False
     try:
         yield from pool.map(_run, range(len(items)))
@@ -128,7 +162,8 @@ class WarmProcess:
     def __init__(self, modules: Sequence[str]):
         ctx = multiprocessing.get_context("fork")
         self._conn, child = ctx.Pipe()
-        self._process = ctx.Process(target=_warm_main, args=(child, self._conn, tuple(modules)), name="jointrig-warm")
+        self._process = ctx.Process(target=_warm_main, args=(child, self._conn, tuple(modules), os.getpid()),
+                                    name="jointrig-warm")
         self._process.start()
         child.close()
 
@@ -171,7 +206,8 @@ class WarmProcess:
         self.close()
 
 
-def _warm_main(conn, parents_end, modules: tuple) -> None:
+def _warm_main(conn, parents_end, modules: tuple, parent_pid: int) -> None:
+    die_with_parent(parent_pid)
     parents_end.close()  # else the pipe would never end here when the command does
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     failed = None

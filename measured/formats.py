@@ -122,7 +122,8 @@ def _read_csv(path: Path) -> list[RawTable]:
             units[name] = unit
     first = 1  # the body's first line
     # A second header row of units (LabVIEW, DASYLab exports): no numbers at all in it.
-    if body and len(body[0]) == len(names) and not any(_is_number(v) for v in body[0]) \
+    # An empty cell (under ``run``, say) is no number and no unit.
+    if body and len(body[0]) == len(names) and not any(v.strip() and _is_number(v) for v in body[0]) \
             and any(v.strip() for v in body[0]):
         for name, u in zip(names, body[0]):
             u = u.strip().strip("[]()")

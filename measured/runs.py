@@ -40,7 +40,7 @@ import json
 import math
 import os
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Mapping, Optional, Sequence, Union
 
@@ -207,6 +207,8 @@ def _resolve(table: RawTable, columns: dict, units: dict, notes: list) -> tuple[
             else:
                 out[canon] = np.array([_label(v) for v in col], dtype=object)
             continue
+        if canon == "time" and col.dtype.kind not in "iufb":
+            col = _iso_seconds(where, src, col)
         if col.dtype.kind not in "iufb":
             bad = next((i for i, v in enumerate(col) if not _is_float(v)), 0)
             raise RunsFileError(f"{where}: column '{src}' holds a non-number ({col[bad]!r} in data row {bad + 1}); "
@@ -220,6 +222,28 @@ def _resolve(table: RawTable, columns: dict, units: dict, notes: list) -> tuple[
             stated[canon] = unit
         out[canon] = col
     return out, stated
+
+
+def _iso_seconds(where: str, src: str, col: np.ndarray) -> np.ndarray:
+    """ISO 8601 time stamps (``2026-11-26T14:31:02.125000+00:00``) as seconds after the first;
+    the column as it is when its first value is not such a stamp."""
+    import datetime
+
+    def parse(v):
+        return datetime.datetime.fromisoformat(str(v).strip().strip('"').replace("Z", "+00:00"))
+
+    try:
+        t0 = parse(col[0])
+    except ValueError:
+        return col
+    out = np.empty(col.size)
+    for i, v in enumerate(col):
+        try:
+            out[i] = (parse(v) - t0).total_seconds()
+        except (ValueError, TypeError):
+            raise RunsFileError(f"{where}: column '{src}' mixes ISO 8601 time stamps with {v!r} (data row {i + 1}); "
+                                f"expected one kind of time stamp") from None
+    return out
 
 
 def _is_float(v) -> bool:
@@ -265,9 +289,20 @@ def _check_varies(where: str, run: str, name: str, x: np.ndarray) -> None:
                             f"mapped right (--columns)?")
 
 
+#: Time stamps beyond this (s) are absolute (an epoch time): float64 then resolves them only to
+#: about 2e-7 s, so the run's time is taken from its first stamp.
+MAX_TIME_ORIGIN_S = 1e6
+
+
 def _to_record(where: str, run: str, t: np.ndarray, chans: dict, omega: Optional[float],
                samples_per_period: Optional[int], notes: list) -> SteadyStateRecord:
     n = t.size
+    # Epoch stamps (1.7e9 s) keep their spacing's precision only as differences (a period's
+    # samples would otherwise round to 2e-7 s): such a run's time counts from its first stamp.
+    if n and abs(t[0]) > MAX_TIME_ORIGIN_S:
+        notes.append(f"run {run}: time stamps count from {t[0]:.10g} s (absolute, as an epoch time): the run's time "
+                     f"is taken from its first stamp")
+        t = t - t[0]
     if n < 16:
         raise RunsFileError(f"{where}: run {run}: {n} samples is too short; expected at least 16 (2 whole periods "
                             f"of at least 8 samples)")
@@ -444,9 +479,56 @@ def _digest(files: Sequence[Path]) -> str:
     return h.hexdigest()
 
 
+#: A relative angle whose amplitude exceeds this (rad) is no twist of a joint: with no angle unit
+#: stated, the file is refused as probably in degrees (a joint twisting 0.5 rad reads 28.6 "rad").
+MAX_TWIST_RAD = math.pi
+#: Runs whose relative-angle means differ by more than this share of the largest amplitude were
+#: zeroed separately (encoders zeroed at the start of each recording: the zero then falls
+#: anywhere within the swing). An asymmetric joint's mean shifts with the level by far less
+#: (the independent bench's largest even term: 7% of the amplitude).
+ZERO_SPREAD = 0.2
+
+
+def _plausible_angles(path: Path, run_ids: Sequence[str], records: Sequence[SteadyStateRecord],
+                      angles_stated: bool, zero_per_run: bool, notes: list) -> list[SteadyStateRecord]:
+    """Refuse angles that are probably not in rad (no unit stated, a twist of several rad), and
+    runs whose angle sensors were zeroed one by one, or centre each run's angles when asked."""
+    def rel(r):
+        return r.phi1_rad - r.phi2_rad if r.phi2_rad is not None else r.phi1_rad
+
+    amps = [float(np.ptp(rel(r))) / 2 for r in records]
+    worst = int(np.argmax(amps))
+    if amps[worst] > MAX_TWIST_RAD and not angles_stated:
+        raise RunsFileError(
+            f"{path}: run {run_ids[worst]}: the relative angle swings by +-{amps[worst]:.3g} rad, more than any joint "
+            f"twists (+-{MAX_TWIST_RAD:.3g} rad), and no angle unit is stated: are the angles in degrees "
+            f"(+-{math.radians(amps[worst]):.3g} rad)? State the unit in the header ('phi1 [deg]') or with "
+            f"--units phi1=deg,phi2=deg")
+    if zero_per_run:
+        out = []
+        for rid, r in zip(run_ids, records):
+            out.append(replace(r, phi1_rad=r.phi1_rad - r.phi1_rad.mean(),
+                               phi2_rad=None if r.phi2_rad is None else r.phi2_rad - r.phi2_rad.mean()))
+        notes.append("each run's angles taken about their own mean (--zero-per-run): the joint's zero is each run's "
+                     "mean relative angle, right for a symmetric joint; an asymmetric joint's shift of the mean with "
+                     "the level is lost")
+        return out
+    means = [float(np.mean(rel(r))) for r in records]
+    if len(records) >= 2 and max(means) - min(means) > ZERO_SPREAD * max(amps):
+        lo, hi = int(np.argmin(means)), int(np.argmax(means))
+        raise RunsFileError(
+            f"{path}: the relative angle's mean differs between runs by {max(means) - min(means):.3g} rad (run "
+            f"{run_ids[lo]}: {means[lo]:.3g} rad, run {run_ids[hi]}: {means[hi]:.3g} rad), "
+            f"{(max(means) - min(means)) / max(amps):.2g} of the largest amplitude: the angle sensors look zeroed at "
+            f"the start of each recording, and a joint's law needs one zero for all runs. Zero the encoders once for "
+            f"the whole test, or pass --zero-per-run to take each run's mean as its zero (right for a symmetric "
+            f"joint; a preload that differs between runs also shifts the mean)")
+    return list(records)
+
+
 def read_runs(path: Union[str, os.PathLike], *, samples_per_period: Optional[int] = None,
               columns: Optional[Union[str, Mapping[str, str]]] = None,
-              units: Optional[Union[str, Mapping[str, str]]] = None) -> LoadedRuns:
+              units: Optional[Union[str, Mapping[str, str]]] = None, zero_per_run: bool = False) -> LoadedRuns:
     """Read measured runs from a file or a folder of files into whole-period records (module docstring).
 
     Args:
@@ -455,6 +537,8 @@ def read_runs(path: Union[str, os.PathLike], *, samples_per_period: Optional[int
         for the H harmonics estimated, :func:`identify.periods.ls_harmonics`).
       columns: canonical name -> the file's column name (``"torque=M,phi1=enc1"`` or a dict).
       units: canonical name -> unit of the file's column (``"phi1=deg,time=ms"``); see :data:`UNITS`.
+      zero_per_run: take each run's mean angles as their zero (encoders zeroed at the start of
+        each recording); without it such a file is refused (:data:`ZERO_SPREAD`).
 
     Raises:
       RunsFileError: any file that cannot be used, naming the file, run, column and row and
@@ -485,21 +569,22 @@ def read_runs(path: Union[str, os.PathLike], *, samples_per_period: Optional[int
     multi = len(files) > 1
     # A folder's files are runs named by their stems, however many it holds (one included).
     named_by_file = multi or Path(path).is_dir()
-    run_ids, records, seen, any_units = [], [], set(), False
+    run_ids, records, seen, any_units, angles_stated = [], [], set(), False, False
     for f, table in tables:
         cols, stated = _resolve(table, columns, units, notes)
         any_units = any_units or bool(stated)
+        angles_stated = angles_stated or bool({"phi", "phi1", "phi2"} & set(stated))
         where = table.source
-        missing = sorted({"time", "torque"} - set(cols))
-        if missing:
-            raise RunsFileError(f"{where}: missing column(s) {missing}; expected time, torque, phi1, phi2 (or phi), "
-                                f"optionally run and omega; its columns are {sorted(table.columns)} (map other "
-                                f"names with --columns torque=NAME)")
         if "phi" in cols and ("phi1" in cols or "phi2" in cols):
             raise RunsFileError(f"{where}: give either 'phi' or 'phi1' and 'phi2', not both")
+        missing = sorted({"time", "torque"} - set(cols))
         if "phi" not in cols and not {"phi1", "phi2"} <= set(cols):
-            raise RunsFileError(f"{where}: missing angle column(s): expected 'phi1' and 'phi2', or 'phi' (the "
-                                f"relative angle); its columns are {sorted(table.columns)}")
+            missing += sorted({"phi1", "phi2"} - set(cols)) if {"phi1", "phi2"} & set(cols) else ["phi1, phi2 (or phi)"]
+        if missing:  # every missing column at once
+            raise RunsFileError(f"{where}: missing column(s) {', '.join(missing)}; expected time, torque (the drive "
+                                f"torque on flywheel 1), phi1 and phi2 (or phi, the relative angle), optionally run "
+                                f"and omega; its columns are {sorted(table.columns)} (map other names with --columns "
+                                f"torque=NAME,phi1=NAME)")
         n = cols["time"].size
         for name, col in cols.items():
             if col.size != n:
@@ -543,6 +628,7 @@ def read_runs(path: Union[str, os.PathLike], *, samples_per_period: Optional[int
     if not any_units:
         notes.insert(0, "no units stated in the file or the options: SI assumed (time s, torque N m, angles rad, "
                         "omega rad/s); state others with --units, e.g. phi1=deg,time=ms")
+    records = _plausible_angles(path, run_ids, records, angles_stated, zero_per_run, notes)
     return LoadedRuns(path, tuple(run_ids), tuple(records), tuple(notes), _digest(files))
 
 

@@ -24,6 +24,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from .formatting import quantity_of, sig, sig_or, unit_of, with_se
+from .summary import adopted_causes, next_steps, parameter_rows, plain_verdict
 from jointrig.studies.validate import CHI2_PER_DOF_OK, DiagnosisReport
 
 __all__ = ["report_json", "format_report", "log_diagnosis", "write_html", "write_outputs"]
@@ -116,11 +117,15 @@ def format_report(report: DiagnosisReport, *, source: str = "", notes: Sequence[
     held = [r.run_id for r in report.runs if r.held_out]
     v = report.verdict
     lines.append(f"VERDICT: {v.verdict.upper().replace('_', ' ')}: {v.reason}")
+    lines.append(f"  In words: {plain_verdict(report)}")
     if v.verdict == "unexplained":
         lines.append(f"  What the misfit looks like: {report.character.describe()}")
         lines.append(f"  Its restoring-force surface: {report.surface.describe()}")
-        lines.append("  Measurements that would tell more:")
-        lines += [f"    - {m}" for m in report.next_measurements]
+    steps = next_steps(report)
+    if steps:
+        lines.append("  What to do next" + (" (measurements that would tell more):" if v.verdict == "unexplained"
+                                             else ":"))
+        lines += [f"    - {m}" for m in steps]
     lines.append("")
     lines.append(f"Diagnosis of {source or 'the runs'}: {len(report.runs)} runs, "
                  f"{'two-degree-of-freedom form (phi1, phi2)' if d.form == 'two_dof' else 'equivalent form (phi)'}, "
@@ -128,8 +133,9 @@ def format_report(report: DiagnosisReport, *, source: str = "", notes: Sequence[
     lines.append(f"  fit on runs {', '.join(fit_ids)}; held out for validation: {', '.join(held)}")
     lines.append("  noise per sample (from period-to-period variation): "
                  + ", ".join(f"{k} {sig(v, 2)} {_CHANNEL_UNIT.get(k, 'rad')}" for k, v in d.noise_std.items()))
-    for n in list(notes) + list(d.notes) + list(report.notes):
-        lines.append(f"  note: {n}")
+    all_notes = list(notes) + list(d.notes) + list(report.notes)
+    if all_notes:
+        lines.append(f"  {len(all_notes)} note(s) on the data: at the end")
     lines.append("")
     lines.append(f"Nominal model (paper eq. 11): chi2/dof = {d.nominal.chi2 / d.nominal.dof:.3g} "
                  f"(about 0.4-1 when only noise is left, with the model-fidelity floor)")
@@ -182,6 +188,10 @@ def format_report(report: DiagnosisReport, *, source: str = "", notes: Sequence[
                          f"rejected for that reason (see the notes)")
     lines.append(f"  {'generalisation' if report.validation_kind == 'held_out_runs' else 'validation'}: "
                  f"{report.validation_statement}")
+    if all_notes:
+        lines.append("")
+        lines.append("Notes on the data:")
+        lines += [f"  note: {n}" for n in all_notes]
     return "\n".join(lines)
 
 
@@ -437,11 +447,14 @@ def figures(report: DiagnosisReport) -> list[tuple[str, str]]:
 
     causes = [c for c in report.diagnosis.causes if math.isfinite(c.score)][::-1]
     adopted = set(report.adopted)
-    chart = svg.Panel(xlabel="evidence score (blue: adopted; black edge: significant)", xscale="symlog",
-                      ycategories=tuple(c.effect + (" (adopted)" if c.effect in adopted else "") for c in causes),
+    # A cause rejected on physical grounds (its note says why) has no evidence to show: no bar.
+    chart = svg.Panel(xlabel="evidence score (blue: adopted; black edge: significant; rejected causes: no bar)",
+                      xscale="symlog",
+                      ycategories=tuple(c.effect + (" (adopted)" if c.effect in adopted else " (rejected)" if c.note
+                                                    else "") for c in causes),
                       ybold=tuple(c.effect in adopted for c in causes))
-    chart.barh([c.score for c in causes], colors=[svg.COLORS["blue" if c.effect in adopted else "gray"]
-                                                  for c in causes],
+    chart.barh([0.0 if c.note else c.score for c in causes],
+               colors=[svg.COLORS["blue" if c.effect in adopted else "gray"] for c in causes],
                edges=["#000" if c.significant else None for c in causes])
     out.append(("Causes ranked by evidence", svg.figure([chart], cols=1, panel_width=640,
                                                           panel_height=30 * len(causes) + 70,
@@ -484,7 +497,8 @@ def _surface_figure(report: DiagnosisReport) -> str:
 _CSS = """
 body{font-family:system-ui,sans-serif;max-width:1240px;margin:auto;padding:0 16px;color:#222;line-height:1.4}
 h1{margin-bottom:4px} h2{margin-top:28px;border-bottom:1px solid #ddd;padding-bottom:2px}
-.verdict{border-left:6px solid var(--c);padding:8px 14px;background:#fafafa;font-size:1.15em}
+.verdict{border-left:6px solid var(--c);padding:4px 14px;background:#fafafa;font-size:1.15em}
+.verdict .why{font-size:0.75em;color:#444} details.section{margin-top:20px} details.section>summary{font-size:1.2em;font-weight:600;cursor:pointer;padding:4px 0}
 .prov{color:#555;font-size:0.85em;overflow-wrap:anywhere}
 table{border-collapse:collapse;margin:8px 0;font-size:0.92em;max-width:100%}
 .wrap{overflow-x:auto;max-width:100%}
@@ -519,75 +533,48 @@ def _parameter_rows(fit, values: dict) -> list[str]:
 
 
 
+def _summary_section(report: DiagnosisReport) -> list[str]:
+    """The first screen below the verdict: the adopted causes with their size, the model's
+    parameters as given beside the data's, and what to do next."""
+    out = []
+    causes = adopted_causes(report)
+    if causes:
+        out.append("<h2>What your model misses</h2><ul class='causes'>" + "".join(
+            f"<li><b>{html.escape(a.name)}</b>: {html.escape(a.what)}; {html.escape(a.quantity)} "
+            f"<b>{html.escape(a.value)}</b></li>" for a in causes) + "</ul>")
+    rows = parameter_rows(report)
+    extended = bool(report.adopted)
+    head = (["parameter", "unit", "your model, fitted", "with the adopted causes", "differs?"] if extended
+            else ["parameter", "unit", "your model, fitted"])
+    body = [_row([r.quantity, (r.unit, "unit"), (r.as_given, "num")]
+                 + ([(r.with_causes, "num"), "yes" if r.differs else "no"] if extended else []),
+                 "adopted" if extended and r.differs else "") for r in rows]
+    out.append("<h2>The joint's parameters</h2><p class='note'>Your model's structure (inertias, c phi' + k phi + "
+               "gamma phi^3) fitted to the runs"
+               + (", beside the same with the adopted causes; \"differs\" when the two are more than twice their "
+                  "combined standard error apart" if extended else "")
+               + ". Values ± one standard error.</p>")
+    out.append(_table(head, body))
+    steps = next_steps(report)
+    if steps:
+        out.append("<h2>What to do next</h2><ul>" + "".join(f"<li>{html.escape(t)}</li>" for t in steps) + "</ul>")
+    return out
+
+
 def _html_sections(report: DiagnosisReport, source: str, notes: Sequence[str]) -> list[str]:
-    """The report's tables: provenance and data, nominal model, causes, extended model,
+    """The report below its first screen: what an unexplained misfit looks like and the
     validation per run; numbers to the precision of their standard errors, units beside them."""
-    d = report.diagnosis
-    adopted = set(report.adopted)
-    fit_ids = [r.run_id for r in report.runs if not r.held_out]
-    held = [r.run_id for r in report.runs if r.held_out]
-    out = ["<h2>Data</h2>", _table([], [
-        _row(["input", source or "(runs given in Python)"]),
-        _row(["runs", f"{len(report.runs)}: fitted on {', '.join(fit_ids)}; held out for validation: "
-                      f"{', '.join(held) or 'none'}"]),
-        _row(["model form", "two-degree-of-freedom (phi1, phi2)" if d.form == "two_dof"
-              else "equivalent single degree of freedom (relative angle phi)"]),
-        _row(["harmonics balanced", f"1..{report.band}"])])]
-    out.append("<h3>Noise per raw sample (from the period-to-period variation)</h3>")
-    out.append(_table(["channel", "unit", "standard deviation"],
-                      [_row([ch, _CHANNEL_UNIT.get(ch, "rad"), (sig(v, 2), "num")]) for ch, v in d.noise_std.items()]))
-    all_notes = list(notes) + list(d.notes) + list(report.notes)
-    if all_notes:
-        out.append("<h3>Notes on the data</h3><ul>" + "".join(f"<li>{html.escape(n)}</li>" for n in all_notes)
-                   + "</ul>")
-
-    out.append(f"<h2>Nominal model (paper eq. 11)</h2><p>chi2/dof = {sig(d.nominal.chi2 / d.nominal.dof)} "
-               f"(about 0.4-1 when only noise is left with the model-fidelity floor; the verdict asks at most "
-               f"{CHI2_PER_DOF_OK:g})</p>")
-    out.append(_table(["parameter", "unit", "value ± standard error"], _parameter_rows(d.nominal, d.nominal.as_dict())))
-
-    out.append("<h2>Causes ranked by evidence</h2><p class='note'>score = drop in chi-square minus "
-               "(parameters added) x ln(rows), the BIC evidence; significant when p &lt; 0.001 / number of causes. "
-               "Adopted causes are highlighted.</p>")
-    rows = []
-    head = ["#", "cause", "score", "Δchi2", "params", "p", "significant", "magnitude", "value ± s.e.", "unit"]
-    for i, c in enumerate(d.causes, 1):
-        name, value, se = c.magnitude
-        cls = "adopted" if c.effect in adopted else ""
-        rows.append(_row([(str(i), "num"), c.effect + ("  [adopted]" if c.effect in adopted else ""),
-                          (sig(c.score, 4), "num"), (sig(c.delta_chi2, 4), "num"), (str(c.n_params), "num"),
-                          ("< 1e-300" if c.p_value == 0 else sig(c.p_value, 2), "num"),
-                          "yes" if c.significant else "no", quantity_of(name), (with_se(value, se), "num"),
-                          (unit_of(name), "unit")], cls))
-        if c.note:
-            rows.append(f"<tr class='{cls}'><td></td><td class='note' colspan='{len(head) - 1}'>"
-                        f"{html.escape(c.note)}</td></tr>")
-    out.append(_table(head, rows))
-    for a in d.ambiguous:
-        out.append(f"<p><b>Cannot tell apart:</b> {html.escape(a.effects[0])} and {html.escape(a.effects[1])} "
-                   f"explain the same part of the data. To separate them: {html.escape(a.excitation)}.</p>")
-
-    ext = d.extended
-    if d.steps:
-        what = " + ".join(d.effects)
-        status = ("adopted" if adopted else "tried, not adopted (see the verdict)")
-        out.append(f"<h2>Extended model: {html.escape(what)} ({status})</h2>"
-                   f"<p>chi2/dof = {sig(ext.chi2 / ext.dof)}</p>")
-        out.append(_table(["parameter", "unit", "value ± standard error"], _parameter_rows(ext, ext.effect_parameters())))
-    else:
-        out.append("<h2>Extended model</h2><p>None: no cause is significant.</p>")
+    out = []
     if report.verdict.verdict == "unexplained":
         out.append("<h2>What the unexplained misfit looks like</h2>"
                    f"<p>{html.escape(report.character.describe())}.</p>"
                    f"<p>Its restoring-force surface (the residual joint torque over angle and rate, Masri and "
                    f"Caughey's method on bilinear hat functions; figure below): "
-                   f"{html.escape(report.surface.describe())}.</p>"
-                   "<h3>Measurements that would tell more</h3><ul>"
-                   + "".join(f"<li>{html.escape(m)}</li>" for m in report.next_measurements) + "</ul>")
+                   f"{html.escape(report.surface.describe())}.</p>")
 
     out.append("<h2>Validation in the MuJoCo rig</h2><p class='note'>Each run simulated under its measured "
-               "drive; RMS of simulated minus measured relative angle over the harmonics the measurement "
-               "resolves, against the noise floor of that comparison.</p>")
+               "drive; the error is the RMS of simulated minus measured relative angle over the harmonics the "
+               "measurement resolves. The noise floor is what a perfect model would score, given the noise.</p>")
     rows = [_row([r.run_id, (sig(r.omega_rad_s, 4), "num"), (sig(r.amplitude_Nm, 4), "num"),
                   (_rms_cell(r, "nominal"), "num"), (_rms_cell(r, "extended"), "num"), (sig(r.noise_floor_rad), "num")],
                  "heldout" if r.held_out else "") for r in report.runs]
@@ -601,9 +588,80 @@ def _html_sections(report: DiagnosisReport, source: str, notes: Sequence[str]) -
             out.append(f"<p>The {which} model reaches no periodic steady state in run(s) "
                        f"{html.escape(', '.join(report.unsimulated(which)))} under the measured drive: it is rejected "
                        f"for that reason, and its error there has no number.</p>")
-    out.append(f"<p>Held-out gain (nominal error / extended error): "
+    out.append(f"<p>Held-out gain (the nominal model's error over the extended model's: how much better the "
+               f"extension predicts): "
                f"<b>{sig_or(report.gain, 'not computed (a model has no steady state in a held-out run)')}</b>; "
                f"{html.escape(report.validation_statement)}.</p>")
+    return out
+
+
+def _collapsed_sections(report: DiagnosisReport, source: str, notes: Sequence[str]) -> list[str]:
+    """The evidence (nominal model, causes ranked, extended model) and the data with its notes,
+    each folded under a summary line: below the answer, for who wants to check it."""
+    d = report.diagnosis
+    adopted = set(report.adopted)
+    fit_ids = [r.run_id for r in report.runs if not r.held_out]
+    held = [r.run_id for r in report.runs if r.held_out]
+    out = []
+    ev = ["<details class='section'><summary>The evidence: the nominal model, every cause tried, the extended "
+          "model</summary>"]
+    ev.append(f"<h3>Nominal model (paper eq. 11)</h3><p>chi2/dof = {sig(d.nominal.chi2 / d.nominal.dof)}: how far "
+              f"the model misses the runs, in units of their noise (about 0.4-1 when only noise is left; the verdict "
+              f"asks at most {CHI2_PER_DOF_OK:g})</p>")
+    ev.append(_table(["parameter", "unit", "value ± standard error"], _parameter_rows(d.nominal, d.nominal.as_dict())))
+    ev.append("<h3>Causes ranked by evidence</h3><p class='note'>Each cause is added to the nominal model in turn. "
+              "Δchi2 is how much it lowers the misfit; the score discounts that for the parameters it adds "
+              "(Δchi2 minus parameters x ln(rows), the Bayesian information criterion); p is the chance of a drop "
+              "this large if the cause were absent (p &lt; 1e-300: far beyond chance), and a cause counts as significant when p &lt; 0.001 / number of "
+              "causes. A significant cause can still be rejected (a negative friction, a slip below what the "
+              "angles resolve: the note under it says why), and a significant sensor cause is adopted only when it "
+              "explains the data as well as the best cause in the joint. Adopted causes are highlighted.</p>")
+    rows = []
+    head = ["#", "cause", "score", "Δchi2", "params", "p", "significant", "magnitude", "value ± s.e.", "unit"]
+    for i, c in enumerate(d.causes, 1):
+        name, value, se = c.magnitude
+        cls = "adopted" if c.effect in adopted else ""
+        rows.append(_row([(str(i), "num"), c.effect + ("  [adopted]" if c.effect in adopted else ""),
+                          (sig(c.score, 4), "num"), (sig(c.delta_chi2, 4), "num"), (str(c.n_params), "num"),
+                          ("< 1e-300" if c.p_value == 0 else sig(c.p_value, 2), "num"),
+                          ("no (rejected)" if c.note and c.p_value < 1e-3 else "yes" if c.significant else "no"),
+                          quantity_of(name), (with_se(value, se), "num"), (unit_of(name), "unit")], cls))
+        if c.note:
+            rows.append(f"<tr class='{cls}'><td></td><td class='note' colspan='{len(head) - 1}'>"
+                        f"{html.escape(c.note)}</td></tr>")
+    ev.append(_table(head, rows))
+    for a in d.ambiguous:
+        ev.append(f"<p><b>Cannot tell apart:</b> {html.escape(a.effects[0])} and {html.escape(a.effects[1])} "
+                  f"explain the same part of the data. To separate them: {html.escape(a.excitation)}.</p>")
+    ext = d.extended
+    if d.steps:
+        what = " + ".join(d.effects)
+        status = "adopted" if adopted else "tried; not adopted, see the verdict"
+        ev.append(f"<h3>Extended model: {html.escape(what)} ({status})</h3>"
+                  f"<p>chi2/dof = {sig(ext.chi2 / ext.dof)}</p>")
+        ev.append(_table(["parameter", "unit", "value ± standard error"], _parameter_rows(ext, ext.effect_parameters())))
+    else:
+        ev.append("<h3>Extended model</h3><p>None: no cause is significant.</p>")
+    ev.append("</details>")
+    out += ev
+
+    all_notes = list(notes) + list(d.notes) + list(report.notes)
+    data = [f"<details class='section'><summary>The data: {len(report.runs)} runs, the noise, "
+            f"{len(all_notes)} note(s) on how they were read</summary>", _table([], [
+                _row(["input", source or "(runs given in Python)"]),
+                _row(["runs", f"{len(report.runs)}: fitted on {', '.join(fit_ids)}; held out for validation: "
+                              f"{', '.join(held) or 'none'}"]),
+                _row(["model form", "two-degree-of-freedom (phi1, phi2)" if d.form == "two_dof"
+                      else "equivalent single degree of freedom (relative angle phi)"]),
+                _row(["harmonics balanced", f"1..{report.band}"])])]
+    data.append("<h3>Noise per raw sample (from the period-to-period variation)</h3>")
+    data.append(_table(["channel", "unit", "standard deviation"],
+                       [_row([ch, _CHANNEL_UNIT.get(ch, "rad"), (sig(v, 2), "num")]) for ch, v in d.noise_std.items()]))
+    if all_notes:
+        data.append("<h3>Notes on the data</h3><ul>" + "".join(f"<li>{html.escape(n)}</li>" for n in all_notes)
+                    + "</ul>")
+    data.append("</details>")
+    out += data
     return out
 
 
@@ -718,8 +776,9 @@ def _write_page(path: Path, report: DiagnosisReport, text: str, drawn: Sequence[
              f"<meta name='viewport' content='width=device-width, initial-scale=1'><title>{html.escape(title)}</title>"
              f"<style>{_CSS}</style></head><body>",
              f"<h1>{html.escape(title)}</h1>", f"<p class='prov'>{html.escape(provenance)}</p>",
-             f"<p class='verdict' style='--c:{colour}'><b>{html.escape(v.verdict.replace('_', ' ').upper())}</b>: "
-             f"{html.escape(v.reason)}</p>"]
+             f"<div class='verdict' style='--c:{colour}'><p><b>{html.escape(v.verdict.replace('_', ' ').upper())}"
+             f"</b>: {html.escape(plain_verdict(report))}</p><p class='why'>{html.escape(v.reason)}</p></div>"]
+    parts += _summary_section(report)
     parts += _html_sections(report, source, notes)
     if card is not None:
         parts += _card_section(card, card_png)
@@ -727,6 +786,7 @@ def _write_page(path: Path, report: DiagnosisReport, text: str, drawn: Sequence[
         data = base64.b64encode(image.encode("utf-8")).decode("ascii")
         parts.append(f"<figure><figcaption>{html.escape(caption)}</figcaption><img alt='{html.escape(caption)}' "
                      f"src='data:image/svg+xml;base64,{data}'></figure>")
+    parts += _collapsed_sections(report, source, notes)
     parts.append(f"<details><summary>The same report as console text</summary><pre>{html.escape(text)}</pre></details>")
     parts.append("</body></html>")
     from jointrig.files import write_atomic

@@ -111,6 +111,12 @@ def run_cli(main, name: str, argv=None) -> int:
 
     try:
         return main(argv)
+    except BrokenPipeError:
+        # The reader went away (``jointrig diagnose DATA | head``): not an error of the command.
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
     except ValueError as err:
         print(f"{name}: error: {err}", file=sys.stderr)
         return 2

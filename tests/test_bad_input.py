@@ -77,10 +77,10 @@ LOADER = {
     "huge value": (good_csv().replace("1000.0", "1e300", 1), r"implausibly large.*1e\+300"),
     "duplicate column": ("run,time,torque,phi1,phi1\n0,0,1,2,3\n", "appears twice"),
     "columns differing in case": ("run,time,torque,phi1,PHI1,phi2\n0,0,1,2,3,4\n", "differ only in case"),
-    "no torque": ("run,time,phi1,phi2\n0,0,1,2\n", r"missing column\(s\) \['torque'\]"),
-    "no angles": ("run,time,torque\n0,0,1\n", "missing angle column"),
+    "no torque": ("run,time,phi1,phi2\n0,0,1,2\n", r"missing column\(s\) torque; expected"),
+    "no angles": ("run,time,torque\n0,0,1\n", r"missing column\(s\) phi1, phi2 \(or phi\)"),
     "phi and phi1": ("run,time,torque,phi,phi1\n0,0,1,2,3\n", "either 'phi' or"),
-    "only phi1": ("run,time,torque,phi1\n0,0,1,2\n", "expected 'phi1' and 'phi2'"),
+    "only phi1": ("run,time,torque,phi1\n0,0,1,2\n", r"missing column\(s\) phi2; expected"),
     "too short": ("run,time,torque,phi1,phi2\n" + "\n".join(_good_rows()[:10]) + "\n", "too short"),
     "one period and a half": ("run,time,torque,phi1,phi2\n" + "\n".join(_good_rows(n_periods=2, N=64)[:96]) + "\n",
                               "expected at least 2 whole periods"),
@@ -413,3 +413,89 @@ def test_killed_sweep_resumes_from_its_store(tmp_path):
     assert out.returncode == 0, out.stderr
     assert out.stderr.count("from store") >= len(kept), out.stderr
     assert not list(tmp_path.rglob("*.tmp")) and (tmp_path / "s.json").is_file()
+
+
+def _bench_file(tmp_path, edit):
+    """Six runs of the independent bench (tests/bench_sim.py) rewritten by ``edit(run, t, T, phi1, phi2)``
+    as a lab would have them, under a header without units."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from bench_sim import JOINTS, POINTS, measure
+
+    pts = [p for i, p in enumerate(POINTS["paper"]) if i % 3 != 1]
+    src = measure(JOINTS["paper"], pts, tmp_path / "bench.csv", seed=5, fs_Hz=1000.0, n_periods=4.5)
+    rows, first = ["run,time,torque,phi1,phi2"], {}
+    for line in src.read_text().splitlines()[1:]:
+        r, t, T, a, b = line.split(",")
+        first.setdefault(r, (float(a), float(b)))
+        rows.append(",".join([r, t, T] + [f"{v:.9f}" for v in edit(first[r], float(a), float(b))]))
+    out = tmp_path / "lab.csv"
+    out.write_text("\n".join(rows) + "\n")
+    return out
+
+
+def test_angles_in_degrees_without_a_unit_are_refused_with_the_fix(tmp_path, capsys):
+    # issue 37: a file in degrees with no unit label was read as rad (J1 = 0.035 kg m^2, k = 34.8)
+    path = _bench_file(tmp_path, lambda first, a, b: (math.degrees(a), math.degrees(b)))
+    assert _script("diagnose").main([str(path), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "are the angles in degrees" in err and "--units phi1=deg,phi2=deg" in err, err
+    # with the unit stated, the same file is read
+    assert len(read_runs(path, units="phi1=deg,phi2=deg").records) == 6
+
+
+def test_encoders_zeroed_per_recording_are_refused_or_centred(tmp_path, capsys):
+    # issue 37: encoders zeroed at the start of each recording shifted the relative angle's mean
+    # by up to 0.37 rad between runs and the law came out wrong without a warning
+    path = _bench_file(tmp_path, lambda first, a, b: (a - first[0], b - first[1]))
+    assert _script("diagnose").main([str(path), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "zeroed at the start of each recording" in err and "--zero-per-run" in err, err
+    loaded = read_runs(path, zero_per_run=True)
+    assert any("--zero-per-run" in n for n in loaded.notes)
+    for r in loaded.records:
+        assert abs(float(np.mean(r.phi1_rad - r.phi2_rad))) < 1e-9
+
+
+def _layout_rows(fmt_time, t0=0.0):
+    rows = []
+    for r in range(3):
+        w = W * (1 + 0.2 * r)
+        for k in range(64 * 4):
+            dt = k * 2 * math.pi / w / 64
+            rows.append(f"{r},{fmt_time(t0 + 1000 * r + dt)},{1000 * math.cos(w * dt)!r},"
+                        f"{0.3 * math.cos(w * dt - 0.5)!r},{0.1 * math.cos(w * dt - 1.5)!r}")
+    return rows
+
+
+@pytest.mark.parametrize("layout", ["units row, empty under run", "epoch stamps, 6 decimals", "epoch stamps, 9 decimals",
+                                    "ISO 8601 stamps"])
+def test_lab_layouts_are_read(tmp_path, layout):
+    # issue 37: each of these was refused, some with the wrong advice ("trim it to whole periods")
+    import datetime
+
+    head = "run,time,torque,phi1,phi2\n"
+    if layout.startswith("units row"):
+        text = head + ",s,N m,rad,rad\n" + "\n".join(_layout_rows(repr))
+    elif layout.startswith("epoch"):
+        digits = int(layout.split(", ")[1][0])
+        text = head + "\n".join(_layout_rows(lambda t: f"{t:.{digits}f}", 1.7e9))
+    else:
+        text = head + "\n".join(_layout_rows(lambda t: datetime.datetime.fromtimestamp(t, datetime.timezone.utc)
+                                            .isoformat(timespec="microseconds"), 1.7e9))
+    (tmp_path / "lab.csv").write_text(text + "\n")
+    loaded = read_runs(tmp_path / "lab.csv")
+    assert len(loaded.records) == 3
+    for r, rec in enumerate(loaded.records):
+        # the period found from the data: within the stamps' rounding (1e-6 s of 0.1 s periods)
+        assert rec.omega_rad_s == pytest.approx(W * (1 + 0.2 * r), rel=1e-4)
+
+
+def test_every_missing_column_is_named_at_once(tmp_path):
+    (tmp_path / "lab.csv").write_text("run,Zeit,M\n0,0,1\n")
+    with pytest.raises(RunsFileError, match=r"missing column\(s\) time, torque, phi1, phi2 \(or phi\)"):
+        read_runs(tmp_path / "lab.csv")
+    (tmp_path / "lab.csv").write_text("run,time,torque,phi1\n0,0,1,2\n")
+    with pytest.raises(RunsFileError, match=r"missing column\(s\) phi2;"):
+        read_runs(tmp_path / "lab.csv")

@@ -243,6 +243,10 @@ def test_report_renders_in_a_real_browser_without_errors_or_overflow(outputs, wi
                 wraps: [...document.querySelectorAll('.wrap')].map(w => w.scrollWidth - w.clientWidth),
                 imgs: [...document.images].map(i => [i.complete && i.naturalWidth > 0, i.getBoundingClientRect().right]),
                 verdict: document.querySelector('.verdict').innerText,
+                verdictBottom: document.querySelector('.verdict').getBoundingClientRect().bottom,
+                summaryTop: document.querySelector('ul.causes').getBoundingClientRect().top,
+                causes: [...document.querySelectorAll('ul.causes li b:first-child')].map(t => t.innerText),
+                folded: [...document.querySelectorAll('details.section')].map(e => e.open),
                 prov: document.querySelector('.prov').innerText,
                 adopted: [...document.querySelectorAll('tr.adopted td:nth-child(2)')].map(t => t.innerText),
                 cells: [...document.querySelectorAll('td')].map(t => t.innerText)})""")
@@ -254,9 +258,13 @@ def test_report_renders_in_a_real_browser_without_errors_or_overflow(outputs, wi
     assert m["doc"] <= m["win"], m["doc"]
     assert m["wraps"] and all(extra <= 0 for extra in m["wraps"]), m["wraps"]
     assert len(m["imgs"]) == 6 and all(ok and right <= m["win"] for ok, right in m["imgs"])
-    assert m["verdict"].startswith("EXPLAINED: ")
+    assert m["verdict"].startswith("EXPLAINED: Your model misses ")
+    # The answer is on the first screen: the verdict and the adopted causes above the fold; the
+    # evidence and the data notes below it, folded
+    assert m["verdictBottom"] <= 900 and m["summaryTop"] < 900, (m["verdictBottom"], m["summaryTop"])
+    assert m["folded"] == [False, False]
     assert d["input_sha256"] in m["prov"] and "jointrig " in m["prov"]
-    assert sorted(a.split()[0] for a in m["adopted"] if a.endswith("[adopted]")) == ["backlash", "coulomb_friction"]
+    assert sorted(m["causes"]) == ["backlash", "coulomb_friction"]
     ext = d["extended"]
     for name in ("coulomb_torque_Nm", "backlash_half_gap_rad"):
         assert with_se(ext["parameters"][name], ext["std_errors"][name]) in m["cells"], name

@@ -5,6 +5,8 @@ its end when no call comes."""
 from __future__ import annotations
 
 import os
+import signal
+from pathlib import Path
 import pickle
 import time
 
@@ -200,3 +202,55 @@ def test_records_from_forked_workers_keep_read_only_arrays(no_children_left):
     back = pickle.loads(pickle.dumps(chain))
     assert np.array_equal(back.angles_rad[1], chain.angles_rad[1]) and back.torques_Nm[1] is None
     assert not back.time_s.flags.writeable and not back.angles_rad[1].flags.writeable
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGKILL])
+def test_a_diagnosis_killed_while_it_works_leaves_no_process_behind(tmp_path, sig):
+    # issue 38: SIGTERM (what timeout, CI runners and schedulers send) or SIGKILL of a running
+    # `jointrig diagnose` left its writer process and fork_map workers alive, blocked on pipes.
+    # Each child now ends with its parent (jointrig.parallel.die_with_parent).
+    import subprocess
+    import sys
+
+    data = Path(__file__).resolve().parent.parent / "examples" / "bench_dry_friction.csv"
+    env = {**os.environ, "JOINTRIG_WORKERS": "2"}  # the suite's conftest sets 1: fork the workers here
+    command = subprocess.Popen([sys.executable, "-m", "jointrig", "diagnose", str(data), "-q", "--report",
+                                str(tmp_path / "r.html")], env=env, stdout=subprocess.DEVNULL,
+                               stderr=subprocess.DEVNULL)
+
+    def children(pid):
+        out = set()
+        for entry in os.listdir("/proc"):
+            if entry.isdigit():
+                try:
+                    with open(f"/proc/{entry}/stat") as f:
+                        fields = f.read().rsplit(")", 1)[1].split()
+                except OSError:
+                    continue
+                if int(fields[1]) == pid and fields[0] != "Z":
+                    out.add(int(entry))
+        return out
+
+    seen = set()
+    deadline = time.monotonic() + 60
+    while command.poll() is None and len(seen) < 3 and time.monotonic() < deadline:
+        seen |= children(command.pid)  # the writer, then two workers scoring the causes
+        time.sleep(0.005)
+    assert command.poll() is None and len(seen) >= 3, f"no workers seen while the diagnosis ran: {seen}"
+    command.send_signal(sig)
+    command.wait(timeout=30)
+
+    def alive(pid):
+        try:
+            with open(f"/proc/{pid}/stat") as f:
+                return f.read().rsplit(")", 1)[1].split()[0] != "Z"
+        except OSError:
+            return False
+
+    deadline = time.monotonic() + 10  # generous: they end within milliseconds
+    while any(alive(p) for p in seen) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    left = [p for p in seen if alive(p)]
+    for p in left:
+        os.kill(p, signal.SIGKILL)
+    assert not left, f"processes {left} outlived the killed diagnosis"

@@ -18,18 +18,25 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from jointrig.commands import diagnose
+from jointrig.commands import command_parser, diagnose
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("data", type=Path, help="measured runs: a file or a folder of files")
+    p = command_parser(__doc__)
+    diagnose.add_data_options(p)
     p.add_argument("--json", type=Path, help="write the card as JSON")
     p.add_argument("--png", type=Path, help="write the card's figure (PNG)")
-    args, rest = p.parse_known_args(argv)
-    forwarded = [str(args.data), "--card-only"]
-    if args.json:
-        forwarded += ["--card", str(args.json)]
-    if args.png:
-        forwarded += ["--card-png", str(args.png)]
-    return diagnose.main(forwarded + rest)
+    args = p.parse_args(argv)
+    forwarded = [str(args.data), "--card-only", "--band", str(args.band), "--torque-share", str(args.torque_share),
+                 "--alpha", str(args.alpha), "--fidelity", str(args.fidelity)]
+    for option, value in (("--columns", args.columns), ("--units", args.units), ("--card", args.json),
+                          ("--card-png", args.png)):
+        if value is not None:
+            forwarded += [option, str(value)]
+    if args.holdout:
+        forwarded += ["--holdout", *args.holdout]
+    if args.quiet:
+        forwarded.append("-q")
+    if args.zero_per_run:
+        forwarded.append("--zero-per-run")
+    return diagnose.main(forwarded)

@@ -14,9 +14,11 @@ gives each departure relative and in standard errors, and the describing functio
 from __future__ import annotations
 
 import argparse
+
 import logging
 from pathlib import Path
 
+from jointrig.commands import add_quiet, command_parser
 from jointrig.rig import load_rig
 from jointrig.studies.card_check import CARD_CASES, check_card, check_text, worst
 from jointrig.rig.runtime import check_output, check_range, progress_level
@@ -26,15 +28,14 @@ log = logging.getLogger("jointrig.card-check")
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="jointrig card-check", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = command_parser(__doc__, prog="jointrig card-check")
     p.add_argument("cases", nargs="*", choices=[[], *CARD_CASES], default=[], metavar="CASE",
                    help=f"joints to check, of {', '.join(CARD_CASES)} (default: all)")
     p.add_argument("--snr-db", type=float, default=40.0, help="SNR per channel in dB (default: %(default)s)")
     p.add_argument("--seed", type=int, default=1, help="noise seed (default: %(default)s)")
     p.add_argument("--periods", type=int, default=8, help="periods per measured run (default: %(default)s)")
     p.add_argument("--json", type=Path, help="write the comparisons as JSON")
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+    add_quiet(p)
     args = p.parse_args(argv)
     logging.basicConfig(level=progress_level(args.quiet), format="%(levelname)s %(name)s: %(message)s")
     check_range(args.snr_db, "--snr-db", lo=0, hi=200)

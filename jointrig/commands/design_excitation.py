@@ -1,6 +1,6 @@
 """D-optimal excitation: which frequencies and amplitudes to measure, for how long, on a budget.
 
-    python3 scripts/design_excitation.py [--snr-db 40] [--setup-s 1] [--budget-s B] [--verify N] [--json OUT]
+    jointrig design [--snr-db 40] [--setup-s 1] [--budget-s B] [--verify N] [--json OUT]
 
 Candidates: drive frequencies 1..90 rad/s (19 values) x amplitudes 400, 1000, 2000, 4000 N m,
 each simulated once to steady state without noise. Under the bench's measurement model
@@ -18,12 +18,14 @@ realisations of both and reports the observed standard deviations.
 from __future__ import annotations
 
 import argparse
+
 import logging
 import sys
 from pathlib import Path
 
 import numpy as np
 
+from jointrig.commands import add_quiet, command_parser
 from jointrig.identify.design import chain_modes_rad_s, crlb_std, d_efficiency, d_optimal, design_cost_s
 from jointrig.identify.eiv import fisher_per_period
 from jointrig.rig import SimulationConfig, load_rig
@@ -44,7 +46,7 @@ DEFAULT_PERIODS = 8
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = command_parser(__doc__)
     p.add_argument("--snr-db", type=float, default=40.0, help="expected signal-to-noise ratio per channel, dB (default: %(default)s)")
     p.add_argument("--setup-s", type=float, default=1.0, help="test time a run costs before measuring, s (default: %(default)s)")
     p.add_argument("--budget-s", type=float, default=None, help="test-time budget (s); default: the default sweep's")
@@ -55,7 +57,7 @@ def main(argv=None) -> int:
     p.add_argument("--model", type=Path, default=None,
                    help="a chain model (models/pump_train.xml): design where to drive and which frequencies "
                         "(default: the two-flywheel rig)")
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+    add_quiet(p)
     args = p.parse_args(argv)
     from jointrig.rig.runtime import progress_level
 

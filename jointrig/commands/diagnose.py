@@ -1,6 +1,6 @@
 """What the simulation gets wrong: diagnose measured joint runs against the nominal model.
 
-    python3 scripts/diagnose.py DATA.csv [--json OUT] [--rrd OUT] [--report OUT.html]
+    jointrig diagnose DATA.csv [--json OUT] [--rrd OUT] [--report OUT.html]
 
 DATA: a file (CSV, Parquet, MATLAB .mat, HDF5, NI TDMS, UFF 58) or a folder of them, one row
 per sample, columns ``run, time, torque, phi1, phi2`` in s, N m, rad (``phi`` may replace
@@ -22,11 +22,13 @@ option), 1 when the identification itself fails.
 from __future__ import annotations
 
 import argparse
+
 import logging
 import sys
 import time
 from pathlib import Path
 
+from jointrig.commands import add_quiet, command_parser
 from jointrig.identify.defaults import DEFAULT_FIDELITY
 from jointrig.rig.runtime import BadArgument, check_output, check_range, progress_level
 
@@ -36,13 +38,34 @@ from jointrig.rig.runtime import BadArgument, check_output, check_range, progres
 log = logging.getLogger("diagnose")
 
 
-def parse_args(argv=None) -> argparse.Namespace:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+def add_data_options(p: argparse.ArgumentParser) -> None:
+    """The options of reading and diagnosing measured runs, shared by ``diagnose`` and ``card``."""
     p.add_argument("data", type=Path, help="measured runs: a file or a folder of files")
     p.add_argument("--columns", metavar="NAME=COLUMN,...",
                    help="the file's names for the columns, e.g. torque=M_drive,phi1=enc1,phi2=enc2,time=t")
     p.add_argument("--units", metavar="NAME=UNIT,...",
                    help="units of the file's columns when not SI, e.g. time=ms,phi1=deg,phi2=deg,torque=Nmm")
+    p.add_argument("--zero-per-run", action="store_true",
+                   help="take each run's mean angles as their zero (encoders zeroed at the start of each recording; "
+                        "right for a symmetric joint). Without it such a file is refused")
+    p.add_argument("--holdout", nargs="+", metavar="RUN",
+                   help="run labels held out of the fit for validation (default: runs of another kind than the "
+                        "fit: another excitation, else an inner level, else an inner frequency, else every third; "
+                        "with one or two runs, the later half of each run's periods)")
+    p.add_argument("--band", type=int, default=20, help="harmonics 0..BAND fitted and compared (default: %(default)s)")
+    p.add_argument("--torque-share", type=float, default=0.5,
+                   help="J2/(J1+J2), needed only for data with the relative angle 'phi' (default: %(default)s)")
+    p.add_argument("--alpha", type=float, default=1e-3,
+                   help="false-alarm probability per round over all causes (default: %(default)s)")
+    p.add_argument("--fidelity", type=float, default=DEFAULT_FIDELITY,
+                   help="model-fidelity floor relative to each run's torque: misfits below it are not evidence "
+                        "(default: %(default)s)")
+    add_quiet(p)
+
+
+def parse_args(argv=None) -> argparse.Namespace:
+    p = command_parser(__doc__)
+    add_data_options(p)
     p.add_argument("--json", type=Path, help="write the diagnosis as JSON")
     p.add_argument("--rrd", type=Path, help="write a rerun recording")
     p.add_argument("--report", type=Path, help="write a self-contained HTML report (tables, SVG figures)")
@@ -53,18 +76,6 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--mjcf", type=Path, metavar="OUT.xml",
                    help="write the identified model (the adopted one: extended if explained, else nominal) as a "
                         "rig model file (jointrig_* fields, flywheel inertias) to simulate at once")
-    p.add_argument("--holdout", nargs="+", metavar="RUN",
-                   help="run labels held out of the fit for validation (default: runs of another kind than the "
-                        "fit: another excitation, else an inner level, else an inner frequency, else every third)")
-    p.add_argument("--band", type=int, default=20, help="harmonics 0..BAND fitted and compared (default: %(default)s)")
-    p.add_argument("--torque-share", type=float, default=0.5,
-                   help="J2/(J1+J2), needed only for data with the relative angle 'phi' (default: %(default)s)")
-    p.add_argument("--alpha", type=float, default=1e-3,
-                   help="false-alarm probability per round over all causes (default: %(default)s)")
-    p.add_argument("--fidelity", type=float, default=DEFAULT_FIDELITY,
-                   help="model-fidelity floor relative to each run's torque: misfits below it are not evidence "
-                        "(default: %(default)s)")
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     return p.parse_args(argv)
 
 
@@ -126,7 +137,7 @@ def _main(args: argparse.Namespace, writer) -> int:
         for option, path in (("--json", args.json), ("--rrd", args.rrd), ("--report", args.report),
                              ("--card", args.card), ("--card-png", args.card_png), ("--mjcf", args.mjcf)):
             check_output(path, option)
-        loaded = read_runs(args.data, columns=args.columns, units=args.units)
+        loaded = read_runs(args.data, columns=args.columns, units=args.units, zero_per_run=args.zero_per_run)
         ids = list(loaded.run_ids)
         holdout = None
         if args.holdout:
@@ -262,7 +273,8 @@ def write_mjcf(args, loaded, report) -> None:
              f"Verdict: {report.verdict.verdict}: {report.verdict.reason}",
              f"Flywheel inertias J1 = {J[0]!r}, J2 = {J[1]!r} kg m^2; parameters +- standard error (SI):"]
     lines += [f"  {n} = {v!r} +- {f.std_error(n):.3g}" for n, v in f.effect_parameters().items()]
-    lines.append("Simulate it: jointrig sweep --model THIS_FILE (or rig.load_rig).")
+    lines.append("Simulate it: jointrig sweep, with this file as its model option; from Python, "
+                 "rig.load_rig(THIS_FILE).")
 
     def write(tmp):
         tmp.write_text(identified_model_xml(plant, J, header="\n".join(lines)), encoding="utf-8")

@@ -1,6 +1,6 @@
 """How the diagnosis does on every hidden-effect case of studies.hidden_effects.
 
-    python3 scripts/diagnose_cases.py [--snr-db 40] [--seed N] [--json OUT]
+    jointrig cases [--snr-db 40] [--seed N] [--json OUT]
 
 For each case: the rig simulates 9 runs (16 periods each) with the effect hidden, measures
 them at the SNR, and the diagnosis (fit on 6 runs, validate on 3 held out) reports which cause
@@ -12,9 +12,11 @@ gain >= 5, nothing significant for ``none``.
 from __future__ import annotations
 
 import argparse
+
 import time
 from pathlib import Path
 
+from jointrig.commands import add_quiet, command_parser
 from jointrig.rig import load_rig
 from jointrig.studies.hidden_effects import HIDDEN_EFFECTS, simulate_case
 from jointrig.files import write_json_atomic
@@ -22,7 +24,8 @@ from jointrig.studies.validate import run_diagnosis
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = command_parser(__doc__)
+    add_quiet(p)
     p.add_argument("--snr-db", type=float, default=40.0, help="SNR per channel in dB (default: %(default)s)")
     p.add_argument("--seed", type=int, default=None, help="noise seed (default: one per case, from its name)")
     p.add_argument("--json", type=Path, help="write the table as JSON")

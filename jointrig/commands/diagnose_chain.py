@@ -17,12 +17,14 @@ Frequencies in rad/s, torques in N m.
 from __future__ import annotations
 
 import argparse
+
 import logging
 import math
 from pathlib import Path
 
 import numpy as np
 
+from jointrig.commands import add_quiet, command_parser, shipped
 from jointrig.identify.chain_diagnose import diagnose_chain, prepare_chain_runs
 from jointrig.rig.chain import load_chain
 from jointrig.rig.model import DEFAULT_MODEL
@@ -49,11 +51,12 @@ def _point(text: str) -> tuple[float, float, int]:
 
 
 def parse_args(argv=None) -> argparse.Namespace:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = command_parser(__doc__)
     p.add_argument("--truth", type=Path, default=MODELS / "pump_train_worn.xml",
-                   help="chain model that plays the measured train (default: %(default)s)")
+                   help=f"chain model that plays the measured train (default: {shipped(MODELS / 'pump_train_worn.xml')})")
     p.add_argument("--model", type=Path, default=MODELS / "pump_train.xml",
-                   help="the nominal chain model: its bodies and drives replay the held-out runs (default: %(default)s)")
+                   help=f"the nominal chain model: its bodies and drives replay the held-out runs (default: "
+                        f"{shipped(MODELS / 'pump_train.xml')})")
     p.add_argument("--snr-db", type=float, default=40.0, help="SNR per channel in dB (default: %(default)s)")
     p.add_argument("--periods", type=int, default=8, help="measured periods per run (default: %(default)s)")
     p.add_argument("--seed", type=int, default=0, help="noise seed (default: %(default)s)")
@@ -64,7 +67,7 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--no-rrd", action="store_true", help="write no recording")
     p.add_argument("--store", type=Path, default=None, help="keep simulated runs here to resume (default: none)")
     add_backend_option(p)
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+    add_quiet(p)
     return p.parse_args(argv)
 
 

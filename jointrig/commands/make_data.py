@@ -1,7 +1,7 @@
 """Simulate measured runs in the rig and write them in the measured-runs format.
 
-    python3 scripts/make_data.py runs/worn.csv --model models/two_flywheels_worn.xml
-    python3 scripts/diagnose.py runs/worn.csv --report runs/worn.html
+    jointrig make-data runs/worn.csv --model models/two_flywheels_worn.xml
+    jointrig diagnose runs/worn.csv --report runs/worn.html
 
 Every (omega, amplitude) point is one run: the rig is driven to steady state and PERIODS
 whole periods are logged, then measured with Gaussian noise on torque and both angles at
@@ -12,10 +12,12 @@ carries come from the model's ``jointrig_*`` fields (see models/two_flywheels_wo
 from __future__ import annotations
 
 import argparse
+
 import logging
 import sys
 from pathlib import Path
 
+from jointrig.commands import add_quiet, command_parser, shipped
 from jointrig.measured.runs import write_runs
 from jointrig.rig import DEFAULT_MODEL, RigModelError, SimulationError, load_rig
 from jointrig.rig.measurement import simulate_runs
@@ -24,9 +26,9 @@ log = logging.getLogger("make_data")
 
 
 def parse_args(argv=None) -> argparse.Namespace:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = command_parser(__doc__)
     p.add_argument("out", type=Path, help="output file (.csv or .parquet)")
-    p.add_argument("--model", type=Path, default=DEFAULT_MODEL, help="rig MJCF (default: %(default)s)")
+    p.add_argument("--model", type=Path, default=DEFAULT_MODEL, help=f"rig MJCF (default: {shipped(DEFAULT_MODEL)})")
     p.add_argument("--omegas", type=float, nargs="+", default=[25.0, 40.0, 55.0], metavar="RAD_S",
                    help="drive frequencies in rad/s (default: %(default)s)")
     p.add_argument("--amplitudes", type=float, nargs="+", default=[1500.0, 2500.0, 3500.0], metavar="NM",
@@ -36,7 +38,7 @@ def parse_args(argv=None) -> argparse.Namespace:
                    "(default: %(default)s); --no-noise for exact data")
     p.add_argument("--no-noise", action="store_true", help="write the exact simulated signals (no measurement noise)")
     p.add_argument("--seed", type=int, default=0, help="noise seed (default: %(default)s)")
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+    add_quiet(p)
     return p.parse_args(argv)
 
 

@@ -1,6 +1,6 @@
 """The paper's example (Poterasu et al., eq. 12 and the shifted form), ours beside theirs.
 
-    python3 scripts/paper_example.py [--json OUT]
+    jointrig paper [--json OUT]
 
 1. Eq. (12): phi'' + 100 phi' + 2000 phi + 200 phi^3 = 200 cos t, simulated on the rig
    (M0 = 400 N m on flywheel 1; Je = 1 kg m^2 and the torque share 1/2 make the right-hand
@@ -16,12 +16,14 @@
 from __future__ import annotations
 
 import argparse
+
 import dataclasses
 import logging
 from pathlib import Path
 
 import numpy as np
 
+from jointrig.commands import add_quiet, command_parser
 from jointrig.identify import identify, single_dof_system, solve
 from jointrig.vocab import Power, Viscous
 from jointrig.vocab.records import SteadyStateRecord
@@ -61,7 +63,8 @@ def with_torque_noise(record: SteadyStateRecord, snr_db: float, rng: np.random.G
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = command_parser(__doc__)
+    add_quiet(p)
     p.add_argument("--json", type=Path, default=None, help="write the figures as JSON")
     p.add_argument("--snr-db", type=float, default=60.0, help="noise level of part 3 (default: %(default)s)")
     p.add_argument("--seed", type=int, default=1, help="noise seed of part 3 (default: %(default)s)")

@@ -1,11 +1,11 @@
 """Main job: sweep the rig over frequency x amplitude, identify the joint, report, record.
 
-    python3 scripts/run_sweep.py                       # default sweep, runs/sweep.{json,rrd}
-    python3 scripts/run_sweep.py --form two_dof --spawn # J1, J2 and the law; live viewer
-    python3 scripts/run_sweep.py --workers 2            # 2 threads (native callback)
-    python3 scripts/run_sweep.py --noise-db 40          # measured at 40 dB SNR: ML, +- std errors
-    python3 scripts/run_sweep.py --excitation multisine # two odd random-phase multisines
-    python3 scripts/run_sweep.py --executor dask --scheduler tcp://head:8786  # a cluster
+    jointrig sweep                       # default sweep, runs/sweep.{json,rrd}
+    jointrig sweep --form two_dof --spawn # J1, J2 and the law; live viewer
+    jointrig sweep --workers 2            # 2 threads (native callback)
+    jointrig sweep --snr-db 40            # measured at 40 dB SNR: ML, +- std errors
+    jointrig sweep --excitation multisine # two odd random-phase multisines
+    jointrig sweep --executor dask --scheduler tcp://head:8786  # a cluster
 
 Frequencies are in rad/s, drive amplitudes in N m (torque on flywheel 1). Finished sweep
 points are kept in ``--store`` (default: runs/store/<model>-<settings hash>) so an
@@ -15,6 +15,7 @@ interrupted sweep resumes where it stopped.
 from __future__ import annotations
 
 import argparse
+
 import dataclasses
 import logging
 import math
@@ -22,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from jointrig.commands import add_quiet, command_parser, shipped
 from jointrig.identify import FORMS, compare, format_table, identify
 from jointrig.identify.multisine import line_levels
 from jointrig.vocab.law import JointLaw
@@ -36,8 +38,8 @@ log = logging.getLogger("run_sweep")
 
 
 def parse_args(argv=None) -> argparse.Namespace:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--model", type=Path, default=DEFAULT_MODEL, help="rig MJCF (default: %(default)s)")
+    p = command_parser(__doc__)
+    p.add_argument("--model", type=Path, default=DEFAULT_MODEL, help=f"rig MJCF (default: {shipped(DEFAULT_MODEL)})")
     p.add_argument("--omegas", type=float, nargs="+", default=None,
                    metavar="RAD_S", help=f"drive frequencies in rad/s (default: {list(DEFAULT_PLAN.omegas_rad_s)}; "
                                          f"for a chain model, studies.chain_sweep.CHAIN_PLAN)")
@@ -85,15 +87,15 @@ def parse_args(argv=None) -> argparse.Namespace:
                         "of --workers processes)")
     p.add_argument("--continuation", action="store_true",
                    help="start each frequency from the previous one's steady state (same amplitude)")
-    p.add_argument("--noise-db", type=float, default=None, metavar="DB",
+    p.add_argument("--snr-db", "--noise-db", dest="noise_db", type=float, default=None, metavar="DB",
                    help="measure every run with white Gaussian noise on both angles and the torque at this SNR "
                         "per channel (rates not recorded) and identify by errors-in-variables maximum likelihood "
                         "(identify/eiv.py) (default: no noise, least squares)")
     p.add_argument("--periods", type=int, default=8,
-                   help="measured periods per run with --noise-db (the noise is estimated from their variation) "
+                   help="measured periods per run with --snr-db (the noise is estimated from their variation) "
                         "(default: %(default)s)")
-    p.add_argument("--seed", type=int, default=0, help="noise seed with --noise-db (default: %(default)s)")
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+    p.add_argument("--seed", type=int, default=0, help="noise seed with --snr-db (default: %(default)s)")
+    add_quiet(p)
     return p.parse_args(argv)
 
 
@@ -111,7 +113,7 @@ def main(argv=None) -> int:
         raise ValueError("--excitation multisine simulates its runs here, one after another: drop --executor, "
                          "--workers and --continuation")
     if args.noise_db is not None and args.form != "equivalent":
-        raise ValueError("--noise-db identifies the equivalent form (Je and the law): drop --form two_dof")
+        raise ValueError("--snr-db identifies the equivalent form (Je and the law): drop --form two_dof")
     if args.periods < 2:
         raise ValueError(f"--periods must be >= 2 (the noise is estimated from their variation), got {args.periods}")
     from jointrig.rig.runtime import check_each, check_output, check_range

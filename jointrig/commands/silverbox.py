@@ -1,6 +1,6 @@
 """The Silverbox benchmark end to end: estimate on the 10 multisine periods only, test on the arrow.
 
-    python3 scripts/silverbox.py [--data DIR] [--json OUT] [--rrd OUT]
+    jointrig silverbox [--data DIR] [--json OUT] [--rrd OUT]
 
 1. Harmonic balance (all lines 0..2700, i.e. every excited and non-excited line in the band) for
    the Duffing model m y'' + d y' + a y + b y^3 = u: the starting point.
@@ -16,6 +16,7 @@ The arrow is never used for estimation or selection.
 from __future__ import annotations
 
 import argparse
+
 import logging
 import math
 import time
@@ -23,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from jointrig.commands import add_quiet, command_parser
 from jointrig.rig.runtime import progress_level
 
 # The numerical stack is imported in main, after the arguments are parsed: --help answers at once.
@@ -71,11 +73,12 @@ def _params(names, values, stds):
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--data", type=Path, default=None, help="Silverbox directory (default ../shared/data/silverbox)")
+    p = command_parser(__doc__)
+    p.add_argument("--data", type=Path, default=None, help="Silverbox directory (default: $JOINTRIG_SILVERBOX, else shared/data/silverbox beside the "
+                                                                   "jointrig source tree)")
     p.add_argument("--json", type=Path, default=None, help="write the figures (parameters, RMS errors in mV) as JSON")
     p.add_argument("--rrd", type=Path, default=None, help="rerun recording of the arrow test and the residual spectra")
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+    add_quiet(p)
     args = p.parse_args(argv)
     from jointrig.vocab import Power, Viscous
     from jointrig.identify.causes import DEFAULT_SEPARATION, SEPARATING_EXCITATION

@@ -1,10 +1,10 @@
 """A joint law of unknown form, recovered on hat functions (eq. 8) from noisy runs.
 
-    python3 scripts/unknown_law.py [--model models/two_flywheels_kink.xml] [--knots 41]
-                                   [--noise-db 40] [--periods 8] [--lam L] [--rrd OUT] [--png OUT]
+    jointrig unknown-law [--model models/two_flywheels_kink.xml] [--knots 41]
+                                   [--snr-db 40] [--periods 8] [--lam L] [--rrd OUT] [--png OUT]
 
 The model's joint (default: 2000 N m/rad stiffening abruptly to 16000 N m/rad at +-0.2 rad)
-is swept over the default plan, every run measured over ``--periods`` periods at ``--noise-db``
+is swept over the default plan, every run measured over ``--periods`` periods at ``--snr-db``
 per channel, and g(phi) identified on ``--knots`` hat functions over the measured range,
 with Je and viscous damping, by the errors-in-variables ML harmonic balance with a
 smoothness penalty chosen by generalised cross-validation (identify/hat.py). It prints the
@@ -17,11 +17,13 @@ true law and the best quintic.
 from __future__ import annotations
 
 import argparse
+
 import logging
 from pathlib import Path
 
 import numpy as np
 
+from jointrig.commands import add_quiet, command_parser, shipped
 from jointrig.identify.hat import fit_hat_law
 from jointrig.rig import DEFAULT_MODEL, SimulationConfig, load_rig
 from jointrig.rig.measurement import add_noise, repeat_periods
@@ -34,10 +36,11 @@ log = logging.getLogger("jointrig.unknown-law")
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--model", type=Path, default=MODEL, help="rig MJCF whose joint is to be recovered (default: %(default)s)")
+    p = command_parser(__doc__)
+    p.add_argument("--model", type=Path, default=MODEL, help=f"rig MJCF whose joint is to be recovered (default: {shipped(MODEL)})")
     p.add_argument("--knots", type=int, default=41, help="hat functions over the measured range (default: %(default)s)")
-    p.add_argument("--noise-db", type=float, default=40.0, help="SNR per channel, dB (default: %(default)s)")
+    p.add_argument("--snr-db", "--noise-db", dest="noise_db", type=float, default=40.0,
+                   help="SNR per channel, dB (default: %(default)s)")
     p.add_argument("--periods", type=int, default=8, help="measured periods per run (default: %(default)s)")
     p.add_argument("--harmonics", type=int, default=9, help="harmonics 0..H balanced (default: %(default)s)")
     p.add_argument("--lam", type=float, default=None, help="penalty weight (default: chosen by GCV; 0: none)")
@@ -47,7 +50,7 @@ def main(argv=None) -> int:
     p.add_argument("--seed", type=int, default=0, help="noise seed (default: %(default)s)")
     p.add_argument("--rrd", type=Path, default=Path("runs/unknown_law.rrd"), help="rerun recording (default: %(default)s)")
     p.add_argument("--png", type=Path, default=Path("runs/unknown_law.png"), help="static figure (default: %(default)s)")
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+    add_quiet(p)
     args = p.parse_args(argv)
     from jointrig.rig.runtime import check_output, check_range, progress_level
 
@@ -56,7 +59,7 @@ def main(argv=None) -> int:
     if not args.model.is_file():
         raise ValueError(f"--model {args.model}: no such file")
     check_range(args.knots, "--knots", lo=3, hi=1000, integer=True)
-    check_range(args.noise_db, "--noise-db", lo=0, hi=200, lo_open=True)
+    check_range(args.noise_db, "--snr-db", lo=0, hi=200, lo_open=True)
     check_range(args.periods, "--periods", lo=2, hi=10000, integer=True)
     check_range(args.harmonics, "--harmonics", lo=1, hi=100, integer=True)
     if args.lam is not None:

@@ -1,0 +1,128 @@
+"""The answer of a diagnosis in plain words: what a test engineer reads first (pure).
+
+The report's first screen and the text's second line come from here: the verdict as a sentence,
+each adopted cause with its size and what it is, the parameters of the model as given beside the
+data's, and what to measure next. Figures that need a word of explanation (chi2/dof, the gain,
+the noise floor) carry it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from jointrig.identify.causes import CATALOGUE
+from jointrig.studies.validate import DiagnosisReport
+
+from .formatting import quantity_of, unit_of, with_se
+
+__all__ = ["plain_verdict", "ParameterRow", "parameter_rows", "adopted_causes", "next_steps"]
+
+_DESCRIPTION = {c.name: c.description for c in CATALOGUE}
+
+
+def _fits(report: DiagnosisReport) -> str:
+    d = report.diagnosis
+    f = d.extended if report.adopted else d.nominal
+    c2 = f.chi2 / max(f.dof, 1)
+    return f"the model fits the runs to their noise (chi2/dof {c2:.2g}: about 1 when only noise is left)"
+
+
+def plain_verdict(report: DiagnosisReport) -> str:
+    """The verdict as one or two sentences without jargon."""
+    v = report.verdict
+    d = report.diagnosis
+    floor = report.noise_floor_rad
+    ratio = report.validation_rms("extended" if report.adopted else "nominal") / floor if floor > 0 else math.nan
+    held = ("runs it was not fitted on" if report.validation_kind == "held_out_runs"
+            else "later periods of the runs, which it was not fitted on")
+    if v.verdict == "no_misfit":
+        return (f"Your model explains the data: {_fits(report)}, and simulated in the rig it predicts the "
+                f"{held} to {ratio:.2g} times the noise floor. No cause needs to be added.")
+    if v.verdict == "explained":
+        causes = "; ".join(f"{a.what} ({a.quantity} {a.value})" for a in adopted_causes(report))
+        gain = (f"{report.gain:.3g} times better than without" if math.isfinite(report.gain)
+                else "where the model without it reaches no steady state")
+        return (f"Your model misses {causes}. With it, {_fits(report)}, and simulated in the rig it predicts the "
+                f"{held} {gain} (at {ratio:.2g} times the noise floor).")
+    tried = " + ".join(d.effects)
+    return ("Your model does not explain the data, and no known cause does"
+            + (f": the best candidate ({tried}) was rejected" if tried else "")
+            + ". Nothing is added to the model; what the misfit looks like and what to measure next are below.")
+
+
+@dataclass(frozen=True)
+class AdoptedCause:
+    """An adopted cause: its name, what it is in words, the size parameter and its value."""
+
+    name: str
+    what: str
+    quantity: str
+    value: str
+
+
+def adopted_causes(report: DiagnosisReport) -> tuple[AdoptedCause, ...]:
+    d = report.diagnosis
+    ext = d.extended
+    params = ext.effect_parameters()
+    out = []
+    for step in d.steps:
+        if step.effect not in report.adopted:
+            continue
+        name = step.magnitude[0]
+        value = params.get(name, step.magnitude[1])
+        unit = unit_of(name)
+        out.append(AdoptedCause(step.effect, _DESCRIPTION.get(step.effect, step.effect).split(":")[0],
+                                quantity_of(name), f"{with_se(value, ext.std_error(name))}{' ' + unit if unit else ''}"))
+    return tuple(out)
+
+
+@dataclass(frozen=True)
+class ParameterRow:
+    """A parameter of the model as given (fitted to the data) beside the extended model's, and
+    whether the two differ by more than twice their combined standard error."""
+
+    quantity: str
+    unit: str
+    as_given: str
+    with_causes: str
+    differs: bool
+
+
+def parameter_rows(report: DiagnosisReport) -> tuple[ParameterRow, ...]:
+    """The nominal model's parameters (the structure as given, fitted to the data) and, when a
+    cause is adopted, the same parameters in the extended model; then the causes' own."""
+    d = report.diagnosis
+    nom, ext = d.nominal, d.extended
+    extended = bool(report.adopted)
+    out = []
+    for name, v in nom.as_dict().items():
+        se = nom.std_error(name)
+        if extended and name in ext.names:
+            w, se2 = ext.as_dict()[name], ext.std_error(name)
+            both = math.hypot(se, se2) if math.isfinite(se) and math.isfinite(se2) else math.nan
+            out.append(ParameterRow(quantity_of(name), unit_of(name), with_se(v, se), with_se(w, se2),
+                                    bool(abs(v - w) > 2 * both)))
+        else:
+            out.append(ParameterRow(quantity_of(name), unit_of(name), with_se(v, se), "", False))
+    if extended:
+        for name, w in ext.effect_parameters().items():
+            if name not in nom.names:
+                out.append(ParameterRow(quantity_of(name), unit_of(name), "-", with_se(w, ext.std_error(name)), True))
+    return tuple(out)
+
+
+def next_steps(report: DiagnosisReport) -> tuple[str, ...]:
+    """What to measure or do next, in words."""
+    d = report.diagnosis
+    if report.verdict.verdict == "unexplained":
+        return tuple(report.next_measurements)
+    out = [f"{a.effects[0]} and {a.effects[1]} explain the same part of the data; to tell them apart: {a.excitation}"
+           for a in d.ambiguous]
+    if report.validation_kind != "held_out_runs":
+        out.append("runs at other drive levels or frequencies: the model was checked only on later periods of the "
+                   "same runs")
+    if report.verdict.verdict == "explained":
+        out.append("put the adopted cause into your model (--mjcf writes the extended model as MuJoCo XML) and "
+                   "check it at the operating point that matters to you")
+    return tuple(out)
