@@ -29,6 +29,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -223,11 +224,64 @@ def _read_parquet(path: Path) -> list[RawTable]:
 # ------------------------------------------------------------------------------------- MAT
 
 
-def _read_mat(path: Path) -> list[RawTable]:
+def _loadmat(path: Path) -> dict:
     import scipy.io
 
+    return scipy.io.loadmat(path, squeeze_me=True, struct_as_record=False)
+
+
+def _in_a_fork(fn, path: Path):
+    """``fn(path)`` in a forked child where ``fork`` exists, its result sent back: a reader that
+    crashes the process on a corrupt file (scipy's MAT v5 reader has died by SIGSEGV on a
+    duplicated byte block, with no message at all) ends only the child, and the file is refused
+    by name. Exceptions come back as they were raised."""
+    import multiprocessing
+    import pickle
+
+    if "fork" not in multiprocessing.get_all_start_methods():
+        return fn(path)
+    ctx = multiprocessing.get_context("fork")
+    receive, send = ctx.Pipe(duplex=False)
+    child = ctx.Process(target=_forked_call, args=(send, receive, fn, path), name="jointrig-reader")
+    child.start()
+    send.close()
     try:
-        mat = scipy.io.loadmat(path, squeeze_me=True, struct_as_record=False)
+        ok, value = receive.recv()
+    except EOFError:
+        child.join()
+        raise FormatError(f"{path}: the reader crashed on this file (exit {child.exitcode}): it is corrupt or not what "
+                          f"its extension says") from None
+    except pickle.UnpicklingError as err:
+        child.join()
+        raise FormatError(f"{path}: cannot be read ({err})") from None
+    finally:
+        receive.close()
+    child.join()
+    if not ok:
+        raise value
+    return value
+
+
+def _forked_call(send, receive, fn, path) -> None:
+    from jointrig.parallel import die_with_parent
+
+    receive.close()
+    die_with_parent(os.getppid())
+    try:
+        answer = (True, fn(path))
+    except Exception as err:  # noqa: BLE001 - raised again in the parent
+        answer = (False, err)
+    try:
+        send.send(answer)
+    except Exception as err:  # noqa: BLE001 - a value that does not pickle
+        send.send((False, FormatError(f"{path}: read, but its contents cannot be passed on ({err})")))
+
+
+def _read_mat(path: Path) -> list[RawTable]:
+    try:
+        mat = _in_a_fork(_loadmat, path)
+    except FormatError:
+        raise
     except NotImplementedError:  # v7.3: HDF5
         return _read_hdf5(path)
     except Exception as err:  # noqa: BLE001 - scipy raises many types for a bad file
@@ -459,5 +513,5 @@ def read_tables(path: Path) -> list[RawTable]:
     except FormatError:
         raise
     except (OSError, ValueError, TypeError, KeyError, IndexError, AttributeError, UnicodeError,
-            OverflowError, MemoryError) as err:
+            OverflowError, MemoryError, RuntimeError) as err:  # h5py raises RuntimeError on a corrupt file
         raise FormatError(f"{path}: cannot be read as {path.suffix} ({type(err).__name__}: {err})") from None

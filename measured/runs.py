@@ -214,7 +214,12 @@ def _resolve(table: RawTable, columns: dict, units: dict, notes: list) -> tuple[
             raise RunsFileError(f"{where}: column '{src}' holds a non-number ({col[bad]!r} in data row {bad + 1}); "
                                 f"expected numbers in {COLUMNS[canon]}")
         col = col.astype(float)
-        unit = units.get(canon) or table.units.get(src)
+        given, in_file = units.get(canon), table.units.get(src)
+        if given is not None and in_file is not None and _norm_unit(given) != _norm_unit(in_file) \
+                and _unit_factor(where, canon, given) != _unit_factor(where, canon, in_file):
+            raise RunsFileError(f"{where}: column '{src}' is in {in_file!r} by the file's header, but {given!r} by "
+                                f"--units or the sidecar: units given twice must agree; drop one")
+        unit = given or in_file
         if unit is not None:
             f = _unit_factor(where, canon, unit)
             if f != 1.0:

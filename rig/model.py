@@ -219,6 +219,19 @@ def load_rig(path: Union[str, os.PathLike] = DEFAULT_MODEL) -> RigModel:
             raise RigModelError(f"{src}: joint '{name}' must be a hinge, got {mujoco.mjtJoint(model.jnt_type[jid]).name}")
     if not np.allclose(model.jnt_axis[joint_ids[0]], model.jnt_axis[joint_ids[1]]):
         raise RigModelError(f"{src}: joints 'phi1' and 'phi2' must share their axis (coaxial flywheels)")
+    for name, jid in zip(JOINTS, joint_ids):
+        own = {field: float(getattr(model, attr)[model.jnt_dofadr[jid]] if attr.startswith("dof")
+                            else getattr(model, attr)[jid])
+               for field, attr in (("damping", "dof_damping"), ("frictionloss", "dof_frictionloss"),
+                                   ("stiffness", "jnt_stiffness"), ("armature", "dof_armature"))}
+        set_fields = {k: v for k, v in own.items() if v != 0.0}
+        if set_fields:
+            raise RigModelError(f"{src}: joint '{name}' sets MuJoCo's own {', '.join(f'{k}={v:g}' for k, v in set_fields.items())}: "
+                                f"the rig applies the joint law from the jointrig_* fields and would add these on "
+                                f"top, counting them twice or where the law does not say; state them as jointrig "
+                                f"fields (damping between the flywheels: jointrig_c_Nms_per_rad; to ground: "
+                                f"jointrig_bearing1_damping_Nms_per_rad; dry friction: jointrig_coulomb_torque_Nm; "
+                                f"inertia: the body's) and set them to 0 here")
     act = _find(model, mujoco.mjtObj.mjOBJ_ACTUATOR, ACTUATOR, "actuator", src)
     if model.actuator_trnid[act, 0] != joint_ids[0]:
         raise RigModelError(f"{src}: actuator '{ACTUATOR}' must drive joint 'phi1'")

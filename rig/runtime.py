@@ -78,6 +78,32 @@ def check_output(path, option: str) -> None:
         raise BadArgument(f"{option} {p}: cannot create a file in {parent} ({err.strerror})") from None
 
 
+def check_folder(path, option: str) -> None:
+    """Refuse an output folder before any work: a file in its place, or a place where the folder
+    cannot be made or written (probed by creating and removing a temporary file in it, or in the
+    nearest existing folder above it)."""
+    import os
+    import tempfile
+    from pathlib import Path
+
+    if path is None:
+        return
+    p = Path(path)
+    if p.exists() and not p.is_dir():
+        raise BadArgument(f"{option} {p}: is a file; expected a folder")
+    place = p
+    while not place.exists():
+        place = place.parent
+    if not place.is_dir():
+        raise BadArgument(f"{option} {p}: {place} is a file, not a folder")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".jointrig-probe.", dir=place)
+        os.close(fd)
+        os.unlink(tmp)
+    except OSError as err:
+        raise BadArgument(f"{option} {p}: cannot write in {place} ({err.strerror})") from None
+
+
 def check_range(value, option: str, *, lo=None, hi=None, lo_open=False, hi_open=False, integer=False) -> None:
     """Refuse a numeric option outside [lo, hi] (open ends where asked), or not finite."""
     import math

@@ -326,6 +326,7 @@ def test_diagnose_command_refuses_bad_data(tmp_path, capsys, data, match):
     (["{tmp}/out.csv", "--omegas", "-5"], "--omegas -5.0"),
     (["{tmp}/out.csv", "--model", "{tmp}/nope.xml"], "nope.xml"),
     (["/proc/out.csv"], "cannot create a file"),
+    (["{tmp}/out.csv", "--seed", "-1"], "--seed -1"),
 ])
 def test_make_data_command(tmp_path, capsys, args, match):
     args = [a.format(tmp=tmp_path) for a in args]
@@ -343,12 +344,22 @@ def test_make_data_command(tmp_path, capsys, args, match):
     (["--omegas", "0"], "--omegas 0.0"),
     (["--amplitudes", "nan"], "--amplitudes nan"),
     (["--model", "{tmp}/none.xml"], "none.xml"),
+    # issue 38: limits every numeric option states, the option named (1e7 samples hung, 1e-6 rad/s
+    # was a MemoryError, the rest were ignored or named no option)
+    (["--samples-per-period", "10000000"], "--samples-per-period 10000000: expected an integer in [8, 65536]"),
+    (["--omegas", "1e-6"], "--omegas 1e-06: expected a number in [0.1, 10000]"),
+    (["--seed", "-1"], "--seed -1"),
+    (["--sample-rate-hz", "0"], "--sample-rate-hz 0.0"),
+    (["--sample-rate-hz", "nan"], "--sample-rate-hz nan"),
+    (["--drive-at", "0"], "--drive-at 0"),
+    (["--snr-db", "-200"], "--snr-db -200.0"),
+    (["--store", "/proc/st"], "--store /proc/st: cannot write in /proc"),
 ])
 def test_run_sweep_command(tmp_path, capsys, args, match):
     from jointrig.rig.runtime import run_cli
 
     args = [a.format(tmp=tmp_path) for a in args]
-    code = run_cli(_script("run_sweep").main, "run_sweep.py", ["--no-store", "-q", *args])
+    code = run_cli(_script("run_sweep").main, "run_sweep.py", ([] if "--store" in args else ["--no-store"]) + ["-q", *args])
     err = capsys.readouterr().err
     assert code == 2 and match in err, err
 
@@ -361,6 +372,11 @@ def test_run_sweep_command(tmp_path, capsys, args, match):
     ("unknown_law", ["--periods", "1"], "--periods 1"),
     ("unknown_law", ["--model", "/nonexistent.xml"], "no such file"),
     ("unknown_law", ["--png", "/proc/u.png"], "cannot create a file"),
+    # issue 38: these wrote their outputs only after the work, and a bad path was a traceback
+    ("paper_example", ["--json", "/proc/p.json"], "--json /proc/p.json: cannot create a file"),
+    ("diagnose_cases", ["--json", "/proc/c.json"], "--json /proc/c.json: cannot create a file"),
+    ("silverbox", ["--json", "/proc/s.json"], "--json /proc/s.json: cannot create a file"),
+    ("silverbox", ["--rrd", "/proc/s.rrd"], "--rrd /proc/s.rrd: cannot create a file"),
 ])
 def test_other_commands_check_arguments_first(capsys, script, args, match):
     from jointrig.rig.runtime import run_cli
@@ -499,3 +515,45 @@ def test_every_missing_column_is_named_at_once(tmp_path):
     (tmp_path / "lab.csv").write_text("run,time,torque,phi1\n0,0,1,2\n")
     with pytest.raises(RunsFileError, match=r"missing column\(s\) phi2;"):
         read_runs(tmp_path / "lab.csv")
+
+
+def test_mujoco_joint_fields_beside_the_law_are_refused(tmp_path):
+    # issue 38: MuJoCo's own damping on a flywheel's hinge was added on top of the jointrig law
+    # ("status ok" with k 51% off)
+    text = (ROOT / "models" / "two_flywheels.xml").read_text()
+    (tmp_path / "own.xml").write_text(text.replace('<joint name="phi2" type="hinge" axis="0 0 1" damping="0"',
+                                                   '<joint name="phi2" type="hinge" axis="0 0 1" damping="3"', 1))
+    with pytest.raises(RigModelError, match=r"joint 'phi2' sets MuJoCo's own damping=3"):
+        load_rig(tmp_path / "own.xml")
+
+
+def test_units_given_twice_must_agree(tmp_path):
+    # issue 38: --units contradicting a header that says [rad] won without a word (57x off)
+    text = good_csv().replace("run,time,torque,phi1,phi2", "run,time [s],torque [N m],phi1 [rad],phi2 [rad]", 1)
+    (tmp_path / "d.csv").write_text(text)
+    with pytest.raises(RunsFileError, match=r"column 'phi1 \[rad\]'|column 'phi1'.*units given twice must agree"):
+        read_runs(tmp_path / "d.csv", units="phi1=deg")
+    assert len(read_runs(tmp_path / "d.csv", units="phi1=rad").records) == 1  # the same unit twice is fine
+
+
+def test_a_reader_that_crashes_the_process_is_a_clear_error(tmp_path, monkeypatch):
+    # issue 38: scipy's MAT v5 reader died by SIGSEGV on a fuzzed file, with no message at all.
+    # The MAT reader runs in a forked child: a crash there ends the child, and the file is named.
+    import os
+    import signal
+
+    import scipy.io
+
+    from jointrig.measured import formats
+
+    t = np.arange(0, 0.5, 0.001)
+    scipy.io.savemat(tmp_path / "runs.mat", {"time": t, "torque": np.cos(60 * t), "phi1": np.sin(60 * t),
+                                             "phi2": 0.5 * np.sin(60 * t)})
+    assert formats.read_tables(tmp_path / "runs.mat")  # read whole through the child
+
+    def crash(path):
+        os.kill(os.getpid(), signal.SIGSEGV)
+
+    monkeypatch.setattr(formats, "_loadmat", crash)
+    with pytest.raises(formats.FormatError, match=r"runs\.mat: the reader crashed on this file \(exit -11\)"):
+        formats.read_tables(tmp_path / "runs.mat")

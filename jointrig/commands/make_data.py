@@ -52,6 +52,7 @@ def main(argv=None) -> int:
         check_output(args.out, "out")
         check_range(args.periods, "--periods", lo=2, hi=10000, integer=True)
         check_range(args.snr_db, "--snr-db", lo=0, hi=200, lo_open=True)
+        check_range(args.seed, "--seed", lo=0, hi=2**32 - 1, integer=True)
         check_each(args.omegas, "--omegas", lo=0, hi=1e4, lo_open=True)
         check_each(args.amplitudes, "--amplitudes", lo=0, hi=1e7, lo_open=True)
     except BadArgument as err:

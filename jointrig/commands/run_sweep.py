@@ -105,6 +105,12 @@ def truth_of(rig, form: str) -> dict[str, float]:
     return {**inertia, **rig.law.as_dict()}
 
 
+#: The lowest drive frequency a sweep takes (rad/s): a period of about a minute.
+MIN_OMEGA_RAD_S = 0.1
+#: The most integrator steps one period may take (a run then takes minutes, not days).
+MAX_STEPS_PER_PERIOD = 2e6
+
+
 def main(argv=None) -> int:
     args = parse_args(argv)
     logging.basicConfig(level=progress_level(args.quiet),
@@ -116,21 +122,40 @@ def main(argv=None) -> int:
         raise ValueError("--snr-db identifies the equivalent form (Je and the law): drop --form two_dof")
     if args.periods < 2:
         raise ValueError(f"--periods must be >= 2 (the noise is estimated from their variation), got {args.periods}")
-    from jointrig.rig.runtime import check_each, check_output, check_range
+    from jointrig.rig.runtime import check_each, check_folder, check_output, check_range
 
     check_output(args.json, "--json")
+    if not args.no_store:
+        check_folder(args.store, "--store")
     if not args.no_rrd:
         check_output(args.rrd, "--rrd")
     if args.harmonics is not None:
         check_range(args.harmonics, "--harmonics", lo=1, hi=1000, integer=True)
     check_range(args.workers, "--workers", lo=1, hi=256, integer=True)
+    # Ranges a run can be simulated in: a period of at most MAX_STEPS_PER_PERIOD steps, a
+    # record of at most 65536 samples per period (issue 38: 1e7 samples hung, omega 1e-6 rad/s
+    # asked for 468 GiB).
+    check_range(args.samples_per_period, "--samples-per-period", lo=8, hi=65536, integer=True)
+    check_range(args.max_step, "--max-step", lo=1e-7, hi=0.1)
+    check_range(args.settle_tol, "--settle-tol", lo=1e-14, hi=1e-2)
+    check_range(args.seed, "--seed", lo=0, hi=2**32 - 1, integer=True)
+    check_range(args.drive_at, "--drive-at", lo=1, hi=8, integer=True)
+    if args.noise_db is not None:
+        check_range(args.noise_db, "--snr-db", lo=0, hi=200, lo_open=True)
+    if args.sample_rate_hz is not None:
+        check_range(args.sample_rate_hz, "--sample-rate-hz", lo=0, hi=1e7, lo_open=True)
     from jointrig.rig.chain import is_chain_model
 
     if is_chain_model(args.model):
         return chain_main(args)
     omegas = list(DEFAULT_PLAN.omegas_rad_s) if args.omegas is None else args.omegas
     amplitudes = list(DEFAULT_PLAN.amplitudes_Nm) if args.amplitudes is None else args.amplitudes
-    check_each(omegas, "--omegas", lo=0, hi=1e4, lo_open=True)
+    check_each(omegas, "--omegas", lo=MIN_OMEGA_RAD_S, hi=1e4)
+    longest = 2 * math.pi / min(omegas) / args.max_step
+    if longest > MAX_STEPS_PER_PERIOD:
+        raise ValueError(f"--omegas {min(omegas):g} rad/s: a period of {2 * math.pi / min(omegas):.3g} s is "
+                         f"{longest:.3g} steps of --max-step {args.max_step:g} s; at most {MAX_STEPS_PER_PERIOD:g} "
+                         f"(raise --max-step or the frequency)")
     check_each(amplitudes, "--amplitudes", lo=0, hi=1e7, lo_open=True)
     rig = load_rig(args.model)
     plan = SweepPlan(tuple(omegas), tuple(amplitudes))

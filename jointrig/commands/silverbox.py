@@ -80,6 +80,10 @@ def main(argv=None) -> int:
     p.add_argument("--rrd", type=Path, default=None, help="rerun recording of the arrow test and the residual spectra")
     add_quiet(p)
     args = p.parse_args(argv)
+    from jointrig.rig.runtime import check_output
+
+    check_output(args.json, "--json")
+    check_output(args.rrd, "--rrd")
     from jointrig.vocab import Power, Viscous
     from jointrig.identify.causes import DEFAULT_SEPARATION, SEPARATING_EXCITATION
     from jointrig.identify.extend import (extend_model, indistinguishable, residual_analysis, residual_spectrum,
