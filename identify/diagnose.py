@@ -1018,6 +1018,9 @@ class Diagnosis:
     n_harmonics: int
     noise_std: dict
     notes: tuple[str, ...] = ()
+    #: what in the fitted model says the data may be read wrong (an inertia that is no flywheel's):
+    #: shown before the causes, since no cause can mend a file read wrong
+    plausibility: tuple[str, ...] = ()
 
     @property
     def effects(self) -> tuple[str, ...]:
@@ -1119,7 +1122,8 @@ def _with_new_columns(problem: _Problem, work: Callable):
 def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmonics: int = 20,
              torque_share: float = 0.5, alpha: float = 1e-3, max_effects: int = 3,
              fidelity: float = DEFAULT_FIDELITY, causes: Sequence[Cause] = CAUSES,
-             workers: Optional[int] = None, progress: Optional[Callable[[str], None]] = None) -> Diagnosis:
+             workers: Optional[int] = None, progress: Optional[Callable[[str], None]] = None,
+             nominal_spec: ModelSpec = NOMINAL) -> Diagnosis:
     """Fit the nominal model, rank causes by evidence, extend greedily (module docstring).
 
     The mean (harmonic 0) is not balanced: every sensor's zero is arbitrary on a bench (an
@@ -1134,6 +1138,8 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
       alpha: family-wise false-alarm probability over the causes of one round.
       workers: processes that score the causes of a round (default :func:`default_workers`).
       progress: optional callable ``(message) -> None``: each round and each cause scored.
+      nominal_spec: the structure the user's model has (default the paper's eq. 11: c phi' + k phi
+        + gamma phi^3); the causes extend it.
       fidelity: model-fidelity floor added to every row's noise, relative to the run's
         largest balanced torque: a misfit below ``fidelity`` times that is not evidence.
         Harmonic balance of a law with a jump (dry friction) from angles band-limited to
@@ -1162,7 +1168,7 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
                      f"sharpen the significance tests)")
     say = progress or (lambda msg: None)
     say(f"fitting the nominal model (paper eq. 11) to {len(runs)} runs, harmonics 1..{H}")
-    nominal, w = fit(problem, NOMINAL)
+    nominal, w = fit(problem, nominal_spec)
     ambiguous: list[Ambiguity] = []
     kind_of = {c.name: c.kind for c in causes}
     by_name = {c.name: c for c in causes}
@@ -1233,19 +1239,19 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
     first = list(chosen.rounds[0]) if chosen.rounds else []
     steps = list(chosen.adopted)
     if len(steps) > 1:
-        steps, current = _needed(problem, steps, chosen.base, by_name, alpha, say)
+        steps, current = _needed(problem, steps, chosen.base, by_name, alpha, say, nominal_spec)
     noise = {}
     for ch in runs[0].noise_std:
         noise[ch] = float(np.median([r.noise_std[ch] for r in runs]))
     return Diagnosis(nominal, tuple(first), tuple(steps), current, tuple(ambiguous), form, torque_share, H,
-                     noise, tuple(notes))
+                     noise, tuple(notes), implausible_inertias(nominal))
 
 
-def _spec_of(steps: Sequence[CauseScore], final: Fit, by_name: dict) -> ModelSpec:
+def _spec_of(steps: Sequence[CauseScore], final: Fit, by_name: dict, nominal: ModelSpec = NOMINAL) -> ModelSpec:
     """The nominal structure extended by ``steps``' causes, each nonlinear parameter at its
     value in ``final``."""
     params = final.effect_parameters()
-    spec = NOMINAL
+    spec = nominal
     for step in steps:
         cause = by_name[step.effect]
         spec = cause.extend(spec, params.get(cause.profiled, 0.0) if cause.profiled else 0.0)
@@ -1253,7 +1259,7 @@ def _spec_of(steps: Sequence[CauseScore], final: Fit, by_name: dict) -> ModelSpe
 
 
 def _needed(problem: _Problem, steps: list[CauseScore], base: tuple, by_name: dict, alpha: float,
-            say: Callable[[str], None]) -> tuple[list[CauseScore], Fit]:
+            say: Callable[[str], None], nominal: ModelSpec = NOMINAL) -> tuple[list[CauseScore], Fit]:
     """Parsimony after the forward selection: a cause stays adopted only if the model without it
     fails, i.e. removing it (the others kept at their fitted nonlinear parameters, the final
     model's weights) raises chi-square significantly (:func:`identify.causes.evidence` at
@@ -1265,7 +1271,7 @@ def _needed(problem: _Problem, steps: list[CauseScore], base: tuple, by_name: di
         tests = []
         for step in steps:
             rest = [s for s in steps if s is not step]
-            without = _solve(problem, _spec_of(rest, current, by_name), weights, start)
+            without = _solve(problem, _spec_of(rest, current, by_name, nominal), weights, start)
             tests.append((evidence(without.chi2 - current.chi2, step.n_params, current.n_rows, alpha), step))
         (score, _, needed), weakest = min(tests, key=lambda t: t[0][0])
         if needed:
@@ -1274,7 +1280,7 @@ def _needed(problem: _Problem, steps: list[CauseScore], base: tuple, by_name: di
             f"(the model without it explains the data as well): dropped")
         steps = [s for s in steps if s is not weakest]
         carried = tuple(pe for s in steps for pe in s.fit.profile_std_errors)
-        current, weights = fit(problem, _spec_of(steps, current, by_name))
+        current, weights = fit(problem, _spec_of(steps, current, by_name, nominal))
         current = replace(current, profile_std_errors=carried)
     return steps, current
 
@@ -1298,6 +1304,36 @@ def _parsimonious(ranked: list[CauseScore], by_name: dict, n_rows: int, alpha: f
             out.remove(richer)
             out.insert(out.index(simpler) + 1, richer)
     return out
+
+
+#: Flywheel inertias further apart than this ratio are not a bench's two flywheels.
+INERTIA_RATIO = 1000.0
+
+
+def implausible_inertias(f: Fit) -> tuple[str, ...]:
+    """What a fitted model says about how the data were read (pure): a negative or zero inertia,
+    or one a thousand times below the other, is no flywheel's; a significantly negative damping
+    feeds energy in. Their likely causes are named: a torque that is not the drive on flywheel 1
+    (a shaft torque is the joint's own), swapped angle columns, signs, or other units than the
+    file says."""
+    p = f.as_dict()
+    J = {n: p[n] for n in (J1, J2, JE) if n in p}
+    bad = [n for n, v in J.items() if not v > 0]
+    if not bad and J1 in J and J2 in J and max(J[J1], J[J2]) > INERTIA_RATIO * min(J[J1], J[J2]):
+        bad = [J1 if J[J1] < J[J2] else J2]
+    out = []
+    if bad:
+        values = ", ".join(f"{n.split('_')[0]} = {v:.3g} kg m^2" for n, v in J.items())
+        out.append(f"the fitted inertias ({values}) are no flywheels': check that 'torque' is the drive torque on "
+                   f"flywheel 1 (a torque measured in the shaft between the flywheels is the joint's own torque, not a "
+                   f"drive), that phi1 is the driven flywheel's angle, and the units (torque in N m, not N mm; angles "
+                   f"in rad, not deg)")
+    c, se = p.get("c_Nms_per_rad"), f.std_error("c_Nms_per_rad") if "c_Nms_per_rad" in p else math.nan
+    if c is not None and c < 0 and (not math.isfinite(se) or -c > 2 * se):
+        out.append(f"the joint's fitted damping c = {c:.3g} N m s/rad is negative (it would feed energy in): check "
+                   f"that phi1 is the driven flywheel's angle and phi2 the other's (swapped columns give this), and "
+                   f"the signs of the torque and the angles (all positive in one sense of rotation)")
+    return tuple(out)
 
 
 def plant_of(f: Fit, torque_share: float = 0.5) -> tuple[Plant, tuple[float, float]]:

@@ -24,7 +24,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from .formatting import quantity_of, sig, sig_or, unit_of, with_se
-from .summary import adopted_causes, next_steps, parameter_rows, plain_verdict
+from .summary import adopted_causes, next_steps, parameter_rows, plain_verdict, written_rows
 from jointrig.studies.validate import CHI2_PER_DOF_OK, DiagnosisReport
 
 __all__ = ["report_json", "format_report", "log_diagnosis", "write_html", "write_outputs"]
@@ -98,6 +98,9 @@ def _report_json(report: DiagnosisReport, *, source: str, notes: Sequence[str]) 
         "gain": report.gain,
         "generalisation": report.generalisation,
         "validation": {"kind": report.validation_kind, "statement": report.validation_statement},
+        "plausibility": list(report.diagnosis.plausibility),
+        # the user's model (--model) as written against the data: parameter -> written, data, std_error, differs
+        "as_written": {w.name: w.as_json() for w in written_rows(report)},
         # Models rejected because the rig finds no periodic steady state for them under a run's
         # measured drive (their RMS there is null): run -> reason.
         "no_steady_state": {which: {r.run_id: r.failure(which) for r in runs if r.failure(which)}
@@ -118,6 +121,11 @@ def format_report(report: DiagnosisReport, *, source: str = "", notes: Sequence[
     v = report.verdict
     lines.append(f"VERDICT: {v.verdict.upper().replace('_', ' ')}: {v.reason}")
     lines.append(f"  In words: {plain_verdict(report)}")
+    written = written_rows(report)
+    if written:
+        lines.append("  Your model as written against the data (differs: more than 2 standard errors apart):")
+        lines += [f"    {w.quantity:20s} written {w.written:<12.6g} data {with_se(w.data, w.std_error):>20s} "
+                  f"{w.unit:12s} {'DIFFERS, ' + w.change if w.differs else 'agrees'}" for w in written]
     if v.verdict == "unexplained":
         lines.append(f"  What the misfit looks like: {report.character.describe()}")
         lines.append(f"  Its restoring-force surface: {report.surface.describe()}")
@@ -542,6 +550,17 @@ def _summary_section(report: DiagnosisReport) -> list[str]:
         out.append("<h2>What your model misses</h2><ul class='causes'>" + "".join(
             f"<li><b>{html.escape(a.name)}</b>: {html.escape(a.what)}; {html.escape(a.quantity)} "
             f"<b>{html.escape(a.value)}</b></li>" for a in causes) + "</ul>")
+    written = written_rows(report)
+    if written:
+        out.append("<h2>Your model as written</h2><p class='note'>Each parameter of your model file beside what the "
+                   "data say (" + ("the model with the adopted causes" if report.adopted else "your model's structure "
+                   "fitted to the runs") + ", ± one standard error); \"differs\" when they are more than two "
+                   "standard errors apart.</p>")
+        out.append(_table(["parameter", "unit", "as written", "the data say", "differs?"],
+                          [_row([w.quantity, (w.unit, "unit"), (f"{w.written:.6g}", "num"),
+                                 (with_se(w.data, w.std_error), "num"),
+                                 f"yes, {w.change}" if w.differs else "no"], "adopted" if w.differs else "")
+                           for w in written]))
     rows = parameter_rows(report)
     extended = bool(report.adopted)
     head = (["parameter", "unit", "your model, fitted", "with the adopted causes", "differs?"] if extended
@@ -549,8 +568,9 @@ def _summary_section(report: DiagnosisReport) -> list[str]:
     body = [_row([r.quantity, (r.unit, "unit"), (r.as_given, "num")]
                  + ([(r.with_causes, "num"), "yes" if r.differs else "no"] if extended else []),
                  "adopted" if extended and r.differs else "") for r in rows]
-    out.append("<h2>The joint's parameters</h2><p class='note'>Your model's structure (inertias, c phi' + k phi + "
-               "gamma phi^3) fitted to the runs"
+    out.append("<h2>The joint's parameters</h2><p class='note'>Your model's structure (" + (
+               "as your model file has it" if report.written else "inertias, c phi' + k phi + gamma phi^3")
+               + ") fitted to the runs"
                + (", beside the same with the adopted causes; \"differs\" when the two are more than twice their "
                   "combined standard error apart" if extended else "")
                + ". Values ± one standard error.</p>")

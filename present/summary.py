@@ -16,7 +16,8 @@ from jointrig.studies.validate import DiagnosisReport
 
 from .formatting import quantity_of, unit_of, with_se
 
-__all__ = ["plain_verdict", "ParameterRow", "parameter_rows", "adopted_causes", "next_steps"]
+__all__ = ["plain_verdict", "ParameterRow", "parameter_rows", "adopted_causes", "next_steps", "WrittenRow",
+           "written_rows"]
 
 _DESCRIPTION = {c.name: c.description for c in CATALOGUE}
 
@@ -28,8 +29,64 @@ def _fits(report: DiagnosisReport) -> str:
     return f"the model fits the runs to their noise (chi2/dof {c2:.2g}: about 1 when only noise is left)"
 
 
+@dataclass(frozen=True)
+class WrittenRow:
+    """A parameter of the user's model as written beside what the data say (the adopted model's
+    value, else the nominal fit's), and whether the two differ by more than two standard errors."""
+
+    name: str
+    quantity: str
+    unit: str
+    written: float
+    data: float
+    std_error: float
+    differs: bool
+
+    @property
+    def change(self) -> str:
+        """The data's value against the written one, in words ("21% lower")."""
+        if self.written == 0:
+            return f"{self.data:.3g} instead of 0"
+        rel = self.data / self.written - 1
+        return f"{abs(rel):.0%} {'higher' if rel > 0 else 'lower'}" if abs(rel) < 10 else f"{self.data / self.written:.3g} times"
+
+    def as_json(self) -> dict:
+        return {"written": self.written, "data": self.data, "std_error": self.std_error, "differs": self.differs,
+                "change": self.change}
+
+
+def written_rows(report: DiagnosisReport) -> tuple[WrittenRow, ...]:
+    """Each parameter of the user's model (``jointrig diagnose --model``) as written, beside
+    what the data say; empty without a model."""
+    d = report.diagnosis
+    f = d.extended if report.adopted else d.nominal
+    values = f.as_dict()
+    out = []
+    for name, written in report.written:
+        if name not in values:
+            continue
+        v, se = values[name], f.std_error(name)
+        differs = bool(math.isfinite(se) and abs(v - written) > 2 * se)
+        out.append(WrittenRow(name, quantity_of(name), unit_of(name), written, v, se, differs))
+    return tuple(out)
+
+
+def _wrong(report: DiagnosisReport) -> str:
+    rows = [r for r in written_rows(report) if r.differs]
+    if not rows:
+        return ""
+    return ("As written, your model has " + "; ".join(
+        f"{r.quantity} = {r.written:.4g}{' ' + r.unit if r.unit else ''}, which the data put at "
+        f"{with_se(r.data, r.std_error)} ({r.change})" for r in rows) + ". ")
+
+
 def plain_verdict(report: DiagnosisReport) -> str:
-    """The verdict as one or two sentences without jargon."""
+    """The verdict as one or two sentences without jargon (the parameters of the user's model
+    that the data contradict first, when one was given)."""
+    return _wrong(report) + _verdict_sentence(report)
+
+
+def _verdict_sentence(report: DiagnosisReport) -> str:
     v = report.verdict
     d = report.diagnosis
     floor = report.noise_floor_rad
@@ -116,9 +173,10 @@ def next_steps(report: DiagnosisReport) -> tuple[str, ...]:
     """What to measure or do next, in words."""
     d = report.diagnosis
     if report.verdict.verdict == "unexplained":
-        return tuple(report.next_measurements)
-    out = [f"{a.effects[0]} and {a.effects[1]} explain the same part of the data; to tell them apart: {a.excitation}"
-           for a in d.ambiguous]
+        return tuple(d.plausibility) + tuple(report.next_measurements)
+    out = list(d.plausibility) + [
+        f"{a.effects[0]} and {a.effects[1]} explain the same part of the data; to tell them apart: {a.excitation}"
+        for a in d.ambiguous]
     if report.validation_kind != "held_out_runs":
         out.append("runs at other drive levels or frequencies: the model was checked only on later periods of the "
                    "same runs")

@@ -179,3 +179,13 @@ def add_backend_option(parser) -> None:
                         "term, else python (default: %(default)s)")
     g.add_argument("--native", dest="backend", action="store_const", const="native",
                    help="same as --backend native")
+
+
+def quiet_mujoco() -> None:
+    """Keep MuJoCo's own warning text ("Nan, Inf or huge value in QACC", printed to stderr) out of
+    a command's results: the rig reads every warning from ``MjData.warning`` and says in words
+    what it means (a candidate model that diverges is rejected with that reason). Called by the
+    commands that simulate, after their arguments are parsed (``--help`` loads no MuJoCo)."""
+    import mujoco
+
+    mujoco.set_mju_user_warning(lambda text: None)

@@ -208,6 +208,7 @@ def card_png(card: CardReport, title: str = "joint card") -> bytes:
         ym = np.array([getattr(p, key) for p in card.model_at_runs.points])
         ax.plot(ar, ym, "s", mfc="none", color="tab:blue", ms=7, label="model at the runs' frequencies")
         ax.set(xlabel="relative amplitude A [rad]", ylabel=label, xscale="log")
+        _amplitude_ticks(ax, np.concatenate([am, ar]))
         if key == "dissipation_J_per_cycle":
             ax.set_yscale("log")
             ax.set_title(f"slope d lnE/d lnA: runs {_slope(card.runs)}, model at runs {_slope(card.model_at_runs)}, "
@@ -220,6 +221,20 @@ def card_png(card: CardReport, title: str = "joint card") -> bytes:
     fig.savefig(buf, format="png", dpi=100)
     plt.close(fig)
     return buf.getvalue()
+
+
+def _amplitude_ticks(ax, amplitudes: np.ndarray) -> None:
+    """Log-axis ticks that never overlap: labels only at 1, 2 and 5 times a power of ten (at
+    powers of ten alone beyond three decades), plain numbers, no labels on the minor ticks
+    (matplotlib labels them in a range of about a decade, and they crowded into each other
+    when the amplitudes spanned just over one)."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+    finite = amplitudes[np.isfinite(amplitudes) & (amplitudes > 0)]
+    span = float(finite.max() / finite.min()) if finite.size else 1.0
+    ax.xaxis.set_major_locator(LogLocator(base=10, subs=(1.0,) if span > 1000 else (1.0, 2.0, 5.0)))
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    ax.xaxis.set_minor_formatter(NullFormatter())
 
 
 def _slope(c: JointCard) -> str:

@@ -31,12 +31,13 @@ from jointrig.identify.harmonics import fourier_coefficients
 from jointrig.vocab.plant import Plant, drive_of_record
 from jointrig.vocab.records import SteadyStateRecord
 from jointrig.identify.surface import RestoringSurface, restoring_surface
+from jointrig.identify.causes import NOMINAL, ModelSpec
 
 from jointrig.parallel import fork_map
 from jointrig.rig.model import RigModel, load_rig
 from jointrig.rig.simulate import (SimulationConfig, SimulationError, StartState, SteadyStateNotReached,
                                    simulate_steady_state)
-from jointrig.vocab.params import J1, JE, BEARING1, BEARING2
+from jointrig.vocab.params import J1, J2 as J2_NAME, JE, BEARING1, BEARING2
 
 __all__ = ["generalisation_kind", "RunComparison", "DiagnosisReport", "default_holdout", "holdout_of_another_kind",
            "run_setting", "run_diagnosis", "band_limited",
@@ -488,6 +489,8 @@ class DiagnosisReport:
     #: what was held out: :data:`HELD_OUT_RUNS` (runs of their own setting) or
     #: :data:`HELD_OUT_PERIODS` (with one or two runs: later periods of the same runs)
     validation_kind: str = HELD_OUT_RUNS
+    #: the user's model's parameters as written in their file (name, SI value), when one was given
+    written: tuple[tuple[str, float], ...] = ()
 
     @property
     def validation_statement(self) -> str:
@@ -655,6 +658,24 @@ def _simulate(rig: RigModel, plant: Plant, J: tuple[float, float], run: Prepared
     return band_limited(sim.phi_rad, band)
 
 
+def nominal_spec_of(plant: Plant, two_angles: bool) -> ModelSpec:
+    """The structure of a user's model: its law's terms, bearing drag where it has some (and
+    both angles are measured: drag to ground acts on the absolute rates), its drive delay."""
+    bearings = two_angles and (plant.bearing1_damping_Nms_per_rad > 0 or plant.bearing2_damping_Nms_per_rad > 0)
+    return ModelSpec(plant.law.terms, bearings=bearings, drive_delay_s=plant.drive_delay_s)
+
+
+def written_parameters(model: RigModel, form: str) -> dict[str, float]:
+    """A user's model's parameters as written (SI), named as the fit names them: the inertias
+    (J1, J2; Je in the equivalent form), the law's values and the bearings' drag."""
+    out = ({J1: model.J1_kgm2, J2_NAME: model.J2_kgm2} if form == "two_dof" else {JE: model.Je_kgm2})
+    out.update(model.plant.law.as_dict())
+    if form == "two_dof" and (model.plant.bearing1_damping_Nms_per_rad or model.plant.bearing2_damping_Nms_per_rad):
+        out[BEARING1] = model.plant.bearing1_damping_Nms_per_rad
+        out[BEARING2] = model.plant.bearing2_damping_Nms_per_rad
+    return out
+
+
 def measured_start(run: PreparedRun, band: int) -> StartState:
     """The state the bench was in at the start of the run's averaged period (drive phase 0),
     band-limited: the validation starts each model there. A joint with free play or friction
@@ -722,10 +743,15 @@ def generalisation_kind(fit: Sequence[tuple[float, float, int]], held: Sequence[
 def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Sequence[str]] = None,
                   holdout: Optional[Sequence[int]] = None, band: int = 20, torque_share: float = 0.5,
                   form: Optional[str] = None, alpha: float = 1e-3, fidelity: float = DEFAULT_FIDELITY,
-                  rig: Optional[RigModel] = None, progress=None) -> DiagnosisReport:
+                  rig: Optional[RigModel] = None, progress=None, model: Optional[RigModel] = None
+                  ) -> DiagnosisReport:
     """Diagnose on the fit runs, then compare nominal and extended models on every run.
 
     Args:
+      model: the user's model of their machine (``jointrig diagnose DATA --model MY.xml``): its
+        law's terms are the nominal structure the causes extend, its bodies the rig, and the
+        report sets each of its parameters as written beside what the data say
+        (:func:`written_parameters`). Default: the paper's structure, no values as written.
       holdout: indices of runs kept out of the fit (default :func:`holdout_of_another_kind`).
       band: harmonics 0..band used for fitting and for comparison.
       torque_share: J2 / (J1 + J2) for records with only the relative angle.
@@ -755,7 +781,7 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
         say(f"{n} run(s): fitting on the first half of each run's periods, validating on the rest")
         report = run_diagnosis([a for a, _ in halves] + [b for _, b in halves], run_ids=ids,
                                holdout=tuple(range(n, 2 * n)), band=band, torque_share=torque_share, form=form,
-                               alpha=alpha, fidelity=fidelity, rig=rig, progress=progress)
+                               alpha=alpha, fidelity=fidelity, rig=rig, progress=progress, model=model)
         return replace(report, validation_kind=HELD_OUT_PERIODS)
     say(f"preparing {n} runs (averaging periods, estimating noise)")
     prepared = prepare_runs(records, band=band)
@@ -764,9 +790,11 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
         holdout = holdout_of_another_kind(settings)
     fit_idx = [i for i in range(n) if i not in holdout]
     say(f"diagnosing on runs {[run_ids[i] for i in fit_idx]}, holding out {[run_ids[i] for i in holdout]}")
+    two = all(r.phi2_rad is not None for r in records) and form != "equivalent"
+    spec = NOMINAL if model is None else nominal_spec_of(model.plant, two)
     diag = diagnose([prepared[i] for i in fit_idx], form=form, n_harmonics=band, torque_share=torque_share,
-                    alpha=alpha, fidelity=fidelity, progress=progress)
-    rig = rig or load_rig()
+                    alpha=alpha, fidelity=fidelity, progress=progress, nominal_spec=spec)
+    rig = rig or model or load_rig()
     nominal_plant, J_nom = plant_of(diag.nominal, torque_share)
     ext_plant, J_ext = plant_of(diag.extended, torque_share)
     comparisons = []
@@ -837,7 +865,8 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
             noise_floor_rad=floor, harmonics_compared=tuple(int(v) for v in h),
             extra_drive_lines=settings[i][2], failures=tuple(sorted(failed.items())),
         ))
-    report = DiagnosisReport(diag, tuple(comparisons), holdout, band, tuple(notes))
+    written = () if model is None else tuple(written_parameters(model, diag.form).items())
+    report = DiagnosisReport(diag, tuple(comparisons), holdout, band, tuple(notes), written=written)
     if diag.steps and not report.unsimulated("extended") and not report.gain > 1.0:
         report = replace(report, notes=report.notes + (
             f"the extended model predicts the held-out runs no better than the nominal one (gain "

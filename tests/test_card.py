@@ -264,3 +264,28 @@ def test_identified_card_and_runs_card_agree_with_phase_resonance(rig, case, ado
         assert abs(c.runs_z) <= 3, c
     pr, ident = check.phase_resonance, check.identified
     assert ident.dissipation_slope == pytest.approx(pr.dissipation_slope, abs=3 * ident.dissipation_slope_std)
+
+
+@pytest.mark.parametrize("lo, hi", [(0.004, 0.07), (0.003, 0.02), (1e-4, 0.5)])
+def test_card_amplitude_tick_labels_never_overlap(lo, hi):
+    # issue 37: the card's tick labels ran into each other when the amplitudes spanned more than
+    # a decade (matplotlib labels the minor ticks of a log axis over about a decade)
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from jointrig.studies.joint_card import _amplitude_ticks
+
+    fig, ax = plt.subplots(figsize=(5, 3.75))  # one panel of the card's 10 x 7.5 in figure
+    x = np.geomspace(lo, hi, 25)
+    ax.plot(x, x)
+    ax.set_xscale("log")
+    _amplitude_ticks(ax, x)
+    fig.canvas.draw()
+    boxes = [t.get_window_extent() for t in ax.get_xticklabels(which="both")
+             if t.get_visible() and t.get_text() and lo <= t.get_position()[0] <= hi]
+    plt.close(fig)
+    assert len(boxes) >= 2, boxes
+    boxes.sort(key=lambda b: b.x0)
+    assert all(a.x1 <= b.x0 for a, b in zip(boxes, boxes[1:])), [(b.x0, b.x1) for b in boxes]

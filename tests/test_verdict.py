@@ -209,3 +209,91 @@ if __name__ == "__main__":
     with ProcessPoolExecutor(2) as pool:
         for row in pool.map(_issue_case, list(ISSUE_CASES)):
             print(row, flush=True)
+
+
+def test_a_file_read_wrong_is_named_before_any_cause(tmp_path):
+    # issue 37: a file whose model comes out as no flywheel pair (here the two angle columns
+    # swapped, the independent bench's example file) got a hint that pointed the wrong way. The
+    # fitted model's implausible values come first in what to do next, with the likely fix; the
+    # candidate models diverge in the rig, and MuJoCo's own warning text stays out of the output.
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    example = Path(__file__).resolve().parent.parent / "examples" / "bench_dry_friction.csv"
+    lines = example.read_text().splitlines()
+    swapped = [lines[0]] + [",".join(p[:3] + [p[4], p[3]]) for p in (l.split(",") for l in lines[1:])]
+    (tmp_path / "swapped.csv").write_text("\n".join(swapped) + "\n")
+    # a command of its own: MuJoCo prints its warnings from C, past the test's capture
+    done = subprocess.run([sys.executable, "-m", "jointrig", "diagnose", str(tmp_path / "swapped.csv"), "-q", "--json",
+                           str(tmp_path / "d.json")], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    out = done.stdout
+    js = json.loads((tmp_path / "d.json").read_text())
+    assert js["plausibility"] and "swapped columns" in js["plausibility"][0]
+    assert js["verdict"] == "unexplained" and js["no_steady_state"]["extended"]
+    first_step = out.split("What to do next")[1].splitlines()[1]
+    assert "swapped columns" in first_step, out
+    assert "Nan, Inf or huge value" not in out + done.stderr, done.stderr
+    # the right file has nothing implausible
+    right = read_runs(example)
+    assert run_diagnosis(right.records, run_ids=right.run_ids).diagnosis.plausibility == ()
+
+
+def _model_with(tmp_path, **fields) -> str:
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parent.parent / "models" / "two_flywheels.xml").read_text()
+    for name, value in fields.items():
+        tag = f'<numeric name="jointrig_{name}" data="'
+        if tag in text:
+            start = text.index(tag) + len(tag)
+            text = text[:start] + str(value) + text[text.index('"', start):]
+        else:
+            text = text.replace("</custom>", f'  {tag}{value}"/>\n  </custom>')
+    path = tmp_path / "my.xml"
+    path.write_text(text)
+    return str(path)
+
+
+def test_the_users_model_as_written_is_held_against_the_data(tmp_path, capsys):
+    # issue 36: `jointrig diagnose DATA --model MY.xml` starts from the user's model and shows
+    # each parameter as written beside the data's, with the difference's significance. A
+    # deliberately wrong stiffness (2500 for the bench's 2000) is named with its size; the
+    # independent bench's example file (dry friction of 60 N m).
+    import json
+    from pathlib import Path
+
+    from jointrig.commands import diagnose
+
+    example = Path(__file__).resolve().parent.parent / "examples" / "bench_dry_friction.csv"
+    out = tmp_path / "d.json"
+    assert diagnose.main([str(example), "--model", _model_with(tmp_path, k_Nm_per_rad=2500), "-q",
+                          "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    js = json.loads(out.read_text())
+    rows = js["as_written"]
+    assert rows["k_Nm_per_rad"]["differs"] and rows["k_Nm_per_rad"]["change"] == "20% lower"
+    assert abs(rows["k_Nm_per_rad"]["data"] - 2000) <= 3 * rows["k_Nm_per_rad"]["std_error"]
+    assert [n for n, r in rows.items() if r["differs"]] == ["k_Nm_per_rad"]
+    assert "As written, your model has k = 2500 N m/rad" in text
+    assert js["verdict"] == "explained" and js["extended"]["effects"] == ["coulomb_friction"]
+
+    # The same model with the friction written in: nothing is missing, every parameter agrees
+    assert diagnose.main([str(example), "--model", _model_with(tmp_path, coulomb_torque_Nm=60), "-q",
+                          "--json", str(out)]) == 0
+    js = json.loads(out.read_text())
+    assert js["verdict"] == "no_misfit"
+    assert not any(r["differs"] for r in js["as_written"].values()) and "coulomb_torque_Nm" in js["as_written"]
+
+
+def test_a_bad_model_file_is_refused_before_the_work(tmp_path, capsys):
+    from pathlib import Path
+
+    from jointrig.commands import diagnose
+
+    example = Path(__file__).resolve().parent.parent / "examples" / "bench_dry_friction.csv"
+    (tmp_path / "bad.xml").write_text("<mujoco><worldbody/></mujoco>")
+    assert diagnose.main([str(example), "--model", str(tmp_path / "bad.xml"), "-q"]) == 2
+    assert "--model: " in capsys.readouterr().err

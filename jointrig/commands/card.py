@@ -39,4 +39,6 @@ def main(argv=None) -> int:
         forwarded.append("-q")
     if args.zero_per_run:
         forwarded.append("--zero-per-run")
+    if args.model is not None:
+        forwarded += ["--model", str(args.model)]
     return diagnose.main(forwarded)

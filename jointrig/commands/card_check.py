@@ -37,6 +37,9 @@ def main(argv=None) -> int:
     p.add_argument("--json", type=Path, help="write the comparisons as JSON")
     add_quiet(p)
     args = p.parse_args(argv)
+    from jointrig.rig.runtime import quiet_mujoco
+
+    quiet_mujoco()
     logging.basicConfig(level=progress_level(args.quiet), format="%(levelname)s %(name)s: %(message)s")
     check_range(args.snr_db, "--snr-db", lo=0, hi=200)
     check_range(args.periods, "--periods", lo=2, hi=1000, integer=True)

@@ -59,6 +59,9 @@ def main(argv=None) -> int:
                         "(default: the two-flywheel rig)")
     add_quiet(p)
     args = p.parse_args(argv)
+    from jointrig.rig.runtime import quiet_mujoco
+
+    quiet_mujoco()
     from jointrig.rig.runtime import progress_level
 
     logging.basicConfig(level=progress_level(args.quiet), format="%(message)s", stream=sys.stderr)

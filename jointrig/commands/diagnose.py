@@ -45,6 +45,10 @@ def add_data_options(p: argparse.ArgumentParser) -> None:
                    help="the file's names for the columns, e.g. torque=M_drive,phi1=enc1,phi2=enc2,time=t")
     p.add_argument("--units", metavar="NAME=UNIT,...",
                    help="units of the file's columns when not SI, e.g. time=ms,phi1=deg,phi2=deg,torque=Nmm")
+    p.add_argument("--model", type=Path, metavar="MY.xml",
+                   help="your MJCF model of the two flywheels (the jointrig_* fields for the law): the diagnosis "
+                        "starts from its law and shows each parameter as written beside what the data say "
+                        "(default: the paper's structure c phi' + k phi + gamma phi^3, no values as written)")
     p.add_argument("--zero-per-run", action="store_true",
                    help="take each run's mean angles as their zero (encoders zeroed at the start of each recording; "
                         "right for a symmetric joint). Without it such a file is refused")
@@ -119,6 +123,10 @@ def main(argv=None) -> int:
 def _main(args: argparse.Namespace, writer) -> int:
     import numpy as np
 
+    from jointrig.rig.runtime import quiet_mujoco
+
+    quiet_mujoco()
+
     from jointrig.vocab.records import RecordError
     from jointrig.measured.runs import RunsFileError, read_runs
     from jointrig.present.diagnosis_report import format_report, report_json
@@ -137,6 +145,14 @@ def _main(args: argparse.Namespace, writer) -> int:
         for option, path in (("--json", args.json), ("--rrd", args.rrd), ("--report", args.report),
                              ("--card", args.card), ("--card-png", args.card_png), ("--mjcf", args.mjcf)):
             check_output(path, option)
+        model = None
+        if args.model is not None:
+            from jointrig.rig.model import RigModelError, load_rig
+
+            try:
+                model = load_rig(args.model)
+            except RigModelError as err:
+                raise BadArgument(f"--model: {err}") from None
         loaded = read_runs(args.data, columns=args.columns, units=args.units, zero_per_run=args.zero_per_run)
         ids = list(loaded.run_ids)
         holdout = None
@@ -159,7 +175,7 @@ def _main(args: argparse.Namespace, writer) -> int:
             log.info("note: %s", n)
         report = run_diagnosis(loaded.records, run_ids=ids, holdout=holdout, band=args.band,
                                torque_share=args.torque_share, alpha=args.alpha, fidelity=args.fidelity,
-                               progress=lambda msg: log.info("%s", msg))
+                               progress=lambda msg: log.info("%s", msg), model=model)
     except (RunsFileError, RecordError, BadArgument) as err:
         print(f"diagnose: error: {err}", file=sys.stderr)
         return 2

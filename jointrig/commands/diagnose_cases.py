@@ -30,6 +30,9 @@ def main(argv=None) -> int:
     p.add_argument("--seed", type=int, default=None, help="noise seed (default: one per case, from its name)")
     p.add_argument("--json", type=Path, help="write the table as JSON")
     args = p.parse_args(argv)
+    from jointrig.rig.runtime import quiet_mujoco
+
+    quiet_mujoco()
     from jointrig.rig.runtime import check_output
 
     check_output(args.json, "--json")

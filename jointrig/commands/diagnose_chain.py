@@ -73,6 +73,9 @@ def parse_args(argv=None) -> argparse.Namespace:
 
 def main(argv=None) -> int:
     args = parse_args(argv)
+    from jointrig.rig.runtime import quiet_mujoco
+
+    quiet_mujoco()
     logging.basicConfig(level=progress_level(args.quiet), format="%(levelname)s %(name)s: %(message)s")
     check_range(args.snr_db, "--snr-db", lo=0, hi=200)
     check_range(args.periods, "--periods", lo=2, hi=1000, integer=True)

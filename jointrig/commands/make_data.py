@@ -44,6 +44,9 @@ def parse_args(argv=None) -> argparse.Namespace:
 
 def main(argv=None) -> int:
     args = parse_args(argv)
+    from jointrig.rig.runtime import quiet_mujoco
+
+    quiet_mujoco()
     from jointrig.rig.runtime import BadArgument, check_each, check_output, check_range, progress_level
 
     try:

@@ -69,6 +69,9 @@ def main(argv=None) -> int:
     p.add_argument("--snr-db", type=float, default=60.0, help="noise level of part 3 (default: %(default)s)")
     p.add_argument("--seed", type=int, default=1, help="noise seed of part 3 (default: %(default)s)")
     args = p.parse_args(argv)
+    from jointrig.rig.runtime import quiet_mujoco
+
+    quiet_mujoco()
     from jointrig.rig.runtime import check_output
 
     check_output(args.json, "--json")

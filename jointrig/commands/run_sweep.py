@@ -113,6 +113,9 @@ MAX_STEPS_PER_PERIOD = 2e6
 
 def main(argv=None) -> int:
     args = parse_args(argv)
+    from jointrig.rig.runtime import quiet_mujoco
+
+    quiet_mujoco()
     logging.basicConfig(level=progress_level(args.quiet),
                         format="%(levelname)s %(name)s: %(message)s")
     if args.excitation == "multisine" and (args.executor != "local" or args.continuation or args.workers > 1):

@@ -80,6 +80,9 @@ def main(argv=None) -> int:
     p.add_argument("--rrd", type=Path, default=None, help="rerun recording of the arrow test and the residual spectra")
     add_quiet(p)
     args = p.parse_args(argv)
+    from jointrig.rig.runtime import quiet_mujoco
+
+    quiet_mujoco()
     from jointrig.rig.runtime import check_output
 
     check_output(args.json, "--json")

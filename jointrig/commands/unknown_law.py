@@ -52,6 +52,9 @@ def main(argv=None) -> int:
     p.add_argument("--png", type=Path, default=Path("runs/unknown_law.png"), help="static figure (default: %(default)s)")
     add_quiet(p)
     args = p.parse_args(argv)
+    from jointrig.rig.runtime import quiet_mujoco
+
+    quiet_mujoco()
     from jointrig.rig.runtime import check_output, check_range, progress_level
 
     logging.basicConfig(level=progress_level(args.quiet), format="%(levelname)s %(name)s: %(message)s")
