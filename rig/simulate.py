@@ -550,10 +550,17 @@ def simulate_steady_state(
     if not static_friction:
         return _simulate(rig, omega_rad_s, amplitude_Nm, config, plant, 0.0, drive, inertias_kgm2, start, backend,
                          t_start)
-    record, info = _simulate(rig, omega_rad_s, amplitude_Nm, config, held, static_friction, drive, inertias_kgm2,
+    # One period under the constraint tells whether the joint sticks; the periods asked for are
+    # logged by the run that stands (the constraint's again, or the callback's).
+    probe = dataclasses.replace(config, n_periods=1)
+    record, info = _simulate(rig, omega_rad_s, amplitude_Nm, probe, held, static_friction, drive, inertias_kgm2,
                              start, backend, t_start)
     if sticks(record):
-        return record, info
+        if config.n_periods == 1:
+            return record, info
+        record, more = _simulate(rig, omega_rad_s, amplitude_Nm, config, held, static_friction, drive, inertias_kgm2,
+                                 StartState.of_record(record), backend, t_start)
+        return record, dataclasses.replace(more, periods_simulated=info.periods_simulated + more.periods_simulated)
     # The joint only slides through zero rate: the constraint's softness switches the friction
     # about a step early, while sign(rate) in the callback switches within the step; from the
     # constraint's steady state the callback settles in a few periods. Should it not (it
@@ -562,7 +569,11 @@ def simulate_steady_state(
         slid, more = _simulate(rig, omega_rad_s, amplitude_Nm, config, plant, 0.0, drive, inertias_kgm2,
                                StartState.of_record(record), backend, t_start)
     except SimulationError:
-        return record, info
+        if config.n_periods == 1:
+            return record, info
+        record, more = _simulate(rig, omega_rad_s, amplitude_Nm, config, held, static_friction, drive, inertias_kgm2,
+                                 StartState.of_record(record), backend, t_start)
+        return record, dataclasses.replace(more, periods_simulated=info.periods_simulated + more.periods_simulated)
     return slid, dataclasses.replace(more, periods_simulated=info.periods_simulated + more.periods_simulated)
 
 
