@@ -304,9 +304,9 @@ def _read_mat(path: Path) -> list[RawTable]:
     cols = {}
     for k in names:
         v = np.asarray(mat[k])  # squeeze_me: a vector is 1-D, a scalar 0-D, whatever MATLAB's shape
-        if v.dtype.kind in "iufb" and v.ndim <= 1 and (v.size > 1 or k == "omega"):
+        if v.dtype.kind in "iuf" and v.ndim <= 1 and (v.size > 1 or k == "omega"):
             cols[k] = np.ravel(v).astype(float)
-        elif v.dtype.kind in "US" and v.ndim == 1:
+        elif v.dtype.kind in "USbc" and v.ndim == 1:  # text, true/false, complex: named by the loader if used
             cols[k] = v.astype(object)
     cols = _scalar_omega(cols)
     if not cols:
@@ -354,7 +354,9 @@ def _read_hdf5(path: Path) -> list[RawTable]:
                     raise FormatError(f"{path}: dataset {where}{name} cannot be read: {err}") from None
                 if arr.dtype.kind in "SO":
                     arr = np.array([a.decode() if isinstance(a, bytes) else str(a) for a in arr], dtype=object)
-                elif arr.dtype.kind not in "iufb":
+                elif arr.dtype.kind in "bc":  # true/false, complex: kept, so the loader names them if used
+                    arr = arr.astype(object)
+                elif arr.dtype.kind not in "iuf":
                     continue
                 base, unit = split_header(name)
                 cols[base] = arr
@@ -417,7 +419,9 @@ def _read_tdms(path: Path) -> list[RawTable]:
                 data, unit = _tdms_seconds(data), "s"
             elif data.dtype.kind == "M":
                 data, unit = _seconds(data), "s"
-            elif data.dtype.kind not in "iufb":
+            elif data.dtype.kind in "bc":  # true/false, complex: kept, so the loader names them if used
+                data = data.astype(object)
+            elif data.dtype.kind not in "iuf":
                 continue
             cols[base] = data
             u = ch.properties.get("unit_string") or unit

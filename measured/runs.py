@@ -207,12 +207,15 @@ def _resolve(table: RawTable, columns: dict, units: dict, notes: list) -> tuple[
             else:
                 out[canon] = np.array([_label(v) for v in col], dtype=object)
             continue
-        if canon == "time" and col.dtype.kind not in "iufb":
+        if canon == "time" and col.dtype.kind not in "iufbc":
             col = _iso_seconds(where, src, col)
-        if col.dtype.kind not in "iufb":
-            bad = next((i for i, v in enumerate(col) if not _is_float(v)), 0)
-            raise RunsFileError(f"{where}: column '{src}' holds a non-number ({col[bad]!r} in data row {bad + 1}); "
-                                f"expected numbers in {COLUMNS[canon]}")
+        if col.dtype.kind not in "iuf":
+            bad = next((i for i, v in enumerate(col)
+                        if isinstance(v, (bool, np.bool_, complex, np.complexfloating)) or not _is_float(v)), 0)
+            what = ("true/false values" if isinstance(col[bad], (bool, np.bool_)) else
+                    "complex numbers" if isinstance(col[bad], (complex, np.complexfloating)) else "a non-number")
+            raise RunsFileError(f"{where}: column '{src}' holds {what} ({col[bad]!r} in data row {bad + 1}); "
+                                f"expected real numbers in {COLUMNS[canon]}")
         col = col.astype(float)
         given, in_file = units.get(canon), table.units.get(src)
         if given is not None and in_file is not None and _norm_unit(given) != _norm_unit(in_file) \

@@ -288,7 +288,11 @@ def run_sweep(
         store = Path(store)
         mpath = store / "manifest.json"
         if mpath.exists():
-            old = json.loads(mpath.read_text())
+            try:
+                old = json.loads(mpath.read_text())
+            except (json.JSONDecodeError, UnicodeDecodeError) as err:
+                raise SweepStoreMismatch(f"{mpath}: not readable JSON ({err}): the store's manifest is cut or corrupt; "
+                                         f"delete the folder {store} to start the sweep afresh") from None
             if old != manifest:
                 diff = sorted(k for k in set(old) | set(manifest) if old.get(k) != manifest.get(k))
                 raise SweepStoreMismatch(
@@ -320,7 +324,14 @@ def run_sweep(
         if not path.exists():
             return None
         try:
-            return _load_point(path)
+            point = _load_point(path)
+            omega, amplitude = points[i]
+            r = point.record
+            if not (math.isclose(r.omega_rad_s, omega, rel_tol=1e-12)
+                    and math.isclose(r.drive_amplitude_Nm, amplitude, rel_tol=1e-12)):
+                raise ValueError(f"it holds the point omega = {r.omega_rad_s:g} rad/s, M0 = {r.drive_amplitude_Nm:g} "
+                                 f"N m, not this one (omega = {omega:g} rad/s, M0 = {amplitude:g} N m)")
+            return point
         except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile) as err:
             # A point file that cannot be read (a sweep killed mid-write before atomic writes,
             # a full disk, bit rot) is simulated again, not a reason to stop resuming.

@@ -557,3 +557,52 @@ def test_a_reader_that_crashes_the_process_is_a_clear_error(tmp_path, monkeypatc
     monkeypatch.setattr(formats, "_loadmat", crash)
     with pytest.raises(formats.FormatError, match=r"runs\.mat: the reader crashed on this file \(exit -11\)"):
         formats.read_tables(tmp_path / "runs.mat")
+
+
+def test_a_store_point_that_holds_another_point_is_simulated_again(tmp_path, rig, caplog):
+    # issue 38: a point file holding another point was loaded unchecked: one point counted twice,
+    # one missing
+    from jointrig.rig import SimulationConfig
+    from jointrig.studies.sweep import SweepPlan, run_sweep
+
+    plan = SweepPlan((30.0, 40.0), (500.0,))
+    cfg = SimulationConfig(samples_per_period=64)
+    first = run_sweep(rig, plan, cfg, store=tmp_path)
+    a, b = sorted(tmp_path.glob("*.npz"))
+    b.write_bytes(a.read_bytes())  # a copied file, a mix-up of two stores
+    again = run_sweep(rig, plan, cfg, store=tmp_path)
+    assert [p.record.omega_rad_s for p in again] == [30.0, 40.0]
+    assert again[0].from_store and not again[1].from_store and "holds the point omega = 30" in caplog.text
+    np.testing.assert_array_equal(again[1].record.phi1_rad, first[1].record.phi1_rad)
+
+
+def test_a_cut_store_manifest_is_named(tmp_path, rig):
+    from jointrig.rig import SimulationConfig
+    from jointrig.studies.sweep import SweepPlan, SweepStoreMismatch, run_sweep
+
+    plan = SweepPlan((30.0,), (500.0,))
+    cfg = SimulationConfig(samples_per_period=64)
+    run_sweep(rig, plan, cfg, store=tmp_path)
+    manifest = tmp_path / "manifest.json"
+    manifest.write_text(manifest.read_text()[:40])
+    with pytest.raises(SweepStoreMismatch, match=r"manifest\.json: not readable JSON .*delete the folder"):
+        run_sweep(rig, plan, cfg, store=tmp_path)
+
+
+@pytest.mark.parametrize("column, values, match", [
+    ("torque", lambda t: np.cos(60 * t) + 0.1j, r"column 'torque' holds complex numbers"),
+    ("phi1", lambda t: np.sin(60 * t) > 0, r"column 'phi1' holds true/false values"),
+])
+def test_complex_and_boolean_channels_are_named(tmp_path, column, values, match):
+    # issue 38: a complex torque was reported as a missing column (the HDF5 reader dropped it), a
+    # boolean angle failed later as a MuJoCo divergence
+    import h5py
+
+    t = np.arange(0, 0.5, 0.001)
+    cols = {"time": t, "torque": np.cos(60 * t), "phi1": np.sin(60 * t), "phi2": 0.5 * np.sin(60 * t)}
+    cols[column] = values(t)
+    with h5py.File(tmp_path / "runs.h5", "w") as f:
+        for name, data in cols.items():
+            f[name] = data
+    with pytest.raises(RunsFileError, match=match):
+        read_runs(tmp_path / "runs.h5")
