@@ -5,25 +5,80 @@ the new one, never half of one, and no temporary file behind."""
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import os
 import tempfile
 from pathlib import Path
 from typing import Callable
 
-__all__ = ["write_atomic", "write_json_atomic", "readable_mode"]
+__all__ = ["OutputError", "write_atomic", "write_json_atomic", "readable_mode", "temp_beside", "output_failed"]
+
+
+class OutputError(ValueError):
+    """An output could not be written (a full disk, a folder that went away): the message names
+    the file and says that nothing half-written was left (exit 2, as bad input: the user fixes
+    where the output goes)."""
+
+
+def output_failed(path: Path, err: BaseException) -> OutputError:
+    """The clear error for a write of ``path`` that failed with ``err``."""
+    if isinstance(err, OSError) and err.errno == errno.ENOSPC:
+        why = "no space left on the device"
+    elif isinstance(err, OSError):
+        why = err.strerror or str(err)
+    else:
+        why = str(err)
+    return OutputError(f"{path}: could not be written ({why}); nothing half-written was left there (an older file of "
+                       f"that name is unchanged): free space or write elsewhere")
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def temp_beside(path: Path) -> Path:
+    """A new temporary file beside ``path`` (``.NAME.PID.XXXX.tmp``), after removing those an
+    earlier process left when it was killed (their PID is gone): a SIGKILL while writing leaves
+    its temporary file, and the next run cleans it up."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    for old in path.parent.glob(f".{glob_escape(path.name)}.*.tmp"):
+        pid = old.name[len(path.name) + 2:].split(".", 1)[0]
+        if pid.isdigit() and not _alive(int(pid)):
+            with contextlib.suppress(OSError):
+                old.unlink()
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.{os.getpid()}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    return Path(tmp)
+
+
+def glob_escape(name: str) -> str:
+    import glob
+
+    return glob.escape(name)
 
 
 def write_atomic(path: Path, write: Callable[[Path], None]) -> None:
-    """Call ``write(tmp)`` on a temporary file beside ``path``, then rename it into place."""
+    """Call ``write(tmp)`` on a temporary file beside ``path``, then rename it into place. A
+    write that fails for want of space (or any other OSError) removes the temporary file and
+    raises :class:`OutputError` naming ``path``."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
+    tmp = temp_beside(path)
     try:
-        write(Path(tmp))
+        write(tmp)
         os.chmod(tmp, readable_mode())
         os.replace(tmp, path)
+    except OSError as err:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise output_failed(path, err) from None
     except BaseException:
         with contextlib.suppress(OSError):
             os.unlink(tmp)

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import contextlib
 import os
-import tempfile
 from pathlib import Path
 from typing import Iterator, Optional, Sequence
 
@@ -63,10 +62,10 @@ def open_recording(rrd_path: Optional[Path], *, spawn: bool = False,
     sinks = []
     tmp = None
     if rrd_path is not None:
+        from jointrig.files import temp_beside
+
         rrd_path = Path(rrd_path)
-        rrd_path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{rrd_path.name}.", suffix=".tmp", dir=rrd_path.parent)
-        os.close(fd)
+        tmp = str(temp_beside(rrd_path))
         sinks.append(rr.FileSink(tmp))
     if spawn:
         rr.spawn(connect=False)
@@ -80,17 +79,32 @@ def open_recording(rrd_path: Optional[Path], *, spawn: bool = False,
         yield rec
         ok = True
     finally:
-        rec.flush()
-        rec.disconnect()
-        if tmp is not None:
-            if ok:
+        try:
+            rec.flush()
+            rec.disconnect()
+            if tmp is not None and ok:
                 from jointrig.files import readable_mode
 
                 os.chmod(tmp, readable_mode())
                 os.replace(tmp, rrd_path)
-            else:
+        except Exception as err:  # rerun's file writer stops on a full disk ("shut down prematurely")
+            if tmp is not None:
                 with contextlib.suppress(OSError):
                     os.unlink(tmp)
+            if ok:
+                import errno
+                import shutil
+
+                from jointrig.files import output_failed
+
+                # rerun says only "File-writer thread shut down prematurely": ask the disk
+                if shutil.disk_usage(rrd_path.parent).free < 1 << 20:
+                    err = OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+                raise output_failed(rrd_path, err) from None
+            raise
+        if tmp is not None and not ok:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
 
 
 def sweep_blueprint(records: Sequence[SteadyStateRecord]):

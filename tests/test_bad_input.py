@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import importlib
 import math
+import os
 import zipfile
 from pathlib import Path
 
@@ -606,3 +607,61 @@ def test_complex_and_boolean_channels_are_named(tmp_path, column, values, match)
             f[name] = data
     with pytest.raises(RunsFileError, match=match):
         read_runs(tmp_path / "runs.h5")
+
+
+def test_a_writer_that_meets_a_full_disk_names_the_file_and_leaves_nothing(tmp_path):
+    # issue 38: every writer ended in an OSError traceback on a full disk
+    import errno
+
+    from jointrig.files import OutputError, write_atomic
+
+    (tmp_path / "old.json").write_text("old")
+
+    def full(tmp):
+        tmp.write_text("half")
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    with pytest.raises(OutputError, match=r"old\.json: could not be written \(no space left on the device\)"):
+        write_atomic(tmp_path / "old.json", full)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["old.json"]
+    assert (tmp_path / "old.json").read_text() == "old"  # the older file survives
+
+
+def test_stale_temporary_files_of_a_killed_run_are_removed(tmp_path):
+    # issue 38: a SIGKILL while a recording was written left .NAME.rrd.*.tmp for good
+    import subprocess
+    import sys
+
+    from jointrig.files import write_atomic
+
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True,
+                          text=True).stdout.strip()
+    stale = tmp_path / f".out.json.{dead}.abc123.tmp"
+    stale.write_text("half")
+    other = tmp_path / f".out.json.{os.getpid()}.live12.tmp"  # a live writer's (this process): kept
+    other.write_text("being written")
+    write_atomic(tmp_path / "out.json", lambda tmp: tmp.write_text("{}"))
+    assert not stale.exists() and other.exists() and (tmp_path / "out.json").read_text() == "{}"
+
+
+def test_a_diagnosis_on_a_full_disk_is_a_clear_error(tmp_path):
+    # A real full disk where this machine allows a small tmpfs (root); the recording's writer
+    # said only "File-writer thread shut down prematurely" and left its temporary file.
+    import shutil
+    import subprocess
+    import sys
+
+    full = tmp_path / "full"
+    full.mkdir()
+    if shutil.which("mount") is None or subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(full)],
+                                                     capture_output=True).returncode != 0:
+        pytest.skip("no tmpfs can be mounted here (needs root)")
+    try:
+        data = ROOT / "examples" / "bench_dry_friction.csv"
+        done = subprocess.run([sys.executable, "-m", "jointrig", "diagnose", str(data), "-q", "--rrd",
+                               str(full / "d.rrd")], capture_output=True, text=True)
+        assert done.returncode == 2, done.stderr
+        assert "d.rrd: could not be written (no space left on the device)" in done.stderr
+        assert list(full.iterdir()) == []
+    finally:
+        subprocess.run(["umount", str(full)], capture_output=True)
