@@ -449,9 +449,26 @@ def _read_tdms(path: Path) -> list[RawTable]:
 # ------------------------------------------------------------------------------------- UFF
 
 
+def _uff_cut(path: Path) -> bool:
+    """Whether an ASCII universal file ends inside a dataset: every dataset ends with a line
+    ``    -1``, so a file cut short (a copy interrupted, a full disk) does not; pyuff then drops
+    the last datasets without a word. A binary UFF 58b is not checked."""
+    with open(path, "rb") as f:
+        f.seek(0, os.SEEK_END)
+        f.seek(max(0, f.tell() - 4096))
+        tail = f.read()
+    if b"\x00" in tail:
+        return False
+    lines = [ln.strip() for ln in tail.splitlines() if ln.strip()]
+    return bool(lines) and lines[-1] != b"-1"
+
+
 def _read_uff(path: Path) -> list[RawTable]:
     import pyuff
 
+    if _uff_cut(path):
+        raise FormatError(f"{path}: the file ends inside a dataset (no closing '-1' line): it was cut short, and its "
+                          f"last run(s) would be lost; copy it again whole")
     try:
         sets = pyuff.UFF(str(path)).read_sets()
     except Exception as err:  # noqa: BLE001 - pyuff raises many types for a bad file

@@ -44,6 +44,10 @@ def _known_fields() -> tuple[str, ...]:
     return tuple(f for cls in TERM_CLASSES for f in cls.MJCF_FIELDS) + _PLANT_FIELDS
 
 
+#: The largest law parameter a model file may state, in SI (the loader's bound on measured values).
+MAX_LAW_VALUE = 1e12
+
+
 class RigModelError(ValueError):
     """The MJCF file is not a usable jointrig model (names the file and what is missing)."""
 
@@ -150,6 +154,10 @@ def law_from_model(model: mujoco.MjModel, source: str = "model") -> JointLaw:
     if not pairs:
         raise RigModelError(f"{source}: no joint law: add <custom><numeric name=\"{PREFIX}...\"> fields "
                             f"(e.g. {PREFIX}k_Nm_per_rad)")
+    for term, value in pairs:
+        if abs(value) > MAX_LAW_VALUE:
+            raise RigModelError(f"{source}: the law's {term.name} = {value:g} is beyond {MAX_LAW_VALUE:g} in SI units, "
+                                f"no joint's (a unit slip, such as N mm for N m?); expected SI units")
     return JointLaw(tuple(t for t, _ in pairs), tuple(v for _, v in pairs))
 
 

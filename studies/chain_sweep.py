@@ -29,7 +29,7 @@ from jointrig.rig.simulate import SettleInfo, SimulationConfig
 from jointrig.rig.native_callback import choose_native
 from jointrig.files import write_atomic, write_json_atomic
 
-from .sweep import SweepStoreMismatch, worker_model
+from .sweep import SweepStoreMismatch, connect_scheduler, worker_model
 
 __all__ = ["ChainPoint", "CHAIN_PLAN", "CHAIN_CONFIG", "run_chain_sweep"]
 
@@ -218,7 +218,7 @@ def _run_dask(rig: ChainRig, points, config, backend, workers, scheduler, store,
                                                        dashboard_address=":0"))
             client = stack.enter_context(Client(cluster))
         else:
-            client = stack.enter_context(Client(scheduler))
+            client = stack.enter_context(connect_scheduler(scheduler))
         log.info("dask cluster %s: %d chain point(s)", client.scheduler.address, len(todo))
         futures = {client.submit(_remote_point, Path(rig.path).name, text, rig.digest, rig.plant, points[k], config,
                                  backend, pure=False): k for k in todo}

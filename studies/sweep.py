@@ -391,6 +391,23 @@ _worker_models: dict = {}
 _worker_lock = threading.Lock()
 
 
+#: How long a dask scheduler named by ``--scheduler`` may take to answer (s).
+SCHEDULER_TIMEOUT_S = 10
+
+
+def connect_scheduler(address: str):
+    """A dask client of the scheduler at ``address``; a scheduler that does not answer is a
+    clear error naming the option (it was a traceback after dask's 30 s)."""
+    from dask.distributed import Client
+
+    try:
+        return Client(address, timeout=SCHEDULER_TIMEOUT_S)
+    except (OSError, TimeoutError, ValueError) as err:
+        raise ValueError(f"--scheduler {address}: no dask scheduler answered there within {SCHEDULER_TIMEOUT_S} s "
+                         f"({type(err).__name__}: {err}); start one with 'dask scheduler' and its workers with "
+                         f"'dask worker {address}', or drop --scheduler for a local cluster") from None
+
+
 def worker_model(model_name: str, model_text: bytes, digest: str, load: Callable[[Path], object]):
     """The model a dask worker process simulates: rebuilt from the client's model text by ``load``
     (``load_rig`` or ``load_chain``), checked against the client's digest, and cached per worker
@@ -442,7 +459,7 @@ def _run_dask(rig: RigModel, segments, points_of, tasks_of, config, backend, con
                                                        dashboard_address=":0"))  # any free port: 8787 may be taken
             client = stack.enter_context(Client(cluster))
         else:
-            client = stack.enter_context(Client(scheduler))
+            client = stack.enter_context(connect_scheduler(scheduler))
         log.info("dask cluster %s: %d segment(s)", client.scheduler.address, len(segments))
         futures = {}
         for seg in _longest_first(segments, points_of, config):

@@ -665,3 +665,44 @@ def test_a_diagnosis_on_a_full_disk_is_a_clear_error(tmp_path):
         assert list(full.iterdir()) == []
     finally:
         subprocess.run(["umount", str(full)], capture_output=True)
+
+
+def test_a_law_value_beyond_any_joints_is_refused(tmp_path):
+    # issue 38: gamma = 1e15 was accepted
+    text = (ROOT / "models" / "two_flywheels.xml").read_text()
+    (tmp_path / "big.xml").write_text(text.replace('name="jointrig_gamma_Nm_per_rad3" data="200"',
+                                                   'name="jointrig_gamma_Nm_per_rad3" data="1e15"', 1))
+    with pytest.raises(RigModelError, match=r"gamma_Nm_per_rad3 = 1e\+15 is beyond 1e\+12 in SI units"):
+        load_rig(tmp_path / "big.xml")
+
+
+def test_an_unreachable_scheduler_is_named(monkeypatch):
+    # issue 38: a --scheduler nobody answers at was a traceback after 30 s
+    from jointrig.studies import sweep
+
+    monkeypatch.setattr(sweep, "SCHEDULER_TIMEOUT_S", 1)
+    with pytest.raises(ValueError, match=r"--scheduler tcp://127\.0\.0\.1:1: no dask scheduler answered there within 1 s"):
+        sweep.connect_scheduler("tcp://127.0.0.1:1")
+
+
+def test_a_truncated_universal_file_is_refused(tmp_path):
+    # issue 38: a truncated UFF silently lost its last runs
+    import pyuff
+
+    from jointrig.measured import formats
+
+    t = np.arange(3 * 128) * (2 * math.pi / W / 128)
+    uff = pyuff.UFF(str(tmp_path / "r.uff"))
+    for run in (1, 2):
+        for name, data in (("torque", 1000 * np.cos(W * t)), ("phi1", 0.3 * np.sin(W * t)),
+                           ("phi2", 0.1 * np.sin(W * t))):
+            uff.write_sets(pyuff.prepare_58(binary=0, id1=name, func_type=1, load_case_id=run, rsp_node=1, rsp_dir=1,
+                                            ref_node=1, ref_dir=1, data=data, x=t, abscissa_spacing=1,
+                                            abscissa_min=0.0, abscissa_inc=float(t[1]), abscissa_spec_data_type=17,
+                                            ordinate_spec_data_type=0, orddenom_spec_data_type=0,
+                                            z_axis_spec_data_type=0, ord_data_type=4), mode="add")
+    whole = (tmp_path / "r.uff").read_bytes()
+    assert len(formats.read_tables(tmp_path / "r.uff")) == 2
+    (tmp_path / "r.uff").write_bytes(whole[: int(len(whole) * 0.8)])
+    with pytest.raises(formats.FormatError, match=r"r\.uff: the file ends inside a dataset"):
+        formats.read_tables(tmp_path / "r.uff")
