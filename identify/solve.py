@@ -155,7 +155,15 @@ def identify(
       form: ``"equivalent"`` (unknowns Je and the law; needs ``torque_share`` = J2/(J1+J2))
         or ``"two_dof"`` (unknowns J1, J2 and the law).
       n_harmonics: harmonics 0..H balanced per record.
+
+    Raises:
+      ValueError: a term given twice (two columns of one parameter: the system is singular and
+        its estimates would be split between them), or an unknown form.
     """
+    names = [t.name for t in terms]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise ValueError(f"identify: the terms {dup} are given more than once; expected each term once")
     if form == "equivalent":
         if torque_share is None:
             raise ValueError("form 'equivalent' needs torque_share = J2 / (J1 + J2)")

@@ -53,6 +53,8 @@ class RawTable:
     columns: dict
     units: dict = field(default_factory=dict)
     run: Optional[str] = None
+    #: the file's comment lines (``#`` lines of a CSV), which may state what the header does not
+    comments: tuple = ()
 
 
 _HEADER_UNIT = re.compile(r"^\s*(.*?)\s*[\[(]\s*([^\])]*?)\s*[\])]\s*$")
@@ -97,6 +99,7 @@ def _read_csv(path: Path) -> list[RawTable]:
             continue
     if "\x00" in text:
         raise FormatError(f"{path}: holds NUL bytes: not a text (CSV) file")
+    comments = tuple(ln.strip().lstrip("#").strip() for ln in text.splitlines() if ln.lstrip().startswith("#"))
     lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
     if not lines:
         raise FormatError(f"{path}: no header row; expected a first line naming the columns, for example "
@@ -147,7 +150,8 @@ def _read_csv(path: Path) -> list[RawTable]:
         except ValueError:
             data = None
         if data is not None and data.shape[1] == len(names):
-            return [RawTable(str(path), {n: data[:, k].copy() for k, n in enumerate(names)}, units)]
+            return [RawTable(str(path), {n: data[:, k].copy() for k, n in enumerate(names)}, units,
+                             comments=comments)]
     body = parse(lines[first:])
     for i, row in enumerate(body, start=1):
         if len(row) != len(names):
@@ -165,7 +169,7 @@ def _read_csv(path: Path) -> list[RawTable]:
                 out[name] = np.array([_to_float(v) for v in vals], dtype=float)  # quoted, blank, NA
             except ValueError:
                 out[name] = np.array([v.strip().strip('"') for v in vals], dtype=object)
-    return [RawTable(str(path), out, units)]
+    return [RawTable(str(path), out, units, comments=comments)]
 
 
 # --------------------------------------------------------------------------------- Parquet

@@ -232,6 +232,28 @@ def _resolve(table: RawTable, columns: dict, units: dict, notes: list) -> tuple[
     return out, stated
 
 
+#: Unit words that, next to a column's name in a comment line, read as that column's unit.
+_COMMENT_UNIT = r"(deg|degrees?|mrad|urad|rev|ms|us|ns|min|mm|cm|n ?mm|n ?cm|kn ?m|rpm|hz)"
+
+
+def _units_in_comments(table: RawTable, columns: dict, stated: dict) -> None:
+    """Refuse a file whose comment lines state a unit for a column the header leaves in SI
+    (``# phi1 in deg``): units are read from the header, ``--units`` or a sidecar only, and
+    reading such a column as SI is silently wrong."""
+    for canon in ("time", "torque", "phi1", "phi2", "phi", "omega"):
+        if canon in stated:
+            continue
+        name = columns.get(canon, canon)
+        pattern = re.compile(rf"\b{re.escape(name)}\b[^,;]{{0,20}}?\b{_COMMENT_UNIT}\b", re.IGNORECASE)
+        for line in table.comments:
+            m = pattern.search(line)
+            if m:
+                raise RunsFileError(f"{table.source}: a comment line says {line!r}, which reads as column '{name}' in "
+                                    f"{m.group(1)!r}, but units are read only from the header ('{name} "
+                                    f"[{m.group(1)}]'), --units {canon}={m.group(1).replace(' ', '')} or a sidecar "
+                                    f"DATA.meta.json; state it there (or reword the comment)")
+
+
 def _iso_seconds(where: str, src: str, col: np.ndarray) -> np.ndarray:
     """ISO 8601 time stamps (``2026-11-26T14:31:02.125000+00:00``) as seconds after the first;
     the column as it is when its first value is not such a stamp."""
@@ -580,6 +602,7 @@ def read_runs(path: Union[str, os.PathLike], *, samples_per_period: Optional[int
     run_ids, records, seen, any_units, angles_stated = [], [], set(), False, False
     for f, table in tables:
         cols, stated = _resolve(table, columns, units, notes)
+        _units_in_comments(table, columns, stated)
         any_units = any_units or bool(stated)
         angles_stated = angles_stated or bool({"phi", "phi1", "phi2"} & set(stated))
         where = table.source

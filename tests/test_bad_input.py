@@ -706,3 +706,26 @@ def test_a_truncated_universal_file_is_refused(tmp_path):
     (tmp_path / "r.uff").write_bytes(whole[: int(len(whole) * 0.8)])
     with pytest.raises(formats.FormatError, match=r"r\.uff: the file ends inside a dataset"):
         formats.read_tables(tmp_path / "r.uff")
+
+
+def test_a_term_given_twice_to_the_identifier_is_refused():
+    # issue 38: duplicated terms in the API returned half the values (the estimate split between
+    # two identical columns)
+    from jointrig.identify.solve import identify
+    from jointrig.vocab.law import Power
+
+    t = np.arange(64) * 2 * np.pi / (W * 32)
+    rec = SteadyStateRecord(W, t, np.cos(W * t), np.sin(W * t), 0.5 * np.sin(W * t), n_periods=2)
+    with pytest.raises(ValueError, match=r"the terms \['k_Nm_per_rad'\] are given more than once"):
+        identify([rec], (Viscous(), Power(1), Power(1)), form="two_dof")
+
+
+def test_units_stated_only_in_a_comment_are_refused(tmp_path):
+    # issue 38: units stated only in a comment line were read as SI
+    (tmp_path / "d.csv").write_text("# bench 3, encoders: phi1 and phi2 in deg\n" + good_csv())
+    with pytest.raises(RunsFileError, match=r"reads as column 'phi1' in 'deg'.*--units phi1=deg"):
+        read_runs(tmp_path / "d.csv")
+    # the header states it: the comment is no contradiction
+    text = good_csv().replace("run,time,torque,phi1,phi2", "run,time,torque,phi1 [deg],phi2 [deg]", 1)
+    (tmp_path / "d.csv").write_text("# bench 3, encoders: phi1 and phi2 in deg\n" + text)
+    assert read_runs(tmp_path / "d.csv").records
