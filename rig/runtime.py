@@ -51,11 +51,29 @@ class BadArgument(ValueError):
     """A command-line argument that cannot be used (names the option and what was expected)."""
 
 
-def check_output(path, option: str) -> None:
-    """Refuse an output path before any work: a directory, or a place where no file can be
-    created (probed by creating and removing a temporary file in the nearest existing folder)."""
+def _probe_writable(option: str, p, what: str) -> None:
+    """Refuse ``p`` (an output file's folder or an output folder) unless a file can be created in
+    it, or in the nearest existing folder above it (probed by creating and removing one)."""
     import os
     import tempfile
+
+    place = p
+    while not place.exists():
+        place = place.parent
+    if not place.is_dir():
+        raise BadArgument(f"{option} {what}: {place} is a file, not a folder")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".jointrig-probe.", dir=place)
+        os.close(fd)
+        os.unlink(tmp)
+    except OSError as err:
+        raise BadArgument(f"{option} {what}: cannot create a file in {place} ({err.strerror})") from None
+
+
+def check_output(path, option: str) -> None:
+    """Refuse an output path before any work: a directory, or a place where no file can be
+    created (probed in the nearest existing folder)."""
+    import os
     from pathlib import Path
 
     if path is None:
@@ -65,25 +83,12 @@ def check_output(path, option: str) -> None:
         raise BadArgument(f"{option} {p}: is a folder; expected a file path")
     if p.exists() and not os.access(p, os.W_OK):
         raise BadArgument(f"{option} {p}: exists and is not writable")
-    parent = p.parent
-    while not parent.exists():
-        parent = parent.parent
-    if not parent.is_dir():
-        raise BadArgument(f"{option} {p}: {parent} is a file, not a folder")
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=".jointrig-probe.", dir=parent)
-        os.close(fd)
-        os.unlink(tmp)
-    except OSError as err:
-        raise BadArgument(f"{option} {p}: cannot create a file in {parent} ({err.strerror})") from None
+    _probe_writable(option, p.parent, str(p))
 
 
 def check_folder(path, option: str) -> None:
     """Refuse an output folder before any work: a file in its place, or a place where the folder
-    cannot be made or written (probed by creating and removing a temporary file in it, or in the
-    nearest existing folder above it)."""
-    import os
-    import tempfile
+    cannot be made or written (probed in it, or in the nearest existing folder above it)."""
     from pathlib import Path
 
     if path is None:
@@ -91,17 +96,7 @@ def check_folder(path, option: str) -> None:
     p = Path(path)
     if p.exists() and not p.is_dir():
         raise BadArgument(f"{option} {p}: is a file; expected a folder")
-    place = p
-    while not place.exists():
-        place = place.parent
-    if not place.is_dir():
-        raise BadArgument(f"{option} {p}: {place} is a file, not a folder")
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=".jointrig-probe.", dir=place)
-        os.close(fd)
-        os.unlink(tmp)
-    except OSError as err:
-        raise BadArgument(f"{option} {p}: cannot write in {place} ({err.strerror})") from None
+    _probe_writable(option, p, str(p))
 
 
 def check_range(value, option: str, *, lo=None, hi=None, lo_open=False, hi_open=False, integer=False) -> None:
