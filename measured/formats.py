@@ -269,8 +269,11 @@ def _in_a_fork(fn, path: Path):
 def _forked_call(send, receive, fn, path) -> None:
     from jointrig.parallel import die_with_parent
 
+    import faulthandler
+
     receive.close()
     die_with_parent(os.getppid())
+    faulthandler.disable()  # a crash here is the parent's to report, by the file's name
     try:
         answer = (True, fn(path))
     except Exception as err:  # noqa: BLE001 - raised again in the parent
