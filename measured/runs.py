@@ -556,6 +556,35 @@ def _plausible_angles(path: Path, run_ids: Sequence[str], records: Sequence[Stea
     return list(records)
 
 
+#: Where a file's drive torque acts (``jointrig diagnose --torque-on``).
+TORQUE_ON = ("flywheel1", "flywheel2", "shaft")
+
+
+def driven_first(loaded: "LoadedRuns", torque_on: str) -> "LoadedRuns":
+    """The runs with the driven flywheel as flywheel 1, the diagnosis's convention (pure). A
+    drive on flywheel 2 swaps the two angles (the relative angle becomes phi2 - phi1 of the file;
+    with only the relative angle, its sign flips), with a note that says so. A torque measured in
+    the shaft is refused: it is the joint's own torque, not a drive."""
+    if torque_on not in TORQUE_ON:
+        raise RunsFileError(f"--torque-on {torque_on!r}: expected one of {', '.join(TORQUE_ON)}")
+    if torque_on == "shaft":
+        raise RunsFileError(
+            f"{loaded.path}: --torque-on shaft: a torque measured in the shaft between the flywheels is the joint's "
+            f"own torque, not a drive; the diagnosis identifies the joint from the drive torque on a flywheel and "
+            f"replays the runs in the rig under it. Record the motor's torque on the driven flywheel (a torque cell "
+            f"between motor and flywheel) and give that column as 'torque'")
+    if torque_on == "flywheel1":
+        return loaded
+    records = tuple(replace(r, phi1_rad=r.phi2_rad, phi2_rad=r.phi1_rad, rate1_rad_s=r.rate2_rad_s,
+                            rate2_rad_s=r.rate1_rad_s) if r.phi2_rad is not None
+                    else replace(r, phi1_rad=-r.phi1_rad, rate1_rad_s=None if r.rate1_rad_s is None else -r.rate1_rad_s)
+                    for r in loaded.records)
+    note = ("--torque-on flywheel2: the drive acts on your flywheel 2, so in this diagnosis flywheel 1 (J1, phi1) is "
+            "your flywheel 2 and flywheel 2 (J2, phi2) your flywheel 1; the relative angle is your phi2 - phi1 (an "
+            "even term or an angle offset comes out with the opposite sign of yours)")
+    return replace(loaded, records=records, notes=loaded.notes + (note,))
+
+
 def read_runs(path: Union[str, os.PathLike], *, samples_per_period: Optional[int] = None,
               columns: Optional[Union[str, Mapping[str, str]]] = None,
               units: Optional[Union[str, Mapping[str, str]]] = None, zero_per_run: bool = False) -> LoadedRuns:

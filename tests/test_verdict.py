@@ -297,3 +297,30 @@ def test_a_bad_model_file_is_refused_before_the_work(tmp_path, capsys):
     (tmp_path / "bad.xml").write_text("<mujoco><worldbody/></mujoco>")
     assert diagnose.main([str(example), "--model", str(tmp_path / "bad.xml"), "-q"]) == 2
     assert "--model: " in capsys.readouterr().err
+
+
+def test_where_the_torque_acts_is_an_option(tmp_path, capsys):
+    # issue 37: `torque` is the drive on flywheel 1; a bench that drives flywheel 2 says so with
+    # --torque-on flywheel2 and gets the same diagnosis; a shaft torque is refused with what to
+    # record instead. The independent bench's example file with its angle columns swapped.
+    import json
+    from pathlib import Path
+
+    from jointrig.commands import diagnose
+
+    example = Path(__file__).resolve().parent.parent / "examples" / "bench_dry_friction.csv"
+    lines = example.read_text().splitlines()
+    (tmp_path / "on2.csv").write_text("\n".join([lines[0]] + [",".join(p[:3] + [p[4], p[3]])
+                                                              for p in (l.split(",") for l in lines[1:])]) + "\n")
+    outs = []
+    for data, extra in ((example, []), (tmp_path / "on2.csv", ["--torque-on", "flywheel2"])):
+        out = tmp_path / f"{data.stem}.json"
+        assert diagnose.main([str(data), "-q", "--json", str(out), *extra]) == 0
+        outs.append(json.loads(out.read_text()))
+    assert outs[1]["verdict"] == outs[0]["verdict"] == "explained"
+    # the same numbers but for round-off (the file's channels are read in another order)
+    assert outs[1]["extended"]["parameters"] == pytest.approx(outs[0]["extended"]["parameters"], rel=1e-9)
+    assert any("--torque-on flywheel2" in n for n in outs[1]["notes"])
+    capsys.readouterr()
+    assert diagnose.main([str(tmp_path / "on2.csv"), "-q", "--torque-on", "shaft"]) == 2
+    assert "the joint's own torque, not a drive" in capsys.readouterr().err

@@ -41,4 +41,5 @@ def main(argv=None) -> int:
         forwarded.append("--zero-per-run")
     if args.model is not None:
         forwarded += ["--model", str(args.model)]
+    forwarded += ["--torque-on", args.torque_on]
     return diagnose.main(forwarded)

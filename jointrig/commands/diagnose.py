@@ -49,6 +49,10 @@ def add_data_options(p: argparse.ArgumentParser) -> None:
                    help="your MJCF model of the two flywheels (the jointrig_* fields for the law): the diagnosis "
                         "starts from its law and shows each parameter as written beside what the data say "
                         "(default: the paper's structure c phi' + k phi + gamma phi^3, no values as written)")
+    p.add_argument("--torque-on", choices=("flywheel1", "flywheel2", "shaft"), default="flywheel1",
+                   help="where the file's torque acts: the drive on flywheel 1 (default) or on flywheel 2 (the "
+                        "angles are swapped so the driven one is flywheel 1); a torque measured in the shaft is "
+                        "refused with what to record instead")
     p.add_argument("--zero-per-run", action="store_true",
                    help="take each run's mean angles as their zero (encoders zeroed at the start of each recording; "
                         "right for a symmetric joint). Without it such a file is refused")
@@ -128,7 +132,7 @@ def _main(args: argparse.Namespace, writer) -> int:
     quiet_mujoco()
 
     from jointrig.vocab.records import RecordError
-    from jointrig.measured.runs import RunsFileError, read_runs
+    from jointrig.measured.runs import RunsFileError, driven_first, read_runs
     from jointrig.present.diagnosis_report import format_report, report_json
     from jointrig.rig.simulate import SimulationError
     from jointrig.files import write_json_atomic
@@ -153,7 +157,8 @@ def _main(args: argparse.Namespace, writer) -> int:
                 model = load_rig(args.model)
             except RigModelError as err:
                 raise BadArgument(f"--model: {err}") from None
-        loaded = read_runs(args.data, columns=args.columns, units=args.units, zero_per_run=args.zero_per_run)
+        loaded = driven_first(read_runs(args.data, columns=args.columns, units=args.units,
+                                        zero_per_run=args.zero_per_run), args.torque_on)
         ids = list(loaded.run_ids)
         holdout = None
         if args.holdout:
