@@ -17,7 +17,7 @@ from jointrig.studies.validate import DiagnosisReport
 from .formatting import quantity_of, unit_of, with_se
 
 __all__ = ["plain_verdict", "ParameterRow", "parameter_rows", "adopted_causes", "next_steps", "WrittenRow",
-           "written_rows"]
+           "written_rows", "offset_reading"]
 
 _DESCRIPTION = {c.name: c.description for c in CATALOGUE}
 
@@ -169,12 +169,38 @@ def parameter_rows(report: DiagnosisReport) -> tuple[ParameterRow, ...]:
     return tuple(out)
 
 
+#: The largest zero offset of the relative angle read as a sensor's (rad, about 11 deg): beyond
+#: it an even stiffness is taken as the joint's.
+MAX_ZERO_OFFSET_RAD = 0.2
+
+
+def offset_reading(report: DiagnosisReport) -> str:
+    """An adopted even stiffness ``a phi^2`` beside a cubic ``gamma phi^3`` is, to first order,
+    what a constant zero offset ``delta = -a / (3 gamma)`` of the relative angle makes of the
+    cubic: the data cannot tell the two apart, and an encoder's zero is the likelier. The
+    reading in words, or "" (pure)."""
+    if "asymmetric_stiffness" not in report.diagnosis.effects:  # adopted, or the rejected best candidate's
+        return ""
+    p = report.diagnosis.extended.as_dict()
+    a, gamma = p.get("a_Nm_per_rad2"), p.get("gamma_Nm_per_rad3")
+    if not a or not gamma or gamma <= 0:
+        return ""
+    delta = -a / (3 * gamma)  # gamma (phi - delta)^3 = gamma phi^3 - 3 gamma delta phi^2 + ...
+    if abs(delta) > MAX_ZERO_OFFSET_RAD:
+        return ""
+    return (f"the even stiffness a = {a:.4g} N m/rad^2 is exactly what a zero offset of the relative angle of "
+            f"-a / (3 gamma) = {delta:.3g} rad ({math.degrees(delta):.2g} deg) makes of the cubic gamma = {gamma:.4g} "
+            f"N m/rad^3: the data cannot tell the two apart. Check the angle sensors' zero; if the joint is "
+            f"symmetric, subtract {delta:.3g} rad from the relative angle (phi1) and run the diagnosis again")
+
+
 def next_steps(report: DiagnosisReport) -> tuple[str, ...]:
     """What to measure or do next, in words."""
     d = report.diagnosis
+    offset = offset_reading(report)
     if report.verdict.verdict == "unexplained":
-        return tuple(d.plausibility) + tuple(report.next_measurements)
-    out = list(d.plausibility) + [
+        return tuple(d.plausibility) + ((offset,) if offset else ()) + tuple(report.next_measurements)
+    out = list(d.plausibility) + ([offset] if offset else []) + [
         f"{a.effects[0]} and {a.effects[1]} explain the same part of the data; to tell them apart: {a.excitation}"
         for a in d.ambiguous]
     if report.validation_kind != "held_out_runs":

@@ -324,3 +324,23 @@ def test_where_the_torque_acts_is_an_option(tmp_path, capsys):
     capsys.readouterr()
     assert diagnose.main([str(tmp_path / "on2.csv"), "-q", "--torque-on", "shaft"]) == 2
     assert "the joint's own torque, not a drive" in capsys.readouterr().err
+
+
+def test_a_constant_zero_offset_is_named_as_such(tmp_path):
+    # issue 37: a constant 0.05 rad offset of the relative angle was taken for an asymmetric
+    # stiffness (a = 3 gamma 0.05) with only a hint. On the stiff cubic joint of the independent
+    # bench, the first thing to do names the offset and its size (within 10%: the fit's a and
+    # gamma carry the noise).
+    from jointrig.present.summary import next_steps
+
+    def shifted(t, T, p1, p2):
+        return t, T, p1 + 0.05, p2
+
+    path = measure(JOINTS["light"], _points("light"), tmp_path / "bench.csv", seed=4, fs_Hz=2000.0, n_periods=6.5,
+                   transform=shifted)
+    loaded = read_runs(path)
+    report = run_diagnosis(loaded.records, run_ids=loaded.run_ids)
+    first = next_steps(report)[0]
+    assert "zero offset of the relative angle" in first, next_steps(report)
+    delta = float(first.split("(3 gamma) = ")[1].split(" rad")[0])
+    assert delta == pytest.approx(0.05, rel=0.1)
