@@ -246,7 +246,7 @@ def _in_a_fork(fn, path: Path):
         return fn(path)
     ctx = multiprocessing.get_context("fork")
     receive, send = ctx.Pipe(duplex=False)
-    child = ctx.Process(target=_forked_call, args=(send, receive, fn, path), name="jointrig-reader")
+    child = ctx.Process(target=_forked_call, args=(send, receive, fn, path, os.getpid()), name="jointrig-reader")
     child.start()
     send.close()
     try:
@@ -266,13 +266,13 @@ def _in_a_fork(fn, path: Path):
     return value
 
 
-def _forked_call(send, receive, fn, path) -> None:
+def _forked_call(send, receive, fn, path, parent_pid: int) -> None:
     from jointrig.parallel import die_with_parent
 
     import faulthandler
 
     receive.close()
-    die_with_parent(os.getppid())
+    die_with_parent(parent_pid)
     faulthandler.disable()  # a crash here is the parent's to report, by the file's name
     try:
         answer = (True, fn(path))
