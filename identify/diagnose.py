@@ -1167,7 +1167,8 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
         notes.append(f"only {int(nu / 2 + 1)} periods per run: the noise estimates are rough (more periods "
                      f"sharpen the significance tests)")
     say = progress or (lambda msg: None)
-    say(f"fitting the nominal model (paper eq. 11) to {len(runs)} runs, harmonics 1..{H}")
+    say(f"fitting the nominal model{' (paper eq. 11)' if nominal_spec == NOMINAL else ''} to {len(runs)} runs, "
+        f"harmonics 1..{H}")
     nominal, w = fit(problem, nominal_spec)
     ambiguous: list[Ambiguity] = []
     kind_of = {c.name: c.kind for c in causes}
@@ -1244,7 +1245,7 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
     for ch in runs[0].noise_std:
         noise[ch] = float(np.median([r.noise_std[ch] for r in runs]))
     return Diagnosis(nominal, tuple(first), tuple(steps), current, tuple(ambiguous), form, torque_share, H,
-                     noise, tuple(notes), implausible_inertias(nominal))
+                     noise, tuple(notes), implausible_fit(nominal))
 
 
 def _spec_of(steps: Sequence[CauseScore], final: Fit, by_name: dict, nominal: ModelSpec = NOMINAL) -> ModelSpec:
@@ -1310,7 +1311,7 @@ def _parsimonious(ranked: list[CauseScore], by_name: dict, n_rows: int, alpha: f
 INERTIA_RATIO = 1000.0
 
 
-def implausible_inertias(f: Fit) -> tuple[str, ...]:
+def implausible_fit(f: Fit) -> tuple[str, ...]:
     """What a fitted model says about how the data were read (pure): a negative or zero inertia,
     or one a thousand times below the other, is no flywheel's; a significantly negative damping
     feeds energy in. Their likely causes are named: a torque that is not the drive on flywheel 1

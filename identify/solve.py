@@ -25,7 +25,7 @@ from typing import Sequence
 
 from .estimates import Estimates
 from .balance import LinearSystem, equivalent_system, two_dof_system
-from jointrig.vocab.law import Term
+from jointrig.vocab.law import Term, duplicate_names
 from jointrig.vocab.records import SteadyStateRecord
 
 __all__ = ["IdentificationResult", "solve", "identify", "IllConditionedWarning", "FORMS"]
@@ -160,8 +160,7 @@ def identify(
       ValueError: a term given twice (two columns of one parameter: the system is singular and
         its estimates would be split between them), or an unknown form.
     """
-    names = [t.name for t in terms]
-    dup = sorted({n for n in names if names.count(n) > 1})
+    dup = duplicate_names(terms)
     if dup:
         raise ValueError(f"identify: the terms {dup} are given more than once; expected each term once")
     if form == "equivalent":

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import glob
 import json
 import os
 import tempfile
@@ -49,7 +50,7 @@ def temp_beside(path: Path) -> Path:
     its temporary file, and the next run cleans it up."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    for old in path.parent.glob(f".{glob_escape(path.name)}.*.tmp"):
+    for old in path.parent.glob(f".{glob.escape(path.name)}.*.tmp"):
         pid = old.name[len(path.name) + 2:].split(".", 1)[0]
         if pid.isdigit() and not _alive(int(pid)):
             with contextlib.suppress(OSError):
@@ -57,12 +58,6 @@ def temp_beside(path: Path) -> Path:
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.{os.getpid()}.", suffix=".tmp", dir=path.parent)
     os.close(fd)
     return Path(tmp)
-
-
-def glob_escape(name: str) -> str:
-    import glob
-
-    return glob.escape(name)
 
 
 def write_atomic(path: Path, write: Callable[[Path], None]) -> None:

@@ -17,7 +17,7 @@ import threading
 from concurrent.futures import ProcessPoolExecutor
 from typing import Callable, Iterator, Optional, Sequence
 
-__all__ = ["WarmProcess", "default_workers", "die_with_parent", "fork_map"]
+__all__ = ["ProcessEnded", "WarmProcess", "default_workers", "die_with_parent", "fork_map"]
 
 #: The function and items of the running :func:`fork_map`, set just before the workers are forked.
 _WORK: Optional[tuple] = None
@@ -145,6 +145,15 @@ def fork_map(fn: Callable, items: Sequence, workers: Optional[int] = None) -> It
             _stop(pool)
 
 
+class ProcessEnded(RuntimeError):
+    """A :class:`WarmProcess` ended (killed, crashed) before it answered its call; ``exitcode``
+    is the process's (negative: the signal that ended it)."""
+
+    def __init__(self, message: str, exitcode: Optional[int]):
+        super().__init__(message)
+        self.exitcode = exitcode
+
+
 class WarmProcess:
     """A process forked now, while the command is still light, that imports ``modules`` at once
     and then runs the one call it is sent: work at the end of a command that needs a heavy stack
@@ -182,8 +191,8 @@ class WarmProcess:
             self._process.join()
             code = self._process.exitcode
             self._process = None
-            raise RuntimeError(f"the process that was to run {getattr(fn, '__qualname__', fn)} ended "
-                               f"(exit code {code}) without an answer") from None
+            raise ProcessEnded(f"the process that was to run {getattr(fn, '__qualname__', fn)} ended "
+                               f"(exit code {code}) without an answer", code) from None
         self._process.join()
         self._process = None
         self._conn.close()

@@ -229,59 +229,31 @@ def _read_parquet(path: Path) -> list[RawTable]:
 
 
 def _loadmat(path: Path) -> dict:
+    import faulthandler
+
     import scipy.io
 
+    faulthandler.disable()  # run in a child of its own: a crash there is the parent's to report, by the file's name
     return scipy.io.loadmat(path, squeeze_me=True, struct_as_record=False)
 
 
 def _in_a_fork(fn, path: Path):
-    """``fn(path)`` in a forked child where ``fork`` exists, its result sent back: a reader that
-    crashes the process on a corrupt file (scipy's MAT v5 reader has died by SIGSEGV on a
-    duplicated byte block, with no message at all) ends only the child, and the file is refused
-    by name. Exceptions come back as they were raised."""
+    """``fn(path)`` in a forked child (a :class:`jointrig.parallel.WarmProcess`) where ``fork``
+    exists: a reader that crashes the process on a corrupt file (scipy's MAT v5 reader has died
+    by SIGSEGV on a duplicated byte block, with no message at all) ends only the child, and the
+    file is refused by name. Exceptions come back as they were raised."""
     import multiprocessing
-    import pickle
+
+    from jointrig.parallel import ProcessEnded, WarmProcess
 
     if "fork" not in multiprocessing.get_all_start_methods():
         return fn(path)
-    ctx = multiprocessing.get_context("fork")
-    receive, send = ctx.Pipe(duplex=False)
-    child = ctx.Process(target=_forked_call, args=(send, receive, fn, path, os.getpid()), name="jointrig-reader")
-    child.start()
-    send.close()
-    try:
-        ok, value = receive.recv()
-    except EOFError:
-        child.join()
-        raise FormatError(f"{path}: the reader crashed on this file (exit {child.exitcode}): it is corrupt or not what "
-                          f"its extension says") from None
-    except pickle.UnpicklingError as err:
-        child.join()
-        raise FormatError(f"{path}: cannot be read ({err})") from None
-    finally:
-        receive.close()
-    child.join()
-    if not ok:
-        raise value
-    return value
-
-
-def _forked_call(send, receive, fn, path, parent_pid: int) -> None:
-    from jointrig.parallel import die_with_parent
-
-    import faulthandler
-
-    receive.close()
-    die_with_parent(parent_pid)
-    faulthandler.disable()  # a crash here is the parent's to report, by the file's name
-    try:
-        answer = (True, fn(path))
-    except Exception as err:  # noqa: BLE001 - raised again in the parent
-        answer = (False, err)
-    try:
-        send.send(answer)
-    except Exception as err:  # noqa: BLE001 - a value that does not pickle
-        send.send((False, FormatError(f"{path}: read, but its contents cannot be passed on ({err})")))
+    with WarmProcess(()) as child:
+        try:
+            return child.call(fn, path)
+        except ProcessEnded as err:
+            raise FormatError(f"{path}: the reader crashed on this file (exit {err.exitcode}): it is corrupt or not "
+                              f"what its extension says") from None
 
 
 def _read_mat(path: Path) -> list[RawTable]:

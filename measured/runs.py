@@ -48,7 +48,7 @@ import numpy as np
 
 from jointrig.identify.periods import (MAX_CLOCK_DEVIATION, estimate_fundamental, fit_at, linear_drift,
                               ls_harmonics, periods_by_least_squares, repeat_statistic, uniform_clock)
-from jointrig.vocab.records import RecordError, SteadyStateRecord
+from jointrig.vocab.records import MAX_SI_VALUE, RecordError, SteadyStateRecord
 
 from .formats import SUFFIXES, FormatError, RawTable, read_tables
 
@@ -89,8 +89,8 @@ CHECK_HARMONICS = 10
 DRIFT_T_STAT = 10.0
 DRIFT_SHARE = 1e-3
 
-#: Largest magnitude accepted in SI units: anything bigger is a corrupt value, not a measurement.
-MAX_ABS_VALUE = 1e12
+#: Largest magnitude accepted in SI units (:data:`vocab.records.MAX_SI_VALUE`).
+MAX_ABS_VALUE = MAX_SI_VALUE
 
 
 class RunsFileError(ValueError):
@@ -218,8 +218,8 @@ def _resolve(table: RawTable, columns: dict, units: dict, notes: list) -> tuple[
                                 f"expected real numbers in {COLUMNS[canon]}")
         col = col.astype(float)
         given, in_file = units.get(canon), table.units.get(src)
-        if given is not None and in_file is not None and _norm_unit(given) != _norm_unit(in_file) \
-                and _unit_factor(where, canon, given) != _unit_factor(where, canon, in_file):
+        if given is not None and in_file is not None and \
+                _unit_factor(where, canon, given) != _unit_factor(where, canon, in_file):
             raise RunsFileError(f"{where}: column '{src}' is in {in_file!r} by the file's header, but {given!r} by "
                                 f"--units or the sidecar: units given twice must agree; drop one")
         unit = given or in_file
@@ -523,10 +523,7 @@ def _plausible_angles(path: Path, run_ids: Sequence[str], records: Sequence[Stea
                       angles_stated: bool, zero_per_run: bool, notes: list) -> list[SteadyStateRecord]:
     """Refuse angles that are probably not in rad (no unit stated, a twist of several rad), and
     runs whose angle sensors were zeroed one by one, or centre each run's angles when asked."""
-    def rel(r):
-        return r.phi1_rad - r.phi2_rad if r.phi2_rad is not None else r.phi1_rad
-
-    amps = [float(np.ptp(rel(r))) / 2 for r in records]
+    amps = [float(np.ptp(r.phi_rad)) / 2 for r in records]
     worst = int(np.argmax(amps))
     if amps[worst] > MAX_TWIST_RAD and not angles_stated:
         raise RunsFileError(
@@ -543,7 +540,7 @@ def _plausible_angles(path: Path, run_ids: Sequence[str], records: Sequence[Stea
                      "mean relative angle, right for a symmetric joint; an asymmetric joint's shift of the mean with "
                      "the level is lost")
         return out
-    means = [float(np.mean(rel(r))) for r in records]
+    means = [float(np.mean(r.phi_rad)) for r in records]
     if len(records) >= 2 and max(means) - min(means) > ZERO_SPREAD * max(amps):
         lo, hi = int(np.argmin(means)), int(np.argmax(means))
         raise RunsFileError(

@@ -24,8 +24,8 @@ from typing import Optional, Sequence
 import numpy as np
 
 from .formatting import quantity_of, sig, sig_or, unit_of, with_se
-from .summary import adopted_causes, next_steps, parameter_rows, plain_verdict, written_rows
-from jointrig.studies.validate import CHI2_PER_DOF_OK, DiagnosisReport
+from .summary import NO_GAIN, adopted_causes, next_steps, parameter_rows, plain_verdict, written_rows
+from jointrig.studies.validate import CHI2_PER_DOF_OK, DIVERGES, INERTIAS_NOT_POSITIVE, NEVER_SETTLES, DiagnosisReport
 
 __all__ = ["report_json", "format_report", "log_diagnosis", "write_html", "write_outputs"]
 
@@ -189,7 +189,7 @@ def format_report(report: DiagnosisReport, *, source: str = "", notes: Sequence[
                      f"{_rms_cell(r, 'nominal'):>10s} {_rms_cell(r, 'extended'):>10s} {r.noise_floor_rad:10.3g}")
     lines.append(f"  held-out runs: nominal {_held_out_rms(report, 'nominal')}, extended "
                  f"{_held_out_rms(report, 'extended')}, noise floor {report.noise_floor_rad:.3g} rad; "
-                 f"gain {sig_or(report.gain, 'not computed (a model has no steady state in a held-out run)')}")
+                 f"gain {sig_or(report.gain, NO_GAIN)}")
     for which in ("nominal", "extended"):
         if report.unsimulated(which):
             lines.append(f"  the {which} model has no steady state in run(s) {', '.join(report.unsimulated(which))}: "
@@ -206,7 +206,8 @@ def format_report(report: DiagnosisReport, *, source: str = "", notes: Sequence[
 def _rms_cell(r, which: str) -> str:
     """A run's validation RMS (rad), or why it has none ("diverges", "never settles")."""
     why = r.failure(which)
-    return sig_or(r.rms(which), "diverges" if why == "it diverges" else "no steady" if why else "not computed")
+    return sig_or(r.rms(which), {DIVERGES: "diverges", NEVER_SETTLES: "no steady",
+                                 INERTIAS_NOT_POSITIVE: "J <= 0"}.get(why, "not computed"))
 
 
 def _held_out_rms(report, which: str) -> str:
@@ -610,7 +611,7 @@ def _html_sections(report: DiagnosisReport, source: str, notes: Sequence[str]) -
                        f"for that reason, and its error there has no number.</p>")
     out.append(f"<p>Held-out gain (the nominal model's error over the extended model's: how much better the "
                f"extension predicts): "
-               f"<b>{sig_or(report.gain, 'not computed (a model has no steady state in a held-out run)')}</b>; "
+               f"<b>{sig_or(report.gain, NO_GAIN)}</b>; "
                f"{html.escape(report.validation_statement)}.</p>")
     return out
 

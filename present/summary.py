@@ -16,10 +16,12 @@ from jointrig.studies.validate import DiagnosisReport
 
 from .formatting import quantity_of, unit_of, with_se
 
-__all__ = ["plain_verdict", "ParameterRow", "parameter_rows", "adopted_causes", "next_steps", "WrittenRow",
+__all__ = ["NO_GAIN", "plain_verdict", "ParameterRow", "parameter_rows", "adopted_causes", "next_steps", "WrittenRow",
            "written_rows", "offset_reading"]
 
 _DESCRIPTION = {c.name: c.description for c in CATALOGUE}
+#: The gain's cell when a model has no steady state in a held-out run.
+NO_GAIN = "not computed (a model has no steady state in a held-out run)"
 
 
 def _fits(report: DiagnosisReport) -> str:

@@ -19,6 +19,7 @@ import numpy as np
 from jointrig.vocab.law import TERM_CLASSES, FieldError, JointLaw, law_terms_from_fields
 from jointrig.vocab.plant import Plant
 from jointrig.vocab.params import BEARING1, BEARING2, DRIVE_DELAY
+from jointrig.vocab.records import MAX_SI_VALUE
 
 __all__ = ["RigModel", "RigModelError", "load_rig", "law_from_model", "plant_from_model", "DEFAULT_MODEL", "TWIST_TENDON"]
 
@@ -42,10 +43,6 @@ _PLANT_FIELDS = (BEARING1, BEARING2, DRIVE_DELAY)
 
 def _known_fields() -> tuple[str, ...]:
     return tuple(f for cls in TERM_CLASSES for f in cls.MJCF_FIELDS) + _PLANT_FIELDS
-
-
-#: The largest law parameter a model file may state, in SI (the loader's bound on measured values).
-MAX_LAW_VALUE = 1e12
 
 
 class RigModelError(ValueError):
@@ -155,8 +152,8 @@ def law_from_model(model: mujoco.MjModel, source: str = "model") -> JointLaw:
         raise RigModelError(f"{source}: no joint law: add <custom><numeric name=\"{PREFIX}...\"> fields "
                             f"(e.g. {PREFIX}k_Nm_per_rad)")
     for term, value in pairs:
-        if abs(value) > MAX_LAW_VALUE:
-            raise RigModelError(f"{source}: the law's {term.name} = {value:g} is beyond {MAX_LAW_VALUE:g} in SI units, "
+        if abs(value) > MAX_SI_VALUE:
+            raise RigModelError(f"{source}: the law's {term.name} = {value:g} is beyond {MAX_SI_VALUE:g} in SI units, "
                                 f"no joint's (a unit slip, such as N mm for N m?); expected SI units")
     return JointLaw(tuple(t for t, _ in pairs), tuple(v for _, v in pairs))
 
@@ -228,11 +225,10 @@ def load_rig(path: Union[str, os.PathLike] = DEFAULT_MODEL) -> RigModel:
     if not np.allclose(model.jnt_axis[joint_ids[0]], model.jnt_axis[joint_ids[1]]):
         raise RigModelError(f"{src}: joints 'phi1' and 'phi2' must share their axis (coaxial flywheels)")
     for name, jid in zip(JOINTS, joint_ids):
-        own = {field: float(getattr(model, attr)[model.jnt_dofadr[jid]] if attr.startswith("dof")
-                            else getattr(model, attr)[jid])
-               for field, attr in (("damping", "dof_damping"), ("frictionloss", "dof_frictionloss"),
-                                   ("stiffness", "jnt_stiffness"), ("armature", "dof_armature"))}
-        set_fields = {k: v for k, v in own.items() if v != 0.0}
+        dof = model.jnt_dofadr[jid]
+        own = {"damping": model.dof_damping[dof], "frictionloss": model.dof_frictionloss[dof],
+               "stiffness": model.jnt_stiffness[jid], "armature": model.dof_armature[dof]}
+        set_fields = {k: float(v) for k, v in own.items() if v != 0.0}
         if set_fields:
             raise RigModelError(f"{src}: joint '{name}' sets MuJoCo's own {', '.join(f'{k}={v:g}' for k, v in set_fields.items())}: "
                                 f"the rig applies the joint law from the jointrig_* fields and would add these on "

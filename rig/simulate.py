@@ -552,29 +552,24 @@ def simulate_steady_state(
                          t_start)
     # One period under the constraint tells whether the joint sticks; the periods asked for are
     # logged by the run that stands (the constraint's again, or the callback's).
-    probe = dataclasses.replace(config, n_periods=1)
-    record, info = _simulate(rig, omega_rad_s, amplitude_Nm, probe, held, static_friction, drive, inertias_kgm2,
-                             start, backend, t_start)
-    if sticks(record):
-        if config.n_periods == 1:
-            return record, info
-        record, more = _simulate(rig, omega_rad_s, amplitude_Nm, config, held, static_friction, drive, inertias_kgm2,
-                                 StartState.of_record(record), backend, t_start)
+    probe, info = _simulate(rig, omega_rad_s, amplitude_Nm, dataclasses.replace(config, n_periods=1), held,
+                            static_friction, drive, inertias_kgm2, start, backend, t_start)
+
+    def going_on(plant_now: Plant, static_now: float) -> tuple[SteadyStateRecord, SettleInfo]:
+        record, more = _simulate(rig, omega_rad_s, amplitude_Nm, config, plant_now, static_now, drive, inertias_kgm2,
+                                 StartState.of_record(probe), backend, t_start)
         return record, dataclasses.replace(more, periods_simulated=info.periods_simulated + more.periods_simulated)
+
+    if sticks(probe):
+        return (probe, info) if config.n_periods == 1 else going_on(held, static_friction)
     # The joint only slides through zero rate: the constraint's softness switches the friction
     # about a step early, while sign(rate) in the callback switches within the step; from the
     # constraint's steady state the callback settles in a few periods. Should it not (it
     # sticks after all), the constraint's steady state stands.
     try:
-        slid, more = _simulate(rig, omega_rad_s, amplitude_Nm, config, plant, 0.0, drive, inertias_kgm2,
-                               StartState.of_record(record), backend, t_start)
+        return going_on(plant, 0.0)
     except SimulationError:
-        if config.n_periods == 1:
-            return record, info
-        record, more = _simulate(rig, omega_rad_s, amplitude_Nm, config, held, static_friction, drive, inertias_kgm2,
-                                 StartState.of_record(record), backend, t_start)
-        return record, dataclasses.replace(more, periods_simulated=info.periods_simulated + more.periods_simulated)
-    return slid, dataclasses.replace(more, periods_simulated=info.periods_simulated + more.periods_simulated)
+        return (probe, info) if config.n_periods == 1 else going_on(held, static_friction)
 
 
 #: A joint with dry friction counts as sticking when two successive samples of its steady state

@@ -71,6 +71,11 @@ VALIDATION_MAX_PERIODS = 1000
 VALIDATION_WALL_S = 30.0
 
 
+#: Why a model has no steady state in a run (``RunComparison.failures``), in words.
+NEVER_SETTLES = "it never settles to a periodic response"
+DIVERGES = "it diverges"
+INERTIAS_NOT_POSITIVE = "its inertias are not positive"
+
 #: Fewer runs than this: no run can be held out (the fit needs the rest), so each run's periods
 #: are split instead (:func:`split_periods`).
 MIN_RUNS_TO_HOLD_OUT = 3
@@ -497,7 +502,7 @@ class DiagnosisReport:
         """What the validation can and cannot show, in words."""
         if self.validation_kind == HELD_OUT_RUNS:
             return self.generalisation
-        n = len({r.run_id.split(" ")[0] for r in self.runs})
+        n = len(self.runs) // 2  # each run split into a fit part and a held-out part
         return (f"no held-out excitation exists ({n} run(s)): the models predict later periods of the same runs, which "
                 f"the fit did not see. That checks the models against the noise under the same drive, not against "
                 f"another excitation; the evidence that stands instead is each cause's significance (its chi-square "
@@ -823,7 +828,7 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
                     said.append(f"the {which} model's inertias {J} kg m^2 are not positive (are the runs at one "
                                 f"frequency only? inertia and stiffness then cannot be separated): it cannot be "
                                 f"simulated")
-                failed[which] = "its inertias are not positive"
+                failed[which] = INERTIAS_NOT_POSITIVE
                 phi[which] = np.full(N, np.nan)
                 continue
             try:
@@ -832,8 +837,7 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
             except SimulationError as err:
                 # A wrong model may have no periodic response to this drive (it drifts, is
                 # chaotic, or diverges): that is a finding about the model, not a failure of the tool.
-                kind = ("it never settles to a periodic response" if isinstance(err, SteadyStateNotReached)
-                        else "it diverges")
+                kind = NEVER_SETTLES if isinstance(err, SteadyStateNotReached) else DIVERGES
                 said.append(f"run {rid}: the {which} model reaches no periodic steady state under the "
                             f"measured drive: {kind} ({err})")
                 failed[which] = kind

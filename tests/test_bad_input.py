@@ -549,12 +549,18 @@ def test_units_given_twice_must_agree(tmp_path):
     assert len(read_runs(tmp_path / "d.csv", units="phi1=rad").records) == 1  # the same unit twice is fine
 
 
+def _segfault(path):
+    """A reader that crashes its process (module level: the child is sent it by reference)."""
+    import faulthandler
+    import signal
+
+    faulthandler.disable()  # as the real reader's child: no dump in the test's log
+    os.kill(os.getpid(), signal.SIGSEGV)
+
+
 def test_a_reader_that_crashes_the_process_is_a_clear_error(tmp_path, monkeypatch):
     # issue 38: scipy's MAT v5 reader died by SIGSEGV on a fuzzed file, with no message at all.
     # The MAT reader runs in a forked child: a crash there ends the child, and the file is named.
-    import os
-    import signal
-
     import scipy.io
 
     from jointrig.measured import formats
@@ -564,10 +570,7 @@ def test_a_reader_that_crashes_the_process_is_a_clear_error(tmp_path, monkeypatc
                                              "phi2": 0.5 * np.sin(60 * t)})
     assert formats.read_tables(tmp_path / "runs.mat")  # read whole through the child
 
-    def crash(path):
-        os.kill(os.getpid(), signal.SIGSEGV)
-
-    monkeypatch.setattr(formats, "_loadmat", crash)
+    monkeypatch.setattr(formats, "_loadmat", _segfault)
     with pytest.raises(formats.FormatError, match=r"runs\.mat: the reader crashed on this file \(exit -11\)"):
         formats.read_tables(tmp_path / "runs.mat")
 

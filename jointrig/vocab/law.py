@@ -41,6 +41,7 @@ __all__ = [
     "NativeTerm",
     "FieldError",
     "TERM_CLASSES",
+    "duplicate_names",
     "law_terms_from_fields",
     "Viscous",
     "Power",
@@ -973,6 +974,12 @@ def law_terms_from_fields(fields: dict) -> list[tuple[Term, float]]:
     return out
 
 
+def duplicate_names(terms: Sequence[Term]) -> list[str]:
+    """The parameter names more than one of ``terms`` has (sorted; [] when each is once)."""
+    names = [t.name for t in terms]
+    return sorted({n for n in names if names.count(n) > 1})
+
+
 @dataclass(frozen=True)
 class JointLaw:
     """A joint law: basis terms and their parameter values (SI, names carry the units)."""
@@ -989,8 +996,7 @@ class JointLaw:
             raise ValueError(f"JointLaw: {len(terms)} terms but {len(values)} values")
         if not all(math.isfinite(v) for v in values):
             raise ValueError(f"JointLaw: values must be finite, got {values}")
-        names = [t.name for t in terms]
-        dup = sorted({n for n in names if names.count(n) > 1})
+        dup = duplicate_names(terms)
         if dup:
             raise ValueError(f"JointLaw: duplicate parameter names {dup}")
         object.__setattr__(self, "terms", terms)

@@ -8,7 +8,11 @@ from typing import Optional
 
 import numpy as np
 
-__all__ = ["SteadyStateRecord", "RecordError"]
+__all__ = ["SteadyStateRecord", "RecordError", "MAX_SI_VALUE"]
+
+#: Largest magnitude of a quantity in SI units the tool accepts, measured or stated in a model
+#: file: anything bigger is a corrupt value or a unit slip, not a bench's.
+MAX_SI_VALUE = 1e12
 
 
 class RecordError(ValueError):
