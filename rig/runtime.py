@@ -111,8 +111,11 @@ def check_range(value, option: str, *, lo=None, hi=None, lo_open=False, hi_open=
     if ok and hi is not None:
         ok = value < hi if hi_open else value <= hi
     if not ok:
-        lo_s = "" if lo is None else ("(" if lo_open else "[") + f"{lo:g}"
-        hi_s = "" if hi is None else f"{hi:g}" + (")" if hi_open else "]")
+        def num(x):
+            return str(x) if integer else f"{x:g}"
+
+        lo_s = "" if lo is None else ("(" if lo_open else "[") + num(lo)
+        hi_s = "" if hi is None else num(hi) + (")" if hi_open else "]")
         kind = "an integer" if integer else "a number"
         rng = f" in {lo_s or '(-inf'}, {hi_s or 'inf)'}"
         raise BadArgument(f"{option} {value!r}: expected {kind}{rng}")

@@ -59,7 +59,7 @@ def main(argv=None) -> int:
         check_each(args.omegas, "--omegas", lo=0, hi=1e4, lo_open=True)
         check_each(args.amplitudes, "--amplitudes", lo=0, hi=1e7, lo_open=True)
     except BadArgument as err:
-        print(f"make_data: error: {err}", file=sys.stderr)
+        print(f"jointrig make-data: error: {err}", file=sys.stderr)
         return 2
     logging.basicConfig(level=progress_level(args.quiet), format="%(message)s", stream=sys.stderr)
     points = [(w, a) for w in args.omegas for a in args.amplitudes]
@@ -72,7 +72,7 @@ def main(argv=None) -> int:
                    f"SNR {'none' if args.no_noise else args.snr_db} dB, seed {args.seed}")
         write_runs(args.out, records, run_ids=list(range(len(records))), comment=comment)
     except (RigModelError, SimulationError, ValueError) as err:
-        print(f"make_data: error: {err}", file=sys.stderr)
+        print(f"jointrig make-data: error: {err}", file=sys.stderr)
         return 2
     log.info("wrote %s", args.out)
     return 0
