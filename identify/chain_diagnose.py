@@ -505,10 +505,12 @@ def candidates(n_flywheels: int, causes: Sequence[Cause] = JOINT_CAUSES, bearing
 
 def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: float = 1e-3, max_effects: int = 2,
                    fidelity: float = DEFAULT_FIDELITY, causes: Sequence[Cause] = JOINT_CAUSES,
-                   progress=None) -> ChainDiagnosis:
+                   nominal: Optional[ChainSpec] = None, progress=None) -> ChainDiagnosis:
     """Fit the nominal chain, score every cause at every place, extend greedily (module docstring).
 
     Args:
+      nominal: the nominal structure (the user's model's, ``jointrig diagnose --model``);
+        default :func:`nominal_spec` (paper eq. 11 at every joint).
       progress: optional callable ``(done, total, label)`` called after every candidate scored.
     """
     runs = tuple(runs)
@@ -518,7 +520,9 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
     H = min(n_harmonics, min(max_harmonic(r.samples_per_period) for r in runs))
     nu = 2.0 * (min(r.n_periods for r in runs) - 1)
     problem = _Problem(runs, H, nu, fidelity)
-    nominal, w = problem.fit(nominal_spec(N))
+    if nominal is not None and nominal.n_flywheels != N:
+        raise ValueError(f"the nominal model has {nominal.n_flywheels} flywheels, the runs {N}")
+    nominal, w = problem.fit(nominal if nominal is not None else nominal_spec(N))
     ambiguous: list[Ambiguity] = []
     by_label = {c.label: c for c in candidates(N, causes)}
 

@@ -48,6 +48,7 @@ import numpy as np
 
 from jointrig.identify.periods import (MAX_CLOCK_DEVIATION, estimate_fundamental, fit_at, linear_drift,
                               ls_harmonics, periods_by_least_squares, repeat_statistic, uniform_clock)
+from jointrig.identify.chain import ChainRecord
 from jointrig.vocab.records import MAX_SI_VALUE, RecordError, SteadyStateRecord
 
 from .formats import SUFFIXES, FormatError, RawTable, read_tables
@@ -56,11 +57,17 @@ __all__ = ["RunsFileError", "LoadedRuns", "read_runs", "write_runs", "estimate_o
            "parse_mapping", "REPEAT_THRESHOLD"]
 
 #: Canonical columns and their SI units.
-COLUMNS = {"run": "-", "time": "s", "torque": "N m", "phi1": "rad", "phi2": "rad", "phi": "rad",
-           "omega": "rad/s"}
+#: Most bodies of a drive train (``phi1..phi8``, ``torque1..torque8``).
+MAX_BODIES = 8
 
-_QUANTITY = {"time": "time", "torque": "torque", "phi1": "angle", "phi2": "angle", "phi": "angle",
-             "omega": "frequency"}
+COLUMNS = {"run": "-", "time": "s", "torque": "N m", "phi1": "rad", "phi2": "rad", "phi": "rad",
+           "omega": "rad/s"} | {f"phi{i}": "rad" for i in range(3, MAX_BODIES + 1)} \
+          | {f"torque{i}": "N m" for i in range(1, MAX_BODIES + 1)}
+
+#: Columns only a drive train's file has (more than two angles, or a numbered drive).
+TRAIN_COLUMNS = frozenset(c for c in COLUMNS if c[-1].isdigit() and c not in ("phi1", "phi2"))
+
+_QUANTITY = {c: {"s": "time", "N m": "torque", "rad": "angle", "rad/s": "frequency"}.get(u) for c, u in COLUMNS.items()}
 
 #: Accepted units per quantity -> factor to SI (unit text compared without case, blanks, '*', '.', '·').
 UNITS = {
@@ -111,7 +118,12 @@ class LoadedRuns:
 
     @property
     def has_both_angles(self) -> bool:
-        return all(r.phi2_rad is not None for r in self.records)
+        return self.is_train or all(r.phi2_rad is not None for r in self.records)
+
+    @property
+    def is_train(self) -> bool:
+        """A drive train's runs (:class:`identify.chain.ChainRecord`), not two flywheels'."""
+        return bool(self.records) and isinstance(self.records[0], ChainRecord)
 
 
 def _norm_unit(u: str) -> str:
@@ -196,7 +208,8 @@ def _resolve(table: RawTable, columns: dict, units: dict, notes: list) -> tuple[
     used = set(found.values())
     extra = [c for c in table.columns if c not in used]
     if extra:
-        notes.append(f"{where}: column(s) {extra} ignored (the diagnosis uses {', '.join(COLUMNS)})")
+        notes.append(f"{where}: column(s) {extra} ignored (the diagnosis uses run, time, torque, phi1, phi2 or phi, "
+                     f"omega; a drive train's phi1..phi{MAX_BODIES} and torque1..torque{MAX_BODIES})")
     out, stated = {}, {}
     for canon, src in found.items():
         col = np.asarray(table.columns[src])
@@ -324,8 +337,11 @@ def _check_varies(where: str, run: str, name: str, x: np.ndarray) -> None:
 MAX_TIME_ORIGIN_S = 1e6
 
 
-def _to_record(where: str, run: str, t: np.ndarray, chans: dict, omega: Optional[float],
-               samples_per_period: Optional[int], notes: list) -> SteadyStateRecord:
+def _whole_periods(where: str, run: str, t: np.ndarray, chans: dict, drive: str, rel: np.ndarray,
+                   omega: Optional[float], samples_per_period: Optional[int], notes: list) -> tuple:
+    """Whole periods of one run's channels on a uniform grid (module docstring, **Periods**):
+    ``(omega_rad_s, time_s, n_periods, channel -> samples)``. The fundamental is estimated from
+    the drive channel ``drive`` and checked on it and on the relative angle ``rel``."""
     n = t.size
     # Epoch stamps (1.7e9 s) keep their spacing's precision only as differences (a period's
     # samples would otherwise round to 2e-7 s): such a run's time counts from its first stamp.
@@ -351,17 +367,12 @@ def _to_record(where: str, run: str, t: np.ndarray, chans: dict, omega: Optional
                      f"of {clock.dt_s:.9g} s (rounding or jitter); the uniform clock is used")
     dt = clock.dt_s
     tu = clock.times(n)
-    torque = chans["torque"]
-    phi = chans["phi1"] - chans["phi2"] if "phi2" in chans else chans["phi1"]
+    torque, phi = chans[drive], rel
     try:
         best = estimate_fundamental(tu, torque, harmonics=CHECK_HARMONICS)
     except ValueError:
-        raise RunsFileError(f"{where}: run {run}: column 'torque' does not vary: no drive to identify from; "
+        raise RunsFileError(f"{where}: run {run}: column '{drive}' does not vary: no drive to identify from; "
                             f"expected a periodic drive torque") from None
-    for name in ("phi1", "phi2"):
-        if name in chans:
-            _check_varies(where, run, name if "phi2" in chans else "phi", chans[name])
-    _check_varies(where, run, "phi1 - phi2" if "phi2" in chans else "phi", phi)
     refs = [(torque, best), (phi, fit_at(tu, phi, best))]
 
     def stat(w: float) -> float:
@@ -380,7 +391,7 @@ def _to_record(where: str, run: str, t: np.ndarray, chans: dict, omega: Optional
                 f"({per_hat:.6g} samples per period), {abs(omega / best.omega_rad_s - 1):.3g} relative off; at the "
                 f"stated omega the periodic model's residual exceeds its minimum by {s:.3g} noise variances "
                 f"(at most {REPEAT_THRESHOLD:g} expected); check the column's value and unit (rad/s)")
-    cols = [torque, chans["phi1"]] + ([chans["phi2"]] if "phi2" in chans else [])
+    cols = list(chans.values())
     if commensurate:
         w_rec = 2 * math.pi / (N * dt)
         if omega is not None and abs(omega / w_rec - 1) < 1e-9:
@@ -429,15 +440,25 @@ def _to_record(where: str, run: str, t: np.ndarray, chans: dict, omega: Optional
                f"the torque's line, +- {best.std_error_rad_s:.2g}")
         rms = [float(np.std(c)) or 1.0 for c in cols]
         share = ", ".join(f"{name} {r / s:.2%}" for name, r, s in
-                          zip(["torque", "phi1", "phi2"], fit.residual_rms, rms))
+                          zip(chans, fit.residual_rms, rms))
         notes.append(f"run {run}: {per:.6g} samples per period at omega = {w_rec:.9g} rad/s (from {src}) is not a "
                      f"whole number (a fixed sample rate): harmonics 0..{fit.harmonics} of each of {P} whole "
                      f"periods estimated by least squares on its own samples and synthesised at {per_out} samples "
                      f"per period; residual RMS relative to each channel's RMS (noise plus content above harmonic "
                      f"{fit.harmonics}): {share}"
                      + (f"; the last {n - used} samples (an incomplete period) are not used" if n - used > 0 else ""))
-    names = ["torque", "phi1"] + (["phi2"] if "phi2" in chans else [])
-    data = dict(zip(names, data))
+    return w_rec, t_rec, P, dict(zip(chans, data))
+
+
+def _to_record(where: str, run: str, t: np.ndarray, chans: dict, omega: Optional[float],
+               samples_per_period: Optional[int], notes: list) -> SteadyStateRecord:
+    """One run of a two-flywheel bench (``torque``, ``phi1`` and ``phi2``, or ``phi``)."""
+    phi = chans["phi1"] - chans["phi2"] if "phi2" in chans else chans["phi1"]
+    for name in ("phi1", "phi2"):
+        if name in chans:
+            _check_varies(where, run, name if "phi2" in chans else "phi", chans[name])
+    _check_varies(where, run, "phi1 - phi2" if "phi2" in chans else "phi", phi)
+    w_rec, t_rec, P, data = _whole_periods(where, run, t, chans, "torque", phi, omega, samples_per_period, notes)
     _check_drift(where, run, t_rec, data, w_rec, notes)
     try:
         return SteadyStateRecord(
@@ -486,6 +507,54 @@ def _check_drift(where: str, run: str, t: np.ndarray, data: dict, omega: float, 
                 f"every period (a slipping encoder, a drifting amplifier or an unsettled transient?)")
 
 
+def _to_train_record(where: str, run: str, t: np.ndarray, torques: dict, angles: list, omega: Optional[float],
+                     samples_per_period: Optional[int], notes: list) -> ChainRecord:
+    """One run of a drive train: ``torque<i>`` on the driven bodies, ``phi1..phiN`` (N >= 2)."""
+    for i, a in enumerate(angles, start=1):
+        _check_varies(where, run, f"phi{i}", a)
+    for j in range(1, len(angles)):
+        _check_varies(where, run, f"phi{j} - phi{j + 1}", angles[j - 1] - angles[j])
+    drive = max(torques, key=lambda i: float(np.std(torques[i])))
+    chans = {f"torque{i}": x for i, x in torques.items()} | {f"phi{i}": a for i, a in enumerate(angles, start=1)}
+    w_rec, t_rec, P, data = _whole_periods(where, run, t, chans, f"torque{drive}", angles[0] - angles[1], omega,
+                                           samples_per_period, notes)
+    N = len(angles)
+
+    def drift(x):
+        return linear_drift(t_rec, x, w_rec, harmonics=CHECK_HARMONICS)
+
+    def drifts(x, d):
+        return abs(d.t_stat) > DRIFT_T_STAT and abs(d.over_record) > DRIFT_SHARE * max(float(np.ptp(x)), 1e-300)
+
+    for j in range(1, N):
+        rel = data[f"phi{j}"] - data[f"phi{j + 1}"]
+        d = drift(rel)
+        if drifts(rel, d):
+            raise RunsFileError(
+                f"{where}: run {run}: the twist phi{j} - phi{j + 1} of joint {j} drifts by {d.over_record:.3g} rad "
+                f"over the record ({abs(d.t_stat):.3g} standard errors): a steady-state record repeats every period "
+                f"(a slipping encoder or an unsettled transient?)")
+    ds = [drift(data[f"phi{i}"]) for i in range(1, N + 1)]
+    if any(drifts(data[f"phi{i}"], d) for i, d in enumerate(ds, start=1)):
+        slope = float(np.mean([d.slope for d in ds]))
+        for i in range(1, N + 1):
+            data[f"phi{i}"] = data[f"phi{i}"] - slope * (t_rec - t_rec[0])
+        notes.append(f"run {run}: the whole train rotates steadily at {slope:.4g} rad/s on top of the vibration; "
+                     f"that common rotation is removed")
+    for i in torques:
+        d = drift(data[f"torque{i}"])
+        if drifts(data[f"torque{i}"], d):
+            raise RunsFileError(f"{where}: run {run}: column 'torque{i}' drifts by {d.over_record:.3g} N m over the "
+                                f"record ({abs(d.t_stat):.3g} standard errors): a steady-state record repeats every "
+                                f"period")
+    try:
+        return ChainRecord(w_rec, t_rec, tuple(data.get(f"torque{i}") for i in range(1, N + 1)),
+                           tuple(data[f"phi{i}"] for i in range(1, N + 1)), None, P,
+                           max(float(np.ptp(x)) / 2 for x in torques.values()), source=f"{where} run {run}")
+    except RecordError as err:
+        raise RunsFileError(f"{where}: run {run}: {err}") from None
+
+
 def _files(path: Path) -> list[Path]:
     if path.is_dir():
         files = sorted(p for p in path.iterdir() if p.is_file() and p.suffix.lower() in SUFFIXES
@@ -519,37 +588,51 @@ MAX_TWIST_RAD = math.pi
 ZERO_SPREAD = 0.2
 
 
-def _plausible_angles(path: Path, run_ids: Sequence[str], records: Sequence[SteadyStateRecord],
-                      angles_stated: bool, zero_per_run: bool, notes: list) -> list[SteadyStateRecord]:
+def _twists(r) -> list[np.ndarray]:
+    """Each joint's relative angle of a record (two flywheels: one; a train: N - 1)."""
+    if isinstance(r, ChainRecord):
+        return [r.angles_rad[j] - r.angles_rad[j + 1] for j in range(r.n_flywheels - 1)]
+    return [r.phi_rad]
+
+
+def _centred(r):
+    if isinstance(r, ChainRecord):
+        return replace(r, angles_rad=tuple(a - a.mean() for a in r.angles_rad))
+    return replace(r, phi1_rad=r.phi1_rad - r.phi1_rad.mean(),
+                   phi2_rad=None if r.phi2_rad is None else r.phi2_rad - r.phi2_rad.mean())
+
+
+def _plausible_angles(path: Path, run_ids: Sequence[str], records: Sequence,
+                      angles_stated: bool, zero_per_run: bool, notes: list) -> list:
     """Refuse angles that are probably not in rad (no unit stated, a twist of several rad), and
     runs whose angle sensors were zeroed one by one, or centre each run's angles when asked."""
-    amps = [float(np.ptp(r.phi_rad)) / 2 for r in records]
+    twists = [_twists(r) for r in records]
+    joint = "the relative angle" if len(twists[0]) == 1 else "a joint's twist"
+    amps = [max(float(np.ptp(x)) / 2 for x in tw) for tw in twists]
     worst = int(np.argmax(amps))
     if amps[worst] > MAX_TWIST_RAD and not angles_stated:
         raise RunsFileError(
-            f"{path}: run {run_ids[worst]}: the relative angle swings by +-{amps[worst]:.3g} rad, more than any joint "
+            f"{path}: run {run_ids[worst]}: {joint} swings by +-{amps[worst]:.3g} rad, more than any joint "
             f"twists (+-{MAX_TWIST_RAD:.3g} rad), and no angle unit is stated: are the angles in degrees "
             f"(+-{math.radians(amps[worst]):.3g} rad)? State the unit in the header ('phi1 [deg]') or with "
             f"--units phi1=deg,phi2=deg")
     if zero_per_run:
-        out = []
-        for rid, r in zip(run_ids, records):
-            out.append(replace(r, phi1_rad=r.phi1_rad - r.phi1_rad.mean(),
-                               phi2_rad=None if r.phi2_rad is None else r.phi2_rad - r.phi2_rad.mean()))
         notes.append("each run's angles taken about their own mean (--zero-per-run): the joint's zero is each run's "
                      "mean relative angle, right for a symmetric joint; an asymmetric joint's shift of the mean with "
                      "the level is lost")
-        return out
-    means = [float(np.mean(r.phi_rad)) for r in records]
-    if len(records) >= 2 and max(means) - min(means) > ZERO_SPREAD * max(amps):
-        lo, hi = int(np.argmin(means)), int(np.argmax(means))
-        raise RunsFileError(
-            f"{path}: the relative angle's mean differs between runs by {max(means) - min(means):.3g} rad (run "
-            f"{run_ids[lo]}: {means[lo]:.3g} rad, run {run_ids[hi]}: {means[hi]:.3g} rad), "
-            f"{(max(means) - min(means)) / max(amps):.2g} of the largest amplitude: the angle sensors look zeroed at "
-            f"the start of each recording, and a joint's law needs one zero for all runs. Zero the encoders once for "
-            f"the whole test, or pass --zero-per-run to take each run's mean as its zero (right for a symmetric "
-            f"joint; a preload that differs between runs also shifts the mean)")
+        return [_centred(r) for r in records]
+    for j in range(len(twists[0])):
+        means = [float(np.mean(tw[j])) for tw in twists]
+        if len(records) >= 2 and max(means) - min(means) > ZERO_SPREAD * max(amps):
+            lo, hi = int(np.argmin(means)), int(np.argmax(means))
+            what = "the relative angle's mean" if len(twists[0]) == 1 else f"joint {j + 1}'s mean twist"
+            raise RunsFileError(
+                f"{path}: {what} differs between runs by {max(means) - min(means):.3g} rad (run "
+                f"{run_ids[lo]}: {means[lo]:.3g} rad, run {run_ids[hi]}: {means[hi]:.3g} rad), "
+                f"{(max(means) - min(means)) / max(amps):.2g} of the largest amplitude: the angle sensors look zeroed "
+                f"at the start of each recording, and a joint's law needs one zero for all runs. Zero the encoders "
+                f"once for the whole test, or pass --zero-per-run to take each run's mean as its zero (right for a "
+                f"symmetric joint; a preload that differs between runs also shifts the mean)")
     return list(records)
 
 
@@ -580,6 +663,42 @@ def driven_first(loaded: "LoadedRuns", torque_on: str) -> "LoadedRuns":
             "your flywheel 2 and flywheel 2 (J2, phi2) your flywheel 1; the relative angle is your phi2 - phi1 (an "
             "even term or an angle offset comes out with the opposite sign of yours)")
     return replace(loaded, records=records, notes=loaded.notes + (note,))
+
+
+@dataclass(frozen=True)
+class _Train:
+    """A drive train's layout: ``n_bodies`` angles, ``drives`` as (body number, column)."""
+
+    n_bodies: int
+    drives: tuple
+
+
+def _train_layout(where: str, cols: dict) -> Optional[_Train]:
+    """The drive-train layout of a table's columns, or None for a two-flywheel file; refuses a
+    train whose angles are not ``phi1..phiN`` without a gap or whose drives are not among them."""
+    if not TRAIN_COLUMNS & set(cols):
+        return None
+    phis = sorted(int(c[3:]) for c in cols if re.fullmatch(r"phi\d", c))
+    N = max(phis, default=0)
+    gaps = [f"phi{i}" for i in range(1, N + 1) if i not in phis]
+    drives = tuple(sorted((int(c[6:]), c) for c in cols if re.fullmatch(r"torque\d", c)))
+    if "torque" in cols:
+        if any(i == 1 for i, _ in drives):
+            raise RunsFileError(f"{where}: both 'torque' and 'torque1' are given; 'torque' is the drive on body 1: "
+                                f"give one of them")
+        drives = ((1, "torque"),) + drives
+    if gaps or N < 2:
+        raise RunsFileError(f"{where}: a drive train's angles are columns phi1..phiN, one per body; "
+                            + (f"missing {', '.join(gaps)}" if gaps else f"found {N}") + f" (columns {sorted(cols)}). "
+                            f"Every joint's law is a function of its two bodies' angles")
+    beyond = [c for i, c in drives if i > N]
+    if beyond:
+        raise RunsFileError(f"{where}: drive column(s) {beyond} act on bodies with no angle column (the train has "
+                            f"phi1..phi{N}); expected torque<i> with i from 1 to {N}")
+    if not drives:
+        raise RunsFileError(f"{where}: no drive torque: expected a column torque<i> (N m) for each driven body "
+                            f"(or 'torque', the drive on body 1); without a known torque nothing fixes the scale")
+    return _Train(N, drives)
 
 
 def read_runs(path: Union[str, os.PathLike], *, samples_per_period: Optional[int] = None,
@@ -625,17 +744,26 @@ def read_runs(path: Union[str, os.PathLike], *, samples_per_period: Optional[int
     multi = len(files) > 1
     # A folder's files are runs named by their stems, however many it holds (one included).
     named_by_file = multi or Path(path).is_dir()
-    run_ids, records, seen, any_units, angles_stated = [], [], set(), False, False
+    run_ids, records, seen, any_units, angles_stated, layouts = [], [], set(), False, False, []
     for f, table in tables:
         cols, stated = _resolve(table, columns, units, notes)
         _units_in_comments(table, columns, stated)
         any_units = any_units or bool(stated)
-        angles_stated = angles_stated or bool({"phi", "phi1", "phi2"} & set(stated))
+        angles_stated = angles_stated or any(c.startswith("phi") for c in stated)
         where = table.source
+        train = _train_layout(where, cols)
+        if layouts and train != layouts[-1]:
+            mine, theirs = ("phi1..phiN, torque<i>", "torque, phi1, phi2") if train else \
+                ("torque, phi1, phi2", "phi1..phiN, torque<i>")
+            raise RunsFileError(f"{where}: this file has the columns {mine}, the files before it {theirs}; expected "
+                                f"one bench per file or folder")
+        layouts.append(train)
         if "phi" in cols and ("phi1" in cols or "phi2" in cols):
             raise RunsFileError(f"{where}: give either 'phi' or 'phi1' and 'phi2', not both")
-        missing = sorted({"time", "torque"} - set(cols))
-        if "phi" not in cols and not {"phi1", "phi2"} <= set(cols):
+        missing = sorted({"time"} - set(cols)) + ([] if train else sorted({"torque"} - set(cols)))
+        if train:
+            pass
+        elif "phi" not in cols and not {"phi1", "phi2"} <= set(cols):
             missing += sorted({"phi1", "phi2"} - set(cols)) if {"phi1", "phi2"} & set(cols) else ["phi1, phi2 (or phi)"]
         if missing:  # every missing column at once
             raise RunsFileError(f"{where}: missing column(s) {', '.join(missing)}; expected time, torque (the drive "
@@ -675,6 +803,16 @@ def read_runs(path: Union[str, os.PathLike], *, samples_per_period: Optional[int
                     raise RunsFileError(f"{where}: run {run}: column 'omega' must be one positive value per run, "
                                         f"got {w.min():g}..{w.max():g} rad/s")
                 omega = float(w[0])
+            if train:
+                drives = {i: cols[c][sel] for i, c in train.drives if np.any(cols[c][sel] != 0)}
+                if not drives:
+                    raise RunsFileError(f"{where}: run {run}: every drive column ({', '.join(c for _, c in train.drives)}) "
+                                        f"is zero; expected the drive torque of at least one body")
+                records.append(_to_train_record(
+                    where, rid, cols["time"][sel], drives,
+                    [cols[f"phi{i}"][sel] for i in range(1, train.n_bodies + 1)], omega, samples_per_period, notes))
+                run_ids.append(rid)
+                continue
             chans = {"torque": cols["torque"][sel]}
             if "phi" in cols:
                 chans["phi1"] = cols["phi"][sel]
@@ -689,10 +827,26 @@ def read_runs(path: Union[str, os.PathLike], *, samples_per_period: Optional[int
     return LoadedRuns(path, tuple(run_ids), tuple(records), tuple(notes), _digest(files))
 
 
-def write_runs(path: Union[str, os.PathLike], records: Sequence[SteadyStateRecord], *,
+def _column_order(name: str) -> tuple:
+    """torque, torque1..8, then phi, phi1..8: the measured-runs format's column order."""
+    return (not name.startswith("torque"), len(name), name)
+
+
+def _channels(r) -> dict:
+    """A record's columns in the measured-runs format (two flywheels, or a train's)."""
+    if isinstance(r, ChainRecord):
+        return ({f"torque{i}": t for i, t in enumerate(r.torques_Nm, start=1) if t is not None}
+                | {f"phi{i}": a for i, a in enumerate(r.angles_rad, start=1) if a is not None})
+    if r.phi2_rad is not None:
+        return {"torque": r.torque_Nm, "phi1": r.phi1_rad, "phi2": r.phi2_rad}
+    return {"torque": r.torque_Nm, "phi": r.phi_rad}
+
+
+def write_runs(path: Union[str, os.PathLike], records: Sequence, *,
                run_ids: Optional[Sequence] = None, with_omega: bool = True, comment: str = "") -> Path:
-    """Write records in the measured-runs format (CSV with units in the header, or Parquet
-    with units in the schema metadata), atomically (temp file + rename)."""
+    """Write records (two flywheels' or a drive train's) in the measured-runs format (CSV with
+    units in the header, or Parquet with units in the schema metadata), atomically (temp file +
+    rename)."""
     from jointrig.files import write_atomic
 
     path = Path(path)
@@ -702,26 +856,18 @@ def write_runs(path: Union[str, os.PathLike], records: Sequence[SteadyStateRecor
     suffix = path.suffix.lower()
     if suffix not in (".csv", ".parquet"):
         raise ValueError(f"{path}: unknown file type {path.suffix!r}; expected .csv or .parquet")
-    two = all(r.phi2_rad is not None for r in records)
-    cols: dict[str, list] = {"run": [], "time": [], "torque": []}
-    if two:
-        cols.update(phi1=[], phi2=[])
-    else:
-        cols["phi"] = []
-    if with_omega:
-        cols["omega"] = []
-    for rid, r in zip(run_ids, records):
-        n = r.n_samples
-        cols["run"].append(np.full(n, rid))
-        cols["time"].append(r.time_s)
-        cols["torque"].append(r.torque_Nm)
-        if two:
-            cols["phi1"].append(r.phi1_rad)
-            cols["phi2"].append(r.phi2_rad)
-        else:
-            cols["phi"].append(r.phi_rad)
-        if with_omega:
-            cols["omega"].append(np.full(n, r.omega_rad_s))
+    chans = [_channels(r) for r in records]
+    # A train's body driven in some runs only: its drive column reads 0 in the others (an idle
+    # motor's torque), which the reader takes as no drive in that run.
+    idle = sorted({k for c in chans for k in c if k.startswith("torque")} - set.intersection(*(set(c) for c in chans)))
+    cols: dict[str, list] = {"run": [], "time": []}
+    for rid, r, ch in zip(run_ids, records, chans):
+        ch = {k: ch.get(k, np.zeros(r.n_samples)) for k in sorted(set(ch) | set(idle), key=_column_order)}
+        for k, v in ({"run": np.full(r.n_samples, rid), "time": r.time_s} | ch
+                     | ({"omega": np.full(r.n_samples, r.omega_rad_s)} if with_omega else {})).items():
+            cols.setdefault(k, []).append(v)
+    if len({len(v) for v in cols.values()}) != 1:
+        raise ValueError(f"{path}: the records hold different channels; expected runs of one bench")
     data = {k: np.concatenate(v) for k, v in cols.items()}
 
     def write(tmp: Path) -> None:

@@ -17,7 +17,7 @@ from jointrig.studies.validate import DiagnosisReport
 from .formatting import quantity_of, unit_of, with_se
 
 __all__ = ["NO_GAIN", "plain_verdict", "ParameterRow", "parameter_rows", "adopted_causes", "next_steps", "WrittenRow",
-           "written_rows", "offset_reading"]
+           "written_rows", "compare_written", "offset_reading"]
 
 _DESCRIPTION = {c.name: c.description for c in CATALOGUE}
 #: The gain's cell when a model has no steady state in a held-out run.
@@ -61,15 +61,20 @@ def written_rows(report: DiagnosisReport) -> tuple[WrittenRow, ...]:
     """Each parameter of the user's model (``jointrig diagnose --model``) as written, beside
     what the data say; empty without a model."""
     d = report.diagnosis
-    f = d.extended if report.adopted else d.nominal
-    values = f.as_dict()
+    return compare_written(report.written, d.extended if report.adopted else d.nominal)
+
+
+def compare_written(written, fit) -> tuple[WrittenRow, ...]:
+    """``written`` ((name, value) pairs of the user's model) beside a fit's values and standard
+    errors (any :class:`identify.estimates.Estimates`); names the fit lacks are left out."""
+    values = fit.as_dict()
     out = []
-    for name, written in report.written:
+    for name, w in written:
         if name not in values:
             continue
-        v, se = values[name], f.std_error(name)
-        differs = bool(math.isfinite(se) and abs(v - written) > 2 * se)
-        out.append(WrittenRow(name, quantity_of(name), unit_of(name), written, v, se, differs))
+        v, se = values[name], fit.std_error(name)
+        differs = bool(math.isfinite(se) and abs(v - w) > 2 * se)
+        out.append(WrittenRow(name, quantity_of(name), unit_of(name), w, v, se, differs))
     return tuple(out)
 
 

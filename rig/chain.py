@@ -44,7 +44,8 @@ from .native_callback import NativeChain, choose_native, session_active
 from .simulate import (SettleInfo, SimulationConfig, SimulationError, _activated, _Jump, _settle, passive_callback,
                        set_inertias)
 
-__all__ = ["ChainRig", "load_chain", "is_chain_model", "simulate_chain", "chain_callback", "MAX_FLYWHEELS"]
+__all__ = ["ChainRig", "load_chain", "is_chain_model", "simulate_chain", "chain_callback", "MAX_FLYWHEELS",
+           "chain_model_xml"]
 
 MAX_FLYWHEELS = 8
 _BEARING_FIELD = re.compile(r"bearing(\d+)_damping_Nms_per_rad")
@@ -199,6 +200,54 @@ def load_chain(path: Union[str, os.PathLike]) -> ChainRig:
                     qpos_adr=tuple(int(model.jnt_qposadr[j]) for j in ids), dof_adr=dofs,
                     drives=tuple(sorted(drives)), angle_adr=angle_adr, rate_adr=rate_adr,
                     digest=hashlib.sha256(text).hexdigest())
+
+
+def chain_model_xml(plant: ChainPlant, inertias_kgm2: Sequence[float], driven: Sequence[int], *,
+                    timestep_s: float = 1e-4, header: str = "") -> str:
+    """The MJCF text of a chain that :func:`load_chain` reads back to ``plant`` with these
+    inertias (kg m^2): coaxial hinges ``phi1..phiN`` with angle and rate sensors, a motor
+    ``drive<i>`` with its torque sensor on every driven flywheel, the laws as
+    ``jointrig_joint<j>_*`` fields and nonzero bearings as ``jointrig_bearing<i>_*``. For a
+    measured train without the user's model file, and to write an identified train back."""
+    N = plant.n_flywheels
+    if len(inertias_kgm2) != N:
+        raise ValueError(f"chain_model_xml: {len(inertias_kgm2)} inertias for {N} flywheels")
+    bad = [i for i, J in enumerate(inertias_kgm2, start=1) if not (math.isfinite(J) and J > 0)]
+    if bad:
+        raise ValueError(f"chain_model_xml: the inertia of flywheel(s) {bad} must be > 0, got "
+                         f"{[inertias_kgm2[i - 1] for i in bad]}")
+    driven = sorted(set(int(i) for i in driven))
+    if not driven or not all(1 <= i <= N for i in driven):
+        raise ValueError(f"chain_model_xml: driven flywheels must be among 1..{N}, got {driven}")
+    fields: dict[str, list[float]] = {}
+    for j, law in enumerate(plant.laws, start=1):
+        for term, value in zip(law.terms, law.values):
+            try:
+                fields.update({f"joint{j}_{k}": v for k, v in term.fields(value).items()})
+            except FieldError as err:
+                raise ValueError(f"chain_model_xml: joint {j}: {err}") from None
+    for i, b in enumerate(plant.bearings_Nms_per_rad, start=1):
+        if b:
+            fields[f"bearing{i}_damping_Nms_per_rad"] = [b]
+    numerics = "\n".join(f'    <numeric name="{PREFIX}{k}" data="{" ".join(repr(float(x)) for x in v)}"/>'
+                         for k, v in fields.items())
+    bodies = "\n".join(
+        f'    <body name="flywheel{i}" pos="0 0 {0.3 * (i - 1):g}">\n'
+        f'      <joint name="phi{i}" type="hinge" axis="0 0 1" damping="0" armature="0"/>\n'
+        f'      <inertial pos="0 0 0" mass="1" diaginertia="{0.5 * J * (1 + 1e-9)!r} {0.5 * J * (1 + 1e-9)!r} {J!r}"/>\n'
+        f'    </body>' for i, J in enumerate(inertias_kgm2, start=1))
+    motors = "\n".join(f'    <motor name="drive{i}" joint="phi{i}" gear="1" ctrllimited="false"/>' for i in driven)
+    sensors = "\n".join([f'    <jointpos name="phi{i}" joint="phi{i}"/>' for i in range(1, N + 1)]
+                        + [f'    <jointvel name="rate{i}" joint="phi{i}"/>' for i in range(1, N + 1)]
+                        + [f'    <actuatorfrc name="drive{i}_torque" actuator="drive{i}"/>' for i in driven])
+    comment = "\n".join("  " + line.replace("--", "- -") for line in header.splitlines())
+    return ((f"<!--\n{comment}\n-->\n" if header else "")
+            + f'<mujoco model="train{N}">\n  <compiler angle="radian"/>\n'
+            f'  <option timestep="{timestep_s!r}" integrator="RK4" gravity="0 0 0">\n'
+            f'    <flag contact="disable"/>\n  </option>\n'
+            + (f"  <custom>\n{numerics}\n  </custom>\n" if numerics else "")
+            + f"  <worldbody>\n{bodies}\n  </worldbody>\n  <actuator>\n{motors}\n  </actuator>\n"
+            f"  <sensor>\n{sensors}\n  </sensor>\n</mujoco>\n")
 
 
 def chain_callback(rig: ChainRig, plant: ChainPlant, drives: dict, errors: list, states: list) -> Callable:

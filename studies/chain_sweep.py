@@ -31,7 +31,7 @@ from jointrig.files import write_atomic, write_json_atomic
 
 from .sweep import SweepStoreMismatch, connect_scheduler, worker_model
 
-__all__ = ["ChainPoint", "CHAIN_PLAN", "CHAIN_CONFIG", "run_chain_sweep"]
+__all__ = ["ChainPoint", "CHAIN_PLAN", "HELD_OUT", "CHAIN_CONFIG", "run_chain_sweep"]
 
 log = logging.getLogger(__name__)
 
@@ -42,6 +42,10 @@ log = logging.getLogger(__name__)
 #: side so that the pump's own equation is excited directly.
 CHAIN_PLAN: tuple = ((150.0, 60.0, 1), (250.0, 60.0, 1), (300.0, 60.0, 1), (330.0, 120.0, 1), (600.0, 60.0, 1),
                      (1200.0, 60.0, 1), (2000.0, 60.0, 1), (3000.0, 60.0, 1), (400.0, 30.0, 4), (1500.0, 30.0, 4))
+
+#: Held-out runs of the pump train: another level and other frequencies than :data:`CHAIN_PLAN`,
+#: driven from both ends.
+HELD_OUT: tuple = ((300.0, 90.0, 1), (800.0, 45.0, 4))
 
 #: 128 samples per period and steps of at most 50 us (the highest mode, 2817 rad/s, then has
 #: w dt <= 0.14 under RK4): noise-free identification to ~1e-7 (README, tests/test_chain.py).

@@ -24,9 +24,12 @@ from jointrig.identify.periods import period_spectra
 from jointrig.vocab.plant import drive_of_record
 
 from jointrig.rig.chain import ChainRig, simulate_chain
-from jointrig.rig.simulate import SimulationConfig, SteadyStateNotReached
 
-__all__ = ["ChainValidation", "validate_chain", "twist_error"]
+from .validate import (CHI2_PER_DOF_OK, GAIN_OK, HELDOUT_EXTENDED_OK, HELDOUT_OK, Verdict, generalisation_kind,
+                       holdout_of_another_kind)
+from jointrig.rig.simulate import SimulationConfig, SimulationError
+
+__all__ = ["ChainValidation", "validate_chain", "twist_error", "TrainReport", "train_verdict", "run_train_diagnosis"]
 
 
 @dataclass(frozen=True)
@@ -103,9 +106,10 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
             try:
                 sim, _ = simulate_chain(rig.with_plant(plant), meas.omega_rad_s, drives, cfg, inertias_kgm2=J,
                                         backend=backend)
-            except SteadyStateNotReached as err:
+            except SimulationError as err:  # no steady state, or a divergence: a reason, not a crash
                 return ChainValidation(math.nan, math.nan, math.nan, tuple(per_run),
-                                       note=f"the {name} model did not settle on {meas.source}: {err}")
+                                       note=f"the {name} model reaches no periodic steady state under the measured "
+                                            f"drive of {meas.source}: {err}")
             sims[name] = sim
             e, d = twist_error(sim, meas, top)
             num[name] += e
@@ -116,3 +120,102 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
         records.append((meas, sims["nominal"], sims["extended"]))
     return ChainValidation(math.sqrt(num["nominal"] / den), math.sqrt(num["extended"] / den),
                            math.sqrt(max(noise, 0.0) / den), tuple(per_run), records=tuple(records))
+
+
+# --------------------------------------------------------------------------------------------
+# A measured drive train, diagnosed and validated (``jointrig diagnose TRAIN_FILE``)
+
+
+def train_verdict(diagnosis: ChainDiagnosis, validation: Optional[ChainValidation]) -> Verdict:
+    """The verdict of a train's diagnosis by the two-flywheel thresholds (:data:`CHI2_PER_DOF_OK`,
+    :data:`HELDOUT_OK`, :data:`HELDOUT_EXTENDED_OK`, :data:`GAIN_OK`), errors against the noise
+    floor of the held-out twists (pure)."""
+    d, v = diagnosis, validation
+    which = "extended" if d.steps else "nominal"
+    f = d.final if d.steps else d.nominal
+    causes = " + ".join(s.label for s in d.steps)
+    if v is None or not math.isfinite(v.nominal_error) or not math.isfinite(v.extended_error):
+        why = v.note if v is not None else "no held-out run"
+        if not d.steps:
+            return Verdict("unexplained", f"the nominal model could not be checked on held-out runs: {why}")
+        return Verdict("unexplained", f"the best extension ({causes}) is not adopted: {why}")
+    c2 = f.chi2 / max(f.dof, 1)
+    err = v.extended_error if d.steps else v.nominal_error
+    ratio = err / v.noise_floor if v.noise_floor > 0 else math.inf
+    bound = HELDOUT_EXTENDED_OK if d.steps else HELDOUT_OK
+    figures = (f"chi2/dof {c2:.3g} (at most {CHI2_PER_DOF_OK:g}), held-out error {ratio:.3g} times the noise floor "
+               f"(at most {bound:g})")
+    fits = c2 <= CHI2_PER_DOF_OK and ratio <= bound
+    if not d.steps:
+        if fits:
+            return Verdict("no_misfit", f"the nominal model explains the data to the noise: {figures}")
+        return Verdict("unexplained", f"no catalogued cause at any joint or bearing is significant, but the nominal "
+                                      f"model does not explain the data: {figures}")
+    if fits and v.gain >= GAIN_OK:
+        return Verdict("explained", f"{causes} {'explains' if len(d.steps) == 1 else 'explain'} the data: {figures}, "
+                                    f"held-out gain {v.gain:.3g} (at least {GAIN_OK:g})")
+    return Verdict("unexplained", f"{causes} {'is' if len(d.steps) == 1 else 'are'} significant but do not explain "
+                                  f"the data: {figures}, held-out gain {v.gain:.3g} (at least {GAIN_OK:g} needed)")
+
+
+@dataclass(frozen=True)
+class TrainReport:
+    """A measured train's diagnosis: the fit runs' diagnosis, the held-out runs' validation in
+    the rig, the verdict, and the user's model as written (``(name, value)`` pairs; empty
+    without ``--model``)."""
+
+    run_ids: tuple
+    held_out: tuple
+    diagnosis: ChainDiagnosis
+    validation: Optional[ChainValidation]
+    verdict: Verdict
+    generalisation: str
+    written: tuple = ()
+    model_path: Optional[str] = None
+
+    @property
+    def adopted(self) -> bool:
+        return self.verdict.verdict == "explained"
+
+    @property
+    def adopted_fit(self):
+        """The extended fit if adopted, else the nominal one."""
+        return self.diagnosis.final if self.adopted else self.diagnosis.nominal
+
+
+def train_setting(rec: ChainRecord) -> tuple[float, float, int]:
+    """A train run's setting for :func:`holdout_of_another_kind`: (omega rad/s, the largest drive's
+    fundamental amplitude N m, 0)."""
+    amp = max(float(abs(fourier_coefficients(t, rec.n_periods, 1)[1])) for t in rec.torques_Nm if t is not None)
+    return rec.omega_rad_s, amp, 0
+
+
+def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str], rig: ChainRig,
+                        holdout: Optional[Sequence[int]] = None, written: Sequence[tuple] = (),
+                        band: int = 20, alpha: float = 1e-3, fidelity: Optional[float] = None,
+                        progress=None, backend: str = "auto") -> TrainReport:
+    """Diagnose a measured train on the runs not held out, and replay the held-out runs' drives on
+    the nominal and the extended model in ``rig`` (its bodies and drives; the user's model, or
+    one written for the file's bodies and drives). ``holdout``: run indices (default: runs of
+    another kind, :func:`holdout_of_another_kind`)."""
+    from jointrig.identify.chain_diagnose import diagnose_chain, prepare_chain_runs
+    from jointrig.identify.diagnose import DEFAULT_FIDELITY
+
+    records = list(records)
+    settings = [train_setting(r) for r in records]
+    held = tuple(sorted(holdout)) if holdout is not None else holdout_of_another_kind(settings)
+    fit_recs = [r for i, r in enumerate(records) if i not in held]
+    held_recs = [r for i, r in enumerate(records) if i in held]
+    say = progress or (lambda msg: None)
+    say(f"diagnosing {len(fit_recs)} runs of a {rig.n_flywheels}-body train; {len(held_recs)} held out for validation")
+    runs = prepare_chain_runs(fit_recs, band=band)
+    nominal = rig.plant.spec() if written else None
+    d = diagnose_chain(runs, n_harmonics=band, alpha=alpha, nominal=nominal,
+                       fidelity=DEFAULT_FIDELITY if fidelity is None else fidelity,
+                       progress=lambda k, n, label: say(f"scored {k}/{n} candidates ({label})") if k == n else None)
+    say("replaying the held-out runs' drives on the nominal and the extended model in the rig")
+    v = validate_chain(rig, d, held_recs, backend=backend)
+    return TrainReport(tuple(run_ids), held, d, v, train_verdict(d, v),
+                       generalisation_kind([settings[i] for i in range(len(records)) if i not in held],
+                                           [settings[i] for i in held]),
+                       tuple(written), str(rig.path) if written else None)

@@ -151,14 +151,17 @@ def _main(args: argparse.Namespace, writer) -> int:
             check_output(path, option)
         model = None
         if args.model is not None:
-            from jointrig.rig.model import RigModelError, load_rig
+            from jointrig.rig.model import RigModelError, is_chain_model, load_rig
+            from jointrig.rig.chain import load_chain
 
             try:
-                model = load_rig(args.model)
+                model = load_chain(args.model) if is_chain_model(args.model) else load_rig(args.model)
             except RigModelError as err:
                 raise BadArgument(f"--model: {err}") from None
-        loaded = driven_first(read_runs(args.data, columns=args.columns, units=args.units,
-                                        zero_per_run=args.zero_per_run), args.torque_on)
+        loaded = read_runs(args.data, columns=args.columns, units=args.units, zero_per_run=args.zero_per_run)
+        if loaded.is_train or hasattr(model, "n_flywheels"):
+            return _train(args, loaded, model, writer)
+        loaded = driven_first(loaded, args.torque_on)
         ids = list(loaded.run_ids)
         holdout = None
         if args.holdout:
@@ -219,6 +222,113 @@ def _main(args: argparse.Namespace, writer) -> int:
         write_card(args, loaded, card)
     if args.mjcf:
         write_mjcf(args, loaded, report)
+    log.info("done in %.1f s", time.perf_counter() - t0)
+    return 0
+
+
+def _train(args: argparse.Namespace, loaded, model, writer) -> int:
+    """A drive train's file (``phi1..phiN``, ``torque<i>``): the chain diagnosis, validated on
+    held-out runs in a rig of the user's model (``--model``) or of the file's bodies and drives."""
+    import tempfile
+
+    import numpy as np
+
+    from jointrig.files import write_atomic, write_json_atomic
+    from jointrig.identify.chain import ChainIdentifiabilityError
+    from jointrig.identify.chain_diagnose import nominal_spec
+    from jointrig.measured.runs import RunsFileError
+    from jointrig.present.train_report import format_train_report, train_report_json
+    from jointrig.rig.chain import chain_model_xml, load_chain
+    from jointrig.rig.simulate import SimulationError
+    from jointrig.studies.chain_validate import run_train_diagnosis
+    from jointrig.studies.validate import MIN_RUNS_TO_HOLD_OUT
+    from jointrig.vocab.records import RecordError
+
+    t0 = time.perf_counter()
+    try:
+        if not loaded.is_train:
+            raise BadArgument(f"--model {args.model} is a drive train of {model.n_flywheels} bodies, but {args.data} "
+                              f"holds a two-flywheel bench's columns (torque, phi1, phi2); give a train's file "
+                              f"(phi1..phiN, torque<i>) or a two-flywheel model")
+        N = loaded.records[0].n_flywheels
+        if model is not None and not hasattr(model, "n_flywheels"):
+            raise BadArgument(f"--model {args.model} is a two-flywheel model, but {args.data} holds a train of {N} "
+                              f"bodies (phi1..phi{N}); give a chain model (models/pump_train.xml shows one)")
+        if model is not None and model.n_flywheels != N:
+            raise BadArgument(f"--model {args.model} has {model.n_flywheels} bodies, {args.data} {N} (phi1..phi{N})")
+        for option in ("card", "card_png", "card_only", "rrd", "report"):
+            if getattr(args, option):
+                raise BadArgument(f"--{option.replace('_', '-')}: not yet made for a drive train's diagnosis (the "
+                                  f"text, --json and --mjcf are); leave it out")
+        if args.torque_on != "flywheel1":
+            raise BadArgument("--torque-on: a drive train's file names the driven bodies by its torque<i> columns; "
+                              "leave it out")
+        driven = sorted({i for r in loaded.records for i, t in enumerate(r.torques_Nm, start=1) if t is not None})
+        if model is not None:
+            missing = sorted(set(driven) - set(model.driven))
+            if missing:
+                raise BadArgument(f"--model {args.model} has no drive on body(ies) {missing}, which {args.data} "
+                                  f"drives (torque{missing[0]}); add <motor name=\"drive{missing[0]}\" ...>")
+        ids = list(loaded.run_ids)
+        holdout = None
+        if args.holdout:
+            unknown = [h for h in args.holdout if h not in ids]
+            if unknown:
+                raise RunsFileError(f"{args.data}: --holdout names run(s) {unknown} not in the file; runs are {ids}")
+            holdout = sorted({ids.index(h) for h in args.holdout})
+            if len(ids) - len(holdout) < 3:
+                raise BadArgument(f"--holdout leaves {len(ids) - len(holdout)} run(s) to fit; expected at least 3")
+        elif len(ids) < MIN_RUNS_TO_HOLD_OUT + 1:
+            raise RunsFileError(f"{args.data}: {len(ids)} run(s) of a drive train; its diagnosis needs at least "
+                                f"{MIN_RUNS_TO_HOLD_OUT + 1} (3 to fit, 1 held out to validate in the rig)")
+        for n in loaded.notes:
+            log.info("note: %s", n)
+        with tempfile.TemporaryDirectory(prefix="jointrig-train-") as tmp:
+            if model is None:
+                # The file's bodies and drives, the paper's law at every joint, unit inertias: the
+                # validation replaces the plant and the inertias by each fit's.
+                from jointrig.identify.chain import plant_of_values
+
+                spec = nominal_spec(N)
+                plant = plant_of_values({n: 0.0 for n in spec.names}, spec)
+                path = Path(tmp) / "train.xml"
+                path.write_text(chain_model_xml(plant, [1.0] * N, driven), encoding="utf-8")
+                rig = load_chain(path)
+            else:
+                rig = model
+            written = ()
+            if model is not None:
+                written = tuple((f"J{i}_kgm2", J) for i, J in enumerate(model.inertias_kgm2, start=1)) \
+                    + tuple(model.plant.parameters().items())
+            report = run_train_diagnosis(loaded.records, run_ids=ids, rig=rig, holdout=holdout, written=written,
+                                         band=args.band, alpha=args.alpha, fidelity=args.fidelity,
+                                         progress=lambda msg: log.info("%s", msg))
+    except (RunsFileError, RecordError, BadArgument, ChainIdentifiabilityError) as err:
+        print(f"diagnose: error: {err}", file=sys.stderr)
+        return 2
+    except (SimulationError, ValueError, np.linalg.LinAlgError) as err:
+        print(f"diagnose: the identification failed: {err}", file=sys.stderr)
+        return 1
+    print(format_train_report(report, source=str(args.data), notes=loaded.notes))
+    if args.json:
+        write_json_atomic(args.json, train_report_json(report, source=str(args.data), notes=loaded.notes,
+                                                       input_sha256=loaded.sha256))
+        log.info("wrote %s", args.json)
+    if args.mjcf:
+        from jointrig.identify.chain_diagnose import plant_and_inertias
+        from jointrig import __version__
+
+        plant, J = plant_and_inertias(report.adopted_fit)
+        what = "extended" if report.adopted else "nominal"
+        header = (f"jointrig {__version__}: the {what} train identified from {args.data} (SHA-256 {loaded.sha256}).\n"
+                  f"Verdict: {report.verdict.verdict}: {report.verdict.reason}")
+
+        def write(tmp):
+            tmp.write_text(chain_model_xml(plant, J, driven, header=header), encoding="utf-8")
+            load_chain(tmp)  # it must compile and read back before it replaces anything
+
+        write_atomic(args.mjcf, write)
+        log.info("wrote %s", args.mjcf)
     log.info("done in %.1f s", time.perf_counter() - t0)
     return 0
 

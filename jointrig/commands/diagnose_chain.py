@@ -28,7 +28,7 @@ from jointrig.commands import add_quiet, command_parser, shipped
 from jointrig.identify.chain_diagnose import diagnose_chain, prepare_chain_runs
 from jointrig.rig.chain import load_chain
 from jointrig.rig.model import DEFAULT_MODEL
-from jointrig.studies.chain_sweep import CHAIN_CONFIG, CHAIN_PLAN, run_chain_sweep
+from jointrig.studies.chain_sweep import CHAIN_CONFIG, CHAIN_PLAN, HELD_OUT, run_chain_sweep
 from jointrig.studies.chain_validate import validate_chain
 from jointrig.rig.measurement import measure_chain
 from jointrig.rig.runtime import add_backend_option, check_output, check_range, progress_level
@@ -38,8 +38,6 @@ log = logging.getLogger("diagnose_chain")
 
 MODELS = DEFAULT_MODEL.parent  # package data: found beside the installed rig, editable or not
 
-#: Held-out runs: another level and other frequencies than the estimation runs, from both ends.
-HELD_OUT = ((300.0, 90.0, 1), (800.0, 45.0, 4))
 
 
 def _point(text: str) -> tuple[float, float, int]:
