@@ -239,14 +239,14 @@ def _memo(rec: SteadyStateRecord, key: tuple, compute):
 
 
 def law_rows(terms: Sequence[Term], angles: tuple, rates: tuple, fine_phi, fine_rate, n_periods: int,
-             n_harmonics: int, oversample: int) -> np.ndarray:
+             n_harmonics: int, oversample: int, tag: tuple = ()) -> np.ndarray:
     """Fourier coefficients (harmonics 0..n_harmonics) of each term's torque along one relative
     motion, one memoised row per term: the rows of every builder (two flywheels, chains).
 
     The motion is that of ``angles`` (the two absolute angles, first minus second) and
     ``rates`` (their rates, entries may be None): ``fine_phi()`` and ``fine_rate()`` give the
     relative angle and rate oversampled ``oversample`` times; each is computed once per set of
-    arrays. A term of the angle alone (elastic, or with memory of the angle: Jenkins, Iwan) is
+    arrays (and ``tag``: what else ``fine_phi`` depends on, a zero offset). A term of the angle alone (elastic, or with memory of the angle: Jenkins, Iwan) is
     keyed by the angles only, any other also by the rates, so a profile search that varies one
     term's parameter, or a kink correction that replaces the rate, re-evaluates only what changed.
     """
@@ -256,11 +256,11 @@ def law_rows(terms: Sequence[Term], angles: tuple, rates: tuple, fine_phi, fine_
         angle_only = term.elastic or term.stateful
 
         def compute():
-            phi = memo_arrays(angles, ("fine_phi", oversample), fine_phi)
+            phi = memo_arrays(angles, ("fine_phi", oversample) + tag, fine_phi)
             rate = np.zeros_like(phi) if angle_only else memo_arrays(motion, ("fine_rate", oversample), fine_rate)
             sig = np.broadcast_to(np.asarray(term(phi, rate), dtype=float), phi.shape)
             return fourier_coefficients(sig, n_periods, n_harmonics)
-        return memo_arrays(angles if angle_only else motion, ("term", term, n_periods, n_harmonics, oversample),
+        return memo_arrays(angles if angle_only else motion, ("term", term, n_periods, n_harmonics, oversample) + tag,
                            compute)
 
     return np.vstack([row(t) for t in terms])

@@ -166,10 +166,13 @@ class ChainSpec:
     Attributes:
       joints: one tuple of :class:`vocab.law.Term` per joint (N - 1 of them).
       bearings: flywheel numbers with an unknown viscous drag to ground.
+      offsets_rad: per joint, the zero error of its measured twist (rad; the law sees the
+        measured twist minus it): encoders not zeroed together. Default: none.
     """
 
     joints: tuple
     bearings: tuple = ()
+    offsets_rad: tuple = ()
 
     def __post_init__(self):
         joints = tuple(tuple(j) for j in self.joints)
@@ -182,8 +185,13 @@ class ChainSpec:
         bearings = tuple(sorted(set(int(b) for b in self.bearings)))
         if any(not 1 <= b <= N for b in bearings):
             raise ValueError(f"ChainSpec.bearings must be flywheel numbers 1..{N}, got {self.bearings}")
+        offsets = tuple(float(o) for o in self.offsets_rad) or (0.0,) * len(joints)
+        if len(offsets) != len(joints) or not all(math.isfinite(o) for o in offsets):
+            raise ValueError(f"ChainSpec.offsets_rad must hold one finite number per joint ({len(joints)}), got "
+                             f"{self.offsets_rad}")
         object.__setattr__(self, "joints", joints)
         object.__setattr__(self, "bearings", bearings)
+        object.__setattr__(self, "offsets_rad", offsets)
 
     @property
     def n_flywheels(self) -> int:
@@ -226,13 +234,16 @@ def identifiability(n_flywheels: int, measured: Sequence[bool], driven: Sequence
     return reasons
 
 
-def _law_coeffs(rec: "ChainRecord", j: int, terms: Sequence[Term], n_harmonics: int, oversample: int) -> np.ndarray:
-    """Fourier coefficients of joint j's terms (0-based) along the record
-    (:func:`identify.balance.law_rows`, keyed by the record's arrays, which are read-only): a
-    profile search that varies one term's nonlinear parameter re-evaluates that term only."""
+def _law_coeffs(rec: "ChainRecord", j: int, terms: Sequence[Term], n_harmonics: int, oversample: int,
+                offset_rad: float = 0.0) -> np.ndarray:
+    """Fourier coefficients of joint j's terms (0-based) along the record's twist minus
+    ``offset_rad`` (:func:`identify.balance.law_rows`, keyed by the record's arrays, which are
+    read-only, and the offset): a profile search that varies one term's nonlinear parameter, or
+    the offset, re-evaluates only what changed."""
     return law_rows(terms, (rec.angles_rad[j], rec.angles_rad[j + 1]), (rec.rates_rad_s[j], rec.rates_rad_s[j + 1]),
-                    lambda: upsample(rec.relative(j)[0], oversample), lambda: upsample(rec.relative(j)[1], oversample),
-                    rec.n_periods, n_harmonics, oversample)
+                    lambda: upsample(rec.relative(j)[0] - offset_rad, oversample),
+                    lambda: upsample(rec.relative(j)[1], oversample),
+                    rec.n_periods, n_harmonics, oversample, tag=(offset_rad,) if offset_rad else ())
 
 
 @dataclass(frozen=True)
@@ -288,7 +299,7 @@ def chain_system(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics
     for ri, rec in enumerate(records):
         P, H = rec.n_periods, n_harmonics
         jw = 1j * np.arange(H + 1) * rec.omega_rad_s
-        laws = [_law_coeffs(rec, j, spec.joints[j], H, oversample) for j in range(N - 1)]
+        laws = [_law_coeffs(rec, j, spec.joints[j], H, oversample, spec.offsets_rad[j]) for j in range(N - 1)]
         for i in range(N):
             cols = np.zeros((p, H + 1), dtype=complex)
             keys = (rec.angles_rad[i],) + ((rec.rates_rad_s[i],) if rec.rates_rad_s[i] is not None else ())

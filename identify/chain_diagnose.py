@@ -58,10 +58,11 @@ __all__ = ["ChainRun", "prepare_chain_runs", "ChainFit", "Candidate", "Candidate
            "drive_information"]
 
 #: The catalogue's causes that live in a joint (scored at every joint); bearing drag is scored
-#: at every flywheel. Drive delay and an angle's zero are two-flywheel causes not yet carried over.
+#: at every flywheel; an angle's zero at a joint is its twist's offset. Drive delay and the
+#: channel skew and gain of flywheel 2's angle are two-flywheel causes not carried over.
 JOINT_CAUSES: tuple[Cause, ...] = tuple(c for c in CAUSES if c.name in (
     "coulomb_friction", "backlash", "asymmetric_stiffness", "hysteresis", "micro_slip", "stribeck_friction",
-    "quadratic_damping"))
+    "quadratic_damping", "angle_offset"))
 _BEARING = next(c for c in CAUSES if c.name == "bearing_friction")
 
 
@@ -181,6 +182,9 @@ class ChainFit(Estimates):
                             t.derived_parameters(out[joint_prefix(j) + t.name]).items()})
                 if isinstance(t, Power) and t.gap_rad > 0:
                     out[joint_prefix(j) + "backlash_half_gap_rad"] = t.gap_rad
+        for j, o in enumerate(self.spec.offsets_rad, start=1):
+            if o:
+                out[joint_prefix(j) + "angle_offset_rad"] = o
         return out
 
 
@@ -274,11 +278,15 @@ class Candidate:
         return self.cause.first_only
 
     def extend(self, spec: ChainSpec, h: float) -> ChainSpec:
+        """The chain with this cause at its place: a joint's cause extends that joint as it extends
+        the two-flywheel joint (its terms and its twist's zero offset, :class:`identify.causes.ModelSpec`)."""
         if not self.at_joint:
-            return ChainSpec(spec.joints, spec.bearings + (self.place,))
-        joints = list(spec.joints)
-        joints[self.place - 1] = self.cause.extend(ModelSpec(joints[self.place - 1]), h).terms
-        return ChainSpec(tuple(joints), spec.bearings)
+            return replace(spec, bearings=spec.bearings + (self.place,))
+        k = self.place - 1
+        joints, offsets = list(spec.joints), list(spec.offsets_rad)
+        ext = self.cause.extend(ModelSpec(joints[k], angle_offset_rad=offsets[k]), h)
+        joints[k], offsets[k] = ext.terms, ext.angle_offset_rad
+        return replace(spec, joints=tuple(joints), offsets_rad=tuple(offsets))
 
     def magnitude_name(self) -> str:
         if not self.at_joint:
@@ -383,6 +391,27 @@ def _profile(problem: _Problem, cand: Candidate, base: ChainSpec, weights) -> Ch
         curv = (c(h + 2 * step) - 2 * c(h + step) + best.chi2) / step**2
     se = math.sqrt(2.0 / curv * max(1.0, best.chi2 / max(best.dof, 1))) if curv > 0 else math.nan
     return replace(best, profiled=((cand.profiled_name(), h, se),))
+
+
+#: Passes of the joint refinement of adopted causes' nonlinear parameters (:func:`_refine`).
+REFINE_PASSES = 2
+
+
+def _refine(problem: _Problem, adopted: Sequence[Candidate], fit: ChainFit, weights) -> tuple[ChainFit, np.ndarray]:
+    """Each adopted cause's nonlinear parameter profiled again given the others' (coordinate
+    descent, :data:`REFINE_PASSES` passes), the weights re-estimated after. A cause found first
+    is profiled without the later ones: free play found before its encoders' zero offset came out
+    8% short (0.92 of 1.0 mrad, 6 standard errors) until it was profiled again beside it."""
+    for _ in range(REFINE_PASSES):
+        for cand in adopted:
+            if cand.cause.bounds is None:
+                continue
+            again = _profile(problem, cand, fit.spec, weights)
+            name, value, se = again.profiled[0]
+            fit = replace(again, profiled=tuple((n, v, e) if n != name else (name, value, se)
+                                                for n, v, e in fit.profiled))
+    refit, weights = problem.fit(fit.spec)
+    return replace(refit, profiled=fit.profiled), weights
 
 
 def _dissipative(fit: ChainFit) -> list[str]:
@@ -536,13 +565,19 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
                 progress(k, n, cand.label)
         return sorted(scored, key=lambda s: (bool(s.note), -s.score))
 
+    adopted: list[Candidate] = []
+
     def adopt(base, scored):
         best = next((s for s in scored if s.significant), None)
         if best is None:
             return None
+        adopted.append(by_label[best.label])
         profiled = base[0].profiled + best.fit.profiled
         current, wcur = problem.fit(best.fit.spec)
-        return best, (replace(current, profiled=profiled), wcur)
+        current = replace(current, profiled=profiled)
+        if sum(c.cause.bounds is not None for c in adopted) > 1:
+            current, wcur = _refine(problem, adopted, current, wcur)
+        return best, (current, wcur)
 
     def rivals_of(base, best, scored, pool):
         current, wcur = base

@@ -765,6 +765,10 @@ def read_runs(path: Union[str, os.PathLike], *, samples_per_period: Optional[int
             pass
         elif "phi" not in cols and not {"phi1", "phi2"} <= set(cols):
             missing += sorted({"phi1", "phi2"} - set(cols)) if {"phi1", "phi2"} & set(cols) else ["phi1, phi2 (or phi)"]
+        if missing and train:
+            raise RunsFileError(f"{where}: missing column(s) {', '.join(missing)}; a drive train's file has time, "
+                                f"phi1..phiN and torque<i> (the drive on body i), optionally run and omega; its "
+                                f"columns are {sorted(table.columns)} (map other names with --columns time=NAME)")
         if missing:  # every missing column at once
             raise RunsFileError(f"{where}: missing column(s) {', '.join(missing)}; expected time, torque (the drive "
                                 f"torque on flywheel 1), phi1 and phi2 (or phi, the relative angle), optionally run "

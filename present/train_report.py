@@ -18,6 +18,14 @@ from .summary import compare_written
 __all__ = ["format_train_report", "train_report_json", "format_chain_lines"]
 
 
+def _values(fit) -> dict:
+    """Every parameter of a chain fit with its standard error: the linear ones, then the
+    profiled (free play, slip angles, zero offsets)."""
+    out = {n: (v, fit.std_error(n)) for n, v in fit.as_dict().items()}
+    out.update({n: (v, se) for n, v, se in fit.profiled})
+    return out
+
+
 def format_chain_lines(report: TrainReport, n_shown: int = 6) -> list[str]:
     """The diagnosis's figures: the nominal fit, the candidates best first, what was found, the
     extended fit, the ambiguities and the held-out error."""
@@ -33,9 +41,11 @@ def format_chain_lines(report: TrainReport, n_shown: int = 6) -> list[str]:
                      + (f"  [{s.note}]" if s.note else ""))
     if not d.steps:
         lines.append("  nothing significant: no catalogued cause at any joint or bearing")
-    for s in d.steps:
-        lines.append(f"  FOUND: {s.label}: {quantity_of(s.magnitude[0])} = {with_se(s.magnitude[1], s.magnitude[2])} "
-                     f"{unit_of(s.magnitude[0])}")
+    final = _values(d.final)
+    for s in d.steps:  # at their size in the extended model (refined beside the other causes)
+        name = s.magnitude[0]
+        value, se = final.get(name, s.magnitude[1:])
+        lines.append(f"  FOUND: {s.label}: {quantity_of(name)} = {with_se(value, se)} {unit_of(name)}")
     if d.steps:
         lines.append(f"  extended model: chi2/dof = {d.final.chi2 / d.final.dof:.3g}")
     for a in d.ambiguities:
@@ -72,8 +82,8 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
                           for k, x in d.noise_std.items())]
     lines += format_chain_lines(report)
     lines += ["", f"{'Extended' if report.adopted else 'Nominal'} model's parameters (+- standard error, SI):"]
-    values = fit.as_dict()
-    lines += [f"  {n:34s} {with_se(x, fit.std_error(n)):>24s} {unit_of(n)}" for n, x in values.items()]
+    lines += [f"  {n:34s} {with_se(x, se):>24s} {unit_of(n)}" for n, (x, se) in _values(fit).items()]
+    notes = list(notes) + list(report.notes)
     if notes:
         lines += ["", f"Notes on the data ({len(notes)}):"] + [f"  - {n}" for n in notes]
     return "\n".join(lines)
@@ -90,5 +100,5 @@ def train_report_json(report: TrainReport, *, source: str = "", notes: Sequence[
             "generalisation": report.generalisation, **d.as_json(),
             "validation": report.validation.as_json() if report.validation is not None else None,
             "as_written": {w.name: w.as_json() for w in compare_written(report.written, report.adopted_fit)},
-            "model": report.model_path, "notes": list(notes),
+            "model": report.model_path, "notes": list(notes) + list(report.notes),
             "units": "SI; parameter names carry their units"}

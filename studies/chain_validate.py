@@ -98,7 +98,9 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
     records = []
     for meas in held_out:
         top = min(band, max_harmonic(meas.samples_per_period))
-        coeffs = {i + 1: fourier_coefficients(t, meas.n_periods, max_harmonic(meas.samples_per_period))
+        # The drive's harmonics the diagnosis fitted (above them a record holds only noise)
+        lines = min(diagnosis.n_harmonics, max_harmonic(meas.samples_per_period))
+        coeffs = {i + 1: fourier_coefficients(t, meas.n_periods, lines)
                   for i, t in enumerate(meas.torques_Nm) if t is not None}
         drives = {i: drive_of_record(meas.omega_rad_s, c) for i, c in coeffs.items()}
         errs, sims = {}, {}
@@ -172,6 +174,7 @@ class TrainReport:
     generalisation: str
     written: tuple = ()
     model_path: Optional[str] = None
+    notes: tuple = ()
 
     @property
     def adopted(self) -> bool:
@@ -208,6 +211,13 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
     held_recs = [r for i, r in enumerate(records) if i in held]
     say = progress or (lambda msg: None)
     say(f"diagnosing {len(fit_recs)} runs of a {rig.n_flywheels}-body train; {len(held_recs)} held out for validation")
+    notes = []
+    top = min(max_harmonic(r.samples_per_period) for r in records)
+    if top < band:
+        worst = min(range(len(records)), key=lambda i: records[i].samples_per_period)
+        notes.append(f"harmonics 1..{top} fitted, not 1..{band}: run {run_ids[worst]} holds "
+                     f"{records[worst].samples_per_period} samples per period, enough for {top}")
+        band = top
     runs = prepare_chain_runs(fit_recs, band=band)
     nominal = rig.plant.spec() if written else None
     d = diagnose_chain(runs, n_harmonics=band, alpha=alpha, nominal=nominal,
@@ -218,4 +228,4 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
     return TrainReport(tuple(run_ids), held, d, v, train_verdict(d, v),
                        generalisation_kind([settings[i] for i in range(len(records)) if i not in held],
                                            [settings[i] for i in held]),
-                       tuple(written), str(rig.path) if written else None)
+                       tuple(written), str(rig.path) if written else None, tuple(notes))

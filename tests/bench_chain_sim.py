@@ -245,6 +245,14 @@ def _linear_start(train: Train, drive: dict) -> np.ndarray:
 
 def steady_period(train: Train, drive: dict, samples: int, *, tol: float = 1e-8, max_periods: int = 2000):
     """One period of the steady state sampled at ``samples`` points: (t, states (samples, dim))."""
+    t, y, mode, T = steady_state(train, drive, tol=tol, max_periods=max_periods)
+    t_eval = t + np.arange(samples) * T / samples
+    ys, _, _ = simulate(train, drive, np.append(t_eval, t_eval[-1] + T / samples), y, mode, t0=t)
+    return t_eval - t, ys[:-1]
+
+
+def steady_state(train: Train, drive: dict, *, tol: float = 1e-8, max_periods: int = 2000):
+    """The state once the response repeats to ``tol`` of its swing: (t, y, mode, period)."""
     N, m = train.N, train.special
     jt = train.joints[m]
     w = next(iter(drive.values()))[0]
@@ -263,9 +271,7 @@ def steady_period(train: Train, drive: dict, samples: int, *, tol: float = 1e-8,
         rel = np.concatenate([ys[:, :N - 1] - ys[:, 1:N], ys[:, N:2 * N]], axis=1)
         scale = np.max(np.abs(rel), axis=0) + 1e-12
         if np.max(np.abs(rel[-1] - rel[-2]) / scale) < tol:
-            t_eval = t + np.arange(samples) * T / samples
-            ys, _, _ = simulate(train, drive, np.append(t_eval, t_eval[-1] + T / samples), y, mode, t0=t)
-            return t_eval - t, ys[:-1]
+            return t, y, mode, T
     raise RuntimeError(f"no steady state after {max_periods} periods for drive {drive}")
 
 
@@ -301,3 +307,55 @@ def measured_runs(train: Train, points, *, snr_db: float = 40.0, n_periods: int 
         torques = tuple(noisy(M0 * np.cos(w * t)) if k + 1 == i else None for k in range(train.N))
         out.append(Measured(w, time, angles, torques, M0, n_periods))
     return out
+
+
+#: The pump train of models/pump_train.xml, written out again for this bench: motor, coupling hub,
+#: gearbox, pump (kg m^2); motor shaft, elastomer coupling (progressive), pump shaft.
+PUMP_TRAIN = Train(J=(0.45, 0.06, 0.12, 0.35),
+                   joints=(Joint(c=15.0, k=4.0e5, gamma=0.0), Joint(c=20.0, k=2.5e4, gamma=1.25e7),
+                           Joint(c=10.0, k=1.2e5, gamma=0.0)))
+
+
+#: Encoder readings at rest (rad), the same in every run: absolute encoders never zeroed read the
+#: train's angle when it was assembled (0.7 rad), and each differs from its neighbour by where the
+#: joint between them came to rest: the worn coupling (joint 2, +-1 mrad of free play) anywhere in
+#: its play (here 0.4 mrad), the stiff shafts within a few encoder counts (1e-5 rad).
+ENCODERS_AT_REST_RAD = (0.7, 0.7 - 1e-5, 0.7 - 1e-5 - 4e-4, 0.7 - 4e-4)
+
+
+def daq_file(train: Train, points, path, *, fs_Hz: float = 20000.0, n_periods: float = 8.3, snr_db: float = 40.0,
+             offsets_rad=ENCODERS_AT_REST_RAD, seed: int = 0, angle_unit: str = "mrad"):
+    """Every ``(omega rad/s, amplitude N m, driven flywheel)`` point recorded as a lab's DAQ writes a
+    drive train's test: a fixed sample rate (not a whole number of samples per period), from a
+    random phase of the steady state, ``n_periods`` periods (an incomplete last one), encoders not
+    zeroed (their readings at rest, ``offsets_rad``, the same in every run), white noise at
+    ``snr_db`` on every angle and on the torque cell of each motor (an idle motor's cell reads
+    noise about 0), angles in ``angle_unit`` (rad or mrad), time in ms. One CSV, one block of rows
+    per run."""
+    scale = {"rad": 1.0, "mrad": 1e3}[angle_unit]
+    rng = np.random.default_rng(seed)
+    driven = sorted({i for _, _, i in points})
+    N = train.N
+    header = (["run", "t [ms]"] + [f"torque{i} [N m]" for i in driven]
+              + [f"phi{i} [{angle_unit}]" for i in range(1, N + 1)])
+    lines = [",".join(header)]
+    for r, (w, M0, i) in enumerate(points):
+        drive = {i: (w, M0)}
+        t, y, mode, T = steady_state(train, drive)
+        start = t + rng.uniform(0, T)
+        n = int(n_periods * T * fs_Hz)
+        t_eval = start + np.arange(n) / fs_Hz
+        ys, _, _ = simulate(train, drive, t_eval, y, mode, t0=t)
+        torques = {d: (M0 * np.cos(w * t_eval) if d == i else np.zeros(n)) for d in driven}
+        cells = []
+        for d in driven:  # a torque cell's noise is set by its range: the drive's level here
+            cells.append(torques[d] + rng.normal(0.0, M0 / math.sqrt(2) * 10 ** (-snr_db / 20), n))
+        for k in range(N):
+            x = ys[:, k]
+            sd = float(np.std(x)) * 10 ** (-snr_db / 20)
+            cells.append((x + offsets_rad[k] + rng.normal(0.0, sd, n)) * scale)
+        ms = (t_eval - start) * 1e3
+        for k in range(n):
+            lines.append(f"{r},{ms[k]:.4f}," + ",".join(f"{c[k]:.8g}" for c in cells))
+    path.write_text("\n".join(lines) + "\n")
+    return path
