@@ -17,7 +17,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from jointrig.identify.chain import ChainRecord
+from jointrig.identify.chain import ChainRecord, inertia_name
 from jointrig.identify.chain_diagnose import ChainDiagnosis, plant_and_inertias
 from jointrig.identify.harmonics import fourier_coefficients, max_harmonic
 from jointrig.identify.periods import period_spectra
@@ -29,7 +29,8 @@ from .validate import (CHI2_PER_DOF_OK, GAIN_OK, HELDOUT_EXTENDED_OK, HELDOUT_OK
                        holdout_of_another_kind)
 from jointrig.rig.simulate import SimulationConfig, SimulationError
 
-__all__ = ["ChainValidation", "validate_chain", "twist_error", "TrainReport", "train_verdict", "run_train_diagnosis"]
+__all__ = ["ChainValidation", "validate_chain", "twist_error", "TrainReport", "train_verdict", "run_train_diagnosis",
+           "written_of"]
 
 
 @dataclass(frozen=True)
@@ -184,6 +185,13 @@ class TrainReport:
     def adopted_fit(self):
         """The extended fit if adopted, else the nominal one."""
         return self.diagnosis.final if self.adopted else self.diagnosis.nominal
+
+
+def written_of(rig: ChainRig) -> tuple:
+    """A chain model's parameters as its file writes them, ``(name, value)``: the inertias, then
+    every joint's law and the bearings (the names of the diagnosis's fits)."""
+    return (tuple((inertia_name(i), J) for i, J in enumerate(rig.inertias_kgm2, start=1))
+            + tuple(rig.plant.parameters().items()))
 
 
 def train_setting(rec: ChainRecord) -> tuple[float, float, int]:

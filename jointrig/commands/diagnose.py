@@ -240,7 +240,7 @@ def _train(args: argparse.Namespace, loaded, model, writer) -> int:
     from jointrig.present.train_report import format_train_report, train_report_json
     from jointrig.rig.chain import chain_model_xml, load_chain
     from jointrig.rig.simulate import SimulationError
-    from jointrig.studies.chain_validate import run_train_diagnosis
+    from jointrig.studies.chain_validate import run_train_diagnosis, written_of
     from jointrig.studies.validate import MIN_RUNS_TO_HOLD_OUT
     from jointrig.vocab.records import RecordError
 
@@ -256,10 +256,10 @@ def _train(args: argparse.Namespace, loaded, model, writer) -> int:
                               f"bodies (phi1..phi{N}); give a chain model (models/pump_train.xml shows one)")
         if model is not None and model.n_flywheels != N:
             raise BadArgument(f"--model {args.model} has {model.n_flywheels} bodies, {args.data} {N} (phi1..phi{N})")
-        for option in ("card", "card_png", "card_only", "rrd", "report"):
+        for option in ("card", "card_png", "card_only", "report"):
             if getattr(args, option):
                 raise BadArgument(f"--{option.replace('_', '-')}: not yet made for a drive train's diagnosis (the "
-                                  f"text, --json and --mjcf are); leave it out")
+                                  f"text, --json, --rrd and --mjcf are); leave it out")
         if args.torque_on != "flywheel1":
             raise BadArgument("--torque-on: a drive train's file names the driven bodies by its torque<i> columns; "
                               "leave it out")
@@ -296,10 +296,7 @@ def _train(args: argparse.Namespace, loaded, model, writer) -> int:
                 rig = load_chain(path)
             else:
                 rig = model
-            written = ()
-            if model is not None:
-                written = tuple((f"J{i}_kgm2", J) for i, J in enumerate(model.inertias_kgm2, start=1)) \
-                    + tuple(model.plant.parameters().items())
+            written = written_of(model) if model is not None else ()
             report = run_train_diagnosis(loaded.records, run_ids=ids, rig=rig, holdout=holdout, written=written,
                                          band=args.band, alpha=args.alpha, fidelity=args.fidelity,
                                          progress=lambda msg: log.info("%s", msg))
@@ -314,6 +311,12 @@ def _train(args: argparse.Namespace, loaded, model, writer) -> int:
         write_json_atomic(args.json, train_report_json(report, source=str(args.data), notes=loaded.notes,
                                                        input_sha256=loaded.sha256))
         log.info("wrote %s", args.json)
+    if args.rrd:
+        from jointrig.present.recording import log_chain_diagnosis, open_recording
+
+        with open_recording(args.rrd) as rec:
+            log_chain_diagnosis(rec, report.diagnosis, report.validation, report.diagnosis.nominal.spec.n_flywheels)
+        log.info("wrote %s", args.rrd)
     if args.mjcf:
         from jointrig.identify.chain_diagnose import plant_and_inertias
         from jointrig import __version__

@@ -3,15 +3,16 @@
     jointrig diagnose-chain --truth models/pump_train_worn.xml            # the README's example
     jointrig diagnose-chain --truth MY_WORN.xml --model MY_TRAIN.xml --snr-db 30 --json OUT
 
-The rig simulates the "measured" train (``--truth``, the effect hidden in its file) at the
-sweep points of studies.chain_sweep.CHAIN_PLAN for estimation and at held-out points of another
-level (``--held-out``), measures every angle and drive torque with white noise at
-``--snr-db``, and hands the records to the diagnosis (identify/chain_diagnose.py), which
-knows only the nominal model's structure: it scores every catalogued cause at every joint
-and bearing drag at every flywheel, names the place and the cause, extends the model there,
-and the rig measures the extended model's gain on the held-out runs (studies/chain_validate.py),
-replaying their recorded drives on the nominal (``--model``) chain's bodies.
-Frequencies in rad/s, torques in N m.
+A demo of the path a measured train takes (``jointrig make-data OUT --model MY_WORN.xml`` then
+``jointrig diagnose OUT --model MY_TRAIN.xml`` does the same through a file): the rig simulates
+the "measured" train (``--truth``, the effect hidden in its file) at the sweep points of
+studies.chain_sweep.CHAIN_PLAN for estimation and at held-out points of another level
+(``--held-out``), measures every angle and drive torque with white noise at ``--snr-db``, and
+hands the records to studies.chain_validate.run_train_diagnosis with the nominal model
+(``--model``) as the user's: every catalogued cause scored at every joint and bearing drag at
+every flywheel, the place and cause named, the model extended there, the held-out runs' drives
+replayed on the nominal and the extended model in the rig, the verdict. Frequencies in rad/s,
+torques in N m. Exit status 1 when the verdict is "unexplained".
 """
 
 from __future__ import annotations
@@ -25,11 +26,11 @@ from pathlib import Path
 import numpy as np
 
 from jointrig.commands import add_quiet, command_parser, shipped
-from jointrig.identify.chain_diagnose import diagnose_chain, prepare_chain_runs
+from jointrig.present.train_report import format_train_report, train_report_json
 from jointrig.rig.chain import load_chain
 from jointrig.rig.model import DEFAULT_MODEL
 from jointrig.studies.chain_sweep import CHAIN_CONFIG, CHAIN_PLAN, HELD_OUT, run_chain_sweep
-from jointrig.studies.chain_validate import validate_chain
+from jointrig.studies.chain_validate import run_train_diagnosis, written_of
 from jointrig.rig.measurement import measure_chain
 from jointrig.rig.runtime import add_backend_option, check_output, check_range, progress_level
 from jointrig.files import write_json_atomic
@@ -93,48 +94,27 @@ def main(argv=None) -> int:
     rng = np.random.default_rng(args.seed)
     est_recs = [measure_chain(p.record, args.snr_db, rng, n_periods=args.periods) for p in est]
     held_recs = [measure_chain(p.record, args.snr_db, rng, n_periods=args.periods) for p in held]
-    runs = prepare_chain_runs(est_recs)
-
-    def progress(k, n, label):
-        if k == n or k % 5 == 0:
-            log.info("scored %d/%d candidates (%s)", k, n, label)
-
-    d = diagnose_chain(runs, progress=progress)
-    log.info("replaying the held-out runs on the nominal and the extended model")
-    v = validate_chain(nominal, d, held_recs, backend=args.backend) if d.steps else None
+    # From here the path of a measured train's file (jointrig diagnose TRAIN.csv --model MODEL):
+    # the same diagnosis, validation, verdict and text.
+    report = run_train_diagnosis(est_recs + held_recs, run_ids=[str(k) for k in range(len(est) + len(held))],
+                                 rig=nominal, holdout=range(len(est), len(est) + len(held)), written=written_of(nominal),
+                                 progress=lambda msg: log.info("%s", msg), backend=args.backend)
     N = nominal.n_flywheels
-    print(f"\nDiagnosis of a {N}-flywheel chain from {len(runs)} runs x {args.periods} periods at SNR "
-          f"{args.snr_db:g} dB (truth {truth.path.name}; the diagnosis knows only the nominal structure):")
-    print(f"  nominal model: chi2/dof = {d.nominal.chi2 / d.nominal.dof:.3g} (1 = explained to the noise)")
-    print(f"  candidates ({len(d.first_round)}: {len(d.first_round) - N} causes at {N - 1} joints, bearing drag at "
-          f"{N} flywheels), best first:")
-    for s in d.first_round[:6]:
-        print(f"    {s.label:34s} score {s.score:10.1f}  p = {s.p_value:.2g}  {s.magnitude[0]} = "
-              f"{s.magnitude[1]:.4g} +- {s.magnitude[2]:.2g}" + (f"  [{s.note}]" if s.note else ""))
-    if not d.steps:
-        print("  nothing significant: the nominal model explains the data to the noise")
-    for s in d.steps:
-        print(f"  FOUND: {s.label}: {s.magnitude[0]} = {s.magnitude[1]:.4g} +- {s.magnitude[2]:.2g}")
-    print(f"  extended model: chi2/dof = {d.final.chi2 / d.final.dof:.3g}")
-    for a in d.ambiguities:
-        print(f"  AMBIGUOUS: {a.candidates[0]} or {a.candidates[1]}: {a.explanation}")
-    if v is not None:
-        print(f"  held-out runs ({len(held_recs)}, another level): twist error nominal {v.nominal_error:.3g}, extended "
-              f"{v.extended_error:.3g} (noise floor {v.noise_floor:.2g}): gain {v.gain:.3g}" + (
-                  f" [{v.note}]" if v.note else ""))
+    print(f"\nDiagnosis of a {N}-flywheel chain simulated from {truth.path.name} (the diagnosis knows only the "
+          f"nominal structure), {args.periods} periods per run at SNR {args.snr_db:g} dB:\n")
+    print(format_train_report(report, source=f"{truth.path.name} in the rig"))
     out = {"truth_model": str(truth.path), "model": str(nominal.path), "snr_db": args.snr_db, "seed": args.seed,
            "periods": args.periods, "estimation_points": [list(p) for p in CHAIN_PLAN],
-           "held_out_points": [list(p) for p in args.held_out], **d.as_json(),
-           "validation": v.as_json() if v is not None else None,
+           "held_out_points": [list(p) for p in args.held_out],
+           **train_report_json(report, source=f"{truth.path.name} in the rig"),
            "truth_parameters": {**{f"J{i}_kgm2": J for i, J in enumerate(truth.inertias_kgm2, start=1)},
-                                **truth.plant.parameters()},
-           "units": "SI; parameter names carry their units"}
+                                **truth.plant.parameters()}}
     write_json_atomic(args.json, out)
     print(f"\nwrote {args.json}")
     if not args.no_rrd:
         from jointrig.present.recording import log_chain_diagnosis, open_recording
 
         with open_recording(args.rrd) as rec:
-            log_chain_diagnosis(rec, d, v, N)
+            log_chain_diagnosis(rec, report.diagnosis, report.validation, N)
         print(f"wrote {args.rrd} (open it with: .venv/bin/rerun {args.rrd})")
-    return 0 if (not d.steps or (v is not None and math.isfinite(v.gain))) else 1
+    return 0 if report.verdict.verdict != "unexplained" else 1
