@@ -47,7 +47,8 @@ from .solve import COND_WARN, IdentificationResult
 
 __all__ = ["ChainRecord", "ChainSpec", "ChainIdentifiabilityError", "identifiability", "chain_system",
            "solve_banded", "identify_chain", "joint_law", "ChainPlant", "plant_of_values", "BandedSystem",
-           "fisher_per_period", "row_covariance", "average_chain", "ml_identify_chain", "inertia_name", "bearing_name", "joint_prefix"]
+           "fisher_per_period", "row_covariance", "average_chain", "ml_identify_chain", "inertia_name", "bearing_name", "joint_prefix",
+           "ground_prefix"]
 
 
 class ChainIdentifiabilityError(ValueError):
@@ -64,6 +65,11 @@ def bearing_name(i: int) -> str:
 
 def joint_prefix(j: int) -> str:
     return f"joint{j}_"
+
+
+def ground_prefix(i: int) -> str:
+    """Body i's law to ground (a guide's friction, a spring to ground): ``ground1_coulomb_torque_Nm``."""
+    return f"ground{i}_"
 
 
 def _opt_rows(name: str, rows, n: Optional[int], count: int, src: str) -> tuple:
@@ -116,8 +122,8 @@ class ChainRecord(WholePeriods):
     def __post_init__(self):
         src = self.source
         N = len(tuple(self.angles_rad))
-        if N < 2:
-            raise RecordError(f"{src}: a chain has at least 2 flywheels, got {N} angle channel(s)")
+        if N < 1:
+            raise RecordError(f"{src}: a chain has at least 1 body, got no angle channel")
         t = np.array(self.time_s, dtype=float)
         n = t.size
         angles = _opt_rows("angles_rad", self.angles_rad, n, N, src)
@@ -168,20 +174,26 @@ class ChainSpec:
       bearings: flywheel numbers with an unknown viscous drag to ground.
       offsets_rad: per joint, the zero error of its measured twist (rad; the law sees the
         measured twist minus it): encoders not zeroed together. Default: none.
+      grounds: per body, the terms of its law to ground, a function of its own angle and rate
+        (a guide's or a seal's friction, a spring to ground); () where it has none. A single body
+        (no joints) is a chain of N = 1.
     """
 
     joints: tuple
     bearings: tuple = ()
     offsets_rad: tuple = ()
+    grounds: tuple = ()
 
     def __post_init__(self):
         joints = tuple(tuple(j) for j in self.joints)
-        if not joints:
-            raise ValueError("ChainSpec needs at least one joint")
         for j, terms in enumerate(joints, start=1):
             if not terms or not all(isinstance(t, Term) for t in terms):
                 raise ValueError(f"ChainSpec: joint {j} needs at least one law term (vocab.law.Term)")
         N = len(joints) + 1
+        grounds = tuple(tuple(g) for g in self.grounds) or ((),) * N
+        if len(grounds) != N or not all(isinstance(t, Term) for g in grounds for t in g):
+            raise ValueError(f"ChainSpec.grounds must hold one tuple of law terms per body ({N}), got {self.grounds}")
+        object.__setattr__(self, "grounds", grounds)
         bearings = tuple(sorted(set(int(b) for b in self.bearings)))
         if any(not 1 <= b <= N for b in bearings):
             raise ValueError(f"ChainSpec.bearings must be flywheel numbers 1..{N}, got {self.bearings}")
@@ -201,7 +213,8 @@ class ChainSpec:
         """The unknowns in banded order, grouped: ("flywheel", i, names) and ("joint", j, names)."""
         out = []
         for i in range(1, self.n_flywheels + 1):
-            names = (inertia_name(i),) + ((bearing_name(i),) if i in self.bearings else ())
+            names = (inertia_name(i),) + ((bearing_name(i),) if i in self.bearings else ()) \
+                + tuple(ground_prefix(i) + t.name for t in self.grounds[i - 1])
             out.append(("flywheel", i, names))
             if i < self.n_flywheels:
                 out.append(("joint", i, tuple(joint_prefix(i) + t.name for t in self.joints[i - 1])))
@@ -308,6 +321,12 @@ def chain_system(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics
             cols[col[inertia_name(i + 1)]] = jw * rate_c
             if i + 1 in spec.bearings:
                 cols[col[bearing_name(i + 1)]] = rate_c
+            if spec.grounds[i]:  # body i+1's law to ground acts with +G on it
+                a, r = rec.angles_rad[i], rec.rates_rad_s[i]
+                rows = law_rows(spec.grounds[i], (a,), (r,), lambda: upsample(a, oversample),  # noqa: B023
+                                lambda: upsample(rec.rate(i), oversample), P, H, oversample)  # noqa: B023
+                for t, c in zip(spec.grounds[i], rows):
+                    cols[col[ground_prefix(i + 1) + t.name]] += c
             if i < N - 1:  # joint i+1 (between i+1 and i+2) acts with +M on flywheel i+1
                 for t, c in zip(spec.joints[i], laws[i]):
                     cols[col[joint_prefix(i + 1) + t.name]] += c
@@ -457,11 +476,17 @@ class ChainPlant:
 
     laws: tuple
     bearings_Nms_per_rad: tuple
+    #: per body, its law to ground (:class:`vocab.law.JointLaw` of its own angle and rate) or None
+    grounds: tuple = ()
 
     def __post_init__(self):
         laws = tuple(self.laws)
-        if not laws or not all(isinstance(law, JointLaw) for law in laws):
+        if not all(isinstance(law, JointLaw) for law in laws):
             raise TypeError("ChainPlant.laws must be one JointLaw per joint")
+        grounds = tuple(self.grounds) or (None,) * (len(laws) + 1)
+        if len(grounds) != len(laws) + 1 or not all(g is None or isinstance(g, JointLaw) for g in grounds):
+            raise TypeError(f"ChainPlant.grounds must be one JointLaw or None per body ({len(laws) + 1})")
+        object.__setattr__(self, "grounds", grounds)
         b = tuple(float(v) for v in self.bearings_Nms_per_rad)
         if len(b) != len(laws) + 1:
             raise ValueError(f"ChainPlant: {len(b)} bearings for {len(laws) + 1} flywheels")
@@ -482,12 +507,16 @@ class ChainPlant:
         for i, b in enumerate(self.bearings_Nms_per_rad, start=1):
             if b:
                 out[bearing_name(i)] = b
+        for i, g in enumerate(self.grounds, start=1):
+            if g is not None:
+                out.update({ground_prefix(i) + n: v for n, v in g.as_dict().items()})
         return out
 
     def spec(self) -> ChainSpec:
         """The model structure that holds this plant exactly."""
         return ChainSpec(tuple(law.terms for law in self.laws),
-                         tuple(i for i, b in enumerate(self.bearings_Nms_per_rad, start=1) if b))
+                         tuple(i for i, b in enumerate(self.bearings_Nms_per_rad, start=1) if b),
+                         grounds=tuple(g.terms if g is not None else () for g in self.grounds))
 
 
 def plant_of_values(values: dict, spec: ChainSpec) -> ChainPlant:
@@ -495,7 +524,13 @@ def plant_of_values(values: dict, spec: ChainSpec) -> ChainPlant:
     the caller's choice; here values are taken as they are, bearings clipped at 0)."""
     laws = tuple(joint_law(values, spec, j) for j in range(1, spec.n_flywheels))
     bearings = tuple(max(0.0, values.get(bearing_name(i), 0.0)) for i in range(1, spec.n_flywheels + 1))
-    return ChainPlant(laws, bearings)
+    return ChainPlant(laws, bearings, ground_laws(values, spec))
+
+
+def ground_laws(values: dict, spec: ChainSpec) -> tuple:
+    """Every body's law to ground (None where it has none) from identified values by name."""
+    return tuple(JointLaw(g, tuple(values[ground_prefix(i) + t.name] for t in g)) if g else None
+                 for i, g in enumerate(spec.grounds, start=1))
 
 
 def _row_covariance(s: LinearSystem, spec: ChainSpec, vals: dict, omega_rad_s: float, n_samples: int,

@@ -43,7 +43,7 @@ import numpy as np
 
 from jointrig.vocab.law import JointLaw, Power, Viscous
 from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpec, bearing_name, chain_system,
-                    identifiability, inertia_name, joint_prefix, solve_banded)
+                    ground_laws, ground_prefix, identifiability, inertia_name, joint_prefix, solve_banded)
 from .causes import CAUSES, Cause, ModelSpec, evidence, forward_select
 from .diagnose import DEFAULT_FIDELITY, FINE_SAMPLES
 from .harmonics import max_harmonic
@@ -64,10 +64,18 @@ JOINT_CAUSES: tuple[Cause, ...] = tuple(c for c in CAUSES if c.name in (
     "coulomb_friction", "backlash", "asymmetric_stiffness", "hysteresis", "micro_slip", "stribeck_friction",
     "quadratic_damping", "angle_offset"))
 _BEARING = next(c for c in CAUSES if c.name == "bearing_friction")
+_COULOMB = next(c for c in CAUSES if c.name == "coulomb_friction")
+
+#: The causes scored in every body's law to ground: a guide's, a seal's or a bearing's friction.
+GROUND_CAUSES: tuple[Cause, ...] = tuple(c for c in CAUSES if c.name in (
+    "coulomb_friction", "stribeck_friction", "quadratic_damping"))
 
 
 def nominal_spec(n_flywheels: int) -> ChainSpec:
-    """Every joint ``c phi' + k phi + gamma phi^3`` (paper eq. 11), no bearings."""
+    """Every joint ``c phi' + k phi + gamma phi^3`` (paper eq. 11), no bearings; a single body
+    (N = 1) its mass and a viscous drag to ground (the one law it surely has)."""
+    if n_flywheels == 1:
+        return ChainSpec((), bearings=(1,))
     return ChainSpec(((Viscous(), Power(1), Power(3)),) * (n_flywheels - 1))
 
 
@@ -254,17 +262,21 @@ class _Problem:
 
 @dataclass(frozen=True)
 class Candidate:
-    """A catalogued cause at one place: a joint (1..N-1) or, for bearing drag, a flywheel (1..N)."""
+    """A catalogued cause at one place: a joint (1..N-1); for bearing drag, a flywheel (1..N);
+    with ``ground``, a body's law to ground (1..N: a guide's or a seal's friction)."""
 
     cause: Cause
     place: int
+    ground: bool = False
 
     @property
     def at_joint(self) -> bool:
-        return self.cause.name != "bearing_friction"
+        return not self.ground and self.cause.name != "bearing_friction"
 
     @property
     def label(self) -> str:
+        if self.ground:
+            return f"{self.cause.name} to ground at body {self.place}"
         return f"{self.cause.name} at {'joint' if self.at_joint else 'flywheel'} {self.place}"
 
     @property
@@ -280,31 +292,51 @@ class Candidate:
     def extend(self, spec: ChainSpec, h: float) -> ChainSpec:
         """The chain with this cause at its place: a joint's cause extends that joint as it extends
         the two-flywheel joint (its terms and its twist's zero offset, :class:`identify.causes.ModelSpec`)."""
+        k = self.place - 1
+        if self.ground:
+            grounds = list(spec.grounds)
+            grounds[k] = self.cause.extend(ModelSpec(grounds[k]), h).terms
+            return replace(spec, grounds=tuple(grounds))
         if not self.at_joint:
             return replace(spec, bearings=spec.bearings + (self.place,))
-        k = self.place - 1
         joints, offsets = list(spec.joints), list(spec.offsets_rad)
         ext = self.cause.extend(ModelSpec(joints[k], angle_offset_rad=offsets[k]), h)
         joints[k], offsets[k] = ext.terms, ext.angle_offset_rad
         return replace(spec, joints=tuple(joints), offsets_rad=tuple(offsets))
 
+    @property
+    def prefix(self) -> str:
+        return ground_prefix(self.place) if self.ground else joint_prefix(self.place)
+
     def magnitude_name(self) -> str:
-        if not self.at_joint:
+        if not self.at_joint and not self.ground:
             return bearing_name(self.place)
-        return joint_prefix(self.place) + self.cause.magnitude
+        return self.prefix + self.cause.magnitude
 
     def profiled_name(self) -> Optional[str]:
-        return None if self.cause.profiled is None else joint_prefix(self.place) + self.cause.profiled
+        return None if self.cause.profiled is None else self.prefix + self.cause.profiled
+
+    def motion(self, rec: ChainRecord) -> tuple[np.ndarray, np.ndarray]:
+        """The motion this candidate's law sees in a record: its joint's twist and twist rate, or
+        its body's own angle and rate (ground)."""
+        if self.ground:
+            return rec.angles_rad[self.place - 1], rec.rate(self.place - 1)
+        return rec.relative(self.place - 1)
+
+    def channels(self) -> tuple[str, ...]:
+        """The angle channels this candidate's motion is read from."""
+        return (f"phi{self.place}",) if self.ground else (f"phi{self.place}", f"phi{self.place + 1}")
 
 
-def _twist_runs(problem: _Problem, j: int) -> list:
-    """The run where joint j twists most, as the two-flywheel causes' search bounds read runs
-    (``average.phi_rad``: here joint j's twist). In a chain a joint may barely twist in runs far
-    from its modes; the bounds of a free play or a slip angle must reach the largest twist."""
+def _twist_runs(problem: _Problem, cand: Candidate) -> list:
+    """The run where the candidate's motion (its joint's twist, or its body's angle) swings most,
+    as the two-flywheel causes' search bounds read runs (``average.phi_rad``). In a chain a joint
+    may barely twist in runs far from its modes; the bounds of a free play or a slip angle must
+    reach the largest twist."""
     best, amp = None, -1.0
     for r in problem.runs:
         a = r.average
-        twist = a.angles_rad[j - 1] - a.angles_rad[j]
+        twist = cand.motion(a)[0]
         if np.ptp(twist) > amp:
             best, amp = (a, twist), float(np.ptp(twist))
     a, twist = best
@@ -312,20 +344,16 @@ def _twist_runs(problem: _Problem, j: int) -> list:
                                                       source=a.source))]
 
 
-def _rate_amplitude(problem: _Problem, j: int) -> float:
-    top = 0.0
-    for r in problem.runs:
-        _, rate = r.average.relative(j - 1)
-        top = max(top, float(np.max(np.abs(rate))))
-    return top
+def _rate_amplitude(problem: _Problem, cand: Candidate) -> float:
+    return max(float(np.max(np.abs(cand.motion(r.average)[1]))) for r in problem.runs)
 
 
-def angle_resolution(problem: _Problem, j: int) -> float:
-    """What joint j's twist resolves (rad): 3 noise standard deviations of one sample of the
-    band-limited period average (as :func:`identify.diagnose.angle_resolution`)."""
+def angle_resolution(problem: _Problem, cand: Candidate) -> float:
+    """What the candidate's motion resolves (rad): 3 noise standard deviations of one sample of
+    the band-limited period average (as :func:`identify.diagnose.angle_resolution`)."""
     out = 0.0
     for r in problem.runs:
-        sd = math.hypot(r.noise_std[f"phi{j}"], r.noise_std[f"phi{j + 1}"])
+        sd = math.sqrt(sum(r.noise_std[ch] ** 2 for ch in cand.channels()))
         out = max(out, 3.0 * sd * math.sqrt(min(1.0, (2 * problem.n_harmonics + 1) / r.samples_per_period)
                                              / r.n_periods))
     return out
@@ -347,9 +375,11 @@ class CandidateScore:
     fit: ChainFit
     magnitude: tuple
     note: str = ""
+    ground: bool = False
 
     def as_json(self) -> dict:
-        return {"candidate": self.label, "cause": self.cause, ("joint" if self.at_joint else "flywheel"): self.place,
+        where = "ground_of_body" if self.ground else "joint" if self.at_joint else "flywheel"
+        return {"candidate": self.label, "cause": self.cause, where: self.place,
                 "score": self.score, "significant": self.significant, "delta_chi2": self.delta_chi2,
                 "n_params": self.n_params, "p_value": self.p_value,
                 "magnitude": {"name": self.magnitude[0], "value": self.magnitude[1], "std_error": self.magnitude[2]},
@@ -357,9 +387,9 @@ class CandidateScore:
 
 
 def _profile(problem: _Problem, cand: Candidate, base: ChainSpec, weights) -> ChainFit:
-    lo, hi = cand.cause.bounds(_twist_runs(problem, cand.place))
+    lo, hi = cand.cause.bounds(_twist_runs(problem, cand))
     if cand.cause.name == "stribeck_friction":  # the bounds read the rate of the twist
-        top = _rate_amplitude(problem, cand.place)
+        top = _rate_amplitude(problem, cand)
         lo, hi = 0.02 * top, 2.0 * top
     back, (a, b) = (math.exp, (math.log(lo), math.log(hi))) if cand.cause.log_scale else (float, (lo, hi))
     cache: dict = {}
@@ -417,6 +447,8 @@ def _refine(problem: _Problem, adopted: Sequence[Candidate], fit: ChainFit, weig
 def _dissipative(fit: ChainFit) -> list[str]:
     names = [joint_prefix(j) + t.name for j, terms in enumerate(fit.spec.joints, start=1) for t in terms
              if t.dissipative]
+    names += [ground_prefix(i) + t.name for i, terms in enumerate(fit.spec.grounds, start=1) for t in terms
+              if t.dissipative]
     return names + [bearing_name(i) for i in fit.spec.bearings]
 
 
@@ -428,15 +460,15 @@ def _rejection(problem: _Problem, cand: Candidate, ext: ChainFit, mag: tuple) ->
         if v < 0 and (not math.isfinite(se) or -v > 2 * se):
             return f"the extended model would hold a negative {name} = {v:.4g} +- {se:.2g}: it would feed energy in"
     params = ext.parameters()
-    pre = joint_prefix(cand.place)
+    pre = cand.prefix
     if cand.cause.name == "stribeck_friction":
-        v, top = params.get(pre + "stribeck_velocity_rad_s", math.nan), _rate_amplitude(problem, cand.place)
+        v, top = params.get(pre + "stribeck_velocity_rad_s", math.nan), _rate_amplitude(problem, cand)
         if v > top:
-            return (f"its Stribeck rate {v:.3g} rad/s is above every run's twist rate (at most {top:.3g} rad/s): it is "
-                    f"dry friction (see coulomb_friction at joint {cand.place})")
+            return (f"its Stribeck rate {v:.3g} rad/s is above every run's rate (at most {top:.3g} rad/s): it is "
+                    f"dry friction (see {replace(cand, cause=_COULOMB).label})")
     if cand.cause.name in ("hysteresis", "micro_slip", "backlash"):
         h = params.get(cand.profiled_name(), math.nan)
-        res = angle_resolution(problem, cand.place)
+        res = angle_resolution(problem, cand)
         if h < res:
             if cand.cause.name == "backlash":
                 return f"its half gap {h:.3g} rad is below the twist's resolution {res:.2g} rad: no free play is resolved"
@@ -463,7 +495,7 @@ def score(problem: _Problem, cand: Candidate, base: ChainFit, weights: np.ndarra
     if note:
         significant = False
     return CandidateScore(cand.label, cand.cause.name, cand.place, cand.at_joint, float(delta), q, float(bic), p,
-                          significant, ext, mag, note)
+                          significant, ext, mag, note, cand.ground)
 
 
 # --------------------------------------------------------------------------------------------
@@ -525,10 +557,13 @@ class ChainDiagnosis:
         }
 
 
-def candidates(n_flywheels: int, causes: Sequence[Cause] = JOINT_CAUSES, bearings: bool = True) -> list[Candidate]:
+def candidates(n_flywheels: int, causes: Sequence[Cause] = JOINT_CAUSES, bearings: bool = True,
+               ground: Sequence[Cause] = GROUND_CAUSES) -> list[Candidate]:
+    """Every cause at every joint, bearing drag at every body, and the ground causes at every body."""
     out = [Candidate(c, j) for j in range(1, n_flywheels) for c in causes]
     if bearings:
         out += [Candidate(_BEARING, i) for i in range(1, n_flywheels + 1)]
+    out += [Candidate(c, i, ground=True) for i in range(1, n_flywheels + 1) for c in ground]
     return out
 
 
@@ -582,7 +617,8 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
     def rivals_of(base, best, scored, pool):
         current, wcur = base
         for rival in scored:
-            if rival is best or not rival.significant or rival.place == best.place and rival.at_joint == best.at_joint:
+            if rival is best or not rival.significant or (rival.place, rival.at_joint, rival.ground) == (
+                    best.place, best.at_joint, best.ground):
                 continue
             if rival.score < 0.5 * best.score:
                 continue
@@ -667,6 +703,9 @@ def separating_drive(problem: _Problem, a: Candidate, b: Candidate, sa: Candidat
     frequencies and median drive torque, the torque noise, and each candidate's fitted effect.
     Returns (flywheel, explanation)."""
     N = problem.runs[0].average.n_flywheels
+    if a.ground or b.ground:
+        return None, (f"{a.label} and {b.label}: no linearised drive information for a law to ground; runs at "
+                      f"other levels would tell them apart")
     base = problem.fit(nominal_spec(N))[0].as_dict()
     J = [base[inertia_name(i)] for i in range(1, N + 1)]
     c = [base[joint_prefix(j) + "c_Nms_per_rad"] for j in range(1, N)]
@@ -712,4 +751,4 @@ def plant_and_inertias(f: ChainFit) -> tuple[ChainPlant, tuple[float, ...]]:
                  for j, terms in enumerate(f.spec.joints, start=1))
     N = len(laws) + 1
     bearings = tuple(max(0.0, vals.get(bearing_name(i), 0.0)) for i in range(1, N + 1))
-    return ChainPlant(laws, bearings), tuple(vals[inertia_name(i)] for i in range(1, N + 1))
+    return ChainPlant(laws, bearings, ground_laws(vals, f.spec)), tuple(vals[inertia_name(i)] for i in range(1, N + 1))

@@ -32,11 +32,13 @@ def format_chain_lines(report: TrainReport, n_shown: int = 6) -> list[str]:
     d, v = report.diagnosis, report.validation
     N = d.nominal.spec.n_flywheels
     n_joint = sum(1 for s in d.first_round if s.at_joint)
+    n_ground = sum(1 for s in d.first_round if s.ground)
+    places = ([f"{n_joint} causes at {N - 1} joint(s)"] if N > 1 else []) + [
+        f"bearing drag at {N} {'bodies' if N > 1 else 'body'}", f"{n_ground} laws to ground"]
     lines = [f"  nominal model: chi2/dof = {d.nominal.chi2 / d.nominal.dof:.3g} (about 1 when only noise is left)",
-             f"  candidates ({len(d.first_round)}: {n_joint} causes at {N - 1} joint(s), bearing drag at {N} "
-             f"bodies), best first:"]
+             f"  candidates ({len(d.first_round)}: {', '.join(places)}), best first:"]
     for s in d.first_round[:n_shown]:
-        lines.append(f"    {s.label:34s} score {s.score:10.1f}  p = {s.p_value:.2g}  {quantity_of(s.magnitude[0])} = "
+        lines.append(f"    {s.label:40s} score {s.score:10.1f}  p = {s.p_value:.2g}  {quantity_of(s.magnitude[0])} = "
                      f"{with_se(s.magnitude[1], s.magnitude[2])} {unit_of(s.magnitude[0])}"
                      + (f"  [{s.note}]" if s.note else ""))
     if not d.steps:
