@@ -588,7 +588,11 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
         raise ValueError(f"the nominal model has {nominal.n_flywheels} flywheels, the runs {N}")
     nominal, w = problem.fit(nominal if nominal is not None else nominal_spec(N))
     ambiguous: list[Ambiguity] = []
-    by_label = {c.label: c for c in candidates(N, causes)}
+    # a cause the nominal model already holds at a place is no candidate there (a single body's
+    # drag to ground, a user's model with a guide's friction)
+    pool = [c for c in candidates(N, causes) if c.extend(nominal.spec, 1e-3) != nominal.spec
+            or c.cause.bounds is not None]
+    by_label = {c.label: c for c in pool}
 
     def rank(base, pool, rnd):
         current, wcur = base
@@ -629,7 +633,7 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
                 drive, why = separating_drive(problem, by_label[best.label], by_label[rival.label], best, rival)
                 ambiguous.append(Ambiguity((best.label, rival.label), drive, why))
 
-    chosen = forward_select((nominal, w), candidates(N, causes), rank=rank, adopt=adopt, after=rivals_of,
+    chosen = forward_select((nominal, w), pool, rank=rank, adopt=adopt, after=rivals_of,
                             max_effects=max_effects, name_of=lambda s: s.label)
     current = chosen.base[0]
     first = chosen.rounds[0] if chosen.rounds else ()

@@ -62,12 +62,17 @@ MAX_BODIES = 8
 
 COLUMNS = {"run": "-", "time": "s", "torque": "N m", "phi1": "rad", "phi2": "rad", "phi": "rad",
            "omega": "rad/s"} | {f"phi{i}": "rad" for i in range(3, MAX_BODIES + 1)} \
-          | {f"torque{i}": "N m" for i in range(1, MAX_BODIES + 1)}
+          | {f"torque{i}": "N m" for i in range(1, MAX_BODIES + 1)} \
+          | {"x": "m", "force": "N"} | {f"x{i}": "m" for i in range(1, MAX_BODIES + 1)} \
+          | {f"force{i}": "N" for i in range(1, MAX_BODIES + 1)}
 
-#: Columns only a drive train's file has (more than two angles, or a numbered drive).
-TRAIN_COLUMNS = frozenset(c for c in COLUMNS if c[-1].isdigit() and c not in ("phi1", "phi2"))
+#: Columns only a drive train's file has (more than two angles, a numbered drive, or bodies on
+#: slides: positions ``x``, ``x1..`` in m and forces ``force``, ``force1..`` in N).
+TRAIN_COLUMNS = frozenset(c for c in COLUMNS if (c[-1].isdigit() and c not in ("phi1", "phi2"))
+                          or c.startswith(("x", "force")))
 
-_QUANTITY = {c: {"s": "time", "N m": "torque", "rad": "angle", "rad/s": "frequency"}.get(u) for c, u in COLUMNS.items()}
+_QUANTITY = {c: {"s": "time", "N m": "torque", "rad": "angle", "rad/s": "frequency", "m": "length",
+                 "N": "force"}.get(u) for c, u in COLUMNS.items()}
 
 #: Accepted units per quantity -> factor to SI (unit text compared without case, blanks, '*', '.', '·').
 UNITS = {
@@ -77,6 +82,8 @@ UNITS = {
     "torque": {"N m": 1.0, "N mm": 1e-3, "N cm": 1e-2, "kN m": 1e3, "mN m": 1e-3},
     "frequency": {"rad/s": 1.0, "hz": 2 * math.pi, "rpm": 2 * math.pi / 60, "1/min": 2 * math.pi / 60,
                   "deg/s": math.pi / 180},
+    "length": {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "um": 1e-6, "µm": 1e-6},
+    "force": {"N": 1.0, "kN": 1e3, "mN": 1e-3},
 }
 
 #: A stated period (an ``omega`` column, or a whole number of samples) is refused when the
@@ -115,6 +122,9 @@ class LoadedRuns:
     records: tuple[SteadyStateRecord, ...]
     notes: tuple[str, ...]
     sha256: str = ""
+    #: a train's bodies: "hinge" (rad, N m, kg m^2) or "slide" (m, N, kg; held in the records'
+    #: angle and torque fields, which are the project's generic coordinate and drive)
+    kind: str = "hinge"
 
     @property
     def has_both_angles(self) -> bool:
@@ -508,17 +518,24 @@ def _check_drift(where: str, run: str, t: np.ndarray, data: dict, omega: float, 
 
 
 def _to_train_record(where: str, run: str, t: np.ndarray, torques: dict, angles: list, omega: Optional[float],
-                     samples_per_period: Optional[int], notes: list) -> ChainRecord:
-    """One run of a drive train: ``torque<i>`` on the driven bodies, ``phi1..phiN`` (N >= 2)."""
+                     samples_per_period: Optional[int], notes: list, layout: "_Train") -> ChainRecord:
+    """One run of a drive train: the drives on the driven bodies, the positions of bodies 1..N
+    (N >= 1; a slide's in m and N, held as the record's angles and torques)."""
+    pos, drv = ("x", "force") if layout.kind == "slide" else ("phi", "torque")
+    unit, drive_unit = ("m", "N") if layout.kind == "slide" else ("rad", "N m")
     for i, a in enumerate(angles, start=1):
-        _check_varies(where, run, f"phi{i}", a)
+        _check_varies(where, run, layout.positions[i - 1], a)
     for j in range(1, len(angles)):
-        _check_varies(where, run, f"phi{j} - phi{j + 1}", angles[j - 1] - angles[j])
+        _check_varies(where, run, f"{pos}{j} - {pos}{j + 1}", angles[j - 1] - angles[j])
     drive = max(torques, key=lambda i: float(np.std(torques[i])))
     chans = {f"torque{i}": x for i, x in torques.items()} | {f"phi{i}": a for i, a in enumerate(angles, start=1)}
-    w_rec, t_rec, P, data = _whole_periods(where, run, t, chans, f"torque{drive}", angles[0] - angles[1], omega,
-                                           samples_per_period, notes)
+    ref = angles[0] - angles[1] if len(angles) > 1 else angles[0]
+    w_rec, t_rec, P, data = _whole_periods(where, run, t, chans, f"torque{drive}", ref, omega, samples_per_period,
+                                           notes)
     N = len(angles)
+    if layout.kind == "slide":  # the notes name the file's columns
+        notes[:] = [n.replace("torque", "force").replace("phi", "x") if n.startswith(f"run {run}:") else n
+                    for n in notes]
 
     def drift(x):
         return linear_drift(t_rec, x, w_rec, harmonics=CHECK_HARMONICS)
@@ -531,22 +548,23 @@ def _to_train_record(where: str, run: str, t: np.ndarray, torques: dict, angles:
         d = drift(rel)
         if drifts(rel, d):
             raise RunsFileError(
-                f"{where}: run {run}: the twist phi{j} - phi{j + 1} of joint {j} drifts by {d.over_record:.3g} rad "
-                f"over the record ({abs(d.t_stat):.3g} standard errors): a steady-state record repeats every period "
-                f"(a slipping encoder or an unsettled transient?)")
+                f"{where}: run {run}: the twist {pos}{j} - {pos}{j + 1} of joint {j} drifts by {d.over_record:.3g} "
+                f"{unit} over the record ({abs(d.t_stat):.3g} standard errors): a steady-state record repeats every "
+                f"period (a slipping encoder or an unsettled transient?)")
     ds = [drift(data[f"phi{i}"]) for i in range(1, N + 1)]
     if any(drifts(data[f"phi{i}"], d) for i, d in enumerate(ds, start=1)):
         slope = float(np.mean([d.slope for d in ds]))
         for i in range(1, N + 1):
             data[f"phi{i}"] = data[f"phi{i}"] - slope * (t_rec - t_rec[0])
-        notes.append(f"run {run}: the whole train rotates steadily at {slope:.4g} rad/s on top of the vibration; "
-                     f"that common rotation is removed")
+        notes.append(f"run {run}: the whole {'line' if layout.kind == 'slide' else 'train'} moves steadily at "
+                     f"{slope:.4g} {unit}/s on top of the vibration; that common motion is removed")
     for i in torques:
         d = drift(data[f"torque{i}"])
         if drifts(data[f"torque{i}"], d):
-            raise RunsFileError(f"{where}: run {run}: column 'torque{i}' drifts by {d.over_record:.3g} N m over the "
-                                f"record ({abs(d.t_stat):.3g} standard errors): a steady-state record repeats every "
-                                f"period")
+            col = dict(layout.drives)[i]
+            raise RunsFileError(f"{where}: run {run}: column '{col}' drifts by {d.over_record:.3g} {drive_unit} over "
+                                f"the record ({abs(d.t_stat):.3g} standard errors): a steady-state record repeats "
+                                f"every period")
     try:
         return ChainRecord(w_rec, t_rec, tuple(data.get(f"torque{i}") for i in range(1, N + 1)),
                            tuple(data[f"phi{i}"] for i in range(1, N + 1)), None, P,
@@ -607,6 +625,11 @@ def _plausible_angles(path: Path, run_ids: Sequence[str], records: Sequence,
     """Refuse angles that are probably not in rad (no unit stated, a twist of several rad), and
     runs whose angle sensors were zeroed one by one, or centre each run's angles when asked."""
     twists = [_twists(r) for r in records]
+    if not twists[0]:  # a single body: its position's zero is its own affair
+        if zero_per_run:
+            notes.append("each run's position taken about its own mean (--zero-per-run)")
+            return [_centred(r) for r in records]
+        return list(records)
     joint = "the relative angle" if len(twists[0]) == 1 else "a joint's twist"
     amps = [max(float(np.ptp(x)) / 2 for x in tw) for tw in twists]
     worst = int(np.argmax(amps))
@@ -667,38 +690,64 @@ def driven_first(loaded: "LoadedRuns", torque_on: str) -> "LoadedRuns":
 
 @dataclass(frozen=True)
 class _Train:
-    """A drive train's layout: ``n_bodies`` angles, ``drives`` as (body number, column)."""
+    """A drive train's layout: the position column of each body, ``drives`` as (body number,
+    column), ``kind`` "hinge" (phi, torque: rad, N m) or "slide" (x, force: m, N)."""
 
-    n_bodies: int
+    positions: tuple
     drives: tuple
+    kind: str
+
+    @property
+    def n_bodies(self) -> int:
+        return len(self.positions)
 
 
 def _train_layout(where: str, cols: dict) -> Optional[_Train]:
     """The drive-train layout of a table's columns, or None for a two-flywheel file; refuses a
-    train whose angles are not ``phi1..phiN`` without a gap or whose drives are not among them."""
-    if not TRAIN_COLUMNS & set(cols):
+    train whose positions are not ``phi1..phiN`` (``x1..xN``) without a gap, whose drives are not
+    among them, or that mixes hinges and slides."""
+    found = TRAIN_COLUMNS & set(cols)
+    if not any(c.startswith("x") for c in cols):  # forces without positions: no slide's file
+        found = {c for c in found if not c.startswith("force")}
+    if not found:
         return None
-    phis = sorted(int(c[3:]) for c in cols if re.fullmatch(r"phi\d", c))
-    N = max(phis, default=0)
-    gaps = [f"phi{i}" for i in range(1, N + 1) if i not in phis]
-    drives = tuple(sorted((int(c[6:]), c) for c in cols if re.fullmatch(r"torque\d", c)))
-    if "torque" in cols:
+    slide = [c for c in cols if c.startswith(("x", "force"))]
+    hinge = [c for c in cols if c.startswith(("phi", "torque"))]
+    if slide and hinge:
+        raise RunsFileError(f"{where}: columns {sorted(hinge)} (bodies on hinges: rad, N m) and {sorted(slide)} "
+                            f"(bodies on slides: m, N) in one file; expected the bodies of one line, all on hinges or "
+                            f"all on slides")
+    kind, pos, drv = ("slide", "x", "force") if slide else ("hinge", "phi", "torque")
+    numbered = sorted(int(c[len(pos):]) for c in cols if re.fullmatch(rf"{pos}\d", c))
+    if pos in cols and kind == "slide":
+        if numbered:
+            raise RunsFileError(f"{where}: both 'x' and numbered positions {[f'x{i}' for i in numbered]}; 'x' is "
+                                f"the position of a single body: give one of them")
+        numbered, single = [1], True
+    else:
+        single = False
+    N = max(numbered, default=0)
+    gaps = [f"{pos}{i}" for i in range(1, N + 1) if i not in numbered]
+    drives = tuple(sorted((int(c[len(drv):]), c) for c in cols if re.fullmatch(rf"{drv}\d", c)))
+    if drv in cols:
         if any(i == 1 for i, _ in drives):
-            raise RunsFileError(f"{where}: both 'torque' and 'torque1' are given; 'torque' is the drive on body 1: "
+            raise RunsFileError(f"{where}: both '{drv}' and '{drv}1' are given; '{drv}' is the drive on body 1: "
                                 f"give one of them")
-        drives = ((1, "torque"),) + drives
-    if gaps or N < 2:
-        raise RunsFileError(f"{where}: a drive train's angles are columns phi1..phiN, one per body; "
-                            + (f"missing {', '.join(gaps)}" if gaps else f"found {N}") + f" (columns {sorted(cols)}). "
-                            f"Every joint's law is a function of its two bodies' angles")
+        drives = ((1, drv),) + drives
+    if gaps or N < 1:
+        raise RunsFileError(f"{where}: a drive train's positions are columns {pos}1..{pos}N, one per body; "
+                            + (f"missing {', '.join(gaps)}" if gaps else "found none") + f" (columns {sorted(cols)}). "
+                            f"Every joint's law is a function of its two bodies' positions")
     beyond = [c for i, c in drives if i > N]
     if beyond:
-        raise RunsFileError(f"{where}: drive column(s) {beyond} act on bodies with no angle column (the train has "
-                            f"phi1..phi{N}); expected torque<i> with i from 1 to {N}")
+        raise RunsFileError(f"{where}: drive column(s) {beyond} act on bodies with no position column (the train has "
+                            f"{pos}1..{pos}{N}); expected {drv}<i> with i from 1 to {N}")
     if not drives:
-        raise RunsFileError(f"{where}: no drive torque: expected a column torque<i> (N m) for each driven body "
-                            f"(or 'torque', the drive on body 1); without a known torque nothing fixes the scale")
-    return _Train(N, drives)
+        unit = "N" if kind == "slide" else "N m"
+        raise RunsFileError(f"{where}: no drive: expected a column {drv}<i> ({unit}) for each driven body (or "
+                            f"'{drv}', the drive on body 1); without a known drive nothing fixes the scale")
+    positions = (pos,) if single else tuple(f"{pos}{i}" for i in range(1, N + 1))
+    return _Train(positions, drives, kind)
 
 
 def read_runs(path: Union[str, os.PathLike], *, samples_per_period: Optional[int] = None,
@@ -749,14 +798,17 @@ def read_runs(path: Union[str, os.PathLike], *, samples_per_period: Optional[int
         cols, stated = _resolve(table, columns, units, notes)
         _units_in_comments(table, columns, stated)
         any_units = any_units or bool(stated)
-        angles_stated = angles_stated or any(c.startswith("phi") for c in stated)
+        angles_stated = angles_stated or any(c.startswith(("phi", "x")) for c in stated)
         where = table.source
         train = _train_layout(where, cols)
-        if layouts and train != layouts[-1]:
+        if layouts and (train is None) != (layouts[-1] is None):
             mine, theirs = ("phi1..phiN, torque<i>", "torque, phi1, phi2") if train else \
                 ("torque, phi1, phi2", "phi1..phiN, torque<i>")
             raise RunsFileError(f"{where}: this file has the columns {mine}, the files before it {theirs}; expected "
                                 f"one bench per file or folder")
+        if train and layouts and (train.kind, train.n_bodies) != (layouts[-1].kind, layouts[-1].n_bodies):
+            raise RunsFileError(f"{where}: {train.n_bodies} bodies on {train.kind}s, the files before it "
+                                f"{layouts[-1].n_bodies} on {layouts[-1].kind}s; expected one bench per file or folder")
         layouts.append(train)
         if "phi" in cols and ("phi1" in cols or "phi2" in cols):
             raise RunsFileError(f"{where}: give either 'phi' or 'phi1' and 'phi2', not both")
@@ -808,13 +860,13 @@ def read_runs(path: Union[str, os.PathLike], *, samples_per_period: Optional[int
                                         f"got {w.min():g}..{w.max():g} rad/s")
                 omega = float(w[0])
             if train:
-                drives = {i: cols[c][sel] for i, c in train.drives if np.any(cols[c][sel] != 0)}
+                drives = {i: cols[c][sel] for i, c in train.drives if np.any(cols[c][sel] != 0)}  # idle: 0
                 if not drives:
                     raise RunsFileError(f"{where}: run {run}: every drive column ({', '.join(c for _, c in train.drives)}) "
                                         f"is zero; expected the drive torque of at least one body")
                 records.append(_to_train_record(
-                    where, rid, cols["time"][sel], drives,
-                    [cols[f"phi{i}"][sel] for i in range(1, train.n_bodies + 1)], omega, samples_per_period, notes))
+                    where, rid, cols["time"][sel], drives, [cols[c][sel] for c in train.positions], omega,
+                    samples_per_period, notes, train))
                 run_ids.append(rid)
                 continue
             chans = {"torque": cols["torque"][sel]}
@@ -828,7 +880,8 @@ def read_runs(path: Union[str, os.PathLike], *, samples_per_period: Optional[int
         notes.insert(0, "no units stated in the file or the options: SI assumed (time s, torque N m, angles rad, "
                         "omega rad/s); state others with --units, e.g. phi1=deg,time=ms")
     records = _plausible_angles(path, run_ids, records, angles_stated, zero_per_run, notes)
-    return LoadedRuns(path, tuple(run_ids), tuple(records), tuple(notes), _digest(files))
+    kind = layouts[0].kind if layouts and layouts[0] else "hinge"
+    return LoadedRuns(path, tuple(run_ids), tuple(records), tuple(notes), _digest(files), kind)
 
 
 def _column_order(name: str) -> tuple:

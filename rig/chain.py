@@ -36,19 +36,20 @@ import mujoco
 import numpy as np
 
 from jointrig.vocab.law import FieldError, JointLaw, law_terms_from_fields
+from jointrig.vocab.params import linear_name, rotational_name
 from jointrig.identify.chain import ChainPlant, ChainRecord
 
 from .model import JOINT_FIELD as _JOINT_FIELD
-from .model import PREFIX, RigModelError, compile_model, is_chain_model
+from .model import PREFIX, TWIST_SOLIMP, TWIST_SOLREF, RigModelError, compile_model, is_chain_model
 from .native_callback import NativeChain, choose_native, session_active
-from .simulate import (SettleInfo, SimulationConfig, SimulationError, _activated, _Jump, _settle, passive_callback,
-                       set_inertias)
+from .simulate import (SettleInfo, SimulationConfig, SimulationError, _activated, _Jump, _settle, dry_friction_split,
+                       passive_callback, set_inertias)
 
 __all__ = ["ChainRig", "load_chain", "is_chain_model", "simulate_chain", "chain_callback", "MAX_FLYWHEELS",
            "chain_model_xml"]
 
 MAX_FLYWHEELS = 8
-_BEARING_FIELD = re.compile(r"bearing(\d+)_damping_Nms_per_rad")
+_GROUND_FIELD = re.compile(r"ground(\d+)_(.+)")
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,6 +75,8 @@ class ChainRig:
     angle_adr: tuple
     rate_adr: tuple
     digest: str
+    #: "hinge" (angles in rad, torques in N m, inertias in kg m^2) or "slide" (m, N, kg)
+    kind: str = "hinge"
 
     @property
     def n_flywheels(self) -> int:
@@ -89,9 +92,27 @@ class ChainRig:
         return replace(self, plant=plant)
 
 
-def _plant(model: mujoco.MjModel, N: int, src: str) -> ChainPlant:
+def _law(fields: dict, where: str, field_prefix: str, src: str, kind: str) -> Optional[JointLaw]:
+    """A law from its fields (the project's hinge names; ``field_prefix`` for messages)."""
+    try:
+        pairs = law_terms_from_fields(fields)
+    except FieldError as err:
+        raise RigModelError(f"{src}: {where}: {str(err).replace(PREFIX, PREFIX + field_prefix)}") from None
+    known = {f for t, _ in pairs for f in type(t).MJCF_FIELDS}
+    unknown = sorted(set(fields) - known)
+    if unknown:
+        name = linear_name if kind == "slide" else str
+        raise RigModelError(f"{src}: {where}: unknown law field(s) {[PREFIX + field_prefix + name(u) for u in unknown]}")
+    if not pairs:
+        return None
+    return JointLaw(tuple(t for t, _ in pairs), tuple(v for _, v in pairs))
+
+
+def _plant(model: mujoco.MjModel, N: int, src: str, kind: str) -> ChainPlant:
     per_joint: dict[int, dict] = {j: {} for j in range(1, N)}
+    per_ground: dict[int, dict] = {i: {} for i in range(1, N + 1)}
     bearings = [0.0] * N
+    drag = "guide" if kind == "slide" else "bearing"
     for i in range(model.nnumeric):
         name = model.numeric(i).name
         if not name.startswith(PREFIX):
@@ -99,32 +120,38 @@ def _plant(model: mujoco.MjModel, N: int, src: str) -> ChainPlant:
         rest = name[len(PREFIX):]
         data = np.array(model.numeric(i).data, dtype=float)
         m = _JOINT_FIELD.fullmatch(rest)
-        b = _BEARING_FIELD.fullmatch(rest)
+        g = _GROUND_FIELD.fullmatch(rest)
+        b = re.fullmatch(rf"{drag}(\d+)_damping_" + ("Ns_per_m" if kind == "slide" else "Nms_per_rad"), rest)
+        field = (lambda f: rotational_name(f)) if kind == "slide" else (lambda f: f)
         if m and 1 <= int(m.group(1)) < N:
-            per_joint[int(m.group(1))][m.group(2)] = data
+            per_joint[int(m.group(1))][field(m.group(2))] = data
+        elif g and 1 <= int(g.group(1)) <= N:
+            per_ground[int(g.group(1))][field(g.group(2))] = data
         elif b and 1 <= int(b.group(1)) <= N:
             if data.size != 1 or not np.isfinite(data[0]) or data[0] < 0:
                 raise RigModelError(f"{src}: {name} must hold one finite number >= 0, got {data}")
             bearings[int(b.group(1)) - 1] = float(data[0])
         else:
-            raise RigModelError(f"{src}: unknown field {name}; a chain of {N} flywheels takes "
-                                f"{PREFIX}joint<j>_<law field> (j = 1..{N - 1}) and "
-                                f"{PREFIX}bearing<i>_damping_Nms_per_rad (i = 1..{N})")
+            unit = "Ns_per_m" if kind == "slide" else "Nms_per_rad"
+            raise RigModelError(f"{src}: unknown field {name}; a chain of {N} bodies on {kind}s takes "
+                                + (f"{PREFIX}joint<j>_<law field> (j = 1..{N - 1}), " if N > 1 else "")
+                                + f"{PREFIX}ground<i>_<law field> and {PREFIX}{drag}<i>_damping_{unit} (i = 1..{N})")
     laws = []
     for j in range(1, N):
-        try:
-            pairs = law_terms_from_fields(per_joint[j])
-        except FieldError as err:
-            raise RigModelError(f"{src}: joint {j}: {str(err).replace(PREFIX, PREFIX + f'joint{j}_')}") from None
-        known = {f for t, _ in pairs for f in type(t).MJCF_FIELDS}
-        unknown = sorted(set(per_joint[j]) - known)
-        if unknown:
-            raise RigModelError(f"{src}: joint {j}: unknown law field(s) {[PREFIX + f'joint{j}_' + u for u in unknown]}")
-        if not pairs:
-            raise RigModelError(f"{src}: joint {j} (flywheels {j}-{j + 1}) has no law: add fields "
-                                f"{PREFIX}joint{j}_k_Nm_per_rad etc.")
-        laws.append(JointLaw(tuple(t for t, _ in pairs), tuple(v for _, v in pairs)))
-    return ChainPlant(tuple(laws), tuple(bearings))
+        law = _law(per_joint[j], f"joint {j}", f"joint{j}_", src, kind)
+        if law is None:
+            k = "k_N_per_m" if kind == "slide" else "k_Nm_per_rad"
+            raise RigModelError(f"{src}: joint {j} (bodies {j}-{j + 1}) has no law: add fields "
+                                f"{PREFIX}joint{j}_{k} etc.")
+        laws.append(law)
+    grounds = tuple(_law(per_ground[i], f"body {i}'s law to ground", f"ground{i}_", src, kind)
+                    for i in range(1, N + 1))
+    for i, law in enumerate(grounds, start=1):
+        if law is not None and any(t.stateful for t in law.terms):
+            raise RigModelError(f"{src}: body {i}'s law to ground has a term with memory "
+                                f"({[t.name for t in law.terms if t.stateful]}); a law to ground takes terms of "
+                                f"the body's own position and rate only")
+    return ChainPlant(tuple(laws), tuple(bearings), grounds)
 
 
 def load_chain(path: Union[str, os.PathLike]) -> ChainRig:
@@ -138,23 +165,28 @@ def load_chain(path: Union[str, os.PathLike]) -> ChainRig:
     path, text, model = compile_model(path)
     src = str(path)
     J_ = mujoco.mjtObj.mjOBJ_JOINT
+    kind = "slide" if mujoco.mj_name2id(model, J_, "x1") >= 0 else "hinge"
+    coord = "x" if kind == "slide" else "phi"
     ids = []
     while True:
-        jid = mujoco.mj_name2id(model, J_, f"phi{len(ids) + 1}")
+        jid = mujoco.mj_name2id(model, J_, f"{coord}{len(ids) + 1}")
         if jid < 0:
             break
         ids.append(jid)
     N = len(ids)
-    if not 2 <= N <= MAX_FLYWHEELS:
-        raise RigModelError(f"{src}: a chain has hinges phi1..phiN with N from 2 to {MAX_FLYWHEELS}; found {N}")
+    if not 1 <= N <= MAX_FLYWHEELS:
+        raise RigModelError(f"{src}: a chain has hinges phi1..phiN (or slides x1..xN) with N from 1 to "
+                            f"{MAX_FLYWHEELS}; found {N}")
     if model.njnt != N:
         extra = [mujoco.mj_id2name(model, J_, j) for j in range(model.njnt) if j not in ids]
-        raise RigModelError(f"{src}: joints {extra} are not part of the chain phi1..phi{N}")
+        raise RigModelError(f"{src}: joints {extra} are not part of the chain {coord}1..{coord}{N}")
+    want = mujoco.mjtJoint.mjJNT_SLIDE if kind == "slide" else mujoco.mjtJoint.mjJNT_HINGE
     for k, jid in enumerate(ids, start=1):
-        if model.jnt_type[jid] != mujoco.mjtJoint.mjJNT_HINGE:
-            raise RigModelError(f"{src}: joint 'phi{k}' must be a hinge")
+        if model.jnt_type[jid] != want:
+            raise RigModelError(f"{src}: joint '{coord}{k}' must be a {kind} (bodies on one line are all "
+                                f"{'slides x1..xN' if kind == 'slide' else 'hinges phi1..phiN'})")
         if not np.allclose(model.jnt_axis[jid], model.jnt_axis[ids[0]]):
-            raise RigModelError(f"{src}: joint 'phi{k}' must share phi1's axis (a coaxial train)")
+            raise RigModelError(f"{src}: joint '{coord}{k}' must share {coord}1's axis (bodies on one line)")
     S_ = mujoco.mjtObj.mjOBJ_SENSOR
 
     def sensor(name: str, kind) -> Optional[int]:
@@ -171,10 +203,10 @@ def load_chain(path: Union[str, os.PathLike]) -> ChainRig:
         m = re.fullmatch(r"drive(\d+)", name or "")
         if not m or not 1 <= int(m.group(1)) <= N:
             raise RigModelError(f"{src}: actuator '{name}': a chain's motors are named drive<i> (i = 1..{N}) "
-                                f"and drive hinge phi<i>")
+                                f"and drive joint {coord}<i>")
         i = int(m.group(1))
         if model.actuator_trnid[a, 0] != ids[i - 1]:
-            raise RigModelError(f"{src}: actuator '{name}' must drive hinge 'phi{i}'")
+            raise RigModelError(f"{src}: actuator '{name}' must drive joint '{coord}{i}'")
         if model.actuator_ctrllimited[a]:
             raise RigModelError(f"{src}: actuator '{name}' must not be ctrllimited (the torque would be clipped)")
         adr = sensor(f"{name}_torque", mujoco.mjtSensor.mjSENS_ACTUATORFRC)
@@ -183,10 +215,10 @@ def load_chain(path: Union[str, os.PathLike]) -> ChainRig:
                                 f"(the recorded drive torque)")
         drives.append((i, a, adr))
     if not drives:
-        raise RigModelError(f"{src}: no drive: add <motor name=\"drive1\" joint=\"phi1\"/> and its sensor")
-    angle_adr = tuple(sensor(f"phi{i}", mujoco.mjtSensor.mjSENS_JOINTPOS) for i in range(1, N + 1))
+        raise RigModelError(f"{src}: no drive: add <motor name=\"drive1\" joint=\"{coord}1\"/> and its sensor")
+    angle_adr = tuple(sensor(f"{coord}{i}", mujoco.mjtSensor.mjSENS_JOINTPOS) for i in range(1, N + 1))
     rate_adr = tuple(sensor(f"rate{i}", mujoco.mjtSensor.mjSENS_JOINTVEL) for i in range(1, N + 1))
-    plant = _plant(model, N, src)
+    plant = _plant(model, N, src, kind)
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     mass = np.zeros((model.nv, model.nv))
@@ -199,16 +231,22 @@ def load_chain(path: Union[str, os.PathLike]) -> ChainRig:
                     inertias_kgm2=tuple(float(mass[d, d]) for d in dofs),
                     qpos_adr=tuple(int(model.jnt_qposadr[j]) for j in ids), dof_adr=dofs,
                     drives=tuple(sorted(drives)), angle_adr=angle_adr, rate_adr=rate_adr,
-                    digest=hashlib.sha256(text).hexdigest())
+                    digest=hashlib.sha256(text).hexdigest(), kind=kind)
 
 
 def chain_model_xml(plant: ChainPlant, inertias_kgm2: Sequence[float], driven: Sequence[int], *,
-                    timestep_s: float = 1e-4, header: str = "") -> str:
+                    timestep_s: float = 1e-4, header: str = "", kind: str = "hinge") -> str:
     """The MJCF text of a chain that :func:`load_chain` reads back to ``plant`` with these
-    inertias (kg m^2): coaxial hinges ``phi1..phiN`` with angle and rate sensors, a motor
-    ``drive<i>`` with its torque sensor on every driven flywheel, the laws as
-    ``jointrig_joint<j>_*`` fields and nonzero bearings as ``jointrig_bearing<i>_*``. For a
+    inertias (kg m^2; a slide's masses, kg): coaxial hinges ``phi1..phiN`` (``kind="slide"``:
+    slides ``x1..xN`` on one axis) with position and rate sensors, a motor ``drive<i>`` with its
+    torque (force) sensor on every driven body, the laws as ``jointrig_joint<j>_*`` and
+    ``jointrig_ground<i>_*`` fields and nonzero drags as ``jointrig_bearing<i>_*`` (a slide's
+    ``guide<i>_*``), a slide's names in N and m (:func:`vocab.params.linear_name`). For a
     measured train without the user's model file, and to write an identified train back."""
+    if kind not in ("hinge", "slide"):
+        raise ValueError(f"chain_model_xml: kind must be 'hinge' or 'slide', got {kind!r}")
+    name = linear_name if kind == "slide" else (lambda n: n)
+    coord = "x" if kind == "slide" else "phi"
     N = plant.n_flywheels
     if len(inertias_kgm2) != N:
         raise ValueError(f"chain_model_xml: {len(inertias_kgm2)} inertias for {N} flywheels")
@@ -220,25 +258,33 @@ def chain_model_xml(plant: ChainPlant, inertias_kgm2: Sequence[float], driven: S
     if not driven or not all(1 <= i <= N for i in driven):
         raise ValueError(f"chain_model_xml: driven flywheels must be among 1..{N}, got {driven}")
     fields: dict[str, list[float]] = {}
-    for j, law in enumerate(plant.laws, start=1):
+    places = [(f"joint{j}_", f"joint {j}", law) for j, law in enumerate(plant.laws, start=1)]
+    places += [(f"ground{i}_", f"body {i}'s law to ground", g) for i, g in enumerate(plant.grounds, start=1)
+               if g is not None]
+    for prefix, where, law in places:
         for term, value in zip(law.terms, law.values):
             try:
-                fields.update({f"joint{j}_{k}": v for k, v in term.fields(value).items()})
+                fields.update({prefix + name(k): v for k, v in term.fields(value).items()})
             except FieldError as err:
-                raise ValueError(f"chain_model_xml: joint {j}: {err}") from None
+                raise ValueError(f"chain_model_xml: {where}: {err}") from None
     for i, b in enumerate(plant.bearings_Nms_per_rad, start=1):
         if b:
-            fields[f"bearing{i}_damping_Nms_per_rad"] = [b]
+            fields[name(f"bearing{i}_damping_Nms_per_rad")] = [b]
     numerics = "\n".join(f'    <numeric name="{PREFIX}{k}" data="{" ".join(repr(float(x)) for x in v)}"/>'
                          for k, v in fields.items())
+    def inertial(J):
+        if kind == "slide":
+            return f'<inertial pos="0 0 0" mass="{J!r}" diaginertia="1 1 1"/>'
+        return f'<inertial pos="0 0 0" mass="1" diaginertia="{0.5 * J * (1 + 1e-9)!r} {0.5 * J * (1 + 1e-9)!r} {J!r}"/>'
+
     bodies = "\n".join(
-        f'    <body name="flywheel{i}" pos="0 0 {0.3 * (i - 1):g}">\n'
-        f'      <joint name="phi{i}" type="hinge" axis="0 0 1" damping="0" armature="0"/>\n'
-        f'      <inertial pos="0 0 0" mass="1" diaginertia="{0.5 * J * (1 + 1e-9)!r} {0.5 * J * (1 + 1e-9)!r} {J!r}"/>\n'
+        f'    <body name="body{i}" pos="0 {0.3 * (i - 1):g} 0">\n'
+        f'      <joint name="{coord}{i}" type="{kind}" axis="0 0 1" damping="0" armature="0"/>\n'
+        f'      {inertial(J)}\n'
         f'    </body>' for i, J in enumerate(inertias_kgm2, start=1))
-    motors = "\n".join(f'    <motor name="drive{i}" joint="phi{i}" gear="1" ctrllimited="false"/>' for i in driven)
-    sensors = "\n".join([f'    <jointpos name="phi{i}" joint="phi{i}"/>' for i in range(1, N + 1)]
-                        + [f'    <jointvel name="rate{i}" joint="phi{i}"/>' for i in range(1, N + 1)]
+    motors = "\n".join(f'    <motor name="drive{i}" joint="{coord}{i}" gear="1" ctrllimited="false"/>' for i in driven)
+    sensors = "\n".join([f'    <jointpos name="{coord}{i}" joint="{coord}{i}"/>' for i in range(1, N + 1)]
+                        + [f'    <jointvel name="rate{i}" joint="{coord}{i}"/>' for i in range(1, N + 1)]
                         + [f'    <actuatorfrc name="drive{i}_torque" actuator="drive{i}"/>' for i in driven])
     comment = "\n".join("  " + line.replace("--", "- -") for line in header.splitlines())
     return ((f"<!--\n{comment}\n-->\n" if header else "")
@@ -251,8 +297,9 @@ def chain_model_xml(plant: ChainPlant, inertias_kgm2: Sequence[float], driven: S
 
 
 def chain_callback(rig: ChainRig, plant: ChainPlant, drives: dict, errors: list, states: list) -> Callable:
-    """The passive callback of a chain: every joint's law, the bearings, the drives at
-    continuous time. ``states[j]`` holds joint j's slider states (committed by the caller)."""
+    """The passive callback of a chain: every joint's law, the bearings, every body's law to
+    ground, the drives at continuous time. ``states[j]`` holds joint j's slider states
+    (committed by the caller)."""
     q, v = rig.qpos_adr, rig.dof_adr
     joints = []
     for j, law in enumerate(plant.laws):
@@ -266,6 +313,7 @@ def chain_callback(rig: ChainRig, plant: ChainPlant, drives: dict, errors: list,
                 at += t.n_states
         joints.append((q[j], q[j + 1], v[j], v[j + 1], torque, hyst, states[j]))
     bearings = [(v[i], b) for i, b in enumerate(plant.bearings_Nms_per_rad) if b]
+    grounds = [(q[i], v[i], g.torque) for i, g in enumerate(plant.grounds) if g is not None]
     acts = [(a, drives[i].evaluator()) for i, a, _ in rig.drives if i in drives]
 
     def callback(m, d):
@@ -280,6 +328,8 @@ def chain_callback(rig: ChainRig, plant: ChainPlant, drives: dict, errors: list,
                 frc[vb] += tau
             for va, b in bearings:
                 frc[va] -= b * qvel[va]
+            for qa, va, torque in grounds:
+                frc[va] -= torque(float(qpos[qa]), float(qvel[va]))
             t = d.time
             for a, at in acts:
                 d.ctrl[a] = at(t)
@@ -323,11 +373,25 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
         if abs(drv.omega_rad_s - omega_rad_s) > 1e-12 * omega_rad_s:
             raise ValueError(f"drive on flywheel {i}: fundamental {drv.omega_rad_s} differs from {omega_rad_s}")
     plant = rig.plant if plant is None else plant
-    native = choose_native(backend, plant.laws)
     if plant.n_flywheels != rig.n_flywheels:
         raise ValueError(f"plant of {plant.n_flywheels} flywheels for a chain of {rig.n_flywheels}")
+    grounded = any(g is not None for g in plant.grounds)
+    if grounded and backend == "native":
+        raise ValueError("backend 'native': the native callback does not simulate laws to ground; use 'auto'")
+    native = choose_native(backend, plant.laws) and not grounded
     N = rig.n_flywheels
     m = copy.copy(rig.model)
+    # A body's dry friction to ground is held by MuJoCo's own constraint on its joint (the
+    # dof's frictionloss), as the two-flywheel rig holds the joint's: in the callback, sign(rate)
+    # would chatter while the body sticks. The callback keeps the continuous rest.
+    split = [dry_friction_split(g) if g is not None else (None, 0.0) for g in plant.grounds]
+    if any(static > 0 for _, static in split):
+        plant = replace(plant, grounds=tuple(p.law if p is not None else None for p, _ in split))
+        for i, (_, static) in enumerate(split):
+            dof = rig.dof_adr[i]
+            m.dof_frictionloss[dof] = static
+            m.dof_solref[dof] = TWIST_SOLREF  # the two-flywheel rig's stiff friction constraint
+            m.dof_solimp[dof] = TWIST_SOLIMP
     J = rig.inertias_kgm2
     if inertias_kgm2 is not None:
         if len(inertias_kgm2) != N or not all(math.isfinite(x) and x > 0 for x in inertias_kgm2):
@@ -404,9 +468,12 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
     names = (tuple(f"phi{j} - phi{j + 1}" for j in range(1, N)) + tuple(f"rate{i}" for i in range(1, N + 1))
              + (tuple(f"phi{i}" for i in range(1, N + 1)) if absolute else ()))
 
+    elastic = [i for i, g in enumerate(plant.grounds) if g is not None and any(t.elastic for t in g.terms)]
+    names += tuple(f"phi{i + 1}" for i in elastic if not absolute)
+
     def watched(payload):
         pos, vel = payload[0], payload[1]
-        return np.column_stack([pos[:, :-1] - pos[:, 1:], vel] + ([pos] if absolute else []))
+        return np.column_stack([pos[:, :-1] - pos[:, 1:], vel] + ([pos] if absolute else [pos[:, elastic]]))
 
     def failure():
         if errors:
@@ -422,7 +489,7 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
         periods, (p, change, bound, ratio) = _settle(
             advance, watched, names, lambda pl: bool(np.all(np.isfinite(pl[0])) and np.all(np.isfinite(pl[1]))),
             failure, config, d, where, t_start,
-            _Jump(d, rig.qpos_adr, rig.dof_adr, J) if config.accelerate and not stateful else None)
+            _Jump(d, rig.qpos_adr, rig.dof_adr, J) if config.accelerate and not stateful and not grounded else None)
     pos = np.vstack([x[0] for x in periods]).T
     vel = np.vstack([x[1] for x in periods]).T
     tq = np.vstack([x[2] for x in periods]).T

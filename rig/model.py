@@ -37,6 +37,9 @@ _SENSOR_TYPES = {"jointpos": mujoco.mjtSensor.mjSENS_JOINTPOS,
 PREFIX = "jointrig_"
 #: A chain model's per-joint law field, without the prefix: ``joint<j>_<field>`` (rig/chain.py).
 JOINT_FIELD = re.compile(r"joint(\d+)_(.+)")
+#: A field only a chain model has: a joint's law, a body's law to ground, a slide's drag (a
+#: two-flywheel model has bearing1_, bearing2_ too).
+CHAIN_FIELD = re.compile(r"(?:joint|ground|guide)\d+_.+")
 #: Fields of the plant outside the joint law (the law's own fields are its terms': TERM_CLASSES).
 _PLANT_FIELDS = (BEARING1, BEARING2, DRIVE_DELAY)
 
@@ -182,12 +185,13 @@ def _find(model, obj, name, what, source):
 
 
 def is_chain_model(path: Union[str, os.PathLike]) -> bool:
-    """True if the model file declares per-joint laws (``jointrig_joint<j>_*`` fields)."""
+    """True if the model file declares a chain's laws (``jointrig_joint<j>_*``, ``ground<i>_*``,
+    ``bearing<i>_*`` fields)."""
     try:
         root = ET.parse(path).getroot()
     except (OSError, ET.ParseError):
         return False
-    return any(JOINT_FIELD.fullmatch(n.get("name", "")[len(PREFIX):] or "")
+    return any(CHAIN_FIELD.fullmatch(n.get("name", "")[len(PREFIX):] or "")
                for n in root.iter("numeric") if n.get("name", "").startswith(PREFIX))
 
 

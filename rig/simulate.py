@@ -263,6 +263,14 @@ class StartState:
                    float(record.rate1_rad_s[0]), float(record.rate2_rad_s[0]))
 
 
+#: A run that starts on its steady state shows no decay, only the round-off floor: settled once
+#: this many periods in a row change by at most FLOOR_SHARE of ``settle_tol`` (a single body on
+#: a slide started at its linear steady state: 1.5e-12 rising to 7e-11 over 100 periods, above
+#: the 1e-12 that counts as round-off at once).
+FLOOR_PERIODS = 5
+FLOOR_SHARE = 0.1
+
+
 def settle_bound(changes: list[float], settle_tol: float, decay_seen: float = math.nan) -> tuple[bool, float, float]:
     """Adaptive steady-state test on the history of period-to-period changes (pure).
 
@@ -277,6 +285,8 @@ def settle_bound(changes: list[float], settle_tol: float, decay_seen: float = ma
       rotation's drift (~1e-12..4e-11 of the swing per period here), with whatever transient
       is left beneath it still decaying at r_d: bound = change / (1 - r_d) (the floor plus
       the transient's geometric rest), settled if below ``settle_tol``;
+    * no decay seen, but the last :data:`FLOOR_PERIODS` changes all at most ``FLOOR_SHARE *
+      settle_tol``: a run started on its steady state, at the floor: settled;
     * otherwise (no decay seen yet, or a transient slower than r = 0.9): not settled.
 
     ``decay_seen``: a decay ratio below 0.9 measured before the history restarted (after an
@@ -300,6 +310,11 @@ def settle_bound(changes: list[float], settle_tol: float, decay_seen: float = ma
         return bound < settle_tol, bound, r
     decayed = [max(ratios[i - 1:i + 1]) for i in range(1, len(ratios)) if max(ratios[i - 1:i + 1]) < 0.9]
     if not decayed and not decay_seen < 0.9:
+        recent = changes[-FLOOR_PERIODS:]
+        if len(recent) == FLOOR_PERIODS and max(recent) <= settle_tol * FLOOR_SHARE:
+            # started on the steady state: no transient to see decay, only the floor of round-off
+            # (the drive's time accumulated step by step drifts its phase by ~1e-16 per step)
+            return True, max(recent), r
         return False, math.inf, r
     r_d = decayed[-1] if decayed else decay_seen
     bound = c / (1 - r_d)
@@ -470,12 +485,17 @@ def _activated(native_law, d) -> Iterator[None]:
 
 def set_inertias(m: mujoco.MjModel, dofs, targets_kgm2, current_kgm2) -> None:
     """Give the hinge at each dof of ``m`` (a private copy) the inertia about its axis in
-    ``targets_kgm2`` (kg m^2), scaling its body's inertia tensor, and recompute the model's
+    ``targets_kgm2`` (kg m^2), scaling its body's inertia tensor (a slide: its body's mass, in
+    kg), and recompute the model's
     constants. MuJoCo 4 precomputes the mass matrix of simple bodies (``dof_M0``, in
     ``mj_setConst``): scaling ``body_inertia`` alone leaves the simulated inertia unchanged.
     Call it before any passive callback is installed (``mj_setConst`` runs the pipeline)."""
     for dof, target, now in zip(dofs, targets_kgm2, current_kgm2):
-        m.body_inertia[m.jnt_bodyid[m.dof_jntid[dof]]] *= target / now
+        body = m.jnt_bodyid[m.dof_jntid[dof]]
+        if m.jnt_type[m.dof_jntid[dof]] == mujoco.mjtJoint.mjJNT_SLIDE:
+            m.body_mass[body] *= target / now  # a slide's "inertia" is its body's mass (kg)
+        else:
+            m.body_inertia[body] *= target / now
     mujoco.mj_setConst(m, mujoco.MjData(m))
 
 

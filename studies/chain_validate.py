@@ -25,8 +25,9 @@ from jointrig.vocab.plant import drive_of_record
 
 from jointrig.rig.chain import ChainRig, simulate_chain
 
-from .validate import (CHI2_PER_DOF_OK, GAIN_OK, HELDOUT_EXTENDED_OK, HELDOUT_OK, Verdict, generalisation_kind,
-                       holdout_of_another_kind)
+from .validate import (CHI2_PER_DOF_OK, GAIN_OK, HELDOUT_EXTENDED_OK, HELDOUT_OK, MIN_PERIODS_TO_SPLIT,
+                       MIN_RUNS_TO_HOLD_OUT, Verdict, generalisation_kind, holdout_of_another_kind)
+from jointrig.vocab.records import RecordError
 from jointrig.rig.simulate import SimulationConfig, SimulationError
 
 __all__ = ["ChainValidation", "validate_chain", "twist_error", "TrainReport", "train_verdict", "run_train_diagnosis",
@@ -62,10 +63,17 @@ class ChainValidation:
                 "per_run": [{"run": lab, "nominal_error": a, "extended_error": b} for lab, a, b in self.per_run]}
 
 
+def _motions(rec: ChainRecord) -> list[np.ndarray]:
+    """What the laws see, compared between model and measurement: every joint's twist; a single
+    body's own position (its laws are to ground)."""
+    if rec.n_flywheels == 1:
+        return [rec.angles_rad[0]]
+    return [rec.angles_rad[j] - rec.angles_rad[j + 1] for j in range(rec.n_flywheels - 1)]
+
+
 def _twists(rec: ChainRecord, band: int) -> np.ndarray:
-    """Harmonics 1..band of every joint's twist, ``(N - 1, band)``."""
-    return np.array([fourier_coefficients(rec.angles_rad[j] - rec.angles_rad[j + 1], rec.n_periods, band)[1:]
-                     for j in range(rec.n_flywheels - 1)])
+    """Harmonics 1..band of every joint's twist (a single body: its position), ``(N - 1, band)``."""
+    return np.array([fourier_coefficients(x, rec.n_periods, band)[1:] for x in _motions(rec)])
 
 
 def twist_error(sim: ChainRecord, meas: ChainRecord, band: int) -> tuple[float, float]:
@@ -80,8 +88,8 @@ def _noise(meas: ChainRecord, band: int) -> float:
     if P < 2:
         return 0.0
     total = 0.0
-    for j in range(meas.n_flywheels - 1):
-        _, _, var = period_spectra(meas.angles_rad[j] - meas.angles_rad[j + 1], P)
+    for x in _motions(meas):
+        _, _, var = period_spectra(x, P)
         total += 4.0 * float(np.sum(var[1:band + 1]))  # of the coefficients C_n = 2 X_n, n = 1..band
     return total
 
@@ -176,6 +184,10 @@ class TrainReport:
     written: tuple = ()
     model_path: Optional[str] = None
     notes: tuple = ()
+    #: the held-out data are each run's later periods (fewer than 4 runs), not whole runs
+    held_out_periods: bool = False
+    #: the bodies' joints: "hinge" (rad, N m, kg m^2) or "slide" (m, N, kg)
+    kind: str = "hinge"
 
     @property
     def adopted(self) -> bool:
@@ -192,6 +204,22 @@ def written_of(rig: ChainRig) -> tuple:
     every joint's law and the bearings (the names of the diagnosis's fits)."""
     return (tuple((inertia_name(i), J) for i, J in enumerate(rig.inertias_kgm2, start=1))
             + tuple(rig.plant.parameters().items()))
+
+
+def split_chain_periods(rec: ChainRecord) -> tuple[ChainRecord, ChainRecord]:
+    """A train's run as its earlier and its later whole periods (half each; the later half gets
+    the odd one), to fit on one and validate on the other when there are too few runs to hold
+    one out (pure)."""
+    P, n = rec.n_periods, rec.samples_per_period
+    k = P // 2
+
+    def part(lo, hi, label):
+        cut = slice(lo * n, hi * n)
+        pick = (lambda xs: None if xs is None else tuple(None if x is None else x[cut] for x in xs))
+        return replace(rec, time_s=rec.time_s[cut], torques_Nm=pick(rec.torques_Nm), angles_rad=pick(rec.angles_rad),
+                       rates_rad_s=pick(rec.rates_rad_s), n_periods=hi - lo, source=f"{rec.source} ({label})")
+
+    return part(0, k, f"periods 1-{k}"), part(k, P, f"periods {k + 1}-{P}")
 
 
 def train_setting(rec: ChainRecord) -> tuple[float, float, int]:
@@ -214,9 +242,20 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
 
     records = list(records)
     settings = [train_setting(r) for r in records]
-    held = tuple(sorted(holdout)) if holdout is not None else holdout_of_another_kind(settings)
-    fit_recs = [r for i, r in enumerate(records) if i not in held]
-    held_recs = [r for i, r in enumerate(records) if i in held]
+    split = holdout is None and len(records) < MIN_RUNS_TO_HOLD_OUT + 1
+    if split:  # one long run (or a few): each one's later periods are held out
+        short = [rid for rid, r in zip(run_ids, records) if r.n_periods < MIN_PERIODS_TO_SPLIT]
+        if short:
+            raise RecordError(f"run(s) {short} hold fewer than {MIN_PERIODS_TO_SPLIT} whole periods: with fewer than "
+                              f"{MIN_RUNS_TO_HOLD_OUT + 1} runs the diagnosis fits each run's earlier periods and "
+                              f"holds out the later ones")
+        halves = [split_chain_periods(r) for r in records]
+        fit_recs, held_recs = [a for a, _ in halves], [b for _, b in halves]
+        held = ()
+    else:
+        held = tuple(sorted(holdout)) if holdout is not None else holdout_of_another_kind(settings)
+        fit_recs = [r for i, r in enumerate(records) if i not in held]
+        held_recs = [r for i, r in enumerate(records) if i in held]
     say = progress or (lambda msg: None)
     say(f"diagnosing {len(fit_recs)} runs of a {rig.n_flywheels}-body train; {len(held_recs)} held out for validation")
     notes = []
@@ -233,7 +272,12 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
                        progress=lambda k, n, label: say(f"scored {k}/{n} candidates ({label})") if k == n else None)
     say("replaying the held-out runs' drives on the nominal and the extended model in the rig")
     v = validate_chain(rig, d, held_recs, backend=backend)
-    return TrainReport(tuple(run_ids), held, d, v, train_verdict(d, v),
-                       generalisation_kind([settings[i] for i in range(len(records)) if i not in held],
-                                           [settings[i] for i in held]),
-                       tuple(written), str(rig.path) if written else None, tuple(notes))
+    if split:
+        general = (f"the later {', '.join(str(r.n_periods) for r in held_recs)} period(s) of the same run(s), fitted "
+                   f"on their earlier periods: with {len(records)} run(s) no run of another level or frequency can be "
+                   f"held out, so this checks the steady state, not a new excitation")
+    else:
+        general = generalisation_kind([settings[i] for i in range(len(records)) if i not in held],
+                                      [settings[i] for i in held])
+    return TrainReport(tuple(run_ids), held, d, v, train_verdict(d, v), general,
+                       tuple(written), str(rig.path) if written else None, tuple(notes), split, rig.kind)

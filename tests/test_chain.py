@@ -118,11 +118,11 @@ def _edit(tmp_path, old, new, name="chain.xml"):
 @pytest.mark.parametrize("old,new,message", [
     ('<actuatorfrc name="drive4_torque" actuator="drive4"/>', "", "drive4.*needs an actuatorfrc sensor 'drive4_torque'"),
     ('<numeric name="jointrig_joint3_c_Nms_per_rad" data="10"/>\n    <numeric name="jointrig_joint3_k_Nm_per_rad" data="120000"/>',
-     "", "joint 3 \\(flywheels 3-4\\) has no law"),
+     "", "joint 3 \\(bodies 3-4\\) has no law"),
     ('name="jointrig_joint1_c_Nms_per_rad"', 'name="jointrig_joint1_c_Nms"', "joint 1: unknown law field.*joint1_c_Nms"),
     ('name="jointrig_joint1_c_Nms_per_rad" data="15"', 'name="jointrig_joint1_c_Nms_per_rad" data="-15"', "joint 1.*>= 0"),
     ('<joint name="phi3" type="hinge" axis="0 0 1"', '<joint name="phi3" type="hinge" axis="0 1 0"', "phi3.*axis"),
-    ('<motor name="drive4" joint="phi4"', '<motor name="drive4" joint="phi3"', "drive4.*must drive hinge 'phi4'"),
+    ('<motor name="drive4" joint="phi4"', '<motor name="drive4" joint="phi3"', "drive4.*must drive joint 'phi4'"),
     ('name="jointrig_joint1_k_Nm_per_rad"', 'name="jointrig_joint7_k_Nm_per_rad"', "unknown field jointrig_joint7"),
 ])
 def test_bad_chain_models_are_refused_naming_the_item(tmp_path, old, new, message):

@@ -141,13 +141,16 @@ def _rows(n=400, runs=1, torque_cols=1, angles=3, scale=1.0, zero=None):
 
 @pytest.mark.parametrize("header,match", [
     (["run", "time", "torque1", "phi1", "phi3", "phi4"], "missing phi2"),
-    (["run", "time", "torque5", "phi1", "phi2", "phi3"], r"\['torque5'\] act on bodies with no angle column"),
+    (["run", "time", "torque5", "phi1", "phi2", "phi3"], r"\['torque5'\] act on bodies with no position column"),
     (["run", "time", "torque", "torque1", "phi1", "phi2", "phi3"], "both 'torque' and 'torque1'"),
     (["run", "t", "torque1", "phi1", "phi2", "phi3"], "missing column.*time.*a drive train's file"),
+    (["run", "time", "force1", "x1", "phi2"], r"columns \['phi2'\] \(bodies on hinges.*\['force1', 'x1'\] \(bodies "
+                                              r"on slides"),
+    (["run", "time", "force", "x", "x2"], "both 'x' and numbered positions"),
 ])
 def test_a_train_file_missing_what_a_joint_needs_is_refused_naming_it(tmp_path, header, match):
-    n_t = sum(h.startswith("torque") for h in header)
-    n_a = sum(h.startswith("phi") for h in header)
+    n_t = sum(h.startswith(("torque", "force")) for h in header)
+    n_a = sum(h.startswith(("phi", "x")) for h in header)
     path = _train_csv(tmp_path / "t.csv", header, _rows(torque_cols=n_t, angles=n_a))
     with pytest.raises(RunsFileError, match=match):
         read_runs(path)
@@ -226,3 +229,43 @@ def test_a_train_written_as_mjcf_reads_back_to_the_same_plant(tmp_path):
     assert back.driven == rig.driven
     with pytest.raises(ValueError, match=r"inertia of flywheel\(s\) \[2\] must be > 0"):
         chain_model_xml(rig.plant, (0.45, -0.06, 0.12, 0.35), rig.driven)
+
+
+@pytest.mark.slow
+def test_a_single_axis_linear_drive_in_m_and_N_with_dry_friction(tmp_path, capsys):
+    # One long run of a carriage on a guide (tests/bench_slide_sim.py: 12 kg, 40 N s/m, 25 N of
+    # dry friction, event-driven stick-slip), traced at 10 kHz in mm and N from an absolute encoder.
+    # The diagnosis names the guide's dry friction, its size to 3 standard errors, the mass and
+    # the viscous drag to 3 standard errors; with one run, the later periods are held out and
+    # replayed in the rig (MuJoCo's frictionloss on the slide).
+    from bench_slide_sim import Carriage, daq_file as slide_file
+
+    data = slide_file(Carriage(), 12.566, 150.0, tmp_path / "axis.csv")
+    out = tmp_path / "d.json"
+    code = cli(["diagnose", str(data), "--json", str(out), "--mjcf", str(tmp_path / "axis.xml"), "-q"])
+    text = capsys.readouterr().out
+    assert code == 0, text
+    j = json.loads(out.read_text())
+    assert j["kind"] == "slide" and j["n_bodies"] == 1 and j["validation_kind"] == "held_out_periods"
+    assert j["verdict"]["verdict"] == "explained", j["verdict"]
+    assert [s["candidate"] for s in j["found"]] == ["coulomb_friction to ground at body 1"]
+    ext, se = j["extended"]["parameters"], j["extended"]["std_errors"]
+    for name, truth in (("ground1_coulomb_force_N", 25.0), ("m1_kg", 12.0), ("guide1_damping_Ns_per_m", 40.0)):
+        assert abs(ext[name] - truth) < 3 * se[name], (name, ext[name], se[name])
+    assert "a single body on a slide" in text and "ground1_coulomb_force = " in text and " N\n" in text
+    from jointrig.rig.chain import load_chain
+
+    back = load_chain(tmp_path / "axis.xml")
+    assert back.kind == "slide" and back.inertias_kgm2[0] == pytest.approx(ext["m1_kg"], rel=1e-12)
+    assert "jointrig_ground1_coulomb_force_N" in (tmp_path / "axis.xml").read_text()
+
+
+def test_settling_from_the_steady_state_itself_is_recognised():
+    # A run that starts on its steady state shows no decay, only the round-off floor (1.5e-12
+    # rising to 7e-11 of the swing per period for a single slide): settled after FLOOR_PERIODS
+    # such periods, not refused after 100. A transient that has not decayed yet is not.
+    from jointrig.rig.simulate import FLOOR_PERIODS, settle_bound
+
+    floor = [1.5e-12 * 1.8 ** k for k in range(FLOOR_PERIODS + 1)]
+    assert settle_bound(floor, 1e-9)[0]
+    assert not settle_bound([2e-10, 2.5e-10, 3e-10, 5e-10, 8e-10, 1.2e-9], 1e-9)[0]

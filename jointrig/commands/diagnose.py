@@ -241,7 +241,6 @@ def _train(args: argparse.Namespace, loaded, model, writer) -> int:
     from jointrig.rig.chain import chain_model_xml, load_chain
     from jointrig.rig.simulate import SimulationError
     from jointrig.studies.chain_validate import run_train_diagnosis, written_of
-    from jointrig.studies.validate import MIN_RUNS_TO_HOLD_OUT
     from jointrig.vocab.records import RecordError
 
     t0 = time.perf_counter()
@@ -254,8 +253,9 @@ def _train(args: argparse.Namespace, loaded, model, writer) -> int:
         if model is not None and not hasattr(model, "n_flywheels"):
             raise BadArgument(f"--model {args.model} is a two-flywheel model, but {args.data} holds a train of {N} "
                               f"bodies (phi1..phi{N}); give a chain model (models/pump_train.xml shows one)")
-        if model is not None and model.n_flywheels != N:
-            raise BadArgument(f"--model {args.model} has {model.n_flywheels} bodies, {args.data} {N} (phi1..phi{N})")
+        if model is not None and (model.n_flywheels, model.kind) != (N, loaded.kind):
+            raise BadArgument(f"--model {args.model} has {model.n_flywheels} bodies on {model.kind}s, {args.data} "
+                              f"{N} on {loaded.kind}s")
         for option in ("card", "card_png", "card_only", "report"):
             if getattr(args, option):
                 raise BadArgument(f"--{option.replace('_', '-')}: not yet made for a drive train's diagnosis (the "
@@ -278,9 +278,6 @@ def _train(args: argparse.Namespace, loaded, model, writer) -> int:
             holdout = sorted({ids.index(h) for h in args.holdout})
             if len(ids) - len(holdout) < 3:
                 raise BadArgument(f"--holdout leaves {len(ids) - len(holdout)} run(s) to fit; expected at least 3")
-        elif len(ids) < MIN_RUNS_TO_HOLD_OUT + 1:
-            raise RunsFileError(f"{args.data}: {len(ids)} run(s) of a drive train; its diagnosis needs at least "
-                                f"{MIN_RUNS_TO_HOLD_OUT + 1} (3 to fit, 1 held out to validate in the rig)")
         for n in loaded.notes:
             log.info("note: %s", n)
         with tempfile.TemporaryDirectory(prefix="jointrig-train-") as tmp:
@@ -292,7 +289,7 @@ def _train(args: argparse.Namespace, loaded, model, writer) -> int:
                 spec = nominal_spec(N)
                 plant = plant_of_values({n: 0.0 for n in spec.names}, spec)
                 path = Path(tmp) / "train.xml"
-                path.write_text(chain_model_xml(plant, [1.0] * N, driven), encoding="utf-8")
+                path.write_text(chain_model_xml(plant, [1.0] * N, driven, kind=loaded.kind), encoding="utf-8")
                 rig = load_chain(path)
             else:
                 rig = model
@@ -327,7 +324,7 @@ def _train(args: argparse.Namespace, loaded, model, writer) -> int:
                   f"Verdict: {report.verdict.verdict}: {report.verdict.reason}")
 
         def write(tmp):
-            tmp.write_text(chain_model_xml(plant, J, driven, header=header), encoding="utf-8")
+            tmp.write_text(chain_model_xml(plant, J, driven, header=header, kind=loaded.kind), encoding="utf-8")
             load_chain(tmp)  # it must compile and read back before it replaces anything
 
         write_atomic(args.mjcf, write)

@@ -12,11 +12,12 @@ from __future__ import annotations
 
 import re
 
-__all__ = ["Param", "unit_of", "quantity_of", "J1", "J2", "JE", "BEARING1", "BEARING2", "DRIVE_DELAY"]
+__all__ = ["Param", "unit_of", "quantity_of", "J1", "J2", "JE", "BEARING1", "BEARING2", "DRIVE_DELAY", "linear_name",
+           "rotational_name"]
 
 # Unit atoms as they appear in names, longest first, and how a person writes them.
-_ATOMS = (("kgm2", "kg m^2"), ("Nms2", "N m s^2"), ("Nms", "N m s"), ("Nm", "N m"), ("rad", "rad"),
-          ("Hz", "Hz"), ("V", "V"), ("s", "s"), ("J", "J"), ("W", "W"))
+_ATOMS = (("kgm2", "kg m^2"), ("kg", "kg"), ("Nms2", "N m s^2"), ("Nms", "N m s"), ("Nm", "N m"), ("Ns", "N s"),
+          ("N", "N"), ("rad", "rad"), ("Hz", "Hz"), ("V", "V"), ("s", "s"), ("J", "J"), ("W", "W"), ("m", "m"))
 _ATOM = "(?:" + "|".join(a for a, _ in _ATOMS) + r")\d?"
 # ``<quantity>_<units>`` where units are ``A``, ``A_B`` (a product, as ``rad_s`` = rad/s for a
 # rate: see below) or ``A_per_B``.
@@ -77,3 +78,35 @@ J1, J2, JE = Param("J1_kgm2"), Param("J2_kgm2"), Param("Je_kgm2")
 BEARING1, BEARING2 = Param("bearing1_damping_Nms_per_rad"), Param("bearing2_damping_Nms_per_rad")
 #: The drive acts this long after it is recorded.
 DRIVE_DELAY = Param("drive_delay_s")
+
+
+# A body on a slide has the laws of a body on a hinge in other units: N and m where a hinge has
+# N m and rad, a mass in kg for an inertia in kg m^2. The project computes in the hinge's names;
+# a slide's are these, at the edges (its files, its MJCF fields, what a user reads). Applied in
+# order; each pattern acts on a name's end (its unit) or its start (an inertia, a guide).
+_TO_LINEAR = ((r"_Nms2_per_rad2$", "_Ns2_per_m2"), (r"_Nms_per_rad$", "_Ns_per_m"),
+              (r"_Nm_per_rad(\d?)$", r"_N_per_m\1"), (r"_rad_s$", "_m_s"), (r"^J(\d+)_kgm2$", r"m\1_kg"),
+              (r"torque_Nm$", "force_N"), (r"angle_offset_rad$", "position_offset_m"),
+              (r"angle_rad$", "displacement_m"), (r"_Nm$", "_N"), (r"_rad$", "_m"), (r"^bearing(\d+)_", r"guide\1_"))
+_TO_ROTATIONAL = ((r"_Ns2_per_m2$", "_Nms2_per_rad2"), (r"_Ns_per_m$", "_Nms_per_rad"),
+                  (r"_N_per_m(\d?)$", r"_Nm_per_rad\1"), (r"_m_s$", "_rad_s"), (r"^m(\d+)_kg$", r"J\1_kgm2"),
+                  (r"force_N$", "torque_Nm"), (r"position_offset_m$", "angle_offset_rad"),
+                  (r"displacement_m$", "angle_rad"), (r"_N$", "_Nm"), (r"_m$", "_rad"), (r"^guide(\d+)_", r"bearing\1_"))
+
+
+def _translate(name: str, rules) -> str:
+    for pattern, repl in rules:
+        name = re.sub(pattern, repl, name)
+    return name
+
+
+def linear_name(name: str) -> str:
+    """A parameter's name for a body on a slide: ``ground1_coulomb_torque_Nm`` ->
+    ``ground1_coulomb_force_N``, ``J1_kgm2`` -> ``m1_kg``, ``joint1_k_Nm_per_rad`` ->
+    ``joint1_k_N_per_m`` (the inverse of :func:`rotational_name`)."""
+    return _translate(name, _TO_LINEAR)
+
+
+def rotational_name(name: str) -> str:
+    """The project's (a hinge's) name of a slide's parameter (:func:`linear_name`'s inverse)."""
+    return _translate(name, _TO_ROTATIONAL)
