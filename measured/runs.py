@@ -478,22 +478,31 @@ def _to_record(where: str, run: str, t: np.ndarray, chans: dict, omega: Optional
         raise RunsFileError(f"{where}: run {run}: {err}") from None
 
 
+def _drifts(x: np.ndarray, d) -> bool:
+    """Whether a channel's linear drift ``d`` (:func:`identify.periods.linear_drift`) is one
+    (:data:`DRIFT_T_STAT` standard errors and :data:`DRIFT_SHARE` of its swing)."""
+    return abs(d.t_stat) > DRIFT_T_STAT and abs(d.over_record) > DRIFT_SHARE * max(float(np.ptp(x)), 1e-300)
+
+
+def _refuse_twist_drift(where: str, run: str, what: str, x: np.ndarray, d, unit: str) -> None:
+    """Refuse a joint's twist that drifts (``d`` its linear drift): a steady state repeats."""
+    if _drifts(x, d):
+        raise RunsFileError(
+            f"{where}: run {run}: {what} drifts by {d.over_record:.3g} {unit} over the record ({d.slope:.3g} "
+            f"{unit}/s, {abs(d.t_stat):.3g} standard errors): a steady-state record repeats every period (a slipping "
+            f"encoder or an unsettled transient?)")
+
+
 def _check_drift(where: str, run: str, t: np.ndarray, data: dict, omega: float, notes: list) -> None:
     """Refuse a channel that drifts; remove a rotation common to both flywheels (in place)."""
     def drift(x):
         return linear_drift(t, x, omega, harmonics=CHECK_HARMONICS)
 
-    def drifts(x, d):
-        return abs(d.t_stat) > DRIFT_T_STAT and abs(d.over_record) > DRIFT_SHARE * max(float(np.ptp(x)), 1e-300)
+    drifts = _drifts
 
     if "phi2" in data:
         rel = data["phi1"] - data["phi2"]
-        d_rel = drift(rel)
-        if drifts(rel, d_rel):
-            raise RunsFileError(
-                f"{where}: run {run}: the relative angle phi1 - phi2 drifts by {d_rel.over_record:.3g} rad over the "
-                f"record ({d_rel.slope:.3g} rad/s, {abs(d_rel.t_stat):.3g} standard errors): a steady-state record "
-                f"repeats every period (a slipping encoder or an unsettled transient?)")
+        _refuse_twist_drift(where, run, "the relative angle phi1 - phi2", rel, drift(rel), "rad")
         d1, d2 = drift(data["phi1"]), drift(data["phi2"])
         if drifts(data["phi1"], d1) or drifts(data["phi2"], d2):
             slope = 0.5 * (d1.slope + d2.slope)
@@ -540,17 +549,11 @@ def _to_train_record(where: str, run: str, t: np.ndarray, torques: dict, angles:
     def drift(x):
         return linear_drift(t_rec, x, w_rec, harmonics=CHECK_HARMONICS)
 
-    def drifts(x, d):
-        return abs(d.t_stat) > DRIFT_T_STAT and abs(d.over_record) > DRIFT_SHARE * max(float(np.ptp(x)), 1e-300)
+    drifts = _drifts
 
     for j in range(1, N):
         rel = data[f"phi{j}"] - data[f"phi{j + 1}"]
-        d = drift(rel)
-        if drifts(rel, d):
-            raise RunsFileError(
-                f"{where}: run {run}: the twist {pos}{j} - {pos}{j + 1} of joint {j} drifts by {d.over_record:.3g} "
-                f"{unit} over the record ({abs(d.t_stat):.3g} standard errors): a steady-state record repeats every "
-                f"period (a slipping encoder or an unsettled transient?)")
+        _refuse_twist_drift(where, run, f"the twist {pos}{j} - {pos}{j + 1} of joint {j}", rel, drift(rel), unit)
     ds = [drift(data[f"phi{i}"]) for i in range(1, N + 1)]
     if any(drifts(data[f"phi{i}"], d) for i, d in enumerate(ds, start=1)):
         slope = float(np.mean([d.slope for d in ds]))

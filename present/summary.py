@@ -17,7 +17,7 @@ from jointrig.studies.validate import DiagnosisReport
 from .formatting import quantity_of, unit_of, with_se
 
 __all__ = ["NO_GAIN", "plain_verdict", "ParameterRow", "parameter_rows", "adopted_causes", "next_steps", "WrittenRow",
-           "written_rows", "compare_written", "offset_reading"]
+           "written_rows", "compare_written", "wrong_sentence", "offset_reading"]
 
 _DESCRIPTION = {c.name: c.description for c in CATALOGUE}
 #: The gain's cell when a model has no steady state in a held-out run.
@@ -79,11 +79,18 @@ def compare_written(written, fit) -> tuple[WrittenRow, ...]:
 
 
 def _wrong(report: DiagnosisReport) -> str:
-    rows = [r for r in written_rows(report) if r.differs]
+    return wrong_sentence(written_rows(report))
+
+
+def wrong_sentence(rows, name=lambda n: n) -> str:
+    """The parameters of the user's model the data contradict, as a sentence ("" if none);
+    ``name`` gives each parameter's name as the user's bench has it."""
+    rows = [r for r in rows if r.differs]
     if not rows:
         return ""
     return ("As written, your model has " + "; ".join(
-        f"{r.quantity} = {r.written:.4g}{' ' + r.unit if r.unit else ''}, which the data put at "
+        f"{quantity_of(name(r.name))} = {r.written:.6g}{' ' + unit_of(name(r.name)) if unit_of(name(r.name)) else ''}, "
+        f"which the data put at "
         f"{with_se(r.data, r.std_error)} ({r.change})" for r in rows) + ". ")
 
 

@@ -16,7 +16,7 @@ from jointrig.studies.chain_validate import TrainReport
 from jointrig.vocab.params import linear_name
 
 from .formatting import quantity_of, sig, sig_or, unit_of, with_se
-from .summary import compare_written
+from .summary import compare_written, wrong_sentence
 
 
 def _namer(report: TrainReport):
@@ -56,8 +56,8 @@ def format_chain_lines(report: TrainReport, n_shown: int = 6) -> list[str]:
     n_ground = sum(1 for s in d.first_round if s.ground)
     n_drag = len(d.first_round) - n_joint - n_ground
     places = ([f"{n_joint} causes at {N - 1} joint(s)"] if N > 1 else []) + (
-        [f"viscous drag at {n_drag} {'bodies' if n_drag > 1 else 'body'}"] if n_drag else []) + [
-        f"{n_ground} laws to ground"]
+        [f"viscous drag at {n_drag} {'bodies' if n_drag > 1 else 'body'}"] if n_drag else []) + (
+        [f"{n_ground} laws to ground"] if n_ground else [])
     lines = [f"  nominal model: chi2/dof = {d.nominal.chi2 / d.nominal.dof:.3g} (about 1 when only noise is left)",
              f"  candidates ({len(d.first_round)}: {', '.join(places)}), best first:"]
     nm = _namer(report)
@@ -98,6 +98,9 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
     lines = [f"VERDICT: {v.verdict.upper().replace('_', ' ')}: {v.reason}"]
     nm = _namer(report)
     written = compare_written(report.written, fit)
+    wrong = wrong_sentence(written, nm)
+    if wrong:
+        lines.append(f"  In words: {wrong.strip()}")
     if written:
         lines.append(f"  Your model as written ({report.model_path}) against the data (differs: more than 2 standard "
                      f"errors apart):")

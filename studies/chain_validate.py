@@ -55,6 +55,9 @@ class ChainValidation:
 
     @property
     def gain(self) -> float:
+        """nominal / extended error; NaN where a model was not simulated (``note`` says why)."""
+        if not (math.isfinite(self.nominal_error) and math.isfinite(self.extended_error)):
+            return math.nan
         return self.nominal_error / self.extended_error if self.extended_error > 0 else math.inf
 
     def as_json(self) -> dict:

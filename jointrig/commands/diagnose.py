@@ -163,15 +163,10 @@ def _main(args: argparse.Namespace, writer) -> int:
             return _train(args, loaded, model, writer)
         loaded = driven_first(loaded, args.torque_on)
         ids = list(loaded.run_ids)
-        holdout = None
-        if args.holdout:
-            unknown = [h for h in args.holdout if h not in ids]
-            if unknown:
-                raise RunsFileError(f"{args.data}: --holdout names run(s) {unknown} not in the file; runs are {ids}")
-            holdout = [ids.index(h) for h in args.holdout]
-            if len(set(holdout)) >= len(ids):
-                raise BadArgument(f"--holdout holds out all {len(ids)} runs; expected at least one run left to fit")
-        elif len(ids) < MIN_RUNS_TO_HOLD_OUT:
+        holdout = held_out_runs(args, ids)
+        if holdout is not None and len(holdout) >= len(ids):
+            raise BadArgument(f"--holdout holds out all {len(ids)} runs; expected at least one run left to fit")
+        elif holdout is None and len(ids) < MIN_RUNS_TO_HOLD_OUT:
             short = [f"{rid} ({r.n_periods})" for rid, r in zip(ids, loaded.records)
                      if r.n_periods < MIN_PERIODS_TO_SPLIT]
             if short:
@@ -226,6 +221,18 @@ def _main(args: argparse.Namespace, writer) -> int:
     return 0
 
 
+def held_out_runs(args: argparse.Namespace, ids: list) -> "list[int] | None":
+    """The indices of the runs ``--holdout`` names (None without it), refusing a label not in the file."""
+    from jointrig.measured.runs import RunsFileError
+
+    if not args.holdout:
+        return None
+    unknown = [h for h in args.holdout if h not in ids]
+    if unknown:
+        raise RunsFileError(f"{args.data}: --holdout names run(s) {unknown} not in the file; runs are {ids}")
+    return sorted({ids.index(h) for h in args.holdout})
+
+
 def _train(args: argparse.Namespace, loaded, model, writer) -> int:
     """A drive train's file (``phi1..phiN``, ``torque<i>``): the chain diagnosis, validated on
     held-out runs in a rig of the user's model (``--model``) or of the file's bodies and drives."""
@@ -270,14 +277,9 @@ def _train(args: argparse.Namespace, loaded, model, writer) -> int:
                 raise BadArgument(f"--model {args.model} has no drive on body(ies) {missing}, which {args.data} "
                                   f"drives (torque{missing[0]}); add <motor name=\"drive{missing[0]}\" ...>")
         ids = list(loaded.run_ids)
-        holdout = None
-        if args.holdout:
-            unknown = [h for h in args.holdout if h not in ids]
-            if unknown:
-                raise RunsFileError(f"{args.data}: --holdout names run(s) {unknown} not in the file; runs are {ids}")
-            holdout = sorted({ids.index(h) for h in args.holdout})
-            if len(ids) - len(holdout) < 3:
-                raise BadArgument(f"--holdout leaves {len(ids) - len(holdout)} run(s) to fit; expected at least 3")
+        holdout = held_out_runs(args, ids)
+        if holdout is not None and len(ids) - len(holdout) < 3:
+            raise BadArgument(f"--holdout leaves {len(ids) - len(holdout)} run(s) to fit; expected at least 3")
         for n in loaded.notes:
             log.info("note: %s", n)
         with tempfile.TemporaryDirectory(prefix="jointrig-train-") as tmp:
