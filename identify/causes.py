@@ -305,6 +305,30 @@ def forward_select(base: Base, causes: Sequence[Cause], *,
     return Selection(base, tuple(adopted), tuple(rounds))
 
 
+def parsimonious(ranked: list, by_name: dict, n_rows: int, alpha: float, *, name_of=lambda s: s.effect,
+                 place_of=lambda s: None) -> list:
+    """The ranking with each cause that reduces to a simpler one (``Cause.reduces_to``) placed
+    right after it, when the simpler one (at the same place) is significant too and the richer
+    one's extra parameters do not lower chi-square significantly beyond it (a nested test: the
+    difference of the two drops against chi-square with the difference of their parameter
+    counts). A Stribeck friction whose peak the data do not show then never names the extension:
+    pure dry friction is named dry friction. ``ranked``: scores with ``delta_chi2``, ``n_params``
+    and ``significant``; ``name_of`` and ``place_of`` read a score's cause name and place."""
+    out = list(ranked)
+    for richer in ranked:
+        cause = by_name.get(name_of(richer))
+        simpler = next((s for s in out if cause is not None and name_of(s) == cause.reduces_to and s.significant
+                        and place_of(s) == place_of(richer)), None)
+        if simpler is None or out.index(richer) > out.index(simpler):
+            continue
+        _, _, extra = evidence(richer.delta_chi2 - simpler.delta_chi2, richer.n_params - simpler.n_params, n_rows,
+                               alpha)
+        if not extra:
+            out.remove(richer)
+            out.insert(out.index(simpler) + 1, richer)
+    return out
+
+
 #: A measurement cause whose chi-square drop is within 1% of the best cause's is taken first.
 TIE = 0.99
 

@@ -44,7 +44,7 @@ import numpy as np
 from jointrig.vocab.law import JointLaw, Power, Viscous
 from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpec, bearing_name, chain_system,
                     ground_laws, ground_prefix, identifiability, inertia_name, joint_prefix, solve_banded)
-from .causes import CAUSES, Cause, ModelSpec, evidence, forward_select
+from .causes import CAUSES, Cause, ModelSpec, evidence, forward_select, parsimonious
 from .diagnose import DEFAULT_FIDELITY, FINE_SAMPLES
 from .harmonics import max_harmonic
 from .periods import period_spectra, raw_noise_std
@@ -601,6 +601,7 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
     pool = [c for c in candidates(N, causes) if c.extend(nominal.spec, 1e-3) != nominal.spec
             or c.cause.bounds is not None]
     by_label = {c.label: c for c in pool}
+    causes_by_name = {c.cause.name: c.cause for c in pool}
 
     def rank(base, pool, rnd):
         current, wcur = base
@@ -610,7 +611,8 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
             scored.append(score(problem, cand, current, wcur, n, alpha))
             if progress is not None:
                 progress(k, n, cand.label)
-        return sorted(scored, key=lambda s: (bool(s.note), -s.score))
+        return parsimonious(sorted(scored, key=lambda s: (bool(s.note), -s.score)), causes_by_name, current.n_rows,
+                            alpha, name_of=lambda s: s.cause, place_of=lambda s: (s.place, s.at_joint, s.ground))
 
     adopted: list[Candidate] = []
 

@@ -49,7 +49,7 @@ from .estimates import Estimates
 from .scalar import minimize_bounded
 from .solve import IllConditionedWarning, solve
 from jointrig.vocab.params import J1, J2, JE, BEARING1, BEARING2
-from .causes import (DEFAULT_SEPARATION, CAUSES, NOMINAL, SEPARATING_EXCITATION, TIE, Cause, ModelSpec,
+from .causes import (DEFAULT_SEPARATION, CAUSES, NOMINAL, SEPARATING_EXCITATION, TIE, Cause, ModelSpec, parsimonious,
                      evidence, forward_select, rate_amplitudes)
 
 __all__ = [
@@ -1203,7 +1203,7 @@ def diagnose(runs: Sequence[PreparedRun], *, form: Optional[str] = None, n_harmo
                                      rivals_by_name=by_name, check=check)
         if check is not None:
             resolve(check, outcome)
-        return _parsimonious(sorted(scores, key=lambda s: (bool(s.note), -float(f"{s.score:.9g}"))), by_name,
+        return parsimonious(sorted(scores, key=lambda s: (bool(s.note), -float(f"{s.score:.9g}"))), by_name,
                              current.n_rows, alpha)
 
     def adopt(base, scores):
@@ -1284,27 +1284,6 @@ def _needed(problem: _Problem, steps: list[CauseScore], base: tuple, by_name: di
         current, weights = fit(problem, _spec_of(steps, current, by_name, nominal))
         current = replace(current, profile_std_errors=carried)
     return steps, current
-
-
-def _parsimonious(ranked: list[CauseScore], by_name: dict, n_rows: int, alpha: float) -> list[CauseScore]:
-    """The ranking with each cause that reduces to a simpler one (``Cause.reduces_to``) placed
-    right after it, when the simpler one is significant too and the richer one's extra
-    parameters do not lower chi-square significantly beyond it (a nested test: the difference
-    of the two drops against chi-square with the difference of their parameter counts). A
-    Stribeck friction whose peak the data do not show then never names the extension: pure
-    dry friction is named dry friction."""
-    out = list(ranked)
-    for richer in ranked:
-        cause = by_name.get(richer.effect)
-        simpler = next((s for s in out if cause is not None and s.effect == cause.reduces_to and s.significant), None)
-        if simpler is None or out.index(richer) > out.index(simpler):
-            continue
-        _, _, extra = evidence(richer.delta_chi2 - simpler.delta_chi2, richer.n_params - simpler.n_params, n_rows,
-                               alpha)
-        if not extra:
-            out.remove(richer)
-            out.insert(out.index(simpler) + 1, richer)
-    return out
 
 
 #: Flywheel inertias further apart than this ratio are not a bench's two flywheels.

@@ -282,5 +282,7 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
     else:
         general = generalisation_kind([settings[i] for i in range(len(records)) if i not in held],
                                       [settings[i] for i in held])
+        if rig.kind == "slide":  # its drive levels are forces
+            general = general.replace(" N m", " N")
     return TrainReport(tuple(run_ids), held, d, v, train_verdict(d, v), general,
                        tuple(written), str(rig.path) if written else None, tuple(notes), split, rig.kind)

@@ -96,12 +96,8 @@ def steady_state(car: Carriage, w: float, F0: float, *, tol: float = 1e-9, max_p
     raise RuntimeError(f"no steady state after {max_periods} periods")
 
 
-def daq_file(car: Carriage, w: float, F0: float, path, *, fs_Hz: float = 10000.0, n_periods: float = 30.4,
-             snr_db: float = 40.0, at_rest_m: float = 0.3512, seed: int = 0):
-    """One long run of the drive at ``w`` rad/s and ``F0`` N, written as a motion controller's trace:
-    ``time [s], force [N], x [mm]`` at a fixed rate from a random phase, the absolute encoder's
-    position (``at_rest_m`` plus the motion), white noise at ``snr_db`` on both."""
-    rng = np.random.default_rng(seed)
+def _trace(car: Carriage, w: float, F0: float, rng, fs_Hz: float, n_periods: float, snr_db: float,
+           at_rest_m: float):
     t, y, mode = steady_state(car, w, F0)
     T = 2 * math.pi / w
     start = t + rng.uniform(0, T)
@@ -112,7 +108,30 @@ def daq_file(car: Carriage, w: float, F0: float, path, *, fs_Hz: float = 10000.0
     F = F0 * np.cos(w * t_eval)
     F_meas = F + rng.normal(0.0, np.std(F) * 10 ** (-snr_db / 20), n)
     x_meas = at_rest_m + x + rng.normal(0.0, np.std(x) * 10 ** (-snr_db / 20), n)
+    return t_eval - start, F_meas, x_meas
+
+
+def daq_file(car: Carriage, w: float, F0: float, path, *, fs_Hz: float = 10000.0, n_periods: float = 30.4,
+             snr_db: float = 40.0, at_rest_m: float = 0.3512, seed: int = 0):
+    """One long run of the drive at ``w`` rad/s and ``F0`` N, written as a motion controller's trace:
+    ``time [s], force [N], x [mm]`` at a fixed rate from a random phase, the absolute encoder's
+    position (``at_rest_m`` plus the motion), white noise at ``snr_db`` on both."""
+    t, F, x = _trace(car, w, F0, np.random.default_rng(seed), fs_Hz, n_periods, snr_db, at_rest_m)
     lines = ["time [s],force [N],x [mm]"]
-    lines += [f"{tt - start:.5f},{f:.5f},{xx * 1e3:.6f}" for tt, f, xx in zip(t_eval, F_meas, x_meas)]
+    lines += [f"{tt:.5f},{f:.5f},{xx * 1e3:.6f}" for tt, f, xx in zip(t, F, x)]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def daq_runs(car: Carriage, points, path, *, fs_Hz: float = 10000.0, n_periods: float = 6.3, snr_db: float = 40.0,
+             at_rest_m: float = 0.3512, seed: int = 0):
+    """Several runs, one per ``(omega rad/s, force amplitude N)``, in one file with a ``run`` column
+    (the same trace as :func:`daq_file`; the carriage is not moved between runs, so every run's
+    positions are about where its steady state settled)."""
+    rng = np.random.default_rng(seed)
+    lines = ["run,time [s],force [N],x [mm]"]
+    for r, (w, F0) in enumerate(points):
+        t, F, x = _trace(car, w, F0, rng, fs_Hz, n_periods, snr_db, at_rest_m)
+        lines += [f"{r},{tt:.5f},{f:.5f},{xx * 1e3:.6f}" for tt, f, xx in zip(t, F, x)]
     path.write_text("\n".join(lines) + "\n")
     return path

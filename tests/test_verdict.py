@@ -24,7 +24,7 @@ import pytest
 
 from bench_sim import JOINTS, POINTS, measure, with_effect
 from jointrig.identify import diagnose as D
-from jointrig.identify.causes import CAUSES
+from jointrig.identify.causes import CAUSES, parsimonious
 from jointrig.measured.runs import read_runs
 from jointrig.present.diagnosis_report import format_report, report_json
 from jointrig.rig.simulate import SimulationError
@@ -108,7 +108,7 @@ def test_a_stribeck_peak_the_data_do_not_show_ranks_behind_dry_friction(extra_dr
     ranked.sort(key=lambda s: -s.score)
     assert ranked[0].effect == "stribeck_friction"  # by BIC alone
     by_name = {c.name: c for c in CAUSES}
-    out = D._parsimonious(ranked, by_name, n_rows, 1e-3)
+    out = parsimonious(ranked, by_name, n_rows, 1e-3)
     assert [s.effect for s in out][0] == ("stribeck_friction" if stribeck_first else "coulomb_friction")
     assert sorted(s.effect for s in out) == ["coulomb_friction", "stribeck_friction"]
 
