@@ -8,6 +8,7 @@ import contextlib
 import errno
 import glob
 import json
+import math
 import os
 import tempfile
 from pathlib import Path
@@ -87,5 +88,20 @@ def readable_mode() -> int:
     return 0o666 & ~mask
 
 
+def json_safe(obj):
+    """``obj`` with every non-finite number as None (JSON's null): strict JSON has no NaN or
+    Infinity, and a reader in another language refuses them. Where a figure has no value the
+    document says why beside it (a note, a reason)."""
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    if isinstance(obj, dict):
+        return {k: json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [json_safe(v) for v in obj]
+    return obj
+
+
 def write_json_atomic(path: Path, obj) -> None:
-    write_atomic(path, lambda tmp: tmp.write_text(json.dumps(obj, indent=2, sort_keys=False) + "\n"))
+    """``obj`` as strict JSON (:func:`json_safe`), written atomically."""
+    text = json.dumps(json_safe(obj), indent=2, sort_keys=False, allow_nan=False) + "\n"
+    write_atomic(path, lambda tmp: tmp.write_text(text))

@@ -8,6 +8,7 @@ ranked, and the held-out runs' error in the rig.
 
 from __future__ import annotations
 
+import math
 import re
 from typing import Sequence
 
@@ -80,8 +81,11 @@ def format_chain_lines(report: TrainReport, n_shown: int = 6) -> list[str]:
     if v is not None:
         held = "held-out periods" if report.held_out_periods else f"held-out runs ({len(report.held_out)})"
         what = "position" if N == 1 else "twist"
-        if v.note:
+        if v.note and not math.isfinite(v.extended_error):
             lines.append(f"  {held}: {v.note}")
+        elif v.note:
+            lines.append(f"  {held}: relative {what} error extended {sig(v.extended_error)} (noise floor "
+                         f"{sig(v.noise_floor, 2)}); {v.note}")
         else:
             lines.append(f"  {held}: relative {what} error nominal {sig(v.nominal_error)}, extended "
                          f"{sig(v.extended_error)} (noise floor {sig(v.noise_floor, 2)}): gain "

@@ -39,7 +39,9 @@ class ChainValidation:
     """Output error of the nominal and the extended model on held-out runs.
 
     Attributes:
-      nominal_error, extended_error: relative RMS error of the joint twists' harmonics.
+      nominal_error, extended_error: relative RMS error of the joint twists' harmonics (NaN: the
+        model reaches no steady state under a held-out run's drive; the nominal's is infinite
+        where the extended model's is not).
       noise_floor: the error the noise alone gives (an exact model's).
       per_run: ``(label, nominal error, extended error)`` per held-out run.
       note: what kept a model from being simulated, if anything.
@@ -55,8 +57,9 @@ class ChainValidation:
 
     @property
     def gain(self) -> float:
-        """nominal / extended error; NaN where a model was not simulated (``note`` says why)."""
-        if not (math.isfinite(self.nominal_error) and math.isfinite(self.extended_error)):
+        """nominal / extended error; NaN where a model was not simulated (``note`` says why), infinite
+        where only the nominal model reaches no steady state."""
+        if not math.isfinite(self.extended_error) or math.isnan(self.nominal_error):
             return math.nan
         return self.nominal_error / self.extended_error if self.extended_error > 0 else math.inf
 
@@ -103,8 +106,11 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
     """Replay every held-out run's drives on the nominal and the extended plant (module docstring);
     ``backend`` as :func:`rig.chain.simulate_chain`'s."""
     cfg = replace(config, absolute_angles_periodic=False, max_wall_s=max_wall_s, n_periods=1)
-    models = {"nominal": plant_and_inertias(diagnosis.nominal), "extended": plant_and_inertias(diagnosis.final)}
+    models = {"nominal": plant_and_inertias(diagnosis.nominal)}
+    if diagnosis.steps:  # without a cause the extended model is the nominal one
+        models["extended"] = plant_and_inertias(diagnosis.final)
     num = {k: 0.0 for k in models}
+    failed: dict = {}
     den = noise = 0.0
     per_run = []
     records = []
@@ -117,23 +123,34 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
         drives = {i: drive_of_record(meas.omega_rad_s, c) for i, c in coeffs.items()}
         errs, sims = {}, {}
         for name, (plant, J) in models.items():
+            if name in failed:
+                continue
             try:
                 sim, _ = simulate_chain(rig.with_plant(plant), meas.omega_rad_s, drives, cfg, inertias_kgm2=J,
                                         backend=backend)
             except SimulationError as err:  # no steady state, or a divergence: a reason, not a crash
-                return ChainValidation(math.nan, math.nan, math.nan, tuple(per_run),
-                                       note=f"the {name} model reaches no periodic steady state under the measured "
-                                            f"drive of {meas.source}: {err}")
+                failed[name] = (f"the {name} model reaches no periodic steady state under the measured drive of "
+                                f"{meas.source}: {err}")
+                continue
             sims[name] = sim
             e, d = twist_error(sim, meas, top)
             num[name] += e
             errs[name] = math.sqrt(e / d)
+        sims.setdefault("extended", sims.get("nominal"))
+        errs.setdefault("extended", errs.get("nominal", math.nan))
         den += twist_error(meas, meas, top)[1]
         noise += _noise(meas, top)
-        per_run.append((meas.source, errs["nominal"], errs["extended"]))
-        records.append((meas, sims["nominal"], sims["extended"]))
-    return ChainValidation(math.sqrt(num["nominal"] / den), math.sqrt(num["extended"] / den),
-                           math.sqrt(max(noise, 0.0) / den), tuple(per_run), records=tuple(records))
+        per_run.append((meas.source, errs.get("nominal", math.nan), errs["extended"]))
+        if sims.get("nominal") is not None and sims["extended"] is not None:
+            records.append((meas, sims["nominal"], sims["extended"]))
+    num.setdefault("extended", num["nominal"])
+    error = {k: (math.nan if k in failed else math.sqrt(num[k] / den)) for k in num}
+    if "nominal" in failed and diagnosis.steps and "extended" not in failed:
+        error["nominal"] = math.inf  # the extension predicts the runs the nominal model cannot reach
+    if not diagnosis.steps and "nominal" in failed:
+        error["extended"] = math.nan
+    return ChainValidation(error["nominal"], error["extended"], math.sqrt(max(noise, 0.0) / den), tuple(per_run),
+                           note="; ".join(failed.values()), records=tuple(records))
 
 
 # --------------------------------------------------------------------------------------------
@@ -148,10 +165,11 @@ def train_verdict(diagnosis: ChainDiagnosis, validation: Optional[ChainValidatio
     which = "extended" if d.steps else "nominal"
     f = d.final if d.steps else d.nominal
     causes = " + ".join(s.label for s in d.steps)
-    if v is None or not math.isfinite(v.nominal_error) or not math.isfinite(v.extended_error):
+    if v is None or not math.isfinite(v.extended_error):
         why = v.note if v is not None else "no held-out run"
         if not d.steps:
-            return Verdict("unexplained", f"the nominal model could not be checked on held-out runs: {why}")
+            return Verdict("unexplained", f"the nominal model could not be checked on held-out runs: {why}; it "
+                                          f"cannot be the train")
         return Verdict("unexplained", f"the best extension ({causes}) is not adopted: {why}")
     c2 = f.chi2 / max(f.dof, 1)
     err = v.extended_error if d.steps else v.nominal_error
@@ -166,8 +184,10 @@ def train_verdict(diagnosis: ChainDiagnosis, validation: Optional[ChainValidatio
         return Verdict("unexplained", f"no catalogued cause at any joint or bearing is significant, but the nominal "
                                       f"model does not explain the data: {figures}")
     if fits and v.gain >= GAIN_OK:
+        gain = (f"held-out gain {v.gain:.3g} (at least {GAIN_OK:g})" if math.isfinite(v.gain) else
+                f"and the nominal model has no gain to compare: {v.note}")
         return Verdict("explained", f"{causes} {'explains' if len(d.steps) == 1 else 'explain'} the data: {figures}, "
-                                    f"held-out gain {v.gain:.3g} (at least {GAIN_OK:g})")
+                                    f"{gain}")
     return Verdict("unexplained", f"{causes} {'is' if len(d.steps) == 1 else 'are'} significant but do not explain "
                                   f"the data: {figures}, held-out gain {v.gain:.3g} (at least {GAIN_OK:g} needed)")
 

@@ -295,3 +295,29 @@ def test_a_linear_drives_dry_friction_holds_on_runs_of_another_level(tmp_path, c
     v, se = j["extended"]["parameters"]["ground1_coulomb_force_N"], j["extended"]["std_errors"]["ground1_coulomb_force_N"]
     assert abs(v - 25.0) < 3 * se, (v, se)
     assert j["validation"]["gain"] >= 3
+
+
+def test_a_train_whose_nominal_model_has_no_steady_state_is_judged_by_its_extension(tmp_path, capsys):
+    # Two runs of the worn pump train, both driven at the motor: the nominal fit's inertias are
+    # ill-determined and the nominal model diverges in the rig (MuJoCo's bad-velocity warning)
+    # under a held-out drive; the extension (the free play) predicts the later periods of both
+    # runs. The verdict says so in words, the gain is infinite, and the JSON holds null for the
+    # errors that have no value (strict JSON: no NaN, no Infinity).
+    from pathlib import Path
+
+    models = Path(__file__).parent.parent / "models"
+    data = tmp_path / "two.csv"
+    assert cli(["make-data", str(data), "--model", str(models / "pump_train_worn.xml"), "--omegas", "330", "1200",
+                "--amplitudes", "120", "-q"]) == 0
+    out = tmp_path / "d.json"
+    assert cli(["diagnose", str(data), "--json", str(out), "-q"]) == 0
+    text = capsys.readouterr().out
+    raw = out.read_text()
+    assert "NaN" not in raw and "Infinity" not in raw
+    j = json.loads(raw)
+    assert j["validation_kind"] == "held_out_periods"
+    assert j["validation"]["nominal_error"] is None and "the nominal model reaches no periodic steady state" in \
+        j["validation"]["note"]
+    assert j["verdict"]["verdict"] == "explained" and "the nominal model has no gain to compare" in text
+    assert j["validation"]["gain"] is None and j["validation"]["extended_error"] > 0
+    assert j["found"][0]["candidate"] == "backlash at joint 2"
