@@ -308,7 +308,7 @@ def test_a_train_whose_nominal_model_has_no_steady_state_is_judged_by_its_extens
     models = Path(__file__).parent.parent / "models"
     data = tmp_path / "two.csv"
     assert cli(["make-data", str(data), "--model", str(models / "pump_train_worn.xml"), "--omegas", "330", "1200",
-                "--amplitudes", "120", "-q"]) == 0
+                "--amplitudes", "90", "-q"]) == 0
     out = tmp_path / "d.json"
     assert cli(["diagnose", str(data), "--json", str(out), "-q"]) == 0
     text = capsys.readouterr().out
