@@ -60,7 +60,8 @@ def main(argv=None) -> int:
         print(f"jointrig: error: unknown subcommand {name!r}; expected one of {', '.join(SUBCOMMANDS)}",
               file=sys.stderr)
         return 2
-    from jointrig.rig.runtime import limit_threads, run_cli
+    from jointrig.rig.runtime import limit_threads
+    from jointrig.commands.options import run_cli
 
     # No command renders with MuJoCo (the recordings are rerun's): without this, importing
     # mujoco loads its OpenGL backend (GLFW), 0.05 s of every command's start. A value the

@@ -357,7 +357,7 @@ def test_make_data_command(tmp_path, capsys, args, match):
     (["--store", "/proc/st"], "--store /proc/st: cannot create a file in /proc"),
 ])
 def test_run_sweep_command(tmp_path, capsys, args, match):
-    from jointrig.rig.runtime import run_cli
+    from jointrig.commands.options import run_cli
 
     args = [a.format(tmp=tmp_path) for a in args]
     code = run_cli(_script("run_sweep").main, "run_sweep.py", ([] if "--store" in args else ["--no-store"]) + ["-q", *args])
@@ -380,7 +380,7 @@ def test_run_sweep_command(tmp_path, capsys, args, match):
     ("silverbox", ["--rrd", "/proc/s.rrd"], "--rrd /proc/s.rrd: cannot create a file"),
 ])
 def test_other_commands_check_arguments_first(capsys, script, args, match):
-    from jointrig.rig.runtime import run_cli
+    from jointrig.commands.options import run_cli
 
     code = run_cli(_script(script).main, script, args)
     err = capsys.readouterr().err

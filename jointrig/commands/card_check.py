@@ -21,7 +21,7 @@ from pathlib import Path
 from jointrig.commands import add_quiet, command_parser
 from jointrig.rig import load_rig
 from jointrig.studies.card_check import CARD_CASES, check_card, check_text, worst
-from jointrig.rig.runtime import check_output, check_range, progress_level
+from jointrig.commands.options import check_output, check_range, progress_level
 from jointrig.files import write_json_atomic
 
 log = logging.getLogger("jointrig.card-check")

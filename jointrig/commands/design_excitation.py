@@ -30,7 +30,7 @@ from jointrig.identify.design import chain_modes_rad_s, crlb_std, d_efficiency, 
 from jointrig.identify.eiv import fisher_per_period
 from jointrig.rig import SimulationConfig, load_rig
 from jointrig.rig.measurement import noise_std
-from jointrig.rig.runtime import add_backend_option
+from jointrig.commands.options import add_backend_option
 from jointrig.rig.native_callback import choose_native
 from jointrig.studies.montecarlo import monte_carlo
 from jointrig.studies.sweep import DEFAULT_PLAN, SweepPlan, records_of, run_sweep
@@ -62,7 +62,7 @@ def main(argv=None) -> int:
     from jointrig.rig.runtime import quiet_mujoco
 
     quiet_mujoco()
-    from jointrig.rig.runtime import progress_level
+    from jointrig.commands.options import progress_level
 
     logging.basicConfig(level=progress_level(args.quiet), format="%(message)s", stream=sys.stderr)
     if args.model is not None:
@@ -72,7 +72,7 @@ def main(argv=None) -> int:
             raise ValueError(f"--model {args.model}: designs for a model file are for chains (jointrig_joint<j>_* "
                              f"fields); the two-flywheel design uses the default rig")
         return chain_main(args)
-    from jointrig.rig.runtime import check_output, check_range
+    from jointrig.commands.options import check_output, check_range
 
     check_range(args.snr_db, "--snr-db", lo=0, hi=200, lo_open=True)
     check_range(args.setup_s, "--setup-s", lo=0)
@@ -162,7 +162,7 @@ def chain_main(args) -> int:
     from jointrig.identify.chain import fisher_per_period
     from jointrig.rig.chain import load_chain
     from jointrig.studies.chain_sweep import CHAIN_CONFIG, CHAIN_PLAN, run_chain_sweep
-    from jointrig.rig.runtime import check_output, check_range
+    from jointrig.commands.options import check_output, check_range
 
     check_range(args.snr_db, "--snr-db", lo=0, hi=200, lo_open=True)
     check_range(args.setup_s, "--setup-s", lo=0)

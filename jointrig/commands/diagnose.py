@@ -30,7 +30,7 @@ from pathlib import Path
 
 from jointrig.commands import add_quiet, command_parser
 from jointrig.identify.defaults import DEFAULT_FIDELITY
-from jointrig.rig.runtime import BadArgument, check_output, check_range, progress_level
+from jointrig.commands.options import BadArgument, check_output, check_range, progress_level
 
 # The numerical stack (MuJoCo; rerun for --rrd; matplotlib for a joint card's figure) is
 # imported in main, after the arguments are parsed: ``--help`` and bad options answer at once.

@@ -32,7 +32,7 @@ from jointrig.rig.model import DEFAULT_MODEL
 from jointrig.studies.chain_sweep import CHAIN_CONFIG, CHAIN_PLAN, HELD_OUT, run_chain_sweep
 from jointrig.studies.chain_validate import run_train_diagnosis, written_of
 from jointrig.rig.measurement import measure_chain
-from jointrig.rig.runtime import add_backend_option, check_output, check_range, progress_level
+from jointrig.commands.options import add_backend_option, check_output, check_range, progress_level
 from jointrig.files import write_json_atomic
 
 log = logging.getLogger("diagnose_chain")

@@ -59,7 +59,7 @@ def main(argv=None) -> int:
     from jointrig.rig.runtime import quiet_mujoco
 
     quiet_mujoco()
-    from jointrig.rig.runtime import BadArgument, check_each, check_output, check_range, progress_level
+    from jointrig.commands.options import BadArgument, check_each, check_output, check_range, progress_level
 
     try:
         if args.out.suffix.lower() not in (".csv", ".parquet"):

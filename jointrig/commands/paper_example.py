@@ -72,7 +72,7 @@ def main(argv=None) -> int:
     from jointrig.rig.runtime import quiet_mujoco
 
     quiet_mujoco()
-    from jointrig.rig.runtime import check_output
+    from jointrig.commands.options import check_output
 
     check_output(args.json, "--json")
     logging.basicConfig(level=logging.WARNING)

@@ -29,7 +29,7 @@ from jointrig.identify.multisine import line_levels
 from jointrig.vocab.law import JointLaw
 from jointrig.rig import DEFAULT_MODEL, SimulationConfig, load_rig
 from jointrig.rig.measurement import add_noise, repeat_periods
-from jointrig.rig.runtime import add_backend_option, progress_level
+from jointrig.commands.options import add_backend_option, progress_level
 from jointrig.studies.sweep import (DEFAULT_MULTISINE, DEFAULT_PLAN, EXECUTORS, SweepPlan, default_store, records_of,
                                     run_multisines, run_sweep, write_json_atomic)
 from jointrig.vocab.params import J1, J2, JE
@@ -125,7 +125,7 @@ def main(argv=None) -> int:
         raise ValueError("--snr-db identifies the equivalent form (Je and the law): drop --form two_dof")
     if args.periods < 2:
         raise ValueError(f"--periods must be >= 2 (the noise is estimated from their variation), got {args.periods}")
-    from jointrig.rig.runtime import check_each, check_folder, check_output, check_range
+    from jointrig.commands.options import check_each, check_folder, check_output, check_range
 
     check_output(args.json, "--json")
     if not args.no_store:
@@ -279,7 +279,7 @@ def chain_main(args: argparse.Namespace) -> int:
     from jointrig.studies.chain_sweep import CHAIN_CONFIG, CHAIN_PLAN, default_chain_store, run_chain_sweep
     from jointrig.present.recording import (chain_blueprint, log_chain_laws, log_chain_run, log_parameter_table,
                                          open_recording)
-    from jointrig.rig.runtime import check_each
+    from jointrig.commands.options import check_each
 
     unsupported = [flag for flag, on in (("--form two_dof", args.form != "equivalent"),
                                          ("--excitation multisine", args.excitation != "stepped"),

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from jointrig.commands import add_quiet, command_parser
-from jointrig.rig.runtime import progress_level
+from jointrig.commands.options import progress_level
 
 # The numerical stack is imported in main, after the arguments are parsed: --help answers at once.
 
@@ -83,7 +83,7 @@ def main(argv=None) -> int:
     from jointrig.rig.runtime import quiet_mujoco
 
     quiet_mujoco()
-    from jointrig.rig.runtime import check_output
+    from jointrig.commands.options import check_output
 
     check_output(args.json, "--json")
     check_output(args.rrd, "--rrd")

@@ -55,7 +55,7 @@ def main(argv=None) -> int:
     from jointrig.rig.runtime import quiet_mujoco
 
     quiet_mujoco()
-    from jointrig.rig.runtime import check_output, check_range, progress_level
+    from jointrig.commands.options import check_output, check_range, progress_level
 
     logging.basicConfig(level=progress_level(args.quiet), format="%(levelname)s %(name)s: %(message)s")
 
