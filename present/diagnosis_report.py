@@ -688,8 +688,8 @@ def _collapsed_sections(report: DiagnosisReport, source: str, notes: Sequence[st
 
 def _card_section(card, png_bytes: bytes) -> list[str]:
     """The joint card (studies/joint_card.py): runs beside the model at the same amplitude and
-    frequency, the slopes, and the card's figure (``png_bytes``, :func:`studies.joint_card.card_png`)."""
-    from jointrig.studies.joint_card import masing_text
+    frequency, the slopes, and the card's figure (``png_bytes``, :func:`present.card.card_png`)."""
+    from .card import masing_text
 
     rows = []
     for p, m in zip(card.runs.points, card.model_at_runs.points):
@@ -755,7 +755,7 @@ def _write_page_and_card(html_path: Optional[Path], report: DiagnosisReport, tex
 
     png = None
     if card is not None:
-        from jointrig.studies.joint_card import card_png
+        from .card import card_png
 
         png = card_png(card, title=card_title or f"joint card: {card.model_name}")
     if card_png_path is not None:

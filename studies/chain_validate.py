@@ -162,7 +162,6 @@ def train_verdict(diagnosis: ChainDiagnosis, validation: Optional[ChainValidatio
     :data:`HELDOUT_OK`, :data:`HELDOUT_EXTENDED_OK`, :data:`GAIN_OK`), errors against the noise
     floor of the held-out twists (pure)."""
     d, v = diagnosis, validation
-    which = "extended" if d.steps else "nominal"
     f = d.final if d.steps else d.nominal
     causes = " + ".join(s.label for s in d.steps)
     if v is None or not math.isfinite(v.extended_error):

@@ -275,7 +275,7 @@ def test_card_amplitude_tick_labels_never_overlap(lo, hi):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from jointrig.studies.joint_card import _amplitude_ticks
+    from jointrig.present.card import _amplitude_ticks
 
     fig, ax = plt.subplots(figsize=(5, 3.75))  # one panel of the card's 10 x 7.5 in figure
     x = np.geomspace(lo, hi, 25)

@@ -29,7 +29,8 @@ from jointrig.measured.runs import read_runs
 from jointrig.present.diagnosis_report import format_report, report_json
 from jointrig.rig.simulate import SimulationError
 from jointrig.studies import validate
-from jointrig.studies.joint_card import card_json, card_of_diagnosis
+from jointrig.present.card import card_json
+from jointrig.studies.joint_card import card_of_diagnosis
 from jointrig.studies.validate import run_diagnosis
 
 KIND = {c.name: c.kind for c in CAUSES}

@@ -100,7 +100,7 @@ def writer_modules(args: argparse.Namespace) -> list[str]:
     if args.report:
         modules.append("jointrig.present.svg")
     if card_drawn_by_writer(args) or (args.report and (args.card or args.card_only)):
-        modules += ["jointrig.studies.joint_card", "matplotlib.pyplot"]
+        modules += ["jointrig.present.card", "matplotlib.pyplot"]
     return modules
 
 
@@ -337,7 +337,7 @@ def _train(args: argparse.Namespace, loaded, model, writer) -> int:
 
 def write_card(args, loaded, card) -> None:
     """The joint card of the diagnosis (studies/joint_card.py): printed, and written as JSON and PNG."""
-    from jointrig.studies.joint_card import card_json, card_png
+    from jointrig.present.card import card_json, card_png, format_card
     from jointrig.files import write_atomic, write_json_atomic
 
     print(format_card(card))
@@ -352,42 +352,6 @@ def write_card(args, loaded, card) -> None:
 
 def card_title(args: argparse.Namespace, card) -> str:
     return f"joint card of {args.data.name}: {card.model_name}"
-
-
-def format_card(card) -> str:
-    from jointrig.present.formatting import sig, with_se
-
-    def row(src, p):
-        return (f"  {src:13s} {p.run:>4s} {sig(p.amplitude_rad):>9s} {sig(p.omega_rad_s, 4):>7s} "
-                f"{with_se(p.secant_stiffness_Nm_per_rad, p.secant_stiffness_Nm_per_rad_std):>18s} "
-                f"{with_se(p.natural_frequency_rad_s, p.natural_frequency_rad_s_std):>18s} "
-                f"{with_se(p.damping_ratio, p.damping_ratio_std):>20s} "
-                f"{with_se(p.dissipation_J_per_cycle, p.dissipation_J_per_cycle_std):>18s}")
-
-    def slope(c):
-        text = with_se(c.dissipation_slope, c.dissipation_slope_std)
-        if c.rate_exponent == c.rate_exponent:  # not NaN
-            text += f" (rate exponent {with_se(c.rate_exponent, c.rate_exponent_std)})"
-        return text
-
-    lines = ([f"WARNING: {card.warning}"] if card.warning else []) + [
-             f"Joint card ({card.model_name}; mode of the relative angle, Je = {sig(card.model.inertia_kgm2, 4)} "
-             f"kg m^2); runs at their drive frequency omega (measured with {card.runs_inertias} inertias), the model "
-             f"there and on its backbone (omega = omega_n):",
-             f"  {'source':13s} {'run':>4s} {'A [rad]':>9s} {'omega':>7s} {'k_sec [N m/rad]':>18s} "
-             f"{'omega_n [rad/s]':>18s} {'damping ratio':>20s} {'E per cycle [J]':>18s}"]
-    for p, m in zip(card.runs.points, card.model_at_runs.points):
-        lines += [row("runs", p), row("model at run", m)]
-    model = card.model.points
-    for p in ([model[0], model[len(model) // 2], model[-1]] if len(model) >= 3 else model):
-        lines.append(row("backbone", p))
-    lines.append(f"  dissipation slope d lnE / d lnA: runs {slope(card.runs)}, model at the runs "
-                 f"{slope(card.model_at_runs)}, backbone {slope(card.model)} (viscous 2 and rate exponent 1, "
-                 f"dry friction 1 and 0, micro-slip 3 + chi)")
-    from jointrig.studies.joint_card import masing_text
-
-    lines.append("  " + masing_text(card.masing))
-    return "\n".join(lines)
 
 
 def write_mjcf(args, loaded, report) -> None:
