@@ -247,6 +247,7 @@ def evidence(delta_chi2: float, q: int, n_rows: int, alpha: float = 1e-3, n_caus
 
 Base = TypeVar("Base")
 Score = TypeVar("Score")
+T = TypeVar("T")
 
 
 @dataclass(frozen=True)
@@ -303,6 +304,67 @@ def forward_select(base: Base, causes: Sequence[Cause], *,
         if after is not None:
             after(base, chosen, ranked, remaining)
     return Selection(base, tuple(adopted), tuple(rounds))
+
+
+#: A profile search's grid of trial values over the cause's bounds (log-spaced for a log-scale
+#: parameter), then Brent's bounded search between the best grid point's neighbours to this
+#: fraction of the range. A coarser search changes the adopted magnitudes beyond 1e-6 of
+#: themselves (``scripts/bench_diagnose.py --coarse-search``).
+PROFILE_GRID_POINTS = 17
+PROFILE_XATOL = 1e-6
+
+
+@dataclass(frozen=True)
+class Profiled(Generic[T]):
+    """A profile search's result: the best value of the nonlinear parameter, the fit there, and
+    the parameter's standard error from the curvature of chi-square (NaN if it is not convex)."""
+
+    value: float
+    fit: T
+    std_error: float
+
+
+def profile(solve: Callable[[float], T], cause: "Cause", lo: float, hi: float, *,
+            objective: Callable[[T], float] = lambda f: f.chi2,
+            solve_aside: Optional[Callable[[float], T]] = None) -> "Profiled[T]":
+    """The one profile search of every diagnosis over a cause's nonlinear parameter in [lo, hi]:
+    ``solve(h)`` fits the model extended with the cause at ``h`` (the caller's fit type, with
+    ``chi2`` and ``dof``); ``objective`` is what is minimised (chi-square, or a caller's penalty
+    of the unphysical region). A grid of :data:`PROFILE_GRID_POINTS` (log-spaced for a log-scale
+    cause), Brent's bounded search between the best point's neighbours to
+    :data:`PROFILE_XATOL` of the range; the standard error from chi-square's curvature (it rises
+    by 1 at one standard error; scaled like the linear ones when the fit is worse than the noise),
+    by a central difference in the parameter itself (one-sided at the lower bound), solved by
+    ``solve_aside`` (default ``solve``: a caller that warm-starts each trial from the nearest one
+    keeps these off its record)."""
+    from .scalar import minimize_bounded
+
+    back, (a, b) = (math.exp, (math.log(lo), math.log(hi))) if cause.log_scale else (float, (lo, hi))
+    cache: dict = {}
+
+    def obj(u):
+        h = back(u)
+        if h not in cache:
+            cache[h] = solve(h)
+        return objective(cache[h])
+
+    grid = np.linspace(a, b, PROFILE_GRID_POINTS)
+    vals = [obj(u) for u in grid]
+    k = int(np.argmin(vals))
+    minimize_bounded(obj, (grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]), xatol=PROFILE_XATOL * (b - a))
+    h = min(cache, key=lambda x: objective(cache[x]))
+    best = cache[h]
+    step = max(1e-3 * abs(h), 1e-6 * (hi - lo))
+
+    def chi2_at(x):
+        return (solve_aside or solve)(x).chi2
+
+    if h - step >= lo:
+        curv = (chi2_at(h - step) - 2 * best.chi2 + chi2_at(h + step)) / step**2
+    else:
+        curv = (chi2_at(h + 2 * step) - 2 * chi2_at(h + step) + best.chi2) / step**2
+    se = math.sqrt(2.0 / curv * max(1.0, best.chi2 / max(best.dof, 1))) if curv > 0 else math.nan
+    return Profiled(h, best, se)
 
 
 def parsimonious(ranked: list, by_name: dict, n_rows: int, alpha: float, *, name_of=lambda s: s.effect,

@@ -44,11 +44,10 @@ import numpy as np
 from jointrig.vocab.law import JointLaw, Power, Viscous
 from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpec, bearing_name, chain_system,
                     ground_laws, ground_prefix, identifiability, inertia_name, joint_prefix, solve_banded)
-from .causes import CAUSES, Cause, ModelSpec, evidence, forward_select, parsimonious
+from .causes import CAUSES, Cause, ModelSpec, evidence, forward_select, parsimonious, profile
 from .diagnose import DEFAULT_FIDELITY, FINE_SAMPLES
 from .harmonics import max_harmonic
 from .periods import period_spectra, raw_noise_std
-from .scalar import minimize_bounded
 from jointrig.vocab.records import RecordError, SteadyStateRecord
 from .estimates import Estimates
 from .solve import IllConditionedWarning
@@ -393,12 +392,11 @@ class CandidateScore:
 
 
 def _profile(problem: _Problem, cand: Candidate, base: ChainSpec, weights) -> ChainFit:
+    """:func:`identify.causes.profile` over the candidate's bounds at its place."""
     lo, hi = cand.cause.bounds(_twist_runs(problem, cand))
     if cand.cause.name == "stribeck_friction":  # the bounds read the rate of the twist
         top = _rate_amplitude(problem, cand)
         lo, hi = 0.02 * top, 2.0 * top
-    back, (a, b) = (math.exp, (math.log(lo), math.log(hi))) if cand.cause.log_scale else (float, (lo, hi))
-    cache: dict = {}
     mag = cand.magnitude_name()
 
     def penalised(f: ChainFit) -> float:
@@ -407,26 +405,8 @@ def _profile(problem: _Problem, cand: Candidate, base: ChainSpec, weights) -> Ch
         v = f.as_dict().get(mag, 0.0)
         return f.chi2 if not (cand.cause.nonnegative and v < 0) else f.chi2 + 1e6 * (1.0 + abs(f.chi2))
 
-    def obj(u):
-        h = back(u)
-        if h not in cache:
-            cache[h] = problem.solve(cand.extend(base, h), weights)
-        return penalised(cache[h])
-
-    grid = np.linspace(a, b, 13)
-    vals = [obj(u) for u in grid]
-    k = int(np.argmin(vals))
-    minimize_bounded(obj, (grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]), xatol=1e-5 * (b - a))
-    h = min(cache, key=lambda x: penalised(cache[x]))
-    best = cache[h]
-    step = max(1e-3 * abs(h), 1e-6 * (hi - lo))
-    c = lambda x: problem.solve(cand.extend(base, x), weights).chi2  # noqa: E731
-    if h - step >= lo:
-        curv = (c(h - step) - 2 * best.chi2 + c(h + step)) / step**2
-    else:
-        curv = (c(h + 2 * step) - 2 * c(h + step) + best.chi2) / step**2
-    se = math.sqrt(2.0 / curv * max(1.0, best.chi2 / max(best.dof, 1))) if curv > 0 else math.nan
-    return replace(best, profiled=((cand.profiled_name(), h, se),))
+    found = profile(lambda h: problem.solve(cand.extend(base, h), weights), cand.cause, lo, hi, objective=penalised)
+    return replace(found.fit, profiled=((cand.profiled_name(), found.value, found.std_error),))
 
 
 #: Passes of the joint refinement of adopted causes' nonlinear parameters (:func:`_refine`).

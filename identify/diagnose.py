@@ -46,10 +46,9 @@ from .periods import period_spectra, raw_noise_std
 from jointrig.vocab.plant import Plant, effect_parameters
 from jointrig.vocab.records import RecordError, SteadyStateRecord
 from .estimates import Estimates
-from .scalar import minimize_bounded
 from .solve import IllConditionedWarning, solve
 from jointrig.vocab.params import J1, J2, JE, BEARING1, BEARING2
-from .causes import (DEFAULT_SEPARATION, CAUSES, NOMINAL, SEPARATING_EXCITATION, TIE, Cause, ModelSpec, parsimonious,
+from .causes import (DEFAULT_SEPARATION, CAUSES, NOMINAL, SEPARATING_EXCITATION, TIE, Cause, ModelSpec, parsimonious, profile,
                      evidence, forward_select, rate_amplitudes)
 
 __all__ = [
@@ -843,57 +842,23 @@ def _magnitude(cause: Cause, f: Fit) -> tuple[str, float, float]:
     return name, float(params.get(name, 0.0)), f.std_error(name)
 
 
-#: A profile search's grid of trial values over the cause's bounds (log-spaced for a log-scale
-#: parameter), then Brent's bounded search between the best grid point's neighbours to this
-#: fraction of the range. A coarser search changes the adopted magnitudes beyond 1e-6 of
-#: themselves (``scripts/bench_diagnose.py --coarse-search``).
-PROFILE_GRID_POINTS = 17
-PROFILE_XATOL = 1e-6
-
-
 def _profile(problem, cause: Cause, base: ModelSpec, weights, start_jump: float = 0.0) -> Fit:
-    lo, hi = cause.bounds(problem.runs)
-    if cause.log_scale:
-        back = math.exp
-        lo_t, hi_t = math.log(lo), math.log(hi)
-    else:
-        back = float
-        lo_t, hi_t = lo, hi
+    """:func:`identify.causes.profile` over the cause's bounds; each trial's kink iteration starts
+    from the settled jump of the nearest trial solved so far."""
     cache: dict[float, Fit] = {}
 
-    def solved(h):
-        # the kink iteration starts from the settled jump of the nearest trial solved so far
+    def aside(h):
         near = cache[min(cache, key=lambda g: abs(g - h))] if cache else None
         start = _coulomb_jump(near.spec, near.names, near.values) if near is not None else start_jump
         return _solve(problem, cause.extend(base, h), weights, start)
 
-    def obj(u):
-        h = back(u)
-        if h not in cache:
-            cache[h] = solved(h)
-        return cache[h].chi2
+    def solved(h):
+        cache[h] = aside(h)
+        return cache[h]
 
-    grid = np.linspace(lo_t, hi_t, PROFILE_GRID_POINTS)
-    vals = [obj(u) for u in grid]
-    k = int(np.argmin(vals))
-    a, b = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
-    minimize_bounded(obj, (a, b), xatol=PROFILE_XATOL * (hi_t - lo_t))
-    h_best = min(cache, key=lambda h: cache[h].chi2)
-    best = cache[h_best]
-    # Standard error of the profiled parameter from the curvature of chi2 (it rises by 1 at
-    # one standard error; scaled like the linear ones when the fit is worse than the noise),
-    # by a central difference in the parameter itself (one-sided at the lower bound).
-    step = max(1e-3 * abs(h_best), 1e-6 * (hi - lo))
-
-    def chi2_at(h):
-        return solved(h).chi2
-
-    if h_best - step >= lo:
-        curv = (chi2_at(h_best - step) - 2 * best.chi2 + chi2_at(h_best + step)) / step**2
-    else:
-        curv = (chi2_at(h_best + 2 * step) - 2 * chi2_at(h_best + step) + best.chi2) / step**2
-    se = math.sqrt(2.0 / curv * max(1.0, best.chi2 / max(best.dof, 1))) if curv > 0 else math.nan
-    return replace(best, profile_std_errors=((cause.profiled, se),))
+    lo, hi = cause.bounds(problem.runs)
+    found = profile(solved, cause, lo, hi, solve_aside=aside)
+    return replace(found.fit, profile_std_errors=((cause.profiled, found.std_error),))
 
 
 def score_cause(problem: _Problem, cause: Cause, base: Fit, weights: np.ndarray, n_causes: int,

@@ -182,23 +182,23 @@ def floor_of(t_diag: float, t_scoring: float, t_score_one: float, t_pair: float,
 
 def coarse_search(fit_runs, repeat: int, grid_points: int = 9, looser: float = 100.0) -> dict:
     """The scoring in one process with a coarser profile search (``grid_points`` trial values,
-    a ``looser`` tolerance: ``identify.diagnose.PROFILE_GRID_POINTS`` and ``PROFILE_XATOL`` set
+    a ``looser`` tolerance: ``identify.causes.PROFILE_GRID_POINTS`` and ``PROFILE_XATOL`` set
     for it, then restored), best of ``repeat``; and the largest relative moves of the final
     model's parameters (the profiled ones included) against the search as it is."""
-    from jointrig.identify import diagnose as D
+    from jointrig.identify import causes as C
 
     def parameters(d):
         f = d.extended
         return {**dict(zip(f.names, map(float, f.values))), **f.effect_parameters()}
 
     as_is = parameters(diagnose(fit_runs, workers=1))
-    saved = D.PROFILE_GRID_POINTS, D.PROFILE_XATOL
-    D.PROFILE_GRID_POINTS, D.PROFILE_XATOL = grid_points, saved[1] * looser
+    saved = C.PROFILE_GRID_POINTS, C.PROFILE_XATOL
+    C.PROFILE_GRID_POINTS, C.PROFILE_XATOL = grid_points, saved[1] * looser
     try:
         found = {}
         t = best_of(repeat, lambda: found.update(d=diagnose(fit_runs, workers=1)))
     finally:
-        D.PROFILE_GRID_POINTS, D.PROFILE_XATOL = saved
+        C.PROFILE_GRID_POINTS, C.PROFILE_XATOL = saved
     moved = parameters(found["d"])
     if set(moved) != set(as_is):
         raise RuntimeError(f"the coarse search adopts other causes: {sorted(moved)} against {sorted(as_is)}")
