@@ -25,7 +25,8 @@ import numpy as np
 
 from .formatting import quantity_of, sig, sig_or, unit_of, with_se
 from .summary import NO_GAIN, adopted_causes, next_steps, parameter_rows, plain_verdict, written_rows
-from jointrig.studies.validate import CHI2_PER_DOF_OK, DIVERGES, INERTIAS_NOT_POSITIVE, NEVER_SETTLES, DiagnosisReport
+from jointrig.identify.verdict import CHI2_PER_DOF_OK
+from jointrig.studies.validate import DIVERGES, INERTIAS_NOT_POSITIVE, NEVER_SETTLES, DiagnosisReport
 
 __all__ = ["report_json", "format_report", "log_diagnosis", "write_html", "write_outputs"]
 

@@ -25,8 +25,9 @@ from jointrig.vocab.plant import drive_of_record
 
 from jointrig.rig.chain import ChainRig, simulate_chain
 
-from .validate import (CHI2_PER_DOF_OK, GAIN_OK, HELDOUT_EXTENDED_OK, HELDOUT_OK, MIN_PERIODS_TO_SPLIT,
-                       MIN_RUNS_TO_HOLD_OUT, Verdict, generalisation_kind, holdout_of_another_kind)
+from jointrig.identify.verdict import Verdict, judge
+
+from .validate import MIN_PERIODS_TO_SPLIT, MIN_RUNS_TO_HOLD_OUT, generalisation_kind, holdout_of_another_kind
 from jointrig.vocab.records import RecordError
 from jointrig.rig.simulate import SimulationConfig, SimulationError
 
@@ -157,10 +158,11 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
 # A measured drive train, diagnosed and validated (``jointrig diagnose TRAIN_FILE``)
 
 
-def train_verdict(diagnosis: ChainDiagnosis, validation: Optional[ChainValidation]) -> Verdict:
-    """The verdict of a train's diagnosis by the two-flywheel thresholds (:data:`CHI2_PER_DOF_OK`,
-    :data:`HELDOUT_OK`, :data:`HELDOUT_EXTENDED_OK`, :data:`GAIN_OK`), errors against the noise
-    floor of the held-out twists (pure)."""
+def train_verdict(diagnosis: ChainDiagnosis, validation: Optional[ChainValidation], *,
+                  held_out_periods: bool = False) -> Verdict:
+    """The verdict of a train's diagnosis (:func:`identify.verdict.judge`, the two flywheels' too),
+    errors against the noise floor of the held-out twists (pure); ``held_out_periods``: the held
+    out data are each run's later periods."""
     d, v = diagnosis, validation
     f = d.final if d.steps else d.nominal
     causes = " + ".join(s.label for s in d.steps)
@@ -173,22 +175,12 @@ def train_verdict(diagnosis: ChainDiagnosis, validation: Optional[ChainValidatio
     c2 = f.chi2 / max(f.dof, 1)
     err = v.extended_error if d.steps else v.nominal_error
     ratio = err / v.noise_floor if v.noise_floor > 0 else math.inf
-    bound = HELDOUT_EXTENDED_OK if d.steps else HELDOUT_OK
-    figures = (f"chi2/dof {c2:.3g} (at most {CHI2_PER_DOF_OK:g}), held-out error {ratio:.3g} times the noise floor "
-               f"(at most {bound:g})")
-    fits = c2 <= CHI2_PER_DOF_OK and ratio <= bound
-    if not d.steps:
-        if fits:
-            return Verdict("no_misfit", f"the nominal model explains the data to the noise: {figures}")
-        return Verdict("unexplained", f"no catalogued cause at any joint or bearing is significant, but the nominal "
-                                      f"model does not explain the data: {figures}")
-    if fits and v.gain >= GAIN_OK:
-        gain = (f"held-out gain {v.gain:.3g} (at least {GAIN_OK:g})" if math.isfinite(v.gain) else
-                f"and the nominal model has no gain to compare: {v.note}")
-        return Verdict("explained", f"{causes} {'explains' if len(d.steps) == 1 else 'explain'} the data: {figures}, "
-                                    f"{gain}")
-    return Verdict("unexplained", f"{causes} {'is' if len(d.steps) == 1 else 'are'} significant but do not explain "
-                                  f"the data: {figures}, held-out gain {v.gain:.3g} (at least {GAIN_OK:g} needed)")
+    lost = ""
+    if math.isinf(v.nominal_error):  # the nominal model failed where the extension did not
+        lost = ", ".join(lab for lab, nom, _ in v.per_run if not math.isfinite(nom))
+    gain = v.gain if math.isfinite(v.gain) else math.nan
+    held = "error on the held-out later periods" if held_out_periods else "held-out error"
+    return judge([s.label for s in d.steps], c2, ratio, gain, held=held, nominal_lost=lost)
 
 
 @dataclass(frozen=True)
@@ -303,5 +295,5 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
                                       [settings[i] for i in held])
         if rig.kind == "slide":  # its drive levels are forces
             general = general.replace(" N m", " N")
-    return TrainReport(tuple(run_ids), held, d, v, train_verdict(d, v), general,
+    return TrainReport(tuple(run_ids), held, d, v, train_verdict(d, v, held_out_periods=split), general,
                        tuple(written), str(rig.path) if written else None, tuple(notes), split, rig.kind)

@@ -32,6 +32,7 @@ from jointrig.vocab.plant import Plant, drive_of_record
 from jointrig.vocab.records import SteadyStateRecord
 from jointrig.identify.surface import RestoringSurface, restoring_surface
 from jointrig.identify.causes import NOMINAL, ModelSpec
+from jointrig.identify.verdict import Verdict, judge
 
 from jointrig.parallel import fork_map
 from jointrig.rig.model import RigModel, load_rig
@@ -224,39 +225,6 @@ class RunComparison:
         if not np.all(np.isfinite(sim)):
             return np.full(band + 1, np.nan)
         return np.abs(fourier_coefficients(sim - self.phi_measured_rad, 1, band))
-
-
-#: A model explains the data to the noise when its chi-square per degree of freedom is at most
-#: this (a correct model gives 0.4-1.0: the model-fidelity floor inflates the row variances) ...
-CHI2_PER_DOF_OK = 2.0
-#: (Figures of this block: ``python tests/test_independent_bench.py`` and ``tests/test_open_world.py``.)
-#: ... and the nominal model predicts the held-out runs within this many times the comparison's
-#: noise floor (measured on the independent bench without an effect: 1.7x on the paper's joint,
-#: 2.9x on the lightly damped one; a torque cell's cubic calibration error the nominal model
-#: absorbs into biased parameters: 16.5x; effects outside the catalogue: 50-900x). Until the
-#: rig simulated the identified inertias (2026-11-24: it simulated the file's) the clean runs
-#: gave up to 6.8x and the bound was 20.
-HELDOUT_OK = 8.0
-#: An extended model must predict the held-out runs within this many times the floor (correct
-#: catalogued extensions on the independent bench: 1.3-49x; the largest for free play with an
-#: angle offset on the lightly damped joint, ~30x better than nominal).
-HELDOUT_EXTENDED_OK = 100.0
-#: An extension is confirmed when the held-out error falls at least this much (catalogued
-#: effects on the independent bench: 6.8-311; effects outside the catalogue that a catalogued
-#: cause half fits: 0.3-1.4 on held-out runs of another level; a torque cell's cubic calibration
-#: error held out at the fit's own levels is fitted by quadratic damping with a gain of 7.95, so
-#: the open-world test holds it out at another level).
-GAIN_OK = 3.0
-
-
-@dataclass(frozen=True)
-class Verdict:
-    """``verdict``: "no_misfit" (the nominal model explains the data to the noise), "explained"
-    (an extension of catalogued causes does, confirmed on held-out runs) or "unexplained" (a
-    significant misfit remains that no catalogued cause explains); ``reason`` says why."""
-
-    verdict: str
-    reason: str
 
 
 @dataclass(frozen=True)
@@ -558,31 +526,9 @@ class DiagnosisReport:
                                           f"({why}); nothing is adopted")
         c2 = f.chi2 / max(f.dof, 1)
         ratio = self.validation_rms(which) / floor if floor > 0 else math.inf
-        bound = HELDOUT_OK if not d.steps else HELDOUT_EXTENDED_OK
-        fits = c2 <= CHI2_PER_DOF_OK and ratio <= bound
         held = "held-out error" if self.validation_kind == HELD_OUT_RUNS else "error on the held-out later periods"
-        figures = (f"chi2/dof {c2:.3g} (at most {CHI2_PER_DOF_OK:g}), {held} {ratio:.3g} times the noise floor "
-                   f"(at most {bound:g})")
-        if not d.steps:
-            if fits:
-                return Verdict("no_misfit", f"the nominal model explains the data to the noise: {figures}")
-            return Verdict("unexplained", f"no catalogued cause is significant, but the nominal model does not explain "
-                                          f"the data: {figures}")
-        verb = "explains" if len(d.effects) == 1 else "explain"
-        if fits and self.gain >= GAIN_OK:
-            return Verdict("explained", f"{' + '.join(d.effects)} {verb} the data: {figures}, held-out gain "
-                                        f"{self.gain:.3g} (at least {GAIN_OK:g})")
         lost = [r.run_id for r in self.runs if r.held_out and r.failure("nominal")]
-        if fits and lost:
-            # The nominal model has no steady state where the extension predicts the runs: an
-            # infinite gain, stated in words.
-            return Verdict("explained", f"{' + '.join(d.effects)} {verb} the data: {figures}; the nominal model reaches "
-                                        f"no periodic steady state in held-out run(s) {', '.join(lost)}, the extended "
-                                        f"model does")
-        gain = (f"held-out gain {self.gain:.3g}" if math.isfinite(self.gain) else
-                "no held-out gain (the nominal model has no steady state in a held-out run)")
-        return Verdict("unexplained", f"the best extension ({' + '.join(d.effects)}) fails validation: {figures}, "
-                                      f"{gain} (at least {GAIN_OK:g} needed); nothing is adopted")
+        return judge(d.effects, c2, ratio, self.gain, held=held, nominal_lost=", ".join(lost))
 
     @property
     def adopted(self) -> tuple[str, ...]:
