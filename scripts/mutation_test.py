@@ -10,7 +10,7 @@ would start a fresh interpreter and the whole test file set per mutant, hours fo
 mutants here): arithmetic swaps (+ -, * /, ** *), comparison swaps (< <=, == !=, is / is
 not), numbers +-1, negated conditions, True/False, and/or, break/continue, loops skipped,
 unary minus removed; not on lines that change no observable result (decorators, the
-positional-only ``/``, error-message text, ``# pragma: no mutate``). A random sample of ``--sample`` mutants per module (seeded)
+positional-only ``/`` and the keyword-only ``*``, error-message text, ``# pragma: no mutate``). A random sample of ``--sample`` mutants per module (seeded)
 is run, so the kill rate is an estimate with its binomial standard error; ``--sample 0``
 runs all.
 
@@ -58,6 +58,10 @@ MODULES = {
     "jointrig.measured.formats": ("measured/formats.py", ["tests/test_runs_file.py", "tests/test_bad_input.py"]),
     # the diagnosis's port of scipy's bounded scalar search (its tests hold it to scipy's path)
     "jointrig.identify.scalar": ("identify/scalar.py", ["tests/test_scalar.py"]),
+    # the diagnosis package's shared pieces: the verdict, the catalogue's evidence, profile
+    # search, parsimony and forward selection
+    "jointrig.identify.verdict": ("identify/verdict.py", ["tests/test_verdict_judge.py"]),
+    "jointrig.identify.causes": ("identify/causes.py", ["tests/test_causes.py", "tests/test_verdict_judge.py"]),
 }
 #: tests that exercise other parts of the project and only cost time here
 DESELECT = "not killed_sweep_resumes and not truncated_store_point and not dask"
@@ -82,12 +86,17 @@ OPERATORS = (
 #: continuation lines) and lines marked ``# pragma: no mutate``.
 _SKIP_LINE = re.compile(r"""^\s*(@|raise\b|f?["']|.*#\s*pragma:\s*no mutate)""")
 _SIGNATURE_SLASH = re.compile(r"(^|[(,])\s*/\s*(,|\)|$)")
+#: the bare ``*`` that makes the parameters after it keyword-only: turned into ``/`` it only lets
+#: callers pass them by position as well (every caller names them): no observable change
+_SIGNATURE_STAR = re.compile(r"(^|[(,])\s*\*\s*(,|\)|$)")
 
 
 def _skipped(operator: str, line: str) -> bool:
     if _SKIP_LINE.match(line):
         return True
-    return "_Div_" in operator and bool(_SIGNATURE_SLASH.search(line.split("#")[0]))
+    code = line.split("#")[0]
+    return ("_Div_" in operator and bool(_SIGNATURE_SLASH.search(code))) or (
+        "_Mul_Div" in operator and bool(_SIGNATURE_STAR.search(code)))
 
 
 def enumerate_mutants(module: str) -> list[dict]:

@@ -98,3 +98,162 @@ def test_chi2_survival_is_scipys(dof):
             assert got <= 1e-290
     with pytest.raises(ValueError, match="whole number"):
         chi2_survival(1.0, 0)
+
+
+# ---------------------------------------------------------------------------- one profile search
+
+
+class _Fit:
+    """A stand-in for a diagnosis's fit: what identify.causes.profile reads (chi2, dof)."""
+
+    def __init__(self, chi2: float, dof: int = 100):
+        self.chi2, self.dof = chi2, dof
+
+
+def test_the_profile_search_finds_a_parabolas_minimum_and_its_standard_error():
+    # chi2(h) = 50 + ((h - 0.3) / 0.01)^2 on [0, 1]: minimum at 0.3 (to Brent's tolerance, 1e-6
+    # of the range), standard error where chi2 rises by 1: 0.01 (the fit's chi2/dof 0.5 < 1
+    # leaves it unscaled; the central difference of a parabola is exact to round-off).
+    from jointrig.identify.causes import profile
+
+    cause = by_name("backlash")
+    seen = []
+    found = profile(lambda h: seen.append(h) or _Fit(50.0 + ((h - 0.3) / 0.01) ** 2), cause, 0.0, 1.0)
+    assert found.value == pytest.approx(0.3, abs=2e-6) and found.fit.chi2 == pytest.approx(50.0, abs=1e-6)
+    assert found.std_error == pytest.approx(0.01, rel=1e-4)
+    assert min(seen) == 0.0 and max(seen) == 1.0  # the grid spans the bounds
+
+
+def test_the_profile_search_refines_the_deeper_of_two_basins_even_when_the_grid_misses_it():
+    # Two basins: a broad one at 0.7 (chi2 15) and a narrow deep one at 0.33 (chi2 10), whose
+    # floor the 17-point grid (step 1/16) samples only on its flank (22.25 at 0.3125): the best
+    # grid point sits in the broad basin, the deep one's is the second local minimum. Searching
+    # both finds the deep minimum; searching the best grid point's alone stops at 0.7.
+    from jointrig.identify import causes as C
+    from jointrig.identify.causes import profile
+
+    def chi2(h):
+        return min(15.0 + 200.0 * (h - 0.7) ** 2, 10.0 + ((h - 0.33) / 0.005) ** 2)
+
+    saved = C.PROFILE_BASINS
+    try:
+        C.PROFILE_BASINS = 1
+        assert profile(lambda h: _Fit(chi2(h)), by_name("backlash"), 0.0, 1.0).value == pytest.approx(0.7, abs=1e-5)
+    finally:
+        C.PROFILE_BASINS = saved
+
+    found = profile(lambda h: _Fit(chi2(h)), by_name("backlash"), 0.0, 1.0)
+    assert found.value == pytest.approx(0.33, abs=1e-5) and found.fit.chi2 == pytest.approx(10.0, abs=1e-6)
+
+
+def test_the_profile_search_steps_in_the_log_of_a_log_scale_parameter_and_minimises_the_callers_objective():
+    # An Iwan slip angle is searched in its logarithm: the grid's points are geometric over
+    # [1e-4, 1]; the caller's objective (a penalty on the unphysical side, as the chain's)
+    # decides, chi2 gives the standard error.
+    from jointrig.identify.causes import PROFILE_GRID_POINTS, profile
+
+    cause = by_name("micro_slip")
+    assert cause.log_scale
+    seen = []
+
+    def solve(h):
+        seen.append(h)
+        return _Fit(20.0 + (math.log(h / 0.01) / 0.1) ** 2)
+
+    found = profile(solve, cause, 1e-4, 1.0, objective=lambda f: f.chi2 + (1e6 if f.chi2 > 1e3 else 0.0))
+    assert found.value == pytest.approx(0.01, rel=1e-5)
+    grid = np.array(seen[:PROFILE_GRID_POINTS])
+    assert np.allclose(np.diff(np.log(grid)), math.log(1e4) / (PROFILE_GRID_POINTS - 1))
+    # chi2 = 20 + (ln(h/0.01)/0.1)^2: d2chi2/dh2 at 0.01 is 2/(0.1 * 0.01)^2 (the log's own
+    # curvature vanishes at the minimum): a standard error of 0.1 * 0.01 = 1e-3
+    assert found.std_error == pytest.approx(1e-3, rel=1e-3)
+
+
+def test_the_profile_search_at_its_lower_bound_takes_the_one_sided_curvature():
+    # chi2 = 50 + ((h - 0.3) / 0.01)^2 searched on [0.3, 1]: the minimum sits on the bound, where
+    # the central difference would step outside; the one-sided second difference of a parabola
+    # is exact: the standard error is 0.01 again.
+    from jointrig.identify.causes import profile
+
+    found = profile(lambda h: _Fit(50.0 + ((h - 0.3) / 0.01) ** 2), by_name("backlash"), 0.3, 1.0)
+    assert found.value == pytest.approx(0.3, abs=1e-6) and found.std_error == pytest.approx(0.01, rel=1e-3)
+
+
+def test_the_catalogue_says_what_each_cause_adds():
+    # n_linear: the linear parameters a cause adds to the nominal model (its law terms, or the
+    # two bearings), what a cause's score counts when it cannot be fitted; needs_two_angles
+    # only for the causes on flywheel 2's own angle or drag; the model structure's defaults
+    # are no offset, no delay, no gain error.
+    from jointrig.identify.causes import NOMINAL, ModelSpec
+
+    assert ModelSpec(()) == ModelSpec((), bearings=False, drive_delay_s=0.0, angle_offset_rad=0.0,
+                                      angle2_delay_s=0.0, angle2_gain_error=0.0)
+    for cause in CATALOGUE:
+        ext = cause.extend(NOMINAL, 1e-3 if cause.bounds is not None else 0.0)
+        added = len(ext.terms) - len(NOMINAL.terms) + (2 if ext.bearings else 0)
+        assert cause.n_linear == added, (cause.name, cause.n_linear, added)
+    assert {c.name for c in CATALOGUE if c.needs_two_angles} == {"bearing_friction", "angle_skew", "angle_gain"}
+
+
+class _Avg:
+    """A stand-in for a prepared run's period average: what the causes' bounds read."""
+
+    def __init__(self, amplitude_rad: float, omega_rad_s: float):
+        from jointrig.vocab.records import SteadyStateRecord
+
+        t = np.arange(256) * (2 * math.pi / omega_rad_s) / 256
+        phi = 0.05 + amplitude_rad * np.cos(omega_rad_s * t)  # a mean the bounds must ignore
+        self.average = SteadyStateRecord(omega_rad_s, t, np.zeros_like(t), phi, None)
+
+
+def test_the_causes_search_bounds_follow_the_runs_amplitudes_and_periods():
+    # Two runs: 0.02 rad at 10 rad/s and 0.5 rad at 40 rad/s. Slip angles from 1e-3 of the
+    # smallest amplitude, free play to 0.8 of the largest, a delay to 0.1 of the shortest period,
+    # rates from the largest rate amplitude (0.5 * 40 = 20 rad/s), an encoder's zero within 0.01
+    # rad and 0.1 of the smallest amplitude, a gain error within +-0.2.
+    from jointrig.identify.causes import rate_amplitudes
+
+    runs = [_Avg(0.02, 10.0), _Avg(0.5, 40.0)]
+    assert by_name("hysteresis").bounds(runs) == pytest.approx((1e-3 * 0.02, 0.9 * 0.02), rel=1e-9)
+    assert by_name("backlash").bounds(runs) == pytest.approx((1e-4 * 0.02, 0.8 * 0.5), rel=1e-9)
+    assert by_name("micro_slip").bounds(runs) == pytest.approx((1e-3 * 0.02, 2.0 * 0.5), rel=1e-9)
+    assert by_name("drive_delay").bounds(runs) == pytest.approx((0.0, 0.1 * 2 * math.pi / 40.0), rel=1e-9)
+    assert rate_amplitudes(runs) == pytest.approx([0.2, 20.0], rel=1e-9)
+    assert by_name("stribeck_friction").bounds(runs) == pytest.approx((0.02 * 0.2, 2.0 * 20.0), rel=1e-9)
+    assert by_name("angle_offset").bounds(runs) == pytest.approx((-0.002, 0.002), rel=1e-9)
+    assert by_name("angle_gain").bounds(runs) == (-0.2, 0.2)
+
+
+def test_free_play_opens_the_elastic_terms_only():
+    from jointrig.identify.causes import ModelSpec
+    from jointrig.vocab.law import Viscous
+
+    ext = by_name("backlash").extend(ModelSpec((Viscous(), Power(0), Power(1), Power(3))), 0.01)
+    assert ext.terms == (Viscous(), Power(0), Power(1, 0.01), Power(3, 0.01))
+
+
+class _Score:
+    def __init__(self, effect, delta_chi2, n_params, significant=True):
+        self.effect, self.delta_chi2, self.n_params, self.significant = effect, delta_chi2, n_params, significant
+
+
+def test_a_richer_cause_without_its_own_evidence_goes_right_after_the_simpler_one():
+    # Ranked by BIC: Stribeck (3 parameters, 12 more chi2 than dry friction: below chi2(2)'s 13.8
+    # at alpha 1e-3), another cause, dry friction, a fourth. Stribeck moves to right after dry
+    # friction; the others keep their order. With 20 more, it stays first.
+    from jointrig.identify.causes import parsimonious
+
+    names = lambda out: [s.effect for s in out]  # noqa: E731
+    catalogue = {c.name: c for c in CAUSES}
+    ranked = [_Score("stribeck_friction", 1012.0, 3), _Score("hysteresis", 1005.0, 2),
+              _Score("coulomb_friction", 1000.0, 1), _Score("quadratic_damping", 900.0, 1)]
+    assert names(parsimonious(ranked, catalogue, 100, 1e-3)) == [
+        "hysteresis", "coulomb_friction", "stribeck_friction", "quadratic_damping"]
+    ranked[0] = _Score("stribeck_friction", 1020.0, 3)
+    assert names(parsimonious(ranked, catalogue, 100, 1e-3))[0] == "stribeck_friction"
+    # an insignificant simpler cause does not demote it, nor does one at another place
+    ranked[0], ranked[2] = _Score("stribeck_friction", 1012.0, 3), _Score("coulomb_friction", 1000.0, 1, False)
+    assert names(parsimonious(ranked, catalogue, 100, 1e-3))[0] == "stribeck_friction"
+    ranked[2] = _Score("coulomb_friction", 1000.0, 1)
+    out = parsimonious(ranked, catalogue, 100, 1e-3, place_of=lambda s: 2 if s.effect == "coulomb_friction" else 1)
+    assert names(out)[0] == "stribeck_friction"
