@@ -375,21 +375,21 @@ def log_chain_diagnosis(rec: rr.RecordingStream, diagnosis, validation, n_flywhe
     rec.log("where/candidates", rr.TextDocument(head + "\n".join(lines), media_type=rr.MediaType.MARKDOWN), static=True)
     views = []
     if validation is not None and diagnosis.steps:
+        from jointrig.studies.chain_validate import found_motion
+
         step = diagnosis.steps[0]
-        j = step.place if step.at_joint else min(step.place, n_flywheels - 1)
         for k, (meas, nom, ext) in enumerate(validation.records):
             P, N = meas.n_periods, meas.samples_per_period
-            twist_m = (meas.angles_rad[j - 1] - meas.angles_rad[j]).reshape(P, N).mean(axis=0)
+            what, x = found_motion(meas, step)
             t = rr.TimeColumn("t_s", duration=meas.time_s[:N] - meas.time_s[0])
             base = f"held_out/run{k + 1}"
-            rec.send_columns(f"{base}/measured_rad", indexes=[t], columns=rr.Scalars.columns(scalars=twist_m))
-            for name, sim in (("nominal_rad", nom), ("extended_rad", ext)):
-                tw = sim.angles_rad[j - 1] - sim.angles_rad[j]
+            rec.send_columns(f"{base}/measured", indexes=[t], columns=rr.Scalars.columns(scalars=x.reshape(P, N).mean(axis=0)))
+            for name, sim in (("nominal", nom), ("extended", ext)):
                 ts = rr.TimeColumn("t_s", duration=sim.time_s - sim.time_s[0])
-                rec.send_columns(f"{base}/{name}", indexes=[ts], columns=rr.Scalars.columns(scalars=tw))
+                rec.send_columns(f"{base}/{name}", indexes=[ts], columns=rr.Scalars.columns(scalars=found_motion(sim, step)[1]))
             views.append(rrb.TimeSeriesView(
-                origin=base, name=f"held-out {meas.omega_rad_s:g} rad/s: joint {j} twist [rad], measured (period "
-                                  f"average) vs nominal vs extended (timeline t_s)"))
+                origin=base, name=f"held-out {meas.omega_rad_s:g} rad/s: {what} (SI), measured (period average) vs "
+                                  f"nominal vs extended (timeline t_s)"))
     where = rrb.Horizontal(rrb.TextDocumentView(origin="where/candidates", name="found, and every candidate scored"),
                            rrb.BarChartView(origin="where/best_score_log10",
                                             name="log10(1 + best BIC score) per place: joints 1.., then flywheels 1.."),

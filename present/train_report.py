@@ -37,7 +37,8 @@ def _channel(report: TrainReport, ch: str) -> str:
         return ch.replace("torque", "force").replace("phi", "x")
     return ch
 
-__all__ = ["format_train_report", "train_report_json", "format_chain_lines"]
+__all__ = ["format_train_report", "plain_train_verdict", "train_report_json", "format_chain_lines", "train_figure",
+           "write_train_html"]
 
 
 def _values(fit) -> dict:
@@ -93,6 +94,27 @@ def format_chain_lines(report: TrainReport, n_shown: int = 6) -> list[str]:
     return lines
 
 
+def plain_train_verdict(report: TrainReport) -> str:
+    """The verdict in words, after the parameters of the user's model the data contradict."""
+    v, d, val = report.verdict, report.diagnosis, report.validation
+    nm = _namer(report)
+    wrong = wrong_sentence(compare_written(report.written, report.adopted_fit), nm)
+    held = "later periods of the runs" if report.held_out_periods else "runs it was not fitted on"
+    if v.verdict == "no_misfit":
+        return wrong + "The model's structure explains the data: no cause at any joint or body is missing."
+    if v.verdict == "explained":
+        final = _values(d.final)
+        found = "; ".join(f"{s.label} ({quantity_of(nm(s.magnitude[0]))} {with_se(*final.get(s.magnitude[0], s.magnitude[1:]))}"
+                          f" {unit_of(nm(s.magnitude[0]))})" for s in d.steps)
+        better = (f"{val.gain:.3g} times better than without" if math.isfinite(val.gain) else
+                  "where the model without it reaches no steady state")
+        them = "them" if len(d.steps) > 1 else "it"
+        return (wrong + f"Your model misses {found}. With {them}, simulated in the rig, it predicts the {held} {better} "
+                f"(at {val.extended_error / val.noise_floor:.2g} times the noise floor).")
+    return wrong + ("A significant misfit remains that no catalogued cause at any joint or body explains; the "
+                    "candidates below are ranked by evidence, none is adopted.")
+
+
 def format_train_report(report: TrainReport, *, source: str = "", notes: Sequence[str] = ()) -> str:
     d, v = report.diagnosis, report.verdict
     fit = report.adopted_fit
@@ -102,9 +124,7 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
     lines = [f"VERDICT: {v.verdict.upper().replace('_', ' ')}: {v.reason}"]
     nm = _namer(report)
     written = compare_written(report.written, fit)
-    wrong = wrong_sentence(written, nm)
-    if wrong:
-        lines.append(f"  In words: {wrong.strip()}")
+    lines.append(f"  In words: {plain_train_verdict(report)}")
     if written:
         lines.append(f"  Your model as written ({report.model_path}) against the data (differs: more than 2 standard "
                      f"errors apart):")
@@ -160,3 +180,103 @@ def train_report_json(report: TrainReport, *, source: str = "", notes: Sequence[
             "model": report.model_path, "notes": list(notes) + list(report.notes),
             "units": "SI; parameter names carry their units" + (" (bodies on slides: N, m, kg)" if report.kind == "slide"
                                                                  else "")}
+
+
+def train_figure(report: TrainReport) -> str:
+    """SVG: per held-out run, over one period, what the first cause found acts on (its joint's
+    twist, or the body's position for a law to ground): measured (period average), nominal and
+    extended model in the rig. Empty without a cause or without simulated runs."""
+    from jointrig.studies.chain_validate import found_motion
+
+    from . import svg
+
+    d, v = report.diagnosis, report.validation
+    if not d.steps or v is None or not v.records:
+        return ""
+    step = d.steps[0]
+    unit = "m" if report.kind == "slide" else "rad"
+    panels = []
+    for meas, nom, ext in v.records:
+        P, N = meas.n_periods, meas.samples_per_period
+        what, x = found_motion(meas, step)
+        p = svg.Panel(f"{meas.omega_rad_s:.4g} rad/s: {what}", "t [s]", f"about its mean [{unit}]")
+        t = meas.time_s[:N] - meas.time_s[0]
+        xm = x.reshape(P, N).mean(axis=0)
+        # each about its own mean: the comparison leaves the mean out (a sensor's zero is arbitrary)
+        p.line(t, xm - xm.mean(), color=svg.COLORS["black"], width=2.2, opacity=0.5, label="measured")
+        for name, sim, style in (("nominal", nom, dict(color=svg.COLORS["red"], dash="5 3")),
+                                 ("extended", ext, dict(color=svg.COLORS["blue"]))):
+            xs = found_motion(sim, step)[1]
+            p.line(sim.time_s - sim.time_s[0], xs - xs.mean(), width=1.2, label=name, **style)
+        panels.append(p)
+    panels[0].legend = True
+    return svg.figure(panels, cols=min(3, len(panels)), panel_width=400, panel_height=260,
+                      title=f"held-out data: {step.label}")
+
+
+def write_train_html(path, report: TrainReport, text: str, *, title: str, source: str = "",
+                     notes: Sequence[str] = (), input_sha256: str = ""):
+    """A self-contained HTML page of a train's diagnosis, written atomically: the verdict, your
+    model as written, the causes found, the held-out runs as a figure, the parameters; the
+    candidates, the notes on the data and the console text folded below."""
+    import base64
+    import datetime
+    import html
+    from pathlib import Path
+
+    from jointrig import __version__
+    from jointrig.files import write_atomic
+
+    from .diagnosis_report import _CSS, _row, _table
+
+    d, v = report.diagnosis, report.verdict
+    nm = _namer(report)
+    fit = report.adopted_fit
+    colour = {"no_misfit": "#2e7d32", "explained": "#1565c0", "unexplained": "#c62828"}[v.verdict]
+    stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    provenance = f"jointrig {__version__}, {stamp}" + (f"; input SHA-256 {input_sha256}" if input_sha256 else "")
+    written = compare_written(report.written, fit)
+    parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'>"
+             f"<meta name='viewport' content='width=device-width, initial-scale=1'><title>{html.escape(title)}</title>"
+             f"<style>{_CSS}</style></head><body>",
+             f"<h1>{html.escape(title)}</h1>", f"<p class='prov'>{html.escape(provenance)}</p>",
+             f"<div class='verdict' style='--c:{colour}'><p><b>{html.escape(v.verdict.replace('_', ' ').upper())}"
+             f"</b>: {html.escape(plain_train_verdict(report))}</p><p class='why'>{html.escape(v.reason)}</p></div>"]
+    final = _values(d.final)
+    if d.steps:
+        parts.append("<h2>What the data show</h2>")
+        parts.append(_table(["cause", "size", "unit"], [
+            _row([s.label, (with_se(*final.get(s.magnitude[0], s.magnitude[1:])), "num"), unit_of(nm(s.magnitude[0]))])
+            for s in d.steps]))
+    if written:
+        parts.append("<h2>Your model as written</h2>")
+        parts.append(_table(["parameter", "written", "the data", "unit", ""], [
+            _row([nm(w.name), (f"{w.written:.6g}", "num"), (with_se(w.data, w.std_error), "num"), unit_of(nm(w.name)),
+                  ("differs: " + w.change) if w.differs else "agrees"], "adopted" if w.differs else "")
+            for w in written]))
+    image = train_figure(report)
+    if image:
+        data = base64.b64encode(image.encode("utf-8")).decode("ascii")
+        caption = (f"Held-out data ({report.generalisation}): measured, and simulated in the rig with the nominal and "
+                   f"the extended model")
+        parts.append(f"<figure><figcaption>{html.escape(caption)}</figcaption><img alt='{html.escape(caption)}' "
+                     f"src='data:image/svg+xml;base64,{data}'></figure>")
+    parts.append(f"<h2>{'Extended' if report.adopted else 'Nominal'} model</h2>")
+    parts.append(_table(["parameter", "value ± standard error", "unit"], [
+        _row([nm(n), (with_se(x, se), "num"), unit_of(nm(n))]) for n, (x, se) in _values(fit).items()]))
+    parts.append("<details class='section'><summary>Every candidate, scored on the nominal model</summary>")
+    parts.append(_table(["candidate", "BIC score", "p", "size", "note"], [
+        _row([s.label, (f"{s.score:.1f}", "num"), (f"{s.p_value:.2g}", "num"),
+              f"{quantity_of(nm(s.magnitude[0]))} = {with_se(s.magnitude[1], s.magnitude[2])} {unit_of(nm(s.magnitude[0]))}",
+              _words(report, s.note)]) for s in d.first_round]))
+    parts.append("</details>")
+    all_notes = list(notes) + list(report.notes)
+    if all_notes:
+        parts.append(f"<details class='section'><summary>Notes on the data ({len(all_notes)})</summary><ul>"
+                     + "".join(f"<li class='note'>{html.escape(n)}</li>" for n in all_notes) + "</ul></details>")
+    parts.append(f"<details><summary>The same report as console text</summary><pre>{html.escape(text)}</pre></details>")
+    parts.append("</body></html>")
+    page = "".join(parts)
+    path = Path(path)
+    write_atomic(path, lambda tmp: tmp.write_text(page, encoding="utf-8"))
+    return path

@@ -31,7 +31,7 @@ from .validate import MIN_PERIODS_TO_SPLIT, MIN_RUNS_TO_HOLD_OUT, generalisation
 from jointrig.vocab.records import RecordError
 from jointrig.rig.simulate import SimulationConfig, SimulationError
 
-__all__ = ["ChainValidation", "validate_chain", "twist_error", "TrainReport", "train_verdict", "run_train_diagnosis",
+__all__ = ["ChainValidation", "validate_chain", "twist_error", "found_motion", "TrainReport", "train_verdict", "run_train_diagnosis",
            "written_of"]
 
 
@@ -68,6 +68,18 @@ class ChainValidation:
         return {"nominal_error": self.nominal_error, "extended_error": self.extended_error, "gain": self.gain,
                 "noise_floor": self.noise_floor, "note": self.note,
                 "per_run": [{"run": lab, "nominal_error": a, "extended_error": b} for lab, a, b in self.per_run]}
+
+
+def found_motion(rec: ChainRecord, step) -> tuple[str, np.ndarray]:
+    """What to show of a record for a found cause (``step``: a chain candidate's score): the twist
+    of its joint, or of a body's nearest joint for a drag; a single body's position, or the body's
+    own for a law to ground. Returns (label, samples)."""
+    N = rec.n_flywheels
+    if N == 1 or step.ground:
+        i = step.place
+        return f"body {i} position", rec.angles_rad[i - 1]
+    j = step.place if step.at_joint else min(step.place, N - 1)
+    return f"joint {j} twist", rec.angles_rad[j - 1] - rec.angles_rad[j]
 
 
 def _motions(rec: ChainRecord) -> list[np.ndarray]:

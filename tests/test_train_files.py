@@ -43,7 +43,8 @@ def healthy_daq(tmp_path_factory):
 
 def _diagnose(tmp_path, capsys, *args):
     out = tmp_path / "d.json"
-    code = cli(["diagnose", *map(str, args), "--columns", "time=t", "--json", str(out), "-q"])
+    page = tmp_path / "d.html"
+    code = cli(["diagnose", *map(str, args), "--columns", "time=t", "--json", str(out), "--report", str(page), "-q"])
     text = capsys.readouterr().out
     return code, text, (json.loads(out.read_text()) if out.exists() else None)
 
@@ -68,6 +69,10 @@ def test_the_worn_coupling_of_a_measured_pump_train_is_named_with_its_free_play(
         assert abs(v - 4e-4) < 3 * se, (v, se)
     assert j["validation"]["gain"] >= 3
     assert "a train of 4 bodies" in text and "FOUND: backlash at joint 2" in text
+    # the HTML report opens on the verdict in words and shows the held-out runs' coupling twist
+    page = (tmp_path / "d.html").read_text()
+    assert "<b>EXPLAINED</b>: Your model misses backlash at joint 2" in page and "With them, simulated in the rig" in page
+    assert page.count("data:image/svg+xml;base64,") == 1 and "What the data show" in page
 
 
 @pytest.mark.slow
@@ -93,6 +98,9 @@ def test_a_wrong_stiffness_in_the_users_model_is_named_with_its_size(tmp_path, c
     for name in ("J1_kgm2", "J2_kgm2", "J3_kgm2", "J4_kgm2", "joint1_k_Nm_per_rad", "joint3_k_Nm_per_rad"):
         assert not rows[name]["differs"], (name, rows[name])
     assert "joint2_k_Nm_per_rad" in text and "DIFFERS, 17% lower" in text
+    page = (tmp_path / "d.html").read_text()
+    assert "<b>NO MISFIT</b>: As written, your model has joint2_k = 30000 N m/rad" in page
+    assert "differs: 17% lower" in page and "data:image/svg+xml" not in page  # no cause: nothing to draw
 
 
 def test_the_rigs_own_train_data_are_diagnosed_against_the_users_model(tmp_path, capsys):

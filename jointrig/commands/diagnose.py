@@ -263,10 +263,10 @@ def _train(args: argparse.Namespace, loaded, model, writer) -> int:
         if model is not None and (model.n_flywheels, model.kind) != (N, loaded.kind):
             raise BadArgument(f"--model {args.model} has {model.n_flywheels} bodies on {model.kind}s, {args.data} "
                               f"{N} on {loaded.kind}s")
-        for option in ("card", "card_png", "card_only", "report"):
+        for option in ("card", "card_png", "card_only"):
             if getattr(args, option):
                 raise BadArgument(f"--{option.replace('_', '-')}: not yet made for a drive train's diagnosis (the "
-                                  f"text, --json, --rrd and --mjcf are); leave it out")
+                                  f"text, --json, --rrd, --report and --mjcf are); leave it out")
         if args.torque_on != "flywheel1":
             raise BadArgument("--torque-on: a drive train's file names the driven bodies by its torque<i> columns; "
                               "leave it out")
@@ -305,7 +305,14 @@ def _train(args: argparse.Namespace, loaded, model, writer) -> int:
     except (SimulationError, ValueError, np.linalg.LinAlgError) as err:
         print(f"diagnose: the identification failed: {err}", file=sys.stderr)
         return 1
-    print(format_train_report(report, source=str(args.data), notes=loaded.notes))
+    text = format_train_report(report, source=str(args.data), notes=loaded.notes)
+    print(text)
+    if args.report:
+        from jointrig.present.train_report import write_train_html
+
+        write_train_html(args.report, report, text, title=f"jointrig diagnosis of {args.data.name}",
+                         source=str(args.data), notes=loaded.notes, input_sha256=loaded.sha256)
+        log.info("wrote %s", args.report)
     if args.json:
         write_json_atomic(args.json, train_report_json(report, source=str(args.data), notes=loaded.notes,
                                                        input_sha256=loaded.sha256))
