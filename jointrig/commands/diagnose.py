@@ -180,11 +180,9 @@ def _main(args: argparse.Namespace, writer) -> int:
                                torque_share=args.torque_share, alpha=args.alpha, fidelity=args.fidelity,
                                progress=lambda msg: log.info("%s", msg), model=model)
     except (RunsFileError, RecordError, BadArgument) as err:
-        print(f"diagnose: error: {err}", file=sys.stderr)
-        return 2
+        return _said(err, 2)
     except (SimulationError, ValueError, np.linalg.LinAlgError) as err:
-        print(f"diagnose: the identification failed: {err}", file=sys.stderr)
-        return 1
+        return _said(err, 1)
     text = format_report(report, source=str(args.data), notes=loaded.notes)
     if not args.card_only:
         print(text)
@@ -219,6 +217,12 @@ def _main(args: argparse.Namespace, writer) -> int:
         write_mjcf(args, loaded, report)
     log.info("done in %.1f s", time.perf_counter() - t0)
     return 0
+
+
+def _said(err: Exception, status: int) -> int:
+    """The message of a diagnosis that stops: bad input (exit 2) or a failed identification (1)."""
+    print(f"diagnose: {'error' if status == 2 else 'the identification failed'}: {err}", file=sys.stderr)
+    return status
 
 
 def held_out_runs(args: argparse.Namespace, ids: list) -> "list[int] | None":
@@ -300,11 +304,9 @@ def _train(args: argparse.Namespace, loaded, model, writer) -> int:
                                          band=args.band, alpha=args.alpha, fidelity=args.fidelity,
                                          progress=lambda msg: log.info("%s", msg))
     except (RunsFileError, RecordError, BadArgument, ChainIdentifiabilityError) as err:
-        print(f"diagnose: error: {err}", file=sys.stderr)
-        return 2
+        return _said(err, 2)
     except (SimulationError, ValueError, np.linalg.LinAlgError) as err:
-        print(f"diagnose: the identification failed: {err}", file=sys.stderr)
-        return 1
+        return _said(err, 1)
     text = format_train_report(report, source=str(args.data), notes=loaded.notes)
     print(text)
     if args.report:
