@@ -25,7 +25,7 @@ from jointrig.vocab.plant import drive_of_record
 
 from jointrig.rig.chain import ChainRig, simulate_chain
 
-from jointrig.identify.verdict import Verdict, judge
+from jointrig.identify.verdict import RIG_FIDELITY, Verdict, judge
 
 from .validate import MIN_PERIODS_TO_SPLIT, MIN_RUNS_TO_HOLD_OUT, generalisation_kind, holdout_of_another_kind
 from jointrig.vocab.records import RecordError
@@ -43,7 +43,8 @@ class ChainValidation:
       nominal_error, extended_error: relative RMS error of the joint twists' harmonics (NaN: the
         model reaches no steady state under a held-out run's drive; the nominal's is infinite
         where the extended model's is not).
-      noise_floor: the error the noise alone gives (an exact model's).
+      noise_floor: the error an exact model would have: the noise's, and the rig's own fidelity
+        (:data:`identify.verdict.RIG_FIDELITY`) in quadrature.
       per_run: ``(label, nominal error, extended error)`` per held-out run.
       note: what kept a model from being simulated, if anything.
     """
@@ -162,7 +163,8 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
         error["nominal"] = math.inf  # the extension predicts the runs the nominal model cannot reach
     if not diagnosis.steps and "nominal" in failed:
         error["extended"] = math.nan
-    return ChainValidation(error["nominal"], error["extended"], math.sqrt(max(noise, 0.0) / den), tuple(per_run),
+    floor = math.sqrt(max(noise, 0.0) / den + RIG_FIDELITY ** 2)  # the rig's own fidelity beside the noise
+    return ChainValidation(error["nominal"], error["extended"], floor, tuple(per_run),
                            note="; ".join(failed.values()), records=tuple(records))
 
 

@@ -32,7 +32,7 @@ from jointrig.vocab.plant import Plant, drive_of_record
 from jointrig.vocab.records import SteadyStateRecord
 from jointrig.identify.surface import RestoringSurface, restoring_surface
 from jointrig.identify.causes import NOMINAL, ModelSpec
-from jointrig.identify.verdict import Verdict, judge
+from jointrig.identify.verdict import RIG_FIDELITY, Verdict, judge
 
 from jointrig.parallel import fork_map
 from jointrig.rig.model import RigModel, load_rig
@@ -802,7 +802,9 @@ def run_diagnosis(records: Sequence[SteadyStateRecord], *, run_ids: Optional[Seq
         h = run.kept["phi"][run.kept["phi"] > 0].astype(int)
         if h.size == 0:
             h = np.array([1])
-        floor = float(np.sqrt(np.sum(run.phi_noise_var[h] * np.where(h == 0, 1.0, 0.5))))
+        weight = np.where(h == 0, 1.0, 0.5)
+        motion = np.abs(fourier_coefficients(avg.phi_rad, 1, int(h.max()))[h]) ** 2
+        floor = float(np.sqrt(np.sum(run.phi_noise_var[h] * weight) + RIG_FIDELITY ** 2 * np.sum(motion * weight)))
         comparisons.append(RunComparison(
             run_id=rid, omega_rad_s=avg.omega_rad_s,
             amplitude_Nm=settings[i][1], held_out=i in holdout,
