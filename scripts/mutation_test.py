@@ -54,7 +54,8 @@ MODULES = {
     "jointrig.identify.eiv": ("identify/eiv.py", ["tests/test_eiv.py", "tests/test_identify_analytic.py",
                                                  "tests/test_hat.py"]),
     "jointrig.identify.periods": ("identify/periods.py", ["tests/test_runs_file.py", "tests/test_bad_input.py"]),
-    "jointrig.measured.runs": ("measured/runs.py", ["tests/test_runs_file.py", "tests/test_bad_input.py"]),
+    "jointrig.measured.runs": ("measured/runs.py", ["tests/test_runs_file.py", "tests/test_train_loader.py",
+                                                   "tests/test_bad_input.py"]),
     "jointrig.measured.formats": ("measured/formats.py", ["tests/test_runs_file.py", "tests/test_bad_input.py"]),
     # the diagnosis's port of scipy's bounded scalar search (its tests hold it to scipy's path)
     "jointrig.identify.scalar": ("identify/scalar.py", ["tests/test_scalar.py"]),

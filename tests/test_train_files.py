@@ -4,20 +4,18 @@ it, the validation in the rig, the user's model as written (issue 36).
 The measured files come from the independent chain bench (tests/bench_chain_sim.py: scipy,
 event-driven free play; nothing of jointrig), written the way a lab's DAQ writes them
 (:func:`bench_chain_sim.daq_file`: a fixed 20 kHz rate, time in ms, angles in mrad, encoders
-never zeroed, one torque cell per motor), or by hand for the loader's refusals.
+never zeroed, one torque cell per motor), and from the independent carriage
+(tests/bench_slide_sim.py). The loader's own cases are in tests/test_train_loader.py.
 """
 
 from __future__ import annotations
 
 import json
-import math
 
-import numpy as np
 import pytest
 
 from bench_chain_sim import PUMP_TRAIN, daq_file, with_effect
 from jointrig.cli import main as cli
-from jointrig.measured.runs import RunsFileError, read_runs
 
 #: The pump train's sweep and two held-out runs of other levels (omega rad/s, N m, driven body):
 #: studies.chain_sweep.CHAIN_PLAN + HELD_OUT, written out again.
@@ -127,99 +125,6 @@ def test_the_rigs_own_train_data_are_diagnosed_against_the_users_model(tmp_path,
     back = load_chain(tmp_path / "mine.xml")  # the written model is a chain the rig reads back
     assert back.plant.laws[1].as_dict().get("k_Nm_per_rad") == pytest.approx(2.5e4, rel=0.01)
     assert back.driven == (1, 4)
-
-
-def _train_csv(path, header, rows):
-    path.write_text(",".join(header) + "\n" + "\n".join(",".join(f"{v:.9g}" for v in r) for r in rows) + "\n")
-    return path
-
-
-def _rows(n=400, runs=1, torque_cols=1, angles=3, scale=1.0, zero=None):
-    t = np.arange(n) * 1e-3
-    out = []
-    for r in range(runs):
-        for k in range(n):
-            th = 2 * math.pi * 10 * t[k]
-            row = [r, t[k]] + [50 * math.cos(th)] * torque_cols
-            row += [scale * (0.01 * (a + 1) * math.cos(th + 0.3 * a) + (zero[r] if zero else 0.0) * a)
-                    for a in range(angles)]
-            out.append(row)
-    return out
-
-
-@pytest.mark.parametrize("header,match", [
-    (["run", "time", "torque1", "phi1", "phi3", "phi4"], "missing phi2"),
-    (["run", "time", "torque5", "phi1", "phi2", "phi3"], r"\['torque5'\] act on bodies with no position column"),
-    (["run", "time", "torque", "torque1", "phi1", "phi2", "phi3"], "both 'torque' and 'torque1'"),
-    (["run", "t", "torque1", "phi1", "phi2", "phi3"], "missing column.*time.*a drive train's file"),
-    (["run", "time", "force1", "x1", "phi2"], r"columns \['phi2'\] \(bodies on hinges.*\['force1', 'x1'\] \(bodies "
-                                              r"on slides"),
-    (["run", "time", "force", "x", "x2"], "both 'x' and numbered positions"),
-])
-def test_a_train_file_missing_what_a_joint_needs_is_refused_naming_it(tmp_path, header, match):
-    n_t = sum(h.startswith(("torque", "force")) for h in header)
-    n_a = sum(h.startswith(("phi", "x")) for h in header)
-    path = _train_csv(tmp_path / "t.csv", header, _rows(torque_cols=n_t, angles=n_a))
-    with pytest.raises(RunsFileError, match=match):
-        read_runs(path)
-
-
-def test_a_train_whose_drive_columns_are_all_zero_is_refused(tmp_path):
-    rows = [r[:2] + [0.0] + r[3:] for r in _rows()]
-    with pytest.raises(RunsFileError, match="run 0: every drive column .* is zero"):
-        read_runs(_train_csv(tmp_path / "z.csv", ["run", "time", "torque1", "phi1", "phi2", "phi3"], rows))
-
-
-def test_a_trains_angles_in_degrees_without_a_unit_are_refused(tmp_path):
-    path = _train_csv(tmp_path / "d.csv", ["run", "time", "torque1", "phi1", "phi2", "phi3"], _rows(scale=400.0))
-    with pytest.raises(RunsFileError, match="a joint's twist swings by .* are the angles in degrees"):
-        read_runs(path)
-
-
-def test_a_trains_encoders_zeroed_per_run_are_refused_or_centred(tmp_path):
-    # Each run's encoders zeroed at its start: joint 1's mean twist jumps by 0.05 rad between
-    # runs whose twist swings by 0.01-0.02 rad. Refused, naming the joint; --zero-per-run centres.
-    rows = _rows(runs=3, zero=[0.0, 0.05, -0.04])
-    path = _train_csv(tmp_path / "zr.csv", ["run", "time", "torque1", "phi1", "phi2", "phi3"], rows)
-    with pytest.raises(RunsFileError, match="joint 1's mean twist differs between runs"):
-        read_runs(path)
-    loaded = read_runs(path, zero_per_run=True)
-    assert loaded.is_train and all(abs(a.mean()) < 1e-12 for r in loaded.records for a in r.angles_rad)
-
-
-def test_a_folder_that_mixes_a_train_and_two_flywheels_is_refused(tmp_path):
-    folder = tmp_path / "runs"
-    folder.mkdir()
-    _train_csv(folder / "a.csv", ["time", "torque1", "phi1", "phi2", "phi3"], [r[1:] for r in _rows()])
-    _train_csv(folder / "b.csv", ["time", "torque", "phi1", "phi2"], [r[1:] for r in _rows(angles=2)])
-    with pytest.raises(RunsFileError, match="b.csv.*torque, phi1, phi2.*the files before it phi1..phiN"):
-        read_runs(folder)
-
-
-def test_a_train_is_read_in_its_units_with_idle_motors_and_written_back(tmp_path):
-    # mrad and ms in the header; the second motor idle in the first run (its cell reads 0 there):
-    # that run has one drive. The writer writes the same columns back, and they read the same
-    # (to the writer's 17 significant digits).
-    from jointrig.measured.runs import write_runs
-
-    rows = []
-    for run, drive2 in ((0, 0.0), (1, 20.0)):
-        for k in range(400):
-            th = 2 * math.pi * 10 * k * 1e-3
-            rows.append([run, k * 1.0, 50 * math.cos(th), drive2 * math.sin(th), 10 * math.cos(th),
-                         5 * math.cos(th + 0.2), 2 * math.cos(th + 0.5)])
-    path = _train_csv(tmp_path / "u.csv", ["run", "time [ms]", "torque1 [N m]", "torque2 [N m]", "phi1 [mrad]",
-                                           "phi2 [mrad]", "phi3 [mrad]"], rows)
-    loaded = read_runs(path)
-    first, second = loaded.records
-    assert first.driven == (True, False, False) and second.driven == (True, True, False)
-    assert first.omega_rad_s == pytest.approx(2 * math.pi * 10, rel=1e-9)
-    assert np.max(np.abs(first.angles_rad[0])) == pytest.approx(0.01, rel=1e-6)
-    back = read_runs(write_runs(tmp_path / "back.csv", loaded.records))
-    for a, b in zip(loaded.records, back.records):
-        assert a.driven == b.driven
-        for x, y in zip(a.angles_rad, b.angles_rad):
-            assert np.allclose(x, y, rtol=0, atol=1e-15)
 
 
 def test_a_train_written_as_mjcf_reads_back_to_the_same_plant(tmp_path):

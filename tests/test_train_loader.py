@@ -1,0 +1,203 @@
+"""A drive train's or a single axis's file through the loader (measured/runs.py), on hand-written
+files: what it reads (units, idle motors, slides), what it refuses naming the joint or column,
+and what it writes back. Fast: the loader's mutation tests run these (scripts/mutation_test.py).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from jointrig.measured.runs import RunsFileError, read_runs, write_runs
+
+
+def _train_csv(path, header, rows):
+    path.write_text(",".join(header) + "\n" + "\n".join(",".join(f"{v:.9g}" for v in r) for r in rows) + "\n")
+    return path
+
+
+def _rows(n=400, runs=1, torque_cols=1, angles=3, scale=1.0, zero=None):
+    t = np.arange(n) * 1e-3
+    out = []
+    for r in range(runs):
+        for k in range(n):
+            th = 2 * math.pi * 10 * t[k]
+            row = [r, t[k]] + [50 * math.cos(th)] * torque_cols
+            row += [scale * (0.01 * (a + 1) * math.cos(th + 0.3 * a) + (zero[r] if zero else 0.0) * a)
+                    for a in range(angles)]
+            out.append(row)
+    return out
+
+
+@pytest.mark.parametrize("header,match", [
+    (["run", "time", "torque1", "phi1", "phi3", "phi4"], "missing phi2"),
+    (["run", "time", "torque5", "phi1", "phi2", "phi3"], r"\['torque5'\] act on bodies with no position column"),
+    (["run", "time", "torque", "torque1", "phi1", "phi2", "phi3"], "both 'torque' and 'torque1'"),
+    (["run", "t", "torque1", "phi1", "phi2", "phi3"], "missing column.*time.*a drive train's file"),
+    (["run", "time", "force1", "x1", "phi2"], r"columns \['phi2'\] \(bodies on hinges.*\['force1', 'x1'\] \(bodies "
+                                              r"on slides"),
+    (["run", "time", "force", "x", "x2"], "both 'x' and numbered positions"),
+])
+def test_a_train_file_missing_what_a_joint_needs_is_refused_naming_it(tmp_path, header, match):
+    n_t = sum(h.startswith(("torque", "force")) for h in header)
+    n_a = sum(h.startswith(("phi", "x")) for h in header)
+    path = _train_csv(tmp_path / "t.csv", header, _rows(torque_cols=n_t, angles=n_a))
+    with pytest.raises(RunsFileError, match=match):
+        read_runs(path)
+
+
+def test_a_train_whose_drive_columns_are_all_zero_is_refused(tmp_path):
+    rows = [r[:2] + [0.0] + r[3:] for r in _rows()]
+    with pytest.raises(RunsFileError, match="run 0: every drive column .* is zero"):
+        read_runs(_train_csv(tmp_path / "z.csv", ["run", "time", "torque1", "phi1", "phi2", "phi3"], rows))
+
+
+def test_a_trains_angles_in_degrees_without_a_unit_are_refused(tmp_path):
+    path = _train_csv(tmp_path / "d.csv", ["run", "time", "torque1", "phi1", "phi2", "phi3"], _rows(scale=400.0))
+    # joint 2's twist, |8 e^(0.3i) - 12 e^(0.6i)| = 4.96 "rad", the larger of the two
+    with pytest.raises(RunsFileError, match=r"a joint's twist swings by \+-4\.9\d rad.* are the angles in degrees"):
+        read_runs(path)
+
+
+def test_a_trains_encoders_zeroed_per_run_are_refused_or_centred(tmp_path):
+    # Each run's encoders zeroed at its start: joint 1's mean twist jumps by 0.05 rad between
+    # runs whose twist swings by 0.01-0.02 rad. Refused, naming the joint; --zero-per-run centres.
+    rows = _rows(runs=3, zero=[0.0, 0.05, -0.04])
+    path = _train_csv(tmp_path / "zr.csv", ["run", "time", "torque1", "phi1", "phi2", "phi3"], rows)
+    with pytest.raises(RunsFileError, match=r"joint 1's mean twist differs between runs by 0\.09 rad \(run 1: -0\.05 rad, run 2: 0\.04"):
+        read_runs(path)
+    loaded = read_runs(path, zero_per_run=True)
+    assert loaded.is_train and all(abs(a.mean()) < 1e-12 for r in loaded.records for a in r.angles_rad)
+
+
+def test_a_folder_that_mixes_a_train_and_two_flywheels_is_refused(tmp_path):
+    folder = tmp_path / "runs"
+    folder.mkdir()
+    _train_csv(folder / "a.csv", ["time", "torque1", "phi1", "phi2", "phi3"], [r[1:] for r in _rows()])
+    _train_csv(folder / "b.csv", ["time", "torque", "phi1", "phi2"], [r[1:] for r in _rows(angles=2)])
+    with pytest.raises(RunsFileError, match="b.csv.*torque, phi1, phi2.*the files before it phi1..phiN"):
+        read_runs(folder)
+
+
+def test_a_train_is_read_in_its_units_with_idle_motors_and_written_back(tmp_path):
+    # mrad and ms in the header; the second motor idle in the first run (its cell reads 0 there):
+    # that run has one drive. The writer writes the same columns back, and they read the same
+    # (to the writer's 17 significant digits).
+    rows = []
+    for run, drive2 in ((0, 0.0), (1, 20.0)):
+        for k in range(400):
+            th = 2 * math.pi * 10 * k * 1e-3
+            rows.append([run, k * 1.0, 50 * math.cos(th), drive2 * math.sin(th), 10 * math.cos(th),
+                         5 * math.cos(th + 0.2), 2 * math.cos(th + 0.5)])
+    path = _train_csv(tmp_path / "u.csv", ["run", "time [ms]", "torque1 [N m]", "torque2 [N m]", "phi1 [mrad]",
+                                           "phi2 [mrad]", "phi3 [mrad]"], rows)
+    loaded = read_runs(path)
+    first, second = loaded.records
+    assert first.driven == (True, False, False) and second.driven == (True, True, False)
+    assert first.omega_rad_s == pytest.approx(2 * math.pi * 10, rel=1e-9)
+    assert first.drive_amplitude_Nm == pytest.approx(50.0, rel=1e-3)  # the largest drive's half swing
+    assert np.max(np.abs(first.angles_rad[0])) == pytest.approx(0.01, rel=1e-6)
+    back = read_runs(write_runs(tmp_path / "back.csv", loaded.records))
+    for a, b in zip(loaded.records, back.records):
+        assert a.driven == b.driven
+        for x, y in zip(a.angles_rad, b.angles_rad):
+            assert np.allclose(x, y, rtol=0, atol=1e-15)
+
+
+
+
+def test_every_gap_in_a_trains_positions_is_named(tmp_path):
+    path = _train_csv(tmp_path / "g.csv", ["run", "time", "torque1", "phi1", "phi2", "phi4"], _rows(angles=3))
+    with pytest.raises(RunsFileError, match="missing phi3"):
+        read_runs(path)
+
+
+def test_a_slides_file_is_read_in_m_and_N(tmp_path):
+    # One body on a slide: time in ms, force in kN, position in mm; the records hold SI (m, N),
+    # the layout says "slide", and the written file reads back the same.
+    rows = [[k * 1.0, 0.05 * math.cos(2 * math.pi * 10 * k * 1e-3), 351.2 + 20 * math.cos(2 * math.pi * 10 * k * 1e-3 - 0.3)]
+            for k in range(400)]
+    path = _train_csv(tmp_path / "axis.csv", ["time [ms]", "force [kN]", "x [mm]"], rows)
+    loaded = read_runs(path)
+    assert loaded.is_train and loaded.kind == "slide" and loaded.records[0].n_flywheels == 1
+    r = loaded.records[0]
+    assert np.max(np.abs(r.torques_Nm[0])) == pytest.approx(50.0, rel=1e-6)
+    assert np.ptp(r.angles_rad[0]) / 2 == pytest.approx(0.020, rel=1e-3) and r.angles_rad[0].mean() == pytest.approx(0.3512)
+    assert not any("phi" in n or "torque" in n for n in loaded.notes), loaded.notes  # the file's names
+
+
+@pytest.mark.parametrize("column,match", [
+    ("twist", r"the twist phi2 - phi3 of joint 2 drifts"),
+    ("torque", r"column 'torque1' drifts"),
+])
+def test_a_trains_drifting_twist_or_torque_is_refused_naming_it(tmp_path, column, match):
+    # A slipping encoder on flywheel 3 (its angle ramps by 20% of the swing over the record), or
+    # a torque amplifier's drift, in a steady-state record: refused, naming the joint or column.
+    rows = _rows(n=600)
+    for r in rows:
+        ramp = r[1] / 0.6  # 0..1 over the record
+        if column == "twist":
+            r[5] += 0.2 * 0.03 * ramp
+        else:
+            r[2] += 10.0 * ramp
+    path = _train_csv(tmp_path / "d.csv", ["run", "time", "torque1", "phi1", "phi2", "phi3"], rows)
+    with pytest.raises(RunsFileError, match=match):
+        read_runs(path)
+
+
+def test_a_trains_common_rotation_is_removed_with_a_note(tmp_path):
+    # The whole train turning at 2 rad/s on top of its vibration loads no joint: removed, said.
+    rows = _rows(n=600)
+    for r in rows:
+        for k in (3, 4, 5):
+            r[k] += 2.0 * r[1]
+    loaded = read_runs(_train_csv(tmp_path / "c.csv", ["run", "time", "torque1", "phi1", "phi2", "phi3"], rows))
+    a = loaded.records[0].angles_rad
+    assert any("moves steadily at 2 rad/s" in n for n in loaded.notes), loaded.notes
+    # what is left is the vibration's own least-squares slope over 6 periods (1.7e-4 rad/s)
+    assert abs(np.polyfit(loaded.records[0].time_s, a[0], 1)[0]) < 1e-3
+
+
+def test_a_trains_angles_in_degrees_with_their_unit_are_read(tmp_path):
+    # 400 "units" of swing refused without a unit (above) are read when the header says deg.
+    path = _train_csv(tmp_path / "deg.csv", ["run", "time", "torque1", "phi1 [deg]", "phi2 [deg]", "phi3 [deg]"],
+                      _rows(scale=400.0))
+    r = read_runs(path).records[0]
+    assert np.ptp(r.angles_rad[0]) / 2 == pytest.approx(math.radians(400 * 0.01), rel=1e-3)
+
+
+def test_a_run_of_two_whole_periods_is_enough_to_read(tmp_path):
+    rows = _rows(n=200)  # 10 Hz at 1 kHz: exactly 2 periods
+    assert read_runs(_train_csv(tmp_path / "p.csv", ["run", "time", "torque1", "phi1", "phi2", "phi3"], rows)
+                     ).records[0].n_periods == 2
+
+
+def test_the_loaders_edges(tmp_path):
+    # The shortest record read: 16 samples, 2 periods of 8. A value of exactly 1e12 in SI (the
+    # bound) is read, one above it refused. A mapping's value may hold '=' itself.
+    from jointrig.measured.runs import MAX_ABS_VALUE, parse_mapping
+
+    t = np.arange(16) * 0.125
+    rows = [[0, t[k], 10 * math.cos(2 * math.pi * t[k]), 0.01 * math.cos(2 * math.pi * t[k] + 0.2),
+             0.005 * math.cos(2 * math.pi * t[k] + 0.5)] for k in range(16)]
+    assert read_runs(_train_csv(tmp_path / "s.csv", ["run", "time", "torque", "phi1", "phi2"], rows)).records[0].n_periods == 2
+    rows[3][2] = MAX_ABS_VALUE
+    read_runs(_train_csv(tmp_path / "b.csv", ["run", "time", "torque", "phi1", "phi2"], rows))
+    rows[3][2] = MAX_ABS_VALUE * 1.01
+    with pytest.raises(RunsFileError, match="implausibly large"):
+        read_runs(_train_csv(tmp_path / "c.csv", ["run", "time", "torque", "phi1", "phi2"], rows))
+    assert parse_mapping("torque=M=drive, phi1 = enc1", "columns") == {"torque": "M=drive", "phi1": "enc1"}
+
+
+def test_a_drive_on_flywheel_2_flips_a_relative_angle(tmp_path):
+    # A two-flywheel file with the relative angle only, driven on flywheel 2: the relative angle
+    # seen from the driven flywheel is the file's with its sign flipped (--torque-on flywheel2).
+    from jointrig.measured.runs import driven_first
+
+    rows = [[0, k * 1e-3, 50 * math.cos(2 * math.pi * 10 * k * 1e-3), 0.01 * math.cos(2 * math.pi * 10 * k * 1e-3 + 0.2)]
+            for k in range(400)]
+    loaded = read_runs(_train_csv(tmp_path / "rel.csv", ["run", "time", "torque", "phi"], rows))
+    flipped = driven_first(loaded, "flywheel2")
+    assert np.array_equal(flipped.records[0].phi1_rad, -loaded.records[0].phi1_rad)
