@@ -255,3 +255,45 @@ def test_exact_data_of_the_rig_itself_are_explained_not_a_misfit_of_millions_of_
     j = json.loads(out.read_text())
     verdict = j["verdict"] if isinstance(j["verdict"], dict) else {"verdict": j["verdict"]}
     assert verdict["verdict"] == "explained", j["verdict"]
+
+
+def test_a_trains_report_renders_in_a_real_browser_with_the_answer_first(tmp_path, capsys):
+    # The worn pump train's HTML report in headless Chromium (Debian's, as the two-flywheel
+    # report's test): no console or page errors, no request leaves the file, nothing wider than
+    # the window, its one figure decoded, and the verdict in words and the causes found on the
+    # first screen (1280 x 900); the candidates (and the notes, where there are any) folded.
+    sync_api = pytest.importorskip("playwright.sync_api")
+    from pathlib import Path
+
+    from test_diagnose_script import _chromium
+
+    exe = _chromium()
+    if exe is None:
+        pytest.skip("no Chromium on PATH (Debian: apt-get install chromium)")
+    models = Path(__file__).parent.parent / "models"
+    data, page_path = tmp_path / "train.csv", tmp_path / "train.html"
+    assert cli(["make-data", str(data), "--model", str(models / "pump_train_worn.xml"), "--periods", "8", "-q"]) == 0
+    assert cli(["diagnose", str(data), "--model", str(models / "pump_train.xml"), "--report", str(page_path), "-q"]) == 0
+    capsys.readouterr()
+    errors, requests = [], []
+    with sync_api.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=exe, args=["--no-sandbox", "--disable-gpu", "--no-first-run"])
+        try:
+            page = browser.new_page(viewport={"width": 1280, "height": 900})
+            page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+            page.on("pageerror", lambda e: errors.append(str(e)))
+            page.on("request", lambda r: requests.append(r.url))
+            page.goto(page_path.as_uri())
+            page.wait_for_load_state("load")
+            m = page.evaluate("""() => ({
+                doc: document.documentElement.scrollWidth, win: window.innerWidth,
+                imgs: [...document.images].map(i => i.complete && i.naturalWidth > 0),
+                verdict: document.querySelector('.verdict').innerText,
+                found: document.querySelector('h2').getBoundingClientRect().top,
+                folded: [...document.querySelectorAll('details.section')].map(e => e.open)})""")
+        finally:
+            browser.close()
+    assert errors == [] and all(u == page_path.as_uri() or u.startswith("data:") for u in requests)
+    assert m["doc"] <= m["win"] and m["imgs"] == [True]
+    assert m["verdict"].startswith("EXPLAINED: Your model misses backlash at joint 2")
+    assert m["found"] < 900 and m["folded"] and not any(m["folded"])  # the candidates (and any notes) folded
