@@ -257,6 +257,7 @@ def test_exact_data_of_the_rig_itself_are_explained_not_a_misfit_of_millions_of_
     assert verdict["verdict"] == "explained", j["verdict"]
 
 
+@pytest.mark.slow
 def test_a_trains_report_renders_in_a_real_browser_with_the_answer_first(tmp_path, capsys):
     # The worn pump train's HTML report in headless Chromium (Debian's, as the two-flywheel
     # report's test): no console or page errors, no request leaves the file, nothing wider than
