@@ -498,13 +498,12 @@ def _check_drift(where: str, run: str, t: np.ndarray, data: dict, omega: float, 
     def drift(x):
         return linear_drift(t, x, omega, harmonics=CHECK_HARMONICS)
 
-    drifts = _drifts
 
     if "phi2" in data:
         rel = data["phi1"] - data["phi2"]
         _refuse_twist_drift(where, run, "the relative angle phi1 - phi2", rel, drift(rel), "rad")
         d1, d2 = drift(data["phi1"]), drift(data["phi2"])
-        if drifts(data["phi1"], d1) or drifts(data["phi2"], d2):
+        if _drifts(data["phi1"], d1) or _drifts(data["phi2"], d2):
             slope = 0.5 * (d1.slope + d2.slope)
             tc = t - t[0]
             data["phi1"] = data["phi1"] - slope * tc
@@ -517,7 +516,7 @@ def _check_drift(where: str, run: str, t: np.ndarray, data: dict, omega: float, 
     for name in ("torque", "phi1"):
         x = data[name]
         d = drift(x)
-        if drifts(x, d):
+        if _drifts(x, d):
             label = "phi" if name == "phi1" and "phi2" not in data else name
             unit = "N m" if name == "torque" else "rad"
             raise RunsFileError(
@@ -537,40 +536,37 @@ def _to_train_record(where: str, run: str, t: np.ndarray, torques: dict, angles:
     for j in range(1, len(angles)):
         _check_varies(where, run, f"{pos}{j} - {pos}{j + 1}", angles[j - 1] - angles[j])
     drive = max(torques, key=lambda i: float(np.std(torques[i])))
-    chans = {f"torque{i}": x for i, x in torques.items()} | {f"phi{i}": a for i, a in enumerate(angles, start=1)}
+    # channels by the bench's own names (force1, x1 on a slide), as the notes name them
+    chans = {f"{drv}{i}": x for i, x in torques.items()} | {f"{pos}{i}": a for i, a in enumerate(angles, start=1)}
     ref = angles[0] - angles[1] if len(angles) > 1 else angles[0]
-    w_rec, t_rec, P, data = _whole_periods(where, run, t, chans, f"torque{drive}", ref, omega, samples_per_period,
+    w_rec, t_rec, P, data = _whole_periods(where, run, t, chans, f"{drv}{drive}", ref, omega, samples_per_period,
                                            notes)
     N = len(angles)
-    if layout.kind == "slide":  # the notes name the file's columns
-        notes[:] = [n.replace("torque", "force").replace("phi", "x") if n.startswith(f"run {run}:") else n
-                    for n in notes]
 
     def drift(x):
         return linear_drift(t_rec, x, w_rec, harmonics=CHECK_HARMONICS)
 
-    drifts = _drifts
 
     for j in range(1, N):
-        rel = data[f"phi{j}"] - data[f"phi{j + 1}"]
+        rel = data[f"{pos}{j}"] - data[f"{pos}{j + 1}"]
         _refuse_twist_drift(where, run, f"the twist {pos}{j} - {pos}{j + 1} of joint {j}", rel, drift(rel), unit)
-    ds = [drift(data[f"phi{i}"]) for i in range(1, N + 1)]
-    if any(drifts(data[f"phi{i}"], d) for i, d in enumerate(ds, start=1)):
+    ds = [drift(data[f"{pos}{i}"]) for i in range(1, N + 1)]
+    if any(_drifts(data[f"{pos}{i}"], d) for i, d in enumerate(ds, start=1)):
         slope = float(np.mean([d.slope for d in ds]))
         for i in range(1, N + 1):
-            data[f"phi{i}"] = data[f"phi{i}"] - slope * (t_rec - t_rec[0])
+            data[f"{pos}{i}"] = data[f"{pos}{i}"] - slope * (t_rec - t_rec[0])
         notes.append(f"run {run}: the whole {'line' if layout.kind == 'slide' else 'train'} moves steadily at "
                      f"{slope:.4g} {unit}/s on top of the vibration; that common motion is removed")
     for i in torques:
-        d = drift(data[f"torque{i}"])
-        if drifts(data[f"torque{i}"], d):
+        d = drift(data[f"{drv}{i}"])
+        if _drifts(data[f"{drv}{i}"], d):
             col = dict(layout.drives)[i]
             raise RunsFileError(f"{where}: run {run}: column '{col}' drifts by {d.over_record:.3g} {drive_unit} over "
                                 f"the record ({abs(d.t_stat):.3g} standard errors): a steady-state record repeats "
                                 f"every period")
     try:
-        return ChainRecord(w_rec, t_rec, tuple(data.get(f"torque{i}") for i in range(1, N + 1)),
-                           tuple(data[f"phi{i}"] for i in range(1, N + 1)), None, P,
+        return ChainRecord(w_rec, t_rec, tuple(data.get(f"{drv}{i}") for i in range(1, N + 1)),
+                           tuple(data[f"{pos}{i}"] for i in range(1, N + 1)), None, P,
                            max(float(np.ptp(x)) / 2 for x in torques.values()), source=f"{where} run {run}")
     except RecordError as err:
         raise RunsFileError(f"{where}: run {run}: {err}") from None

@@ -113,6 +113,7 @@ def _plant(model: mujoco.MjModel, N: int, src: str, kind: str) -> ChainPlant:
     per_ground: dict[int, dict] = {i: {} for i in range(1, N + 1)}
     bearings = [0.0] * N
     drag = "guide" if kind == "slide" else "bearing"
+    field = rotational_name if kind == "slide" else (lambda f: f)  # a slide's fields in N and m
     for i in range(model.nnumeric):
         name = model.numeric(i).name
         if not name.startswith(PREFIX):
@@ -122,7 +123,6 @@ def _plant(model: mujoco.MjModel, N: int, src: str, kind: str) -> ChainPlant:
         m = _JOINT_FIELD.fullmatch(rest)
         g = _GROUND_FIELD.fullmatch(rest)
         b = re.fullmatch(rf"{drag}(\d+)_damping_" + ("Ns_per_m" if kind == "slide" else "Nms_per_rad"), rest)
-        field = (lambda f: rotational_name(f)) if kind == "slide" else (lambda f: f)
         if m and 1 <= int(m.group(1)) < N:
             per_joint[int(m.group(1))][field(m.group(2))] = data
         elif g and 1 <= int(g.group(1)) <= N:

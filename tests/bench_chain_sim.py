@@ -309,6 +309,12 @@ def measured_runs(train: Train, points, *, snr_db: float = 40.0, n_periods: int 
     return out
 
 
+#: The pump train's sweep and two held-out runs of other levels (omega rad/s, N m, driven body):
+#: studies.chain_sweep.CHAIN_PLAN + HELD_OUT, written out again.
+PUMP_POINTS = [(150.0, 60.0, 1), (250.0, 60.0, 1), (300.0, 60.0, 1), (330.0, 120.0, 1), (600.0, 60.0, 1),
+               (1200.0, 60.0, 1), (2000.0, 60.0, 1), (3000.0, 60.0, 1), (400.0, 30.0, 4), (1500.0, 30.0, 4),
+               (300.0, 90.0, 1), (800.0, 45.0, 4)]
+
 #: The pump train of models/pump_train.xml, written out again for this bench: motor, coupling hub,
 #: gearbox, pump (kg m^2); motor shaft, elastomer coupling (progressive), pump shaft.
 PUMP_TRAIN = Train(J=(0.45, 0.06, 0.12, 0.35),
@@ -359,3 +365,13 @@ def daq_file(train: Train, points, path, *, fs_Hz: float = 20000.0, n_periods: f
             lines.append(f"{r},{ms[k]:.4f}," + ",".join(f"{c[k]:.8g}" for c in cells))
     path.write_text("\n".join(lines) + "\n")
     return path
+
+
+if __name__ == "__main__":
+    # python tests/bench_chain_sim.py OUT.csv: the worn pump train (+-1 mrad of free play in the
+    # coupling) as a DAQ records it, the file of docs/drive-trains.md (diagnose it with
+    # --columns time=t).
+    import sys
+    from pathlib import Path
+
+    print(daq_file(with_effect(PUMP_TRAIN, 2, gap=1e-3), PUMP_POINTS, Path(sys.argv[1])))

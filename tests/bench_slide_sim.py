@@ -135,3 +135,12 @@ def daq_runs(car: Carriage, points, path, *, fs_Hz: float = 10000.0, n_periods: 
         lines += [f"{r},{tt:.5f},{f:.5f},{xx * 1e3:.6f}" for tt, f, xx in zip(t, F, x)]
     path.write_text("\n".join(lines) + "\n")
     return path
+
+
+if __name__ == "__main__":
+    # python tests/bench_slide_sim.py OUT.csv: one long run of the carriage (12 kg, 40 N s/m, 25 N of
+    # dry friction) at 2 Hz and 150 N, the file of the README and docs/drive-trains.md.
+    import sys
+    from pathlib import Path
+
+    print(daq_file(Carriage(), 12.566, 150.0, Path(sys.argv[1])))

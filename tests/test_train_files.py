@@ -14,14 +14,10 @@ import json
 
 import pytest
 
-from bench_chain_sim import PUMP_TRAIN, daq_file, with_effect
+from bench_chain_sim import PUMP_POINTS, PUMP_TRAIN, daq_file, with_effect
 from jointrig.cli import main as cli
 
-#: The pump train's sweep and two held-out runs of other levels (omega rad/s, N m, driven body):
-#: studies.chain_sweep.CHAIN_PLAN + HELD_OUT, written out again.
-POINTS = [(150.0, 60.0, 1), (250.0, 60.0, 1), (300.0, 60.0, 1), (330.0, 120.0, 1), (600.0, 60.0, 1),
-          (1200.0, 60.0, 1), (2000.0, 60.0, 1), (3000.0, 60.0, 1), (400.0, 30.0, 4), (1500.0, 30.0, 4),
-          (300.0, 90.0, 1), (800.0, 45.0, 4)]
+POINTS = PUMP_POINTS
 
 #: A healthy train's encoders at rest: every joint loaded by nothing, within a few counts.
 HEALTHY_AT_REST_RAD = (0.7, 0.7 - 1e-5, 0.7, 0.7 + 1e-5)
