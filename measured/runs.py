@@ -411,7 +411,7 @@ def _whole_periods(where: str, run: str, t: np.ndarray, chans: dict, drive: str,
                          f"({w_rec:.9g} rad/s) differ by {abs(omega / w_rec - 1):.2g}; the record's value is used")
         elif samples_per_period is None:
             notes.append(f"run {run}: no 'omega' column; the record repeats every {N} samples: omega = "
-                         f"{w_rec:.9g} rad/s (the torque's line alone gives {best.omega_rad_s:.9g} +- "
+                         f"{w_rec:.9g} rad/s (the {drive}'s line alone gives {best.omega_rad_s:.9g} +- "
                          f"{best.std_error_rad_s:.2g})")
         P = n // N
         if P < 2:
@@ -447,7 +447,7 @@ def _whole_periods(where: str, run: str, t: np.ndarray, chans: dict, drive: str,
         t_rec = clock.t0_s + np.arange(P * per_out) * (2 * math.pi / (w_rec * per_out))
         used = int(round(P * per))
         src = ("the 'omega' column" if omega is not None else
-               f"the torque's line, +- {best.std_error_rad_s:.2g}")
+               f"the {drive}'s line, +- {best.std_error_rad_s:.2g}")
         rms = [float(np.std(c)) or 1.0 for c in cols]
         share = ", ".join(f"{name} {r / s:.2%}" for name, r, s in
                           zip(chans, fit.residual_rms, rms))

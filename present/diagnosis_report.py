@@ -783,31 +783,41 @@ def write_html(path: Path, report: DiagnosisReport, text: str, *, title: str = "
     return Path(path)
 
 
-def _write_page(path: Path, report: DiagnosisReport, text: str, drawn: Sequence[tuple[str, str]], *, title: str,
-                input_sha256: str, source: str, notes: Sequence[str], card, card_png: Optional[bytes]) -> None:
-    """The HTML page of :func:`write_html` with its figures ``drawn`` (``(caption, SVG document)``)."""
+def svg_figure_html(caption: str, image: str) -> str:
+    """An SVG figure embedded in a page (self-contained: a data URI) under its caption."""
+    data = base64.b64encode(image.encode("utf-8")).decode("ascii")
+    return (f"<figure><figcaption>{html.escape(caption)}</figcaption><img alt='{html.escape(caption)}' "
+            f"src='data:image/svg+xml;base64,{data}'></figure>")
+
+
+def page_top(title: str, verdict, words: str, input_sha256: str = "") -> list[str]:
+    """The start of a report page, the same for every diagnosis: the head with its style, the
+    title, the provenance (version, time, the input's SHA-256) and the verdict box (the verdict
+    in words, its reason in figures under it)."""
     import datetime
 
     from jointrig import __version__
 
-    v = report.verdict
-    colour = {"no_misfit": "#2e7d32", "explained": "#1565c0", "unexplained": "#c62828"}[v.verdict]
+    colour = {"no_misfit": "#2e7d32", "explained": "#1565c0", "unexplained": "#c62828"}[verdict.verdict]
     stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     provenance = f"jointrig {__version__}, {stamp}" + (f"; input SHA-256 {input_sha256}" if input_sha256 else "")
-    parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'>"
-             f"<meta name='viewport' content='width=device-width, initial-scale=1'><title>{html.escape(title)}</title>"
-             f"<style>{_CSS}</style></head><body>",
-             f"<h1>{html.escape(title)}</h1>", f"<p class='prov'>{html.escape(provenance)}</p>",
-             f"<div class='verdict' style='--c:{colour}'><p><b>{html.escape(v.verdict.replace('_', ' ').upper())}"
-             f"</b>: {html.escape(plain_verdict(report))}</p><p class='why'>{html.escape(v.reason)}</p></div>"]
+    return [f"<!doctype html><html lang='en'><head><meta charset='utf-8'>"
+            f"<meta name='viewport' content='width=device-width, initial-scale=1'><title>{html.escape(title)}</title>"
+            f"<style>{_CSS}</style></head><body>",
+            f"<h1>{html.escape(title)}</h1>", f"<p class='prov'>{html.escape(provenance)}</p>",
+            f"<div class='verdict' style='--c:{colour}'><p><b>{html.escape(verdict.verdict.replace('_', ' ').upper())}"
+            f"</b>: {html.escape(words)}</p><p class='why'>{html.escape(verdict.reason)}</p></div>"]
+
+
+def _write_page(path: Path, report: DiagnosisReport, text: str, drawn: Sequence[tuple[str, str]], *, title: str,
+                input_sha256: str, source: str, notes: Sequence[str], card, card_png: Optional[bytes]) -> None:
+    """The HTML page of :func:`write_html` with its figures ``drawn`` (``(caption, SVG document)``)."""
+    parts = page_top(title, report.verdict, plain_verdict(report), input_sha256)
     parts += _summary_section(report)
     parts += _html_sections(report, source, notes)
     if card is not None:
         parts += _card_section(card, card_png)
-    for caption, image in drawn:
-        data = base64.b64encode(image.encode("utf-8")).decode("ascii")
-        parts.append(f"<figure><figcaption>{html.escape(caption)}</figcaption><img alt='{html.escape(caption)}' "
-                     f"src='data:image/svg+xml;base64,{data}'></figure>")
+    parts += [svg_figure_html(caption, image) for caption, image in drawn]
     parts += _collapsed_sections(report, source, notes)
     parts.append(f"<details><summary>The same report as console text</summary><pre>{html.escape(text)}</pre></details>")
     parts.append("</body></html>")

@@ -219,29 +219,18 @@ def write_train_html(path, report: TrainReport, text: str, *, title: str, source
     """A self-contained HTML page of a train's diagnosis, written atomically: the verdict, your
     model as written, the causes found, the held-out runs as a figure, the parameters; the
     candidates, the notes on the data and the console text folded below."""
-    import base64
-    import datetime
     import html
     from pathlib import Path
 
-    from jointrig import __version__
     from jointrig.files import write_atomic
 
-    from .diagnosis_report import _CSS, _row, _table
+    from .diagnosis_report import _row, _table, page_top, svg_figure_html
 
-    d, v = report.diagnosis, report.verdict
+    d = report.diagnosis
     nm = _namer(report)
     fit = report.adopted_fit
-    colour = {"no_misfit": "#2e7d32", "explained": "#1565c0", "unexplained": "#c62828"}[v.verdict]
-    stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    provenance = f"jointrig {__version__}, {stamp}" + (f"; input SHA-256 {input_sha256}" if input_sha256 else "")
     written = compare_written(report.written, fit)
-    parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'>"
-             f"<meta name='viewport' content='width=device-width, initial-scale=1'><title>{html.escape(title)}</title>"
-             f"<style>{_CSS}</style></head><body>",
-             f"<h1>{html.escape(title)}</h1>", f"<p class='prov'>{html.escape(provenance)}</p>",
-             f"<div class='verdict' style='--c:{colour}'><p><b>{html.escape(v.verdict.replace('_', ' ').upper())}"
-             f"</b>: {html.escape(plain_train_verdict(report))}</p><p class='why'>{html.escape(v.reason)}</p></div>"]
+    parts = page_top(title, report.verdict, plain_train_verdict(report), input_sha256)
     final = _values(d.final)
     if d.steps:
         parts.append("<h2>What the data show</h2>")
@@ -256,11 +245,8 @@ def write_train_html(path, report: TrainReport, text: str, *, title: str, source
             for w in written]))
     image = train_figure(report)
     if image:
-        data = base64.b64encode(image.encode("utf-8")).decode("ascii")
-        caption = (f"Held-out data ({report.generalisation}): measured, and simulated in the rig with the nominal and "
-                   f"the extended model")
-        parts.append(f"<figure><figcaption>{html.escape(caption)}</figcaption><img alt='{html.escape(caption)}' "
-                     f"src='data:image/svg+xml;base64,{data}'></figure>")
+        parts.append(svg_figure_html(f"Held-out data ({report.generalisation}): measured, and simulated in the rig "
+                                     f"with the nominal and the extended model", image))
     parts.append(f"<h2>{'Extended' if report.adopted else 'Nominal'} model</h2>")
     parts.append(_table(["parameter", "value ± standard error", "unit"], [
         _row([nm(n), (with_se(x, se), "num"), unit_of(nm(n))]) for n, (x, se) in _values(fit).items()]))
