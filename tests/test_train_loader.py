@@ -96,6 +96,9 @@ def test_a_train_is_read_in_its_units_with_idle_motors_and_written_back(tmp_path
     loaded = read_runs(path)
     first, second = loaded.records
     assert first.driven == (True, False, False) and second.driven == (True, True, False)
+    # Tolerances: the file holds 9 significant digits (1e-6 on a read value, 1e-9 on a frequency
+    # fitted to 4 periods); a half swing read from 100 samples per period misses the peak by up
+    # to 1 - cos(pi/100) = 5e-4 (1e-3).
     assert first.omega_rad_s == pytest.approx(2 * math.pi * 10, rel=1e-9)
     assert first.drive_amplitude_Nm == pytest.approx(50.0, rel=1e-3)  # the largest drive's half swing
     assert np.max(np.abs(first.angles_rad[0])) == pytest.approx(0.01, rel=1e-6)
@@ -123,6 +126,7 @@ def test_a_slides_file_is_read_in_m_and_N(tmp_path):
     loaded = read_runs(path)
     assert loaded.is_train and loaded.kind == "slide" and loaded.records[0].n_flywheels == 1
     r = loaded.records[0]
+    # (tolerances as in the test above: 9 digits written; a sampled peak 1e-3)
     assert np.max(np.abs(r.torques_Nm[0])) == pytest.approx(50.0, rel=1e-6)
     assert np.ptp(r.angles_rad[0]) / 2 == pytest.approx(0.020, rel=1e-3) and r.angles_rad[0].mean() == pytest.approx(0.3512)
     assert not any("phi" in n or "torque" in n for n in loaded.notes), loaded.notes  # the file's names
@@ -165,7 +169,7 @@ def test_a_trains_angles_in_degrees_with_their_unit_are_read(tmp_path):
     path = _train_csv(tmp_path / "deg.csv", ["run", "time", "torque1", "phi1 [deg]", "phi2 [deg]", "phi3 [deg]"],
                       _rows(scale=400.0))
     r = read_runs(path).records[0]
-    assert np.ptp(r.angles_rad[0]) / 2 == pytest.approx(math.radians(400 * 0.01), rel=1e-3)
+    assert np.ptp(r.angles_rad[0]) / 2 == pytest.approx(math.radians(400 * 0.01), rel=1e-3)  # a sampled peak
 
 
 def test_a_run_of_two_whole_periods_is_enough_to_read(tmp_path):
