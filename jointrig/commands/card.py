@@ -15,7 +15,6 @@ Exit status as ``jointrig diagnose``.
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 from jointrig.commands import command_parser, diagnose

@@ -13,8 +13,6 @@ gives each departure relative and in standard errors, and the describing functio
 
 from __future__ import annotations
 
-import argparse
-
 import logging
 from pathlib import Path
 

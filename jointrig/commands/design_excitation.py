@@ -17,8 +17,6 @@ realisations of both and reports the observed standard deviations.
 
 from __future__ import annotations
 
-import argparse
-
 import logging
 import sys
 from pathlib import Path

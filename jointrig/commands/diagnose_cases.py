@@ -11,8 +11,6 @@ gain >= 5, nothing significant for ``none``.
 
 from __future__ import annotations
 
-import argparse
-
 import time
 from pathlib import Path
 

@@ -15,8 +15,6 @@
 
 from __future__ import annotations
 
-import argparse
-
 import dataclasses
 import logging
 from pathlib import Path

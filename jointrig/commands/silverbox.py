@@ -15,8 +15,6 @@ The arrow is never used for estimation or selection.
 
 from __future__ import annotations
 
-import argparse
-
 import logging
 import math
 import time

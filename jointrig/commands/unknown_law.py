@@ -16,8 +16,6 @@ true law and the best quintic.
 
 from __future__ import annotations
 
-import argparse
-
 import logging
 from pathlib import Path
 
