@@ -11,17 +11,18 @@ cause by :func:`evidence`. Adding a cause is one entry here (and its name in a s
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Callable, Generic, Optional, Sequence, TypeVar
 
 import numpy as np
 
-from jointrig.vocab.law import Coulomb, Iwan, Jenkins, Monomial, Power, QuadraticDamping, Stribeck, Term, Viscous
+from jointrig.vocab.law import (Cogging, Coulomb, Iwan, Jenkins, Monomial, Power, QuadraticDamping, Stribeck, Term,
+                                Viscous)
 from jointrig.vocab.params import DRIVE_DELAY
 
 from .balance import spectral_rate
 
-__all__ = ["ModelSpec", "NOMINAL", "Cause", "CATALOGUE", "CAUSES", "OSCILLATOR_CAUSES", "by_name", "evidence",
+__all__ = ["ModelSpec", "NOMINAL", "Cause", "Limits", "Place", "CauseScore", "Ambiguity", "CATALOGUE", "CAUSES", "OSCILLATOR_CAUSES", "at", "by_name", "evidence",
            "chi2_survival",
            "SEPARATING_EXCITATION", "DEFAULT_SEPARATION", "DIMENSIONLESS", "TIE", "IWAN_CHI",
            "IWAN_BETA", "rate_amplitudes", "Selection", "forward_select"]
@@ -82,6 +83,83 @@ class Cause:
     #: adopted over the simpler only if its extra parameters are significant by themselves (a
     #: nested chi-square test at the round's alpha), so pure dry friction is named as such.
     reduces_to: Optional[str] = None
+    #: where the cause is sought: ``"joint"`` (a law of a joint's twist: the two-flywheel joint
+    #: and every joint of a train), ``"two_flywheel"`` (the two-flywheel bench only: its drive,
+    #: bearings and flywheel 2's angle), ``"ground"`` (a single body's law to the frame) and
+    #: ``"oscillator"`` (the one-coordinate extension, the Silverbox)
+    places: frozenset = frozenset({"joint"})
+    #: the profile grid's spacing in the nonlinear parameter, from the runs (None: the fixed
+    #: :data:`PROFILE_GRID_POINTS`): a parameter whose chi-square oscillates in it (a periodic
+    #: torque's order: one oscillation per period of z across the largest swing) needs a grid
+    #: finer than the oscillation, whatever the range
+    grid_step: Optional[Callable[[Sequence], float]] = None
+    #: ``degenerate(value, limits)``: why a fitted nonlinear parameter means the cause is another
+    #: or nothing (a slip angle below the angle resolution is dry friction), "" if it stands
+    #: (:class:`Limits` says what the data resolve)
+    degenerate: Optional[Callable[[float, "Limits"], str]] = None
+    #: ``trials(runs)``: independent values the profile search in effect tries (None: 1, a
+    #: parameter whose chi-square has one basin or a few): a free frequency tries one per
+    #: oscillation of chi-square over its range, and its best drop is the largest of that many;
+    #: the significance level is divided by it as by the number of causes (look-elsewhere)
+    trials: Optional[Callable[[Sequence], float]] = None
+    #: the magnitude is the length of these parameters' vector (a periodic torque's sine and
+    #: cosine parts make its amplitude), its standard error by the delta method; () when the
+    #: magnitude is a parameter itself
+    magnitude_parts: tuple = ()
+
+    def magnitude_of(self, params: dict, std_error: Callable[[str], float], prefix: str = "") -> tuple[float, float]:
+        """``(value, standard error)`` of the magnitude from a fit's parameters and its
+        ``std_error(name)``, the names carrying ``prefix`` (a joint's or a body's in a train)."""
+        if not self.magnitude_parts:
+            name = prefix + self.magnitude
+            return float(params.get(name, math.nan)), std_error(name)
+        parts = np.array([params.get(prefix + n, math.nan) for n in self.magnitude_parts])
+        errs = np.array([std_error(prefix + n) for n in self.magnitude_parts])
+        size = float(np.sqrt(np.sum(parts**2)))
+        return size, float(np.sqrt(np.sum((parts * errs) ** 2)) / size) if size > 0 else float(np.sqrt(np.mean(errs**2)))
+
+    def n_trials(self, runs) -> float:
+        """See ``trials``."""
+        return 1.0 if self.trials is None else float(self.trials(runs))
+
+    def grid_points(self, runs, lo: float, hi: float) -> int:
+        """Points of the profile search's grid over [lo, hi] (see ``grid_step``)."""
+        if self.grid_step is None:
+            return PROFILE_GRID_POINTS
+        return max(PROFILE_GRID_POINTS, int(math.ceil((hi - lo) / self.grid_step(runs))) + 1)
+
+
+@dataclass(frozen=True)
+class Limits:
+    """What the data resolve where a cause is sought, for its ``degenerate`` rule.
+
+    Attributes:
+      resolution_rad: the smallest angle (or twist) the motion resolves.
+      rate_top_rad_s: the largest rate the runs reach there.
+      friction: how the dry-friction cause at that place is named ("coulomb_friction",
+        "coulomb_friction at joint 2"), for the text of a rule that hands over to it.
+    """
+
+    resolution_rad: float
+    rate_top_rad_s: float
+    friction: str = "coulomb_friction"
+
+
+def _below_resolution(what: str, then: str) -> Callable[[float, Limits], str]:
+    """A rule for a slip angle or a free play: below the resolution it is ``then``."""
+    def rule(h: float, lim: Limits) -> str:
+        if not h < lim.resolution_rad:
+            return ""
+        return f"its {what} {h:.3g} rad is below the angle resolution {lim.resolution_rad:.2g} rad: " + \
+            then.format(friction=lim.friction)
+    return rule
+
+
+def _stribeck_degenerate(v: float, lim: Limits) -> str:
+    if not v > lim.rate_top_rad_s:
+        return ""
+    return (f"its Stribeck rate {v:.3g} rad/s is above every run's rate amplitude (at most {lim.rate_top_rad_s:.3g} "
+            f"rad/s): the friction does not fall off within the data; it is dry friction (see {lim.friction})")
 
 
 def _amplitude(runs) -> float:
@@ -134,39 +212,84 @@ def _largest_amplitude(runs) -> float:
     return max(float(np.max(np.abs(r.average.phi_rad - r.average.phi_rad.mean()))) for r in runs)
 
 
+_JOINT_GROUND = frozenset({"joint", "ground"})
+_OSCILLATOR = frozenset({"oscillator"})
+
+#: The cogging profile's grid spacing in z, in radians of phase at the largest amplitude: chi-square
+#: oscillates over z with a period near 2 pi / (largest amplitude); half a radian samples it about
+#: 12 times per oscillation (a quarter found the same orders on the open-world bench, at twice the
+#: cost: the worn example's diagnosis took 3.0 s instead of 1.85 s before cogging).
+COGGING_GRID = 0.5
+#: The highest order sought, as radians of phase z A at the smallest amplitude A: a sine of z phi
+#: swinging over +-z A radians has harmonics up to about z A of the drive's, and the diagnosis
+#: balances 20; the larger runs' torque then reaches beyond the band, their part within it still
+#: tells z.
+COGGING_MAX_PHASE = 20.0
+#: The lowest order sought, as radians of phase z A at the largest amplitude A: two whole periods
+#: between rest and the largest swing (four across it). With fewer a sine of the angle is only a
+#: smooth bend of the stiffness, and takes the place of another cause: on the pump train's worn
+#: coupling (+-1 mrad of free play, 5.6 mrad of twist) one of 1.2 periods (z A = 7.8) out-scored the
+#: free play.
+COGGING_MIN_PHASE = 4 * math.pi
+
+
+def _cogging_bounds(runs) -> tuple[float, float]:
+    """Orders z from :data:`COGGING_MIN_PHASE` radians of phase z A at the largest amplitude A to
+    :data:`COGGING_MAX_PHASE` at the smallest (whose run then holds the torque within the band)."""
+    return COGGING_MIN_PHASE / _largest_amplitude(runs), COGGING_MAX_PHASE / _amplitude(runs)
+
+
+def _cogging_trials(runs) -> float:
+    """Oscillations of chi-square over the orders searched (one per pi / A of z, A the largest
+    amplitude): the independent orders the search tries."""
+    lo, hi = _cogging_bounds(runs)
+    return max(1.0, (hi - lo) * _largest_amplitude(runs) / math.pi)
+
+
+def _with_cogging(spec: ModelSpec, order: float) -> ModelSpec:
+    terms = tuple(t for t in spec.terms if not isinstance(t, Cogging))
+    return replace(spec, terms=terms + (Cogging(order), Cogging(order, quadrature=True)))
+
+
 #: Every cause the project knows, once. Each pipeline takes its selection by name: the
 #: two-flywheel diagnosis :data:`CAUSES`, the one-coordinate oscillator's extension (the
 #: Silverbox) :data:`OSCILLATOR_CAUSES`.
 CATALOGUE: tuple[Cause, ...] = (
     Cause("coulomb_friction", "dry friction in the joint: a torque of constant size opposing the relative rate",
-          lambda s, h: _with_terms(s, (Coulomb(),)), "coulomb_torque_Nm", 1),
+          lambda s, h: _with_terms(s, (Coulomb(),)), "coulomb_torque_Nm", 1, places=_JOINT_GROUND),
     Cause("backlash", "free play in the elastic element: no stiffness within +-half gap",
           _with_gap, "backlash_half_gap_rad", 0, bounds=lambda runs: (1e-4 * _amplitude(runs), 0.8 * _largest_amplitude(runs)),
-          profiled="backlash_half_gap_rad"),
+          profiled="backlash_half_gap_rad", degenerate=_below_resolution("half gap", "no free play is resolved")),
     Cause("asymmetric_stiffness", "an even stiffness term a phi^2 (an asymmetric restoring force): even harmonics",
-          lambda s, h: _with_terms(s, (Power(2),)), "a_Nm_per_rad2", 1, nonnegative=False),
+          lambda s, h: _with_terms(s, (Power(2),)), "a_Nm_per_rad2", 1, nonnegative=False,
+          places=frozenset({"joint", "oscillator"})),
     Cause("hysteresis", "a Jenkins (one-element Iwan) element: spring and dry-friction slider in series",
           _with_jenkins, "hysteresis_slip_torque_Nm", 1,
           bounds=lambda runs: (1e-3 * _amplitude(runs), 0.9 * _amplitude(runs)), log_scale=True,
-          profiled="hysteresis_slip_angle_rad"),
+          profiled="hysteresis_slip_angle_rad",
+          degenerate=_below_resolution("slip angle", "a Jenkins element that never sticks is dry friction (see {friction})")),
     Cause("micro_slip", "micro-slip: an Iwan element (Segalman's four-parameter distribution of Jenkins elements, "
           f"chi = {IWAN_CHI}, beta = {IWAN_BETA}), as in bolted and clamped joints",
           _with_iwan, "iwan_slip_torque_Nm", 1,
           bounds=lambda runs: (1e-3 * _amplitude(runs), 2.0 * _largest_amplitude(runs)), log_scale=True,
-          profiled="iwan_slip_angle_rad"),
+          profiled="iwan_slip_angle_rad", degenerate=_below_resolution(
+              "largest slip angle", "an Iwan element that never sticks is dry friction (see {friction})")),
     Cause("stribeck_friction", "dry friction with a Stribeck peak: static friction above the sliding one, falling "
           "off with the rate (velocity weakening)",
           _with_stribeck, "stribeck_torque_Nm", 2,
           bounds=lambda runs: (0.02 * min(rate_amplitudes(runs)), 2.0 * max(rate_amplitudes(runs))), log_scale=True,
-          profiled="stribeck_velocity_rad_s", reduces_to="coulomb_friction"),
+          profiled="stribeck_velocity_rad_s", reduces_to="coulomb_friction", places=_JOINT_GROUND,
+          degenerate=_stribeck_degenerate),
     Cause("quadratic_damping", "damping torque proportional to the rate squared",
-          lambda s, h: _with_terms(s, (QuadraticDamping(),)), "quadratic_damping_Nms2_per_rad2", 1),
+          lambda s, h: _with_terms(s, (QuadraticDamping(),)), "quadratic_damping_Nms2_per_rad2", 1,
+          places=_JOINT_GROUND),
     Cause("drive_delay", "the drive acts later than it is recorded: a phase lag growing linearly with frequency",
           lambda s, h: replace(s, drive_delay_s=float(h)), DRIVE_DELAY, 0,
           bounds=lambda runs: (0.0, 0.1 * min(2 * math.pi / r.average.omega_rad_s for r in runs)),
-          profiled=DRIVE_DELAY),
+          profiled=DRIVE_DELAY, places=frozenset({"two_flywheel", "oscillator"})),
     Cause("bearing_friction", "viscous drag of a flywheel to ground (not through the joint)",
-          lambda s, h: replace(s, bearings=True), "bearing_damping_Nms_per_rad", 2, needs_two_angles=True),
+          lambda s, h: replace(s, bearings=True), "bearing_damping_Nms_per_rad", 2, needs_two_angles=True,
+          places=frozenset({"two_flywheel"})),
     Cause("angle_offset", "measurement: the zero of the relative angle is off (an encoder's zero); under a cubic "
           "term it creates even harmonics as an asymmetric spring would",
           lambda s, h: replace(s, angle_offset_rad=float(h)), "angle_offset_rad", 0,
@@ -176,31 +299,39 @@ CATALOGUE: tuple[Cause, ...] = (
           "angle (a multiplexed DAQ's channel skew, a filter's group delay)",
           lambda s, h: replace(s, angle2_delay_s=float(h)), "angle2_delay_s", 0,
           bounds=lambda runs: (-_skew_bound(runs), _skew_bound(runs)), nonnegative=False, needs_two_angles=True,
-          profiled="angle2_delay_s", kind="measurement", first_only=True),
+          profiled="angle2_delay_s", kind="measurement", first_only=True, places=frozenset({"two_flywheel"})),
     Cause("angle_gain", "measurement: flywheel 2's angle reads a fixed factor too large or too small (an encoder's "
           "lines per revolution or a gear ratio set wrong)",
           lambda s, h: replace(s, angle2_gain_error=float(h)), "angle2_gain_error", 0,
           bounds=lambda runs: (-ANGLE_GAIN_TOLERANCE, ANGLE_GAIN_TOLERANCE), nonnegative=False,
-          needs_two_angles=True, profiled="angle2_gain_error", kind="measurement", first_only=True),
+          needs_two_angles=True, profiled="angle2_gain_error", kind="measurement", first_only=True,
+          places=frozenset({"two_flywheel"})),
     # Laws of the one-coordinate oscillator's extension (the Silverbox: y'' + law(y, y') = u),
     # not sought on the two-flywheel joint (its default selection is CAUSES).
     Cause("quintic_stiffness", "stiffening beyond cubic: odd lines growing with amplitude",
-          lambda s, h: _with_terms(s, (Power(5),)), "p5_Nm_per_rad5", 1, nonnegative=False),
+          lambda s, h: _with_terms(s, (Power(5),)), "p5_Nm_per_rad5", 1, nonnegative=False, places=_OSCILLATOR),
     Cause("cubic_damping", "damping growing with the rate, x'^3",
-          lambda s, h: _with_terms(s, (Monomial(0, 3),)), "c_p0_q3", 1, nonnegative=False),
+          lambda s, h: _with_terms(s, (Monomial(0, 3),)), "c_p0_q3", 1, nonnegative=False, places=_OSCILLATOR),
     Cause("amplitude_damping", "damping growing with the amplitude, x^2 x'",
-          lambda s, h: _with_terms(s, (Monomial(2, 1),)), "c_p2_q1", 1, nonnegative=False),
+          lambda s, h: _with_terms(s, (Monomial(2, 1),)), "c_p2_q1", 1, nonnegative=False, places=_OSCILLATOR),
+    Cause("cogging", "a torque periodic in the angle, A sin(z phi + p): a gear's mesh, a motor's cogging, detents, "
+          "z periods per radian",
+          _with_cogging, "cogging_amplitude_Nm", 2, bounds=_cogging_bounds, profiled="cogging_order_per_rad",
+          grid_step=lambda runs: COGGING_GRID / _largest_amplitude(runs), places=_JOINT_GROUND,
+          trials=_cogging_trials, magnitude_parts=("cogging_sin_Nm", "cogging_cos_Nm")),
 )
 
+def at(*places: str) -> tuple[Cause, ...]:
+    """The catalogue's causes sought at any of ``places`` (``Cause.places``), in catalogue order."""
+    return tuple(c for c in CATALOGUE if c.places & set(places))
+
+
 #: The two-flywheel diagnosis's causes, in the order they are scored.
-CAUSES: tuple[Cause, ...] = tuple(c for c in CATALOGUE if c.name in (
-    "coulomb_friction", "backlash", "asymmetric_stiffness", "hysteresis", "micro_slip", "stribeck_friction",
-    "quadratic_damping", "drive_delay", "bearing_friction", "angle_offset", "angle_skew", "angle_gain"))
+CAUSES: tuple[Cause, ...] = at("joint", "two_flywheel")
 
 #: The one-coordinate oscillator's candidate extensions (scripts/silverbox.py): an even and a
 #: quintic stiffness, damping growing with the rate or with the amplitude, a late input.
-OSCILLATOR_CAUSES: tuple[Cause, ...] = tuple(c for c in CATALOGUE if c.name in (
-    "asymmetric_stiffness", "quintic_stiffness", "cubic_damping", "amplitude_damping", "drive_delay"))
+OSCILLATOR_CAUSES: tuple[Cause, ...] = at("oscillator")
 
 
 def by_name(name: str) -> Cause:
@@ -230,7 +361,7 @@ def chi2_survival(x: float, dof: int) -> float:
                                                for k in range((dof - 1) // 2))
 
 
-def evidence(delta_chi2: float, q: int, n_rows: int, alpha: float = 1e-3, n_causes: int = 1
+def evidence(delta_chi2: float, q: int, n_rows: int, alpha: float = 1e-3, n_causes: float = 1
              ) -> tuple[float, float, bool]:
     """One evidence measure for every pipeline: a cause with ``q`` parameters lowers chi-square
     by ``delta_chi2`` over ``n_rows`` equations. Returns ``(score, p, significant)``: the BIC
@@ -244,6 +375,98 @@ def evidence(delta_chi2: float, q: int, n_rows: int, alpha: float = 1e-3, n_caus
     p = chi2_survival(max(delta_chi2, 0.0), q)
     score = delta_chi2 - q * math.log(n_rows)
     return float(score), p, bool(p < alpha / n_causes and score > 0)
+
+@dataclass(frozen=True)
+class Place:
+    """Where in a train a cause is sought: ``"joint"`` j (its twist), ``"flywheel"`` i (a viscous
+    drag to ground, a bearing) or ``"ground"`` i (body i's own law to the frame)."""
+
+    kind: str
+    number: int
+
+    def describe(self) -> str:
+        if self.kind == "ground":
+            return f"to ground at body {self.number}"
+        return f"at {self.kind} {self.number}"
+
+    @property
+    def json_key(self) -> str:
+        return {"ground": "ground_of_body"}.get(self.kind, self.kind)
+
+
+@dataclass(frozen=True)
+class CauseScore:
+    """The evidence for one cause on top of a base model, in every diagnosis (two flywheels, a
+    train; ``where`` says where in a train, None on the two-flywheel joint).
+
+    Attributes:
+      effect: the cause's name; delta_chi2: the drop in (corrected) chi-square it brings;
+      n_params: parameters it adds (its nonlinear one included); score: ``delta_chi2 - n_params
+      ln(n_rows)``, the ranking (BIC); p_value: of ``delta_chi2`` under chi-square(n_params) if
+      the cause were absent; significant: by :func:`evidence` and no rule rejected it (``note``
+      says why one did); fit: the extended fit; magnitude: ``(name, value, standard error)`` of
+      the size parameter; signature: where the drop lies (the two-flywheel diagnosis: share by
+      harmonic class and the dissipative share), {} where not measured.
+    """
+
+    effect: str
+    delta_chi2: float
+    n_params: int
+    score: float
+    p_value: float
+    significant: bool
+    fit: object
+    magnitude: tuple
+    signature: dict = field(default_factory=dict)
+    note: str = ""
+    where: Optional[Place] = None
+
+    @property
+    def label(self) -> str:
+        """The cause, and where: ``backlash at joint 2`` (the name alone on two flywheels)."""
+        return self.effect if self.where is None else f"{self.effect} {self.where.describe()}"
+
+    @property
+    def cause(self) -> str:
+        return self.effect
+
+    @property
+    def place(self) -> Optional[int]:
+        return None if self.where is None else self.where.number
+
+    @property
+    def at_joint(self) -> bool:
+        return self.where is None or self.where.kind == "joint"
+
+    @property
+    def ground(self) -> bool:
+        return self.where is not None and self.where.kind == "ground"
+
+    def as_json(self) -> dict:
+        out = {"effect": self.effect, "score": self.score, "significant": self.significant,
+               "delta_chi2": self.delta_chi2, "n_params": self.n_params, "p_value": self.p_value,
+               "magnitude": {"name": self.magnitude[0], "value": self.magnitude[1], "std_error": self.magnitude[2]},
+               "signature": self.signature, "note": self.note,
+               "parameters": self.fit.parameters() if self.fit is not None else {}}
+        if self.where is not None:
+            out |= {"candidate": self.label, "cause": self.effect, self.where.json_key: self.where.number}
+        return out
+
+
+@dataclass(frozen=True)
+class Ambiguity:
+    """Two causes (in a train: causes at places) the data cannot tell apart, and what would:
+    ``excitation`` in words, and in a train ``separating_drive``, the body whose drive tells
+    them apart best (None where no such figure is computed)."""
+
+    effects: tuple
+    excitation: str
+    separating_drive: Optional[int] = None
+
+    def as_json(self) -> dict:
+        return {"effects": list(self.effects), "excitation": self.excitation,
+                "separating_drive_body": self.separating_drive}
+
 
 Base = TypeVar("Base")
 Score = TypeVar("Score")
@@ -328,12 +551,12 @@ class Profiled(Generic[T]):
 
 def profile(solve: Callable[[float], T], cause: "Cause", lo: float, hi: float, *,
             objective: Callable[[T], float] = lambda f: f.chi2,
-            solve_aside: Optional[Callable[[float], T]] = None) -> "Profiled[T]":
+            solve_aside: Optional[Callable[[float], T]] = None, points: int = PROFILE_GRID_POINTS) -> "Profiled[T]":
     """The one profile search of every diagnosis over a cause's nonlinear parameter in [lo, hi]:
     ``solve(h)`` fits the model extended with the cause at ``h`` (the caller's fit type, with
     ``chi2`` and ``dof``); ``objective`` is what is minimised (chi-square, or a caller's penalty
-    of the unphysical region). A grid of :data:`PROFILE_GRID_POINTS` (log-spaced for a log-scale
-    cause), Brent's bounded search between the neighbours of each of its best
+    of the unphysical region). A grid of ``points`` (:meth:`Cause.grid_points`; log-spaced for a
+    log-scale cause), Brent's bounded search between the neighbours of each of its best
     :data:`PROFILE_BASINS` local minima to :data:`PROFILE_XATOL` of the range; the standard error from chi-square's curvature (it rises
     by 1 at one standard error; scaled like the linear ones when the fit is worse than the noise),
     by a central difference in the parameter itself (one-sided at the lower bound), solved by
@@ -350,7 +573,7 @@ def profile(solve: Callable[[float], T], cause: "Cause", lo: float, hi: float, *
             cache[h] = solve(h)
         return objective(cache[h])
 
-    grid = np.linspace(a, b, PROFILE_GRID_POINTS)
+    grid = np.linspace(a, b, points)
     vals = np.array([obj(u) for u in grid])
     # Brent's search between the neighbours of each of the best PROFILE_BASINS local minima of the
     # grid: chi-square over a slip angle or a gap has several basins, and the best grid point may

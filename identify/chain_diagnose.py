@@ -41,10 +41,11 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from jointrig.vocab.law import JointLaw, Power, Viscous
+from jointrig.vocab.law import JointLaw, Power, Viscous, law_parameters
 from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpec, bearing_name, chain_system,
                     ground_laws, ground_prefix, identifiability, inertia_name, joint_prefix, solve_banded)
-from .causes import CAUSES, Cause, ModelSpec, evidence, forward_select, parsimonious, profile
+from .causes import (Ambiguity, Cause, CauseScore, Limits, ModelSpec, Place, at, by_name, evidence, forward_select,
+                     parsimonious, profile)
 from .diagnose import DEFAULT_FIDELITY, FINE_SAMPLES
 from .harmonics import max_harmonic
 from .periods import period_spectra, raw_noise_std
@@ -52,22 +53,18 @@ from jointrig.vocab.records import RecordError, SteadyStateRecord
 from .estimates import Estimates
 from .solve import IllConditionedWarning
 
-__all__ = ["ChainRun", "prepare_chain_runs", "ChainFit", "Candidate", "CandidateScore", "ChainDiagnosis",
+__all__ = ["ChainRun", "prepare_chain_runs", "ChainFit", "Candidate", "CauseScore", "ChainDiagnosis",
            "diagnose_chain", "JOINT_CAUSES", "nominal_spec", "plant_and_inertias", "separating_drive",
            "drive_information"]
 
 #: The catalogue's causes that live in a joint (scored at every joint); bearing drag is scored
 #: at every flywheel; an angle's zero at a joint is its twist's offset. Drive delay and the
 #: channel skew and gain of flywheel 2's angle are two-flywheel causes not carried over.
-JOINT_CAUSES: tuple[Cause, ...] = tuple(c for c in CAUSES if c.name in (
-    "coulomb_friction", "backlash", "asymmetric_stiffness", "hysteresis", "micro_slip", "stribeck_friction",
-    "quadratic_damping", "angle_offset"))
-_BEARING = next(c for c in CAUSES if c.name == "bearing_friction")
-_COULOMB = next(c for c in CAUSES if c.name == "coulomb_friction")
+JOINT_CAUSES: tuple[Cause, ...] = at("joint")
+_BEARING = by_name("bearing_friction")
 
-#: The causes scored in a single body's law to ground: a guide's friction.
-GROUND_CAUSES: tuple[Cause, ...] = tuple(c for c in CAUSES if c.name in (
-    "coulomb_friction", "stribeck_friction", "quadratic_damping"))
+#: The causes scored in a single body's law to ground: a guide's friction, a motor's cogging.
+GROUND_CAUSES: tuple[Cause, ...] = at("ground")
 #: On a train of two or more bodies no friction to ground is scored yet (viscous bearing drag
 #: is). The independent bench's Stribeck joint 3 (its law shaped unlike the project's) drew a
 #: second cause at the next body: Stribeck friction to ground (p < 1e-3 after Bonferroni over 40
@@ -189,12 +186,15 @@ class ChainFit(Estimates):
         """Every parameter by its chain name: the linear ones, then what each joint's terms imply
         (free play, slip angles, Stribeck rate: ``Term.derived_parameters``)."""
         out = self.as_dict()
+        for i, terms in enumerate(self.spec.grounds, start=1):
+            pre = ground_prefix(i)
+            out.update({pre + k: v for k, v in law_parameters(terms, [out[pre + t.name] for t in terms]).items()})
         for j, terms in enumerate(self.spec.joints, start=1):
+            pre = joint_prefix(j)
+            out.update({pre + k: v for k, v in law_parameters(terms, [out[pre + t.name] for t in terms]).items()})
             for t in terms:
-                out.update({joint_prefix(j) + k: v for k, v in
-                            t.derived_parameters(out[joint_prefix(j) + t.name]).items()})
                 if isinstance(t, Power) and t.gap_rad > 0:
-                    out[joint_prefix(j) + "backlash_half_gap_rad"] = t.gap_rad
+                    out[pre + "backlash_half_gap_rad"] = t.gap_rad
         for j, o in enumerate(self.spec.offsets_rad, start=1):
             if o:
                 out[joint_prefix(j) + "angle_offset_rad"] = o
@@ -279,10 +279,12 @@ class Candidate:
         return not self.ground and self.cause.name != "bearing_friction"
 
     @property
+    def where(self) -> Place:
+        return Place("ground" if self.ground else "joint" if self.at_joint else "flywheel", self.place)
+
+    @property
     def label(self) -> str:
-        if self.ground:
-            return f"{self.cause.name} to ground at body {self.place}"
-        return f"{self.cause.name} at {'joint' if self.at_joint else 'flywheel'} {self.place}"
+        return f"{self.cause.name} {self.where.describe()}"
 
     @property
     def name(self) -> str:
@@ -364,33 +366,6 @@ def angle_resolution(problem: _Problem, cand: Candidate) -> float:
     return out
 
 
-@dataclass(frozen=True)
-class CandidateScore:
-    """Evidence for one candidate on top of a base model (fields as in :class:`identify.diagnose.CauseScore`)."""
-
-    label: str
-    cause: str
-    place: int
-    at_joint: bool
-    delta_chi2: float
-    n_params: int
-    score: float
-    p_value: float
-    significant: bool
-    fit: ChainFit
-    magnitude: tuple
-    note: str = ""
-    ground: bool = False
-
-    def as_json(self) -> dict:
-        where = "ground_of_body" if self.ground else "joint" if self.at_joint else "flywheel"
-        return {"candidate": self.label, "cause": self.cause, where: self.place,
-                "score": self.score, "significant": self.significant, "delta_chi2": self.delta_chi2,
-                "n_params": self.n_params, "p_value": self.p_value,
-                "magnitude": {"name": self.magnitude[0], "value": self.magnitude[1], "std_error": self.magnitude[2]},
-                "note": self.note}
-
-
 def _profile(problem: _Problem, cand: Candidate, base: ChainSpec, weights) -> ChainFit:
     """:func:`identify.causes.profile` over the candidate's bounds at its place."""
     lo, hi = cand.cause.bounds(_twist_runs(problem, cand))
@@ -405,7 +380,8 @@ def _profile(problem: _Problem, cand: Candidate, base: ChainSpec, weights) -> Ch
         v = f.as_dict().get(mag, 0.0)
         return f.chi2 if not (cand.cause.nonnegative and v < 0) else f.chi2 + 1e6 * (1.0 + abs(f.chi2))
 
-    found = profile(lambda h: problem.solve(cand.extend(base, h), weights), cand.cause, lo, hi, objective=penalised)
+    found = profile(lambda h: problem.solve(cand.extend(base, h), weights), cand.cause, lo, hi, objective=penalised,
+                    points=cand.cause.grid_points(_twist_runs(problem, cand), lo, hi))
     return replace(found.fit, profiled=((cand.profiled_name(), found.value, found.std_error),))
 
 
@@ -445,26 +421,16 @@ def _rejection(problem: _Problem, cand: Candidate, ext: ChainFit, mag: tuple) ->
         v, se = ext.as_dict()[name], ext.std_error(name)
         if v < 0 and (not math.isfinite(se) or -v > 2 * se):
             return f"the extended model would hold a negative {name} = {v:.4g} +- {se:.2g}: it would feed energy in"
-    params = ext.parameters()
-    pre = cand.prefix
-    if cand.cause.name == "stribeck_friction":
-        v, top = params.get(pre + "stribeck_velocity_rad_s", math.nan), _rate_amplitude(problem, cand)
-        if v > top:
-            return (f"its Stribeck rate {v:.3g} rad/s is above every run's rate (at most {top:.3g} rad/s): it is "
-                    f"dry friction (see {replace(cand, cause=_COULOMB).label})")
-    if cand.cause.name in ("hysteresis", "micro_slip", "backlash"):
-        h = params.get(cand.profiled_name(), math.nan)
-        res = angle_resolution(problem, cand)
-        if h < res:
-            if cand.cause.name == "backlash":
-                return f"its half gap {h:.3g} rad is below the twist's resolution {res:.2g} rad: no free play is resolved"
-            return (f"its slip angle {h:.3g} rad is below the twist's resolution {res:.2g} rad: an element that never "
-                    f"sticks is dry friction (see coulomb_friction at joint {cand.place})")
+    if cand.cause.degenerate is not None:
+        h = ext.parameters().get(cand.profiled_name(), math.nan)
+        at_place = f"joint {cand.place}" if cand.at_joint else f"body {cand.place}"
+        return cand.cause.degenerate(h, Limits(angle_resolution(problem, cand), _rate_amplitude(problem, cand),
+                                               f"coulomb_friction at {at_place}"))
     return ""
 
 
 def score(problem: _Problem, cand: Candidate, base: ChainFit, weights: np.ndarray, n_tests: int,
-          alpha: float) -> CandidateScore:
+          alpha: float) -> CauseScore:
     """The evidence for one candidate on top of ``base`` (module docstring, step 4)."""
     ext = (problem.solve(cand.extend(base.spec, 0.0), weights) if cand.cause.bounds is None
            else _profile(problem, cand, base.spec, weights))
@@ -473,32 +439,22 @@ def score(problem: _Problem, cand: Candidate, base: ChainFit, weights: np.ndarra
     # The one evidence measure (identify.causes.evidence): BIC score, chi-square(q) p-value,
     # Bonferroni over the round; a candidate that adds no parameter (q = 0: dry friction where a
     # Stribeck law already holds it) is never significant.
-    bic, p, significant = evidence(delta, q, base.n_rows, alpha, n_tests)
+    bic, p, significant = evidence(delta, q, base.n_rows, alpha,
+                                   n_tests * (cand.cause.n_trials(_twist_runs(problem, cand)) if cand.cause.trials else 1))
     name = cand.magnitude_name()
-    params = ext.parameters()
-    mag = (name, float(params.get(name, math.nan)), ext.std_error(name))
+    if cand.at_joint or cand.ground:
+        mag = (name, *cand.cause.magnitude_of(ext.parameters(), ext.std_error, cand.prefix))
+    else:
+        mag = (name, ext.as_dict().get(name, math.nan), ext.std_error(name))
     note = _rejection(problem, cand, ext, mag) if significant or (cand.cause.nonnegative and mag[1] < 0) else ""
     if note:
         significant = False
-    return CandidateScore(cand.label, cand.cause.name, cand.place, cand.at_joint, float(delta), q, float(bic), p,
-                          significant, ext, mag, note, cand.ground)
+    return CauseScore(cand.cause.name, float(delta), q, float(bic), p, significant, ext, mag, note=note,
+                      where=cand.where)
 
 
 # --------------------------------------------------------------------------------------------
 # 4. The diagnosis
-
-
-@dataclass(frozen=True)
-class Ambiguity:
-    """Two candidates at different places that the data cannot tell apart, and the drive that would."""
-
-    candidates: tuple
-    separating_drive: Optional[int]
-    explanation: str
-
-    def as_json(self) -> dict:
-        return {"candidates": list(self.candidates), "separating_drive_flywheel": self.separating_drive,
-                "explanation": self.explanation}
 
 
 @dataclass(frozen=True)
@@ -523,7 +479,7 @@ class ChainDiagnosis:
     nu: float
 
     @property
-    def found(self) -> Optional[CandidateScore]:
+    def found(self) -> Optional[CauseScore]:
         return self.steps[0] if self.steps else None
 
     def reduced_chi2(self, f: ChainFit) -> float:
@@ -592,7 +548,7 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
             if progress is not None:
                 progress(k, n, cand.label)
         return parsimonious(sorted(scored, key=lambda s: (bool(s.note), -s.score)), causes_by_name, current.n_rows,
-                            alpha, name_of=lambda s: s.cause, place_of=lambda s: (s.place, s.at_joint, s.ground))
+                            alpha, name_of=lambda s: s.cause, place_of=lambda s: s.where)
 
     adopted: list[Candidate] = []
 
@@ -611,8 +567,7 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
     def rivals_of(base, best, scored, pool):
         current, wcur = base
         for rival in scored:
-            if rival is best or not rival.significant or (rival.place, rival.at_joint, rival.ground) == (
-                    best.place, best.at_joint, best.ground):
+            if rival is best or not rival.significant or rival.where == best.where:
                 continue
             if rival.score < 0.5 * best.score:
                 continue
@@ -621,7 +576,7 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
             b_given_r = score(problem, by_label[best.label], rival_fit, wr, len(pool), alpha)
             if not r_given_b.significant and not b_given_r.significant:
                 drive, why = separating_drive(problem, by_label[best.label], by_label[rival.label], best, rival)
-                ambiguous.append(Ambiguity((best.label, rival.label), drive, why))
+                ambiguous.append(Ambiguity((best.label, rival.label), why, drive))
 
     chosen = forward_select((nominal, w), pool, rank=rank, adopt=adopt, after=rivals_of,
                             max_effects=max_effects, name_of=lambda s: s.label)
@@ -690,7 +645,7 @@ def drive_information(J_kgm2, c_Nms_per_rad, k_Nm_per_rad, omegas_rad_s, torque_
     return out
 
 
-def separating_drive(problem: _Problem, a: Candidate, b: Candidate, sa: CandidateScore, sb: CandidateScore
+def separating_drive(problem: _Problem, a: Candidate, b: Candidate, sa: CauseScore, sb: CauseScore
                      ) -> tuple[Optional[int], str]:
     """Which flywheel to drive so that two candidates at different places tell apart:
     :func:`drive_information` with the nominal fit's linear chain, the measured runs'
@@ -722,7 +677,7 @@ def separating_drive(problem: _Problem, a: Candidate, b: Candidate, sa: Candidat
                   f"at the measured frequencies and torque, linearised: {ranked})")
 
 
-def _effect_law(cand: Candidate, sc: CandidateScore) -> Optional[JointLaw]:
+def _effect_law(cand: Candidate, sc: CauseScore) -> Optional[JointLaw]:
     """A candidate's own joint torque at its fitted size (its added terms only)."""
     joint = sc.fit.spec.joints[cand.place - 1]
     vals = sc.fit.as_dict()

@@ -48,8 +48,8 @@ from jointrig.vocab.records import RecordError, SteadyStateRecord
 from .estimates import Estimates
 from .solve import IllConditionedWarning, solve
 from jointrig.vocab.params import J1, J2, JE, BEARING1, BEARING2
-from .causes import (DEFAULT_SEPARATION, CAUSES, NOMINAL, SEPARATING_EXCITATION, TIE, Cause, ModelSpec, parsimonious, profile,
-                     evidence, forward_select, rate_amplitudes)
+from .causes import (DEFAULT_SEPARATION, CAUSES, NOMINAL, SEPARATING_EXCITATION, TIE, Ambiguity, Cause, CauseScore,
+                     Limits, ModelSpec, parsimonious, profile, evidence, forward_select, rate_amplitudes)
 
 __all__ = [
     "DEFAULT_FIDELITY", "kink_corrected_rate", "kink_first_pass", "KinkPass", "PreparedRun", "prepare_runs", "Fit",
@@ -397,6 +397,10 @@ class Fit(Estimates):
 
     def _profiled_std_errors(self) -> dict[str, float]:
         return dict(self.profile_std_errors)
+
+    def parameters(self) -> dict[str, float]:
+        """Every parameter by name (:meth:`effect_parameters`): what a :class:`CauseScore` shows."""
+        return self.effect_parameters()
 
     def effect_parameters(self) -> dict[str, float]:
         """All parameters, with the nonlinear ones (free play, slip angle, delay) added
@@ -753,42 +757,6 @@ def fit(problem: _Problem, spec: ModelSpec, weights: Optional[np.ndarray] = None
 # 3. Causes
 
 
-@dataclass(frozen=True)
-class CauseScore:
-    """Evidence for one cause on top of a base model.
-
-    Attributes:
-      delta_chi2: drop in (corrected) chi-square when the cause is added.
-      n_params: parameters it adds (nonlinear one included).
-      score: ``delta_chi2 - n_params * ln(n_rows)``, the ranking (BIC evidence).
-      p_value: of ``delta_chi2`` under chi-square(n_params) if the cause were absent.
-      significant: ``p_value < alpha / n_causes`` and score > 0.
-      fit: the extended fit; magnitude: the size parameter and its value; signature: share of
-        the chi-square drop by harmonic class (mean, fundamental, even, odd >= 3) and
-        ``dissipative``, the share of the cause's joint torque at the fundamental that is in
-        quadrature with the angle (1: it dissipates, like friction; 0: it is elastic, like
-        free play; None: it acts outside the joint).
-    """
-
-    effect: str
-    delta_chi2: float
-    n_params: int
-    score: float
-    p_value: float
-    significant: bool
-    fit: Optional[Fit]
-    magnitude: tuple[str, float, float]
-    signature: dict
-    note: str = ""
-
-    def as_json(self) -> dict:
-        return {"effect": self.effect, "score": self.score, "significant": self.significant,
-                "delta_chi2": self.delta_chi2, "n_params": self.n_params, "p_value": self.p_value,
-                "magnitude": {"name": self.magnitude[0], "value": self.magnitude[1], "std_error": self.magnitude[2]},
-                "signature": self.signature, "note": self.note,
-                "parameters": self.fit.effect_parameters() if self.fit else {}}
-
-
 def _law_of(f: Fit) -> JointLaw:
     p = f.as_dict()
     return JointLaw(f.spec.terms, tuple(p[t.name] for t in f.spec.terms))
@@ -838,8 +806,8 @@ def _magnitude(cause: Cause, f: Fit) -> tuple[str, float, float]:
         i1, i2 = f.names.index(BEARING1), f.names.index(BEARING2)
         i = i1 if abs(f.values[i1]) >= abs(f.values[i2]) else i2
         return f.names[i], float(f.values[i]), float(f.std_errors[i])
-    name = cause.magnitude
-    return name, float(params.get(name, 0.0)), f.std_error(name)
+    value, se = cause.magnitude_of(params, f.std_error)
+    return cause.magnitude, (value if math.isfinite(value) else 0.0), se
 
 
 def _profile(problem, cause: Cause, base: ModelSpec, weights, start_jump: float = 0.0) -> Fit:
@@ -857,7 +825,7 @@ def _profile(problem, cause: Cause, base: ModelSpec, weights, start_jump: float 
         return cache[h]
 
     lo, hi = cause.bounds(problem.runs)
-    found = profile(solved, cause, lo, hi, solve_aside=aside)
+    found = profile(solved, cause, lo, hi, solve_aside=aside, points=cause.grid_points(problem.runs, lo, hi))
     return replace(found.fit, profile_std_errors=((cause.profiled, found.std_error),))
 
 
@@ -873,7 +841,7 @@ def score_cause(problem: _Problem, cause: Cause, base: Fit, weights: np.ndarray,
         ext = _profile(problem, cause, base.spec, weights, start)
     q = len(ext.names) - len(base.names) + (1 if cause.bounds is not None else 0)
     delta = base.chi2 - ext.chi2
-    score, p, significant = evidence(delta, q, base.n_rows, alpha, n_causes)
+    score, p, significant = evidence(delta, q, base.n_rows, alpha, n_causes * cause.n_trials(problem.runs))
     mag = _magnitude(cause, ext)
     note = ""
     if cause.nonnegative and mag[1] < 0:
@@ -923,42 +891,15 @@ def angle_resolution(runs: Sequence["PreparedRun"], band: int) -> float:
 
 
 def _degenerate(problem: "_Problem", cause: "Cause", ext: Fit) -> str:
-    """A fitted cause that is really another, or nothing: a Jenkins element whose slip angle is
-    below what the angles resolve never sticks (it is dry friction); a free play below it is
-    no free play. Empty if the cause stands as fitted."""
-    if cause.name == "stribeck_friction":
-        v = ext.effect_parameters().get("stribeck_velocity_rad_s", math.nan)
-        top = max(rate_amplitudes(problem.runs))
-        if v > top:
-            return (f"its Stribeck rate {v:.3g} rad/s is above every run's rate amplitude (at most {top:.3g} rad/s): the "
-                    f"friction does not fall off within the data; it is dry friction (see coulomb_friction)")
-        return ""
-    if cause.bounds is None or cause.profiled not in ("hysteresis_slip_angle_rad", "iwan_slip_angle_rad",
-                                                       "backlash_half_gap_rad"):
+    """The cause's own rule (``Cause.degenerate``) on its fitted nonlinear parameter: a Jenkins
+    element whose slip angle is below what the angles resolve never sticks (it is dry friction);
+    a free play below it is no free play. Empty if the cause stands as fitted."""
+    if cause.degenerate is None:
         return ""
     h = ext.effect_parameters().get(cause.profiled, math.nan)
     lo = cause.bounds(problem.runs)[0]
     res = max(angle_resolution(problem.runs, problem.n_harmonics), 2.0 * lo)
-    if not h < res:
-        return ""
-    if cause.name == "hysteresis":
-        return (f"its slip angle {h:.3g} rad is below the angle resolution {res:.2g} rad: a Jenkins element that never "
-                f"sticks is dry friction (see coulomb_friction)")
-    if cause.name == "micro_slip":
-        return (f"its largest slip angle {h:.3g} rad is below the angle resolution {res:.2g} rad: an Iwan element that "
-                f"never sticks is dry friction (see coulomb_friction)")
-    return f"its half gap {h:.3g} rad is below the angle resolution {res:.2g} rad: no free play is resolved"
-
-
-@dataclass(frozen=True)
-class Ambiguity:
-    """Two causes the data cannot tell apart, and what would."""
-
-    effects: tuple[str, str]
-    excitation: str
-
-    def as_json(self) -> dict:
-        return {"effects": list(self.effects), "excitation": self.excitation}
+    return cause.degenerate(h, Limits(res, max(rate_amplitudes(problem.runs))))
 
 
 @dataclass(frozen=True)

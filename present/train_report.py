@@ -78,7 +78,7 @@ def format_chain_lines(report: TrainReport, n_shown: int = 6) -> list[str]:
     if d.steps:
         lines.append(f"  extended model: chi2/dof = {d.final.chi2 / d.final.dof:.3g}")
     for a in d.ambiguities:
-        lines.append(f"  AMBIGUOUS: {a.candidates[0]} or {a.candidates[1]}: {a.explanation}")
+        lines.append(f"  AMBIGUOUS: {a.effects[0]} or {a.effects[1]}: {a.excitation}")
     if v is not None:
         held = "held-out periods" if report.held_out_periods else f"held-out runs ({len(report.held_out)})"
         what = "position" if N == 1 else "twist"

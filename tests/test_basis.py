@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from jointrig.vocab.law import (AngleHat, Coulomb, Iwan, Jenkins, Stribeck, TanhFriction, JointLaw, Monomial, Power,
+from jointrig.vocab.law import (AngleHat, Cogging, Coulomb, Iwan, Jenkins, Stribeck, TanhFriction, JointLaw, Monomial, Power,
                                 QuadraticDamping, Viscous, angle_hats, hat_law, hat_matrix, play, polynomial_law,
                                 rate_hats)
 
@@ -44,7 +44,8 @@ def test_scalar_path_equals_array_path(term):
 
 
 STATELESS = [Viscous(), Power(0), Power(1), Power(3), Monomial(0, 3), Monomial(2, 1), Power(1, 0.2), Power(3, 0.2),
-             Coulomb(), QuadraticDamping(), Stribeck(2.0), TanhFriction(0.5), *angle_hats(KNOTS),
+             Coulomb(), QuadraticDamping(), Stribeck(2.0), TanhFriction(0.5), Cogging(20.0), Cogging(20.0, True),
+             *angle_hats(KNOTS),
              *rate_hats((-2.0, 0.0, 2.0))]
 
 
@@ -273,3 +274,34 @@ def test_tanh_friction_scalar_and_array_paths_and_its_model_fields(tmp_path):
         law_terms_from_fields({"tanh_friction_torque_Nm": [1.0]})
     with pytest.raises(ValueError, match="velocity_rad_s"):
         TanhFriction(0.0)
+
+
+def test_a_cogging_torque_is_a_sine_of_the_angle_and_reads_back_from_a_model_file(tmp_path):
+    # A sin(z phi + p) as its sine and cosine parts: the values, the amplitude the pair implies,
+    # the model file's fields (z shared) and their refusals.
+    from jointrig.rig.model import DEFAULT_MODEL, identified_model_xml, load_rig
+    from jointrig.vocab.law import FieldError, law_terms_from_fields
+    from jointrig.vocab.plant import Plant
+
+    s, c = Cogging(125.0), Cogging(125.0, quadrature=True)
+    phi = np.array([-0.3, 0.0, 0.01, 0.2])
+    np.testing.assert_array_equal(s(phi, 0 * phi), np.sin(125.0 * phi))
+    np.testing.assert_array_equal(c(phi, 0 * phi), np.cos(125.0 * phi))
+    assert [s(float(x), 0.0) for x in phi] == list(np.sin(125.0 * phi))
+    assert s.elastic and c.elastic and not s.dissipative and (s.name, c.name) == ("cogging_sin_Nm", "cogging_cos_Nm")
+    law = JointLaw((Viscous(), Power(1), s, c), (5.0, 500.0, 30.0, -40.0))
+    plant = Plant(law)
+    params = plant.parameters()
+    assert params["cogging_amplitude_Nm"] == pytest.approx(50.0, rel=1e-15)
+    assert params["cogging_pitch_rad"] == pytest.approx(2 * math.pi / 125.0, rel=1e-15)
+    path = tmp_path / "cogging.xml"
+    path.write_text(identified_model_xml(plant, (2.0, 2.0), template=DEFAULT_MODEL))
+    assert load_rig(path).law == law
+    only_sine = law_terms_from_fields({"cogging_sin_Nm": [3.0], "cogging_order_per_rad": [8.0]})
+    assert only_sine == [(Cogging(8.0), 3.0)]
+    with pytest.raises(FieldError, match="cogging_order_per_rad goes with"):
+        law_terms_from_fields({"cogging_sin_Nm": [3.0]})
+    with pytest.raises(FieldError, match="must be > 0"):
+        law_terms_from_fields({"cogging_cos_Nm": [3.0], "cogging_order_per_rad": [0.0]})
+    with pytest.raises(ValueError, match="order_per_rad"):
+        Cogging(-1.0)

@@ -56,7 +56,7 @@ def test_json_has_ranked_causes_extended_model_and_gain(outputs):
     causes = d["causes"]
     assert {c["effect"] for c in causes} == {"coulomb_friction", "backlash", "asymmetric_stiffness", "hysteresis", "micro_slip", "stribeck_friction",
                                              "quadratic_damping", "drive_delay", "bearing_friction", "angle_offset",
-                                             "angle_skew", "angle_gain"}
+                                             "angle_skew", "angle_gain", "cogging"}
     # ranked by evidence; scores equal to 9 digits (causes the data cannot tell apart) are ties
     scores = [float(f"{c['score']:.9g}") for c in causes if c["note"] == ""]
     assert scores == sorted(scores, reverse=True)

@@ -55,6 +55,15 @@ def test_a_tanh_friction_gives_identical_trajectories(rig):
                simulate_steady_state(rig, 25.0, 400.0, cfg, law=law, backend="native")[0])
 
 
+def test_a_cogging_torque_gives_identical_trajectories(rig):
+    from jointrig.vocab.law import Cogging, JointLaw, Power, Viscous
+
+    law = JointLaw((Viscous(), Power(1), Cogging(125.0), Cogging(125.0, True)), (5.0, 500.0, 30.0, -20.0))
+    cfg = SimulationConfig(n_periods=2)
+    _identical(simulate_steady_state(rig, 25.0, 400.0, cfg, law=law, backend="python")[0],
+               simulate_steady_state(rig, 25.0, 400.0, cfg, law=law, backend="native")[0])
+
+
 def test_hat_law_and_a_replayed_multiharmonic_drive(rig):
     drive = PeriodicDrive(30.0, (0, 1000.0, 50 - 20j, 0, 10j))
     _identical(simulate_steady_state(rig, 30.0, 1000.0, SimulationConfig(), drive=drive, backend="python")[0],

@@ -173,7 +173,7 @@ ISSUE_CASES = {
                                            [(w, m) for w in (15.0, 30.0, 45.0) for m in (60.0, 200.0, 600.0)],
                                            "coulomb_friction"),
     "light joint, free play 0.02 rad": ("light", {"gap": 0.02}, None, "backlash"),
-    "paper joint, cogging 150 N m, pitch 0.05 rad": ("paper", {"cogging": (150.0, 0.05)}, None, None),
+    "paper joint, cogging 150 N m, pitch 0.05 rad": ("paper", {"cogging": (150.0, 0.05)}, None, "cogging"),
 }
 
 

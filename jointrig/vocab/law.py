@@ -18,6 +18,9 @@ Terms:
                                                           dependent damping (2, 1)
   * :class:`AngleHat`    ``b = hat_i(phi)``  (eq. 8)   -> ``g{i}_Nm``: restoring torque at knot i
   * :class:`RateHat`     ``b = hat_i(phi')`` (eq. 9 f) -> ``f{i}_Nm``: damping torque at knot i
+  * :class:`Cogging`     ``b = sin(z phi)``, ``cos(z phi)`` -> ``cogging_sin_Nm``, ``cogging_cos_Nm``: a torque
+                                                          periodic in the angle (a gear's mesh, a
+                                                          motor's cogging), ``A sin(z phi + p)``
   * :class:`Coulomb`, :class:`Stribeck` (velocity-weakening friction), :class:`QuadraticDamping`,
     :class:`Jenkins` (one slider) and :class:`Iwan` (Segalman's four-parameter distribution of
     sliders): the catalogued effects
@@ -51,6 +54,8 @@ __all__ = [
     "Iwan",
     "Stribeck",
     "TanhFriction",
+    "Cogging",
+    "law_parameters",
     "dead_zone",
     "play",
     "monotone_runs",
@@ -175,6 +180,11 @@ class Term:
 
     def derived_parameters(self, value: float) -> dict[str, float]:
         """Named parameters that follow from the term and its value (a slip angle, a stiffness)."""
+        return {}
+
+    def law_parameters(self, values: dict[str, float]) -> dict[str, float]:
+        """Named parameters that follow from several of the law's values (by term name): a
+        periodic torque's amplitude from its sine and cosine parts. Default: none."""
         return {}
 
     def dry_friction(self, value: float) -> Optional[tuple[float, list[tuple["Term", float]]]]:
@@ -959,10 +969,85 @@ def rate_hats(knots: Sequence[float]) -> tuple[RateHat, ...]:
     return tuple(RateHat(k, i) for i in range(len(k)))
 
 
+@dataclass(frozen=True)
+class Cogging(Term):
+    """A torque periodic in the angle: ``sin(z phi)``, or ``cos(z phi)`` with ``quadrature``
+    -> ``cogging_sin_Nm``, ``cogging_cos_Nm``. The pair is ``A sin(z phi + p)``: a gear's mesh
+    stiffness, a motor's cogging, detents. ``order_per_rad`` is z, periods per radian of the
+    angle (a gear's teeth or a motor's cogging steps per revolution; the pitch is 2 pi / z).
+    Both parts share z in a model file (``cogging_order_per_rad``); its C case reads z as its
+    float and ``ints[0]`` = 1 for the cosine."""
+
+    order_per_rad: float
+    quadrature: bool = False
+
+    MJCF_FIELDS = ("cogging_sin_Nm", "cogging_cos_Nm", "cogging_order_per_rad")
+    NATIVE_KIND = 11
+
+    def __post_init__(self):
+        z = float(self.order_per_rad)
+        if not (math.isfinite(z) and z > 0):
+            raise ValueError(f"Cogging.order_per_rad must be a finite number > 0, got {self.order_per_rad!r}")
+        object.__setattr__(self, "order_per_rad", z)
+        object.__setattr__(self, "quadrature", bool(self.quadrature))
+
+    def native(self):
+        return NativeTerm(self.NATIVE_KIND, (int(self.quadrature), 0, 0), dpar=self.order_per_rad)
+
+    @classmethod
+    def read_fields(cls, fields):
+        sin_f, cos_f, order_f = cls.MJCF_FIELDS
+        present = [f for f in (sin_f, cos_f) if f in fields]
+        if not present and order_f not in fields:
+            return []
+        if not present or order_f not in fields:
+            raise FieldError(f"jointrig_{order_f} goes with jointrig_{sin_f} and/or jointrig_{cos_f}")
+        z = _scalar(fields, order_f, nonnegative=True)
+        if not z > 0:
+            raise FieldError(f"jointrig_{order_f} must be > 0 (periods per radian), got {z:g}")
+        return [(cls(z, f == cos_f), _scalar(fields, f)) for f in present]
+
+    def fields(self, value):
+        return {self.name: [value], self.MJCF_FIELDS[2]: [self.order_per_rad]}
+
+    def derived_parameters(self, value):
+        return {"cogging_order_per_rad": self.order_per_rad, "cogging_pitch_rad": 2 * math.pi / self.order_per_rad}
+
+    def law_parameters(self, values):
+        return {"cogging_amplitude_Nm": math.hypot(values.get(self.MJCF_FIELDS[0], 0.0),
+                                                   values.get(self.MJCF_FIELDS[1], 0.0))}
+
+    @property
+    def name(self) -> str:
+        return self.MJCF_FIELDS[1] if self.quadrature else self.MJCF_FIELDS[0]
+
+    @property
+    def elastic(self) -> bool:
+        return True
+
+    def __call__(self, phi, rate):
+        if isinstance(phi, float):
+            return math.cos(self.order_per_rad * phi) if self.quadrature else math.sin(self.order_per_rad * phi)
+        x = self.order_per_rad * np.asarray(phi, dtype=float)
+        return np.cos(x) if self.quadrature else np.sin(x)
+
+
+def law_parameters(terms: Sequence[Term], values: Sequence[float]) -> dict[str, float]:
+    """Every parameter a law's terms imply beyond their values (``Term.derived_parameters`` of
+    each, ``Term.law_parameters`` of the whole), by term name: the one place both the rig's
+    plants and the chain's fits read them from."""
+    by_name = {t.name: v for t, v in zip(terms, values)}
+    out: dict[str, float] = {}
+    for t, v in zip(terms, values):
+        out.update(t.derived_parameters(v))
+        out.update(t.law_parameters(by_name))
+    return out
+
+
 #: Every term a model file can declare, in the order its terms enter the law (the order of the
 #: sums in both callbacks, so it is part of the bits of every trajectory).
 TERM_CLASSES: tuple[type[Term], ...] = (Viscous, Power, Coulomb, QuadraticDamping, AngleHat, RateHat, Jenkins, Iwan,
-                                        Stribeck, TanhFriction)
+                                        Stribeck, TanhFriction, Cogging)
 
 
 def law_terms_from_fields(fields: dict) -> list[tuple[Term, float]]:

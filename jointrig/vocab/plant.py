@@ -22,7 +22,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from .law import JointLaw, Power
+from .law import JointLaw, Power, law_parameters
 from .params import BEARING1, BEARING2, DRIVE_DELAY
 
 __all__ = ["Plant", "PeriodicDrive", "effect_parameters", "drive_of_record"]
@@ -142,8 +142,7 @@ def effect_parameters(plant: Plant) -> dict[str, float]:
         if len(gaps) > 1:
             raise ValueError(f"the elastic terms have different free plays {sorted(gaps)}")
         out["backlash_half_gap_rad"] = gaps.pop()
-    for t, v in zip(plant.law.terms, plant.law.values):
-        out.update(t.derived_parameters(v))
+    out.update(law_parameters(plant.law.terms, plant.law.values))
     for name in (BEARING1, BEARING2, DRIVE_DELAY):
         if getattr(plant, name):
             out[name] = getattr(plant, name)

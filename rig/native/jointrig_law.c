@@ -18,7 +18,7 @@
 
 enum { JR_VISCOUS = 0, JR_POWER = 1, JR_MONOMIAL = 2, JR_ANGLE_HAT = 3, JR_RATE_HAT = 4,
        JR_COULOMB = 5, JR_QUADRATIC = 6, JR_JENKINS = 7, JR_IWAN = 8, JR_STRIBECK = 9,
-       JR_TANH = 10 };
+       JR_TANH = 10, JR_COGGING = 11 };
 
 typedef struct {
   int n_terms;
@@ -125,6 +125,7 @@ static double term(jointrig_params* P, int t, double phi, double rate) {
       return (double)((rate > 0.0) - (rate < 0.0)) * exp(-(r * r));
     }
     case JR_TANH: return tanh(rate / P->dpar[t]);
+    case JR_COGGING: return P->ipar1[t] ? cos(P->dpar[t] * phi) : sin(P->dpar[t] * phi);
     default: P->error = 1; return 0.0;
   }
 }
