@@ -18,7 +18,7 @@ import numpy as np
 
 from jointrig.vocab.law import (Cogging, Coulomb, Iwan, Jenkins, Monomial, Power, QuadraticDamping, Stribeck, Term,
                                 Viscous)
-from jointrig.vocab.params import DRIVE_DELAY
+from jointrig.vocab.params import BEARING1, BEARING2, DRIVE_DELAY
 
 from .balance import spectral_rate
 
@@ -102,21 +102,29 @@ class Cause:
     #: oscillation of chi-square over its range, and its best drop is the largest of that many;
     #: the significance level is divided by it as by the number of causes (look-elsewhere)
     trials: Optional[Callable[[Sequence], float]] = None
-    #: the magnitude is the length of these parameters' vector (a periodic torque's sine and
-    #: cosine parts make its amplitude), its standard error by the delta method; () when the
-    #: magnitude is a parameter itself
+    #: the magnitude is made of these parameters (() when it is a parameter itself): the length of
+    #: their vector (``magnitude_is = "length"``: a periodic torque's sine and cosine parts make its
+    #: amplitude, the standard error by the delta method), or the largest of them (``"largest"``:
+    #: two flywheels' bearing drags, named by the one)
     magnitude_parts: tuple = ()
+    magnitude_is: str = "length"
 
-    def magnitude_of(self, params: dict, std_error: Callable[[str], float], prefix: str = "") -> tuple[float, float]:
-        """``(value, standard error)`` of the magnitude from a fit's parameters and its
+    def magnitude_of(self, params: dict, std_error: Callable[[str], float], prefix: str = ""
+                     ) -> tuple[str, float, float]:
+        """``(name, value, standard error)`` of the magnitude from a fit's parameters and its
         ``std_error(name)``, the names carrying ``prefix`` (a joint's or a body's in a train)."""
         if not self.magnitude_parts:
             name = prefix + self.magnitude
-            return float(params.get(name, math.nan)), std_error(name)
-        parts = np.array([params.get(prefix + n, math.nan) for n in self.magnitude_parts])
-        errs = np.array([std_error(prefix + n) for n in self.magnitude_parts])
+            return name, float(params.get(name, math.nan)), std_error(name)
+        names = [prefix + n for n in self.magnitude_parts]
+        parts = np.array([params.get(n, math.nan) for n in names])
+        errs = np.array([std_error(n) for n in names])
+        if self.magnitude_is == "largest":
+            i = int(np.argmax(np.abs(parts)))
+            return names[i], float(parts[i]), float(errs[i])
         size = float(np.sqrt(np.sum(parts**2)))
-        return size, float(np.sqrt(np.sum((parts * errs) ** 2)) / size) if size > 0 else float(np.sqrt(np.mean(errs**2)))
+        se = float(np.sqrt(np.sum((parts * errs) ** 2)) / size) if size > 0 else float(np.sqrt(np.mean(errs**2)))
+        return prefix + self.magnitude, size, se
 
     def n_trials(self, runs) -> float:
         """See ``trials``."""
@@ -289,7 +297,7 @@ CATALOGUE: tuple[Cause, ...] = (
           profiled=DRIVE_DELAY, places=frozenset({"two_flywheel", "oscillator"})),
     Cause("bearing_friction", "viscous drag of a flywheel to ground (not through the joint)",
           lambda s, h: replace(s, bearings=True), "bearing_damping_Nms_per_rad", 2, needs_two_angles=True,
-          places=frozenset({"two_flywheel"})),
+          places=frozenset({"two_flywheel"}), magnitude_parts=(BEARING1, BEARING2), magnitude_is="largest"),
     Cause("angle_offset", "measurement: the zero of the relative angle is off (an encoder's zero); under a cubic "
           "term it creates even harmonics as an asymmetric spring would",
           lambda s, h: replace(s, angle_offset_rad=float(h)), "angle_offset_rad", 0,

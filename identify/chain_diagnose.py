@@ -339,13 +339,16 @@ def _twist_runs(problem: _Problem, cand: Candidate) -> list:
     """The run where the candidate's motion (its joint's twist, or its body's angle) swings most,
     as the two-flywheel causes' search bounds read runs (``average.phi_rad``). In a chain a joint
     may barely twist in runs far from its modes; the bounds of a free play or a slip angle must
-    reach the largest twist."""
+    reach the largest twist, and those of a rate (a Stribeck rate, ``profiled`` in rad/s) the
+    largest twist rate: the run where that swings most."""
+    by_rate = cand.cause.profiled is not None and cand.cause.profiled.endswith("_rad_s")
     best, amp = None, -1.0
     for r in problem.runs:
         a = r.average
-        twist = cand.motion(a)[0]
-        if np.ptp(twist) > amp:
-            best, amp = (a, twist), float(np.ptp(twist))
+        twist, rate = cand.motion(a)
+        size = float(np.ptp(rate if by_rate else twist))
+        if size > amp:
+            best, amp = (a, twist), size
     a, twist = best
     return [SimpleNamespace(average=SteadyStateRecord(a.omega_rad_s, a.time_s, np.zeros_like(twist), twist, None,
                                                       source=a.source))]
@@ -369,9 +372,6 @@ def angle_resolution(problem: _Problem, cand: Candidate) -> float:
 def _profile(problem: _Problem, cand: Candidate, base: ChainSpec, weights) -> ChainFit:
     """:func:`identify.causes.profile` over the candidate's bounds at its place."""
     lo, hi = cand.cause.bounds(_twist_runs(problem, cand))
-    if cand.cause.name == "stribeck_friction":  # the bounds read the rate of the twist
-        top = _rate_amplitude(problem, cand)
-        lo, hi = 0.02 * top, 2.0 * top
     mag = cand.magnitude_name()
 
     def penalised(f: ChainFit) -> float:
@@ -443,7 +443,7 @@ def score(problem: _Problem, cand: Candidate, base: ChainFit, weights: np.ndarra
                                    n_tests * (cand.cause.n_trials(_twist_runs(problem, cand)) if cand.cause.trials else 1))
     name = cand.magnitude_name()
     if cand.at_joint or cand.ground:
-        mag = (name, *cand.cause.magnitude_of(ext.parameters(), ext.std_error, cand.prefix))
+        mag = cand.cause.magnitude_of(ext.parameters(), ext.std_error, cand.prefix)
     else:
         mag = (name, ext.as_dict().get(name, math.nan), ext.std_error(name))
     note = _rejection(problem, cand, ext, mag) if significant or (cand.cause.nonnegative and mag[1] < 0) else ""
@@ -665,8 +665,7 @@ def separating_drive(problem: _Problem, a: Candidate, b: Candidate, sa: CauseSco
 
     def effect(cand, sc):
         if cand.at_joint:
-            law = _effect_law(cand, sc)
-            return ("joint", cand.place, law if law is not None else JointLaw((Viscous(),), (0.0,)))
+            return ("joint", cand.place, _effect_law(cand, sc))
         return ("flywheel", cand.place, sc.magnitude[1])
 
     infos = drive_information(J, c, k, [r.average.omega_rad_s for r in runs], torque, sigma, effect(a, sa),
@@ -677,20 +676,27 @@ def separating_drive(problem: _Problem, a: Candidate, b: Candidate, sa: CauseSco
                   f"at the measured frequencies and torque, linearised: {ranked})")
 
 
-def _effect_law(cand: Candidate, sc: CauseScore) -> Optional[JointLaw]:
-    """A candidate's own joint torque at its fitted size (its added terms only)."""
+@dataclass(frozen=True)
+class _OwnTorque:
+    """A candidate's own joint torque: the extended joint law minus the nominal terms it holds, at
+    the extended values (free play's own torque is the elastic torque with the gap minus the one
+    without; an added term's, that term's)."""
+
+    law: JointLaw
+    without: JointLaw
+
+    def torque(self, phi, rate):
+        return self.law.torque(phi, rate) - self.without.torque(phi, rate)
+
+
+def _effect_law(cand: Candidate, sc: CauseScore) -> _OwnTorque:
+    """A candidate's own joint torque at its fitted size (:class:`_OwnTorque`)."""
     joint = sc.fit.spec.joints[cand.place - 1]
     vals = sc.fit.as_dict()
     pre = joint_prefix(cand.place)
-    added = [t for t in joint if t.name not in ("c_Nms_per_rad", "k_Nm_per_rad", "gamma_Nm_per_rad3")]
-    if cand.cause.name == "backlash":
-        gap = next(t.gap_rad for t in joint if isinstance(t, Power))
-        k = vals[pre + "k_Nm_per_rad"]
-        # free play's own torque: the elastic torque with the gap minus the one without
-        return JointLaw((Power(1, gap), Power(1)), (k, -k))
-    if not added:
-        return None
-    return JointLaw(tuple(added), tuple(vals[pre + t.name] for t in added))
+    law = JointLaw(joint, tuple(vals[pre + t.name] for t in joint))
+    nominal = tuple(t for t in nominal_spec(2).joints[0] if pre + t.name in vals)
+    return _OwnTorque(law, JointLaw(nominal, tuple(vals[pre + t.name] for t in nominal)))
 
 
 def plant_and_inertias(f: ChainFit) -> tuple[ChainPlant, tuple[float, ...]]:

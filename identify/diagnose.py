@@ -801,13 +801,8 @@ def _signature(problem: "_Problem", base: Fit, ext: Fit) -> dict:
 
 
 def _magnitude(cause: Cause, f: Fit) -> tuple[str, float, float]:
-    params = f.effect_parameters()
-    if cause.name == "bearing_friction":
-        i1, i2 = f.names.index(BEARING1), f.names.index(BEARING2)
-        i = i1 if abs(f.values[i1]) >= abs(f.values[i2]) else i2
-        return f.names[i], float(f.values[i]), float(f.std_errors[i])
-    value, se = cause.magnitude_of(params, f.std_error)
-    return cause.magnitude, (value if math.isfinite(value) else 0.0), se
+    name, value, se = cause.magnitude_of(f.effect_parameters(), f.std_error)
+    return name, (value if math.isfinite(value) else 0.0), se
 
 
 def _profile(problem, cause: Cause, base: ModelSpec, weights, start_jump: float = 0.0) -> Fit:
