@@ -394,7 +394,6 @@ def solve_banded(banded: BandedSystem, *, row_weights: Optional[np.ndarray] = No
     D = 1.0 / norms
     R = np.zeros((p, p))
     g = np.zeros(p)
-    rss = 0.0
     carry_A = np.zeros((0, 0))
     carry_F = np.zeros(0)
     carry_lo = 0
@@ -408,10 +407,11 @@ def solve_banded(banded: BandedSystem, *, row_weights: Optional[np.ndarray] = No
         stack[:carry_A.shape[0], :carry_A.shape[1]] = carry_A
         stack[carry_A.shape[0]:, c0 - lo:] = A[r0:r1, c0:c1] * sw[r0:r1, None] * D[c0:c1]
         rhs = np.concatenate([carry_F, F[r0:r1] * sw[r0:r1]])
-        q, r = np.linalg.qr(stack, mode="complete")
+        # The reduced factorisation: a complete Q of a block with many rows (a multisine's
+        # thousands of lines) would be rows x rows.
+        q, r = np.linalg.qr(stack)
         qtf = q.T @ rhs
         k = min(width, stack.shape[0])
-        rss += float(qtf[k:] @ qtf[k:])
         # Columns no later block touches: the next block's band starts at its c0.
         nxt = banded.spans[b + 1][2] if b + 1 < len(banded.spans) else c1
         final = min(nxt - lo, k)

@@ -29,10 +29,10 @@ from jointrig.vocab.law import JointLaw, Term
 from jointrig.vocab.params import DRIVE_DELAY
 from jointrig.parallel import fork_map
 
-from .causes import OSCILLATOR_CAUSES, Cause, ModelSpec, evidence, forward_select
+from .causes import OSCILLATOR_CAUSES, Cause, CauseScore, ModelSpec, evidence, forward_select
 from .output_error import OutputErrorResult, refine_output_error, simulate_periods
 
-__all__ = ["CandidateScore", "residual_spectrum", "ResidualAnalysis", "ExtensionStep", "ExtensionResult",
+__all__ = ["removable", "residual_spectrum", "ResidualAnalysis", "ExtensionStep", "ExtensionResult",
            "residual_analysis", "score_candidates", "extend_model", "indistinguishable", "INDISTINGUISHABLE_SHARE"]
 
 log = logging.getLogger(__name__)
@@ -98,33 +98,22 @@ def residual_spectrum(y_sim: np.ndarray, y: np.ndarray) -> np.ndarray:
     return np.abs(np.fft.rfft(y_sim - y, axis=-1)).mean(axis=0) / y.shape[-1]
 
 
-@dataclass(frozen=True)
-class CandidateScore:
-    """A catalogued cause's evidence on the oscillator's simulation error (the score test:
-    ``chi2`` is the chi-square drop the cause would bring, judged by :func:`identify.causes.evidence`
-    like the two-flywheel diagnosis's)."""
-
-    effect: str
-    meaning: str
-    reduction: float          # residual sum of squares the candidate can remove (data units^2)
-    predicted_rms: float      # RMS residual after that removal
-    chi2: float               # reduction / sigma^2
-    p_value: float
-    step: float               # one Gauss-Newton step for its coefficient (start value)
-    score: float = math.nan   # BIC: chi2 - ln(n samples)
-
-
 #: Two candidates whose removable residual is within this share of each other explain nearly
 #: the same part of it: the data cannot tell them apart.
 INDISTINGUISHABLE_SHARE = 0.9
 
 
-def indistinguishable(scores: Sequence[CandidateScore]) -> Optional[tuple[str, str, float]]:
+def removable(score: CauseScore) -> float:
+    """What a scored cause can remove of the residual sum of squares (data units^2)."""
+    return score.signature["removable_rss"]
+
+
+def indistinguishable(scores: Sequence[CauseScore]) -> Optional[tuple[str, str, float]]:
     """``(best, runner-up, relative difference of their removable residual)`` when the two
     best-scored candidates explain nearly the same part of the residual (the runner-up removes
     more than :data:`INDISTINGUISHABLE_SHARE` of what the best removes), else None."""
-    if len(scores) > 1 and scores[1].reduction > INDISTINGUISHABLE_SHARE * scores[0].reduction:
-        return scores[0].effect, scores[1].effect, 1 - scores[1].reduction / scores[0].reduction
+    if len(scores) > 1 and removable(scores[1]) > INDISTINGUISHABLE_SHARE * removable(scores[0]):
+        return scores[0].effect, scores[1].effect, 1 - removable(scores[1]) / removable(scores[0])
     return None
 
 
@@ -134,8 +123,12 @@ def _rms(x) -> float:
 
 def score_candidates(u: np.ndarray, y: np.ndarray, fs_Hz: float, *, inertia: float, law: JointLaw,
                      delay_s: float = 0.0, candidates: Sequence[Cause] = OSCILLATOR_CAUSES
-                     ) -> tuple[CandidateScore, ...]:
-    """Score test of each catalogued cause at the present fit, best first (largest reduction)."""
+                     ) -> tuple[CauseScore, ...]:
+    """Score test of each catalogued cause at the present fit, best first (largest reduction):
+    the one score type of every diagnosis (:class:`identify.causes.CauseScore`), with
+    ``delta_chi2`` the test's chi-square, no fit (the test fits nothing), the magnitude's start
+    value (one Gauss-Newton step) and in ``signature`` the residual sum of squares it can remove
+    (``removable_rss``, data units^2) and the RMS residual left after (``predicted_rms``)."""
     y0, Y0 = simulate_periods(inertia, law, u, fs_Hz, delay_s=delay_s)
     r = (y0 - y).ravel()
     n_per = y.shape[-1]
@@ -180,10 +173,10 @@ def score_candidates(u: np.ndarray, y: np.ndarray, fs_Hz: float, *, inertia: flo
         proj = float(s_perp @ r)
         red = proj * proj / ss
         stat = red / sigma2
-        bic, p, _ = evidence(stat, 1, n)  # ranked by it; kept only if held-out runs improve
-        scores.append(CandidateScore(cand.name, cand.description, red, float(np.sqrt(max(rss - red, 0) / n)), stat,
-                                     p, -proj / ss, bic))
-    return tuple(sorted(scores, key=lambda c: -c.reduction))
+        bic, p, significant = evidence(stat, 1, n)  # ranked by it; kept only if held-out runs improve
+        scores.append(CauseScore(cand.name, stat, 1, bic, p, significant, None, (cand.magnitude, -proj / ss, math.nan),
+                                 {"removable_rss": red, "predicted_rms": float(np.sqrt(max(rss - red, 0) / n))}))
+    return tuple(sorted(scores, key=lambda c: -removable(c)))
 
 
 @dataclass(frozen=True)
@@ -206,7 +199,7 @@ class ExtensionResult:
     effects: tuple[str, ...]
     steps: tuple[ExtensionStep, ...]
     fit: OutputErrorResult
-    scores: tuple[CandidateScore, ...]
+    scores: tuple[CauseScore, ...]
 
 
 def _fit(u, y, fs, inertia, law, delay, estimate_delay):
@@ -260,7 +253,7 @@ def extend_model(u: np.ndarray, y: np.ndarray, fs_Hz: float, *, inertia: float, 
             if term is None:
                 trial = _fit(ut, yt, fs_Hz, fit.inertia, fit.law, fit.delay_s, True)
             else:
-                trial_law = JointLaw(fit.law.terms + (term,), fit.law.values + (best.step,))
+                trial_law = JointLaw(fit.law.terms + (term,), fit.law.values + (best.magnitude[1],))
                 trial = _fit(ut, yt, fs_Hz, fit.inertia, trial_law, fit.delay_s, delay_on)
             new_oth = _val_rms(trial, other[0], other[1], fs_Hz) if other is not None else math.nan
             return term, trial, _val_rms(trial, uv, yv, fs_Hz), new_oth

@@ -18,9 +18,8 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from .estimates import Estimates, equilibrated_condition
-from .balance import LinearSystem, single_dof_system
 from jointrig.vocab.law import JointLaw, Term
-from .solve import IdentificationResult, solve
+from .solve import IdentificationResult
 from .steady import periodic_response
 
 __all__ = ["OutputErrorResult", "refine_output_error", "simulate_periods", "harmonic_balance_start", "steady_rms",
@@ -72,17 +71,19 @@ def simulate_periods(inertia: float, law: JointLaw, u_periods: np.ndarray, fs_Hz
 
 def harmonic_balance_start(u_periods: np.ndarray, y_periods: np.ndarray, fs_Hz: float, terms: Sequence[Term], *,
                            n_harmonics: int) -> tuple[float, JointLaw, IdentificationResult]:
-    """The harmonic balance (paper eq. 1-12, one coordinate) of periodic input/output records:
-    ``m y'' + law(y, y') = u`` balanced on lines 0..``n_harmonics`` of every record (each
-    ``(R, N)`` array holds one period per row), solved by least squares. Returns the inertia
-    ``m``, the law and the solver's result: the start of :func:`refine_output_error`."""
+    """The harmonic balance (paper eq. 1-12) of periodic input/output records of one coordinate,
+    ``m y'' + law(y, y') = u``: the drive train of one body whose law to ground is ``terms``
+    (:mod:`identify.chain`, the identifier of every train), balanced on lines 0..``n_harmonics``
+    of every record (each ``(R, N)`` array holds one period per row). Returns the inertia ``m``,
+    the law and the solver's result: the start of :func:`refine_output_error`."""
+    from .chain import ChainRecord, ChainSpec, chain_system, solve_banded
+
     u, y = np.atleast_2d(u_periods), np.atleast_2d(y_periods)
-    w0 = 2 * math.pi * fs_Hz / u.shape[-1]
-    system = LinearSystem.stack([
-        single_dof_system(omega_rad_s=w0, n_periods=1, x=y[r], rate=None, forcing=u[r], terms=tuple(terms),
-                          n_harmonics=n_harmonics, inertia_name="inertia", record_index=r)
-        for r in range(u.shape[0])])
-    res = solve(system)
+    n = u.shape[-1]
+    w0 = 2 * math.pi * fs_Hz / n
+    t = np.arange(n) / fs_Hz
+    records = [ChainRecord(w0, t, (u[r],), (y[r],), source=f"record {r + 1}") for r in range(u.shape[0])]
+    res = solve_banded(chain_system(records, ChainSpec((), grounds=(tuple(terms),)), n_harmonics=n_harmonics))
     return float(res.values[0]), JointLaw(tuple(terms), tuple(res.values[1:])), res
 
 

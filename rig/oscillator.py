@@ -1,7 +1,9 @@
 """A one-degree-of-freedom rig for free-run simulation of an identified law under a measured input.
 
-``J x'' + M_v(x, x') = u(t - delay)`` on the hinge of ``models/oscillator_1dof.xml``: the law and the
-input act through the same scoped passive callback as the two-flywheel rig
+``J x'' + M_v(x, x') = u(t - delay)`` on the hinge of the drive train of one body
+(:func:`rig.chain.chain_model_xml`, the model every train's rig is written from, with N = 1 and
+the law to ground): the law and the input act through the same scoped passive callback as the
+two-flywheel rig
 (:func:`rig.callback.passive_callback`), the input evaluated at ``d.time`` (RK4 stage times).
 :func:`simulate_free_run_reference` integrates the same equation with scipy as an independent check.
 """
@@ -9,8 +11,7 @@ input act through the same scoped passive callback as the two-flywheel rig
 from __future__ import annotations
 
 import math
-from pathlib import Path
-from typing import Callable, Union
+from typing import Callable
 
 import mujoco
 import numpy as np
@@ -21,20 +22,17 @@ from jointrig.vocab.law import JointLaw
 from .callback import passive_callback
 from .simulate import SimulationError, _check_warnings
 
-__all__ = ["simulate_free_run", "simulate_free_run_reference", "OSCILLATOR_MODEL"]
+__all__ = ["simulate_free_run", "simulate_free_run_reference"]
 
-OSCILLATOR_MODEL = Path(__file__).resolve().parent.parent / "models" / "oscillator_1dof.xml"
+def _compile(inertia: float) -> mujoco.MjModel:
+    """The train of one body with inertia ``inertia`` (its hinge ``phi1``), compiled."""
+    from jointrig.identify.chain import ChainPlant
 
+    from .chain import chain_model_xml
 
-def _compile(path: Path, inertia: float) -> mujoco.MjModel:
     if not (math.isfinite(inertia) and inertia > 0):
         raise ValueError(f"inertia must be finite and > 0, got {inertia}")
-    spec = mujoco.MjSpec.from_file(str(path))
-    body = spec.body("mass")
-    if body is None or spec.joint("x") is None or spec.sensor("x") is None:
-        raise ValueError(f"{path}: needs body 'mass', hinge joint 'x' and jointpos sensor 'x'")
-    body.inertia = [inertia, inertia, inertia]
-    return spec.compile()
+    return mujoco.MjModel.from_xml_string(chain_model_xml(ChainPlant((), (0.0,), (None,)), (inertia,), (1,)))
 
 
 def simulate_free_run(
@@ -46,7 +44,6 @@ def simulate_free_run(
     *,
     substeps: int = 4,
     delay_s: float = 0.0,
-    model_path: Union[str, Path] = OSCILLATOR_MODEL,
     backend: str = "auto",
 ) -> np.ndarray:
     """Free-run response x at the sample times ``n / fs_Hz``, n = 0..n_samples-1, from rest.
@@ -63,11 +60,11 @@ def simulate_free_run(
     Raises:
       SimulationError: MuJoCo warned or the response went non-finite (diverging model).
     """
-    m = _compile(Path(model_path), inertia)  # compiled before the callback is installed
+    m = _compile(inertia)  # compiled before the callback is installed
     m.opt.timestep = 1.0 / (fs_Hz * substeps)
     m.opt.integrator = mujoco.mjtIntegrator.mjINT_RK4
     d = mujoco.MjData(m)
-    adr = int(m.sensor_adr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, "x")])
+    adr = int(m.sensor_adr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, "phi1")])
     where = f"free run of {n_samples} samples at {fs_Hz:g} Hz"
     if backend not in ("auto", "native", "python"):
         raise ValueError(f"backend must be 'auto', 'native' or 'python', got {backend!r}")
@@ -80,7 +77,7 @@ def simulate_free_run(
         if backend == "native" and not fits:
             raise ValueError("the native free run needs a BandlimitedInput and a law without sliders")
         if fits:
-            j = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "x")
+            j = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "phi1")
             try:
                 nat = NativeOscillator(law, m.jnt_qposadr[j], m.jnt_dofadr[j], u.grid, u.fs_Hz * u.upsample, delay_s)
             except NativeBuildError:

@@ -86,9 +86,9 @@ def main(argv=None) -> int:
     check_output(args.json, "--json")
     check_output(args.rrd, "--rrd")
     from jointrig.vocab import Power, Viscous
-    from jointrig.identify.causes import DEFAULT_SEPARATION, SEPARATING_EXCITATION
-    from jointrig.identify.extend import (extend_model, indistinguishable, residual_analysis, residual_spectrum,
-                                         score_candidates)
+    from jointrig.identify.causes import DEFAULT_SEPARATION, SEPARATING_EXCITATION, by_name
+    from jointrig.identify.extend import (extend_model, indistinguishable, removable, residual_analysis,
+                                         residual_spectrum, score_candidates)
     from jointrig.identify.output_error import (harmonic_balance_start, input_noise_rms, refine_output_error,
                                                 simulate_periods, steady_rms)
     from jointrig.identify.signals import BandlimitedInput
@@ -138,7 +138,8 @@ def main(argv=None) -> int:
     print("\nCandidate causes, ranked by the score test on the training realisations 1-8:")
     print(f"  {'effect':20s} {'RSS removable':>13s} {'pred. RMS':>10s} {'chi2':>9s}  meaning")
     for s in scores:
-        print(f"  {s.effect:20s} {s.reduction:13.3e} {1e3 * s.predicted_rms:8.4f}mV {s.chi2:9.0f}  {s.meaning}")
+        print(f"  {s.effect:20s} {removable(s):13.3e} {1e3 * s.signature['predicted_rms']:8.4f}mV {s.delta_chi2:9.0f}  "
+              f"{by_name(s.effect).description}")
     tie = indistinguishable(scores)
     if tie is not None:
         separation = SEPARATING_EXCITATION.get(frozenset(tie[:2]), DEFAULT_SEPARATION)
@@ -221,8 +222,8 @@ def main(argv=None) -> int:
                        "heldout_rms_mV_after": 1e3 * s.validation_rms_after,
                        "schroeder_rms_mV_before": 1e3 * s.other_rms_before,
                        "schroeder_rms_mV_after": 1e3 * s.other_rms_after} for s in ext.steps],
-        "candidate_scores": [{"effect": s.effect, "chi2": s.chi2, "bic_score": s.score, "p_value": s.p_value,
-                              "predicted_rms_mV": 1e3 * s.predicted_rms}
+        "candidate_scores": [{"effect": s.effect, "chi2": s.delta_chi2, "bic_score": s.score, "p_value": s.p_value,
+                              "predicted_rms_mV": 1e3 * s.signature["predicted_rms"]}
                              for s in scores],
         "estimation_rms_mV": {"hb": est_rms["hb"], "nominal": est_rms["oe"], "extended": 1e3 * fit.rms_error},
         "mujoco_vs_scipy_max_abs_V": agree,
