@@ -257,3 +257,114 @@ def test_a_richer_cause_without_its_own_evidence_goes_right_after_the_simpler_on
     ranked[2] = _Score("coulomb_friction", 1000.0, 1)
     out = parsimonious(ranked, catalogue, 100, 1e-3, place_of=lambda s: 2 if s.effect == "coulomb_friction" else 1)
     assert names(out)[0] == "stribeck_friction"
+
+
+# ------------------------------------------------------- what each cause carries (issue 36)
+
+
+def test_each_selection_is_the_causes_sought_at_a_place():
+    from jointrig.identify.causes import at
+
+    assert [c.name for c in at("ground")] == ["coulomb_friction", "stribeck_friction", "quadratic_damping", "cogging"]
+    assert [c.name for c in at("oscillator")] == ["asymmetric_stiffness", "drive_delay", "quintic_stiffness",
+                                                   "cubic_damping", "amplitude_damping"]
+    assert CAUSES == at("joint", "two_flywheel") and OSCILLATOR_CAUSES == at("oscillator")
+    assert "cogging" in {c.name for c in CAUSES} and "bearing_friction" not in {c.name for c in at("joint")}
+    assert at() == () and at("nowhere") == ()
+
+
+def test_a_magnitude_is_a_parameter_a_vector_length_or_the_largest_part():
+    se = {"k": 0.5, "p_s": 3.0, "p_c": 4.0, "bearing1_damping_Nms_per_rad": 0.1,
+          "bearing2_damping_Nms_per_rad": 0.2}.get
+    plain = by_name("coulomb_friction")
+    assert plain.magnitude_of({"joint2_coulomb_torque_Nm": 7.0}, lambda n: 0.25, "joint2_") == (
+        "joint2_coulomb_torque_Nm", 7.0, 0.25)
+    name, value, error = plain.magnitude_of({}, lambda n: math.nan)
+    assert name == "coulomb_torque_Nm" and math.isnan(value) and math.isnan(error)
+    # amplitude of s sin + c cos, its error by the delta method: sqrt((s ds)^2 + (c dc)^2) / A
+    cogging = by_name("cogging")
+    errors = {"cogging_sin_Nm": 0.3, "cogging_cos_Nm": 0.4}.get
+    name, value, error = cogging.magnitude_of({"cogging_sin_Nm": 3.0, "cogging_cos_Nm": -4.0}, errors)
+    assert name == "cogging_amplitude_Nm"
+    assert (value, error) == pytest.approx((5.0, math.sqrt(0.9**2 + 1.6**2) / 5.0), rel=1e-15)
+    # at zero amplitude the error is the parts' RMS error, not a division by zero
+    assert cogging.magnitude_of({"cogging_sin_Nm": 0.0, "cogging_cos_Nm": 0.0}, errors)[1:] == pytest.approx(
+        (0.0, math.sqrt((0.09 + 0.16) / 2)), rel=1e-15)
+    bearing = by_name("bearing_friction")
+    assert bearing.magnitude_of({"bearing1_damping_Nms_per_rad": -3.0, "bearing2_damping_Nms_per_rad": 2.0}, se) == (
+        "bearing1_damping_Nms_per_rad", -3.0, 0.1)
+    assert bearing.magnitude_of({"bearing1_damping_Nms_per_rad": 1.0, "bearing2_damping_Nms_per_rad": 2.0}, se) == (
+        "bearing2_damping_Nms_per_rad", 2.0, 0.2)
+
+
+def test_a_slip_angle_or_free_play_below_the_resolution_and_a_stribeck_rate_above_every_rate_degenerate():
+    from jointrig.identify.causes import Limits
+
+    lim = Limits(resolution_rad=1e-3, rate_top_rad_s=2.0, friction="coulomb_friction at joint 2")
+    jenkins, iwan, gap, stribeck = (by_name(n).degenerate for n in ("hysteresis", "micro_slip", "backlash",
+                                                                      "stribeck_friction"))
+    assert jenkins(9.9e-4, lim) == ("its slip angle 0.00099 rad is below the angle resolution 0.001 rad: a Jenkins "
+                                    "element that never sticks is dry friction (see coulomb_friction at joint 2)")
+    assert jenkins(1e-3, lim) == "" and iwan(1e-3, lim) == "" and gap(1e-3, lim) == ""
+    assert "largest slip angle" in iwan(5e-4, lim) and "an Iwan element" in iwan(5e-4, lim)
+    assert gap(5e-4, lim).endswith("no free play is resolved")
+    assert stribeck(2.0, lim) == "" and stribeck(1.0, lim) == ""
+    assert stribeck(2.5, lim) == ("its Stribeck rate 2.5 rad/s is above every run's rate amplitude (at most 2 rad/s): "
+                                  "the friction does not fall off within the data; it is dry friction (see "
+                                  "coulomb_friction at joint 2)")
+    assert by_name("coulomb_friction").degenerate is None and by_name("cogging").degenerate is None
+
+
+def test_the_cogging_search_spans_its_orders_on_a_grid_finer_than_chi_squares_oscillation():
+    from jointrig.identify import causes as c
+
+    runs = [_Avg(0.1, 10.0), _Avg(0.4, 10.0)]
+    cogging = by_name("cogging")
+    lo, hi = cogging.bounds(runs)
+    # from two periods between rest and the largest swing (4 pi / 0.4) to 20 rad of phase at
+    # the smallest (20 / 0.1)
+    assert (lo, hi) == pytest.approx((4 * math.pi / 0.4, 200.0), rel=1e-12)
+    assert cogging.n_trials(runs) == pytest.approx((hi - lo) * 0.4 / math.pi, rel=1e-12)
+    step = c.COGGING_GRID / 0.4
+    assert cogging.grid_points(runs, lo, hi) == math.ceil((hi - lo) / step) + 1
+    # a narrow range keeps the catalogue's 17 points; a cause without its own grid always has them
+    assert cogging.grid_points(runs, lo, lo + step) == c.PROFILE_GRID_POINTS
+    assert by_name("backlash").grid_points(runs, 0.0, 1e3) == c.PROFILE_GRID_POINTS
+    assert by_name("backlash").n_trials(runs) == 1.0
+    # one order near the bounds' ratio: still at least one trial
+    assert c._cogging_trials([_Avg(5.0, 10.0)]) == pytest.approx((20.0 - 4 * math.pi) / math.pi, rel=1e-12)
+    spec = cogging.extend(c.ModelSpec((Power(1),)), 125.0)
+    from jointrig.vocab.law import Cogging
+
+    assert spec.terms == (Power(1), Cogging(125.0), Cogging(125.0, quadrature=True))
+    assert cogging.extend(spec, 60.0).terms == (Power(1), Cogging(60.0), Cogging(60.0, quadrature=True))
+
+
+def test_a_score_says_where_and_reads_the_same_in_json_for_two_flywheels_and_a_train():
+    from jointrig.identify.causes import Ambiguity, CauseScore, Place
+
+    class _Fitted:
+        def parameters(self):
+            return {"k_Nm_per_rad": 500.0}
+
+    mag = ("joint2_backlash_half_gap_rad", 1e-3, 1e-5)
+    at_joint = CauseScore("backlash", 90.0, 1, 84.0, 1e-20, True, _Fitted(), mag, where=Place("joint", 2))
+    assert (at_joint.label, at_joint.cause, at_joint.place, at_joint.at_joint, at_joint.ground) == (
+        "backlash at joint 2", "backlash", 2, True, False)
+    js = at_joint.as_json()
+    assert js["candidate"] == "backlash at joint 2" and js["joint"] == 2 and js["effect"] == "backlash"
+    assert js["magnitude"] == {"name": mag[0], "value": 1e-3, "std_error": 1e-5}
+    assert js["parameters"] == {"k_Nm_per_rad": 500.0} and js["signature"] == {} and js["n_params"] == 1
+    ground = CauseScore("coulomb_friction", 5.0, 1, 1.0, 0.02, False, None, ("m", 1.0, 0.1), where=Place("ground", 1))
+    assert ground.label == "coulomb_friction to ground at body 1" and ground.ground and not ground.at_joint
+    assert ground.as_json()["ground_of_body"] == 1 and ground.as_json()["parameters"] == {}
+    drag = CauseScore("bearing_friction", 5.0, 1, 1.0, 0.02, False, None, ("m", 1.0, 0.1), where=Place("flywheel", 3))
+    assert drag.label == "bearing_friction at flywheel 3" and not drag.at_joint and not drag.ground
+    assert drag.as_json()["flywheel"] == 3
+    two = CauseScore("backlash", 90.0, 1, 84.0, 1e-20, True, None, mag)
+    assert two.label == "backlash" and two.place is None and two.at_joint and not two.ground
+    assert "candidate" not in two.as_json()
+    a = Ambiguity(("backlash at joint 2", "coulomb_friction at joint 3"), "drive body 4", 4)
+    assert a.as_json() == {"effects": ["backlash at joint 2", "coulomb_friction at joint 3"],
+                           "excitation": "drive body 4", "separating_drive_body": 4}
+    assert Ambiguity(("a", "b"), "x").as_json()["separating_drive_body"] is None
