@@ -4,8 +4,10 @@ A :class:`Cause` extends a :class:`ModelSpec` (joint terms, bearing drag, a driv
 sensors' zero, skew and scale) with its columns and at most one nonlinear parameter, found by a
 profile search within ``bounds``. :data:`CATALOGUE` holds every cause; the two-flywheel
 diagnosis (:mod:`identify.diagnose`) scores :data:`CAUSES`, the one-coordinate oscillator's
-extension (:mod:`identify.extend`, the Silverbox) :data:`OSCILLATOR_CAUSES`, and both judge a
-cause by :func:`evidence`. Adding a cause is one entry here (and its name in a selection).
+extension (:mod:`identify.extend`, the Silverbox) :data:`OSCILLATOR_CAUSES`, a train's joints and
+bodies the causes sought there (:func:`at`), and all judge a cause by :func:`evidence` into one
+:class:`CauseScore`. Adding a cause is one entry here: it carries where it is sought, how its
+magnitude reads, its search and its degeneracy rule, so no diagnosis names it.
 """
 
 from __future__ import annotations
