@@ -267,20 +267,24 @@ class _Problem:
 
 @dataclass(frozen=True)
 class Candidate:
-    """A catalogued cause at one place: a joint (1..N-1); for bearing drag, a flywheel (1..N);
-    with ``ground``, a body's law to ground (1..N: a guide's or a seal's friction)."""
+    """A catalogued cause at one place (:class:`identify.causes.Place`): a joint (1..N-1), a
+    flywheel's viscous drag to ground (1..N, bearing drag) or a body's law to ground (1..N: a
+    guide's or a seal's friction, a motor's cogging)."""
 
     cause: Cause
-    place: int
-    ground: bool = False
+    where: Place
+
+    @property
+    def place(self) -> int:
+        return self.where.number
 
     @property
     def at_joint(self) -> bool:
-        return not self.ground and self.cause.name != "bearing_friction"
+        return self.where.kind == "joint"
 
     @property
-    def where(self) -> Place:
-        return Place("ground" if self.ground else "joint" if self.at_joint else "flywheel", self.place)
+    def ground(self) -> bool:
+        return self.where.kind == "ground"
 
     @property
     def label(self) -> str:
@@ -502,12 +506,12 @@ class ChainDiagnosis:
 def candidates(n_flywheels: int, causes: Sequence[Cause] = JOINT_CAUSES, bearings: bool = True,
                ground: Sequence[Cause] = GROUND_CAUSES) -> list[Candidate]:
     """Every cause at every joint, bearing drag at every body, and the ground causes at every body."""
-    out = [Candidate(c, j) for j in range(1, n_flywheels) for c in causes]
+    out = [Candidate(c, Place("joint", j)) for j in range(1, n_flywheels) for c in causes]
     if bearings:
-        out += [Candidate(_BEARING, i) for i in range(1, n_flywheels + 1)]
+        out += [Candidate(_BEARING, Place("flywheel", i)) for i in range(1, n_flywheels + 1)]
     if n_flywheels > 1:  # see TRAIN_GROUND_CAUSES
         ground = [c for c in ground if c.name in TRAIN_GROUND_CAUSES]
-    out += [Candidate(c, i, ground=True) for i in range(1, n_flywheels + 1) for c in ground]
+    out += [Candidate(c, Place("ground", i)) for i in range(1, n_flywheels + 1) for c in ground]
     return out
 
 

@@ -79,7 +79,7 @@ def test_a_candidates_own_torque_is_its_joint_law_less_the_nominal_terms():
     # torque with the gap minus the one without; an added term's is that term's alone.
     import numpy as np
 
-    from jointrig.identify.causes import CauseScore, by_name
+    from jointrig.identify.causes import CauseScore, Place, by_name
     from jointrig.identify.chain import ChainSpec
     from jointrig.identify.chain_diagnose import Candidate, ChainFit, _effect_law
     from jointrig.vocab.law import Coulomb, Power, Viscous
@@ -93,9 +93,9 @@ def test_a_candidates_own_torque_is_its_joint_law_less_the_nominal_terms():
 
     phi = np.linspace(-0.05, 0.05, 11)
     gap = score((Viscous(), Power(1, 0.01), Power(3, 0.01)), (5.0, 1e4, 1e6))
-    own = _effect_law(Candidate(by_name("backlash"), 1), gap)
+    own = _effect_law(Candidate(by_name("backlash"), Place("joint", 1)), gap)
     expected = 1e4 * (Power(1, 0.01)(phi, 0 * phi) - phi) + 1e6 * (Power(3, 0.01)(phi, 0 * phi) - phi**3)
     np.testing.assert_allclose(own.torque(phi, 0.3 + 0 * phi), expected, rtol=1e-12, atol=1e-9)
     rub = score((Viscous(), Power(1), Power(3), Coulomb()), (5.0, 1e4, 1e6, 20.0))
-    own = _effect_law(Candidate(by_name("coulomb_friction"), 1), rub)
+    own = _effect_law(Candidate(by_name("coulomb_friction"), Place("joint", 1)), rub)
     np.testing.assert_allclose(own.torque(phi, np.sign(phi) + 0.5), 20.0 * np.sign(np.sign(phi) + 0.5), atol=1e-9)
