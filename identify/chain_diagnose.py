@@ -50,7 +50,7 @@ from .diagnose import DEFAULT_FIDELITY, FINE_SAMPLES
 from .harmonics import max_harmonic
 from .periods import period_spectra, raw_noise_std
 from jointrig.vocab.records import RecordError, SteadyStateRecord
-from .estimates import Estimates
+from .estimates import RowFit, weighted_chi2
 from .solve import IllConditionedWarning
 
 __all__ = ["ChainRun", "prepare_chain_runs", "ChainFit", "Candidate", "CauseScore", "ChainDiagnosis",
@@ -155,7 +155,7 @@ def prepare_chain_runs(records: Sequence[ChainRecord], *, band: int = 20) -> lis
 
 
 @dataclass(frozen=True)
-class ChainFit(Estimates):
+class ChainFit(RowFit):
     """A weighted least-squares fit of one chain structure (chi-square corrected for the weights).
 
     ``profiled`` holds ``(name, value, standard error)`` of nonlinear parameters found by a
@@ -174,10 +174,6 @@ class ChainFit(Estimates):
     condition_number: float = math.nan
     success: bool = True
     message: str = "ok"
-
-    @property
-    def dof(self) -> int:
-        return self.n_rows - len(self.names)
 
     def _profiled_std_errors(self) -> dict[str, float]:
         return {n: se for n, _, se in self.profiled}
@@ -240,16 +236,10 @@ class _Problem:
             warnings.simplefilter("ignore", IllConditionedWarning)
             res = solve_banded(banded, row_weights=weights)
         s = banded.system
-        r = s.F - s.A @ res.values
-        corr = (self.nu - 2) / self.nu if self.nu > 2 else 1.0
-        row = weights * r**2 * corr
-        chi2 = float(row.sum())
-        dof = max(res.dof, 1)
-        s2_raw = float(np.sum(weights * r**2)) / dof
-        scale = max(1.0, chi2 / dof) / max(s2_raw, 1e-300)
+        row, chi2, scale = weighted_chi2(s.F - s.A @ res.values, weights, self.nu, res.dof)
         return ChainFit(spec, res.names, np.array(res.values), np.array(res.std_errors) * math.sqrt(scale), chi2,
-                        s.F.size, row, condition_number=res.condition_number, success=res.success,
-                        message=res.message)
+                        s.F.size, row,
+                        condition_number=res.condition_number, success=res.success, message=res.message)
 
     def fit(self, spec: ChainSpec, iterations: int = 2) -> tuple[ChainFit, np.ndarray]:
         banded = self.system(spec)

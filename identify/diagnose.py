@@ -45,7 +45,7 @@ from .harmonics import fourier_coefficients, max_harmonic, synthesize
 from .periods import period_spectra, raw_noise_std
 from jointrig.vocab.plant import Plant, effect_parameters
 from jointrig.vocab.records import RecordError, SteadyStateRecord
-from .estimates import Estimates
+from .estimates import RowFit, weighted_chi2
 from .solve import IllConditionedWarning, solve
 from jointrig.vocab.params import J1, J2, JE, BEARING1, BEARING2
 from .causes import (DEFAULT_SEPARATION, CAUSES, NOMINAL, SEPARATING_EXCITATION, TIE, Ambiguity, Cause, CauseScore,
@@ -368,7 +368,7 @@ class _Columns:
 
 
 @dataclass(frozen=True)
-class Fit(Estimates):
+class Fit(RowFit):
     """A weighted least-squares fit of one model structure.
 
     ``chi2`` is corrected for the estimated weights (module docstring, step 2).
@@ -390,10 +390,6 @@ class Fit(Estimates):
     #: the solver's status (False when the weighted regression matrix is rank-deficient)
     success: bool = True
     message: str = "ok"
-
-    @property
-    def dof(self) -> int:
-        return self.n_rows - len(self.names)
 
     def _profiled_std_errors(self) -> dict[str, float]:
         return dict(self.profile_std_errors)
@@ -724,15 +720,7 @@ def _solve(problem: _Problem, spec: ModelSpec, weights: np.ndarray, start_jump: 
             break  # the fit at the new jump is this one, bit for bit: it is settled
         jump = new
         system, res = _solve_once(problem, spec, weights, jump)
-    r = system.F - system.A @ res.values
-    corr = (problem.nu - 2) / problem.nu if problem.nu > 2 else 1.0
-    row = weights * r**2 * corr
-    chi2 = float(row.sum())
-    # Standard errors sqrt(diag((A'WA)^-1)) (what ``solve`` returns divided by its residual
-    # scale), scaled by chi2/dof when the fit is worse than the noise (model error).
-    dof = max(res.dof, 1)
-    s2_raw = float(np.sum(weights * r**2)) / dof
-    scale = max(1.0, chi2 / dof) / max(s2_raw, 1e-300)
+    row, chi2, scale = weighted_chi2(system.F - system.A @ res.values, weights, problem.nu, res.dof)
     se = res.std_errors * math.sqrt(scale)
     return Fit(spec, tuple(system.names), np.array(res.values), np.array(se), chi2, system.F.size,
                res.condition_number, row, system.row_harmonic, system.row_record,

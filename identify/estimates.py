@@ -21,7 +21,7 @@ import numpy as np
 
 from jointrig.vocab.params import Param
 
-__all__ = ["Estimates", "equilibrated_condition"]
+__all__ = ["Estimates", "RowFit", "weighted_chi2", "equilibrated_condition"]
 
 
 class Estimates:
@@ -62,6 +62,32 @@ class Estimates:
 
     def _profiled_std_errors(self) -> dict[str, float]:
         return {}
+
+
+class RowFit(Estimates):
+    """A weighted least-squares fit of ``n_rows`` harmonic-balance rows: the diagnoses' fits
+    (:class:`identify.diagnose.Fit` of two flywheels, :class:`identify.chain_diagnose.ChainFit`
+    of a train), with their degrees of freedom."""
+
+    n_rows: int
+
+    @property
+    def dof(self) -> int:
+        return self.n_rows - len(self.names)
+
+
+def weighted_chi2(residual: np.ndarray, weights: np.ndarray, nu: float, dof: int) -> tuple[np.ndarray, float, float]:
+    """Chi-square of balance rows whose weights were estimated from the data (``nu`` degrees of
+    freedom each: ``E[chi2] = dof nu / (nu - 2)``, so it is scaled by ``(nu - 2) / nu``), each row's
+    share, and the factor that turns the solver's covariance into ``(A'WA)^-1`` times
+    ``chi2 / dof`` when the fit is worse than the noise (model error), else ``(A'WA)^-1``. Both
+    diagnoses' fits are judged by it. Returns ``(row chi2, chi2, covariance factor)``."""
+    corr = (nu - 2) / nu if nu > 2 else 1.0
+    row = weights * residual**2 * corr
+    chi2 = float(row.sum())
+    dof = max(dof, 1)
+    s2_raw = float(np.sum(weights * residual**2)) / dof
+    return row, chi2, max(1.0, chi2 / dof) / max(s2_raw, 1e-300)
 
 
 def equilibrated_condition(J) -> float:
