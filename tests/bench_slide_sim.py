@@ -3,11 +3,12 @@ dry friction, integrated by scipy. Nothing here uses jointrig.
 
 The carriage (mass m, kg) obeys, while it slides (rate v != 0),
 
-    m x'' = F(t) - c v - k x - Fc sign(v)
+    m x'' = F(t) - c v - k x - A sin(2 pi x / p) - Fc sign(v)
 
-(c: the guide's viscous drag, N s/m; k: a spring to ground, N/m, 0 for a free axis; Fc: the
-guide's dry friction, N) and stands still while the force on it, ``|F(t) - k x|``, is at most
-Fc. The switches are events of the integrator (DOP853, rtol 1e-10): sliding ends where v
+(c: the guide's viscous drag, N s/m; k: a spring to ground, N/m, 0 for a free axis; A, p: a
+linear motor's cogging force and its pole pitch, N and m, A = 0 for none; Fc: the guide's dry
+friction, N) and stands still while the force on it, ``|F(t) - k x - A sin(2 pi x / p)|``, is at
+most Fc. The switches are events of the integrator (DOP853, rtol 1e-10): sliding ends where v
 crosses zero and the force there cannot overcome the friction; sticking ends where it can.
 :func:`daq_file` writes one long run the way a motion controller's trace does: a fixed sample
 rate, an absolute linear encoder (positions about its reading at rest), the motor's force.
@@ -28,6 +29,8 @@ class Carriage:
     c: float = 40.0      # N s/m
     k: float = 0.0       # N/m
     Fc: float = 25.0     # N
+    cog: float = 0.0     # N, the cogging force's amplitude
+    pitch: float = 0.01  # m, its period in x
 
 
 def _simulate(car: Carriage, w: float, F0: float, t_eval: np.ndarray, y0, mode: int, t0: float):
@@ -37,7 +40,7 @@ def _simulate(car: Carriage, w: float, F0: float, t_eval: np.ndarray, y0, mode: 
     t, y, i = t0, np.array(y0, float), 0
 
     def force(tt, x):
-        return F0 * math.cos(w * tt) - car.k * x
+        return F0 * math.cos(w * tt) - car.k * x - car.cog * math.sin(2 * math.pi * x / car.pitch)
 
     while True:
         sel = t_eval[(t_eval >= t) & (np.arange(t_eval.size) >= i)]
