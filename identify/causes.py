@@ -324,9 +324,9 @@ CATALOGUE: tuple[Cause, ...] = (
           lambda s, h: _with_terms(s, (Monomial(0, 3),)), "c_p0_q3", 1, nonnegative=False, places=_OSCILLATOR),
     Cause("amplitude_damping", "damping growing with the amplitude, x^2 x'",
           lambda s, h: _with_terms(s, (Monomial(2, 1),)), "c_p2_q1", 1, nonnegative=False, places=_OSCILLATOR),
-    Cause("cogging", "a torque periodic in the angle, A sin(z phi + p): a gear's mesh, a motor's cogging, detents, "
-          "z periods per radian",
-          _with_cogging, "cogging_amplitude_Nm", 2, bounds=_cogging_bounds, profiled="cogging_order_per_rad",
+    Cause("cogging", "a torque periodic in the angle, A sin(z phi + p): a gear's mesh, a motor's cogging, detents; "
+          "z periods per revolution",
+          _with_cogging, "cogging_amplitude_Nm", 2, bounds=_cogging_bounds, profiled="cogging_order_rad_per_rad",
           grid_step=lambda runs: COGGING_GRID / _largest_amplitude(runs), places=_JOINT_GROUND,
           trials=_cogging_trials, magnitude_parts=("cogging_sin_Nm", "cogging_cos_Nm")),
 )

@@ -297,11 +297,11 @@ def test_a_cogging_torque_is_a_sine_of_the_angle_and_reads_back_from_a_model_fil
     path = tmp_path / "cogging.xml"
     path.write_text(identified_model_xml(plant, (2.0, 2.0), template=DEFAULT_MODEL))
     assert load_rig(path).law == law
-    only_sine = law_terms_from_fields({"cogging_sin_Nm": [3.0], "cogging_order_per_rad": [8.0]})
+    only_sine = law_terms_from_fields({"cogging_sin_Nm": [3.0], "cogging_order_rad_per_rad": [8.0]})
     assert only_sine == [(Cogging(8.0), 3.0)]
-    with pytest.raises(FieldError, match="cogging_order_per_rad goes with"):
+    with pytest.raises(FieldError, match="cogging_order_rad_per_rad goes with"):
         law_terms_from_fields({"cogging_sin_Nm": [3.0]})
     with pytest.raises(FieldError, match="must be > 0"):
-        law_terms_from_fields({"cogging_cos_Nm": [3.0], "cogging_order_per_rad": [0.0]})
+        law_terms_from_fields({"cogging_cos_Nm": [3.0], "cogging_order_rad_per_rad": [0.0]})
     with pytest.raises(ValueError, match="order_per_rad"):
         Cogging(-1.0)

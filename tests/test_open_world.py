@@ -166,8 +166,8 @@ def test_a_torque_periodic_in_the_angle_is_found_as_cogging(tmp_path, joint):
     d = report.diagnosis
     assert report.verdict.verdict == "explained" and report.adopted == ("cogging",), (report.verdict, d.effects)
     p = d.extended.effect_parameters()
-    order_se = d.extended.std_error("cogging_order_per_rad")
-    assert abs(p["cogging_order_per_rad"] - 2 * math.pi / pitch) <= 3 * order_se, (p, order_se)
+    order_se = d.extended.std_error("cogging_order_rad_per_rad")
+    assert abs(p["cogging_order_rad_per_rad"] - 2 * math.pi / pitch) <= 3 * order_se, (p, order_se)
     assert abs(d.steps[0].magnitude[1] - amplitude) <= 3 * d.steps[0].magnitude[2], d.steps[0].magnitude
     assert report.gain >= 5, report.gain
 

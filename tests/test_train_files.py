@@ -192,8 +192,8 @@ def test_a_linear_motors_cogging_on_a_single_axis_is_named_with_its_pitch(tmp_pa
     size = j["found"][0]["magnitude"]
     assert size["name"] == "ground1_cogging_amplitude_N" and abs(size["value"] - 2.0) < 3 * size["std_error"], size
     ext, se = j["extended"]["parameters"], j["extended"]["std_errors"]
-    order = ext["ground1_cogging_order_per_m"]
-    assert abs(order - 2 * math.pi / 0.01) < 3 * se["ground1_cogging_order_per_m"], (order, se)
+    order = ext["ground1_cogging_order_rad_per_m"]
+    assert abs(order - 2 * math.pi / 0.01) < 3 * se["ground1_cogging_order_rad_per_m"], (order, se)
     assert ext["ground1_cogging_pitch_m"] == pytest.approx(2 * math.pi / order, rel=1e-12)
     assert "cogging" in text
 

@@ -973,15 +973,16 @@ def rate_hats(knots: Sequence[float]) -> tuple[RateHat, ...]:
 class Cogging(Term):
     """A torque periodic in the angle: ``sin(z phi)``, or ``cos(z phi)`` with ``quadrature``
     -> ``cogging_sin_Nm``, ``cogging_cos_Nm``. The pair is ``A sin(z phi + p)``: a gear's mesh
-    stiffness, a motor's cogging, detents. ``order_per_rad`` is z, periods per radian of the
-    angle (a gear's teeth or a motor's cogging steps per revolution; the pitch is 2 pi / z).
-    Both parts share z in a model file (``cogging_order_per_rad``); its C case reads z as its
+    stiffness, a motor's cogging, detents. ``order_per_rad`` is z, radians of phase per radian
+    of the angle: the periods per revolution (a gear's teeth, a motor's cogging steps); the
+    pitch is 2 pi / z. On a slide the same z is in rad/m.
+    Both parts share z in a model file (``cogging_order_rad_per_rad``); its C case reads z as its
     float and ``ints[0]`` = 1 for the cosine."""
 
     order_per_rad: float
     quadrature: bool = False
 
-    MJCF_FIELDS = ("cogging_sin_Nm", "cogging_cos_Nm", "cogging_order_per_rad")
+    MJCF_FIELDS = ("cogging_sin_Nm", "cogging_cos_Nm", "cogging_order_rad_per_rad")
     NATIVE_KIND = 11
 
     def __post_init__(self):
@@ -1004,14 +1005,14 @@ class Cogging(Term):
             raise FieldError(f"jointrig_{order_f} goes with jointrig_{sin_f} and/or jointrig_{cos_f}")
         z = _scalar(fields, order_f, nonnegative=True)
         if not z > 0:
-            raise FieldError(f"jointrig_{order_f} must be > 0 (periods per radian), got {z:g}")
+            raise FieldError(f"jointrig_{order_f} must be > 0 (rad of phase per rad), got {z:g}")
         return [(cls(z, f == cos_f), _scalar(fields, f)) for f in present]
 
     def fields(self, value):
         return {self.name: [value], self.MJCF_FIELDS[2]: [self.order_per_rad]}
 
     def derived_parameters(self, value):
-        return {"cogging_order_per_rad": self.order_per_rad, "cogging_pitch_rad": 2 * math.pi / self.order_per_rad}
+        return {"cogging_order_rad_per_rad": self.order_per_rad, "cogging_pitch_rad": 2 * math.pi / self.order_per_rad}
 
     def law_parameters(self, values):
         return {"cogging_amplitude_Nm": math.hypot(values.get(self.MJCF_FIELDS[0], 0.0),
