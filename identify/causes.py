@@ -353,22 +353,13 @@ def by_name(name: str) -> Cause:
 
 
 def chi2_survival(x: float, dof: int) -> float:
-    """P(X > x) for X chi-square distributed with ``dof`` degrees of freedom (a whole number
-    >= 1: the parameters a cause adds), in closed form: the regularised upper incomplete gamma
-    Q(dof/2, x/2) is ``exp(-h) sum_{k < dof/2} h^k / k!`` for even ``dof`` and ``erfc(sqrt(h)) +
-    sum_{k < (dof-1)/2} exp(-h) h^(k+1/2) / Gamma(k + 3/2)`` for odd (``h = x/2``; Abramowitz and
-    Stegun 26.4.4-5), each term in logarithms so none overflows. The same values as
-    ``scipy.special.chdtrc`` to 1e-13 (``tests/test_causes.py``), without importing scipy.special
-    (0.13 s of every diagnosis's start: its array-API layer loads numpy.f2py and numpy.testing)."""
+    """P(X > x) for X chi-square distributed with ``dof`` degrees of freedom (a whole number >= 1:
+    the parameters a cause adds): ``scipy.special.chdtrc``."""
     if not (isinstance(dof, (int, np.integer)) and dof >= 1):
         raise ValueError(f"chi2_survival: dof must be a whole number >= 1, got {dof!r}")
-    if x <= 0:
-        return 1.0
-    h = 0.5 * x
-    if dof % 2 == 0:
-        return math.fsum(math.exp(k * math.log(h) - h - math.lgamma(k + 1)) for k in range(dof // 2))
-    return math.erfc(math.sqrt(h)) + math.fsum(math.exp((k + 0.5) * math.log(h) - h - math.lgamma(k + 1.5))
-                                               for k in range((dof - 1) // 2))
+    from scipy.special import chdtrc
+
+    return float(chdtrc(dof, x)) if x > 0 else 1.0
 
 
 def evidence(delta_chi2: float, q: int, n_rows: int, alpha: float = 1e-3, n_causes: float = 1
@@ -572,7 +563,7 @@ def profile(solve: Callable[[float], T], cause: "Cause", lo: float, hi: float, *
     by a central difference in the parameter itself (one-sided at the lower bound), solved by
     ``solve_aside`` (default ``solve``: a caller that warm-starts each trial from the nearest one
     keeps these off its record)."""
-    from .scalar import minimize_bounded
+    from scipy.optimize import minimize_scalar
 
     back, (a, b) = (math.exp, (math.log(lo), math.log(hi))) if cause.log_scale else (float, (lo, hi))
     cache: dict = {}
@@ -591,7 +582,8 @@ def profile(solve: Callable[[float], T], cause: "Cause", lo: float, hi: float, *
     # the best grid point; 0.0099 rad, chi2 964, from the second; the truth 0.01)
     lows = [k for k in range(grid.size) if vals[k] <= vals[max(k - 1, 0)] and vals[k] <= vals[min(k + 1, grid.size - 1)]]
     for k in sorted(lows, key=lambda k: vals[k])[:PROFILE_BASINS]:
-        minimize_bounded(obj, (grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]), xatol=PROFILE_XATOL * (b - a))
+        minimize_scalar(obj, bounds=(grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]), method="bounded",
+                        options={"xatol": PROFILE_XATOL * (b - a)})
     h = min(cache, key=lambda x: objective(cache[x]))
     best = cache[h]
     step = max(1e-3 * abs(h), 1e-6 * (hi - lo))

@@ -39,7 +39,6 @@ from typing import Optional
 
 import numpy as np
 
-from .scalar import minimize_bounded
 
 __all__ = [
     "MAX_CLOCK_DEVIATION", "UniformClock", "uniform_clock", "Fundamental", "estimate_fundamental", "fit_at",
@@ -170,7 +169,10 @@ def estimate_fundamental(t: np.ndarray, x: np.ndarray, *, harmonics: int = 10) -
     dw = 2 * math.pi / (8 * n * dt)
     H = max(1, min(harmonics, int(math.pi / (w0 * dt)) - 1))
     lo = max(w0 - 2 * dw, 0.5 * w0)
-    res = minimize_bounded(lambda w: periodic_rss(t, x, w, H), (lo, w0 + 2 * dw), xatol=1e-12 * w0)
+    from scipy.optimize import minimize_scalar
+
+    res = minimize_scalar(lambda w: periodic_rss(t, x, w, H), bounds=(lo, w0 + 2 * dw), method="bounded",
+                          options={"xatol": 1e-12 * w0})
     w = float(res.x)
     # Two parabolic steps on the RSS (the bounded search stops at ~1e-8 relative; noise-free
     # records deserve the round-off limit).

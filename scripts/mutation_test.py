@@ -57,8 +57,6 @@ MODULES = {
     "jointrig.measured.runs": ("measured/runs.py", ["tests/test_runs_file.py", "tests/test_train_loader.py",
                                                    "tests/test_bad_input.py"]),
     "jointrig.measured.formats": ("measured/formats.py", ["tests/test_runs_file.py", "tests/test_bad_input.py"]),
-    # the diagnosis's port of scipy's bounded scalar search (its tests hold it to scipy's path)
-    "jointrig.identify.scalar": ("identify/scalar.py", ["tests/test_scalar.py"]),
     # the diagnosis package's shared pieces: the verdict, the catalogue's evidence, profile
     # search, parsimony and forward selection
     "jointrig.identify.verdict": ("identify/verdict.py", ["tests/test_verdict_judge.py"]),

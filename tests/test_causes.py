@@ -80,24 +80,21 @@ def test_forward_select_adopts_until_nothing_earns_it_and_drops_first_only_cause
     assert forward_select((), [], rank=rank, adopt=adopt, max_effects=3).rounds == ()
 
 
-@pytest.mark.parametrize("dof", range(1, 9))
-def test_chi2_survival_is_scipys(dof):
-    # identify.causes.chi2_survival (closed form for whole degrees of freedom) against
-    # scipy.special.chdtrc, from p ~ 1 to p ~ 1e-300: 1e-13 relative (a sum of a few positive
-    # terms, each exp(log) to ~10 ulp; where p underflows to 0 both give 0 or a subnormal).
-    from scipy.special import chdtrc
-
+def test_chi2_survival_by_hand():
+    # chi-square(1): erfc(sqrt(x / 2)); chi-square(2): exp(-x / 2); chi-square(3):
+    # erfc(sqrt(h)) + 2 sqrt(h / pi) exp(-h), h = x / 2. No drop (x <= 0) leaves p = 1.
     from jointrig.identify.causes import chi2_survival
 
-    for x in np.concatenate([[0.0, 1e-12], np.geomspace(1e-6, 1400.0, 400)]):
-        ref = float(chdtrc(dof, x))
-        got = chi2_survival(float(x), dof)
-        if ref > 1e-290:
-            assert abs(got - ref) <= 1e-13 * ref, (dof, x, got, ref)
-        else:
-            assert got <= 1e-290
-    with pytest.raises(ValueError, match="whole number"):
-        chi2_survival(1.0, 0)
+    for x in (1e-6, 0.5, 3.0, 40.0, 700.0):
+        h = x / 2
+        assert chi2_survival(x, 1) == pytest.approx(math.erfc(math.sqrt(h)), rel=1e-12, abs=1e-300)
+        assert chi2_survival(x, 2) == pytest.approx(math.exp(-h), rel=1e-12, abs=1e-300)
+        assert chi2_survival(x, 3) == pytest.approx(math.erfc(math.sqrt(h)) + 2 * math.sqrt(h / math.pi) * math.exp(-h),
+                                                    rel=1e-12, abs=1e-300)
+    assert chi2_survival(0.0, 3) == 1.0 and chi2_survival(-2.0, 1) == 1.0
+    for bad in (0, 1.5, -1):
+        with pytest.raises(ValueError, match="whole number"):
+            chi2_survival(1.0, bad)
 
 
 # ---------------------------------------------------------------------------- one profile search

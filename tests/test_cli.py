@@ -72,16 +72,14 @@ def test_help_answers_without_loading_the_numerical_stack(name, heavy):
     assert out.splitlines()[-1] == "loaded:", f"{name} --help {out.splitlines()[-1]}"
 
 
-def test_the_diagnosis_imports_neither_scipy_nor_a_gl_backend_nor_matplotlib(tmp_path):
-    # The diagnosis's one optimiser is a bounded scalar search (identify.scalar, a port of scipy's)
-    # and its one distribution the chi-square's survival (identify.causes.chi2_survival, closed
-    # form): scipy.optimize and scipy.special would bring linear programming, global optimisers,
-    # sparse algebra and an array-API layer into every diagnosis's start (0.3 s, identify/scalar.py
-    # and chi2_survival); MuJoCo's OpenGL backend (GLFW) another
-    # 0.05 s, and no command renders with MuJoCo (jointrig.cli sets MUJOCO_GL=disable unless the
-    # user set it). The report's figures are SVG written from the arrays (present/svg.py):
-    # matplotlib cost 1.7 s of CPU in every diagnosis with --report. A whole diagnosis of a small
-    # file with its report, in one process, then what it loaded.
+def test_the_diagnosis_imports_neither_a_gl_backend_nor_matplotlib(tmp_path):
+    # MuJoCo's OpenGL backend (GLFW) would cost 0.05 s, and no command renders with MuJoCo
+    # (jointrig.cli sets MUJOCO_GL=disable unless the user set it). The report's figures are SVG
+    # written from the arrays (present/svg.py): matplotlib cost 1.7 s of CPU in every diagnosis
+    # with --report. (scipy's optimize and special, 0.2 s of the start, are taken as they are:
+    # a port of the one and a closed form of the other bought 8% of the worn example's command,
+    # 2.45 s, and went.) A whole diagnosis of a small file with its report, in one process, then
+    # what it loaded.
     from jointrig.commands import make_data
     from jointrig.rig import DEFAULT_MODEL
 
@@ -89,7 +87,7 @@ def test_the_diagnosis_imports_neither_scipy_nor_a_gl_backend_nor_matplotlib(tmp
     worn = DEFAULT_MODEL.parent / "two_flywheels_worn.xml"
     assert make_data.main([str(data), "--model", str(worn), "-q", "--periods", "4"]) == 0
     code = ("import sys\nfrom jointrig.cli import main\nassert main(['diagnose', %r, '-q', '--report', %r]) == 0\n"
-            "print('loaded:' + ','.join(m for m in ('scipy', 'glfw', 'matplotlib') "
+            "print('loaded:' + ','.join(m for m in ('glfw', 'matplotlib') "
             "if m in sys.modules))" % (str(data), str(tmp_path / "r.html")))
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                          env={**{k: v for k, v in os.environ.items() if k != "MUJOCO_GL"}, "JOINTRIG_WORKERS": "1"}).stdout
