@@ -226,10 +226,11 @@ _JOINT_GROUND = frozenset({"joint", "ground"})
 _OSCILLATOR = frozenset({"oscillator"})
 
 #: The cogging profile's grid spacing in z, in radians of phase at the largest amplitude: chi-square
-#: oscillates over z with a period near 2 pi / (largest amplitude); half a radian samples it about
-#: 12 times per oscillation (a quarter found the same orders on the open-world bench, at twice the
-#: cost: the worn example's diagnosis took 3.0 s instead of 1.85 s before cogging).
-COGGING_GRID = 0.5
+#: oscillates over z with a period near 2 pi / (largest amplitude); one radian samples it about 6
+#: times per oscillation, and Brent's search refines the best basins. Half a radian and a quarter
+#: found the same orders on the open-world bench to 1e-7 of themselves, at more cost: the worn
+#: example's command took 2.66 s and 3.0 s against 2.48 s (1.85 s before cogging).
+COGGING_GRID = 1.0
 #: The highest order sought, as radians of phase z A at the smallest amplitude A: a sine of z phi
 #: swinging over +-z A radians has harmonics up to about z A of the drive's, and the diagnosis
 #: balances 20; the larger runs' torque then reaches beyond the band, their part within it still
