@@ -367,8 +367,10 @@ def _pack_drive(p: _Params, drive: PeriodicDrive) -> None:
 class NativeChain:
     """The native callback's parameters for a chain (rig/chain.py): one block per joint (its law
     between its two flywheels, the drag of its left flywheel, and of the last flywheel for the
-    last joint) then one block per drive, linked in that order, which is the order in which the
-    Python chain callback sums every generalised force: the same bits."""
+    last joint; a single body's drag in a block of its own), then one block per body with a law
+    to ground (the law between its hinge or slide and the frame: ``q2 = v2 = -1``), then one per
+    drive, linked in that order: every generalised force gets its terms in the order the Python
+    chain callback adds them (joints, drag, the law to ground), so the same bits."""
 
     def __init__(self, rig, plant, drives: dict):
         N = rig.n_flywheels
@@ -381,6 +383,20 @@ class NativeChain:
             p.act = -1
             p.b1 = plant.bearings_Nms_per_rad[j]
             p.b2 = plant.bearings_Nms_per_rad[N - 1] if j == N - 2 else 0.0
+            blocks.append(p)
+        if N == 1 and plant.bearings_Nms_per_rad[0]:
+            p = _Params()
+            p.q1, p.q2, p.v1, p.v2, p.act = rig.qpos_adr[0], -1, rig.dof_adr[0], -1, -1
+            p.b1 = plant.bearings_Nms_per_rad[0]
+            blocks.append(p)
+        for i, law in enumerate(plant.grounds):
+            if law is None:
+                continue
+            if any(t.stateful for t in law.terms):
+                raise ValueError(f"the native callback does not hold sliders in a law to ground (body {i + 1})")
+            p = _Params()
+            _pack_law(p, law)
+            p.q1, p.q2, p.v1, p.v2, p.act = rig.qpos_adr[i], -1, rig.dof_adr[i], -1, -1
             blocks.append(p)
         acts = {i: a for i, a, _ in rig.drives}
         for i, drive in sorted(drives.items()):
@@ -406,7 +422,7 @@ class NativeChain:
     def commit(self, qpos: np.ndarray) -> None:
         """Advance every joint's sliders to its accepted twist (after a step), as the Python path."""
         for p in self.blocks:
-            if p.n_sliders:
+            if p.n_sliders:  # joints only: a law to ground holds no sliders (refused above)
                 phi = float(qpos[p.q1] - qpos[p.q2])
                 for j in range(p.n_sliders):
                     p.slider[j] = play(phi, p.slider[j], p.slider_slip[j])
