@@ -175,6 +175,22 @@ def test_chain_simulates_the_inertias_asked_for():
         assert abs(sim - ref) < 1e-5 * abs(ref), j
 
 
+def _both_backends(rig, w, drives, cfg, plant):
+    """The chain simulated by the Python and the C callback: every record channel equal bit for
+    bit (no tolerance); the Python one returned."""
+    from jointrig.rig.chain import simulate_chain
+
+    a, _ = simulate_chain(rig, w, drives, cfg, plant=plant, backend="python")
+    b, _ = simulate_chain(rig, w, drives, cfg, plant=plant, backend="native")
+    for x, y in zip(a.angles_rad + a.rates_rad_s + a.torques_Nm + (a.time_s,),
+                    b.angles_rad + b.rates_rad_s + b.torques_Nm + (b.time_s,)):
+        if x is None:
+            assert y is None
+        else:
+            np.testing.assert_array_equal(x, y)
+    return a
+
+
 @needs_cc
 @pytest.mark.parametrize("kind", ["hinge", "slide"])
 def test_laws_to_ground_in_the_native_callback_are_bit_identical_to_the_python_ones(tmp_path, kind):
@@ -185,7 +201,7 @@ def test_laws_to_ground_in_the_native_callback_are_bit_identical_to_the_python_o
     import dataclasses
 
     from jointrig.identify.chain import ChainPlant
-    from jointrig.rig.chain import chain_model_xml, simulate_chain
+    from jointrig.rig.chain import chain_model_xml
     from jointrig.studies.chain_sweep import CHAIN_CONFIG
     from jointrig.vocab.law import Cogging, Coulomb, JointLaw, Power, Viscous
     from jointrig.vocab.plant import PeriodicDrive
@@ -206,14 +222,7 @@ def test_laws_to_ground_in_the_native_callback_are_bit_identical_to_the_python_o
     for rig, plant, w, drives in ((one, single, 20.0, {1: PeriodicDrive.cosine(20.0, 300.0)}),
                                   (one, drag_only, 20.0, {1: PeriodicDrive.cosine(20.0, 300.0)}),
                                   (pump, train, 300.0, {1: PeriodicDrive.cosine(300.0, 60.0)})):
-        a, _ = simulate_chain(rig, w, drives, cfg, plant=plant, backend="python")
-        b, _ = simulate_chain(rig, w, drives, cfg, plant=plant, backend="native")
-        for x, y in zip(a.angles_rad + a.rates_rad_s + a.torques_Nm + (a.time_s,),
-                        b.angles_rad + b.rates_rad_s + b.torques_Nm + (b.time_s,)):
-            if x is None:
-                assert y is None
-            else:
-                np.testing.assert_array_equal(x, y)
+        a = _both_backends(rig, w, drives, cfg, plant)
         assert np.ptp(a.angles_rad[-1]) > 0
 
 
@@ -228,7 +237,6 @@ def test_native_chain_callback_is_bit_identical_to_the_python_one(model):
     from jointrig.vocab.law import Jenkins, JointLaw
     from jointrig.identify.chain import ChainPlant
     from jointrig.vocab.plant import PeriodicDrive
-    from jointrig.rig.chain import simulate_chain
     from jointrig.studies.chain_sweep import CHAIN_CONFIG
 
     rig = load_chain(MODELS_DIR / model)
@@ -244,14 +252,7 @@ def test_native_chain_callback_is_bit_identical_to_the_python_one(model):
         plants.append(ChainPlant(tuple(laws), (0.0, 1.5, 0.0, 2.0)))
     for plant in plants:
         # the Python callback named: the default is the C one where a compiler is found
-        a, _ = simulate_chain(rig, w, drives, cfg, plant=plant, backend="python")
-        b, _ = simulate_chain(rig, w, drives, cfg, plant=plant, backend="native")
-        for x, y in zip(a.angles_rad + a.rates_rad_s + a.torques_Nm + (a.time_s,),
-                        b.angles_rad + b.rates_rad_s + b.torques_Nm + (b.time_s,)):
-            if x is None:
-                assert y is None
-            else:
-                np.testing.assert_array_equal(x, y)
+        _both_backends(rig, w, drives, cfg, plant)
 
 
 @needs_cc
