@@ -24,8 +24,8 @@ from jointrig.vocab.params import BEARING1, BEARING2, DRIVE_DELAY
 
 from .balance import spectral_rate
 
-__all__ = ["ModelSpec", "NOMINAL", "Cause", "Limits", "Place", "CauseScore", "Ambiguity", "CATALOGUE", "CAUSES", "OSCILLATOR_CAUSES", "at", "by_name", "evidence",
-           "chi2_survival",
+__all__ = ["ModelSpec", "NOMINAL", "Cause", "Limits", "Place", "CauseScore", "Ambiguity", "CATALOGUE", "CAUSES",
+           "OSCILLATOR_CAUSES", "at", "by_name", "evidence", "chi2_survival",
            "SEPARATING_EXCITATION", "DEFAULT_SEPARATION", "DIMENSIONLESS", "TIE", "IWAN_CHI",
            "IWAN_BETA", "rate_amplitudes", "Selection", "forward_select"]
 
@@ -262,9 +262,10 @@ def _with_cogging(spec: ModelSpec, order: float) -> ModelSpec:
     return replace(spec, terms=terms + (Cogging(order), Cogging(order, quadrature=True)))
 
 
-#: Every cause the project knows, once. Each pipeline takes its selection by name: the
-#: two-flywheel diagnosis :data:`CAUSES`, the one-coordinate oscillator's extension (the
-#: Silverbox) :data:`OSCILLATOR_CAUSES`.
+#: Every cause the project knows, once. Each pipeline takes the causes sought at its places
+#: (:func:`at`): the two-flywheel diagnosis :data:`CAUSES`, a train's joints and single bodies
+#: (``identify.chain_diagnose``), the one-coordinate oscillator's extension (the Silverbox)
+#: :data:`OSCILLATOR_CAUSES`.
 CATALOGUE: tuple[Cause, ...] = (
     Cause("coulomb_friction", "dry friction in the joint: a torque of constant size opposing the relative rate",
           lambda s, h: _with_terms(s, (Coulomb(),)), "coulomb_torque_Nm", 1, places=_JOINT_GROUND),
@@ -332,6 +333,7 @@ CATALOGUE: tuple[Cause, ...] = (
           trials=_cogging_trials, magnitude_parts=("cogging_sin_Nm", "cogging_cos_Nm")),
 )
 
+
 def at(*places: str) -> tuple[Cause, ...]:
     """The catalogue's causes sought at any of ``places`` (``Cause.places``), in catalogue order."""
     return tuple(c for c in CATALOGUE if c.places & set(places))
@@ -377,6 +379,7 @@ def evidence(delta_chi2: float, q: int, n_rows: int, alpha: float = 1e-3, n_caus
     p = chi2_survival(max(delta_chi2, 0.0), q)
     score = delta_chi2 - q * math.log(n_rows)
     return float(score), p, bool(p < alpha / n_causes and score > 0)
+
 
 @dataclass(frozen=True)
 class Place:

@@ -182,15 +182,14 @@ class ChainFit(RowFit):
         """Every parameter by its chain name: the linear ones, then what each joint's terms imply
         (free play, slip angles, Stribeck rate: ``Term.derived_parameters``)."""
         out = self.as_dict()
-        for i, terms in enumerate(self.spec.grounds, start=1):
-            pre = ground_prefix(i)
+        laws = [(ground_prefix(i), terms) for i, terms in enumerate(self.spec.grounds, start=1)]
+        laws += [(joint_prefix(j), terms) for j, terms in enumerate(self.spec.joints, start=1)]
+        for pre, terms in laws:
             out.update({pre + k: v for k, v in law_parameters(terms, [out[pre + t.name] for t in terms]).items()})
         for j, terms in enumerate(self.spec.joints, start=1):
-            pre = joint_prefix(j)
-            out.update({pre + k: v for k, v in law_parameters(terms, [out[pre + t.name] for t in terms]).items()})
             for t in terms:
                 if isinstance(t, Power) and t.gap_rad > 0:
-                    out[pre + "backlash_half_gap_rad"] = t.gap_rad
+                    out[joint_prefix(j) + "backlash_half_gap_rad"] = t.gap_rad
         for j, o in enumerate(self.spec.offsets_rad, start=1):
             if o:
                 out[joint_prefix(j) + "angle_offset_rad"] = o
@@ -238,8 +237,8 @@ class _Problem:
         s = banded.system
         row, chi2, scale = weighted_chi2(s.F - s.A @ res.values, weights, self.nu, res.dof)
         return ChainFit(spec, res.names, np.array(res.values), np.array(res.std_errors) * math.sqrt(scale), chi2,
-                        s.F.size, row,
-                        condition_number=res.condition_number, success=res.success, message=res.message)
+                        s.F.size, row, condition_number=res.condition_number, success=res.success,
+                        message=res.message)
 
     def fit(self, spec: ChainSpec, iterations: int = 2) -> tuple[ChainFit, np.ndarray]:
         banded = self.system(spec)
@@ -365,7 +364,8 @@ def angle_resolution(problem: _Problem, cand: Candidate) -> float:
 
 def _profile(problem: _Problem, cand: Candidate, base: ChainSpec, weights) -> ChainFit:
     """:func:`identify.causes.profile` over the candidate's bounds at its place."""
-    lo, hi = cand.cause.bounds(_twist_runs(problem, cand))
+    here = _twist_runs(problem, cand)
+    lo, hi = cand.cause.bounds(here)
     mag = cand.magnitude_name()
 
     def penalised(f: ChainFit) -> float:
@@ -375,7 +375,7 @@ def _profile(problem: _Problem, cand: Candidate, base: ChainSpec, weights) -> Ch
         return f.chi2 if not (cand.cause.nonnegative and v < 0) else f.chi2 + 1e6 * (1.0 + abs(f.chi2))
 
     found = profile(lambda h: problem.solve(cand.extend(base, h), weights), cand.cause, lo, hi, objective=penalised,
-                    points=cand.cause.grid_points(_twist_runs(problem, cand), lo, hi))
+                    points=cand.cause.grid_points(here, lo, hi))
     return replace(found.fit, profiled=((cand.profiled_name(), found.value, found.std_error),))
 
 
@@ -433,8 +433,8 @@ def score(problem: _Problem, cand: Candidate, base: ChainFit, weights: np.ndarra
     # The one evidence measure (identify.causes.evidence): BIC score, chi-square(q) p-value,
     # Bonferroni over the round; a candidate that adds no parameter (q = 0: dry friction where a
     # Stribeck law already holds it) is never significant.
-    bic, p, significant = evidence(delta, q, base.n_rows, alpha,
-                                   n_tests * (cand.cause.n_trials(_twist_runs(problem, cand)) if cand.cause.trials else 1))
+    trials = cand.cause.n_trials(_twist_runs(problem, cand)) if cand.cause.trials is not None else 1.0
+    bic, p, significant = evidence(delta, q, base.n_rows, alpha, n_tests * trials)
     name = cand.magnitude_name()
     if cand.at_joint or cand.ground:
         mag = cand.cause.magnitude_of(ext.parameters(), ext.std_error, cand.prefix)

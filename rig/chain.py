@@ -146,12 +146,10 @@ def _plant(model: mujoco.MjModel, N: int, src: str, kind: str) -> ChainPlant:
         laws.append(law)
     grounds = tuple(_law(per_ground[i], f"body {i}'s law to ground", f"ground{i}_", src, kind)
                     for i in range(1, N + 1))
-    for i, law in enumerate(grounds, start=1):
-        if law is not None and any(t.stateful for t in law.terms):
-            raise RigModelError(f"{src}: body {i}'s law to ground has a term with memory "
-                                f"({[t.name for t in law.terms if t.stateful]}); a law to ground takes terms of "
-                                f"the body's own position and rate only")
-    return ChainPlant(tuple(laws), tuple(bearings), grounds)
+    try:
+        return ChainPlant(tuple(laws), tuple(bearings), grounds)
+    except ValueError as err:  # a law to ground with memory
+        raise RigModelError(f"{src}: {str(err).removeprefix('ChainPlant: ')}") from None
 
 
 def load_chain(path: Union[str, os.PathLike]) -> ChainRig:
@@ -380,11 +378,7 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
     if plant.n_flywheels != rig.n_flywheels:
         raise ValueError(f"plant of {plant.n_flywheels} flywheels for a chain of {rig.n_flywheels}")
     grounded = any(g is not None for g in plant.grounds)
-    with_sliders = [i for i, g in enumerate(plant.grounds, start=1) if g is not None and any(t.stateful for t in g.terms)]
-    if with_sliders and backend == "native":
-        raise ValueError(f"backend 'native': the native callback holds no sliders in a law to ground (body "
-                         f"{with_sliders[0]}); use 'auto'")
-    native = choose_native(backend, plant.laws + tuple(g for g in plant.grounds if g is not None)) and not with_sliders
+    native = choose_native(backend, plant.laws + tuple(g for g in plant.grounds if g is not None))
     N = rig.n_flywheels
     m = copy.copy(rig.model)
     # A body's dry friction to ground is held by MuJoCo's own constraint on its joint (the

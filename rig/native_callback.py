@@ -389,11 +389,9 @@ class NativeChain:
             p.q1, p.q2, p.v1, p.v2, p.act = rig.qpos_adr[0], -1, rig.dof_adr[0], -1, -1
             p.b1 = plant.bearings_Nms_per_rad[0]
             blocks.append(p)
-        for i, law in enumerate(plant.grounds):
+        for i, law in enumerate(plant.grounds):  # without sliders (ChainPlant refuses them)
             if law is None:
                 continue
-            if any(t.stateful for t in law.terms):
-                raise ValueError(f"the native callback does not hold sliders in a law to ground (body {i + 1})")
             p = _Params()
             _pack_law(p, law)
             p.q1, p.q2, p.v1, p.v2, p.act = rig.qpos_adr[i], -1, rig.dof_adr[i], -1, -1
@@ -422,7 +420,7 @@ class NativeChain:
     def commit(self, qpos: np.ndarray) -> None:
         """Advance every joint's sliders to its accepted twist (after a step), as the Python path."""
         for p in self.blocks:
-            if p.n_sliders:  # joints only: a law to ground holds no sliders (refused above)
+            if p.n_sliders:  # joints only: a law to ground holds no sliders
                 phi = float(qpos[p.q1] - qpos[p.q2])
                 for j in range(p.n_sliders):
                     p.slider[j] = play(phi, p.slider[j], p.slider_slip[j])

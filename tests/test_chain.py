@@ -391,3 +391,22 @@ def test_chain_sweep_on_a_dask_cluster_gives_the_local_records(tmp_path):
         for x, y, z in zip(a.record.angles_rad, b.record.angles_rad, c.record.angles_rad):
             np.testing.assert_array_equal(x, y)
             np.testing.assert_array_equal(x, z)
+
+
+def test_a_law_to_ground_with_memory_is_refused_in_the_plant_and_in_a_model_file(tmp_path):
+    # One place refuses it (ChainPlant): neither callback keeps sliders for a law to ground. A
+    # model file that declares one is refused naming the file and the body.
+    from jointrig.identify.chain import ChainPlant
+    from jointrig.rig.chain import chain_model_xml
+    from jointrig.rig.model import RigModelError
+    from jointrig.vocab.law import Jenkins, JointLaw, Power
+
+    with pytest.raises(ValueError, match="body 1's law to ground has a term with memory"):
+        ChainPlant((), (0.0,), (JointLaw((Power(1), Jenkins(1e-3)), (100.0, 5.0)),))
+    text = chain_model_xml(ChainPlant((), (0.0,), (JointLaw((Power(1),), (100.0,)),)), (2.0,), (1,))
+    text = text.replace("<custom>", '<custom>\n    <numeric name="jointrig_ground1_hysteresis_slip_torque_Nm" data="5.0"/>'
+                        '\n    <numeric name="jointrig_ground1_hysteresis_slip_angle_rad" data="0.001"/>')
+    path = tmp_path / "one.xml"
+    path.write_text(text)
+    with pytest.raises(RigModelError, match=r"one\.xml: body 1's law to ground has a term with memory"):
+        load_chain(path)
