@@ -340,8 +340,7 @@ def chain_callback(rig: ChainRig, plant: ChainPlant, drives: dict, errors: list,
 
 def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: SimulationConfig = SimulationConfig(), *,
                    plant: Optional[ChainPlant] = None, inertias_kgm2: Optional[Sequence[float]] = None,
-                   amplitude_Nm: float = math.nan, backend: str = "auto",
-                   start: Optional[tuple[Sequence[float], Sequence[float]]] = None) -> tuple[ChainRecord, SettleInfo]:
+                   amplitude_Nm: float = math.nan, backend: str = "auto") -> tuple[ChainRecord, SettleInfo]:
     """Drive the chain from rest to steady state and log ``config.n_periods`` whole periods.
 
     Args:
@@ -350,9 +349,6 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
       plant: laws and bearings to simulate instead of the file's; inertias_kgm2: inertias
         instead of the file's (each body's inertia scaled).
       amplitude_Nm: a label for the record.
-      start: ``(positions, rates)`` of the bodies (rad, rad/s; a slide's m, m/s) to start from
-        instead of rest: a law to ground that depends on the position (a spring, a cogging)
-        sees the absolute position, so a replay of a measured run starts where the bench was.
       backend: ``"native"``: every joint's law, the bearings and the drives in the compiled C
         callback (rig/native_callback.py ``NativeChain``): bit-identical records; a chain
         without sliders is integrated a period per ``mujoco.rollout`` call (no Python between
@@ -405,15 +401,7 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
     k = config.steps_per_sample(omega_rad_s)
     n = config.samples_for(omega_rad_s)
     d = mujoco.MjData(m)
-    if start is None:
-        d.qvel[list(rig.dof_adr)] = sum(drv.mean_free_impulse(0.0) for drv in drives.values()) / sum(J)
-    else:
-        positions, rates = (np.asarray(x, dtype=float) for x in start)
-        if positions.shape != (N,) or rates.shape != (N,) or not (np.all(np.isfinite(positions))
-                                                                  and np.all(np.isfinite(rates))):
-            raise ValueError(f"start must be {N} finite positions and {N} finite rates")
-        d.qpos[list(rig.qpos_adr)] = positions
-        d.qvel[list(rig.dof_adr)] = rates
+    d.qvel[list(rig.dof_adr)] = sum(drv.mean_free_impulse(0.0) for drv in drives.values()) / sum(J)
     states = [[0.0] * sum(t.n_states for t in law.terms if t.stateful) for law in plant.laws]
     stateful = [(j, [t for t in law.terms if t.stateful]) for j, law in enumerate(plant.laws)]
     stateful = [(j, ts) for j, ts in stateful if ts]

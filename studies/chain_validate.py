@@ -114,29 +114,6 @@ def _noise(meas: ChainRecord, band: int) -> float:
     return total
 
 
-def placed(plant) -> bool:
-    """Whether a plant's response depends on where its bodies are, not only on how they move: a
-    law to ground with a term of the position (a spring to ground, a cogging force)."""
-    return any(g is not None and any(t.elastic for t in g.terms) for g in plant.grounds)
-
-
-def measured_start(meas: ChainRecord, top: int) -> tuple[np.ndarray, np.ndarray]:
-    """Each body's position and rate at the start of a record's mean period, band-limited to
-    harmonics 0..``top`` (rad and rad/s; a slide's m, m/s): where the bench was. A body without a
-    measured position starts at 0."""
-    pos, rate = [], []
-    for i, a in enumerate(meas.angles_rad):
-        if a is None:
-            pos.append(0.0)
-            rate.append(0.0)
-            continue
-        c = fourier_coefficients(a, meas.n_periods, top)  # x(t) = Re sum c_k exp(i k w t), c_k one-sided
-        k = np.arange(c.size)
-        pos.append(float(np.real(np.sum(c))))
-        rate.append(float(np.real(np.sum(1j * k * meas.omega_rad_s * c))))
-    return np.array(pos), np.array(rate)
-
-
 def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[ChainRecord], *,
                    band: int = 10, config: SimulationConfig = SimulationConfig(samples_per_period=128, max_step_s=5e-5),
                    max_wall_s: Optional[float] = 120.0, backend: str = "auto") -> ChainValidation:
@@ -164,7 +141,7 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
                 continue
             try:
                 sim, _ = simulate_chain(rig.with_plant(plant), meas.omega_rad_s, drives, cfg, inertias_kgm2=J,
-                                        backend=backend, start=measured_start(meas, top) if placed(plant) else None)
+                                        backend=backend)
             except SimulationError as err:  # no steady state, or a divergence: a reason, not a crash
                 failed[name] = (f"the {name} model reaches no periodic steady state under the measured drive of "
                                 f"{meas.source}: {err}")
