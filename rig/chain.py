@@ -374,7 +374,9 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
     if plant.n_flywheels != rig.n_flywheels:
         raise ValueError(f"plant of {plant.n_flywheels} flywheels for a chain of {rig.n_flywheels}")
     grounded = any(g is not None for g in plant.grounds)
-    native = choose_native(backend, plant.laws + tuple(g for g in plant.grounds if g is not None))
+    if grounded and backend == "native":
+        raise ValueError("backend 'native': the native callback does not simulate laws to ground; use 'auto'")
+    native = choose_native(backend, plant.laws) and not grounded
     N = rig.n_flywheels
     m = copy.copy(rig.model)
     # A body's dry friction to ground is held by MuJoCo's own constraint on its joint (the

@@ -367,10 +367,10 @@ def _pack_drive(p: _Params, drive: PeriodicDrive) -> None:
 class NativeChain:
     """The native callback's parameters for a chain (rig/chain.py): one block per joint (its law
     between its two flywheels, the drag of its left flywheel, and of the last flywheel for the
-    last joint; a single body's drag in a block of its own), then one block per body with a law
-    to ground (the law between its hinge or slide and the frame: ``q2 = v2 = -1``), then one per
-    drive, linked in that order: every generalised force gets its terms in the order the Python
-    chain callback adds them (joints, drag, the law to ground), so the same bits."""
+    last joint; a single body's drag in a block of its own), then one block per drive, linked in
+    that order: every generalised force gets its terms in the order the Python chain callback
+    adds them, so the same bits. Laws to ground are the Python callback's only
+    (:func:`rig.chain.simulate_chain`)."""
 
     def __init__(self, rig, plant, drives: dict):
         N = rig.n_flywheels
@@ -384,17 +384,10 @@ class NativeChain:
             p.b1 = plant.bearings_Nms_per_rad[j]
             p.b2 = plant.bearings_Nms_per_rad[N - 1] if j == N - 2 else 0.0
             blocks.append(p)
-        if N == 1 and plant.bearings_Nms_per_rad[0]:
+        if N == 1 and plant.bearings_Nms_per_rad[0]:  # a single body: no joint block carries its drag
             p = _Params()
             p.q1, p.q2, p.v1, p.v2, p.act = rig.qpos_adr[0], -1, rig.dof_adr[0], -1, -1
             p.b1 = plant.bearings_Nms_per_rad[0]
-            blocks.append(p)
-        for i, law in enumerate(plant.grounds):  # without sliders (ChainPlant refuses them)
-            if law is None:
-                continue
-            p = _Params()
-            _pack_law(p, law)
-            p.q1, p.q2, p.v1, p.v2, p.act = rig.qpos_adr[i], -1, rig.dof_adr[i], -1, -1
             blocks.append(p)
         acts = {i: a for i, a, _ in rig.drives}
         for i, drive in sorted(drives.items()):
@@ -420,7 +413,7 @@ class NativeChain:
     def commit(self, qpos: np.ndarray) -> None:
         """Advance every joint's sliders to its accepted twist (after a step), as the Python path."""
         for p in self.blocks:
-            if p.n_sliders:  # joints only: a law to ground holds no sliders
+            if p.n_sliders:
                 phi = float(qpos[p.q1] - qpos[p.q2])
                 for j in range(p.n_sliders):
                     p.slider[j] = play(phi, p.slider[j], p.slider_slip[j])
