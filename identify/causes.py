@@ -432,10 +432,6 @@ class CauseScore:
         return self.effect if self.where is None else f"{self.effect} {self.where.describe()}"
 
     @property
-    def cause(self) -> str:
-        return self.effect
-
-    @property
     def place(self) -> Optional[int]:
         return None if self.where is None else self.where.number
 

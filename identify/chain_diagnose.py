@@ -542,7 +542,7 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
             if progress is not None:
                 progress(k, n, cand.label)
         return parsimonious(sorted(scored, key=lambda s: (bool(s.note), -s.score)), causes_by_name, current.n_rows,
-                            alpha, name_of=lambda s: s.cause, place_of=lambda s: s.where)
+                            alpha, place_of=lambda s: s.where)
 
     adopted: list[Candidate] = []
 

@@ -346,7 +346,7 @@ def test_a_score_says_where_and_reads_the_same_in_json_for_two_flywheels_and_a_t
 
     mag = ("joint2_backlash_half_gap_rad", 1e-3, 1e-5)
     at_joint = CauseScore("backlash", 90.0, 1, 84.0, 1e-20, True, _Fitted(), mag, where=Place("joint", 2))
-    assert (at_joint.label, at_joint.cause, at_joint.place, at_joint.at_joint, at_joint.ground) == (
+    assert (at_joint.label, at_joint.effect, at_joint.place, at_joint.at_joint, at_joint.ground) == (
         "backlash at joint 2", "backlash", 2, True, False)
     js = at_joint.as_json()
     assert js["candidate"] == "backlash at joint 2" and js["joint"] == 2 and js["effect"] == "backlash"

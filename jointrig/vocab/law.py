@@ -182,7 +182,7 @@ class Term:
         """Named parameters that follow from the term and its value (a slip angle, a stiffness)."""
         return {}
 
-    def law_parameters(self, values: dict[str, float]) -> dict[str, float]:
+    def combined_parameters(self, values: dict[str, float]) -> dict[str, float]:
         """Named parameters that follow from several of the law's values (by term name): a
         periodic torque's amplitude from its sine and cosine parts. Default: none."""
         return {}
@@ -1014,7 +1014,7 @@ class Cogging(Term):
     def derived_parameters(self, value):
         return {"cogging_order_rad_per_rad": self.order_per_rad, "cogging_pitch_rad": 2 * math.pi / self.order_per_rad}
 
-    def law_parameters(self, values):
+    def combined_parameters(self, values):
         return {"cogging_amplitude_Nm": math.hypot(values.get(self.MJCF_FIELDS[0], 0.0),
                                                    values.get(self.MJCF_FIELDS[1], 0.0))}
 
@@ -1035,13 +1035,13 @@ class Cogging(Term):
 
 def law_parameters(terms: Sequence[Term], values: Sequence[float]) -> dict[str, float]:
     """Every parameter a law's terms imply beyond their values (``Term.derived_parameters`` of
-    each, ``Term.law_parameters`` of the whole), by term name: the one place both the rig's
+    each, ``Term.combined_parameters`` of the whole), by term name: the one place both the rig's
     plants and the chain's fits read them from."""
     by_name = {t.name: v for t, v in zip(terms, values)}
     out: dict[str, float] = {}
     for t, v in zip(terms, values):
         out.update(t.derived_parameters(v))
-        out.update(t.law_parameters(by_name))
+        out.update(t.combined_parameters(by_name))
     return out
 
 
