@@ -292,6 +292,7 @@ def test_a_cogging_torque_is_a_sine_of_the_angle_and_reads_back_from_a_model_fil
     law = JointLaw((Viscous(), Power(1), s, c), (5.0, 500.0, 30.0, -40.0))
     plant = Plant(law)
     params = plant.parameters()
+    # hypot(30, -40) and 2 pi / z: one rounding each
     assert params["cogging_amplitude_Nm"] == pytest.approx(50.0, rel=1e-15)
     assert params["cogging_pitch_rad"] == pytest.approx(2 * math.pi / 125.0, rel=1e-15)
     path = tmp_path / "cogging.xml"

@@ -95,6 +95,7 @@ def test_a_candidates_own_torque_is_its_joint_law_less_the_nominal_terms():
     gap = score((Viscous(), Power(1, 0.01), Power(3, 0.01)), (5.0, 1e4, 1e6))
     own = _effect_law(Candidate(by_name("backlash"), Place("joint", 1)), gap)
     expected = 1e4 * (Power(1, 0.01)(phi, 0 * phi) - phi) + 1e6 * (Power(3, 0.01)(phi, 0 * phi) - phi**3)
+    # the difference of torques of up to 125 N m, evaluated in another order: round-off only
     np.testing.assert_allclose(own.torque(phi, 0.3 + 0 * phi), expected, rtol=1e-12, atol=1e-9)
     rub = score((Viscous(), Power(1), Power(3), Coulomb()), (5.0, 1e4, 1e6, 20.0))
     own = _effect_law(Candidate(by_name("coulomb_friction"), Place("joint", 1)), rub)
