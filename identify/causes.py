@@ -394,10 +394,6 @@ class Place:
             return f"to ground at body {self.number}"
         return f"at {self.kind} {self.number}"
 
-    @property
-    def json_key(self) -> str:
-        return {"ground": "ground_of_body"}.get(self.kind, self.kind)
-
 
 @dataclass(frozen=True)
 class CauseScore:
@@ -444,14 +440,15 @@ class CauseScore:
         return self.where is not None and self.where.kind == "ground"
 
     def as_json(self) -> dict:
-        out = {"effect": self.effect, "score": self.score, "significant": self.significant,
-               "delta_chi2": self.delta_chi2, "n_params": self.n_params, "p_value": self.p_value,
-               "magnitude": {"name": self.magnitude[0], "value": self.magnitude[1], "std_error": self.magnitude[2]},
-               "signature": self.signature, "note": self.note,
-               "parameters": self.fit.parameters() if self.fit is not None else {}}
-        if self.where is not None:
-            out |= {"candidate": self.label, "cause": self.effect, self.where.json_key: self.where.number}
-        return out
+        """The score in a diagnosis's JSON (``present.diagnosis_json.CAUSE_KEYS``): ``place`` is
+        ``{"kind", "number"}`` in a train, null on the two-flywheel joint."""
+        return {"label": self.label, "effect": self.effect,
+                "place": None if self.where is None else {"kind": self.where.kind, "number": self.where.number},
+                "score": self.score, "significant": self.significant, "delta_chi2": self.delta_chi2,
+                "n_params": self.n_params, "p_value": self.p_value,
+                "magnitude": {"name": self.magnitude[0], "value": self.magnitude[1], "std_error": self.magnitude[2]},
+                "signature": dict(self.signature), "note": self.note,
+                "parameters": self.fit.parameters() if self.fit is not None else {}}
 
 
 @dataclass(frozen=True)

@@ -480,17 +480,6 @@ class ChainDiagnosis:
         """chi2 / dof of a fit, relative to what noise alone gives (1 for a model the noise explains)."""
         return f.chi2 / max(f.dof, 1)
 
-    def as_json(self) -> dict:
-        return {
-            "nominal": {"parameters": self.nominal.parameters(), "chi2": self.nominal.chi2, "dof": self.nominal.dof},
-            "candidates_first_round": [s.as_json() for s in self.first_round],
-            "found": [s.as_json() for s in self.steps],
-            "extended": {"parameters": self.final.parameters(), "chi2": self.final.chi2, "dof": self.final.dof,
-                         "std_errors": {n: self.final.std_error(n) for n in self.final.names}
-                         | {n: se for n, _, se in self.final.profiled}},
-            "ambiguities": [a.as_json() for a in self.ambiguities],
-            "n_harmonics": self.n_harmonics, "noise_std_per_sample": self.noise_std,
-        }
 
 
 def candidates(n_flywheels: int, causes: Sequence[Cause] = JOINT_CAUSES, bearings: bool = True,

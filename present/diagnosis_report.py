@@ -23,7 +23,9 @@ from typing import Optional, Sequence
 
 import numpy as np
 
+from .diagnosis_json import DiagnosisJson, FitJson, RunJson, ValidationJson
 from .formatting import quantity_of, sig, sig_or, unit_of, with_se
+from .text import ValidationRow, ambiguity_lines, causes_lines, head_lines, notes_lines, parameter_lines, validation_lines
 from .summary import NO_GAIN, adopted_causes, next_steps, parameter_rows, plain_verdict, written_rows
 from jointrig.identify.verdict import CHI2_PER_DOF_OK
 from jointrig.studies.validate import DIVERGES, INERTIAS_NOT_POSITIVE, NEVER_SETTLES, DiagnosisReport
@@ -38,103 +40,45 @@ def _fmt(v: float) -> str:
     return "nan" if not math.isfinite(v) else f"{v:.6g}"
 
 
-def _finite(obj):
-    """JSON has no inf/NaN: non-finite numbers become null."""
-    if isinstance(obj, float):
-        return obj if math.isfinite(obj) else None
-    if isinstance(obj, dict):
-        return {k: _finite(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_finite(v) for v in obj]
-    return obj
-
-
 def report_json(report: DiagnosisReport, *, source: str = "", notes: Sequence[str] = (),
-                input_sha256: str = "") -> dict:
-    out = _report_json(report, source=source, notes=list(notes) + list(report.notes))
-    if input_sha256:
-        out = {"source": out.pop("source"), "input_sha256": input_sha256, **out}
-    return _finite(out)
-
-
-def _report_json(report: DiagnosisReport, *, source: str, notes: Sequence[str]) -> dict:
+                input_sha256: str = "", model: Optional[str] = None) -> dict:
+    """The two-flywheel diagnosis as the one diagnosis document (:mod:`present.diagnosis_json`);
+    ``model``: the user's model file (``--model``), if one was given."""
     d = report.diagnosis
     runs = report.runs
-    ext = d.extended
-    effects = list(d.effects)
-    return {
-        "source": source,
-        "units": "SI: rad, rad/s, N m, s, kg m^2; names carry the unit",
-        "form": d.form,
-        "band_harmonics": report.band,
-        "fit_runs": [r.run_id for r in runs if not r.held_out],
-        "holdout_runs": [r.run_id for r in runs if r.held_out],
-        "noise_std": d.noise_std,
-        "notes": list(notes) + list(d.notes),
-        "nominal": {"parameters": d.nominal.as_dict(),
-                    "std_errors": dict(zip(d.nominal.names, map(float, d.nominal.std_errors))),
-                    "chi2_per_dof": d.nominal.chi2 / d.nominal.dof},
-        "causes": [c.as_json() for c in d.causes],
-        "verdict": report.verdict.verdict,
-        "verdict_reason": report.verdict.reason,
-        "misfit_character": report.character.as_json() if report.verdict.verdict == "unexplained" else None,
-        "misfit_surface": report.surface.as_json() if report.verdict.verdict == "unexplained" else None,
-        "next_measurements": list(report.next_measurements) if report.verdict.verdict == "unexplained" else [],
-        "extended": {"effect": effects[0] if effects else "none", "effects": list(report.adopted),
-                     "tried": effects,
-                     "dynamic_effects": list(d.effects_of_kind("dynamic")),
-                     "measurement_effects": list(d.effects_of_kind("measurement")),
-                     "parameters": ext.effect_parameters(),
-                     "std_errors": {n: ext.std_error(n) for n in ext.effect_parameters()},
-                     "magnitudes": {s.effect: {"name": s.magnitude[0], "value": ext.effect_parameters().get(
-                         s.magnitude[0], s.magnitude[1]), "std_error": ext.std_error(s.magnitude[0])}
-                         for s in d.steps},
-                     "chi2_per_dof": ext.chi2 / ext.dof},
-        "ambiguous": [a.as_json() for a in d.ambiguous],
-        "validation_rms": {"nominal": report.validation_rms("nominal"),
-                           "extended": report.validation_rms("extended"),
-                           "noise_floor": report.noise_floor_rad, "unit": "rad",
-                           "what": "RMS of simulated minus measured relative angle, period-averaged, over the "
-                                   "harmonics the measurement resolves, on the held-out runs"},
-        "gain": report.gain,
-        "generalisation": report.generalisation,
-        "validation": {"kind": report.validation_kind, "statement": report.validation_statement},
-        "plausibility": list(report.diagnosis.plausibility),
-        # the user's model (--model) as written against the data: parameter -> written, data, std_error, differs
-        "as_written": {w.name: w.as_json() for w in written_rows(report)},
-        # Models rejected because the rig finds no periodic steady state for them under a run's
-        # measured drive (their RMS there is null): run -> reason.
-        "no_steady_state": {which: {r.run_id: r.failure(which) for r in runs if r.failure(which)}
-                            for which in ("nominal", "extended")},
-        "runs": [{"run": r.run_id, "omega_rad_s": r.omega_rad_s, "amplitude_Nm": r.amplitude_Nm,
-                  "held_out": r.held_out, "rms_nominal_rad": r.rms("nominal"),
-                  "rms_extended_rad": r.rms("extended"), "noise_floor_rad": r.noise_floor_rad,
-                  "no_steady_state": dict(r.failures)}
-                 for r in runs],
-    }
+    unexplained = report.verdict.verdict == "unexplained"
+    per_run = tuple(RunJson(r.run_id, r.held_out, r.omega_rad_s, r.amplitude_Nm, r.rms("nominal"), r.rms("extended"),
+                            r.noise_floor_rad, r.failures) for r in runs)
+    validation = ValidationJson(
+        report.validation_kind, report.generalisation, report.validation_statement,
+        "RMS of simulated minus measured relative angle, period-averaged, over the harmonics the measurement "
+        "resolves, on the held-out data", "rad", report.validation_rms("nominal"), report.validation_rms("extended"),
+        report.noise_floor_rad, report.gain, per_run,
+        "; ".join(f"{which} model, run {r.run_id}: {r.failure(which)}" for r in runs
+                  for which in ("nominal", "extended") if r.failure(which)))
+    return DiagnosisJson(
+        source=source, input_sha256=input_sha256, units="SI: rad, rad/s, N m, s, kg m^2; names carry the unit",
+        kind="hinge", n_bodies=2, form=d.form, model=model, verdict=report.verdict, band_harmonics=report.band,
+        fit_runs=tuple(r.run_id for r in runs if not r.held_out), held_out_runs=tuple(r.run_id for r in runs if r.held_out),
+        noise_std_per_sample=dict(d.noise_std), nominal=FitJson.of(d.nominal), causes=tuple(d.causes),
+        steps=tuple(d.steps), adopted=tuple(report.adopted), extended=FitJson.of(d.extended),
+        ambiguities=tuple(d.ambiguous), as_written={w.name: w.as_json() for w in written_rows(report)},
+        validation=validation, notes=tuple(notes) + tuple(report.notes) + tuple(d.notes),
+        plausibility=tuple(d.plausibility),
+        misfit_character=report.character.as_json() if unexplained else None,
+        misfit_surface=report.surface.as_json() if unexplained else None,
+        next_measurements=tuple(report.next_measurements) if unexplained else ()).as_json()
 
 
 def format_report(report: DiagnosisReport, *, source: str = "", notes: Sequence[str] = ()) -> str:
+    """The two-flywheel diagnosis as text, in the layout of every bench (:mod:`present.text`)."""
     d = report.diagnosis
-    lines = []
     fit_ids = [r.run_id for r in report.runs if not r.held_out]
     held = [r.run_id for r in report.runs if r.held_out]
     v = report.verdict
-    lines.append(f"VERDICT: {v.verdict.upper().replace('_', ' ')}: {v.reason}")
-    lines.append(f"  In words: {plain_verdict(report)}")
-    written = written_rows(report)
-    if written:
-        lines.append("  Your model as written against the data (differs: more than 2 standard errors apart):")
-        lines += [f"    {w.quantity:20s} written {w.written:<12.6g} data {with_se(w.data, w.std_error):>20s} "
-                  f"{w.unit:12s} {'DIFFERS, ' + w.change if w.differs else 'agrees'}" for w in written]
-    if v.verdict == "unexplained":
-        lines.append(f"  What the misfit looks like: {report.character.describe()}")
-        lines.append(f"  Its restoring-force surface: {report.surface.describe()}")
-    steps = next_steps(report)
-    if steps:
-        lines.append("  What to do next" + (" (measurements that would tell more):" if v.verdict == "unexplained"
-                                             else ":"))
-        lines += [f"    - {m}" for m in steps]
+    misfit = ([f"What the misfit looks like: {report.character.describe()}",
+               f"Its restoring-force surface: {report.surface.describe()}"] if v.verdict == "unexplained" else [])
+    lines = head_lines(v, plain_verdict(report), next_steps(report), written=written_rows(report), misfit=misfit)
     lines.append("")
     lines.append(f"Diagnosis of {source or 'the runs'}: {len(report.runs)} runs, "
                  f"{'two-degree-of-freedom form (phi1, phi2)' if d.form == 'two_dof' else 'equivalent form (phi)'}, "
@@ -148,22 +92,9 @@ def format_report(report: DiagnosisReport, *, source: str = "", notes: Sequence[
     lines.append("")
     lines.append(f"Nominal model (paper eq. 11): chi2/dof = {d.nominal.chi2 / d.nominal.dof:.3g} "
                  f"(about 0.4-1 when only noise is left, with the model-fidelity floor)")
-    for n, v in d.nominal.as_dict().items():
-        lines.append(f"  {quantity_of(n):28s} {with_se(v, d.nominal.std_error(n)):>24s} {unit_of(n)}")
+    lines += parameter_lines({n: (x, d.nominal.std_error(n)) for n, x in d.nominal.as_dict().items()})
     lines.append("")
-    lines.append("Causes ranked by evidence (score = drop in chi2 - n_params ln(n_rows); significant: "
-                 "p < 1e-3 / n_causes):")
-    lines.append(f"  {'rank':4s} {'effect':22s} {'score':>12s} {'d_chi2':>12s} {'q':>2s} {'p':>9s} {'sig':>4s}  "
-                 f"magnitude; where the improvement is (mean/fund./even/odd>=3); dissipative share")
-    for i, c in enumerate(d.causes, 1):
-        share = c.signature
-        where = "/".join(f"{share.get(k, 0.0):.0%}" for k in ("mean", "fundamental", "even", "odd>=3")) if share else "-"
-        if share and share.get("dissipative") is not None:
-            where += f"; {share['dissipative']:.2f}"
-        mag = f"{quantity_of(c.magnitude[0])} = {with_se(c.magnitude[1], c.magnitude[2])} {unit_of(c.magnitude[0])}"
-        lines.append(f"  {i:<4d} {c.effect:22s} {c.score:12.4g} {c.delta_chi2:12.4g} {c.n_params:2d} "
-                     f"{c.p_value:9.2g} {'yes' if c.significant else 'no':>4s}  {mag}; {where}"
-                     + (f"  [{c.note}]" if c.note else ""))
+    lines += causes_lines(d.causes)
     lines.append("")
     if d.steps:
         joint, sensors = d.effects_of_kind("dynamic"), d.effects_of_kind("measurement")
@@ -175,32 +106,20 @@ def format_report(report: DiagnosisReport, *, source: str = "", notes: Sequence[
         lines.append("Extended model: none needed (no cause is significant; the nominal model explains the data "
                      "to the noise)")
     ext = d.extended
-    for n, v in ext.effect_parameters().items():
-        lines.append(f"  {quantity_of(n):28s} {with_se(v, ext.std_error(n)):>24s} {unit_of(n)}")
-    for a in d.ambiguous:
-        lines.append(f"  CANNOT TELL APART: {a.effects[0]} and {a.effects[1]} explain the same part of the data "
-                     f"(neither is significant given the other). To separate them: {a.excitation}.")
+    lines += parameter_lines({n: (x, ext.std_error(n)) for n, x in ext.effect_parameters().items()})
+    lines += ambiguity_lines(d.ambiguous)
     lines.append("")
-    lines.append("Validation in the MuJoCo rig under each run's measured drive (RMS of the relative angle, rad, "
-                 "over the harmonics the measurement resolves):")
-    lines.append(f"  {'run':>6s} {'omega':>8s} {'M0':>8s} {'held out':>8s} {'nominal':>10s} {'extended':>10s} "
-                 f"{'floor':>10s}")
-    for r in report.runs:
-        lines.append(f"  {r.run_id:>6s} {r.omega_rad_s:8.4g} {r.amplitude_Nm:8.4g} {'yes' if r.held_out else '':>8s} "
-                     f"{_rms_cell(r, 'nominal'):>10s} {_rms_cell(r, 'extended'):>10s} {r.noise_floor_rad:10.3g}")
-    lines.append(f"  held-out runs: nominal {_held_out_rms(report, 'nominal')}, extended "
-                 f"{_held_out_rms(report, 'extended')}, noise floor {report.noise_floor_rad:.3g} rad; "
-                 f"gain {sig_or(report.gain, NO_GAIN)}")
-    for which in ("nominal", "extended"):
-        if report.unsimulated(which):
-            lines.append(f"  the {which} model has no steady state in run(s) {', '.join(report.unsimulated(which))}: "
-                         f"rejected for that reason (see the notes)")
-    lines.append(f"  {'generalisation' if report.validation_kind == 'held_out_runs' else 'validation'}: "
-                 f"{report.validation_statement}")
-    if all_notes:
-        lines.append("")
-        lines.append("Notes on the data:")
-        lines += [f"  note: {n}" for n in all_notes]
+    rows = [ValidationRow(r.run_id, r.omega_rad_s, r.amplitude_Nm, r.held_out, _rms_cell(r, "nominal"),
+                          _rms_cell(r, "extended"), sig(r.noise_floor_rad)) for r in report.runs]
+    failures = [f"the {which} model has no steady state in run(s) {', '.join(report.unsimulated(which))}: rejected "
+                f"for that reason (see the notes)" for which in ("nominal", "extended") if report.unsimulated(which)]
+    lines += validation_lines(
+        rows, measure="RMS of the relative angle, rad, over the harmonics the measurement resolves", drive="M0",
+        summary=f"nominal {_held_out_rms(report, 'nominal')}, extended {_held_out_rms(report, 'extended')}, noise "
+                f"floor {report.noise_floor_rad:.3g} rad; gain {sig_or(report.gain, NO_GAIN)}",
+        statement=("generalisation" if report.validation_kind == "held_out_runs" else "validation",
+                   report.validation_statement), failures=failures)
+    lines += notes_lines(all_notes)
     return "\n".join(lines)
 
 

@@ -17,7 +17,7 @@ from jointrig.studies.validate import DiagnosisReport
 from .formatting import quantity_of, unit_of, with_se
 
 __all__ = ["NO_GAIN", "plain_verdict", "ParameterRow", "parameter_rows", "adopted_causes", "next_steps", "WrittenRow",
-           "written_rows", "compare_written", "wrong_sentence", "offset_reading"]
+           "written_rows", "compare_written", "wrong_sentence", "offset_reading", "steps_after"]
 
 _DESCRIPTION = {c.name: c.description for c in CATALOGUE}
 #: The gain's cell when a model has no steady state in a held-out run.
@@ -214,13 +214,20 @@ def next_steps(report: DiagnosisReport) -> tuple[str, ...]:
     offset = offset_reading(report)
     if report.verdict.verdict == "unexplained":
         return tuple(d.plausibility) + ((offset,) if offset else ()) + tuple(report.next_measurements)
-    out = list(d.plausibility) + ([offset] if offset else []) + [
-        f"{a.effects[0]} and {a.effects[1]} explain the same part of the data; to tell them apart: {a.excitation}"
-        for a in d.ambiguous]
-    if report.validation_kind != "held_out_runs":
+    return tuple(d.plausibility) + ((offset,) if offset else ()) + steps_after(
+        report.verdict.verdict, d.ambiguous, report.validation_kind != "held_out_runs")
+
+
+def steps_after(verdict: str, ambiguities, later_periods_only: bool) -> tuple[str, ...]:
+    """What to do next after a diagnosis that is not unexplained, on every bench: tell apart what
+    the data cannot, test on another excitation when only later periods were held out, and put
+    an adopted cause into the model."""
+    out = [f"{a.effects[0]} and {a.effects[1]} explain the same part of the data; to tell them apart: {a.excitation}"
+           for a in ambiguities]
+    if later_periods_only:
         out.append("runs at other drive levels or frequencies: the model was checked only on later periods of the "
                    "same runs")
-    if report.verdict.verdict == "explained":
+    if verdict == "explained":
         out.append("put the adopted cause into your model (--mjcf writes the extended model as MuJoCo XML) and "
                    "check it at the operating point that matters to you")
     return tuple(out)

@@ -16,8 +16,10 @@ from jointrig.studies.chain_validate import TrainReport
 
 from jointrig.vocab.params import linear_name
 
+from .diagnosis_json import DiagnosisJson, FitJson, RunJson, ValidationJson
 from .formatting import quantity_of, sig, sig_or, unit_of, with_se
-from .summary import compare_written, wrong_sentence
+from .summary import NO_GAIN, compare_written, steps_after, wrong_sentence
+from .text import ValidationRow, ambiguity_lines, causes_lines, head_lines, notes_lines, parameter_lines, validation_lines
 
 
 def _namer(report: TrainReport):
@@ -37,7 +39,7 @@ def _channel(report: TrainReport, ch: str) -> str:
         return ch.replace("torque", "force").replace("phi", "x")
     return ch
 
-__all__ = ["format_train_report", "plain_train_verdict", "train_report_json", "format_chain_lines", "train_figure",
+__all__ = ["format_train_report", "plain_train_verdict", "train_report_json", "train_figure",
            "write_train_html"]
 
 
@@ -47,51 +49,6 @@ def _values(fit) -> dict:
     out = {n: (v, fit.std_error(n)) for n, v in fit.as_dict().items()}
     out.update({n: (v, se) for n, v, se in fit.profiled})
     return out
-
-
-def format_chain_lines(report: TrainReport, n_shown: int = 6) -> list[str]:
-    """The diagnosis's figures: the nominal fit, the candidates best first, what was found, the
-    extended fit, the ambiguities and the held-out error."""
-    d, v = report.diagnosis, report.validation
-    N = d.nominal.spec.n_flywheels
-    n_joint = sum(1 for s in d.first_round if s.at_joint)
-    n_ground = sum(1 for s in d.first_round if s.ground)
-    n_drag = len(d.first_round) - n_joint - n_ground
-    places = ([f"{n_joint} causes at {N - 1} joint(s)"] if N > 1 else []) + (
-        [f"viscous drag at {n_drag} {'bodies' if n_drag > 1 else 'body'}"] if n_drag else []) + (
-        [f"{n_ground} laws to ground"] if n_ground else [])
-    lines = [f"  nominal model: chi2/dof = {d.nominal.chi2 / d.nominal.dof:.3g} (about 1 when only noise is left)",
-             f"  candidates ({len(d.first_round)}: {', '.join(places)}), best first:"]
-    nm = _namer(report)
-    for s in d.first_round[:n_shown]:
-        name = nm(s.magnitude[0])
-        lines.append(f"    {s.label:40s} score {s.score:10.1f}  p = {s.p_value:.2g}  {quantity_of(name)} = "
-                     f"{with_se(s.magnitude[1], s.magnitude[2])} {unit_of(name)}"
-                     + (f"  [{_words(report, s.note)}]" if s.note else ""))
-    if not d.steps:
-        lines.append("  nothing significant: no catalogued cause at any joint or bearing")
-    final = _values(d.final)
-    for s in d.steps:  # at their size in the extended model (refined beside the other causes)
-        value, se = final.get(s.magnitude[0], s.magnitude[1:])
-        name = nm(s.magnitude[0])
-        lines.append(f"  FOUND: {s.label}: {quantity_of(name)} = {with_se(value, se)} {unit_of(name)}")
-    if d.steps:
-        lines.append(f"  extended model: chi2/dof = {d.final.chi2 / d.final.dof:.3g}")
-    for a in d.ambiguities:
-        lines.append(f"  AMBIGUOUS: {a.effects[0]} or {a.effects[1]}: {a.excitation}")
-    if v is not None:
-        held = "held-out periods" if report.held_out_periods else f"held-out runs ({len(report.held_out)})"
-        what = "position" if N == 1 else "twist"
-        if v.note and not math.isfinite(v.extended_error):
-            lines.append(f"  {held}: {v.note}")
-        elif v.note:
-            lines.append(f"  {held}: relative {what} error extended {sig(v.extended_error)} (noise floor "
-                         f"{sig(v.noise_floor, 2)}); {v.note}")
-        else:
-            lines.append(f"  {held}: relative {what} error nominal {sig(v.nominal_error)}, extended "
-                         f"{sig(v.extended_error)} (noise floor {sig(v.noise_floor, 2)}): gain "
-                         f"{sig_or(v.gain, 'not computed')}")
-    return lines
 
 
 def plain_train_verdict(report: TrainReport) -> str:
@@ -115,71 +72,123 @@ def plain_train_verdict(report: TrainReport) -> str:
                     "candidates below are ranked by evidence, none is adopted.")
 
 
-def format_train_report(report: TrainReport, *, source: str = "", notes: Sequence[str] = ()) -> str:
-    d, v = report.diagnosis, report.verdict
-    fit = report.adopted_fit
+def _sought(report: TrainReport) -> str:
+    """Where the causes were sought, in words."""
+    d = report.diagnosis
     N = d.nominal.spec.n_flywheels
+    n_joint = sum(1 for s in d.first_round if s.at_joint)
+    n_ground = sum(1 for s in d.first_round if s.ground)
+    n_drag = len(d.first_round) - n_joint - n_ground
+    places = ([f"{n_joint} at {N - 1} joint(s)"] if N > 1 else []) + (
+        [f"viscous drag at {n_drag} {'bodies' if n_drag > 1 else 'body'}"] if n_drag else []) + (
+        [f"{n_ground} laws to ground"] if n_ground else [])
+    return f"{len(d.first_round)} candidates: {', '.join(places)}"
+
+
+def _cell(error: float) -> str:
+    return sig_or(error, "no steady")
+
+
+def format_train_report(report: TrainReport, *, source: str = "", notes: Sequence[str] = (), shown: int = 6) -> str:
+    """A train's (or a single axis's) diagnosis as text, in the layout of every bench
+    (:mod:`present.text`); the causes table shows the significant ones and the best ``shown``."""
+    d, v, val = report.diagnosis, report.verdict, report.validation
+    N = d.nominal.spec.n_flywheels
+    nm = _namer(report)
     fit_ids = [r for i, r in enumerate(report.run_ids) if i not in report.held_out]
     held_ids = [report.run_ids[i] for i in report.held_out]
-    lines = [f"VERDICT: {v.verdict.upper().replace('_', ' ')}: {v.reason}"]
-    nm = _namer(report)
-    written = compare_written(report.written, fit)
-    lines.append(f"  In words: {plain_train_verdict(report)}")
-    if written:
-        lines.append(f"  Your model as written ({report.model_path}) against the data (differs: more than 2 standard "
-                     f"errors apart):")
-        lines += [f"    {nm(w.name):34s} written {w.written:<12.6g} data {with_se(w.data, w.std_error):>22s} "
-                  f"{unit_of(nm(w.name)):12s} {'DIFFERS, ' + w.change if w.differs else 'agrees'}" for w in written]
+    steps = steps_after(v.verdict, d.ambiguities, report.held_out_periods) if v.verdict != "unexplained" else ()
+    lines = head_lines(v, plain_train_verdict(report), steps, name=nm, model=report.model_path or "",
+                       written=compare_written(report.written, report.adopted_fit))
     slide = report.kind == "slide"
     if N == 1:
         what = f"a single body on a {'slide' if slide else 'hinge'}"
     else:
         what = f"{N} bodies on slides" if slide else f"a train of {N} bodies"
-    if report.held_out_periods:
-        validation = f"  fit on the earlier periods of run(s) {', '.join(report.run_ids)}; held out: {report.generalisation}"
-    else:
-        validation = (f"  fit on runs {', '.join(fit_ids)}; held out for validation: {', '.join(held_ids)} "
-                      f"({report.generalisation})")
-    units = ("N", "m") if slide else ("N m", "rad")
     lines += ["", f"Diagnosis of {source or 'the runs'}: {what}, {len(report.run_ids)} run(s), harmonics "
-                  f"1..{d.n_harmonics}", validation,
-              "  noise per sample (from period-to-period variation): "
-              + ", ".join(f"{_channel(report, k)} {sig(x, 2)} {units[0] if k.startswith('torque') else units[1]}"
-                          for k, x in d.noise_std.items())]
-    lines += format_chain_lines(report)
-    lines += ["", f"{'Extended' if report.adopted else 'Nominal'} model's parameters (+- standard error, SI):"]
-    lines += [f"  {nm(n):34s} {with_se(x, se):>24s} {unit_of(nm(n))}" for n, (x, se) in _values(fit).items()]
-    notes = list(notes) + list(report.notes)
-    if notes:
-        lines += ["", f"Notes on the data ({len(notes)}):"] + [f"  - {n}" for n in notes]
+                  f"1..{d.n_harmonics}"]
+    if report.held_out_periods:
+        lines.append(f"  fit on the earlier periods of run(s) {', '.join(report.run_ids)}; held out: their later periods")
+    else:
+        lines.append(f"  fit on runs {', '.join(fit_ids)}; held out for validation: {', '.join(held_ids)}")
+    units = ("N", "m") if slide else ("N m", "rad")
+    lines.append("  noise per sample (from period-to-period variation): "
+                 + ", ".join(f"{_channel(report, k)} {sig(x, 2)} {units[0] if k.startswith('torque') else units[1]}"
+                             for k, x in d.noise_std.items()))
+    all_notes = list(notes) + list(report.notes)
+    if all_notes:
+        lines.append(f"  {len(all_notes)} note(s) on the data: at the end")
+    lines += ["", f"Nominal model: chi2/dof = {d.reduced_chi2(d.nominal):.3g} (about 1 when only noise is left)"]
+    lines += parameter_lines(_values(d.nominal), nm)
+    lines.append("")
+    lines += causes_lines(d.first_round, name=nm, note=lambda t: _words(report, t), shown=shown, sought=_sought(report))
+    lines.append("")
+    if d.steps:
+        lines.append(f"Extended model: {' + '.join(s.label for s in d.steps)}; chi2/dof = {d.reduced_chi2(d.final):.3g}")
+    else:
+        lines.append("Extended model: none needed (no cause is significant at any joint or body; the nominal model "
+                     "explains the data to the noise)")
+    lines += parameter_lines(_values(d.final), nm)
+    lines += ambiguity_lines(d.ambiguities)
+    lines.append("")
+    if val is None:
+        lines.append("Validation in the MuJoCo rig: none (no held-out data)")
+    else:
+        replayed = list(range(len(report.run_ids))) if report.held_out_periods else list(report.held_out)
+        labels = ([f"{r} (later)" for r in report.run_ids] if report.held_out_periods else held_ids)
+        rows = []
+        for label, k, (_, nom, ext) in zip(labels, replayed, val.per_run):
+            omega, amp = report.settings[k][:2] if report.settings else (math.nan, math.nan)
+            rows.append(ValidationRow(label, omega, amp, True, _cell(nom), _cell(ext), "-"))
+        what = "position" if N == 1 else "every joint's twist"
+        lines += validation_lines(
+            rows, measure=f"relative RMS error of {what}, harmonics 1..{val.band} of the period average",
+            drive="F0" if slide else "M0",
+            summary=f"nominal {_cell(val.nominal_error)}, extended {_cell(val.extended_error)}, noise floor "
+                    f"{sig(val.noise_floor, 2)} (relative); gain {sig_or(val.gain, NO_GAIN)}",
+            statement=("validation" if report.held_out_periods else "generalisation", report.generalisation),
+            failures=[_words(report, val.note)] if val.note else [])
+    lines += notes_lines(all_notes)
     return "\n".join(lines)
 
 
 def train_report_json(report: TrainReport, *, source: str = "", notes: Sequence[str] = (),
                       input_sha256: str = "") -> dict:
-    """The train's diagnosis as JSON (SI; parameter names carry their units)."""
-    d = report.diagnosis
+    """The train's diagnosis as the one diagnosis document (:mod:`present.diagnosis_json`; SI,
+    parameter names carry their units, a slide's in N, m, kg)."""
+    from jointrig.studies.validate import HELD_OUT_PERIODS, HELD_OUT_RUNS
+
+    d, v = report.diagnosis, report.validation
     nm = _namer(report)
-    dj = d.as_json()
-    for key in ("nominal", "extended"):
-        for sub in ("parameters", "std_errors"):
-            if sub in dj[key]:
-                dj[key][sub] = {nm(k): v for k, v in dj[key][sub].items()}
-    for key in ("candidates_first_round", "found"):
-        for c in dj[key]:
-            c["magnitude"]["name"] = nm(c["magnitude"]["name"])
-    dj["noise_std_per_sample"] = {_channel(report, k): v for k, v in dj["noise_std_per_sample"].items()}
-    return {"source": source, "input_sha256": input_sha256, "bench": "train", "kind": report.kind,
-            "n_bodies": d.nominal.spec.n_flywheels,
-            "verdict": {"verdict": report.verdict.verdict, "reason": report.verdict.reason},
-            "runs": list(report.run_ids), "held_out": [report.run_ids[i] for i in report.held_out],
-            "generalisation": report.generalisation,
-            "validation_kind": "held_out_periods" if report.held_out_periods else "held_out_runs", **dj,
-            "validation": report.validation.as_json() if report.validation is not None else None,
-            "as_written": {nm(w.name): w.as_json() for w in compare_written(report.written, report.adopted_fit)},
-            "model": report.model_path, "notes": list(notes) + list(report.notes),
-            "units": "SI; parameter names carry their units" + (" (bodies on slides: N, m, kg)" if report.kind == "slide"
-                                                                 else "")}
+    ids = report.run_ids
+    if report.held_out_periods:  # each run's later periods
+        held_ids, fit_ids = [f"{r} (later periods)" for r in ids], [f"{r} (earlier periods)" for r in ids]
+        replayed = list(range(len(ids)))
+    else:
+        held_ids, fit_ids = [ids[i] for i in report.held_out], [r for i, r in enumerate(ids) if i not in report.held_out]
+        replayed = list(report.held_out)
+    per_run = []
+    if v is not None:
+        for label, k, (_, nom, ext) in zip(held_ids, replayed, v.per_run):
+            omega, amp = report.settings[k][:2] if report.settings else (math.nan, math.nan)
+            per_run.append(RunJson(label, True, omega, amp, nom, ext))
+    validation = ValidationJson(
+        HELD_OUT_PERIODS if report.held_out_periods else HELD_OUT_RUNS, report.generalisation, report.generalisation,
+        f"relative RMS error of every joint's twist (a single body: its position), harmonics 1..{v.band if v else 0} "
+        f"of the period average, over the held-out data: sqrt(sum |sim - meas|^2 / sum |meas|^2)", "1",
+        v.nominal_error if v else math.nan, v.extended_error if v else math.nan, v.noise_floor if v else math.nan,
+        v.gain if v else math.nan, tuple(per_run), v.note if v else "no held-out run")
+    units = "SI; parameter names carry their units" + (" (bodies on slides: N, m, kg)" if report.kind == "slide" else "")
+    return DiagnosisJson(
+        source=source, input_sha256=input_sha256, units=units, kind=report.kind,
+        n_bodies=d.nominal.spec.n_flywheels, form="train", model=report.model_path, verdict=report.verdict,
+        band_harmonics=d.n_harmonics, fit_runs=tuple(fit_ids), held_out_runs=tuple(held_ids),
+        noise_std_per_sample={_channel(report, k): x for k, x in d.noise_std.items()},
+        nominal=FitJson.of(d.nominal, nm), causes=tuple(d.first_round), steps=tuple(d.steps),
+        adopted=tuple(s.label for s in d.steps) if report.adopted else (), extended=FitJson.of(d.final, nm),
+        ambiguities=tuple(d.ambiguities),
+        as_written={nm(w.name): w.as_json() for w in compare_written(report.written, report.adopted_fit)},
+        validation=validation, notes=tuple(notes) + tuple(report.notes), name=nm).as_json()
 
 
 def train_figure(report: TrainReport) -> str:

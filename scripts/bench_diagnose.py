@@ -122,15 +122,16 @@ def main(argv=None) -> int:
         "diagnosis_over_native_simulation": t_diag / t_sim, "diagnosis_over_nominal_fit": t_diag / t_nom,
         "parts_s": parts,
         "scoring_side_by_side_s": t_pair, "floor": floor_of(t_diag, parts["scoring"], t_score, t_pair, t_sim),
-        "verdict": result["verdict"], "effects": result["extended"]["effects"], "gain": result["gain"],
+        "verdict": result["verdict"]["verdict"], "effects": result["extended"]["effects"],
+        "gain": result["validation"]["gain"],
     }
     if busy is not None:
         report["busy_core"] = busy
     if coarse is not None:
         report["coarse_search"] = coarse
     print(f"worn joint, 9 runs x 16 periods at 40 dB (best of {args.repeat}):")
-    print(f"  diagnosis end to end (--json --rrd --report)  {t_diag:7.2f} s   verdict {result['verdict']}, "
-          f"{' + '.join(result['extended']['effects']) or 'nothing'} adopted, gain {result['gain']:.3g}")
+    print(f"  diagnosis end to end (--json --rrd --report)  {t_diag:7.2f} s   verdict {result['verdict']['verdict']}, "
+          f"{' + '.join(result['extended']['effects']) or 'nothing'} adopted, gain {result['validation']['gain']:.3g}")
     print(f"  the same as a command (a new process)         {t_cmd:7.2f} s   imports and start-up "
           f"{t_cmd - t_diag:.2f} s")
     print(f"  nominal fit alone                             {t_nom:7.2f} s")

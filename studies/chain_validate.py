@@ -54,6 +54,8 @@ class ChainValidation:
     noise_floor: float
     per_run: tuple
     note: str = ""
+    #: the harmonics compared: 1..band
+    band: int = 10
     #: per held-out run: (measured record, nominal simulation, extended simulation), for plots
     records: tuple = field(default=(), repr=False, compare=False)
 
@@ -165,7 +167,7 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
         error["extended"] = math.nan
     floor = math.sqrt(max(noise, 0.0) / den + RIG_FIDELITY ** 2)  # the rig's own fidelity beside the noise
     return ChainValidation(error["nominal"], error["extended"], floor, tuple(per_run),
-                           note="; ".join(failed.values()), records=tuple(records))
+                           note="; ".join(failed.values()), band=band, records=tuple(records))
 
 
 # --------------------------------------------------------------------------------------------
@@ -216,6 +218,8 @@ class TrainReport:
     held_out_periods: bool = False
     #: the bodies' joints: "hinge" (rad, N m, kg m^2) or "slide" (m, N, kg)
     kind: str = "hinge"
+    #: per run, its setting (:func:`train_setting`: omega rad/s, the largest drive's amplitude)
+    settings: tuple = ()
 
     @property
     def adopted(self) -> bool:
@@ -310,4 +314,5 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
         if rig.kind == "slide":  # its drive levels are forces
             general = general.replace(" N m", " N")
     return TrainReport(tuple(run_ids), held, d, v, train_verdict(d, v, held_out_periods=split), general,
-                       tuple(written), str(rig.path) if written else None, tuple(notes), split, rig.kind)
+                       tuple(written), str(rig.path) if written else None, tuple(notes), split, rig.kind,
+                       tuple(settings))

@@ -349,18 +349,19 @@ def test_a_score_says_where_and_reads_the_same_in_json_for_two_flywheels_and_a_t
     assert (at_joint.label, at_joint.effect, at_joint.place, at_joint.at_joint, at_joint.ground) == (
         "backlash at joint 2", "backlash", 2, True, False)
     js = at_joint.as_json()
-    assert js["candidate"] == "backlash at joint 2" and js["joint"] == 2 and js["effect"] == "backlash"
+    assert js["label"] == "backlash at joint 2" and js["place"] == {"kind": "joint", "number": 2}
+    assert js["effect"] == "backlash"
     assert js["magnitude"] == {"name": mag[0], "value": 1e-3, "std_error": 1e-5}
     assert js["parameters"] == {"k_Nm_per_rad": 500.0} and js["signature"] == {} and js["n_params"] == 1
     ground = CauseScore("coulomb_friction", 5.0, 1, 1.0, 0.02, False, None, ("m", 1.0, 0.1), where=Place("ground", 1))
     assert ground.label == "coulomb_friction to ground at body 1" and ground.ground and not ground.at_joint
-    assert ground.as_json()["ground_of_body"] == 1 and ground.as_json()["parameters"] == {}
+    assert ground.as_json()["place"] == {"kind": "ground", "number": 1} and ground.as_json()["parameters"] == {}
     drag = CauseScore("bearing_friction", 5.0, 1, 1.0, 0.02, False, None, ("m", 1.0, 0.1), where=Place("flywheel", 3))
     assert drag.label == "bearing_friction at flywheel 3" and not drag.at_joint and not drag.ground
-    assert drag.as_json()["flywheel"] == 3
+    assert drag.as_json()["place"] == {"kind": "flywheel", "number": 3}
     two = CauseScore("backlash", 90.0, 1, 84.0, 1e-20, True, None, mag)
     assert two.label == "backlash" and two.place is None and two.at_joint and not two.ground
-    assert "candidate" not in two.as_json()
+    assert two.as_json()["place"] is None and two.as_json()["label"] == "backlash"
     a = Ambiguity(("backlash at joint 2", "coulomb_friction at joint 3"), "drive body 4", 4)
     assert a.as_json() == {"effects": ["backlash at joint 2", "coulomb_friction at joint 3"],
                            "excitation": "drive body 4", "separating_drive_body": 4}

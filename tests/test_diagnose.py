@@ -136,7 +136,7 @@ def test_a_jenkins_element_that_never_sticks_is_named_dry_friction(rig, tmp_path
     text = format_report(report)
     assert "never sticks is dry friction" in text
     js = report_json(report)
-    assert not any("hysteresis" in a["effects"] for a in js["ambiguous"])
+    assert not any("hysteresis" in a["effects"] for a in js["ambiguities"])
 
 
 @pytest.mark.parametrize("case, low, high", [("coulomb_friction", 0.95, 1.0), ("quadratic_damping", 0.95, 1.0),

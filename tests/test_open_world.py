@@ -113,7 +113,7 @@ def _check_shown(report, tmp_path, hint):
     assert "Its restoring-force surface: as a surface over (phi, phi')" in text
     assert "measurements that would tell more" in text and hint in text
     out = json.loads(json.dumps(report_json(report)))
-    assert out["verdict"] == "unexplained"
+    assert out["verdict"]["verdict"] == "unexplained"
     assert out["misfit_surface"]["elastic_share"] == report.surface.elastic_share
     assert len(out["misfit_surface"]["torque_Nm"]) == report.surface.phi_knots_rad.size
     assert out["next_measurements"] == list(report.next_measurements)

@@ -26,6 +26,7 @@ from bench_sim import JOINTS, POINTS, measure, with_effect
 from jointrig.identify import diagnose as D
 from jointrig.identify.causes import CAUSES, parsimonious
 from jointrig.measured.runs import read_runs
+from jointrig.present.diagnosis_json import schema_problems
 from jointrig.present.diagnosis_report import format_report, report_json
 from jointrig.rig.simulate import SimulationError
 from jointrig.studies import validate
@@ -83,8 +84,9 @@ def test_a_diverging_candidate_is_rejected_with_its_reason(tmp_path, monkeypatch
     assert "diverges" in text
     js = report_json(report)
     json.dumps(js, allow_nan=False)  # no inf or nan
-    assert js["no_steady_state"]["extended"] == {r: "it diverges" for r in loaded.run_ids}
-    assert js["gain"] is None
+    assert {r["run"]: r["no_steady_state"].get("extended") for r in js["validation"]["per_run"]} == {
+        r: "it diverges" for r in loaded.run_ids}
+    assert js["validation"]["gain"] is None and not schema_problems(js)
     # The card describes the nominal model, says so, and measures the runs with the inertias of
     # the fit that explains them better (the friction's)
     card = card_of_diagnosis(report, loaded.records, run_ids=loaded.run_ids)
@@ -233,7 +235,8 @@ def test_a_file_read_wrong_is_named_before_any_cause(tmp_path):
     out = done.stdout
     js = json.loads((tmp_path / "d.json").read_text())
     assert js["plausibility"] and "swapped columns" in js["plausibility"][0]
-    assert js["verdict"] == "unexplained" and js["no_steady_state"]["extended"]
+    assert js["verdict"]["verdict"] == "unexplained"
+    assert any("extended" in r["no_steady_state"] for r in js["validation"]["per_run"])
     first_step = out.split("What to do next")[1].splitlines()[1]
     assert "swapped columns" in first_step, out
     assert "Nan, Inf or huge value" not in out + done.stderr, done.stderr
@@ -279,13 +282,13 @@ def test_the_users_model_as_written_is_held_against_the_data(tmp_path, capsys):
     assert abs(rows["k_Nm_per_rad"]["data"] - 2000) <= 3 * rows["k_Nm_per_rad"]["std_error"]
     assert [n for n, r in rows.items() if r["differs"]] == ["k_Nm_per_rad"]
     assert "As written, your model has k = 2500 N m/rad" in text
-    assert js["verdict"] == "explained" and js["extended"]["effects"] == ["coulomb_friction"]
+    assert js["verdict"]["verdict"] == "explained" and js["extended"]["effects"] == ["coulomb_friction"]
 
     # The same model with the friction written in: nothing is missing, every parameter agrees
     assert diagnose.main([str(example), "--model", _model_with(tmp_path, coulomb_torque_Nm=60), "-q",
                           "--json", str(out)]) == 0
     js = json.loads(out.read_text())
-    assert js["verdict"] == "no_misfit"
+    assert js["verdict"]["verdict"] == "no_misfit"
     assert not any(r["differs"] for r in js["as_written"].values()) and "coulomb_torque_Nm" in js["as_written"]
 
 
@@ -318,7 +321,7 @@ def test_where_the_torque_acts_is_an_option(tmp_path, capsys):
         out = tmp_path / f"{data.stem}.json"
         assert diagnose.main([str(data), "-q", "--json", str(out), *extra]) == 0
         outs.append(json.loads(out.read_text()))
-    assert outs[1]["verdict"] == outs[0]["verdict"] == "explained"
+    assert outs[1]["verdict"]["verdict"] == outs[0]["verdict"]["verdict"] == "explained"
     # the same numbers but for round-off (the file's channels are read in another order)
     assert outs[1]["extended"]["parameters"] == pytest.approx(outs[0]["extended"]["parameters"], rel=1e-9)
     assert any("--torque-on flywheel2" in n for n in outs[1]["notes"])

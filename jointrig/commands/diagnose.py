@@ -188,7 +188,8 @@ def _main(args: argparse.Namespace, writer) -> int:
         print(text)
     if args.json:
         write_json_atomic(args.json, report_json(report, source=str(args.data), notes=loaded.notes,
-                                                 input_sha256=loaded.sha256))
+                                                 input_sha256=loaded.sha256,
+                                                 model=str(args.model) if args.model else None))
         log.info("wrote %s", args.json)
     card = None
     if args.card or args.card_png or args.card_only:

@@ -102,12 +102,12 @@ def main(argv=None) -> int:
     print(f"\nDiagnosis of a {N}-flywheel chain simulated from {truth.path.name} (the diagnosis knows only the "
           f"nominal structure), {args.periods} periods per run at SNR {args.snr_db:g} dB:\n")
     print(format_train_report(report, source=f"{truth.path.name} in the rig"))
-    out = {"truth_model": str(truth.path), "model": str(nominal.path), "snr_db": args.snr_db, "seed": args.seed,
-           "periods": args.periods, "estimation_points": [list(p) for p in CHAIN_PLAN],
-           "held_out_points": [list(p) for p in args.held_out],
-           **train_report_json(report, source=f"{truth.path.name} in the rig"),
-           "truth_parameters": {**{f"J{i}_kgm2": J for i, J in enumerate(truth.inertias_kgm2, start=1)},
-                                **truth.plant.parameters()}}
+    out = {**train_report_json(report, source=f"{truth.path.name} in the rig"),
+           "demo": {"truth_model": str(truth.path), "model": str(nominal.path), "snr_db": args.snr_db,
+                    "seed": args.seed, "periods": args.periods, "estimation_points": [list(p) for p in CHAIN_PLAN],
+                    "held_out_points": [list(p) for p in args.held_out],
+                    "truth_parameters": {**{f"J{i}_kgm2": J for i, J in enumerate(truth.inertias_kgm2, start=1)},
+                                         **truth.plant.parameters()}}}
     write_json_atomic(args.json, out)
     print(f"\nwrote {args.json}")
     if not args.no_rrd:

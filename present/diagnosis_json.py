@@ -1,0 +1,204 @@
+"""One JSON document for every diagnosis, whatever the bench (pure).
+
+Two flywheels, a drive train of up to eight bodies and a single axis write the same keys
+(:data:`KEYS`, in that order), SI with the unit in each parameter's name (a slide's in N, m,
+kg); what one bench does not compute is null or empty, never missing, so a user's script reads
+every file the same way. ``docs/diagnosis-json.md`` describes each key.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable, Optional, Sequence
+
+from jointrig.identify.causes import Ambiguity, CauseScore
+from jointrig.identify.verdict import Verdict
+
+__all__ = ["SCHEMA", "KEYS", "FIT_KEYS", "VALIDATION_KEYS", "RUN_KEYS", "CAUSE_KEYS", "FitJson", "RunJson",
+           "ValidationJson", "DiagnosisJson", "finite", "schema_problems"]
+
+#: The document's name and version: a script checks it before it reads the keys.
+SCHEMA = "jointrig-diagnosis/2"
+#: The top-level keys, in the order written (the demo ``jointrig diagnose-chain`` adds ``demo``
+#: last: its truth model and settings).
+KEYS = ("schema", "source", "input_sha256", "units", "bench", "verdict", "band_harmonics", "fit_runs",
+        "held_out_runs", "noise_std_per_sample", "nominal", "causes", "extended", "ambiguities", "as_written",
+        "validation", "plausibility", "misfit_character", "misfit_surface", "next_measurements", "notes")
+BENCH_KEYS = ("kind", "n_bodies", "form", "model")
+FIT_KEYS = ("chi2", "dof", "chi2_per_dof", "parameters", "std_errors")
+EXTENDED_KEYS = ("effects", "tried", "steps") + FIT_KEYS
+VALIDATION_KEYS = ("kind", "generalisation", "statement", "measure", "unit", "nominal_error", "extended_error",
+                   "noise_floor", "gain", "note", "per_run")
+RUN_KEYS = ("run", "held_out", "omega_rad_s", "drive_amplitude", "nominal_error", "extended_error", "noise_floor",
+            "no_steady_state")
+CAUSE_KEYS = ("label", "effect", "place", "score", "significant", "delta_chi2", "n_params", "p_value", "magnitude",
+              "signature", "note", "parameters")
+
+
+def finite(obj):
+    """JSON has no inf/NaN: non-finite numbers become null."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [finite(v) for v in obj]
+    return obj
+
+
+@dataclass(frozen=True)
+class FitJson:
+    """One fitted model: chi-square, its degrees of freedom, the parameters with standard errors."""
+
+    chi2: float
+    dof: int
+    parameters: dict
+    std_errors: dict
+
+    @classmethod
+    def of(cls, fit, name: Callable[[str], str] = str) -> "FitJson":
+        """From either diagnosis's fit (``identify.estimates.RowFit``); ``name`` renames a parameter
+        for the user's bench (a slide's, :func:`vocab.params.linear_name`)."""
+        p = fit.parameters()
+        return cls(float(fit.chi2), int(fit.dof), {name(n): float(v) for n, v in p.items()},
+                   {name(n): fit.std_error(n) for n in p})
+
+    def as_json(self) -> dict:
+        return {"chi2": self.chi2, "dof": self.dof, "chi2_per_dof": self.chi2 / max(self.dof, 1),
+                "parameters": dict(self.parameters), "std_errors": dict(self.std_errors)}
+
+
+@dataclass(frozen=True)
+class RunJson:
+    """One run replayed in the rig: its setting, each model's error, the error noise alone gives
+    (None where not computed per run) and why a model has no steady state there (model -> why)."""
+
+    run: str
+    held_out: bool
+    omega_rad_s: float
+    drive_amplitude: float
+    nominal_error: float
+    extended_error: float
+    noise_floor: Optional[float] = None
+    no_steady_state: tuple = ()
+
+    def as_json(self) -> dict:
+        return {"run": self.run, "held_out": self.held_out, "omega_rad_s": self.omega_rad_s,
+                "drive_amplitude": self.drive_amplitude, "nominal_error": self.nominal_error,
+                "extended_error": self.extended_error, "noise_floor": self.noise_floor,
+                "no_steady_state": dict(self.no_steady_state)}
+
+
+@dataclass(frozen=True)
+class ValidationJson:
+    """The replay of the held-out data in the rig: what was held out (``kind``:
+    ``held_out_runs`` or ``held_out_periods``) and what that tests, the error ``measure`` in
+    ``unit``, each model's error on the held-out data, the noise floor and the gain."""
+
+    kind: str
+    generalisation: str
+    statement: str
+    measure: str
+    unit: str
+    nominal_error: float
+    extended_error: float
+    noise_floor: float
+    gain: float
+    per_run: tuple[RunJson, ...]
+    note: str = ""
+
+    def as_json(self) -> dict:
+        return {"kind": self.kind, "generalisation": self.generalisation, "statement": self.statement,
+                "measure": self.measure, "unit": self.unit, "nominal_error": self.nominal_error,
+                "extended_error": self.extended_error, "noise_floor": self.noise_floor, "gain": self.gain,
+                "note": self.note, "per_run": [r.as_json() for r in self.per_run]}
+
+
+def _cause(s: CauseScore, name: Callable[[str], str]) -> dict:
+    """A cause's score (:meth:`CauseScore.as_json`) with its parameters named for the bench."""
+    out = s.as_json()
+    out["magnitude"] = {**out["magnitude"], "name": name(out["magnitude"]["name"])}
+    out["parameters"] = {name(n): v for n, v in out["parameters"].items()}
+    return out
+
+
+@dataclass(frozen=True)
+class DiagnosisJson:
+    """Everything a diagnosis's JSON holds (:data:`KEYS`), filled by either pipeline's report
+    (``present.diagnosis_report`` of two flywheels, ``present.train_report`` of a train)."""
+
+    source: str
+    input_sha256: str
+    units: str
+    #: "hinge" (rad, N m, kg m^2) or "slide" (m, N, kg)
+    kind: str
+    n_bodies: int
+    #: which equations were fitted: "two_dof", "equivalent" (the relative angle alone) or "train"
+    form: str
+    model: Optional[str]
+    verdict: Verdict
+    band_harmonics: int
+    fit_runs: tuple[str, ...]
+    held_out_runs: tuple[str, ...]
+    noise_std_per_sample: dict
+    nominal: FitJson
+    causes: tuple[CauseScore, ...]
+    #: the causes the diagnosis added, in order, and the causes the verdict adopts (labels)
+    steps: tuple[CauseScore, ...]
+    adopted: tuple[str, ...]
+    extended: FitJson
+    ambiguities: tuple[Ambiguity, ...]
+    as_written: dict
+    validation: ValidationJson
+    notes: tuple[str, ...] = ()
+    plausibility: tuple[str, ...] = ()
+    misfit_character: Optional[dict] = None
+    misfit_surface: Optional[dict] = None
+    next_measurements: tuple[str, ...] = ()
+    #: a parameter's name for the user's bench (a slide's: :func:`vocab.params.linear_name`)
+    name: Callable[[str], str] = str
+
+    def as_json(self) -> dict:
+        out = {"schema": SCHEMA, "source": self.source, "input_sha256": self.input_sha256, "units": self.units,
+               "bench": {"kind": self.kind, "n_bodies": self.n_bodies, "form": self.form, "model": self.model},
+               "verdict": {"verdict": self.verdict.verdict, "reason": self.verdict.reason},
+               "band_harmonics": self.band_harmonics, "fit_runs": list(self.fit_runs),
+               "held_out_runs": list(self.held_out_runs), "noise_std_per_sample": dict(self.noise_std_per_sample),
+               "nominal": self.nominal.as_json(), "causes": [_cause(s, self.name) for s in self.causes],
+               "extended": {"effects": list(self.adopted), "tried": [s.label for s in self.steps],
+                            "steps": [_cause(s, self.name) for s in self.steps], **self.extended.as_json()},
+               "ambiguities": [a.as_json() for a in self.ambiguities], "as_written": dict(self.as_written),
+               "validation": self.validation.as_json(), "plausibility": list(self.plausibility),
+               "misfit_character": self.misfit_character, "misfit_surface": self.misfit_surface,
+               "next_measurements": list(self.next_measurements), "notes": list(self.notes)}
+        return finite(out)
+
+
+def schema_problems(doc: dict) -> list[str]:
+    """What in a document departs from :data:`KEYS` and the nested key lists: missing or extra
+    keys, in the wrong order (empty: it is a jointrig diagnosis document)."""
+    problems = []
+
+    def keys(where: str, obj, expected: Sequence[str]) -> None:
+        if not isinstance(obj, dict):
+            problems.append(f"{where}: expected an object, got {type(obj).__name__}")
+        elif tuple(obj) != tuple(expected):
+            problems.append(f"{where}: keys {list(obj)}, expected {list(expected)}")
+
+    keys("document", doc, KEYS + (("demo",) if "demo" in doc else ()))
+    if problems:
+        return problems
+    if doc["schema"] != SCHEMA:
+        problems.append(f"schema: {doc['schema']!r}, expected {SCHEMA!r}")
+    keys("bench", doc["bench"], BENCH_KEYS)
+    keys("nominal", doc["nominal"], FIT_KEYS)
+    keys("extended", doc["extended"], EXTENDED_KEYS)
+    keys("validation", doc["validation"], VALIDATION_KEYS)
+    for i, r in enumerate(doc["validation"]["per_run"] if isinstance(doc["validation"], dict) else []):
+        keys(f"validation.per_run[{i}]", r, RUN_KEYS)
+    for where in ("causes", "extended.steps"):
+        items = doc["causes"] if where == "causes" else doc["extended"].get("steps", [])
+        for i, c in enumerate(items):
+            keys(f"{where}[{i}]", c, CAUSE_KEYS)
+    return problems

@@ -1,0 +1,114 @@
+"""The sections of the diagnosis's text report, one layout for every bench (pure).
+
+Two flywheels (``present.diagnosis_report.format_report``) and a train or a single axis
+(``present.train_report.format_train_report``) print the same sections in the same columns:
+the verdict and what to do next; the data; the nominal model; the causes ranked by evidence;
+the extended model; the validation in the rig; the notes on the data.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, Mapping, Sequence
+
+from jointrig.identify.causes import Ambiguity, CauseScore
+
+from .formatting import quantity_of, unit_of, with_se
+
+__all__ = ["ValidationRow", "head_lines", "parameter_lines", "causes_lines", "ambiguity_lines", "validation_lines",
+           "notes_lines"]
+
+
+def head_lines(verdict, words: str, steps: Sequence[str], *, written: Sequence = (), model: str = "",
+               name: Callable[[str], str] = str, misfit: Sequence[str] = ()) -> list[str]:
+    """The answer first: the verdict with its figures, in words; the user's model as written
+    against the data (``written``: ``present.summary.WrittenRow``); what the misfit looks like
+    (``misfit``, when unexplained); and what to do next."""
+    lines = [f"VERDICT: {verdict.verdict.upper().replace('_', ' ')}: {verdict.reason}", f"  In words: {words}"]
+    if written:
+        lines.append(f"  Your model as written{f' ({model})' if model else ''} against the data (differs: more than "
+                     f"2 standard errors apart):")
+        lines += [f"    {quantity_of(name(w.name)):28s} written {w.written:<12.6g} data "
+                  f"{with_se(w.data, w.std_error):>22s} {unit_of(name(w.name)):12s} "
+                  f"{'DIFFERS, ' + w.change if w.differs else 'agrees'}" for w in written]
+    lines += [f"  {m}" for m in misfit]
+    if steps:
+        lines.append("  What to do next" + (" (measurements that would tell more):" if verdict.verdict == "unexplained"
+                                             else ":"))
+        lines += [f"    - {s}" for s in steps]
+    return lines
+
+
+def parameter_lines(values: Mapping[str, tuple[float, float]], name: Callable[[str], str] = str) -> list[str]:
+    """One line per parameter: its quantity, value +- standard error, unit (``name``: the
+    parameter's name on the user's bench)."""
+    return [f"  {quantity_of(name(n)):28s} {with_se(v, se):>24s} {unit_of(name(n))}" for n, (v, se) in values.items()]
+
+
+def _where(signature: dict) -> str:
+    if not signature:
+        return "-"
+    out = "/".join(f"{signature.get(k, 0.0):.0%}" for k in ("mean", "fundamental", "even", "odd>=3"))
+    if signature.get("dissipative") is not None:
+        out += f"; {signature['dissipative']:.2f}"
+    return out
+
+
+def causes_lines(scores: Sequence[CauseScore], *, name: Callable[[str], str] = str,
+                 note: Callable[[str], str] = str, shown: int = 0, sought: str = "") -> list[str]:
+    """The causes ranked by evidence, as a table: every one, or the significant ones and the best
+    ``shown`` (the rest counted; all of them are in the JSON); ``sought``: where they were sought."""
+    keep = [s for i, s in enumerate(scores) if not shown or i < shown or s.significant]
+    width = max([22] + [len(s.label) for s in keep])
+    lines = [f"Causes ranked by evidence ({f'{sought}; ' if sought else ''}score = drop in chi2 - n_params "
+             f"ln(n_rows); significant: p < alpha / n_causes, alpha = 1e-3 unless --alpha):",
+             f"  {'rank':4s} {'effect':{width}s} {'score':>12s} {'d_chi2':>12s} {'q':>2s} {'p':>9s} {'sig':>4s}  "
+             f"magnitude; where the improvement is (mean/fund./even/odd>=3); dissipative share"]
+    for i, c in enumerate(scores, 1):
+        if c not in keep:
+            continue
+        q = name(c.magnitude[0])
+        mag = f"{quantity_of(q)} = {with_se(c.magnitude[1], c.magnitude[2])} {unit_of(q)}"
+        lines.append(f"  {i:<4d} {c.label:{width}s} {c.score:12.4g} {c.delta_chi2:12.4g} {c.n_params:2d} "
+                     f"{c.p_value:9.2g} {'yes' if c.significant else 'no':>4s}  {mag}; {_where(c.signature)}"
+                     + (f"  [{note(c.note)}]" if c.note else ""))
+    if len(keep) < len(scores):
+        lines.append(f"  ... and {len(scores) - len(keep)} more, none significant (every one is in --json)")
+    return lines
+
+
+def ambiguity_lines(ambiguities: Sequence[Ambiguity]) -> list[str]:
+    return [f"  CANNOT TELL APART: {a.effects[0]} and {a.effects[1]} explain the same part of the data (neither is "
+            f"significant given the other). To separate them: {a.excitation}." for a in ambiguities]
+
+
+@dataclass(frozen=True)
+class ValidationRow:
+    """One run replayed in the rig, its cells as printed (an error, or why there is none)."""
+
+    run: str
+    omega_rad_s: float
+    drive: float
+    held_out: bool
+    nominal: str
+    extended: str
+    floor: str
+
+
+def validation_lines(rows: Sequence[ValidationRow], *, measure: str, drive: str, summary: str,
+                     statement: tuple[str, str], failures: Sequence[str] = ()) -> list[str]:
+    """The replay of the runs in the rig: one row per run, the held-out summary (errors, floor,
+    gain), models without a steady state, and what the held-out data test (label, words)."""
+    lines = [f"Validation in the MuJoCo rig under each run's measured drive ({measure}):",
+             f"  {'run':>6s} {'omega':>8s} {drive:>8s} {'held out':>8s} {'nominal':>10s} {'extended':>10s} "
+             f"{'floor':>10s}"]
+    lines += [f"  {r.run:>6s} {r.omega_rad_s:8.4g} {r.drive:8.4g} {'yes' if r.held_out else '':>8s} "
+              f"{r.nominal:>10s} {r.extended:>10s} {r.floor:>10s}" for r in rows]
+    lines.append(f"  held-out runs: {summary}")
+    lines += [f"  {f}" for f in failures]
+    lines.append(f"  {statement[0]}: {statement[1]}")
+    return lines
+
+
+def notes_lines(notes: Sequence[str]) -> list[str]:
+    return ["", "Notes on the data:"] + [f"  note: {n}" for n in notes] if notes else []

@@ -1,0 +1,54 @@
+"""The one diagnosis document (present/diagnosis_json.py): its check, and its page in docs.
+
+The documents of real diagnoses are checked where they are written: two flywheels in
+tests/test_diagnose_script.py and tests/test_verdict.py, a train and a single axis in
+tests/test_train_files.py."""
+
+import re
+from pathlib import Path
+
+from jointrig.present import diagnosis_json as dj
+
+DOC = Path(__file__).resolve().parents[1] / "docs" / "diagnosis-json.md"
+
+
+def _document() -> dict:
+    fit = {k: None for k in dj.FIT_KEYS}
+    run = {k: None for k in dj.RUN_KEYS}
+    cause = lambda: {k: None for k in dj.CAUSE_KEYS}  # noqa: E731  (one object per place)
+    doc = {k: None for k in dj.KEYS} | {"schema": dj.SCHEMA, "bench": {k: None for k in dj.BENCH_KEYS},
+                                       "nominal": fit, "causes": [cause()],
+                                       "extended": {k: [] for k in dj.EXTENDED_KEYS} | fit | {"steps": [cause()]},
+                                       "validation": {k: None for k in dj.VALIDATION_KEYS} | {"per_run": [run]}}
+    return doc
+
+
+def test_the_check_names_what_departs_from_the_schema():
+    doc = _document()
+    assert dj.schema_problems(doc) == []
+    assert dj.schema_problems(doc | {"demo": {}}) == []  # the demo's own key, last
+    missing = {k: v for k, v in doc.items() if k != "ambiguities"}
+    assert "document" in dj.schema_problems(missing)[0] and "ambiguities" in dj.schema_problems(missing)[0]
+    swapped = dict(reversed(list(doc.items())))
+    assert dj.schema_problems(swapped)  # the order is part of the schema: a diff of two files lines up
+    assert dj.schema_problems(doc | {"schema": "jointrig-diagnosis/1"}) == [
+        "schema: 'jointrig-diagnosis/1', expected 'jointrig-diagnosis/2'"]
+    bad_run = _document()
+    del bad_run["validation"]["per_run"][0]["noise_floor"]
+    assert dj.schema_problems(bad_run)[0].startswith("validation.per_run[0]: keys")
+    bad_cause = _document()
+    bad_cause["extended"]["steps"][0]["candidate"] = "x"
+    assert dj.schema_problems(bad_cause)[0].startswith("extended.steps[0]: keys")
+
+
+def test_the_docs_page_describes_every_key():
+    text = DOC.read_text()
+    named = set(re.findall(r"`([a-z_0-9]+)`", text))
+    keys = set(dj.KEYS + dj.BENCH_KEYS + dj.FIT_KEYS + dj.EXTENDED_KEYS + dj.VALIDATION_KEYS + dj.RUN_KEYS
+               + dj.CAUSE_KEYS)
+    assert keys - named == set()
+    assert dj.SCHEMA in text
+
+
+def test_non_finite_numbers_become_null():
+    assert dj.finite({"a": [1.0, float("inf"), (float("nan"),)], "b": "x"}) == {"a": [1.0, None, [None]], "b": "x"}
