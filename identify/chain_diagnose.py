@@ -690,3 +690,130 @@ def plant_and_inertias(f: ChainFit) -> tuple[ChainPlant, tuple[float, ...]]:
     N = len(laws) + 1
     bearings = tuple(max(0.0, vals.get(bearing_name(i), 0.0)) for i in range(1, N + 1))
     return ChainPlant(laws, bearings, ground_laws(vals, f.spec)), tuple(vals[inertia_name(i)] for i in range(1, N + 1))
+
+
+# --------------------------------------------------------------------------------------------
+# 5. An unexplained misfit: where in the train, and what it looks like
+
+#: A harmonic of a channel counts as resolved (kept for the residual's torque, whose
+#: second derivative would raise the unresolved ones' noise by (n omega)^2) when its period
+#: average exceeds this many of its standard errors: a pure-noise harmonic passes with
+#: probability about exp(-8) (the two-flywheel diagnosis's threshold too).
+RESOLVED_SIGMA = 4.0
+
+
+def _resolved(run: ChainRun, pick) -> np.ndarray:
+    """A channel's period average on the harmonics that stand out of its period-to-period spread."""
+    mean = np.fft.rfft(pick(run.average)) / FINE_SAMPLES
+    X = np.array([np.fft.rfft(pick(p)) / FINE_SAMPLES for p in run.periods])
+    P = len(run.periods)
+    se = np.sqrt(np.var(X, axis=0, ddof=1) / P) if P > 1 else np.zeros(mean.size)
+    keep = np.abs(mean) > RESOLVED_SIGMA * se
+    keep[0] = True  # the mean position: a law to ground or a free play reads it
+    return np.fft.irfft(np.where(keep, mean, 0) * FINE_SAMPLES, n=FINE_SAMPLES)
+
+
+def _same_mean(model: np.ndarray, measured: np.ndarray) -> np.ndarray:
+    """The model's torque with the measured one's mean: the balance fits harmonics 1 and up, so a
+    constant torque (a law read at encoders' arbitrary zero) is no misfit."""
+    return model - float(np.mean(model)) + float(np.mean(measured))
+
+
+def _overall(c) -> float:
+    """A place's residual RMS over its measured torque's, over all runs together (the runs where
+    the place carries most weigh most: a run whose torque there is nearly nil says little)."""
+    measured = [r / q for r, q in zip(c.rms_Nm, c.relative) if q > 0]
+    return math.sqrt(sum(r * r for r in c.rms_Nm) / max(sum(m * m for m in measured), 1e-300))
+
+
+@dataclass(frozen=True)
+class TrainMisfit:
+    """Where a train's unexplained misfit is and what it looks like.
+
+    Attributes:
+      where: the place it is largest at: ``"joint j"``, or ``"body 1 to ground"`` for a single body.
+      by_place: per place, the residual's RMS over the measured torque's, over all runs together.
+      character, surface, next_measurements: at ``where`` (:mod:`identify.misfit`).
+    """
+
+    where: str
+    by_place: tuple
+    character: object
+    surface: object
+    next_measurements: tuple
+    #: the place's quantities in words and units (:class:`identify.surface.Words`)
+    words: object = None
+    #: the residual at every sample of every run there (:class:`identify.misfit.ResidualSamples`)
+    samples: object = field(default=None, repr=False)
+
+    def describe(self) -> tuple[str, str]:
+        """The character and the surface in words."""
+        return self.character.describe(self.words), self.surface.describe(self.words)
+
+    def describe_places(self) -> str:
+        if len(self.by_place) == 1:
+            return f"at {self.where}"
+        rest = ", ".join(f"{p} {r:.2g}" for p, r in self.by_place if p != self.where)
+        top = dict(self.by_place)[self.where]
+        return (f"at {self.where}, where the residual torque is largest ({top:.2g} of the torque there; {rest}: a "
+                f"misfit at a joint shows beyond it too when the fit has moved an inertia or a drag to absorb it)")
+
+    def as_json(self) -> dict:
+        return {"where": self.where, "by_place": {p: r for p, r in self.by_place}, **self.character.as_json(),
+                "description": self.describe()[0]}
+
+
+def train_misfit(runs: Sequence[ChainRun], run_ids: Sequence[str], amplitudes: Sequence[float],
+                 fit: ChainFit, band: int, kind: str = "hinge") -> TrainMisfit:
+    """The final model's residual torque at every joint (a single body: at its law to ground)
+    along each run's measured motion (pure): the torque a joint carries, from the equations of
+    motion of the bodies before it (drives less inertia, drag and laws to ground, with the fit's
+    values), minus the joint's law at the measured twist; then the place where it is largest,
+    described by :func:`identify.misfit.misfit_character` (harmonics 1..``band``) and its
+    restoring-force surface; ``kind``: the bodies' ("hinge" or "slide"), for the words and units."""
+    from .balance import spectral_rate
+    from .misfit import ResidualRun, Words, misfit_character, next_measurements, residual_samples, residual_surface
+
+    plant, J = plant_and_inertias(fit)
+    N = len(J)
+    per_place: list[list[ResidualRun]] = [[] for _ in range(max(N - 1, 1))]
+    for run, rid, amp in zip(runs, run_ids, amplitudes):
+        w = run.average.omega_rad_s
+        x = [_resolved(run, lambda r, i=i: r.angles_rad[i]) for i in range(N)]
+        v = [spectral_rate(xi, w, 1) for xi in x]
+        a = [spectral_rate(vi, w, 1) for vi in v]
+        net = np.zeros(FINE_SAMPLES)  # the torque the bodies so far pass on to the next joint
+        for i in range(N):
+            drive = run.average.torques_Nm[i]
+            if drive is not None:
+                net = net + _resolved(run, lambda r, i=i: r.torques_Nm[i])
+            net = net - J[i] * a[i]
+            ground = plant.grounds[i]
+            if N == 1:  # a single body: what holds it to the frame (drag and law to ground) is the place
+                model = plant.bearings_Nms_per_rad[0] * v[0]
+                if ground is not None:
+                    model = model + np.asarray(ground.torque(x[0], v[0]), float)
+                per_place[0].append(ResidualRun(rid, w, amp, x[0], net, _same_mean(model, net)))
+                break
+            net = net - plant.bearings_Nms_per_rad[i] * v[i]
+            if ground is not None:
+                net = net - np.asarray(ground.torque(x[i], v[i]), float)
+            if i < N - 1:
+                twist = x[i] - x[i + 1] - fit.spec.offsets_rad[i]
+                model = np.asarray(plant.laws[i].torque(twist, v[i] - v[i + 1]), float)
+                per_place[i].append(ResidualRun(rid, w, amp, twist, net.copy(), _same_mean(model, net)))
+    names = ["body 1 to ground"] if N == 1 else [f"joint {j}" for j in range(1, N)]
+    slide = kind == "slide"
+    if N == 1:
+        words = (Words("force to ground", "x", "position", "N", "m", "force", "position encoder's",
+                       "position encoder") if slide else
+                 Words("torque to ground", "phi", "angle", "N m", "rad", "torque", "angle encoder's", "angle encoder"))
+    else:
+        words = Words("joint force", "x", "joint's stretch", "N", "m", "force", "position encoders'",
+                       "position encoders") if slide else Words()
+    chars = [misfit_character(rs, band) for rs in per_place]
+    by_place = tuple((n, _overall(c)) for n, c in zip(names, chars))
+    k = int(np.argmax([r for _, r in by_place]))
+    surface = residual_surface(per_place[k])
+    return TrainMisfit(names[k], by_place, chars[k], surface, next_measurements(chars[k], surface, per_place[k], words),
+                       words, residual_samples(per_place[k]))

@@ -39,6 +39,25 @@ SUPPORT = 2.0
 
 
 @dataclass(frozen=True)
+class Words:
+    """How a misfit's description names its place's quantities: a joint's torque over its relative
+    angle (the default), or a body's force to ground over its position on a slide."""
+
+    torque: str = "joint torque"
+    angle: str = "phi"
+    motion: str = "joint angle"
+    torque_unit: str = "N m"
+    angle_unit: str = "rad"
+    load: str = "torque"
+    sensors: str = "angle sensors'"
+    encoders: str = "angle encoders"
+
+
+#: A joint between two bodies on hinges (two flywheels, a train's joint).
+JOINT_WORDS = Words()
+
+
+@dataclass(frozen=True)
 class RestoringSurface:
     """A residual joint torque as a surface over the relative angle and rate (SI units).
 
@@ -81,9 +100,9 @@ class RestoringSurface:
         return np.einsum("ni,ij,nj->n", hat_matrix(phi_rad, self.phi_knots_rad), self.torque_Nm,
                          hat_matrix(rate_rad_s, self.rate_knots_rad_s))
 
-    def describe(self) -> str:
-        kind = ("a torque of the angle (elastic)" if self.elastic_share > 0.7 else
-                "a torque of the rate (dissipative)" if self.elastic_share < 0.3 else
+    def describe(self, words: Words = JOINT_WORDS) -> str:
+        kind = (f"a {words.torque} of the {words.motion} (elastic)" if self.elastic_share > 0.7 else
+                f"a {words.torque} of the rate (dissipative)" if self.elastic_share < 0.3 else
                 "both elastic and dissipative")
         sym = ("point-symmetric (a symmetric law)" if self.symmetric_share > 0.7 else
                "not point-symmetric (an asymmetry, or an offset)" if self.symmetric_share < 0.3 else
@@ -92,15 +111,16 @@ class RestoringSurface:
         v, d = self.damping_section
         tiny = 1e-9 * self.rms_Nm  # round-off of the solve, not torque
         s, d = np.where(np.abs(s) < tiny, 0.0, s), np.where(np.abs(d) < tiny, 0.0, d)
-        parts = [f"as a surface over (phi, phi') it is {kind}, share even in the rate {self.elastic_share:.2f}, "
+        w = words
+        parts = [f"as a surface over ({w.angle}, {w.angle}') it is {kind}, share even in the rate {self.elastic_share:.2f}, "
                  f"and {sym}, share {self.symmetric_share:.2f}; the surface carries "
                  f"{1 - (self.fit_rms_Nm / self.rms_Nm) ** 2 if self.rms_Nm > 0 else 0:.0%} of the residual's power"]
         if phi.size >= 2:
-            parts.append(f"its stiffness section S(phi, 0) spans {s.min():.3g} to {s.max():.3g} N m over phi "
-                         f"{phi.min():.3g} to {phi.max():.3g} rad")
+            parts.append(f"its stiffness section S({w.angle}, 0) spans {s.min():.3g} to {s.max():.3g} {w.torque_unit} "
+                         f"over {w.angle} {phi.min():.3g} to {phi.max():.3g} {w.angle_unit}")
         if v.size >= 2:
-            parts.append(f"its damping section S(0, phi') spans {d.min():.3g} to {d.max():.3g} N m over phi' "
-                         f"{v.min():.3g} to {v.max():.3g} rad/s")
+            parts.append(f"its damping section S(0, {w.angle}') spans {d.min():.3g} to {d.max():.3g} {w.torque_unit} "
+                         f"over {w.angle}' {v.min():.3g} to {v.max():.3g} {w.angle_unit}/s")
         return "; ".join(parts)
 
     def as_json(self) -> dict:

@@ -158,41 +158,6 @@ def _log_card(rec, card) -> None:
             rec.send_columns(path, indexes=[idx], columns=rr.Scalars.columns(scalars=[getattr(q, key) for q in pts]))
 
 
-def _log_surface(rec, report: DiagnosisReport) -> None:
-    """The unexplained misfit's restoring-force surface: ``diagnosis/misfit/surface`` (supported
-    knots as coloured squares at (phi, phi') normalised to +-1, y up, with the runs' loops), its
-    sections over the timelines ``phi_urad`` and ``rate_urad_s``, and the description."""
-    import rerun as rr
-
-    srf, smp = report.surface, report.samples
-    xs, vs = srf.phi_knots_rad, srf.rate_knots_rad_s
-    top_x, top_v = float(xs[-1]), float(vs[-1])
-    i, j = np.nonzero(srf.supported)
-    val = srf.torque_Nm[i, j]
-    top = max(float(np.max(np.abs(val))), 1e-300) if val.size else 1.0
-    u = np.clip(val / top, -1, 1)
-    # red for positive, blue for negative, white at zero (as the report's RdBu colour map)
-    colours = np.column_stack([np.where(u > 0, 255, 255 * (1 + u)), 255 * (1 - np.abs(u)),
-                               np.where(u < 0, 255, 255 * (1 - u))]).astype(np.uint8)
-    rec.log("diagnosis/misfit/surface/knots", rr.Points2D(np.column_stack([xs[i] / top_x, -vs[j] / top_v]),
-                                                          colors=colours, radii=1.0 / (xs.size - 1),
-                                                          labels=[f"{v:.3g} N m" for v in val]), static=True)
-    strips = []
-    for phi, rate in zip(smp.phi_rad, smp.rate_rad_s):
-        pts = np.column_stack([phi / top_x, -rate / top_v])
-        strips.append(np.vstack([pts, pts[:1]]))
-    rec.log("diagnosis/misfit/surface/loops", rr.LineStrips2D(strips, colors=[(90, 90, 90)]), static=True)
-    for entity, index, (x, y) in (("stiffness_section_Nm", "phi_urad", srf.stiffness_section),
-                                  ("damping_section_Nm", "rate_urad_s", srf.damping_section)):
-        rec.log(f"diagnosis/misfit/{entity}", rr.SeriesLines(colors=[(128, 0, 128)], names=[entity]), static=True)
-        rec.send_columns(f"diagnosis/misfit/{entity}",
-                         indexes=[rr.TimeColumn(index, sequence=np.round(x * 1e6).astype(np.int64))],
-                         columns=rr.Scalars.columns(scalars=np.asarray(y, dtype=float)))
-    text = (f"{report.character.describe()}.\n\n**Restoring-force surface:** {srf.describe()}.\n\n"
-            "**Measurements that would tell more:**\n\n" + "\n".join(f"- {m}" for m in report.next_measurements))
-    rec.log("diagnosis/misfit/description", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN), static=True)
-
-
 def diagnosis_blueprint(report: DiagnosisReport, with_card: bool = False):
     """The diagnosis recording's layout (rerun blueprint): a first tab that answers the question
     (the verdict and report text, the causes by name with the adopted ones marked, their scores),
@@ -225,21 +190,9 @@ def diagnosis_blueprint(report: DiagnosisReport, with_card: bool = False):
                              name="|harmonic residual| of the extended model [rad]"),
             grid_columns=2, name=f"run {r.run_id}: {r.omega_rad_s:g} rad/s, {r.amplitude_Nm:.4g} N m{held}"))
     if report.verdict.verdict == "unexplained":
-        whole_p = rrb.VisibleTimeRange("phi_urad", start=rrb.TimeRangeBoundary.infinite(),
-                                       end=rrb.TimeRangeBoundary.infinite())
-        whole_r = rrb.VisibleTimeRange("rate_urad_s", start=rrb.TimeRangeBoundary.infinite(),
-                                       end=rrb.TimeRangeBoundary.infinite())
-        tabs.insert(1, rrb.Grid(
-            rrb.Spatial2DView(origin="diagnosis/misfit/surface",
-                              name="residual surface over (phi, phi'), normalised; red +, blue - (loops in grey)"),
-            rrb.TextDocumentView(origin="diagnosis/misfit/description", name="What the misfit looks like"),
-            rrb.TimeSeriesView(origin="diagnosis/misfit/stiffness_section_Nm",
-                               name="stiffness section S(phi, 0) [N m] (timeline phi_urad)", time_ranges=whole_p,
-                               axis_x=axis),
-            rrb.TimeSeriesView(origin="diagnosis/misfit/damping_section_Nm",
-                               name="damping section S(0, phi') [N m] (timeline rate_urad_s)", time_ranges=whole_r,
-                               axis_x=axis),
-            grid_columns=2, name="Unexplained misfit"))
+        from .recording import misfit_tab
+
+        tabs.insert(1, misfit_tab())
     if with_card:
         whole_a = rrb.VisibleTimeRange("amplitude_urad", start=rrb.TimeRangeBoundary.infinite(),
                                        end=rrb.TimeRangeBoundary.infinite())
@@ -261,7 +214,10 @@ def log_diagnosis(rec, report: DiagnosisReport, text: str, *, card=None) -> None
     if card is not None:
         _log_card(rec, card)
     if report.verdict.verdict == "unexplained":
-        _log_surface(rec, report)
+        from .recording import log_misfit, misfit_text
+
+        log_misfit(rec, report.surface, report.samples,
+                   misfit_text(report.character.describe(), report.surface.describe(), report.next_measurements))
     colors = {"measured": (40, 40, 40), "nominal": (214, 39, 40), "extended": (31, 119, 180)}
     for r in report.runs:
         lab = _label(r)
@@ -366,7 +322,7 @@ def figures(report: DiagnosisReport) -> list[tuple[str, str]]:
                     "minus the final model) at every sample of the runs' loops over the relative angle and rate, "
                     "on its fitted surface (shaded where the data support it); the samples against the angle "
                     "and the rate, with the surface's stiffness section S(phi, 0) and damping section S(0, phi')",
-                    _surface_figure(report)))
+                    surface_figure(report.surface, report.samples)))
     grid("Relative angle over one period: measured (period average) vs simulated in the rig", 252, time_series)
     grid("Where the simulation departs from the measurement: simulated minus measured relative angle "
          "(band-limited), with the noise floor of the comparison", 252, departure)
@@ -391,29 +347,34 @@ def figures(report: DiagnosisReport) -> list[tuple[str, str]]:
     return out
 
 
-def _surface_figure(report: DiagnosisReport) -> str:
-    """Three panels: the surface where the data support it, under the residual samples along the
-    runs' loops (the classic restoring-force plot); the samples against the angle with the
-    stiffness section, and against the rate with the damping section."""
+def surface_figure(srf, smp, words=None) -> str:
+    """Three panels: the surface ``srf`` where the data support it, under the residual samples
+    ``smp`` along the runs' loops (the classic restoring-force plot); the samples against the
+    angle with the stiffness section, and against the rate with the damping section. ``words``:
+    the place's quantities (:class:`identify.surface.Words`; a joint's by default)."""
+    from jointrig.identify.surface import JOINT_WORDS
+
     from . import svg
 
-    srf, smp = report.surface, report.samples
+    w = words or JOINT_WORDS
+    a, r = f"{w.angle} - centre [{w.angle_unit}]", f"{w.angle}' [{w.angle_unit}/s]"
+    q = f"residual {w.torque} [{w.torque_unit}]"
     x, v, res = (np.concatenate(a) for a in (smp.phi_rad, smp.rate_rad_s, smp.residual_Nm))
     # colour limits robust to one run far off (the 98th percentile of |residual|)
     top = max(float(np.percentile(np.abs(res), 98)), 1e-300)
     shade = svg.colormap_rdbu(np.ravel(srf.torque_Nm), -top, top)
     n_phi, n_rate = srf.torque_Nm.shape
     cells = [[shade[i * n_rate + j] if srf.supported[i, j] else None for j in range(n_rate)] for i in range(n_phi)]
-    surface = svg.Panel("residual over (phi, phi'): samples on the surface", "phi - centre [rad]", "phi' [rad/s]",
-                        colorbar=(-top, top, "residual joint torque [N m]"))
+    surface = svg.Panel(f"residual over ({w.angle}, {w.angle}'): samples on the surface", a, r,
+                        colorbar=(-top, top, q))
     surface.grid(srf.phi_knots_rad, srf.rate_knots_rad_s, cells, opacity=0.45)
     surface.points(x, v, color=svg.colormap_rdbu(res, -top, top), radius=1.3)
     panels = [surface]
-    for data, (sx, sy), lab, name in ((x, srf.stiffness_section, "phi - centre [rad]",
-                                       "against the angle; stiffness section S(phi, 0)"),
-                                      (v, srf.damping_section, "phi' [rad/s]",
-                                       "against the rate; damping section S(0, phi')")):
-        p = svg.Panel(name, lab, "residual joint torque [N m]")
+    for data, (sx, sy), lab, name in ((x, srf.stiffness_section, a,
+                                       f"against the {w.motion}; stiffness section S({w.angle}, 0)"),
+                                      (v, srf.damping_section, r,
+                                       f"against the rate; damping section S(0, {w.angle}')")):
+        p = svg.Panel(name, lab, q)
         p.hline(0.0, color=svg.COLORS["light"])
         p.points(data, res, color=svg.COLORS["mid"], radius=1.1, label="samples")
         p.line(sx, sy, color=svg.COLORS["purple"], marker=True, label="surface section (supported knots)")

@@ -280,6 +280,70 @@ def log_parameter_table(rec: rr.RecordingStream, markdown: str) -> None:
 
 
 
+def log_misfit(rec, srf, smp, text: str, base: str = "diagnosis/misfit", words=None) -> None:
+    """An unexplained misfit's restoring-force surface ``srf`` over its samples ``smp``:
+    ``<base>/surface`` (supported knots as coloured squares at (phi, phi') normalised to +-1, y
+    up, with the runs' loops), its sections over the timelines ``phi_urad`` and ``rate_urad_s``
+    (micro-units of the place's angle or position), and ``text``, its description (markdown)."""
+    import rerun as rr
+
+    unit = words.torque_unit if words is not None else "N m"
+    xs, vs = srf.phi_knots_rad, srf.rate_knots_rad_s
+    top_x, top_v = float(xs[-1]), float(vs[-1])
+    i, j = np.nonzero(srf.supported)
+    val = srf.torque_Nm[i, j]
+    top = max(float(np.max(np.abs(val))), 1e-300) if val.size else 1.0
+    u = np.clip(val / top, -1, 1)
+    # red for positive, blue for negative, white at zero (as the report's RdBu colour map)
+    colours = np.column_stack([np.where(u > 0, 255, 255 * (1 + u)), 255 * (1 - np.abs(u)),
+                               np.where(u < 0, 255, 255 * (1 - u))]).astype(np.uint8)
+    rec.log(f"{base}/surface/knots", rr.Points2D(np.column_stack([xs[i] / top_x, -vs[j] / top_v]),
+                                                          colors=colours, radii=1.0 / (xs.size - 1),
+                                                          labels=[f"{v:.3g} {unit}" for v in val]), static=True)
+    strips = []
+    for phi, rate in zip(smp.phi_rad, smp.rate_rad_s):
+        pts = np.column_stack([phi / top_x, -rate / top_v])
+        strips.append(np.vstack([pts, pts[:1]]))
+    rec.log(f"{base}/surface/loops", rr.LineStrips2D(strips, colors=[(90, 90, 90)]), static=True)
+    for entity, index, (x, y) in (("stiffness_section_Nm", "phi_urad", srf.stiffness_section),
+                                  ("damping_section_Nm", "rate_urad_s", srf.damping_section)):
+        rec.log(f"{base}/{entity}", rr.SeriesLines(colors=[(128, 0, 128)], names=[entity]), static=True)
+        rec.send_columns(f"{base}/{entity}",
+                         indexes=[rr.TimeColumn(index, sequence=np.round(x * 1e6).astype(np.int64))],
+                         columns=rr.Scalars.columns(scalars=np.asarray(y, dtype=float)))
+    rec.log(f"{base}/description", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN), static=True)
+
+
+def misfit_text(character: str, surface: str, next_measurements) -> str:
+    """A misfit's description as markdown: its character, its surface, what to measure next."""
+    return (f"{character}.\n\n**Restoring-force surface:** {surface}.\n\n**Measurements that would tell more:**\n\n"
+            + "\n".join(f"- {m}" for m in next_measurements))
+
+
+def misfit_tab(base: str = "diagnosis/misfit", words=None, name: str = "Unexplained misfit"):
+    """The blueprint tab of :func:`log_misfit`'s entities."""
+    import rerun.blueprint as rrb
+
+    from jointrig.identify.surface import JOINT_WORDS
+
+    w = words or JOINT_WORDS
+    axis = rrb.TimeAxis(view_range=rrb.TimeRange(start=rrb.TimeRangeBoundary.infinite(),
+                                                 end=rrb.TimeRangeBoundary.infinite()))
+    whole = {t: rrb.VisibleTimeRange(t, start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.infinite())
+             for t in ("phi_urad", "rate_urad_s")}
+    return rrb.Grid(
+        rrb.Spatial2DView(origin=f"{base}/surface", name=f"residual surface over ({w.angle}, {w.angle}'), normalised; "
+                                                         f"red +, blue - (loops in grey)"),
+        rrb.TextDocumentView(origin=f"{base}/description", name="What the misfit looks like"),
+        rrb.TimeSeriesView(origin=f"{base}/stiffness_section_Nm",
+                           name=f"stiffness section S({w.angle}, 0) [{w.torque_unit}] (timeline phi_urad: "
+                                f"u{w.angle_unit})", time_ranges=whole["phi_urad"], axis_x=axis),
+        rrb.TimeSeriesView(origin=f"{base}/damping_section_Nm",
+                           name=f"damping section S(0, {w.angle}') [{w.torque_unit}] (timeline rate_urad_s: "
+                                f"u{w.angle_unit}/s)", time_ranges=whole["rate_urad_s"], axis_x=axis),
+        grid_columns=2, name=name)
+
+
 def chain_run_label(record) -> str:
     """A chain run's entity name: frequency, amplitude and driven flywheel."""
     driven = "".join(str(i + 1) for i, t in enumerate(record.torques_Nm) if t is not None)
@@ -348,10 +412,11 @@ def log_chain_laws(rec: rr.RecordingStream, true_laws, identified_laws, records,
                                  columns=rr.Scalars.columns(scalars=np.asarray(law.elastic_torque(phi), dtype=float)))
 
 
-def log_chain_diagnosis(rec: rr.RecordingStream, diagnosis, validation, n_flywheels: int) -> None:
+def log_chain_diagnosis(rec: rr.RecordingStream, diagnosis, validation, n_flywheels: int, misfit=None) -> None:
     """A chain diagnosis: where (the best score at every joint and flywheel, and the ranked
-    candidates as a table), and the held-out runs (the found joint's twist, measured against the
-    nominal and the extended model), with its blueprint."""
+    candidates as a table), the held-out runs (the found joint's twist, measured against the
+    nominal and the extended model), and an unexplained ``misfit``
+    (:class:`identify.chain_diagnose.TrainMisfit`) as a restoring-force surface, with its blueprint."""
     import rerun.blueprint as rrb
 
     places = [f"joint {j}" for j in range(1, n_flywheels)] + [f"flywheel {i}" for i in range(1, n_flywheels + 1)]
@@ -395,5 +460,12 @@ def log_chain_diagnosis(rec: rr.RecordingStream, diagnosis, validation, n_flywhe
                                             name="log10(1 + best BIC score) per place: joints 1.., then flywheels 1.."),
                            column_shares=[3, 2], name="Where and what")
     tabs = [where] + ([rrb.Grid(*views, name="Held-out runs")] if views else [])
+    if misfit is not None:
+        character, surface = misfit.describe()
+        log_misfit(rec, misfit.surface, misfit.samples,
+                   f"**Where:** {misfit.describe_places()}.\n\n" + misfit_text(character, surface,
+                                                                              misfit.next_measurements),
+                   base="misfit", words=misfit.words)
+        tabs.insert(1, misfit_tab("misfit", misfit.words, name=f"Unexplained misfit at {misfit.where}"))
     rec.send_blueprint(rrb.Blueprint(rrb.Tabs(*tabs), rrb.TimePanel(timeline="t_s", state="collapsed"),
                                      collapse_panels=True))

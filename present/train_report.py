@@ -97,9 +97,16 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
     nm = _namer(report)
     fit_ids = [r for i, r in enumerate(report.run_ids) if i not in report.held_out]
     held_ids = [report.run_ids[i] for i in report.held_out]
-    steps = steps_after(v.verdict, d.ambiguities, report.held_out_periods) if v.verdict != "unexplained" else ()
+    m = report.misfit
+    if v.verdict != "unexplained":
+        steps = steps_after(v.verdict, d.ambiguities, report.held_out_periods)
+    else:
+        steps = m.next_measurements if m is not None else ()
+    misfit = ([f"Where the misfit is: {m.describe_places()}",
+               f"What the misfit looks like there: {m.describe()[0]}",
+               f"Its restoring-force surface: {m.describe()[1]}"] if m is not None else [])
     lines = head_lines(v, plain_train_verdict(report), steps, name=nm, model=report.model_path or "",
-                       written=compare_written(report.written, report.adopted_fit))
+                       written=compare_written(report.written, report.adopted_fit), misfit=misfit)
     slide = report.kind == "slide"
     if N == 1:
         what = f"a single body on a {'slide' if slide else 'hinge'}"
@@ -188,7 +195,10 @@ def train_report_json(report: TrainReport, *, source: str = "", notes: Sequence[
         adopted=tuple(s.label for s in d.steps) if report.adopted else (), extended=FitJson.of(d.final, nm),
         ambiguities=tuple(d.ambiguities),
         as_written={nm(w.name): w.as_json() for w in compare_written(report.written, report.adopted_fit)},
-        validation=validation, notes=tuple(notes) + tuple(report.notes), name=nm).as_json()
+        validation=validation, notes=tuple(notes) + tuple(report.notes), name=nm,
+        misfit_character=report.misfit.as_json() if report.misfit is not None else None,
+        misfit_surface=report.misfit.surface.as_json() if report.misfit is not None else None,
+        next_measurements=tuple(report.misfit.next_measurements) if report.misfit is not None else ()).as_json()
 
 
 def train_figure(report: TrainReport) -> str:
@@ -233,7 +243,7 @@ def write_train_html(path, report: TrainReport, text: str, *, title: str, source
 
     from jointrig.files import write_atomic
 
-    from .diagnosis_report import _row, _table, page_top, svg_figure_html
+    from .diagnosis_report import _row, _table, page_top, surface_figure, svg_figure_html
 
     d = report.diagnosis
     nm = _namer(report)
@@ -242,7 +252,8 @@ def write_train_html(path, report: TrainReport, text: str, *, title: str, source
     parts = page_top(title, report.verdict, plain_train_verdict(report), input_sha256)
     final = _values(d.final)
     if d.steps:
-        parts.append("<h2>What the data show</h2>")
+        parts.append("<h2>What the data show</h2>" if report.adopted else
+                     "<h2>The best extension, not adopted (see the verdict)</h2>")
         parts.append(_table(["cause", "size", "unit"], [
             _row([s.label, (with_se(*final.get(s.magnitude[0], s.magnitude[1:])), "num"), unit_of(nm(s.magnitude[0]))])
             for s in d.steps]))
@@ -252,6 +263,18 @@ def write_train_html(path, report: TrainReport, text: str, *, title: str, source
             _row([nm(w.name), (f"{w.written:.6g}", "num"), (with_se(w.data, w.std_error), "num"), unit_of(nm(w.name)),
                   ("differs: " + w.change) if w.differs else "agrees"], "adopted" if w.differs else "")
             for w in written]))
+    m = report.misfit
+    if m is not None:
+        character, surface = m.describe()
+        parts.append("<h2>What the misfit looks like</h2>")
+        parts.append(f"<p>Where: {html.escape(m.describe_places())}.</p><p>{html.escape(character[:1].upper() + character[1:])}."
+                     f"</p><p>{html.escape(surface[:1].upper() + surface[1:])}.</p>")
+        if m.next_measurements:
+            parts.append("<p>Measurements that would tell more:</p><ul>"
+                         + "".join(f"<li>{html.escape(t)}</li>" for t in m.next_measurements) + "</ul>")
+        parts.append(svg_figure_html(f"The nominal model's residual {m.words.torque} at {m.where} as a restoring-force "
+                                     f"surface, over every run's measured motion", surface_figure(m.surface, m.samples,
+                                                                                                   m.words)))
     image = train_figure(report)
     if image:
         parts.append(svg_figure_html(f"Held-out data ({report.generalisation}): measured, and simulated in the rig "

@@ -220,6 +220,9 @@ class TrainReport:
     kind: str = "hinge"
     #: per run, its setting (:func:`train_setting`: omega rad/s, the largest drive's amplitude)
     settings: tuple = ()
+    #: where an unexplained misfit is and what it looks like, the nominal model's
+    #: (:class:`identify.chain_diagnose.TrainMisfit`; None unless unexplained)
+    misfit: Optional[object] = None
 
     @property
     def adopted(self) -> bool:
@@ -269,7 +272,7 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
     the nominal and the extended model in ``rig`` (its bodies and drives; the user's model, or
     one written for the file's bodies and drives). ``holdout``: run indices (default: runs of
     another kind, :func:`holdout_of_another_kind`)."""
-    from jointrig.identify.chain_diagnose import diagnose_chain, prepare_chain_runs
+    from jointrig.identify.chain_diagnose import diagnose_chain, prepare_chain_runs, train_misfit
     from jointrig.identify.diagnose import DEFAULT_FIDELITY
 
     records = list(records)
@@ -313,6 +316,13 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
                                       [settings[i] for i in held])
         if rig.kind == "slide":  # its drive levels are forces
             general = general.replace(" N m", " N")
-    return TrainReport(tuple(run_ids), held, d, v, train_verdict(d, v, held_out_periods=split), general,
-                       tuple(written), str(rig.path) if written else None, tuple(notes), split, rig.kind,
-                       tuple(settings))
+    verdict = train_verdict(d, v, held_out_periods=split)
+    misfit = None
+    if verdict.verdict == "unexplained":
+        say("describing the misfit: the residual torque at every joint along every run's measured motion")
+        # of the model the verdict keeps (the nominal one): the whole misfit, none of it taken up by
+        # a rejected cause
+        misfit = train_misfit(prepare_chain_runs(records, band=band), run_ids, [s[1] for s in settings],
+                              d.nominal, band, rig.kind)
+    return TrainReport(tuple(run_ids), held, d, v, verdict, general, tuple(written),
+                       str(rig.path) if written else None, tuple(notes), split, rig.kind, tuple(settings), misfit)

@@ -7,7 +7,8 @@ Nothing here uses jointrig. Flywheel i (0-based here) obeys
 with M_j the torque of joint j, written out again from :class:`bench_sim.Joint` (the same
 independent law the two-flywheel bench uses: dead-zone free play, a phi^2, gamma phi^3,
 q v|v|, dry friction with a Stribeck peak, a Jenkins element, Segalman's continuum Iwan
-element under Masing's rule). One joint, ``special``, may carry the non-smooth effects; its
+element under Masing's rule, and a Maxwell element outside the catalogue: a spring in series
+with a dashpot, whose torque is a state). One joint, ``special``, may carry these effects; its
 dry friction and its Jenkins slider switch at events as in :mod:`bench_sim` (stuck, the two
 flywheels of that joint move with one acceleration, the friction holding whatever torque
 keeps them so, until it exceeds the static friction), so the integrator never steps across a
@@ -68,6 +69,12 @@ def _drives(drive: dict, t: float, N: int) -> list:
     return T
 
 
+def _maxwell_at(train: Train) -> int:
+    """Where the special joint's Maxwell torque sits in the state: after the angles, the rates
+    and the Jenkins slider's torque (if any)."""
+    return 2 * train.N + (1 if train.joints[train.special].Fs else 0)
+
+
 def _torques(train: Train, y: list, mode: dict, friction: bool = True) -> list:
     """Every joint's torque (N m); the special joint's dry friction left out when not ``friction``."""
     N = train.N
@@ -82,6 +89,8 @@ def _torques(train: Train, y: list, mode: dict, friction: bool = True) -> list:
                 m += y[2 * N] if mode["j"] == 0 else jt.Fs * mode["j"]
             if jt.Fi:
                 m += jt.iwan_torque(u, mode)
+            if jt.km:
+                m += y[_maxwell_at(train)]
         M[j] = m
     return M
 
@@ -121,6 +130,8 @@ def _rhs(train: Train, drive: dict, mode: dict):
         dy = y[N:2 * N] + a
         if jt.Fs:
             dy.append(jt.Fs / jt.r * (y[N + m] - y[N + m + 1]) if mode["j"] == 0 else 0.0)
+        if jt.km:  # the Maxwell element's torque relaxes through its dashpot
+            dy.append(jt.km * (y[N + m] - y[N + m + 1] - y[_maxwell_at(train)] / jt.cm))
         return dy
 
     return f
@@ -231,15 +242,22 @@ def _linear_start(train: Train, drive: dict) -> np.ndarray:
     N = train.N
     w = next(iter(drive.values()))[0]
     Z = -w**2 * np.diag(train.J).astype(complex) + 1j * w * np.diag(train.b)
+
+    def maxwell(jt):  # the Maxwell element's complex stiffness
+        return jt.km * 1j * w * jt.cm / (jt.km + 1j * w * jt.cm) if jt.km else 0.0
+
     for j, jt in enumerate(train.joints):
-        Z[j:j + 2, j:j + 2] += (jt.k + 1j * w * jt.c) * np.array([[1, -1], [-1, 1]])
+        Z[j:j + 2, j:j + 2] += (jt.k + 1j * w * jt.c + maxwell(jt)) * np.array([[1, -1], [-1, 1]])
     F = np.array([drive[i + 1][1] if (i + 1) in drive else 0.0 for i in range(N)], dtype=complex)
     # the rigid rotation of a free chain: pin its mean by the pseudo-inverse (a cosine drive from
     # rest keeps it periodic)
     X = np.linalg.lstsq(Z, F, rcond=None)[0]
     y = list(X.real) + list((1j * w * X).real)
-    if train.joints[train.special].Fs:
+    m, jt = train.special, train.joints[train.special]
+    if jt.Fs:
         y.append(0.0)
+    if jt.km:
+        y.append((maxwell(jt) * (X[m] - X[m + 1])).real)
     return np.array(y)
 
 

@@ -328,3 +328,57 @@ def test_a_trains_report_renders_in_a_real_browser_with_the_answer_first(tmp_pat
     assert m["doc"] <= m["win"] and m["imgs"] == [True]
     assert m["verdict"].startswith("EXPLAINED: Your model misses backlash at joint 2")
     assert m["found"] < 900 and m["folded"] and not any(m["folded"])  # the candidates (and any notes) folded
+
+
+@pytest.mark.slow
+def test_a_maxwell_element_in_a_measured_train_is_unexplained_and_located_at_its_joint(tmp_path, capsys):
+    # Outside the catalogue: the pump train's coupling (joint 2) with a Maxwell element across it
+    # (a spring as stiff as the coupling, 2.5e4 N m/rad, in series with a dashpot, relaxation
+    # 2 ms: its corner at 500 rad/s, inside the sweep), recorded by the DAQ. No cause is adopted
+    # (the best extension fails on the held-out runs), and the description puts the misfit at
+    # joint 2 (measured: 0.073 of the torque there, joints 1 and 3 0.023 and 0.042; seed 1 and a
+    # softer, slower element alike; at joint 3 it is found at joint 3), names the turning phase
+    # of a frequency-dependent stiffness (87 deg; the open world's bound is 30) and asks for the
+    # measurement that would show it.
+    from jointrig.identify.misfit import PHASE_SPAN_RESONANT_DEG
+
+    from conftest import blueprint_views
+
+    data = daq_file(with_effect(PUMP_TRAIN, 2, km=2.5e4, cm=2.5e4 * 0.002), POINTS, tmp_path / "maxwell.csv")
+    code, text, j = _diagnose(tmp_path, capsys, data, "--rrd", tmp_path / "d.rrd")
+    assert code == 0, text
+    assert j["verdict"]["verdict"] == "unexplained" and j["extended"]["effects"] == [], j["verdict"]
+    assert schema_problems(j) == []
+    m = j["misfit_character"]
+    assert m["where"] == "joint 2", m["by_place"]
+    others = [r for p, r in m["by_place"].items() if p != "joint 2"]
+    assert m["by_place"]["joint 2"] > 1.5 * max(others), m["by_place"]
+    assert m["phase_span_deg"] > PHASE_SPAN_RESONANT_DEG, m
+    assert any(s.startswith("a stepped sine at one drive level over more frequencies") for s in j["next_measurements"])
+    assert j["misfit_surface"]["phi_knots_rad"]
+    assert "Where the misfit is: at joint 2" in text
+    page = (tmp_path / "d.html").read_text()
+    assert "What the misfit looks like" in page and "The best extension, not adopted" in page
+    names, origins = blueprint_views(tmp_path / "d.rrd")
+    assert "Unexplained misfit at joint 2" in names and {"misfit/surface", "misfit/description"} <= set(origins)
+
+
+@pytest.mark.slow
+def test_a_single_axis_misfit_is_described_at_its_guide_in_newtons_and_metres(tmp_path, capsys):
+    # The 2 N cogging of the carriage (above: found by the harmonic balance, not validated):
+    # unexplained, and its description is the guide's force over the position, in N and m, with
+    # most of it on harmonics 4 and up (a ripple: measured 92%) and the quasi-static ramp that
+    # would show the pitch.
+    from bench_slide_sim import Carriage, daq_file as slide_file
+    from jointrig.identify.misfit import HIGH_SHARE
+
+    data = slide_file(Carriage(Fc=0.0, cog=2.0, pitch=0.01), 12.566, 47.0, tmp_path / "axis.csv")
+    out = tmp_path / "d.json"
+    assert cli(["diagnose", str(data), "--json", str(out), "-q"]) == 0
+    text = capsys.readouterr().out
+    j = json.loads(out.read_text())
+    assert j["verdict"]["verdict"] == "unexplained", j["verdict"]
+    m = j["misfit_character"]
+    assert m["where"] == "body 1 to ground" and m["high_share"] > HIGH_SHARE, m
+    assert "residual force to ground" in text and " N over x " in text and "N m" not in m["description"]
+    assert any("quasi-static ramp of the position" in s for s in j["next_measurements"]), j["next_measurements"]

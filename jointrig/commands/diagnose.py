@@ -324,7 +324,8 @@ def _train(args: argparse.Namespace, loaded, model, writer) -> int:
         from jointrig.present.recording import log_chain_diagnosis, open_recording
 
         with open_recording(args.rrd) as rec:
-            log_chain_diagnosis(rec, report.diagnosis, report.validation, report.diagnosis.nominal.spec.n_flywheels)
+            log_chain_diagnosis(rec, report.diagnosis, report.validation, report.diagnosis.nominal.spec.n_flywheels,
+                                report.misfit)
         log.info("wrote %s", args.rrd)
     if args.mjcf:
         from jointrig.identify.chain_diagnose import plant_and_inertias
