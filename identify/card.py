@@ -48,8 +48,8 @@ from jointrig.vocab.law import JointLaw
 from .harmonics import fourier_coefficients, synthesize
 from jointrig.vocab.records import SteadyStateRecord
 
-__all__ = ["CardPoint", "JointCard", "MasingCheck", "MasingRun", "describing_function", "law_card", "masing_check",
-           "runs_card", "dissipation_slope"]
+__all__ = ["CardPoint", "JointCard", "JointRun", "MasingCheck", "MasingRun", "describing_function", "law_card",
+           "masing_check", "joint_masing_check", "runs_card", "joint_runs_card", "two_flywheel_run", "dissipation_slope"]
 
 #: samples of theta over a cycle for the describing-function integrals (midpoint rule on a
 #: periodic grid: exact for trigonometric polynomials below 2048 harmonics, second order at a
@@ -123,7 +123,10 @@ def describing_function(law: JointLaw, amplitude_rad: float, omega_rad_s: float)
     f = np.asarray(law.torque(phi, rate), dtype=float)
     k = 2.0 * float(np.mean(f * np.cos(theta))) / amplitude_rad
     c = 2.0 * float(np.mean(f * -np.sin(theta))) / (amplitude_rad * omega_rad_s)
-    return k, c
+    # A torque's harmonic below round-off of the torque itself is none (inside a free play the
+    # law is nil, and a sum of 4096 zeros and near-zeros must not read as a tiny stiffness).
+    tiny = 1e-12 * float(np.max(np.abs(f))) if f.size else 0.0
+    return (k if abs(k) * amplitude_rad > tiny else 0.0), (c if abs(c) * amplitude_rad * omega_rad_s > tiny else 0.0)
 
 
 def _backbone(law: JointLaw, inertia: float, amplitude: float) -> tuple[float, ...]:
@@ -211,17 +214,43 @@ def law_card(law: JointLaw, inertia_kgm2: float, amplitudes_rad: Sequence[float]
     return JointCard("law", float(inertia_kgm2), tuple(points), *dissipation_slope(points))
 
 
-def _run_periods(rec: SteadyStateRecord, J1: float, J2: float, h: int) -> np.ndarray:
-    """``(amplitude, secant stiffness, dissipation, damping ratio)`` of every period of a run."""
+@dataclass(frozen=True)
+class JointRun:
+    """One run at one joint, as its card reads it: per period, the Fourier coefficients
+    (harmonics 0..h, ``(periods, h + 1)``) of the joint's relative motion and of the torque the
+    joint carries, measured through the equations of motion (two flywheels:
+    :func:`two_flywheel_run`; a train's joint: ``identify.chain_diagnose.train_joint_runs``)."""
+
+    run: str
+    omega_rad_s: float
+    phi: np.ndarray
+    torque: np.ndarray
+
+
+def two_flywheel_run(rec: SteadyStateRecord, J1: float, J2: float, h: int, run: str = "") -> JointRun:
+    """A two-flywheel run's joint: the relative angle and ``share M + Je omega^2 n^2 Phi_n``."""
     je, share = J1 * J2 / (J1 + J2), J2 / (J1 + J2)
     n, w = rec.samples_per_period, rec.omega_rad_s
     harm = np.arange(h + 1)
-    per = []
+    phi, torque = [], []
     for q in range(rec.n_periods):
         sl = slice(q * n, (q + 1) * n)
         Phi = fourier_coefficients(rec.phi_rad[sl], 1, h)
-        M = fourier_coefficients(rec.torque_Nm[sl], 1, h)
-        F = share * M + je * (harm * w) ** 2 * Phi
+        phi.append(Phi)
+        torque.append(share * fourier_coefficients(rec.torque_Nm[sl], 1, h) + je * (harm * w) ** 2 * Phi)
+    return JointRun(run, w, np.array(phi), np.array(torque))
+
+
+def _run_periods(rec: SteadyStateRecord, J1: float, J2: float, h: int) -> np.ndarray:
+    """``(amplitude, secant stiffness, dissipation, damping ratio)`` of every period of a run."""
+    return _joint_periods(two_flywheel_run(rec, J1, J2, h))
+
+
+def _joint_periods(jr: JointRun) -> np.ndarray:
+    """``(amplitude, secant stiffness, dissipation, damping ratio)`` of every period of a joint's run."""
+    harm = np.arange(jr.phi.shape[1])
+    per = []
+    for Phi, F in zip(jr.phi, jr.torque):
         a = abs(Phi[1])
         k = float(np.real(F[1] / Phi[1]))
         e = math.pi * float(np.sum(harm * np.imag(F * np.conj(Phi))))
@@ -232,6 +261,26 @@ def _run_periods(rec: SteadyStateRecord, J1: float, J2: float, h: int) -> np.nda
 
 def _natural_frequency(k: float, je: float) -> float:
     return math.sqrt(k / je) if k > 0 else math.nan
+
+
+def joint_runs_card(runs: Sequence[JointRun], je_kgm2: float) -> JointCard:
+    """The card straight from a joint's measured runs (:func:`runs_card` without the inertias'
+    own uncertainty): per run the periods' mean, standard errors from their spread; ``je_kgm2``
+    the inertia of the joint's mode, for its natural frequency."""
+    points = []
+    for jr in runs:
+        per = _joint_periods(jr)
+        p = per.shape[0]
+        a, k, e, zeta = map(float, per.mean(axis=0))
+        se = per.std(axis=0, ddof=1) / math.sqrt(p) if p > 1 else np.full(4, math.nan)
+        wn = _natural_frequency(k, je_kgm2)
+        points.append(CardPoint(a, jr.omega_rad_s, wn, zeta, e, k, e / (math.pi * jr.omega_rad_s * a * a),
+                                amplitude_rad_std=float(se[0]), natural_frequency_rad_s_std=0.5 * wn * se[1] / k
+                                if k > 0 else math.nan, damping_ratio_std=float(se[3]),
+                                dissipation_J_per_cycle_std=float(se[2]), secant_stiffness_Nm_per_rad_std=float(se[1]),
+                                run=jr.run))
+    points.sort(key=lambda q: q.amplitude_rad)
+    return JointCard("runs", je_kgm2, tuple(points), *dissipation_slope(points))
 
 
 def runs_card(records: Sequence[SteadyStateRecord], J1_kgm2: float, J2_kgm2: float, *,
@@ -333,6 +382,8 @@ def dissipation_slope(points: Sequence[CardPoint]) -> tuple[float, float, float,
     return float(beta[1]), float(se[1]), math.nan, math.nan
 
 
+#: Harmonics of the loops the Masing check compares (:func:`masing_check`'s reason)
+MASING_HARMONICS = 8
 #: Masing check: points of each implied backbone on [0, A], and the grid of a synthesised loop
 MASING_U_POINTS, MASING_GRID = 64, 4096
 #: implied backbones that differ by less than this share of the smaller run's tip torque follow
@@ -412,7 +463,7 @@ def _implied_backbone(phi: np.ndarray, f: np.ndarray, u_frac: np.ndarray) -> Opt
 
 
 def masing_check(records: Sequence[SteadyStateRecord], J1_kgm2: float, J2_kgm2: float, *,
-                 n_harmonics: int = 8, run_ids: Optional[Sequence[str]] = None) -> MasingCheck:
+                 n_harmonics: int = MASING_HARMONICS, run_ids: Optional[Sequence[str]] = None) -> MasingCheck:
     """Masing's rule on measured runs, without a law: a joint whose memory is a set of sliders
     (Jenkins, Iwan, dry friction beside springs) unloads from a reversal point ``(A, F)`` along
     its backbone ``g`` scaled by two, ``f = F - 2 g((A - x)/2)``. Read backwards, every run's loop
@@ -429,20 +480,20 @@ def masing_check(records: Sequence[SteadyStateRecord], J1_kgm2: float, J2_kgm2: 
     """
     if not (J1_kgm2 > 0 and J2_kgm2 > 0):
         raise ValueError(f"masing_check needs inertias > 0, got J1 {J1_kgm2!r}, J2 {J2_kgm2!r}")
-    je = J1_kgm2 * J2_kgm2 / (J1_kgm2 + J2_kgm2)
-    share = J2_kgm2 / (J1_kgm2 + J2_kgm2)
     ids = list(run_ids) if run_ids is not None else [str(i) for i in range(len(records))]
+    return joint_masing_check([two_flywheel_run(rec, J1_kgm2, J2_kgm2, min(n_harmonics, (rec.samples_per_period - 1) // 2),
+                                                str(rid)) for rid, rec in zip(ids, records)])
+
+
+def joint_masing_check(joint_runs: Sequence[JointRun]) -> MasingCheck:
+    """:func:`masing_check` on a joint's runs, each band-limited to its coefficients' harmonics."""
     u_frac = np.linspace(0.0, 1.0, MASING_U_POINTS)
     runs, skipped = [], []
-    for rid, rec in zip(ids, records):
-        n, p = rec.samples_per_period, rec.n_periods
-        h = min(n_harmonics, (n - 1) // 2)
-        harm = np.arange(h + 1)
+    for jr in joint_runs:
+        rid, h = jr.run, jr.phi.shape[1] - 1
         per = []
-        for q in range(p):
-            sl = slice(q * n, (q + 1) * n)
-            Phi = fourier_coefficients(rec.phi_rad[sl], 1, h)
-            F = share * fourier_coefficients(rec.torque_Nm[sl], 1, h) + je * (harm * rec.omega_rad_s) ** 2 * Phi
+        for Phi, F in zip(jr.phi, jr.torque):
+            Phi, F = Phi.copy(), F.copy()
             Phi[0] = F[0] = 0.0
             per.append((Phi, F))
         Phi = np.mean([a for a, _ in per], axis=0)

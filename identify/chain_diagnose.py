@@ -817,3 +817,62 @@ def train_misfit(runs: Sequence[ChainRun], run_ids: Sequence[str], amplitudes: S
     surface = residual_surface(per_place[k])
     return TrainMisfit(names[k], by_place, chars[k], surface, next_measurements(chars[k], surface, per_place[k], words),
                        words, residual_samples(per_place[k]))
+
+
+# --------------------------------------------------------------------------------------------
+# 6. The joint card of every place
+
+
+def place_law(fit: ChainFit, place: int) -> tuple[JointLaw, float]:
+    """``(law, inertia of its mode)`` at a place (0-based): joint j's law and ``J_j J_j+1 / (J_j +
+    J_j+1)``, the mode of its two bodies alone; a single body's drag and law to ground and its mass."""
+    plant, J = plant_and_inertias(fit)
+    if len(J) == 1:
+        g = plant.grounds[0]
+        terms = (g.terms if g is not None else ()) + (Viscous(),)
+        values = (g.values if g is not None else ()) + (plant.bearings_Nms_per_rad[0],)
+        return JointLaw(terms, values), J[0]
+    return plant.laws[place], J[place] * J[place + 1] / (J[place] + J[place + 1])
+
+
+def train_joint_runs(runs: Sequence[ChainRun], run_ids: Sequence[str], fit: ChainFit, band: int) -> list:
+    """Per place (every joint; a single body: what holds it to the frame), each run as its card
+    reads it (:class:`identify.card.JointRun`): per period, the twist's harmonics 0..``band`` (a
+    single body: its position's) and the torque the place carries from the equations of motion of
+    the bodies before it, ``sum_i (T_i + J_i (n w)^2 X_i - i n w b_i X_i - G_i)`` (a single body:
+    ``T + m (n w)^2 X``, its drag and law to ground being the place's law) with the fit's values (pure)."""
+    from .balance import spectral_rate
+    from .card import JointRun
+    from .harmonics import fourier_coefficients
+
+    plant, J = plant_and_inertias(fit)
+    N = len(J)
+    places: list[list] = [[] for _ in range(max(N - 1, 1))]
+    harm = np.arange(band + 1)
+    for run, rid in zip(runs, run_ids):
+        w = run.average.omega_rad_s
+        nw = harm * w
+        phi: list[list] = [[] for _ in places]
+        torque: list[list] = [[] for _ in places]
+        for period in run.periods:
+            X = [fourier_coefficients(period.angles_rad[i], 1, band) for i in range(N)]
+            net = np.zeros(band + 1, complex)
+            for i in range(N):
+                if period.torques_Nm[i] is not None:
+                    net = net + fourier_coefficients(period.torques_Nm[i], 1, band)
+                net = net + J[i] * nw**2 * X[i]
+                if N == 1:
+                    phi[0].append(X[0])
+                    torque[0].append(net)
+                    break
+                net = net - 1j * nw * plant.bearings_Nms_per_rad[i] * X[i]
+                g = plant.grounds[i]
+                if g is not None:
+                    x = period.angles_rad[i]
+                    net = net - fourier_coefficients(np.asarray(g.torque(x, spectral_rate(x, w, 1)), float), 1, band)
+                if i < N - 1:
+                    phi[i].append(X[i] - X[i + 1])
+                    torque[i].append(net.copy())
+        for k in range(len(places)):
+            places[k].append(JointRun(str(rid), w, np.array(phi[k]), np.array(torque[k])))
+    return places

@@ -31,17 +31,22 @@ def format_card(card) -> str:
             text += f" (rate exponent {with_se(c.rate_exponent, c.rate_exponent_std)})"
         return text
 
+    a_unit, k_unit = card.units
+    inertia = "kg" if a_unit == "m" else "kg m^2"
     lines = ([f"WARNING: {card.warning}"] if card.warning else []) + [
-             f"Joint card ({card.model_name}; mode of the relative angle, Je = {sig(card.model.inertia_kgm2, 4)} "
-             f"kg m^2); runs at their drive frequency omega (measured with {card.runs_inertias} inertias), the model "
-             f"there and on its backbone (omega = omega_n):",
-             f"  {'source':13s} {'run':>4s} {'A [rad]':>9s} {'omega':>7s} {'k_sec [N m/rad]':>18s} "
+             f"Joint card{f' of {card.place}' if card.place else ''} ({card.model_name}; {card.mode}, Je = "
+             f"{sig(card.model.inertia_kgm2, 4)} {inertia}); runs at their drive frequency omega (measured with "
+             f"{card.runs_inertias} inertias), the model there and on its backbone (omega = omega_n):",
+             f"  {'source':13s} {'run':>4s} {f'A [{a_unit}]':>9s} {'omega':>7s} {f'k_sec [{k_unit}]':>18s} "
              f"{'omega_n [rad/s]':>18s} {'damping ratio':>20s} {'E per cycle [J]':>18s}"]
     for p, m in zip(card.runs.points, card.model_at_runs.points):
         lines += [row("runs", p), row("model at run", m)]
     model = card.model.points
+    if not any(math.isfinite(p.natural_frequency_rad_s) for p in model):
+        lines.append("  backbone: none (the law has no stiffness here, so no mode)")
     for p in ([model[0], model[len(model) // 2], model[-1]] if len(model) >= 3 else model):
-        lines.append(row("backbone", p))
+        if math.isfinite(p.natural_frequency_rad_s):
+            lines.append(row("backbone", p))
     lines.append(f"  dissipation slope d lnE / d lnA: runs {slope(card.runs)}, model at the runs "
                  f"{slope(card.model_at_runs)}, backbone {slope(card.model)} (viscous 2 and rate exponent 1, "
                  f"dry friction 1 and 0, micro-slip 3 + chi)")
@@ -73,7 +78,7 @@ def card_json(card: CardReport, *, source: str = "", input_sha256: str = "") -> 
               + [{"source": "model_at_runs", **p.as_json(), "run": r.run}
                  for p, r in zip(card.model_at_runs.points, card.runs.points)]
               + [{"source": "model", **p.as_json()} for p in card.model.points])
-    return {"source": source, "input_sha256": input_sha256, "model": card.model_name,
+    out = {"source": source, "input_sha256": input_sha256, "model": card.model_name,
             "model_adopted": not card.warning, "warning": card.warning or None,
             "runs_inertias": card.runs_inertias,
             "units": "SI: rad, rad/s, N m/rad, N m s/rad, J per cycle; damping ratio dimensionless",
@@ -93,6 +98,25 @@ def card_json(card: CardReport, *, source: str = "", input_sha256: str = "") -> 
             "masing": card.masing.as_json(),
             "runs_card": card.runs.as_json(), "model_card": card.model.as_json(),
             "model_at_runs_card": card.model_at_runs.as_json()}
+    if card.place:
+        out = {"place": card.place, "mode": card.mode, **out}
+    if card.units[0] == "m":  # a slide's: the amplitude in m, the stiffness in N/m, the damping in N s/m
+        out = _renamed(out, {"amplitude_rad": "amplitude_m", "amplitude_rad_std": "amplitude_m_std",
+                             "secant_stiffness_Nm_per_rad": "secant_stiffness_N_per_m",
+                             "secant_stiffness_Nm_per_rad_std": "secant_stiffness_N_per_m_std",
+                             "equivalent_damping_Nms_per_rad": "equivalent_damping_Ns_per_m",
+                             "inertia_kgm2": "mass_kg"})
+        out["units"] = "SI: m, rad/s, N/m, N s/m, J per cycle, kg; damping ratio dimensionless"
+    return out
+
+
+def _renamed(obj, names: dict):
+    """``obj`` with its keys renamed at every depth."""
+    if isinstance(obj, dict):
+        return {names.get(k, k): _renamed(v, names) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_renamed(v, names) for v in obj]
+    return obj
 
 
 def card_png(card: CardReport, title: str = "joint card") -> bytes:
@@ -109,9 +133,10 @@ def card_png(card: CardReport, title: str = "joint card") -> bytes:
     m, r = card.model.points, card.runs.points
     am = np.array([p.amplitude_rad for p in m])
     ar = np.array([p.amplitude_rad for p in r])
+    a_unit, k_unit = card.units
     panels = (("natural_frequency_rad_s", "natural frequency [rad/s]"), ("damping_ratio", "damping ratio [-]"),
               ("dissipation_J_per_cycle", "dissipation per cycle [J]"),
-              ("secant_stiffness_Nm_per_rad", "secant stiffness [N m/rad]"))
+              ("secant_stiffness_Nm_per_rad", f"secant stiffness [{k_unit}]"))
     for ax, (key, label) in zip(axes.flat, panels):
         y = np.array([getattr(p, key) for p in m])
         s = np.array([getattr(p, key + "_std") for p in m])
@@ -124,7 +149,8 @@ def card_png(card: CardReport, title: str = "joint card") -> bytes:
                     label="runs (+-2 s.e.), at their drive frequency")
         ym = np.array([getattr(p, key) for p in card.model_at_runs.points])
         ax.plot(ar, ym, "s", mfc="none", color="tab:blue", ms=7, label="model at the runs' frequencies")
-        ax.set(xlabel="relative amplitude A [rad]", ylabel=label, xscale="log")
+        ax.set(xlabel=f"{'amplitude' if card.place.startswith('body') else 'relative amplitude'} A [{a_unit}]",
+               ylabel=label, xscale="log")
         _amplitude_ticks(ax, np.concatenate([am, ar]))
         if key == "dissipation_J_per_cycle":
             ax.set_yscale("log")

@@ -32,11 +32,12 @@ def sig_or(value: float, words: str, digits: int = 3) -> str:
 def with_se(value: float, se: float) -> str:
     """``value ± se`` with the standard error to two significant digits and the value to the same
     decimal place (the digits beyond carry no information). A common power of ten is factored
-    out when the value is below 1e-3 or at least 1e5. Without a finite positive standard error
-    the value is printed to 6 significant digits."""
+    out when the value is below 1e-3 or at least 1e5. Without a finite positive standard error, or
+    with one at round-off level (below 1e-9 of the value: a model's exact figure), the value is
+    printed to 6 significant digits."""
     if not math.isfinite(value):
         return sig(value)
-    if not (math.isfinite(se) and se > 0):
+    if not (math.isfinite(se) and se > 1e-9 * abs(value)):
         return f"{value:.6g}"
     scale = abs(value) if value != 0 else se
     power = math.floor(math.log10(scale)) if (scale < 1e-3 or scale >= 1e5) else 0

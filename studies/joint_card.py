@@ -22,7 +22,7 @@ from jointrig.vocab.records import SteadyStateRecord
 from .validate import DiagnosisReport
 from jointrig.vocab import params
 
-__all__ = ["CardReport", "card_of_diagnosis", "identified_law", "inertia_covariance", "runs_fit", "card_warning"]
+__all__ = ["CardReport", "card_of_diagnosis", "cards_of_train", "identified_law", "inertia_covariance", "runs_fit", "card_warning"]
 
 #: amplitudes of the model's curves, spaced geometrically over the runs' range
 N_CURVE_POINTS = 25
@@ -42,6 +42,12 @@ class CardReport:
     warning: str = ""
     #: which fit's inertias the runs' rows use (the best-supported one: :func:`runs_fit`)
     runs_inertias: str = ""
+    #: where in a train (``"joint 2"``, ``"body 1 to ground"``); empty for two flywheels' one joint
+    place: str = ""
+    #: what the mode's inertia is, in words
+    mode: str = "mode of the relative angle"
+    #: units of the amplitude and the secant stiffness: a hinge's, or a slide's ("m", "N/m")
+    units: tuple = ("rad", "N m/rad")
 
 
 def runs_fit(report: DiagnosisReport):
@@ -127,3 +133,42 @@ def card_of_diagnosis(report: DiagnosisReport, records: Sequence[SteadyStateReco
                        omegas_rad_s=[p.omega_rad_s for p in runs.points])
     masing = masing_check(records, J1, J2, run_ids=run_ids)
     return CardReport(model, runs, name, at_runs, masing, card_warning(report), runs_inertias)
+
+
+def cards_of_train(report, records) -> tuple[CardReport, ...]:
+    """The card of every place of a train's diagnosis (``studies.chain_validate.TrainReport``;
+    ``records`` its runs, in order): every joint's, or a single body's at its guide. The model
+    is the adopted one (the nominal one when nothing is adopted, with the warning); the runs'
+    rows come from the equations of motion with its inertias and drags
+    (:func:`identify.chain_diagnose.train_joint_runs`). The model's curves carry no standard
+    errors here: a train's fit keeps no covariance."""
+    from jointrig.identify.card import MASING_HARMONICS, joint_masing_check, joint_runs_card
+    from jointrig.identify.chain_diagnose import place_law, prepare_chain_runs, train_joint_runs
+
+    d = report.diagnosis
+    fit = report.adopted_fit
+    band = d.n_harmonics
+    places = train_joint_runs(prepare_chain_runs(records, band=band), report.run_ids, fit, band)
+    masing_runs = train_joint_runs(prepare_chain_runs(records, band=min(band, MASING_HARMONICS)), report.run_ids, fit,
+                                   min(band, MASING_HARMONICS))
+    name = (f"extended: {' + '.join(s.label for s in d.steps)}" if report.adopted and d.steps
+            else f"nominal (verdict {report.verdict.verdict})")
+    warning = "" if report.verdict.verdict != "unexplained" else (
+        f"this card describes the nominal model, which the diagnosis did NOT adopt: the verdict is unexplained "
+        f"({report.verdict.reason}). Compare the rows from the runs with the model's before using it.")
+    N = d.nominal.spec.n_flywheels
+    out = []
+    for k, (runs, mruns) in enumerate(zip(places, masing_runs)):
+        law, je = place_law(fit, k)
+        card = joint_runs_card(runs, je)
+        amps = [q.amplitude_rad for q in card.points]
+        grid = np.geomspace(min(amps), max(amps), N_CURVE_POINTS) if max(amps) > min(amps) else np.array(amps[:1])
+        model = law_card(law, je, grid)
+        at_runs = law_card(law, je, amps, omegas_rad_s=[q.omega_rad_s for q in card.points])
+        place = "body 1 to ground" if N == 1 else f"joint {k + 1}"
+        mode = ("mode of the body on its guide, its mass" if N == 1 else
+                f"mode of bodies {k + 1} and {k + 2} on joint {k + 1} alone, J{k + 1} J{k + 2} / (J{k + 1} + J{k + 2})")
+        units = ("m", "N/m") if report.kind == "slide" else ("rad", "N m/rad")
+        out.append(CardReport(model, card, name, at_runs, joint_masing_check(mruns), warning,
+                              "the adopted model's", place, mode, units))
+    return tuple(out)

@@ -10,7 +10,9 @@ frequency and along the model's backbone. It prints the card; ``--json`` holds a
 ``amplitudes`` (``amplitude_rad``, ``natural_frequency_rad_s``, ``damping_ratio``,
 ``dissipation_J_per_cycle``, ``secant_stiffness_Nm_per_rad``, each with ``_std``, and
 ``source``: runs, model_at_runs, model) and the dissipation slopes with their standard errors.
-Exit status as ``jointrig diagnose``.
+A drive train's file (or a single axis's) gets one card per joint (a single body: at its
+guide): ``--json`` holds them as ``cards``, each with its ``place``, and ``--png OUT.png``
+writes ``OUT-joint<j>.png`` per joint. Exit status as ``jointrig diagnose``.
 """
 
 from __future__ import annotations

@@ -268,10 +268,6 @@ def _train(args: argparse.Namespace, loaded, model, writer) -> int:
         if model is not None and (model.n_flywheels, model.kind) != (N, loaded.kind):
             raise BadArgument(f"--model {args.model} has {model.n_flywheels} bodies on {model.kind}s, {args.data} "
                               f"{N} on {loaded.kind}s")
-        for option in ("card", "card_png", "card_only"):
-            if getattr(args, option):
-                raise BadArgument(f"--{option.replace('_', '-')}: not yet made for a drive train's diagnosis (the "
-                                  f"text, --json, --rrd, --report and --mjcf are); leave it out")
         if args.torque_on != "flywheel1":
             raise BadArgument("--torque-on: a drive train's file names the driven bodies by its torque<i> columns; "
                               "leave it out")
@@ -309,7 +305,8 @@ def _train(args: argparse.Namespace, loaded, model, writer) -> int:
     except (SimulationError, ValueError, np.linalg.LinAlgError) as err:
         return _said(err, 1)
     text = format_train_report(report, source=str(args.data), notes=loaded.notes)
-    print(text)
+    if not args.card_only:
+        print(text)
     if args.report:
         from jointrig.present.train_report import write_train_html
 
@@ -327,6 +324,8 @@ def _train(args: argparse.Namespace, loaded, model, writer) -> int:
             log_chain_diagnosis(rec, report.diagnosis, report.validation, report.diagnosis.nominal.spec.n_flywheels,
                                 report.misfit)
         log.info("wrote %s", args.rrd)
+    if args.card or args.card_png or args.card_only:
+        write_train_cards(args, loaded, report)
     if args.mjcf:
         from jointrig.identify.chain_diagnose import plant_and_inertias
         from jointrig import __version__
@@ -344,6 +343,31 @@ def _train(args: argparse.Namespace, loaded, model, writer) -> int:
         log.info("wrote %s", args.mjcf)
     log.info("done in %.1f s", time.perf_counter() - t0)
     return 0
+
+
+def write_train_cards(args, loaded, report) -> None:
+    """The card of every place of a train (every joint; a single body: its guide), printed, as
+    one JSON (``cards``: one two-flywheel card each, with its ``place``) and one PNG per place
+    (``OUT-joint<j>.png``; a single body's: ``OUT.png``)."""
+    from jointrig.files import write_atomic, write_json_atomic
+    from jointrig.present.card import card_json, card_png, format_card
+    from jointrig.studies.joint_card import cards_of_train
+
+    log.info("computing the joint cards")
+    cards = cards_of_train(report, loaded.records)
+    for c in cards:
+        print(format_card(c))
+    if args.card:
+        write_json_atomic(args.card, {"source": str(args.data), "input_sha256": loaded.sha256,
+                                      "cards": [card_json(c) for c in cards]})
+        log.info("wrote %s", args.card)
+    if args.card_png:
+        for c in cards:
+            path = args.card_png if len(cards) == 1 else args.card_png.with_name(
+                f"{args.card_png.stem}-{c.place.replace(' ', '')}{args.card_png.suffix}")
+            png = card_png(c, title=f"joint card of {args.data.name}, {c.place}: {c.model_name}")
+            write_atomic(path, lambda tmp, png=png: tmp.write_bytes(png))
+            log.info("wrote %s", path)
 
 
 def write_card(args, loaded, card) -> None:
