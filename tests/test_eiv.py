@@ -58,6 +58,26 @@ def test_records_without_noise_information_are_refused(default_sweep, rig):
                     torque_share=rig.torque_share)
 
 
+def test_a_record_with_one_channel_noise_free_is_refused(default_sweep, rig):
+    # The ML weights need both channels' noise: an exactly periodic torque (a generator's
+    # setpoint logged instead of a measured torque) beside noisy angles is refused too, and so
+    # are noisy torques beside identical angles.
+    rng = np.random.default_rng(5)
+    base = [repeat_periods(r, 4) for r in default_sweep[:2]]
+    noisy_phi = [dataclasses.replace(r, phi1_rad=r.phi_rad + rng.normal(0, 1e-4, r.n_samples), phi2_rad=None,
+                                     rate1_rad_s=None, rate2_rad_s=None) for r in base]
+    noisy_torque = [dataclasses.replace(r, torque_Nm=r.torque_Nm + rng.normal(0, 1.0, r.n_samples)) for r in base]
+    for recs in (noisy_phi, noisy_torque):
+        with pytest.raises(RecordError, match="identical"):
+            ml_identify(recs, rig.law.terms, n_harmonics=9, torque_share=rig.torque_share)
+
+
+def test_a_noise_free_average_has_no_noise(default_sweep):
+    avg = average_periods(default_sweep[0], noise_free=True)
+    assert (avg.var_phi_rad2, avg.var_torque_Nm2) == (0.0, 0.0)
+    np.testing.assert_array_equal(avg.phi_rad, default_sweep[0].phi_rad.reshape(default_sweep[0].n_periods, -1).mean(0))
+
+
 def test_crlb_scales_with_the_noise(default_sweep, rig):
     theta = [rig.Je_kgm2, *rig.law.values]
     kw = dict(n_periods=8, n_harmonics=9, torque_share=rig.torque_share)
@@ -157,6 +177,31 @@ def test_crlb_equals_the_closed_form_of_a_linear_joint():
     # covariances are ~0 here, at 1e-17 of the scale)
     scale = np.sqrt(np.outer(np.diag(closed), np.diag(closed)))
     assert np.all(np.abs(bound - closed) <= 1e-9 * scale), (bound, closed)
+    np.testing.assert_allclose(np.diag(bound), np.diag(closed), rtol=1e-9)
+
+
+def test_crlb_of_a_cubic_joint_takes_the_true_cube_as_its_column():
+    # The bound evaluates the law's columns on the true (noise-free) motion: for gamma phi^3 on
+    # phi = Re(X e^(i w t)) the cube's harmonics are (3/4)|X|^2 X at the fundamental and X^3 / 4 at
+    # the third, not a column debiased for angle noise the true motion does not have. Torque
+    # noise only, so the bound is the Gauss-Markov covariance of those columns (as above).
+    from jointrig.vocab.records import SteadyStateRecord
+
+    Je, c, k, gamma, s, M0, N, P, sigma2 = 1.0, 100.0, 2000.0, 5e4, 0.5, 400.0, 64, 8, 4.0
+    rows, recs = [], []
+    for w in (20.0, 45.0, 70.0):
+        X = s * M0 / (k - Je * w * w + 1j * c * w)
+        t = np.arange(N) * (2 * math.pi / w / N)
+        recs.append(SteadyStateRecord(w, t, M0 * np.cos(w * t), (X * np.exp(1j * w * t)).real, None, n_periods=1))
+        first = np.array([-(w * w) * X, 1j * w * X, X, 0.75 * abs(X) ** 2 * X])
+        third = np.array([0, 0, 0, X**3 / 4])
+        rows += [first.real, first.imag, third.real, third.imag]
+    A = np.array(rows)
+    v = s * s * 2 * sigma2 / N
+    closed = np.linalg.inv(P * A.T @ A / v)
+    bound = crlb(recs, (Viscous(), Power(1), Power(3)), [Je, c, k, gamma], var_phi_rad2=[0.0] * 3,
+                 var_torque_Nm2=[sigma2] * 3, n_periods=P, n_harmonics=5, torque_share=s)
+    # round-off: 1e-9 of each variance (the cube's harmonics are exact on 64 samples)
     np.testing.assert_allclose(np.diag(bound), np.diag(closed), rtol=1e-9)
 
 
