@@ -589,12 +589,14 @@ def _card_section(card, png_bytes: bytes) -> list[str]:
 
     png = base64.b64encode(png_bytes).decode("ascii")
     warning = [f"<p class='warning'><b>Warning:</b> {html.escape(card.warning)}</p>"] if card.warning else []
-    return [f"<h2>Joint card ({html.escape(card.model_name)})</h2>"] + warning + [
-            "<p class='note'>The joint's mode (relative angle, inertia Je = "
-            f"{sig(card.model.inertia_kgm2, 4)} kg m²): each run beside the model at the same amplitude and drive "
+    a_unit, k_unit = card.units
+    place = f" of {card.place}" if card.place else ""
+    return [f"<h2>Joint card{html.escape(place)} ({html.escape(card.model_name)})</h2>"] + warning + [
+            f"<p class='note'>The {html.escape(card.mode)} (inertia Je = {sig(card.model.inertia_kgm2, 4)} "
+            f"{'kg' if a_unit == 'm' else 'kg m²'}): each run beside the model at the same amplitude and drive "
             f"frequency (the runs' rows measured with {html.escape(card.runs_inertias)} inertias); damping ratio = "
             "E / (2 pi k A²), half the loss factor.</p>",
-            _table(["run", "A [rad]", "omega [rad/s]", "k_sec [N m/rad]", "omega_n [rad/s]", "damping ratio",
+            _table(["run", f"A [{a_unit}]", "omega [rad/s]", f"k_sec [{k_unit}]", "omega_n [rad/s]", "damping ratio",
                     "E per cycle [J]"], rows),
             f"<p>Dissipation slope d lnE / d lnA: runs {html.escape(slope(card.runs))}; model at the runs "
             f"{html.escape(slope(card.model_at_runs))}; backbone {html.escape(slope(card.model))} (viscous 2, dry "

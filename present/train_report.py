@@ -234,7 +234,7 @@ def train_figure(report: TrainReport) -> str:
 
 
 def write_train_html(path, report: TrainReport, text: str, *, title: str, source: str = "",
-                     notes: Sequence[str] = (), input_sha256: str = ""):
+                     notes: Sequence[str] = (), input_sha256: str = "", cards: Sequence = ()):
     """A self-contained HTML page of a train's diagnosis, written atomically: the verdict, your
     model as written, the causes found, the held-out runs as a figure, the parameters; the
     candidates, the notes on the data and the console text folded below."""
@@ -243,7 +243,7 @@ def write_train_html(path, report: TrainReport, text: str, *, title: str, source
 
     from jointrig.files import write_atomic
 
-    from .diagnosis_report import _row, _table, page_top, surface_figure, svg_figure_html
+    from .diagnosis_report import _card_section, _row, _table, page_top, surface_figure, svg_figure_html
 
     d = report.diagnosis
     nm = _namer(report)
@@ -282,6 +282,10 @@ def write_train_html(path, report: TrainReport, text: str, *, title: str, source
     parts.append(f"<h2>{'Extended' if report.adopted else 'Nominal'} model</h2>")
     parts.append(_table(["parameter", "value ± standard error", "unit"], [
         _row([nm(n), (with_se(x, se), "num"), unit_of(nm(n))]) for n, (x, se) in _values(fit).items()]))
+    for card, png in cards:  # (card, its PNG) per place, with --card: folded, one per joint
+        section = _card_section(card, png)
+        parts.append(f"<details class='section'><summary>Joint card of {html.escape(card.place)}</summary>"
+                     + "".join(section[1:]) + "</details>")
     parts.append("<details class='section'><summary>Every candidate, scored on the nominal model</summary>")
     parts.append(_table(["candidate", "BIC score", "p", "size", "note"], [
         _row([s.label, (f"{s.score:.1f}", "num"), (f"{s.p_value:.2g}", "num"),

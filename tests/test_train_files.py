@@ -406,7 +406,7 @@ def test_every_joint_of_a_measured_train_has_its_card(tmp_path, capsys, worn_daq
     # inside the play, and the stiffness rising towards the coupling's 25000 N m/rad beyond it.
     out, png = tmp_path / "cards.json", tmp_path / "card.png"
     code = cli(["diagnose", str(worn_daq), "--columns", "time=t", "-q", "--card-only", "--card", str(out),
-                "--card-png", str(png)])
+                "--card-png", str(png), "--report", str(tmp_path / "d.html")])
     text = capsys.readouterr().out
     assert code == 0, text
     cards = json.loads(out.read_text())["cards"]
@@ -424,3 +424,5 @@ def test_every_joint_of_a_measured_train_has_its_card(tmp_path, capsys, worn_daq
     assert inside and all(abs(k) < 0.1 * 25000 for k in inside), inside
     assert beyond == sorted(beyond) and beyond[0] < 0.5 * 25000 < 0.7 * 25000 < beyond[-1], beyond
     assert all((tmp_path / f"card-joint{j}.png").stat().st_size > 10000 for j in (1, 2, 3))
+    page = (tmp_path / "d.html").read_text()
+    assert all(f"Joint card of joint {j}</summary>" in page for j in (1, 2, 3)) and page.count("image/png") == 3

@@ -307,11 +307,14 @@ def _train(args: argparse.Namespace, loaded, model, writer) -> int:
     text = format_train_report(report, source=str(args.data), notes=loaded.notes)
     if not args.card_only:
         print(text)
+    cards = ()
+    if args.card or args.card_png or args.card_only:
+        cards = write_train_cards(args, loaded, report)
     if args.report:
         from jointrig.present.train_report import write_train_html
 
         write_train_html(args.report, report, text, title=f"jointrig diagnosis of {args.data.name}",
-                         source=str(args.data), notes=loaded.notes, input_sha256=loaded.sha256)
+                         source=str(args.data), notes=loaded.notes, input_sha256=loaded.sha256, cards=cards)
         log.info("wrote %s", args.report)
     if args.json:
         write_json_atomic(args.json, train_report_json(report, source=str(args.data), notes=loaded.notes,
@@ -324,8 +327,6 @@ def _train(args: argparse.Namespace, loaded, model, writer) -> int:
             log_chain_diagnosis(rec, report.diagnosis, report.validation, report.diagnosis.nominal.spec.n_flywheels,
                                 report.misfit)
         log.info("wrote %s", args.rrd)
-    if args.card or args.card_png or args.card_only:
-        write_train_cards(args, loaded, report)
     if args.mjcf:
         from jointrig.identify.chain_diagnose import plant_and_inertias
         from jointrig import __version__
@@ -345,10 +346,11 @@ def _train(args: argparse.Namespace, loaded, model, writer) -> int:
     return 0
 
 
-def write_train_cards(args, loaded, report) -> None:
+def write_train_cards(args, loaded, report) -> tuple:
     """The card of every place of a train (every joint; a single body: its guide), printed, as
     one JSON (``cards``: one two-flywheel card each, with its ``place``) and one PNG per place
-    (``OUT-joint<j>.png``; a single body's: ``OUT.png``)."""
+    (``OUT-joint<j>.png``; a single body's: ``OUT.png``). Returns ``(card, its PNG)`` per place
+    (the PNG drawn once, for the report too)."""
     from jointrig.files import write_atomic, write_json_atomic
     from jointrig.present.card import card_json, card_png, format_card
     from jointrig.studies.joint_card import cards_of_train
@@ -361,13 +363,15 @@ def write_train_cards(args, loaded, report) -> None:
         write_json_atomic(args.card, {"source": str(args.data), "input_sha256": loaded.sha256,
                                       "cards": [card_json(c) for c in cards]})
         log.info("wrote %s", args.card)
+    pngs = [card_png(c, title=f"joint card of {args.data.name}, {c.place}: {c.model_name}")
+            if args.card_png or args.report else b"" for c in cards]
     if args.card_png:
-        for c in cards:
+        for c, png in zip(cards, pngs):
             path = args.card_png if len(cards) == 1 else args.card_png.with_name(
                 f"{args.card_png.stem}-{c.place.replace(' ', '')}{args.card_png.suffix}")
-            png = card_png(c, title=f"joint card of {args.data.name}, {c.place}: {c.model_name}")
             write_atomic(path, lambda tmp, png=png: tmp.write_bytes(png))
             log.info("wrote %s", path)
+    return tuple(zip(cards, pngs))
 
 
 def write_card(args, loaded, card) -> None:
