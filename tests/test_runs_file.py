@@ -771,3 +771,20 @@ def test_the_one_noise_estimator_agrees_with_the_sample_variance_and_the_noise_l
         assert raw_noise_std(var, P, N) == pytest.approx(sigma, rel=0.1)
     with pytest.raises(ValueError, match="at least 2"):
         period_spectra(np.zeros(64), 1)
+
+
+def test_another_channels_fit_at_the_drives_frequency_has_its_own_noise_variance():
+    # The angle's reference for the repeat check (fit_at): its residual variance per sample at
+    # the torque's frequency is the angle's own noise, sigma^2 within 10% (2000 - 7 degrees of
+    # freedom: the estimate's relative sd is sqrt(2 / 1993) = 3%; 3 sd), not the torque's.
+    from jointrig.identify.periods import estimate_fundamental, fit_at, repeat_statistic
+
+    n, dt, w, s = 2000, 1e-3, 40.0, 1e-4
+    t = np.arange(n) * dt
+    rng = np.random.default_rng(1)
+    best = estimate_fundamental(t, 50 * np.cos(w * t) + rng.normal(0, 0.5, n), harmonics=3)
+    phi = 0.01 * np.cos(w * t - 0.7) + rng.normal(0, s, n)
+    ref = fit_at(t, phi, best)
+    assert ref.noise_var == pytest.approx(s**2, rel=0.1) and ref.omega_rad_s == best.omega_rad_s
+    # at the best frequency itself the angle repeats: its statistic is nil
+    assert repeat_statistic(t, phi, best.omega_rad_s, ref) == pytest.approx(0.0, abs=1e-9)
