@@ -788,3 +788,18 @@ def test_another_channels_fit_at_the_drives_frequency_has_its_own_noise_variance
     assert ref.noise_var == pytest.approx(s**2, rel=0.1) and ref.omega_rad_s == best.omega_rad_s
     # at the best frequency itself the angle repeats: its statistic is nil
     assert repeat_statistic(t, phi, best.omega_rad_s, ref) == pytest.approx(0.0, abs=1e-9)
+
+
+def test_a_matlab_files_settings_beside_the_channels_are_no_columns(tmp_path):
+    # A DAQ's .mat holds its settings beside the channels (a sampling rate, a gain): among the
+    # scalars only omega is read, and it is the record's (127.3 samples per period: not a whole
+    # number, so a frequency estimated from the torque would differ from it in the last digits).
+    import scipy.io
+
+    dt = 2 * math.pi / W / 127.3
+    t = np.arange(int(4.5 * 127.3)) * dt
+    sig = _signals(t)
+    sig["torque"] = sig["torque"] + np.random.default_rng(0).normal(0.0, 0.01 * np.std(sig["torque"]), t.size)
+    scipy.io.savemat(tmp_path / "d.mat", {**sig, "omega": W, "fs_Hz": 1.0 / dt, "gain": 2.0})
+    loaded = read_runs(tmp_path / "d.mat")
+    assert loaded.run_ids == ("0",) and loaded.records[0].omega_rad_s == W
