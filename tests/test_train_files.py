@@ -51,7 +51,8 @@ def test_the_worn_coupling_of_a_measured_pump_train_is_named_with_its_free_play(
     # held-out error within 100x its floor: the verdict's own bounds). The free play and the
     # coupling's zero offset (the encoders at rest: 0.4 mrad, inside the play) to 3 standard
     # errors; the coupling's stiffness, which the free play would bend, to 3 standard errors too.
-    code, text, j = _diagnose(tmp_path, capsys, worn_daq)
+    code, text, j = _diagnose(tmp_path, capsys, worn_daq, "--card", tmp_path / "cards.json", "--card-png",
+                              tmp_path / "card.png")
     assert code == 0, text
     assert j["verdict"]["verdict"] == "explained", j["verdict"]
     assert schema_problems(j) == []  # one document for every bench: two flywheels' keys, in their order
@@ -70,6 +71,7 @@ def test_the_worn_coupling_of_a_measured_pump_train_is_named_with_its_free_play(
     page = (tmp_path / "d.html").read_text()
     assert "<b>EXPLAINED</b>: Your model misses backlash at joint 2" in page and "With them, simulated in the rig" in page
     assert page.count("data:image/svg+xml;base64,") == 1 and "What the data show" in page
+    _check_cards(tmp_path, text, page)
 
 
 @pytest.mark.slow
@@ -395,8 +397,7 @@ def test_a_single_axis_misfit_is_described_at_its_guide_in_newtons_and_metres(tm
     assert any("quasi-static ramp of the position" in s for s in j["next_measurements"]), j["next_measurements"]
 
 
-@pytest.mark.slow
-def test_every_joint_of_a_measured_train_has_its_card(tmp_path, capsys, worn_daq):
+def _check_cards(tmp_path, text, page):
     # The joint card of each joint of the worn pump train (DAQ file): every run's secant
     # stiffness at every joint, from the equations of motion of the bodies before it, beside the
     # adopted model's at that run. They agree within 4 standard errors of the run's (36
@@ -404,14 +405,9 @@ def test_every_joint_of_a_measured_train_has_its_card(tmp_path, capsys, worn_daq
     # the model's (its free play's 0.3% error moves the stiffness near the play by about 1%;
     # measured: 0.7% at twice the play). The worn coupling's card shows its free play: nothing
     # inside the play, and the stiffness rising towards the coupling's 25000 N m/rad beyond it.
-    out, png = tmp_path / "cards.json", tmp_path / "card.png"
-    code = cli(["diagnose", str(worn_daq), "--columns", "time=t", "-q", "--card-only", "--card", str(out),
-                "--card-png", str(png), "--report", str(tmp_path / "d.html")])
-    text = capsys.readouterr().out
-    assert code == 0, text
-    cards = json.loads(out.read_text())["cards"]
+    cards = json.loads((tmp_path / "cards.json").read_text())["cards"]
     assert [c["place"] for c in cards] == ["joint 1", "joint 2", "joint 3"]
-    assert text.count("Joint card of joint") == 3 and "VERDICT" not in text  # --card-only
+    assert text.count("Joint card of joint") == 3
     for c in cards:
         model = {p["run"]: p for p in c["amplitudes"] if p["source"] == "model_at_runs"}
         for p in (p for p in c["amplitudes"] if p["source"] == "runs"):
@@ -424,5 +420,4 @@ def test_every_joint_of_a_measured_train_has_its_card(tmp_path, capsys, worn_daq
     assert inside and all(abs(k) < 0.1 * 25000 for k in inside), inside
     assert beyond == sorted(beyond) and beyond[0] < 0.5 * 25000 < 0.7 * 25000 < beyond[-1], beyond
     assert all((tmp_path / f"card-joint{j}.png").stat().st_size > 10000 for j in (1, 2, 3))
-    page = (tmp_path / "d.html").read_text()
     assert all(f"Joint card of joint {j}</summary>" in page for j in (1, 2, 3)) and page.count("image/png") == 3
