@@ -713,6 +713,36 @@ def _resolved(run: ChainRun, pick) -> np.ndarray:
     return np.fft.irfft(np.where(keep, mean, 0) * FINE_SAMPLES, n=FINE_SAMPLES)
 
 
+def carried_torques(xs: Sequence[np.ndarray], drives: Sequence, omega_rad_s: float, plant: ChainPlant,
+                    inertias_kgm2: Sequence[float], band: int) -> list:
+    """Per place, harmonics 0..``band`` of the torque it carries over one period, from the
+    equations of motion of the bodies before it (pure): at joint j, ``sum_(i <= j) (T_i + J_i (n
+    w)^2 X_i - i n w b_i X_i - G_i)``; a single body's place (what holds it to the frame): ``T + m
+    (n w)^2 X``, its drag and law to ground being the place's law. ``xs``: one period of every
+    body's position; ``drives``: its drive over that period, or None."""
+    from .balance import spectral_rate
+    from .harmonics import fourier_coefficients
+
+    N = len(inertias_kgm2)
+    nw = np.arange(band + 1) * omega_rad_s
+    out, net = [], np.zeros(band + 1, complex)
+    for i in range(N):
+        X = fourier_coefficients(xs[i], 1, band)
+        if drives[i] is not None:
+            net = net + fourier_coefficients(drives[i], 1, band)
+        net = net + inertias_kgm2[i] * nw**2 * X
+        if N == 1:
+            return [net]
+        net = net - 1j * nw * plant.bearings_Nms_per_rad[i] * X
+        g = plant.grounds[i]
+        if g is not None:
+            net = net - fourier_coefficients(np.asarray(g.torque(xs[i], spectral_rate(xs[i], omega_rad_s, 1)), float),
+                                             1, band)
+        if i < N - 1:
+            out.append(net.copy())
+    return out
+
+
 def _same_mean(model: np.ndarray, measured: np.ndarray) -> np.ndarray:
     """The model's torque with the measured one's mean: the balance fits harmonics 1 and up, so a
     constant torque (a law read at encoders' arbitrary zero) is no misfit."""
@@ -765,13 +795,13 @@ class TrainMisfit:
 
 def train_misfit(runs: Sequence[ChainRun], run_ids: Sequence[str], amplitudes: Sequence[float],
                  fit: ChainFit, band: int, kind: str = "hinge") -> TrainMisfit:
-    """The final model's residual torque at every joint (a single body: at its law to ground)
-    along each run's measured motion (pure): the torque a joint carries, from the equations of
-    motion of the bodies before it (drives less inertia, drag and laws to ground, with the fit's
-    values), minus the joint's law at the measured twist; then the place where it is largest,
+    """``fit``'s residual torque at every joint (a single body: at its law to ground) along each
+    run's measured motion, its resolved harmonics (pure): the torque a joint carries
+    (:func:`carried_torques`, with the fit's values) minus the joint's law at the measured twist; then the place where it is largest,
     described by :func:`identify.misfit.misfit_character` (harmonics 1..``band``) and its
     restoring-force surface; ``kind``: the bodies' ("hinge" or "slide"), for the words and units."""
     from .balance import spectral_rate
+    from .harmonics import synthesize
     from .misfit import ResidualRun, Words, misfit_character, next_measurements, residual_samples, residual_surface
 
     plant, J = plant_and_inertias(fit)
@@ -780,28 +810,19 @@ def train_misfit(runs: Sequence[ChainRun], run_ids: Sequence[str], amplitudes: S
     for run, rid, amp in zip(runs, run_ids, amplitudes):
         w = run.average.omega_rad_s
         x = [_resolved(run, lambda r, i=i: r.angles_rad[i]) for i in range(N)]
+        drives = [_resolved(run, lambda r, i=i: r.torques_Nm[i]) if run.average.torques_Nm[i] is not None else None
+                  for i in range(N)]
         v = [spectral_rate(xi, w, 1) for xi in x]
-        a = [spectral_rate(vi, w, 1) for vi in v]
-        net = np.zeros(FINE_SAMPLES)  # the torque the bodies so far pass on to the next joint
-        for i in range(N):
-            drive = run.average.torques_Nm[i]
-            if drive is not None:
-                net = net + _resolved(run, lambda r, i=i: r.torques_Nm[i])
-            net = net - J[i] * a[i]
-            ground = plant.grounds[i]
+        carried = [synthesize(c, FINE_SAMPLES) for c in carried_torques(x, drives, w, plant, J, band)]
+        for k, measured in enumerate(carried):
             if N == 1:  # a single body: what holds it to the frame (drag and law to ground) is the place
-                model = plant.bearings_Nms_per_rad[0] * v[0]
-                if ground is not None:
-                    model = model + np.asarray(ground.torque(x[0], v[0]), float)
-                per_place[0].append(ResidualRun(rid, w, amp, x[0], net, _same_mean(model, net)))
-                break
-            net = net - plant.bearings_Nms_per_rad[i] * v[i]
-            if ground is not None:
-                net = net - np.asarray(ground.torque(x[i], v[i]), float)
-            if i < N - 1:
-                twist = x[i] - x[i + 1] - fit.spec.offsets_rad[i]
-                model = np.asarray(plant.laws[i].torque(twist, v[i] - v[i + 1]), float)
-                per_place[i].append(ResidualRun(rid, w, amp, twist, net.copy(), _same_mean(model, net)))
+                motion, model = x[0], plant.bearings_Nms_per_rad[0] * v[0]
+                if plant.grounds[0] is not None:
+                    model = model + np.asarray(plant.grounds[0].torque(x[0], v[0]), float)
+            else:
+                motion = x[k] - x[k + 1] - fit.spec.offsets_rad[k]
+                model = np.asarray(plant.laws[k].torque(motion, v[k] - v[k + 1]), float)
+            per_place[k].append(ResidualRun(rid, w, amp, motion, measured, _same_mean(model, measured)))
     names = ["body 1 to ground"] if N == 1 else [f"joint {j}" for j in range(1, N)]
     slide = kind == "slide"
     if N == 1:
@@ -838,41 +859,23 @@ def place_law(fit: ChainFit, place: int) -> tuple[JointLaw, float]:
 def train_joint_runs(runs: Sequence[ChainRun], run_ids: Sequence[str], fit: ChainFit, band: int) -> list:
     """Per place (every joint; a single body: what holds it to the frame), each run as its card
     reads it (:class:`identify.card.JointRun`): per period, the twist's harmonics 0..``band`` (a
-    single body: its position's) and the torque the place carries from the equations of motion of
-    the bodies before it, ``sum_i (T_i + J_i (n w)^2 X_i - i n w b_i X_i - G_i)`` (a single body:
-    ``T + m (n w)^2 X``, its drag and law to ground being the place's law) with the fit's values (pure)."""
-    from .balance import spectral_rate
+    single body: its position's) and the torque the place carries (:func:`carried_torques`, with
+    the fit's values) (pure)."""
     from .card import JointRun
     from .harmonics import fourier_coefficients
 
     plant, J = plant_and_inertias(fit)
     N = len(J)
     places: list[list] = [[] for _ in range(max(N - 1, 1))]
-    harm = np.arange(band + 1)
     for run, rid in zip(runs, run_ids):
         w = run.average.omega_rad_s
-        nw = harm * w
         phi: list[list] = [[] for _ in places]
         torque: list[list] = [[] for _ in places]
         for period in run.periods:
             X = [fourier_coefficients(period.angles_rad[i], 1, band) for i in range(N)]
-            net = np.zeros(band + 1, complex)
-            for i in range(N):
-                if period.torques_Nm[i] is not None:
-                    net = net + fourier_coefficients(period.torques_Nm[i], 1, band)
-                net = net + J[i] * nw**2 * X[i]
-                if N == 1:
-                    phi[0].append(X[0])
-                    torque[0].append(net)
-                    break
-                net = net - 1j * nw * plant.bearings_Nms_per_rad[i] * X[i]
-                g = plant.grounds[i]
-                if g is not None:
-                    x = period.angles_rad[i]
-                    net = net - fourier_coefficients(np.asarray(g.torque(x, spectral_rate(x, w, 1)), float), 1, band)
-                if i < N - 1:
-                    phi[i].append(X[i] - X[i + 1])
-                    torque[i].append(net.copy())
+            for k, c in enumerate(carried_torques(period.angles_rad, period.torques_Nm, w, plant, J, band)):
+                phi[k].append(X[0] if N == 1 else X[k] - X[k + 1])
+                torque[k].append(c)
         for k in range(len(places)):
             places[k].append(JointRun(str(rid), w, np.array(phi[k]), np.array(torque[k])))
     return places
