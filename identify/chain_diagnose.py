@@ -695,20 +695,18 @@ def plant_and_inertias(f: ChainFit) -> tuple[ChainPlant, tuple[float, ...]]:
 # --------------------------------------------------------------------------------------------
 # 5. An unexplained misfit: where in the train, and what it looks like
 
-#: A harmonic of a channel counts as resolved (kept for the residual's torque, whose
-#: second derivative would raise the unresolved ones' noise by (n omega)^2) when its period
-#: average exceeds this many of its standard errors: a pure-noise harmonic passes with
-#: probability about exp(-8) (the two-flywheel diagnosis's threshold too).
-RESOLVED_SIGMA = 4.0
-
-
 def _resolved(run: ChainRun, pick) -> np.ndarray:
-    """A channel's period average on the harmonics that stand out of its period-to-period spread."""
-    mean = np.fft.rfft(pick(run.average)) / FINE_SAMPLES
-    X = np.array([np.fft.rfft(pick(p)) / FINE_SAMPLES for p in run.periods])
+    """A channel's period average on the harmonics that stand out of its period-to-period spread
+    (:data:`identify.periods.RESOLVED_SIGMA`): a residual's torque is read from these alone, as
+    the unresolved ones' noise would be raised (n omega)^2 times by the inertia term."""
+    from .periods import RESOLVED_SIGMA, pooled_period_spectra
+
     P = len(run.periods)
-    se = np.sqrt(np.var(X, axis=0, ddof=1) / P) if P > 1 else np.zeros(mean.size)
-    keep = np.abs(mean) > RESOLVED_SIGMA * se
+    if P > 1:
+        _, mean, var = pooled_period_spectra(np.concatenate([pick(p) for p in run.periods]), P)
+    else:
+        mean, var = np.fft.rfft(pick(run.average)) / FINE_SAMPLES, np.zeros(FINE_SAMPLES // 2 + 1)
+    keep = np.abs(mean) > RESOLVED_SIGMA * np.sqrt(var)
     keep[0] = True  # the mean position: a law to ground or a free play reads it
     return np.fft.irfft(np.where(keep, mean, 0) * FINE_SAMPLES, n=FINE_SAMPLES)
 

@@ -42,7 +42,7 @@ import numpy as np
 from .balance import LinearSystem, assemble, spectral_rate
 from jointrig.vocab.law import Coulomb, JointLaw, Power, Viscous, monotone_runs
 from .harmonics import fourier_coefficients, max_harmonic, synthesize
-from .periods import period_spectra, raw_noise_std
+from .periods import RESOLVED_SIGMA, pooled_period_spectra, raw_noise_std
 from jointrig.vocab.plant import Plant, effect_parameters
 from jointrig.vocab.records import RecordError, SteadyStateRecord
 from .estimates import RowFit, weighted_chi2
@@ -103,27 +103,8 @@ OVERSAMPLE = 16
 FINE_SAMPLES = OVERSAMPLE * 256
 
 
-def _period_spectra(x: np.ndarray, P: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`identify.periods.period_spectra` with the variance of the mean pooled over
-    neighbouring harmonics."""
-    X, mean, var = period_spectra(x, P)
-    return X, mean, _pooled(var)
-
-
-def _pooled(var: np.ndarray, half_width: int = 4) -> np.ndarray:
-    """Moving average of a per-harmonic variance over +-half_width harmonics (n >= 1)."""
-    out = var.copy()
-    v = var[1:]
-    if v.size:
-        kernel = np.ones(2 * half_width + 1)
-        num = np.convolve(v, kernel, mode="same")
-        den = np.convolve(np.ones_like(v), kernel, mode="same")
-        out[1:] = num / den
-    return out
-
-
 def prepare_runs(records: Sequence[SteadyStateRecord], *, band: int = 20,
-                 significance_sigma: float = 4.0) -> list[PreparedRun]:
+                 significance_sigma: float = RESOLVED_SIGMA) -> list[PreparedRun]:
     """Average, estimate noise and band-limit every record (see the module docstring).
 
     Args:
@@ -155,11 +136,11 @@ def prepare_runs(records: Sequence[SteadyStateRecord], *, band: int = 20,
         in_band = np.arange(H + 1) <= band
         # The fine grid has the same size whatever the file's rate: the law columns alias alike.
         Nf = FINE_SAMPLES
-        _, phi_mean, phi_var = _period_spectra(rec.phi_rad, P)
+        _, phi_mean, phi_var = pooled_period_spectra(rec.phi_rad, P)
         kept = {"phi": np.flatnonzero(in_band & (np.abs(phi_mean) > significance_sigma * np.sqrt(phi_var)))}
         noise, avg, raw, favg, fper = {}, {}, {}, {}, {}
         for name, x in chans.items():
-            X, mean, var_mean = _period_spectra(x, P)
+            X, mean, var_mean = pooled_period_spectra(x, P)
             kept[name] = np.flatnonzero(in_band & (np.abs(mean) > significance_sigma * np.sqrt(var_mean)))
             noise[name] = raw_noise_std(var_mean, P, N)
             avg[name] = np.fft.irfft(np.where(in_band, mean, 0) * N, n=N)

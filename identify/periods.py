@@ -42,7 +42,8 @@ import numpy as np
 
 __all__ = [
     "MAX_CLOCK_DEVIATION", "UniformClock", "uniform_clock", "Fundamental", "estimate_fundamental", "fit_at",
-    "periodic_rss", "repeat_statistic", "PeriodFit", "MAX_LS_HARMONICS", "ls_harmonics", "periods_by_least_squares",
+    "periodic_rss", "repeat_statistic", "RESOLVED_SIGMA", "pooled", "pooled_period_spectra", "PeriodFit",
+    "MAX_LS_HARMONICS", "ls_harmonics", "periods_by_least_squares",
     "Drift", "linear_drift", "period_spectra", "white_variance", "raw_noise_std",
 ]
 
@@ -333,6 +334,32 @@ def period_spectra(x: np.ndarray, n_periods: int) -> tuple[np.ndarray, np.ndarra
     X = np.fft.rfft(x.reshape(P, -1), axis=1) / (x.size // P)
     mean = X.mean(axis=0)
     return X, mean, np.sum(np.abs(X - mean) ** 2, axis=0) / (P * (P - 1))
+
+
+#: A harmonic stands out of the noise (is resolved) when its period average exceeds this many
+#: of its standard errors: a pure-noise harmonic passes with probability about exp(-8) (complex
+#: Gaussian). Both diagnoses use it: for the harmonics a model can be asked to predict, and for
+#: what a residual's torque is read from.
+RESOLVED_SIGMA = 4.0
+
+
+def pooled(var: np.ndarray, half_width: int = 4) -> np.ndarray:
+    """Moving average of a per-harmonic variance over +-half_width harmonics (n >= 1): a steadier
+    noise estimate than one harmonic's ``P - 1`` degrees of freedom give."""
+    out = var.copy()
+    v = var[1:]
+    if v.size:
+        kernel = np.ones(2 * half_width + 1)
+        num = np.convolve(v, kernel, mode="same")
+        den = np.convolve(np.ones_like(v), kernel, mode="same")
+        out[1:] = num / den
+    return out
+
+
+def pooled_period_spectra(x: np.ndarray, n_periods: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`period_spectra` with the variance of the mean :func:`pooled` over neighbouring harmonics."""
+    X, mean, var = period_spectra(x, n_periods)
+    return X, mean, pooled(var)
 
 
 def white_variance(var_of_mean: np.ndarray, samples_per_period: int) -> float:
