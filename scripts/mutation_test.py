@@ -61,6 +61,9 @@ MODULES = {
     # search, parsimony and forward selection
     "jointrig.identify.verdict": ("identify/verdict.py", ["tests/test_verdict_judge.py"]),
     "jointrig.identify.causes": ("identify/causes.py", ["tests/test_causes.py", "tests/test_verdict_judge.py"]),
+    # what an unexplained misfit looks like, on every bench, and the one JSON document
+    "jointrig.identify.misfit": ("identify/misfit.py", ["tests/test_misfit.py", "tests/test_train_misfit.py"]),
+    "jointrig.present.diagnosis_json": ("present/diagnosis_json.py", ["tests/test_diagnosis_json.py"]),
 }
 #: tests that exercise other parts of the project and only cost time here
 DESELECT = "not killed_sweep_resumes and not truncated_store_point and not dask"

@@ -52,3 +52,8 @@ def test_the_docs_page_describes_every_key():
 
 def test_non_finite_numbers_become_null():
     assert dj.finite({"a": [1.0, float("inf"), (float("nan"),)], "b": "x"}) == {"a": [1.0, None, [None]], "b": "x"}
+
+
+def test_a_fits_chi2_per_dof_is_chi2_over_its_degrees_of_freedom():
+    assert dj.FitJson(12.0, 4, {}, {}).as_json()["chi2_per_dof"] == 3.0
+    assert dj.FitJson(12.0, 0, {}, {}).as_json()["chi2_per_dof"] == 12.0  # no degree of freedom: chi2 itself

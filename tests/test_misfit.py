@@ -1,0 +1,159 @@
+"""What an unexplained misfit looks like (identify/misfit.py), on residuals of known form.
+
+Each run is one period of a cosine motion ``A cos(theta)`` with a measured torque that departs
+from the model's by a chosen residual; the character's shares, harmonics, slopes and phases
+have closed forms on such runs (exact to round-off: whole periods, trigonometric sums), and
+the measurements suggested follow from them. The residual runs of real diagnoses are in
+tests/test_open_world.py (two flywheels) and tests/test_train_files.py (trains).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from jointrig.identify.misfit import (HIGH_SHARE, JOINT_WORDS, ResidualRun, Words, distinct_settings, misfit_character,
+                                      next_measurements, residual_samples, residual_surface, same_setting)
+
+N = 256
+
+
+def _run(run_id, omega, amplitude, residual, *, K=1000.0):
+    """A run whose joint torque is ``K phi`` plus ``residual(theta, phi, rate)`` (N m)."""
+    theta = 2 * math.pi * np.arange(N) / N
+    phi = amplitude / 1000.0 * np.cos(theta)  # rad: the drive level sets the swing
+    rate = -amplitude / 1000.0 * omega * np.sin(theta)
+    model = K * phi
+    return ResidualRun(str(run_id), omega, amplitude, phi, model + residual(theta, phi, rate), model)
+
+
+def test_an_elastic_odd_residual_on_the_fundamental():
+    # a missing stiffness of 10% of K: in phase with the angle, odd, on harmonic 1; 100 / 1100 of the
+    # measured torque (K + 100) phi
+    runs = [_run(i, w, 1.0, lambda th, p, v: 100.0 * p) for i, w in enumerate((20.0, 30.0, 40.0))]
+    c = misfit_character(runs, 10)
+    assert c.relative == pytest.approx((100 / 1100,) * 3, rel=1e-12)
+    assert c.even_share == pytest.approx(0.0, abs=1e-12) and c.dissipative_share == pytest.approx(0.0, abs=1e-12)
+    assert c.top_harmonics[0] == 1 and c.high_share == pytest.approx(0.0, abs=1e-12)
+    assert c.phase_deg == pytest.approx((0.0, 0.0, 0.0), abs=1e-9)
+    assert "odd in phi (symmetric)" in c.describe() and "conservative (elastic)" in c.describe()
+
+
+def test_a_dissipative_residual_is_in_quadrature():
+    runs = [_run(i, w, 1.0, lambda th, p, v: 2.0 * v) for i, w in enumerate((20.0, 30.0, 40.0))]
+    c = misfit_character(runs, 10)
+    assert c.dissipative_share == pytest.approx(1.0, rel=1e-12)
+    assert [abs(p) for p in c.phase_deg] == pytest.approx([90.0] * 3, rel=1e-9)
+    # its size grows with the frequency at one level: slope 1 against omega, 0 against the level
+    assert c.frequency_slope == pytest.approx(1.0, abs=1e-9) and c.amplitude_slope == pytest.approx(0.0, abs=1e-9)
+    assert "dissipative at the fundamental" in c.describe() and "grows with frequency" in c.describe()
+
+
+def test_an_even_residual_and_its_measurements():
+    # a phi^2 term: harmonic 2 alone (its mean is left out), even; the surface is not point-symmetric
+    runs = [_run(i, 30.0, a, lambda th, p, v: 3e4 * p * p) for i, a in enumerate((1.0, 2.0, 4.0))]
+    c = misfit_character(runs, 10)
+    assert c.even_share == pytest.approx(1.0, rel=1e-12) and c.top_harmonics[0] == 2
+    # its size goes with the swing squared: slope 2 against the level
+    assert c.amplitude_slope == pytest.approx(2.0, abs=1e-9)
+    surface = residual_surface(runs)
+    steps = next_measurements(c, surface, runs)
+    assert any(s.startswith("runs with a mean (preload) torque and a check of the angle sensors' zero") for s in steps)
+    assert not any(s.startswith("runs at more drive levels") for s in steps)  # three levels are there
+
+
+def test_a_ripple_calls_for_a_quasi_static_ramp_and_a_few_levels_for_more():
+    runs = [_run(i, w, 1.0, lambda th, p, v: 5.0 * np.cos(6 * th)) for i, w in enumerate((20.0, 30.0))]
+    c = misfit_character(runs, 10)
+    assert c.top_harmonics[0] == 6 and c.high_share == pytest.approx(1.0, rel=1e-12) and c.high_share > HIGH_SHARE
+    assert "100% of it on harmonics 4 and up" in c.describe()
+    steps = next_measurements(c, residual_surface(runs), runs)
+    assert any(s.startswith("a slow, quasi-static ramp of the joint angle") for s in steps)
+    assert any(s.startswith("runs at more drive levels (the runs hold 1)") for s in steps)
+
+
+def test_a_turning_phase_between_frequencies_at_one_level():
+    # the residual's axis at the fundamental: in phase at 20 rad/s, 60 deg on at 40 rad/s
+    a = _run("a", 20.0, 1.0, lambda th, p, v: 50.0 * np.cos(th))
+    b = _run("b", 40.0, 1.0, lambda th, p, v: 50.0 * np.cos(th - math.radians(60)))
+    c = misfit_character([a, b], 10)
+    assert c.phase_span_deg == pytest.approx(60.0, rel=1e-9)
+    assert "turns by 60 deg between frequencies" in c.describe()
+    # at different levels the turn is no evidence (the axis may move with the amplitude)
+    b2 = _run("b", 40.0, 2.0, lambda th, p, v: 50.0 * np.cos(th - math.radians(60)))
+    assert misfit_character([a, b2], 10).phase_span_deg == 0.0
+
+
+def test_the_worst_runs_and_the_words_of_a_slide():
+    runs = [_run(i, 30.0, 1.0, lambda th, p, v, s=s: s * p) for i, s in enumerate((10.0, 300.0, 100.0))]
+    c = misfit_character(runs, 10)
+    assert c.worst_runs == ("1", "2")
+    slide = Words("force to ground", "x", "position", "N", "m", "force", "position encoder's", "position encoder")
+    text = c.describe(slide)
+    assert "the residual force to ground is 0.23 of the force to ground at most" in text  # 300 / 1300 and "odd in x" in text
+    assert c.describe(JOINT_WORDS) == c.describe()
+    surface = residual_surface(runs).describe(slide)
+    assert "over (x, x')" in surface and " N over x " in surface and "N m" not in surface
+
+
+def test_residual_samples_are_centred_angles_rates_and_the_residual():
+    runs = [_run(0, 30.0, 1.0, lambda th, p, v: 100.0 * p)]
+    s = residual_samples(runs)
+    np.testing.assert_allclose(s.phi_rad[0], runs[0].phi_resolved_rad, atol=1e-15)  # its mean is already 0
+    rate = -1e-3 * 30.0 * np.sin(2 * math.pi * np.arange(N) / N)
+    np.testing.assert_allclose(s.rate_rad_s[0], rate, atol=1e-12)
+    np.testing.assert_allclose(s.residual_Nm[0], 100.0 * runs[0].phi_resolved_rad, atol=1e-12)
+
+
+def test_settings_within_a_tolerance_are_one():
+    assert distinct_settings([25.0, 25.0004, 40.0, 39.99, 55.0]) == [25.0, 39.99, 55.0]
+    assert distinct_settings([100.0, 104.0, 106.0], rel=0.05) == [100.0, 106.0]
+    assert same_setting(1500.0, 1502.0, 0.05) and not same_setting(1500.0, 1600.0, 0.05)
+    assert same_setting(25.0, 25.2, 0.01) and not same_setting(25.0, 25.3, 0.01)
+
+
+def test_a_cubic_residual_is_odd_and_its_phase_is_the_angles():
+    # gamma phi^3: harmonics 1 and 3, none even; on a motion that starts 0.5 rad into its cycle,
+    # its fundamental is still in phase with the angle (the phase is relative to the angle's)
+    theta = 2 * math.pi * np.arange(N) / N
+    phi = 1e-3 * np.cos(theta + 0.5)
+    run = ResidualRun("0", 30.0, 1.0, phi, 1000.0 * phi + 5e9 * phi**3, 1000.0 * phi)
+    c = misfit_character([run, _run(1, 40.0, 1.0, lambda th, p, v: 5e9 * p**3)], 10)
+    assert c.even_share == pytest.approx(0.0, abs=1e-12) and set(c.top_harmonics[:2]) == {1, 3}
+    assert c.phase_deg == pytest.approx((0.0, 0.0), abs=1e-9)
+
+
+def test_a_repeated_setting_tells_run_order_and_a_near_one_does_not():
+    # runs 0 and 3 repeat a setting (omega within 1%, level within 5%); a run 2% off in omega does not
+    sweep = [(0, 25.0, 1.0, 20.0), (1, 40.0, 1.0, 20.0), (2, 55.0, 1.0, 20.0)]
+    cos3 = lambda s: (lambda th, p, v: s * np.cos(3 * th))  # noqa: E731
+    base = [_run(i, w, a, cos3(s)) for i, w, a, s in sweep]
+    c = misfit_character(base + [_run(3, 25.2, 1.04, cos3(40.0))], 10)
+    assert c.repeat_change == pytest.approx(0.5, rel=1e-9) and c.repeat_runs == ("0", "3")
+    assert math.isnan(misfit_character(base + [_run(3, 25.5, 1.0, cos3(40.0))], 10).repeat_change)
+
+
+def test_the_residuals_axis_turns_modulo_half_a_turn():
+    # 150 deg apart is an axis 30 deg apart: a residual and its negative lie on one axis
+    a = _run("a", 20.0, 1.0, lambda th, p, v: 50.0 * np.cos(th))
+    b = _run("b", 40.0, 1.0, lambda th, p, v: 50.0 * np.cos(th - math.radians(150)))
+    assert misfit_character([a, b], 10).phase_span_deg == pytest.approx(30.0, rel=1e-9)
+
+
+def test_what_is_not_asked_for():
+    # a ripple in the rate (sin 6 theta: odd in the rate, so dissipative) asks for no angle ramp;
+    # an even residual that grows faster than the drive asks for no sensor calibration (that is for
+    # odd ones); an odd elastic one asks for no preload runs
+    ripple = [_run(i, w, 1.0, lambda th, p, v: 5.0 * np.sin(6 * th)) for i, w in enumerate((20.0, 30.0))]
+    c = misfit_character(ripple, 10)
+    assert not any("quasi-static ramp" in s for s in next_measurements(c, residual_surface(ripple), ripple))
+    even = [_run(i, 30.0, a, lambda th, p, v: 3e4 * p * p) for i, a in enumerate((1.0, 2.0, 4.0))]
+    c = misfit_character(even, 10)
+    assert c.amplitude_slope > 1.5 and not any("static calibration" in s
+                                               for s in next_measurements(c, residual_surface(even), even))
+    odd = [_run(i, 30.0, a, lambda th, p, v: 5e9 * p**3) for i, a in enumerate((1.0, 2.0, 4.0))]
+    c = misfit_character(odd, 10)
+    steps = next_measurements(c, residual_surface(odd), odd)
+    assert not any("preload" in s for s in steps) and any("static calibration" in s for s in steps)
