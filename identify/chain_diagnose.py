@@ -496,14 +496,17 @@ def candidates(n_flywheels: int, causes: Sequence[Cause] = JOINT_CAUSES, bearing
 
 def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: float = 1e-3, max_effects: int = 2,
                    fidelity: float = DEFAULT_FIDELITY, causes: Sequence[Cause] = JOINT_CAUSES,
-                   nominal: Optional[ChainSpec] = None, progress=None) -> ChainDiagnosis:
+                   nominal: Optional[ChainSpec] = None, progress=None, workers: Optional[int] = None) -> ChainDiagnosis:
     """Fit the nominal chain, score every cause at every place, extend greedily (module docstring).
 
     Args:
       nominal: the nominal structure (the user's model's, ``jointrig diagnose --model``);
         default :func:`nominal_spec` (paper eq. 11 at every joint).
       progress: optional callable ``(done, total, label)`` called after every candidate scored.
+      workers: processes that score a round's candidates (default :func:`jointrig.parallel.default_workers`).
     """
+    from jointrig.parallel import fork_map
+
     runs = tuple(runs)
     if not runs:
         raise ValueError("no runs to diagnose")
@@ -526,8 +529,11 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
         current, wcur = base
         n = len(pool)
         scored = []
-        for k, cand in enumerate(pool, start=1):
-            scored.append(score(problem, cand, current, wcur, n, alpha))
+        # the candidates in forked workers (jointrig.parallel; the same numbers, in order), as the
+        # two flywheels' causes are scored
+        for k, (cand, s) in enumerate(zip(pool, fork_map(lambda c: score(problem, c, current, wcur, n, alpha), pool,
+                                                         workers)), start=1):
+            scored.append(s)
             if progress is not None:
                 progress(k, n, cand.label)
         return parsimonious(sorted(scored, key=lambda s: (bool(s.note), -s.score)), causes_by_name, current.n_rows,
