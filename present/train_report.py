@@ -144,9 +144,9 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
         replayed = list(range(len(report.run_ids))) if report.held_out_periods else list(report.held_out)
         labels = ([f"{r} (later)" for r in report.run_ids] if report.held_out_periods else held_ids)
         rows = []
-        for label, k, (_, nom, ext) in zip(labels, replayed, val.per_run):
+        for label, k, (_, nom, ext, floor) in zip(labels, replayed, val.per_run):
             omega, amp = report.settings[k][:2] if report.settings else (math.nan, math.nan)
-            rows.append(ValidationRow(label, omega, amp, True, _cell(nom), _cell(ext), "-"))
+            rows.append(ValidationRow(label, omega, amp, True, _cell(nom), _cell(ext), sig(floor, 2)))
         what = "position" if N == 1 else "every joint's twist"
         lines += validation_lines(
             rows, measure=f"relative RMS error of {what}, harmonics 1..{val.band} of the period average",
@@ -176,9 +176,9 @@ def train_report_json(report: TrainReport, *, source: str = "", notes: Sequence[
         replayed = list(report.held_out)
     per_run = []
     if v is not None:
-        for label, k, (_, nom, ext) in zip(held_ids, replayed, v.per_run):
+        for label, k, (_, nom, ext, floor) in zip(held_ids, replayed, v.per_run):
             omega, amp = report.settings[k][:2] if report.settings else (math.nan, math.nan)
-            per_run.append(RunJson(label, True, omega, amp, nom, ext))
+            per_run.append(RunJson(label, True, omega, amp, nom, ext, floor))
     validation = ValidationJson(
         HELD_OUT_PERIODS if report.held_out_periods else HELD_OUT_RUNS, report.generalisation, report.generalisation,
         f"relative RMS error of every joint's twist (a single body: its position), harmonics 1..{v.band if v else 0} "

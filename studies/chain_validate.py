@@ -45,7 +45,7 @@ class ChainValidation:
         where the extended model's is not).
       noise_floor: the error an exact model would have: the noise's, and the rig's own fidelity
         (:data:`identify.verdict.RIG_FIDELITY`) in quadrature.
-      per_run: ``(label, nominal error, extended error)`` per held-out run.
+      per_run: ``(label, nominal error, extended error, noise floor)`` per held-out run.
       note: what kept a model from being simulated, if anything.
     """
 
@@ -66,11 +66,6 @@ class ChainValidation:
         if not math.isfinite(self.extended_error) or math.isnan(self.nominal_error):
             return math.nan
         return self.nominal_error / self.extended_error if self.extended_error > 0 else math.inf
-
-    def as_json(self) -> dict:
-        return {"nominal_error": self.nominal_error, "extended_error": self.extended_error, "gain": self.gain,
-                "noise_floor": self.noise_floor, "note": self.note,
-                "per_run": [{"run": lab, "nominal_error": a, "extended_error": b} for lab, a, b in self.per_run]}
 
 
 def found_motion(rec: ChainRecord, step) -> tuple[str, np.ndarray]:
@@ -116,6 +111,12 @@ def _noise(meas: ChainRecord, band: int) -> float:
     return total
 
 
+def _floor(noise: float, den: float) -> float:
+    """The error an exact model has: the noise's, relative to the measured twists' size, and the
+    rig's own fidelity in quadrature."""
+    return math.sqrt(max(noise, 0.0) / den + RIG_FIDELITY ** 2)
+
+
 def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[ChainRecord], *,
                    band: int = 10, config: SimulationConfig = SimulationConfig(samples_per_period=128, max_step_s=5e-5),
                    max_wall_s: Optional[float] = 120.0, backend: str = "auto") -> ChainValidation:
@@ -154,9 +155,10 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
             errs[name] = math.sqrt(e / d)
         sims.setdefault("extended", sims.get("nominal"))
         errs.setdefault("extended", errs.get("nominal", math.nan))
-        den += twist_error(meas, meas, top)[1]
-        noise += _noise(meas, top)
-        per_run.append((meas.source, errs.get("nominal", math.nan), errs["extended"]))
+        d_run, n_run = twist_error(meas, meas, top)[1], _noise(meas, top)
+        den += d_run
+        noise += n_run
+        per_run.append((meas.source, errs.get("nominal", math.nan), errs["extended"], _floor(n_run, d_run)))
         if sims.get("nominal") is not None and sims["extended"] is not None:
             records.append((meas, sims["nominal"], sims["extended"]))
     num.setdefault("extended", num["nominal"])
@@ -165,8 +167,7 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
         error["nominal"] = math.inf  # the extension predicts the runs the nominal model cannot reach
     if not diagnosis.steps and "nominal" in failed:
         error["extended"] = math.nan
-    floor = math.sqrt(max(noise, 0.0) / den + RIG_FIDELITY ** 2)  # the rig's own fidelity beside the noise
-    return ChainValidation(error["nominal"], error["extended"], floor, tuple(per_run),
+    return ChainValidation(error["nominal"], error["extended"], _floor(noise, den), tuple(per_run),
                            note="; ".join(failed.values()), band=band, records=tuple(records))
 
 
@@ -193,7 +194,7 @@ def train_verdict(diagnosis: ChainDiagnosis, validation: Optional[ChainValidatio
     ratio = err / v.noise_floor if v.noise_floor > 0 else math.inf
     lost = ""
     if math.isinf(v.nominal_error):  # the nominal model failed where the extension did not
-        lost = ", ".join(lab for lab, nom, _ in v.per_run if not math.isfinite(nom))
+        lost = ", ".join(lab for lab, nom, *_ in v.per_run if not math.isfinite(nom))
     gain = v.gain if math.isfinite(v.gain) else math.nan
     held = "error on the held-out later periods" if held_out_periods else "held-out error"
     return judge([s.label for s in d.steps], c2, ratio, gain, held=held, nominal_lost=lost)

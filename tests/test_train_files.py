@@ -66,6 +66,10 @@ def test_the_worn_coupling_of_a_measured_pump_train_is_named_with_its_free_play(
         v, se = ext["parameters"]["joint2_angle_offset_rad"], ext["std_errors"]["joint2_angle_offset_rad"]
         assert abs(v - 4e-4) < 3 * se, (v, se)
     assert j["validation"]["gain"] >= 3
+    # each held-out run's own floor (its averaged twists' noise and the rig's fidelity), none above the
+    # runs' pooled one by more than the runs' spread allows (two runs: within a factor 2)
+    floors = [r["noise_floor"] for r in j["validation"]["per_run"]]
+    assert len(floors) == 2 and all(0 < f < 2 * j["validation"]["noise_floor"] for f in floors), floors
     assert "a train of 4 bodies" in text and "Extended model: backlash at joint 2" in text
     # the HTML report opens on the verdict in words and shows the held-out runs' coupling twist
     page = (tmp_path / "d.html").read_text()
