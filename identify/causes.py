@@ -27,7 +27,7 @@ from .balance import spectral_rate
 __all__ = ["ModelSpec", "NOMINAL", "Cause", "Limits", "Place", "CauseScore", "Ambiguity", "CATALOGUE", "CAUSES",
            "OSCILLATOR_CAUSES", "at", "by_name", "evidence", "chi2_survival",
            "SEPARATING_EXCITATION", "DEFAULT_SEPARATION", "DIMENSIONLESS", "TIE", "IWAN_CHI",
-           "IWAN_BETA", "rate_amplitudes", "Selection", "forward_select"]
+           "IWAN_BETA", "rate_amplitudes", "Selection", "forward_select", "harmonic_shares", "fundamental_quadrature"]
 
 
 @dataclass(frozen=True)
@@ -379,6 +379,28 @@ def evidence(delta_chi2: float, q: int, n_rows: int, alpha: float = 1e-3, n_caus
     p = chi2_survival(max(delta_chi2, 0.0), q)
     score = delta_chi2 - q * math.log(n_rows)
     return float(score), p, bool(p < alpha / n_causes and score > 0)
+
+
+def harmonic_shares(row_drop: np.ndarray, row_harmonic: np.ndarray) -> dict:
+    """Where a cause's improvement lies, for every diagnosis: the share of its chi-square drop
+    ``row_drop`` (per balance row) on the mean, the fundamental, the even harmonics and the odd
+    ones from 3 up (``row_harmonic``: each row's harmonic)."""
+    h = np.asarray(row_harmonic)
+    classes = {"mean": h == 0, "fundamental": h == 1, "even": (h % 2 == 0) & (h > 0), "odd>=3": (h % 2 == 1) & (h > 1)}
+    total = float(np.sum(row_drop)) or 1.0
+    return {k: float(np.sum(row_drop[m]) / total) for k, m in classes.items()}
+
+
+def fundamental_quadrature(torques: Sequence[np.ndarray], motions: Sequence[np.ndarray]) -> Optional[float]:
+    """How dissipative a cause's own torque is along the measured motion, over the runs (one period
+    each): at the fundamental, 0 in phase with the motion (elastic), 1 in quadrature
+    (dissipative); None when it has no fundamental."""
+    num = den = 0.0
+    for torque, motion in zip(torques, motions):
+        T1, P1 = np.fft.rfft(torque)[1], np.fft.rfft(motion)[1]
+        num += abs((T1 * np.conj(P1)).imag)
+        den += abs(T1) * abs(P1)
+    return float(num / den) if den > 0 else None
 
 
 @dataclass(frozen=True)

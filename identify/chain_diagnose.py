@@ -45,7 +45,7 @@ from jointrig.vocab.law import JointLaw, Power, Viscous, law_parameters
 from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpec, bearing_name, chain_system,
                     ground_laws, ground_prefix, identifiability, inertia_name, joint_prefix, solve_banded)
 from .causes import (Ambiguity, Cause, CauseScore, Limits, ModelSpec, Place, at, by_name, evidence, forward_select,
-                     parsimonious, profile)
+                     fundamental_quadrature, harmonic_shares, parsimonious, profile)
 from .diagnose import DEFAULT_FIDELITY, FINE_SAMPLES
 from .harmonics import max_harmonic
 from .periods import period_spectra, raw_noise_std
@@ -174,6 +174,8 @@ class ChainFit(RowFit):
     condition_number: float = math.nan
     success: bool = True
     message: str = "ok"
+    #: each row's harmonic (where a cause's improvement lies: :func:`identify.causes.harmonic_shares`)
+    row_harmonic: Optional[np.ndarray] = field(default=None, repr=False, compare=False)
 
     def _profiled_std_errors(self) -> dict[str, float]:
         return {n: se for n, _, se in self.profiled}
@@ -238,7 +240,7 @@ class _Problem:
         row, chi2, scale = weighted_chi2(s.F - s.A @ res.values, weights, self.nu, res.dof)
         return ChainFit(spec, res.names, np.array(res.values), np.array(res.std_errors) * math.sqrt(scale), chi2,
                         s.F.size, row, condition_number=res.condition_number, success=res.success,
-                        message=res.message)
+                        message=res.message, row_harmonic=s.row_harmonic)
 
     def fit(self, spec: ChainSpec, iterations: int = 2) -> tuple[ChainFit, np.ndarray]:
         banded = self.system(spec)
@@ -443,8 +445,35 @@ def score(problem: _Problem, cand: Candidate, base: ChainFit, weights: np.ndarra
     note = _rejection(problem, cand, ext, mag) if significant or (cand.cause.nonnegative and mag[1] < 0) else ""
     if note:
         significant = False
-    return CauseScore(cand.cause.name, float(delta), q, float(bic), p, significant, ext, mag, note=note,
-                      where=cand.where)
+    return CauseScore(cand.cause.name, float(delta), q, float(bic), p, significant, ext, mag,
+                      _signature(problem, cand, base, ext), note=note, where=cand.where)
+
+
+def _signature(problem: _Problem, cand: Candidate, base: ChainFit, ext: ChainFit) -> dict:
+    """Where a candidate's improvement lies (the two flywheels' signature): the share of its
+    chi-square drop by harmonic class, and how dissipative its own torque is along its place's
+    measured motion at the fundamental (None for a drag to ground: viscous by construction)."""
+    out: dict = harmonic_shares(base.row_chi2 - ext.row_chi2, ext.row_harmonic)
+    out["dissipative"] = None
+    if cand.at_joint or cand.ground:
+        k = cand.place - 1
+        terms = ext.spec.grounds[k] if cand.ground else ext.spec.joints[k]
+        held = {t.name for t in (base.spec.grounds[k] if cand.ground else base.spec.joints[k])}
+        vals = ext.parameters()
+        law = JointLaw(terms, tuple(vals[cand.prefix + t.name] for t in terms))
+        # the base's terms at the extended values, free play's gap taken out: what is left is the cause's
+        plain = [(Power(t.power) if isinstance(t, Power) else t, v) for t, v in zip(law.terms, law.values)
+                 if t.name in held]
+        without = JointLaw(tuple(t for t, _ in plain), tuple(v for _, v in plain)) if plain else None
+        motions = [cand.motion(r.average) for r in problem.runs]
+        offset = ext.spec.offsets_rad[k] if cand.at_joint else 0.0
+
+        def own(x, v):
+            base_part = np.asarray(without.torque(x, v), float) if without is not None else 0.0
+            return np.asarray(law.torque(x, v), float) - base_part
+
+        out["dissipative"] = fundamental_quadrature([own(x - offset, v) for x, v in motions], [x for x, _ in motions])
+    return out
 
 
 # --------------------------------------------------------------------------------------------

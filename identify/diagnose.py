@@ -49,7 +49,8 @@ from .estimates import RowFit, weighted_chi2
 from .solve import IllConditionedWarning, solve
 from jointrig.vocab.params import J1, J2, JE, BEARING1, BEARING2
 from .causes import (DEFAULT_SEPARATION, CAUSES, NOMINAL, SEPARATING_EXCITATION, TIE, Ambiguity, Cause, CauseScore,
-                     Limits, ModelSpec, parsimonious, profile, evidence, forward_select, rate_amplitudes)
+                     Limits, ModelSpec, parsimonious, profile, evidence, forward_select, fundamental_quadrature,
+                     harmonic_shares, rate_amplitudes)
 
 __all__ = [
     "DEFAULT_FIDELITY", "kink_corrected_rate", "kink_first_pass", "KinkPass", "PreparedRun", "prepare_runs", "Fit",
@@ -744,27 +745,20 @@ def _dissipative_share(problem: "_Problem", base: Fit, ext: Fit) -> Optional[flo
     plain = [(Power(t.power) if isinstance(t, Power) else t, v) for t, v in zip(law.terms, law.values)
              if t.name in base_names]
     without = JointLaw(tuple(t for t, _ in plain), tuple(v for _, v in plain))
-    num = den = 0.0
+    torques, motions = [], []
     for run in problem.runs:
         rec = run.fine_average
         phi = rec.phi_rad
         rate = spectral_rate(phi, rec.omega_rad_s, 1)
-        extra = np.asarray(law.torque(phi, rate), float) - np.asarray(without.torque(phi, rate), float)
-        T1 = np.fft.rfft(extra)[1]
-        P1 = np.fft.rfft(phi)[1]
-        num += abs((T1 * np.conj(P1)).imag)
-        den += abs(T1) * abs(P1)
-    return float(num / den) if den > 0 else None
+        torques.append(np.asarray(law.torque(phi, rate), float) - np.asarray(without.torque(phi, rate), float))
+        motions.append(phi)
+    return fundamental_quadrature(torques, motions)
 
 
 def _signature(problem: "_Problem", base: Fit, ext: Fit) -> dict:
     """Where the cause's improvement lies: share of the chi-square drop by harmonic class
     (mean, fundamental, even, odd >= 3), and the dissipative share of its joint torque."""
-    d = base.row_chi2 - ext.row_chi2
-    h = base.row_harmonic
-    classes = {"mean": h == 0, "fundamental": h == 1, "even": (h % 2 == 0) & (h > 0), "odd>=3": (h % 2 == 1) & (h > 1)}
-    total = float(d.sum()) or 1.0
-    out: dict = {k: float(d[m].sum() / total) for k, m in classes.items()}
+    out: dict = harmonic_shares(base.row_chi2 - ext.row_chi2, base.row_harmonic)
     out["dissipative"] = _dissipative_share(problem, base, ext)
     return out
 
