@@ -500,6 +500,8 @@ class ChainDiagnosis:
     n_harmonics: int
     noise_std: dict
     nu: float
+    #: what in the nominal fit says the file may be read wrong (:func:`implausible_train_fit`)
+    plausibility: tuple = ()
 
     @property
     def found(self) -> Optional[CauseScore]:
@@ -603,7 +605,41 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
     steps = list(chosen.adopted)
     channels = sorted({ch for r in runs for ch in r.noise_std})
     noise = {ch: float(np.median([r.noise_std[ch] for r in runs if ch in r.noise_std])) for ch in channels}
-    return ChainDiagnosis(nominal, first, tuple(steps), current, tuple(ambiguous), H, noise, nu)
+    return ChainDiagnosis(nominal, first, tuple(steps), current, tuple(ambiguous), H, noise, nu,
+                          implausible_train_fit(nominal))
+
+
+#: A fitted value this many standard errors on the wrong side of zero is no body's or joint's.
+IMPLAUSIBLE_SE = 2.0
+
+
+def implausible_train_fit(f: ChainFit) -> tuple[str, ...]:
+    """What a train's fitted model says about how the data were read (pure): an inertia not
+    significantly above zero is no body's, and a joint whose fitted stiffness or damping is
+    significantly negative would feed energy in. Their likely cause is named: position columns out
+    of the bodies' order along the line (two swapped give both), a drive column on another body
+    than its number says, or other units than the file says. Parameter names in the hinge's
+    units (a slide's are named at the edges)."""
+    p = f.as_dict()
+    N = f.spec.n_flywheels
+    bodies = [i for i in range(1, N + 1) if not p[inertia_name(i)] > IMPLAUSIBLE_SE * f.std_error(inertia_name(i))]
+    joints = []
+    for j in range(1, N):
+        for name in ("k_Nm_per_rad", "c_Nms_per_rad"):
+            key = joint_prefix(j) + name
+            if key in p and p[key] < -IMPLAUSIBLE_SE * f.std_error(key):
+                joints.append(j)
+                break
+    if not bodies and not joints:
+        return ()
+    said = ([f"the fitted inertia of body(ies) {', '.join(map(str, bodies))} "
+             f"({', '.join(f'J{i} = {p[inertia_name(i)]:.3g} +- {f.std_error(inertia_name(i)):.2g}' for i in bodies)}) "
+             f"is no body's"] if bodies else []) + (
+            [f"joint(s) {', '.join(map(str, joints))} come out with a negative stiffness or damping (they would feed "
+             f"energy in)"] if joints else [])
+    return (" and ".join(said) + ": check that the position columns (phi1..phiN, x1..xN) are the bodies in their "
+            "order along the line (two swapped give this), that each drive column torque<i> (force<i>) acts on body "
+            "i, and the units (angles in rad, not deg; torques in N m, not N mm)",)
 
 
 def drive_information(J_kgm2, c_Nms_per_rad, k_Nm_per_rad, omegas_rad_s, torque_Nm: float, sigma_Nm: float,

@@ -99,9 +99,9 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
     held_ids = [report.run_ids[i] for i in report.held_out]
     m = report.misfit
     if v.verdict != "unexplained":
-        steps = steps_after(v.verdict, d.ambiguities, report.held_out_periods)
-    else:
-        steps = m.next_measurements if m is not None else ()
+        steps = d.plausibility + steps_after(v.verdict, d.ambiguities, report.held_out_periods)
+    else:  # no cause mends a file read wrong: that comes first
+        steps = d.plausibility + (m.next_measurements if m is not None else ())
     misfit = ([f"Where the misfit is: {m.describe_places()}",
                f"What the misfit looks like there: {m.describe()[0]}",
                f"Its restoring-force surface: {m.describe()[1]}"] if m is not None else [])
@@ -196,6 +196,7 @@ def train_report_json(report: TrainReport, *, source: str = "", notes: Sequence[
         ambiguities=tuple(d.ambiguities),
         as_written={nm(w.name): w.as_json() for w in compare_written(report.written, report.adopted_fit)},
         validation=validation, notes=tuple(notes) + tuple(report.notes), name=nm,
+        plausibility=tuple(_words(report, t) for t in d.plausibility),
         misfit_character=report.misfit.as_json() if report.misfit is not None else None,
         misfit_surface=report.misfit.surface.as_json() if report.misfit is not None else None,
         next_measurements=tuple(report.misfit.next_measurements) if report.misfit is not None else ()).as_json()

@@ -56,6 +56,7 @@ def test_the_worn_coupling_of_a_measured_pump_train_is_named_with_its_free_play(
     assert code == 0, text
     assert j["verdict"]["verdict"] == "explained", j["verdict"]
     assert schema_problems(j) == []  # one document for every bench: two flywheels' keys, in their order
+    assert j["plausibility"] == []  # the file is read right
     found = [s["label"] for s in j["extended"]["steps"]]
     assert found[0] == "backlash at joint 2" and set(found) <= {"backlash at joint 2", "angle_offset at joint 2"}, found
     ext = j["extended"]
@@ -430,3 +431,20 @@ def _check_cards(tmp_path, text, page):
     assert beyond == sorted(beyond) and beyond[0] < 0.5 * 25000 < 0.7 * 25000 < beyond[-1], beyond
     assert all((tmp_path / f"card-joint{j}.png").stat().st_size > 10000 for j in (1, 2, 3))
     assert all(f"Joint card of joint {j}</summary>" in page for j in (1, 2, 3)) and page.count("image/png") == 3
+
+
+@pytest.mark.slow
+def test_swapped_position_columns_are_named_before_any_cause(tmp_path, capsys, worn_daq):
+    # The worn pump train's file read with phi2 and phi3 swapped (a wiring or a column-naming
+    # slip): bodies 2 and 3 come out with no inertia to speak of and joint 2 with a negative
+    # stiffness and damping (measured: J3 = 0.0004 +- 0.0022 kg m^2, joint2_k = -9040 +- 380
+    # N m/rad). No catalogued cause mends a file read wrong: the first thing to do says so, naming
+    # the bodies and the joint, in the text and the JSON.
+    out = tmp_path / "d.json"
+    code = cli(["diagnose", str(worn_daq), "--columns", "time=t,phi2=phi3,phi3=phi2", "--json", str(out), "-q"])
+    text = capsys.readouterr().out
+    assert code == 0, text
+    j = json.loads(out.read_text())
+    assert len(j["plausibility"]) == 1 and "body(ies) 2, 3" in j["plausibility"][0] and "joint(s) 2" in j["plausibility"][0]
+    first = text.split("What to do next")[1].splitlines()[1]
+    assert "the position columns (phi1..phiN, x1..xN) are the bodies in their order" in first, text
