@@ -64,6 +64,8 @@ MODULES = {
     # what an unexplained misfit looks like, on every bench, and the one JSON document
     "jointrig.identify.misfit": ("identify/misfit.py", ["tests/test_misfit.py", "tests/test_train_misfit.py"]),
     "jointrig.present.diagnosis_json": ("present/diagnosis_json.py", ["tests/test_diagnosis_json.py"]),
+    # the joint card, of two flywheels and of every joint of a train
+    "jointrig.identify.card": ("identify/card.py", ["tests/test_card.py"]),
 }
 #: tests that exercise other parts of the project and only cost time here
 DESELECT = "not killed_sweep_resumes and not truncated_store_point and not dask"

@@ -5,11 +5,14 @@
 DATA: a file (CSV, Parquet, MATLAB .mat, HDF5, NI TDMS, UFF 58) or a folder of them, one row
 per sample, columns ``run, time, torque, phi1, phi2`` in s, N m, rad (``phi`` may replace
 ``phi1, phi2``; optional ``omega`` in rad/s; other names with --columns, other units with
---units or in the header as ``phi1 [deg]``). Each run is one steady-state record of several
-whole periods at one drive setting, sampled at any rate (see measured/runs.py).
+--units or in the header as ``phi1 [deg]``). A drive train's file has ``phi1..phiN`` and a
+``torque<i>`` per driven body (N = 1 to 8); bodies on slides ``x1..xN`` (``x``) and ``force<i>``
+(``force``) in m and N. Each run is one steady-state record of several whole periods at one
+drive setting, sampled at any rate (see measured/runs.py).
 
-The tool fits the nominal model (Je or J1, J2; c phi' + k phi + gamma phi^3), ranks the
-physical causes of what it misses by evidence, extends the model, and measures the gain by
+The tool fits the nominal model (Je or J1, J2; c phi' + k phi + gamma phi^3; a train: every
+joint's law and every body's inertia, or your --model), ranks the physical causes of what it
+misses by evidence (a train: at every joint and body), extends the model, and measures the gain by
 running both models in the MuJoCo rig under the measured drive of runs held out of the fit
 (default: runs of another kind than the fit where the data allow: multisines against stepped
 sines, else an inner drive level, else an inner frequency, else every third run;
@@ -46,9 +49,10 @@ def add_data_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--units", metavar="NAME=UNIT,...",
                    help="units of the file's columns when not SI, e.g. time=ms,phi1=deg,phi2=deg,torque=Nmm")
     p.add_argument("--model", type=Path, metavar="MY.xml",
-                   help="your MJCF model of the two flywheels (the jointrig_* fields for the law): the diagnosis "
-                        "starts from its law and shows each parameter as written beside what the data say "
-                        "(default: the paper's structure c phi' + k phi + gamma phi^3, no values as written)")
+                   help="your MJCF model of the two flywheels or of the drive train (the jointrig_* fields for the "
+                        "laws; models/two_flywheels.xml and models/pump_train.xml show both): the diagnosis starts from "
+                        "its laws and shows each parameter as written beside what the data say (default: the paper's "
+                        "structure c phi' + k phi + gamma phi^3 at every joint, no values as written)")
     p.add_argument("--torque-on", choices=("flywheel1", "flywheel2", "shaft"), default="flywheel1",
                    help="where the file's torque acts: the drive on flywheel 1 (default) or on flywheel 2 (the "
                         "angles are swapped so the driven one is flywheel 1); a torque measured in the shaft is "
@@ -78,12 +82,14 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--rrd", type=Path, help="write a rerun recording")
     p.add_argument("--report", type=Path, help="write a self-contained HTML report (tables, SVG figures)")
     p.add_argument("--card", type=Path, metavar="OUT.json",
-                   help="also write the joint card (amplitude-dependent stiffness, damping, dissipation) as JSON")
-    p.add_argument("--card-png", type=Path, metavar="OUT.png", help="also write the joint card's figure")
+                   help="also write the joint card (amplitude-dependent stiffness, damping, dissipation) as JSON; a "
+                        "train's holds one card per joint ('cards')")
+    p.add_argument("--card-png", type=Path, metavar="OUT.png",
+                   help="also write the joint card's figure (a train: OUT-joint<j>.png per joint)")
     p.add_argument("--card-only", action="store_true", help="print the joint card, not the diagnosis report")
     p.add_argument("--mjcf", type=Path, metavar="OUT.xml",
                    help="write the identified model (the adopted one: extended if explained, else nominal) as a "
-                        "rig model file (jointrig_* fields, flywheel inertias) to simulate at once")
+                        "rig model file (jointrig_* fields, inertias) to simulate at once")
     return p.parse_args(argv)
 
 
