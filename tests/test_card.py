@@ -36,6 +36,37 @@ def test_linear_viscous_joint_in_closed_form():
     assert card.dissipation_slope == pytest.approx(2.0, abs=1e-9)  # viscous: E ~ A^2
 
 
+def test_a_linear_joints_backbone_on_another_inertia_and_a_trains_run_rows():
+    # Je = 0.04 kg m^2 (a train's coupling between two light bodies): omega_n = sqrt(k / Je) and
+    # zeta = c / (2 Je omega_n), exact to round-off. The rows of a joint's measured runs
+    # (joint_runs_card: per period the twist's and the carried torque's coefficients) of the same
+    # joint: k, c and E = pi c w A^2 exactly, and the natural frequency's standard error
+    # 0.5 omega_n se(k) / k from the periods' spread of k (here +-1% alternating: se(k) = 0.01 k /
+    # sqrt(P) with the P - 1 = 3 degrees of freedom's (P / (P - 1))^(1/2)).
+    from jointrig.identify.card import JointRun, joint_runs_card
+
+    je, c, k = 0.04, 3.0, 2.5e4
+    law = JointLaw((Viscous(), Power(1)), (c, k))
+    wn = math.sqrt(k / je)
+    for p in law_card(law, je, A).points:
+        assert p.natural_frequency_rad_s == pytest.approx(wn, rel=1e-12)
+        assert p.damping_ratio == pytest.approx(c / (2 * je * wn), rel=1e-12)
+    w, P = 300.0, 4
+    Phi = np.zeros((P, 6), complex)
+    Phi[:, 1] = 1e-3
+    scale = 1.0 + 0.01 * np.array([1, -1, 1, -1])
+    F = (k * scale[:, None] + 1j * w * c) * Phi
+    card = joint_runs_card([JointRun("r", w, Phi, F)], je)
+    q = card.points[0]
+    assert q.secant_stiffness_Nm_per_rad == pytest.approx(k, rel=1e-12)
+    assert q.equivalent_damping_Nms_per_rad == pytest.approx(c, rel=1e-12)
+    assert q.dissipation_J_per_cycle == pytest.approx(math.pi * c * w * 1e-6, rel=1e-12)
+    se_k = 0.01 * k * math.sqrt(P / (P - 1)) / math.sqrt(P)
+    assert q.secant_stiffness_Nm_per_rad_std == pytest.approx(se_k, rel=1e-9)
+    assert q.natural_frequency_rad_s == pytest.approx(wn, rel=1e-12)
+    assert q.natural_frequency_rad_s_std == pytest.approx(0.5 * wn * se_k / k, rel=1e-9)
+
+
 def test_cubic_stiffening_backbone():
     law = JointLaw((Viscous(), Power(1), Power(3)), (100.0, 2000.0, 2e5))
     for a in A:
