@@ -65,6 +65,23 @@ def test_a_linear_joints_backbone_on_another_inertia_and_a_trains_run_rows():
     assert q.secant_stiffness_Nm_per_rad_std == pytest.approx(se_k, rel=1e-9)
     assert q.natural_frequency_rad_s == pytest.approx(wn, rel=1e-12)
     assert q.natural_frequency_rad_s_std == pytest.approx(0.5 * wn * se_k / k, rel=1e-9)
+    assert q.dissipation_J_per_cycle_std == pytest.approx(0.0, abs=1e-12 * q.dissipation_J_per_cycle)  # c did not vary
+
+
+def test_runs_of_a_linear_joint_give_its_stiffness_and_damping():
+    # Exact steady states of Je phi'' + c phi' + k phi = s M0 cos(w t) (J1 = J2 = 2, s = 1/2): the
+    # runs' rows are k and c themselves (the loop's first harmonic and area), to round-off.
+    from jointrig.vocab.records import SteadyStateRecord
+
+    c, k, M0, n, P = 100.0, 2000.0, 400.0, 64, 3
+    recs = []
+    for w in (20.0, 45.0):
+        X = 0.5 * M0 / (k - JE * w * w + 1j * c * w)
+        t = np.arange(P * n) * (2 * math.pi / w / n)
+        recs.append(SteadyStateRecord(w, t, M0 * np.cos(w * t), (X * np.exp(1j * w * t)).real, None, n_periods=P))
+    for q in runs_card(recs, 2.0, 2.0).points:
+        assert q.secant_stiffness_Nm_per_rad == pytest.approx(k, rel=1e-9)
+        assert q.equivalent_damping_Nms_per_rad == pytest.approx(c, rel=1e-9)
 
 
 def test_cubic_stiffening_backbone():
