@@ -36,10 +36,6 @@ __all__ = ["report_json", "format_report", "log_diagnosis", "write_html", "write
 _CHANNEL_UNIT = {"torque": "N m"}
 
 
-def _fmt(v: float) -> str:
-    return "nan" if not math.isfinite(v) else f"{v:.6g}"
-
-
 def report_json(report: DiagnosisReport, *, source: str = "", notes: Sequence[str] = (),
                 input_sha256: str = "", model: Optional[str] = None) -> dict:
     """The two-flywheel diagnosis as the one diagnosis document (:mod:`present.diagnosis_json`);

@@ -58,18 +58,17 @@ def causes_lines(scores: Sequence[CauseScore], *, name: Callable[[str], str] = s
                  note: Callable[[str], str] = str, shown: int = 0, sought: str = "") -> list[str]:
     """The causes ranked by evidence, as a table: every one, or the significant ones and the best
     ``shown`` (the rest counted; all of them are in the JSON); ``sought``: where they were sought."""
-    keep = [s for i, s in enumerate(scores) if not shown or i < shown or s.significant]
-    width = max([22] + [len(s.label) for s in keep])
+    keep = [i for i, s in enumerate(scores) if not shown or i < shown or s.significant]
+    width = max([22] + [len(scores[i].label) for i in keep])
     lines = [f"Causes ranked by evidence ({f'{sought}; ' if sought else ''}score = drop in chi2 - n_params "
              f"ln(n_rows); significant: p < alpha / n_causes, alpha = 1e-3 unless --alpha):",
              f"  {'rank':4s} {'effect':{width}s} {'score':>12s} {'d_chi2':>12s} {'q':>2s} {'p':>9s} {'sig':>4s}  "
              f"magnitude; where the improvement is (mean/fund./even/odd>=3); dissipative share"]
-    for i, c in enumerate(scores, 1):
-        if c not in keep:
-            continue
+    for i in keep:
+        c = scores[i]
         q = name(c.magnitude[0])
         mag = f"{quantity_of(q)} = {with_se(c.magnitude[1], c.magnitude[2])} {unit_of(q)}"
-        lines.append(f"  {i:<4d} {c.label:{width}s} {c.score:12.4g} {c.delta_chi2:12.4g} {c.n_params:2d} "
+        lines.append(f"  {i + 1:<4d} {c.label:{width}s} {c.score:12.4g} {c.delta_chi2:12.4g} {c.n_params:2d} "
                      f"{c.p_value:9.2g} {'yes' if c.significant else 'no':>4s}  {mag}; {_where(c.signature)}"
                      + (f"  [{note(c.note)}]" if c.note else ""))
     if len(keep) < len(scores):

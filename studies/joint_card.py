@@ -10,7 +10,7 @@ not an extrapolation.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Sequence
 
 import numpy as np
@@ -149,8 +149,9 @@ def cards_of_train(report, records) -> tuple[CardReport, ...]:
     fit = report.adopted_fit
     band = d.n_harmonics
     places = train_joint_runs(prepare_chain_runs(records, band=band), report.run_ids, fit, band)
-    masing_runs = train_joint_runs(prepare_chain_runs(records, band=min(band, MASING_HARMONICS)), report.run_ids, fit,
-                                   min(band, MASING_HARMONICS))
+    # the Masing check's loops: the same coefficients up to its harmonics (each is the band's own)
+    top = min(band, MASING_HARMONICS) + 1
+    masing_runs = [[replace(jr, phi=jr.phi[:, :top], torque=jr.torque[:, :top]) for jr in runs] for runs in places]
     name = (f"extended: {' + '.join(s.label for s in d.steps)}" if report.adopted and d.steps
             else f"nominal (verdict {report.verdict.verdict})")
     warning = "" if report.verdict.verdict != "unexplained" else (
