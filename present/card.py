@@ -12,24 +12,34 @@ import numpy as np
 from jointrig.identify.card import MASING_FIDELITY, JointCard, MasingCheck
 from jointrig.studies.joint_card import CardReport
 
-from .formatting import sig, with_se
+from .formatting import sig, with_se, with_se_or
 
-__all__ = ["format_card", "masing_text", "card_json", "card_png"]
+__all__ = ["format_card", "masing_text", "card_json", "card_png", "point_cells", "slope_text"]
+
+
+def point_cells(p) -> tuple[str, str, str, str]:
+    """A card point's secant stiffness, natural frequency, damping ratio and dissipation, each
+    with its standard error, or "none" where the joint has none (no stiffness: no mode)."""
+    return tuple(with_se_or(getattr(p, k), getattr(p, k + "_std"), "none") for k in (
+        "secant_stiffness_Nm_per_rad", "natural_frequency_rad_s", "damping_ratio", "dissipation_J_per_cycle"))
+
+
+def slope_text(c: JointCard) -> str:
+    """A card's dissipation slope (and rate exponent) with standard errors, in words where none
+    is fitted (fewer than two amplitudes that dissipate)."""
+    text = with_se_or(c.dissipation_slope, c.dissipation_slope_std, "none (fewer than two amplitudes)")
+    if math.isfinite(c.rate_exponent):
+        text += f" (rate exponent {with_se(c.rate_exponent, c.rate_exponent_std)})"
+    return text
 
 
 def format_card(card) -> str:
     def row(src, p):
+        k, wn, zeta, e = point_cells(p)
         return (f"  {src:13s} {p.run:>4s} {sig(p.amplitude_rad):>9s} {sig(p.omega_rad_s, 4):>7s} "
-                f"{with_se(p.secant_stiffness_Nm_per_rad, p.secant_stiffness_Nm_per_rad_std):>18s} "
-                f"{with_se(p.natural_frequency_rad_s, p.natural_frequency_rad_s_std):>18s} "
-                f"{with_se(p.damping_ratio, p.damping_ratio_std):>20s} "
-                f"{with_se(p.dissipation_J_per_cycle, p.dissipation_J_per_cycle_std):>18s}")
+                f"{k:>18s} {wn:>18s} {zeta:>20s} {e:>18s}")
 
-    def slope(c):
-        text = with_se(c.dissipation_slope, c.dissipation_slope_std)
-        if c.rate_exponent == c.rate_exponent:  # not NaN
-            text += f" (rate exponent {with_se(c.rate_exponent, c.rate_exponent_std)})"
-        return text
+    slope = slope_text
 
     a_unit, k_unit = card.units
     inertia = "kg" if a_unit == "m" else "kg m^2"

@@ -566,22 +566,13 @@ def _collapsed_sections(report: DiagnosisReport, source: str, notes: Sequence[st
 def _card_section(card, png_bytes: bytes) -> list[str]:
     """The joint card (studies/joint_card.py): runs beside the model at the same amplitude and
     frequency, the slopes, and the card's figure (``png_bytes``, :func:`present.card.card_png`)."""
-    from .card import masing_text
+    from .card import masing_text, point_cells, slope_text as slope
 
     rows = []
     for p, m in zip(card.runs.points, card.model_at_runs.points):
         for src, q, cls in (("runs", p, ""), ("model", m, "")):
             rows.append(_row([f"{p.run} ({src})", (sig(q.amplitude_rad), "num"), (sig(q.omega_rad_s, 4), "num"),
-                              (with_se(q.secant_stiffness_Nm_per_rad, q.secant_stiffness_Nm_per_rad_std), "num"),
-                              (with_se(q.natural_frequency_rad_s, q.natural_frequency_rad_s_std), "num"),
-                              (with_se(q.damping_ratio, q.damping_ratio_std), "num"),
-                              (with_se(q.dissipation_J_per_cycle, q.dissipation_J_per_cycle_std), "num")], cls))
-
-    def slope(c):
-        text = with_se(c.dissipation_slope, c.dissipation_slope_std)
-        if math.isfinite(c.rate_exponent):
-            text += f", rate exponent {with_se(c.rate_exponent, c.rate_exponent_std)}"
-        return text
+                              *[(c, "num") for c in point_cells(q)]], cls))
 
     png = base64.b64encode(png_bytes).decode("ascii")
     warning = [f"<p class='warning'><b>Warning:</b> {html.escape(card.warning)}</p>"] if card.warning else []

@@ -13,7 +13,7 @@ import math
 
 from jointrig.vocab.params import quantity_of, unit_of
 
-__all__ = ["unit_of", "quantity_of", "with_se", "sig"]
+__all__ = ["unit_of", "quantity_of", "with_se", "with_se_or", "sig", "sig_or"]
 
 
 def sig(value: float, digits: int = 3) -> str:
@@ -27,6 +27,11 @@ def sig_or(value: float, words: str, digits: int = 3) -> str:
     """``value`` to ``digits`` significant digits, or ``words`` (why there is no number) if it
     is not finite: no "inf" or "nan" reaches a table."""
     return f"{value:.{digits}g}" if math.isfinite(value) else words
+
+
+def with_se_or(value: float, se: float, words: str) -> str:
+    """:func:`with_se`, or ``words`` (why there is no number) if the value is not finite."""
+    return with_se(value, se) if math.isfinite(value) else words
 
 
 def with_se(value: float, se: float) -> str:

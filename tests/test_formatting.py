@@ -33,3 +33,10 @@ def test_value_with_standard_error(value, se, text):
 ])
 def test_unit_read_from_the_quantity_name(name, quantity, unit):
     assert (quantity_of(name), unit_of(name)) == (quantity, unit)
+
+
+def test_a_value_without_a_number_is_said_in_words():
+    from jointrig.present.formatting import with_se_or
+
+    assert with_se_or(float("nan"), 0.1, "none") == "none" and with_se_or(float("inf"), 1.0, "none") == "none"
+    assert with_se_or(1.2345, 0.01, "none") == with_se(1.2345, 0.01)
