@@ -44,11 +44,9 @@ __all__ = ["format_train_report", "plain_train_verdict", "train_report_json", "t
 
 
 def _values(fit) -> dict:
-    """Every parameter of a chain fit with its standard error: the linear ones, then the
-    profiled (free play, slip angles, zero offsets)."""
-    out = {n: (v, fit.std_error(n)) for n, v in fit.as_dict().items()}
-    out.update({n: (v, se) for n, v, se in fit.profiled})
-    return out
+    """Every parameter of a chain fit with its standard error, as the JSON lists them
+    (:meth:`ChainFit.parameters`: the linear ones, then what the terms imply and the profiled)."""
+    return {n: (v, fit.std_error(n)) for n, v in fit.parameters().items()}
 
 
 def plain_train_verdict(report: TrainReport) -> str:
