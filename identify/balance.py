@@ -239,7 +239,7 @@ def _memo(rec: SteadyStateRecord, key: tuple, compute):
 
 
 def law_rows(terms: Sequence[Term], angles: tuple, rates: tuple, fine_phi, fine_rate, n_periods: int,
-             n_harmonics: int, oversample: int, tag: tuple = ()) -> np.ndarray:
+             n_harmonics: int, oversample: int, tag: tuple = (), weight: Optional[np.ndarray] = None) -> np.ndarray:
     """Fourier coefficients (harmonics 0..n_harmonics) of each term's torque along one relative
     motion, one memoised row per term: the rows of every builder (two flywheels, chains).
 
@@ -249,7 +249,13 @@ def law_rows(terms: Sequence[Term], angles: tuple, rates: tuple, fine_phi, fine_
     arrays (and ``tag``: what else ``fine_phi`` depends on, a zero offset). A term of the angle alone (elastic, or with memory of the angle: Jenkins, Iwan) is
     keyed by the angles only, any other also by the rates, so a profile search that varies one
     term's parameter, or a kink correction that replaces the rate, re-evaluates only what changed.
+    ``weight``: samples (at ``oversample`` 1) that multiply every term's torque before its Fourier
+    coefficients are taken (an equation balanced only where it holds: a body's stick phases
+    masked out, :func:`identify.chain.chain_system`).
     """
+    if weight is not None and oversample != 1:
+        raise ValueError("law_rows: a weight needs oversample 1")
+    angles = angles + ((weight,) if weight is not None else ())
     motion = angles + rates
 
     def row(term):
@@ -259,7 +265,7 @@ def law_rows(terms: Sequence[Term], angles: tuple, rates: tuple, fine_phi, fine_
             phi = memo_arrays(angles, ("fine_phi", oversample) + tag, fine_phi)
             rate = np.zeros_like(phi) if angle_only else memo_arrays(motion, ("fine_rate", oversample), fine_rate)
             sig = np.broadcast_to(np.asarray(term(phi, rate), dtype=float), phi.shape)
-            return fourier_coefficients(sig, n_periods, n_harmonics)
+            return fourier_coefficients(sig if weight is None else sig * weight, n_periods, n_harmonics)
         return memo_arrays(angles if angle_only else motion, ("term", term, n_periods, n_harmonics, oversample) + tag,
                            compute)
 

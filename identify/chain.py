@@ -48,7 +48,8 @@ from .solve import COND_WARN, IdentificationResult
 __all__ = ["ChainRecord", "ChainSpec", "ChainIdentifiabilityError", "identifiability", "chain_system",
            "solve_banded", "identify_chain", "joint_law", "ChainPlant", "plant_of_values", "BandedSystem",
            "fisher_per_period", "row_covariance", "average_chain", "ml_identify_chain", "inertia_name", "bearing_name", "joint_prefix",
-           "ground_prefix"]
+           "ground_prefix", "stick_mask", "sticks_to_ground", "STICK_RATE_FRACTION",
+           "REST_RATE_FRACTION", "REST_DWELL"]
 
 
 class ChainIdentifiabilityError(ValueError):
@@ -248,7 +249,7 @@ def identifiability(n_flywheels: int, measured: Sequence[bool], driven: Sequence
 
 
 def _law_coeffs(rec: "ChainRecord", j: int, terms: Sequence[Term], n_harmonics: int, oversample: int,
-                offset_rad: float = 0.0) -> np.ndarray:
+                offset_rad: float = 0.0, weight: Optional[np.ndarray] = None) -> np.ndarray:
     """Fourier coefficients of joint j's terms (0-based) along the record's twist minus
     ``offset_rad`` (:func:`identify.balance.law_rows`, keyed by the record's arrays, which are
     read-only, and the offset): a profile search that varies one term's nonlinear parameter, or
@@ -256,7 +257,7 @@ def _law_coeffs(rec: "ChainRecord", j: int, terms: Sequence[Term], n_harmonics: 
     return law_rows(terms, (rec.angles_rad[j], rec.angles_rad[j + 1]), (rec.rates_rad_s[j], rec.rates_rad_s[j + 1]),
                     lambda: upsample(rec.relative(j)[0] - offset_rad, oversample),
                     lambda: upsample(rec.relative(j)[1], oversample),
-                    rec.n_periods, n_harmonics, oversample, tag=(offset_rad,) if offset_rad else ())
+                    rec.n_periods, n_harmonics, oversample, tag=(offset_rad,) if offset_rad else (), weight=weight)
 
 
 @dataclass(frozen=True)
@@ -281,9 +282,15 @@ class BandedSystem:
 
 
 def chain_system(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics: int, first_harmonic: int = 0,
-                 oversample: int = 1) -> BandedSystem:
+                 oversample: int = 1, masks: Optional[Sequence] = None) -> BandedSystem:
     """The harmonic-balance rows of every flywheel of every record (harmonics
     ``first_harmonic..n_harmonics``), ordered for :func:`solve_banded`.
+
+    ``masks``: per record, one entry per body, None or samples (0..1, like ``time_s``) that
+    multiply that body's whole equation before it is balanced: the equation is balanced only
+    where it holds with the law's torque. While a body sticks to ground its dry friction is a
+    reaction (whatever holds it), not the law's ``F_c sign(rate)``; masked out there, what is
+    left is exact (:func:`stick_mask`).
 
     Raises:
       ChainIdentifiabilityError: a record lacks an angle a joint needs, or has no drive torque.
@@ -313,29 +320,46 @@ def chain_system(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics
         P, H = rec.n_periods, n_harmonics
         jw = 1j * np.arange(H + 1) * rec.omega_rad_s
         laws = [_law_coeffs(rec, j, spec.joints[j], H, oversample, spec.offsets_rad[j]) for j in range(N - 1)]
+        rec_masks = masks[ri] if masks is not None else (None,) * N
         for i in range(N):
+            m = rec_masks[i]
+            if m is not None and oversample != 1:
+                raise ValueError("chain_system: masks need oversample 1")
             cols = np.zeros((p, H + 1), dtype=complex)
             keys = (rec.angles_rad[i],) + ((rec.rates_rad_s[i],) if rec.rates_rad_s[i] is not None else ())
-            rate_c = memo_arrays(keys, ("chain_rate", P, H),
-                                  lambda: fourier_coefficients(rec.rate(i), P, H))  # noqa: B023 - called at once
-            cols[col[inertia_name(i + 1)]] = jw * rate_c
+            if m is None:
+                rate_c = memo_arrays(keys, ("chain_rate", P, H),
+                                     lambda: fourier_coefficients(rec.rate(i), P, H))  # noqa: B023 - called at once
+                acc_c = jw * rate_c
+            else:  # the masked rate and acceleration as samples (a product's harmonics mix)
+                rate_c, acc_c = memo_arrays(keys + (m,), ("chain_masked_motion", P, H), lambda: tuple(  # noqa: B023
+                    fourier_coefficients(x * m, P, H) for x in (rec.rate(i), spectral_rate(  # noqa: B023
+                        rec.rate(i), rec.omega_rad_s, P))))  # noqa: B023
+            cols[col[inertia_name(i + 1)]] = acc_c
             if i + 1 in spec.bearings:
                 cols[col[bearing_name(i + 1)]] = rate_c
             if spec.grounds[i]:  # body i+1's law to ground acts with +G on it
                 a, r = rec.angles_rad[i], rec.rates_rad_s[i]
                 rows = law_rows(spec.grounds[i], (a,), (r,), lambda: upsample(a, oversample),  # noqa: B023
-                                lambda: upsample(rec.rate(i), oversample), P, H, oversample)  # noqa: B023
+                                lambda: upsample(rec.rate(i), oversample), P, H, oversample, weight=m)  # noqa: B023
                 for t, c in zip(spec.grounds[i], rows):
                     cols[col[ground_prefix(i + 1) + t.name]] += c
             if i < N - 1:  # joint i+1 (between i+1 and i+2) acts with +M on flywheel i+1
-                for t, c in zip(spec.joints[i], laws[i]):
+                own = laws[i] if m is None else _law_coeffs(rec, i, spec.joints[i], H, 1, spec.offsets_rad[i], m)
+                for t, c in zip(spec.joints[i], own):
                     cols[col[joint_prefix(i + 1) + t.name]] += c
             if i > 0:  # joint i acts with -M on flywheel i+1
-                for t, c in zip(spec.joints[i - 1], laws[i - 1]):
+                own = laws[i - 1] if m is None else _law_coeffs(rec, i - 1, spec.joints[i - 1], H, 1,
+                                                                 spec.offsets_rad[i - 1], m)
+                for t, c in zip(spec.joints[i - 1], own):
                     cols[col[joint_prefix(i) + t.name]] -= c
             torque = rec.torques_Nm[i]
-            rhs = (memo_arrays((torque,), ("chain_torque", P, H), lambda: fourier_coefficients(torque, P, H))  # noqa: B023
-                   if torque is not None else np.zeros(H + 1, dtype=complex))
+            if torque is None:
+                rhs = np.zeros(H + 1, dtype=complex)
+            else:
+                held = (torque,) if m is None else (torque, m)
+                rhs = memo_arrays(held, ("chain_torque", P, H), lambda: fourier_coefficients(  # noqa: B023
+                    torque if m is None else torque * m, P, H))  # noqa: B023
             A, F, harm, part = harmonic_rows(cols, rhs, H)
             keep = harm >= first_harmonic
             rows_by_fw[i].append((A[keep], F[keep], harm[keep], part[keep], ri))
@@ -451,6 +475,41 @@ def solve_banded(banded: BandedSystem, *, row_weights: Optional[np.ndarray] = No
     for arr in (result.values, result.std_errors, result.covariance):
         arr.setflags(write=False)
     return result
+
+
+#: A body's rate below this share of its run's peak rate is masked out of its equation where it
+#: rests (:func:`stick_mask`). On a band-limited record (harmonics 1..20) the rate of a carriage
+#: that truly sticks 6% of its cycle stays below 3% of its peak over 12% of it (the band's ripple
+#: about rest), and its acceleration's jump rings past that.
+STICK_RATE_FRACTION = 0.1
+#: A run's body rests (it may stick) when its rate stays below ``REST_RATE_FRACTION`` of its peak
+#: for more than ``REST_DWELL`` times as long as a sinusoid's would ((2 / pi) asin 0.03 = 1.9% of
+#: the period). The independent carriage: 12.1% where it sticks 6% of the cycle, 1.8-2.6% at the
+#: levels where it only slides through rest.
+REST_RATE_FRACTION = 0.03
+REST_DWELL = 2.0
+
+
+def sticks_to_ground(spec: ChainSpec, i: int) -> bool:
+    """True when body ``i`` (0-based) has a law to ground with a jump at rest (dry friction, a
+    Stribeck law's): it can stick, and its equation while it does holds a reaction."""
+    return any(t.dry_friction(1.0) is not None for t in spec.grounds[i])
+
+
+def stick_mask(rate: np.ndarray, fraction: float = STICK_RATE_FRACTION) -> Optional[np.ndarray]:
+    """The weight of a body's equation in :func:`chain_system` over one period of its ``rate``:
+    0 where ``|rate|`` is below ``fraction`` of its largest value, 1 elsewhere, when the body
+    rests there (module constants :data:`REST_RATE_FRACTION`, :data:`REST_DWELL`: it may stick,
+    held by whatever force its dry friction supplies, not the law's); None when it only slides
+    through rest, whose harmonic balance is exact."""
+    rate = np.asarray(rate, dtype=float)
+    top = float(np.max(np.abs(rate))) if rate.size else 0.0
+    dwell = float(np.mean(np.abs(rate) < REST_RATE_FRACTION * top)) if top > 0 else 0.0
+    if not dwell > REST_DWELL * (2.0 / math.pi) * math.asin(REST_RATE_FRACTION):
+        return None
+    out = (np.abs(rate) >= fraction * top).astype(float)
+    out.setflags(write=False)
+    return out
 
 
 def identify_chain(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics: int = 9,

@@ -43,7 +43,8 @@ import numpy as np
 
 from jointrig.vocab.law import JointLaw, Power, Viscous, law_parameters
 from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpec, bearing_name, chain_system,
-                    ground_laws, ground_prefix, identifiability, inertia_name, joint_prefix, solve_banded)
+                    ground_laws, ground_prefix, identifiability, inertia_name, joint_prefix, solve_banded, stick_mask,
+                    sticks_to_ground)
 from .causes import (Ambiguity, Cause, CauseScore, Limits, ModelSpec, Place, at, by_name, evidence, forward_select,
                      fundamental_quadrature, harmonic_shares, parsimonious, profile)
 from .diagnose import DEFAULT_FIDELITY, FINE_SAMPLES
@@ -205,16 +206,38 @@ class _Problem:
     nu: float
     fidelity: float
 
+    #: per body: True where some model of the diagnosis lets it stick to ground (its nominal law
+    #: or a candidate's has dry friction there): that body's equation is balanced with its stick
+    #: phases masked out in *every* fit, so the nominal and extended fits' chi-squares are of
+    #: the same rows and their difference is evidence (:func:`identify.chain.stick_mask`)
+    masked: tuple = ()
+    _masks: dict = field(default_factory=dict, compare=False, repr=False)
+
+    def masks(self) -> Optional[list]:
+        """Per run, per body: the stick mask of a masked body where it rests in that run (of its
+        period-average rate), else None; None when no body rests. The same mask weighs every
+        period of a run."""
+        if not any(self.masked):
+            return None
+        if not self._masks:
+            self._masks.update({k: tuple(stick_mask(run.average.rate(i)) if on else None
+                                         for i, on in enumerate(self.masked)) for k, run in enumerate(self.runs)})
+        out = [self._masks[k] for k in range(len(self.runs))]
+        return out if any(m is not None for ms in out for m in ms) else None
+
     def system(self, spec: ChainSpec):
-        return chain_system([r.average for r in self.runs], spec, n_harmonics=self.n_harmonics, first_harmonic=1)
+        return chain_system([r.average for r in self.runs], spec, n_harmonics=self.n_harmonics, first_harmonic=1,
+                            masks=self.masks())
 
     def row_variance(self, spec: ChainSpec, theta: np.ndarray, like) -> np.ndarray:
         sysl = like.system
         var = np.empty(sysl.F.size)
+        masks = self.masks()
         for i, run in enumerate(self.runs):
             res = []
             for per in run.periods:
-                s = chain_system([per], spec, n_harmonics=self.n_harmonics, first_harmonic=1).system
+                s = chain_system([per], spec, n_harmonics=self.n_harmonics, first_harmonic=1,
+                                 masks=None if masks is None else [masks[i]]).system
                 res.append(s.F - s.A @ theta)
             v = np.array(res).var(axis=0, ddof=1) / run.n_periods
             rows = np.flatnonzero(sysl.row_record == i)
@@ -544,15 +567,19 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
     N = runs[0].average.n_flywheels
     H = min(n_harmonics, min(max_harmonic(r.samples_per_period) for r in runs))
     nu = 2.0 * (min(r.n_periods for r in runs) - 1)
-    problem = _Problem(runs, H, nu, fidelity)
     if nominal is not None and nominal.n_flywheels != N:
         raise ValueError(f"the nominal model has {nominal.n_flywheels} flywheels, the runs {N}")
-    nominal, w = problem.fit(nominal if nominal is not None else nominal_spec(N))
-    ambiguous: list[Ambiguity] = []
+    structure = nominal if nominal is not None else nominal_spec(N)
     # a cause the nominal model already holds at a place is no candidate there (a single body's
     # drag to ground, a user's model with a guide's friction)
-    pool = [c for c in candidates(N, causes) if c.extend(nominal.spec, 1e-3) != nominal.spec
+    pool = [c for c in candidates(N, causes) if c.extend(structure, 1e-3) != structure
             or c.cause.bounds is not None]
+    masked = tuple(sticks_to_ground(structure, i) or any(c.ground and c.place == i + 1
+                                                         and sticks_to_ground(c.extend(structure, 1e-3), i)
+                                                         for c in pool) for i in range(N))
+    problem = _Problem(runs, H, nu, fidelity, masked)
+    nominal, w = problem.fit(structure)
+    ambiguous: list[Ambiguity] = []
     by_label = {c.label: c for c in pool}
     causes_by_name = {c.cause.name: c.cause for c in pool}
 
