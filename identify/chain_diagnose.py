@@ -47,7 +47,7 @@ from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpe
                     sticks_to_ground)
 from .causes import (Ambiguity, Cause, CauseScore, Limits, ModelSpec, Place, at, by_name, evidence, forward_select,
                      fundamental_quadrature, harmonic_shares, parsimonious, profile)
-from .diagnose import DEFAULT_FIDELITY, FINE_SAMPLES
+from .diagnose import DEFAULT_FIDELITY, FINE_SAMPLES, KINK_RTOL, kink_corrected_rate, kink_first_pass
 from .harmonics import max_harmonic
 from .periods import period_spectra, raw_noise_std
 from jointrig.vocab.records import RecordError, SteadyStateRecord
@@ -101,6 +101,8 @@ class ChainRun:
     periods: tuple
     noise_std: dict
     samples_per_period: int
+    #: harmonics 0..band kept (the band-limiting a kink correction restores above)
+    band: int = 20
 
     @property
     def n_periods(self) -> int:
@@ -147,7 +149,7 @@ def prepare_chain_runs(records: Sequence[ChainRecord], *, band: int = 20) -> lis
 
         out.append(ChainRun(make(lambda c: c[0], "(period average, band-limited)"),
                             tuple(make(lambda c, p=p: c[1][p], f"(period {p + 1}, band-limited)") for p in range(P)),
-                            noise, N))
+                            noise, N, band))
     return out
 
 
@@ -212,6 +214,8 @@ class _Problem:
     #: the same rows and their difference is evidence (:func:`identify.chain.stick_mask`)
     masked: tuple = ()
     _masks: dict = field(default_factory=dict, compare=False, repr=False)
+    #: (run, body) -> its angles (average and periods) and the kink correction's first pass over them
+    _first_pass: dict = field(default_factory=dict, compare=False, repr=False)
 
     def masks(self) -> Optional[list]:
         """Per run, per body: the stick mask of a masked body where it rests in that run (of its
@@ -225,17 +229,63 @@ class _Problem:
         out = [self._masks[k] for k in range(len(self.runs))]
         return out if any(m is not None for ms in out for m in ms) else None
 
-    def system(self, spec: ChainSpec):
-        return chain_system([r.average for r in self.runs], spec, n_harmonics=self.n_harmonics, first_harmonic=1,
+    def jumps(self, spec: ChainSpec, values: Optional[dict]) -> tuple:
+        """Per body: the jump of its acceleration where its rate reverses, ``2 F_s / m`` (F_s the
+        static friction of its law to ground at ``values``), for a body with dry friction to
+        ground in ``spec``; 0 elsewhere or without values."""
+        out = []
+        for i, terms in enumerate(spec.grounds):
+            if values is None or not sticks_to_ground(spec, i):
+                out.append(0.0)
+                continue
+            static = sum((t.dry_friction(values[ground_prefix(i + 1) + t.name]) or (0.0,))[0] for t in terms)
+            mass = values[inertia_name(i + 1)]
+            out.append(max(2.0 * static / mass, 0.0) if mass > 0 else 0.0)
+        return tuple(out)
+
+    def _kinked(self, k: int, i: int, jump: float) -> np.ndarray:
+        """Run k's body i rate, its average and each period ``(1 + P, M)``, with the kinks of
+        a jump ``jump`` at its reversals restored (:func:`identify.diagnose.kink_corrected_rate`)."""
+        run = self.runs[k]
+        key = (k, i)
+        if key not in self._first_pass:
+            x = np.vstack([run.average.angles_rad[i]] + [p.angles_rad[i] for p in run.periods])
+            self._first_pass[key] = (x, kink_first_pass(x, run.average.omega_rad_s, run.band))
+        x, first = self._first_pass[key]
+        rates = kink_corrected_rate(x, run.average.omega_rad_s, run.band, jump, first_pass=first)
+        rates.setflags(write=False)
+        return rates
+
+    def records(self, jumps: tuple) -> list[list]:
+        """Per run: its average and each period, with the kink-corrected rate of every body that
+        slides through rest with a jump (unmasked in that run); the prepared records elsewhere."""
+        masks = self.masks()
+        out = []
+        for k, run in enumerate(self.runs):
+            recs = [run.average] + list(run.periods)
+            for i, jump in enumerate(jumps):
+                if jump <= 0 or (masks is not None and masks[k][i] is not None):
+                    continue
+                rates = self._kinked(k, i, jump)
+                recs = [replace(r, rates_rad_s=tuple(rates[n] if b == i else r.rates_rad_s[b]
+                                                     for b in range(len(r.rates_rad_s))))
+                        for n, r in enumerate(recs)]
+            out.append(recs)
+        return out
+
+    def system(self, spec: ChainSpec, jumps: Optional[tuple] = None):
+        recs = self.records(jumps) if jumps is not None and any(jumps) else [[r.average] for r in self.runs]
+        return chain_system([r[0] for r in recs], spec, n_harmonics=self.n_harmonics, first_harmonic=1,
                             masks=self.masks())
 
-    def row_variance(self, spec: ChainSpec, theta: np.ndarray, like) -> np.ndarray:
+    def row_variance(self, spec: ChainSpec, theta: np.ndarray, like, jumps: Optional[tuple] = None) -> np.ndarray:
         sysl = like.system
         var = np.empty(sysl.F.size)
         masks = self.masks()
+        recs = self.records(jumps) if jumps is not None and any(jumps) else [[None] + list(r.periods) for r in self.runs]
         for i, run in enumerate(self.runs):
             res = []
-            for per in run.periods:
+            for per in recs[i][1:]:
                 s = chain_system([per], spec, n_harmonics=self.n_harmonics, first_harmonic=1,
                                  masks=None if masks is None else [masks[i]]).system
                 res.append(s.F - s.A @ theta)
@@ -255,10 +305,27 @@ class _Problem:
         return np.maximum(var, (1e-12 * scale) ** 2)
 
     def solve(self, spec: ChainSpec, weights: np.ndarray) -> ChainFit:
-        banded = self.system(spec)
+        """Weighted fit of ``spec``; with dry friction to ground on a body that slides through
+        rest, its rate's kinks restored at the fitted friction and refitted until the jump
+        settles (to ``KINK_RTOL``, at most two refits), as two flywheels' joint is
+        (:func:`identify.diagnose._solve`)."""
+        jumps = None
+        banded, res = self._solve_once(spec, weights, jumps)
+        for _ in range(2):
+            new = self.jumps(spec, dict(zip(res.names, res.values)))
+            if not any(new) or (jumps is not None and all(abs(a - b) <= KINK_RTOL * a for a, b in zip(new, jumps))):
+                break
+            jumps = new
+            banded, res = self._solve_once(spec, weights, jumps)
+        return self._fit_of(spec, weights, banded, res, jumps)
+
+    def _solve_once(self, spec: ChainSpec, weights: np.ndarray, jumps: Optional[tuple]):
+        banded = self.system(spec, jumps)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", IllConditionedWarning)
-            res = solve_banded(banded, row_weights=weights)
+            return banded, solve_banded(banded, row_weights=weights)
+
+    def _fit_of(self, spec: ChainSpec, weights: np.ndarray, banded, res, jumps) -> ChainFit:
         s = banded.system
         row, chi2, scale = weighted_chi2(s.F - s.A @ res.values, weights, self.nu, res.dof)
         return ChainFit(spec, res.names, np.array(res.values), np.array(res.std_errors) * math.sqrt(scale), chi2,
@@ -270,7 +337,7 @@ class _Problem:
         w = np.ones(banded.system.F.size)
         f = self.solve(spec, w)
         for _ in range(iterations):
-            w = 1.0 / self.row_variance(spec, f.values, banded)
+            w = 1.0 / self.row_variance(spec, f.values, banded, self.jumps(spec, f.as_dict()))
             f = self.solve(spec, w)
         return f, w
 
