@@ -48,7 +48,7 @@ from .solve import COND_WARN, IdentificationResult
 __all__ = ["ChainRecord", "ChainSpec", "ChainIdentifiabilityError", "identifiability", "chain_system",
            "solve_banded", "identify_chain", "joint_law", "ChainPlant", "plant_of_values", "BandedSystem",
            "fisher_per_period", "row_covariance", "average_chain", "ml_identify_chain", "inertia_name", "bearing_name", "joint_prefix",
-           "ground_prefix", "stick_mask", "sticks_to_ground", "STICK_RATE_FRACTION",
+           "ground_prefix", "stick_mask", "rest_share", "sticks_to_ground", "STICK_RATE_FRACTION",
            "REST_RATE_FRACTION", "REST_DWELL"]
 
 
@@ -496,6 +496,13 @@ def sticks_to_ground(spec: ChainSpec, i: int) -> bool:
     return any(t.dry_friction(1.0) is not None for t in spec.grounds[i])
 
 
+def rest_share(rate: np.ndarray) -> float:
+    """The share of a period whose ``|rate|`` stays below :data:`REST_RATE_FRACTION` of its peak."""
+    rate = np.asarray(rate, dtype=float)
+    top = float(np.max(np.abs(rate))) if rate.size else 0.0
+    return float(np.mean(np.abs(rate) < REST_RATE_FRACTION * top)) if top > 0 else 0.0
+
+
 def stick_mask(rate: np.ndarray, fraction: float = STICK_RATE_FRACTION) -> Optional[np.ndarray]:
     """The weight of a body's equation in :func:`chain_system` over one period of its ``rate``:
     0 where ``|rate|`` is below ``fraction`` of its largest value, 1 elsewhere, when the body
@@ -503,11 +510,9 @@ def stick_mask(rate: np.ndarray, fraction: float = STICK_RATE_FRACTION) -> Optio
     held by whatever force its dry friction supplies, not the law's); None when it only slides
     through rest, whose harmonic balance is exact."""
     rate = np.asarray(rate, dtype=float)
-    top = float(np.max(np.abs(rate))) if rate.size else 0.0
-    dwell = float(np.mean(np.abs(rate) < REST_RATE_FRACTION * top)) if top > 0 else 0.0
-    if not dwell > REST_DWELL * (2.0 / math.pi) * math.asin(REST_RATE_FRACTION):
+    if not rest_share(rate) > REST_DWELL * (2.0 / math.pi) * math.asin(REST_RATE_FRACTION):
         return None
-    out = (np.abs(rate) >= fraction * top).astype(float)
+    out = (np.abs(rate) >= fraction * float(np.max(np.abs(rate)))).astype(float)
     out.setflags(write=False)
     return out
 

@@ -43,8 +43,8 @@ import numpy as np
 
 from jointrig.vocab.law import JointLaw, Power, Viscous, law_parameters
 from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpec, bearing_name, chain_system,
-                    ground_laws, ground_prefix, identifiability, inertia_name, joint_prefix, solve_banded, stick_mask,
-                    sticks_to_ground)
+                    ground_laws, ground_prefix, identifiability, inertia_name, joint_prefix, solve_banded, rest_share,
+                    stick_mask, sticks_to_ground)
 from .causes import (Ambiguity, Cause, CauseScore, Limits, ModelSpec, Place, at, by_name, evidence, forward_select,
                      fundamental_quadrature, harmonic_shares, parsimonious, profile)
 from .diagnose import DEFAULT_FIDELITY, FINE_SAMPLES, KINK_RTOL, kink_corrected_rate, kink_first_pass
@@ -592,6 +592,10 @@ class ChainDiagnosis:
     nu: float
     #: what in the nominal fit says the file may be read wrong (:func:`implausible_train_fit`)
     plausibility: tuple = ()
+    #: ``(run index among the fitted runs, body number, share of the period it rests, share
+    #: masked out of its equation)`` for every run where a body that may stick rests
+    #: (:func:`identify.chain.stick_mask`)
+    rests: tuple = ()
 
     @property
     def found(self) -> Optional[CauseScore]:
@@ -699,8 +703,11 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
     steps = list(chosen.adopted)
     channels = sorted({ch for r in runs for ch in r.noise_std})
     noise = {ch: float(np.median([r.noise_std[ch] for r in runs if ch in r.noise_std])) for ch in channels}
+    masks = problem.masks() or ()
+    rests = tuple((k, i + 1, rest_share(runs[k].average.rate(i)), 1.0 - float(np.mean(m)))
+                  for k, ms in enumerate(masks) for i, m in enumerate(ms) if m is not None)
     return ChainDiagnosis(nominal, first, tuple(steps), current, tuple(ambiguous), H, noise, nu,
-                          implausible_train_fit(nominal))
+                          implausible_train_fit(nominal), rests)
 
 
 #: A fitted value this many standard errors on the wrong side of zero is no body's or joint's.

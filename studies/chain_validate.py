@@ -306,6 +306,12 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
     d = diagnose_chain(runs, n_harmonics=band, alpha=alpha, nominal=nominal,
                        fidelity=DEFAULT_FIDELITY if fidelity is None else fidelity,
                        progress=lambda k, n, label: say(f"scored {k}/{n} candidates ({label})") if k == n else None)
+    fit_ids = run_ids if split else [run_ids[i] for i in range(len(records)) if i not in held]
+    for k, body, rest, masked in d.rests:
+        notes.append(f"run {fit_ids[k]}: body {body} rests {rest:.0%} of its period (its rate below 3% of its peak; "
+                     f"it may stick, held by whatever force its dry friction supplies there, not the law's): its "
+                     f"equation is balanced only where its rate exceeds a tenth of its peak ({masked:.0%} of the "
+                     f"period left out, in every model compared)")
     say("replaying the held-out runs' drives on the nominal and the extended model in the rig")
     v = validate_chain(rig, d, held_recs, backend=backend)
     if split:
