@@ -87,7 +87,8 @@ class Cause:
     reduces_to: Optional[str] = None
     #: where the cause is sought: ``"joint"`` (a law of a joint's twist: the two-flywheel joint
     #: and every joint of a train), ``"two_flywheel"`` (the two-flywheel bench only: its drive,
-    #: bearings and flywheel 2's angle), ``"ground"`` (a single body's law to the frame) and
+    #: bearings and flywheel 2's angle), ``"ground"`` (a single body's law to the frame), ``"drive"``
+    #: (a train's drive channels: their lag) and
     #: ``"oscillator"`` (the one-coordinate extension, the Silverbox)
     places: frozenset = frozenset({"joint"})
     #: the profile grid's spacing in the nonlinear parameter, from the runs (None: the fixed
@@ -298,7 +299,7 @@ CATALOGUE: tuple[Cause, ...] = (
     Cause("drive_delay", "the drive acts later than it is recorded: a phase lag growing linearly with frequency",
           lambda s, h: replace(s, drive_delay_s=float(h)), DRIVE_DELAY, 0,
           bounds=lambda runs: (0.0, 0.1 * min(2 * math.pi / r.average.omega_rad_s for r in runs)),
-          profiled=DRIVE_DELAY, places=frozenset({"two_flywheel", "oscillator"})),
+          profiled=DRIVE_DELAY, places=frozenset({"two_flywheel", "oscillator", "drive"})),
     Cause("bearing_friction", "viscous drag of a flywheel to ground (not through the joint)",
           lambda s, h: replace(s, bearings=True), "bearing_damping_Nms_per_rad", 2, needs_two_angles=True,
           places=frozenset({"two_flywheel"}), magnitude_parts=(BEARING1, BEARING2), magnitude_is="largest"),
@@ -406,14 +407,17 @@ def fundamental_quadrature(torques: Sequence[np.ndarray], motions: Sequence[np.n
 @dataclass(frozen=True)
 class Place:
     """Where in a train a cause is sought: ``"joint"`` j (its twist), ``"flywheel"`` i (a viscous
-    drag to ground, a bearing) or ``"ground"`` i (body i's own law to the frame)."""
+    drag to ground, a bearing), ``"ground"`` i (body i's own law to the frame) or ``"drive"``
+    (the drives' channels, number None)."""
 
     kind: str
-    number: int
+    number: Optional[int]
 
     def describe(self) -> str:
         if self.kind == "ground":
             return f"to ground at body {self.number}"
+        if self.kind == "drive":
+            return "at the drives"
         return f"at {self.kind} {self.number}"
 
 

@@ -40,6 +40,7 @@ import numpy as np
 from .estimates import equilibrated_condition
 from .balance import LinearSystem, harmonic_rows, law_rows, memo_arrays, spectral_rate, upsample
 from jointrig.vocab.law import JointLaw, Term
+from jointrig.vocab.params import DRIVE_DELAY
 from .harmonics import fourier_coefficients, max_harmonic
 from .periods import period_spectra, white_variance
 from jointrig.vocab.records import RecordError, SteadyStateRecord, WholePeriods
@@ -48,7 +49,7 @@ from .solve import COND_WARN, IdentificationResult
 __all__ = ["ChainRecord", "ChainSpec", "ChainIdentifiabilityError", "identifiability", "chain_system",
            "solve_banded", "identify_chain", "joint_law", "ChainPlant", "plant_of_values", "BandedSystem",
            "fisher_per_period", "row_covariance", "average_chain", "ml_identify_chain", "inertia_name", "bearing_name", "joint_prefix",
-           "ground_prefix", "stick_mask", "rest_share", "sticks_to_ground", "STICK_RATE_FRACTION",
+           "ground_prefix", "delayed", "stick_mask", "rest_share", "sticks_to_ground", "STICK_RATE_FRACTION",
            "REST_RATE_FRACTION", "REST_DWELL"]
 
 
@@ -178,12 +179,15 @@ class ChainSpec:
       grounds: per body, the terms of its law to ground, a function of its own angle and rate
         (a guide's or a seal's friction, a spring to ground); () where it has none. A single body
         (no joints) is a chain of N = 1.
+      drive_delay_s: the drives act this long after they are recorded (s; every drive channel
+        alike: one amplifier's or DAQ's lag): the torque ``T_i(t - tau)`` acts at ``t``.
     """
 
     joints: tuple
     bearings: tuple = ()
     offsets_rad: tuple = ()
     grounds: tuple = ()
+    drive_delay_s: float = 0.0
 
     def __post_init__(self):
         joints = tuple(tuple(j) for j in self.joints)
@@ -202,9 +206,12 @@ class ChainSpec:
         if len(offsets) != len(joints) or not all(math.isfinite(o) for o in offsets):
             raise ValueError(f"ChainSpec.offsets_rad must hold one finite number per joint ({len(joints)}), got "
                              f"{self.offsets_rad}")
+        if not math.isfinite(self.drive_delay_s):
+            raise ValueError(f"ChainSpec.drive_delay_s must be finite, got {self.drive_delay_s}")
         object.__setattr__(self, "joints", joints)
         object.__setattr__(self, "bearings", bearings)
         object.__setattr__(self, "offsets_rad", offsets)
+        object.__setattr__(self, "drive_delay_s", float(self.drive_delay_s))
 
     @property
     def n_flywheels(self) -> int:
@@ -358,8 +365,10 @@ def chain_system(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics
                 rhs = np.zeros(H + 1, dtype=complex)
             else:
                 held = (torque,) if m is None else (torque, m)
-                rhs = memo_arrays(held, ("chain_torque", P, H), lambda: fourier_coefficients(  # noqa: B023
-                    torque if m is None else torque * m, P, H))  # noqa: B023
+                tau = spec.drive_delay_s
+                rhs = memo_arrays(held, ("chain_torque", P, H, tau), lambda: fourier_coefficients(  # noqa: B023
+                    (delayed(torque, rec.omega_rad_s, P, tau) if tau else torque)  # noqa: B023
+                    * (1.0 if m is None else m), P, H))  # noqa: B023
             A, F, harm, part = harmonic_rows(cols, rhs, H)
             keep = harm >= first_harmonic
             rows_by_fw[i].append((A[keep], F[keep], harm[keep], part[keep], ri))
@@ -388,6 +397,18 @@ def chain_system(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics
     system = LinearSystem(np.vstack(As), np.concatenate(Fs), names, np.concatenate(rec_idx),
                           np.concatenate(harms), np.concatenate(parts), np.concatenate(eqs))
     return BandedSystem(system, tuple(spans))
+
+
+def delayed(x: np.ndarray, omega_rad_s: float, n_periods: int, delay_s: float) -> np.ndarray:
+    """A periodic record ``x(t - delay_s)``: every harmonic below Nyquist turned by ``-n omega
+    delay`` (exact for a band-limited record; the Nyquist bin, whose phase is ambiguous, dropped)."""
+    n = x.shape[-1]
+    X = np.fft.rfft(x)
+    k = np.arange(X.size)
+    X = X * np.exp(-1j * (k / n_periods) * omega_rad_s * delay_s)
+    if n % 2 == 0:
+        X[-1] = 0.0
+    return np.fft.irfft(X, n=n)
 
 
 def solve_banded(banded: BandedSystem, *, row_weights: Optional[np.ndarray] = None) -> IdentificationResult:
@@ -544,8 +565,12 @@ class ChainPlant:
     laws: tuple
     bearings_Nms_per_rad: tuple
     grounds: tuple = ()
+    #: the drives act this long after they are recorded (s): ``T_i(t - tau)`` at ``t``
+    drive_delay_s: float = 0.0
 
     def __post_init__(self):
+        if not math.isfinite(self.drive_delay_s):
+            raise ValueError(f"ChainPlant.drive_delay_s must be finite, got {self.drive_delay_s}")
         laws = tuple(self.laws)
         if not all(isinstance(law, JointLaw) for law in laws):
             raise TypeError("ChainPlant.laws must be one JointLaw per joint")
@@ -581,13 +606,16 @@ class ChainPlant:
         for i, g in enumerate(self.grounds, start=1):
             if g is not None:
                 out.update({ground_prefix(i) + n: v for n, v in g.as_dict().items()})
+        if self.drive_delay_s:
+            out[DRIVE_DELAY] = self.drive_delay_s
         return out
 
     def spec(self) -> ChainSpec:
         """The model structure that holds this plant exactly."""
         return ChainSpec(tuple(law.terms for law in self.laws),
                          tuple(i for i, b in enumerate(self.bearings_Nms_per_rad, start=1) if b),
-                         grounds=tuple(g.terms if g is not None else () for g in self.grounds))
+                         grounds=tuple(g.terms if g is not None else () for g in self.grounds),
+                         drive_delay_s=self.drive_delay_s)
 
 
 def plant_of_values(values: dict, spec: ChainSpec) -> ChainPlant:
@@ -595,7 +623,7 @@ def plant_of_values(values: dict, spec: ChainSpec) -> ChainPlant:
     the caller's choice; here values are taken as they are, bearings clipped at 0)."""
     laws = tuple(joint_law(values, spec, j) for j in range(1, spec.n_flywheels))
     bearings = tuple(max(0.0, values.get(bearing_name(i), 0.0)) for i in range(1, spec.n_flywheels + 1))
-    return ChainPlant(laws, bearings, ground_laws(values, spec))
+    return ChainPlant(laws, bearings, ground_laws(values, spec), spec.drive_delay_s)
 
 
 def ground_laws(values: dict, spec: ChainSpec) -> tuple:

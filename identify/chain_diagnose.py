@@ -42,6 +42,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from jointrig.vocab.law import JointLaw, Power, Viscous, law_parameters
+from jointrig.vocab.params import DRIVE_DELAY
 from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpec, bearing_name, chain_system,
                     ground_laws, ground_prefix, identifiability, inertia_name, joint_prefix, solve_banded, rest_share,
                     stick_mask, sticks_to_ground)
@@ -59,13 +60,16 @@ __all__ = ["ChainRun", "prepare_chain_runs", "ChainFit", "Candidate", "CauseScor
            "drive_information"]
 
 #: The catalogue's causes that live in a joint (scored at every joint); bearing drag is scored
-#: at every flywheel; an angle's zero at a joint is its twist's offset. Drive delay and the
-#: channel skew and gain of flywheel 2's angle are two-flywheel causes not carried over.
+#: at every flywheel; an angle's zero at a joint is its twist's offset; the drives' lag is scored
+#: once (:data:`DRIVE_CAUSES`). The channel skew and gain of flywheel 2's angle are two-flywheel
+#: causes not carried over.
 JOINT_CAUSES: tuple[Cause, ...] = at("joint")
 _BEARING = by_name("bearing_friction")
 
 #: The causes scored in a single body's law to ground: a guide's friction, a motor's cogging.
 GROUND_CAUSES: tuple[Cause, ...] = at("ground")
+#: The causes of the drives' channels, scored once: their lag behind the record.
+DRIVE_CAUSES: tuple[Cause, ...] = at("drive")
 #: On a train of two or more bodies no friction to ground is scored yet (viscous bearing drag
 #: is). The independent bench's Stribeck joint 3 (its law shaped unlike the project's) drew a
 #: second cause at the next body: Stribeck friction to ground (p < 1e-3 after Bonferroni over 40
@@ -198,6 +202,10 @@ class ChainFit(RowFit):
         for j, o in enumerate(self.spec.offsets_rad, start=1):
             if o:
                 out[joint_prefix(j) + "angle_offset_rad"] = o
+        if self.spec.drive_delay_s:
+            out[DRIVE_DELAY] = self.spec.drive_delay_s
+        for name, value, _ in self.profiled:  # a profile's value where the structure holds none (a lag of 0)
+            out.setdefault(name, value)
         return out
 
 
@@ -368,6 +376,11 @@ class Candidate:
         return self.where.kind == "ground"
 
     @property
+    def at_drive(self) -> bool:
+        """The drives' channels (their lag behind the record), not a place on the line."""
+        return self.where.kind == "drive"
+
+    @property
     def label(self) -> str:
         return f"{self.cause.name} {self.where.describe()}"
 
@@ -384,6 +397,9 @@ class Candidate:
     def extend(self, spec: ChainSpec, h: float) -> ChainSpec:
         """The chain with this cause at its place: a joint's cause extends that joint as it extends
         the two-flywheel joint (its terms and its twist's zero offset, :class:`identify.causes.ModelSpec`)."""
+        if self.at_drive:
+            return replace(spec, drive_delay_s=self.cause.extend(ModelSpec((), drive_delay_s=spec.drive_delay_s),
+                                                                 h).drive_delay_s)
         k = self.place - 1
         if self.ground:
             grounds = list(spec.grounds)
@@ -398,9 +414,13 @@ class Candidate:
 
     @property
     def prefix(self) -> str:
+        if self.at_drive:
+            return ""
         return ground_prefix(self.place) if self.ground else joint_prefix(self.place)
 
     def magnitude_name(self) -> str:
+        if self.at_drive:
+            return self.cause.magnitude
         if not self.at_joint and not self.ground:
             return bearing_name(self.place)
         return self.prefix + self.cause.magnitude
@@ -426,6 +446,8 @@ def _twist_runs(problem: _Problem, cand: Candidate) -> list:
     may barely twist in runs far from its modes; the bounds of a free play or a slip angle must
     reach the largest twist, and those of a rate (a Stribeck rate, ``profiled`` in rad/s) the
     largest twist rate: the run where that swings most."""
+    if cand.at_drive:  # a drive's lag is bounded by the runs' periods
+        return list(problem.runs)
     by_rate = cand.cause.profiled is not None and cand.cause.profiled.endswith("_rad_s")
     best, amp = None, -1.0
     for r in problem.runs:
@@ -531,7 +553,7 @@ def score(problem: _Problem, cand: Candidate, base: ChainFit, weights: np.ndarra
     if cand.at_joint or cand.ground:
         mag = cand.cause.magnitude_of(ext.parameters(), ext.std_error, cand.prefix)
     else:
-        mag = (name, ext.as_dict().get(name, math.nan), ext.std_error(name))
+        mag = (name, ext.parameters().get(name, math.nan), ext.std_error(name))
     note = _rejection(problem, cand, ext, mag) if significant or (cand.cause.nonnegative and mag[1] < 0) else ""
     if note:
         significant = False
@@ -608,14 +630,16 @@ class ChainDiagnosis:
 
 
 def candidates(n_flywheels: int, causes: Sequence[Cause] = JOINT_CAUSES, bearings: bool = True,
-               ground: Sequence[Cause] = GROUND_CAUSES) -> list[Candidate]:
-    """Every cause at every joint, bearing drag at every body, and the ground causes at every body."""
+               ground: Sequence[Cause] = GROUND_CAUSES, drives: Sequence[Cause] = DRIVE_CAUSES) -> list[Candidate]:
+    """Every cause at every joint, bearing drag at every body, the ground causes at every body and
+    the drives' causes (their lag) once."""
     out = [Candidate(c, Place("joint", j)) for j in range(1, n_flywheels) for c in causes]
     if bearings:
         out += [Candidate(_BEARING, Place("flywheel", i)) for i in range(1, n_flywheels + 1)]
     if n_flywheels > 1:  # see TRAIN_GROUND_CAUSES
         ground = [c for c in ground if c.name in TRAIN_GROUND_CAUSES]
     out += [Candidate(c, Place("ground", i)) for i in range(1, n_flywheels + 1) for c in ground]
+    out += [Candidate(c, Place("drive", None)) for c in drives]
     return out
 
 
@@ -641,10 +665,16 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
     if nominal is not None and nominal.n_flywheels != N:
         raise ValueError(f"the nominal model has {nominal.n_flywheels} flywheels, the runs {N}")
     structure = nominal if nominal is not None else nominal_spec(N)
+    # A lag is told from a law by its phase growing with the frequency: at one frequency it only
+    # turns every harmonic by a fixed angle, and on a single run of the carriage it reached the
+    # top of its range (a tenth of the period) and was second in evidence. Scored from two
+    # frequencies on.
+    omegas = sorted(r.average.omega_rad_s for r in runs)
+    several = any(b > a * (1 + 1e-3) for a, b in zip(omegas, omegas[1:]))
     # a cause the nominal model already holds at a place is no candidate there (a single body's
     # drag to ground, a user's model with a guide's friction)
-    pool = [c for c in candidates(N, causes) if c.extend(structure, 1e-3) != structure
-            or c.cause.bounds is not None]
+    pool = [c for c in candidates(N, causes, drives=DRIVE_CAUSES if several else ())
+            if c.extend(structure, 1e-3) != structure or c.cause.bounds is not None]
     masked = tuple(sticks_to_ground(structure, i) or any(c.ground and c.place == i + 1
                                                          and sticks_to_ground(c.extend(structure, 1e-3), i)
                                                          for c in pool) for i in range(N))
@@ -818,6 +848,10 @@ def separating_drive(problem: _Problem, a: Candidate, b: Candidate, sa: CauseSco
     torque = float(np.median([max(float(np.ptp(t)) / 2 for t in r.average.torques_Nm if t is not None) for r in runs]))
     sigma = float(np.median([max(v for kk, v in r.noise_std.items() if kk.startswith("torque")) for r in runs])) or 1.0
 
+    if a.at_drive or b.at_drive:
+        return None, (f"{a.label} and {b.label}: a drive's lag is not a place on the line; runs at several "
+                      f"frequencies at one level tell a lag (its phase grows with the frequency) from a law")
+
     def effect(cand, sc):
         if cand.at_joint:
             return ("joint", cand.place, _effect_law(cand, sc))
@@ -861,7 +895,8 @@ def plant_and_inertias(f: ChainFit) -> tuple[ChainPlant, tuple[float, ...]]:
                  for j, terms in enumerate(f.spec.joints, start=1))
     N = len(laws) + 1
     bearings = tuple(max(0.0, vals.get(bearing_name(i), 0.0)) for i in range(1, N + 1))
-    return ChainPlant(laws, bearings, ground_laws(vals, f.spec)), tuple(vals[inertia_name(i)] for i in range(1, N + 1))
+    return (ChainPlant(laws, bearings, ground_laws(vals, f.spec), f.spec.drive_delay_s),
+            tuple(vals[inertia_name(i)] for i in range(1, N + 1)))
 
 
 # --------------------------------------------------------------------------------------------

@@ -76,10 +76,12 @@ def _sought(report: TrainReport) -> str:
     N = d.nominal.spec.n_flywheels
     n_joint = sum(1 for s in d.first_round if s.at_joint)
     n_ground = sum(1 for s in d.first_round if s.ground)
-    n_drag = len(d.first_round) - n_joint - n_ground
+    n_drive = sum(1 for s in d.first_round if s.where is not None and s.where.kind == "drive")
+    n_drag = len(d.first_round) - n_joint - n_ground - n_drive
     places = ([f"{n_joint} at {N - 1} joint(s)"] if N > 1 else []) + (
         [f"viscous drag at {n_drag} {'bodies' if n_drag > 1 else 'body'}"] if n_drag else []) + (
-        [f"{n_ground} laws to ground"] if n_ground else [])
+        [f"{n_ground} laws to ground"] if n_ground else []) + (
+        ["the drives' lag"] if n_drive else [])
     return f"{len(d.first_round)} candidates: {', '.join(places)}"
 
 

@@ -11,7 +11,9 @@ A chain model file (``models/pump_train.xml``) has
 * per joint j (between flywheels j and j+1) its law's fields with the prefix
   ``jointrig_joint<j>_`` (``jointrig_joint2_k_Nm_per_rad``: every field a two-flywheel model
   knows, read by the same term classes, :data:`vocab.law.TERM_CLASSES`), and
-  ``jointrig_bearing<i>_damping_Nms_per_rad`` for a flywheel's drag to ground.
+  ``jointrig_bearing<i>_damping_Nms_per_rad`` for a flywheel's drag to ground;
+* optionally ``jointrig_drive_delay_s``: every drive acts this long after it is recorded (the
+  rig turns each periodic drive by its delay; the record holds the drive as commanded).
 
 The passive callback applies every joint's torque (``-M_j`` on flywheel j, ``+M_j`` on j+1),
 the bearings and the drives, evaluated at continuous time as in :mod:`rig.simulate`; it is
@@ -22,6 +24,7 @@ Iwan) keep one state list per joint, committed after every step.
 from __future__ import annotations
 
 import contextlib
+import cmath
 import copy
 import hashlib
 import math
@@ -36,7 +39,8 @@ import mujoco
 import numpy as np
 
 from jointrig.vocab.law import FieldError, JointLaw, law_terms_from_fields
-from jointrig.vocab.params import linear_name, rotational_name
+from jointrig.vocab.params import DRIVE_DELAY, linear_name, rotational_name
+from jointrig.vocab.plant import PeriodicDrive
 from jointrig.identify.chain import ChainPlant, ChainRecord
 
 from .model import JOINT_FIELD as _JOINT_FIELD
@@ -112,6 +116,7 @@ def _plant(model: mujoco.MjModel, N: int, src: str, kind: str) -> ChainPlant:
     per_joint: dict[int, dict] = {j: {} for j in range(1, N)}
     per_ground: dict[int, dict] = {i: {} for i in range(1, N + 1)}
     bearings = [0.0] * N
+    delay = 0.0
     drag = "guide" if kind == "slide" else "bearing"
     field = rotational_name if kind == "slide" else (lambda f: f)  # a slide's fields in N and m
     for i in range(model.nnumeric):
@@ -131,11 +136,16 @@ def _plant(model: mujoco.MjModel, N: int, src: str, kind: str) -> ChainPlant:
             if data.size != 1 or not np.isfinite(data[0]) or data[0] < 0:
                 raise RigModelError(f"{src}: {name} must hold one finite number >= 0, got {data}")
             bearings[int(b.group(1)) - 1] = float(data[0])
+        elif rest == DRIVE_DELAY:
+            if data.size != 1 or not np.isfinite(data[0]):
+                raise RigModelError(f"{src}: {name} must hold one finite number (s), got {data}")
+            delay = float(data[0])
         else:
             unit = "Ns_per_m" if kind == "slide" else "Nms_per_rad"
             raise RigModelError(f"{src}: unknown field {name}; a chain of {N} bodies on {kind}s takes "
                                 + (f"{PREFIX}joint<j>_<law field> (j = 1..{N - 1}), " if N > 1 else "")
-                                + f"{PREFIX}ground<i>_<law field> and {PREFIX}{drag}<i>_damping_{unit} (i = 1..{N})")
+                                + f"{PREFIX}ground<i>_<law field> and {PREFIX}{drag}<i>_damping_{unit} (i = 1..{N}), "
+                                f"and {PREFIX}{DRIVE_DELAY}")
     laws = []
     for j in range(1, N):
         law = _law(per_joint[j], f"joint {j}", f"joint{j}_", src, kind)
@@ -147,7 +157,7 @@ def _plant(model: mujoco.MjModel, N: int, src: str, kind: str) -> ChainPlant:
     grounds = tuple(_law(per_ground[i], f"body {i}'s law to ground", f"ground{i}_", src, kind)
                     for i in range(1, N + 1))
     try:
-        return ChainPlant(tuple(laws), tuple(bearings), grounds)
+        return ChainPlant(tuple(laws), tuple(bearings), grounds, delay)
     except ValueError as err:  # a law to ground with memory
         raise RigModelError(f"{src}: {str(err).removeprefix('ChainPlant: ')}") from None
 
@@ -268,6 +278,8 @@ def chain_model_xml(plant: ChainPlant, inertias_kgm2: Sequence[float], driven: S
     for i, b in enumerate(plant.bearings_Nms_per_rad, start=1):
         if b:
             fields[name(f"bearing{i}_damping_Nms_per_rad")] = [b]
+    if plant.drive_delay_s:
+        fields[DRIVE_DELAY] = [plant.drive_delay_s]
     numerics = "\n".join(f'    <numeric name="{PREFIX}{k}" data="{" ".join(repr(float(x)) for x in v)}"/>'
                          for k, v in fields.items())
     def inertial(J):
@@ -373,6 +385,11 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
     plant = rig.plant if plant is None else plant
     if plant.n_flywheels != rig.n_flywheels:
         raise ValueError(f"plant of {plant.n_flywheels} flywheels for a chain of {rig.n_flywheels}")
+    recorded = drives
+    if plant.drive_delay_s:  # the drives act later than recorded: each periodic drive turned by its delay
+        drives = {i: PeriodicDrive(d.omega_rad_s, tuple(c * cmath.exp(-1j * n * d.omega_rad_s * plant.drive_delay_s)
+                                                        for n, c in enumerate(d.coeffs)))
+                  for i, d in drives.items()}
     grounded = any(g is not None for g in plant.grounds)
     if grounded and backend == "native":
         raise ValueError("backend 'native': the native callback does not simulate laws to ground; use 'auto'")
@@ -492,6 +509,8 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
     vel = np.vstack([x[1] for x in periods]).T
     tq = np.vstack([x[2] for x in periods]).T
     t_rec = np.concatenate([x[3] for x in periods])
+    if plant.drive_delay_s:  # the record holds the drive as recorded, not as it acts
+        tq = np.array([recorded[i + 1](t_rec) if (i + 1) in recorded else np.zeros(t_rec.size) for i in range(N)])
     measured = [a is not None for a in rig.angle_adr]
     rated = [a is not None for a in rig.rate_adr]
     record = ChainRecord(

@@ -71,12 +71,13 @@ class ChainValidation:
 def found_motion(rec: ChainRecord, step) -> tuple[str, np.ndarray]:
     """What to show of a record for a found cause (``step``: a chain candidate's score): the twist
     of its joint, or of a body's nearest joint for a drag; a single body's position, or the body's
-    own for a law to ground. Returns (label, samples)."""
+    own for a law to ground; for the drives' lag, joint 1's twist (body 1's position). Returns
+    (label, samples)."""
     N = rec.n_flywheels
     if N == 1 or step.ground:
-        i = step.place
+        i = step.place or 1
         return f"body {i} position", rec.angles_rad[i - 1]
-    j = step.place if step.at_joint else min(step.place, N - 1)
+    j = step.place if step.at_joint else min(step.place or 1, N - 1)
     return f"joint {j} twist", rec.angles_rad[j - 1] - rec.angles_rad[j]
 
 

@@ -348,14 +348,15 @@ ENCODERS_AT_REST_RAD = (0.7, 0.7 - 1e-5, 0.7 - 1e-5 - 4e-4, 0.7 - 4e-4)
 
 
 def daq_file(train: Train, points, path, *, fs_Hz: float = 20000.0, n_periods: float = 8.3, snr_db: float = 40.0,
-             offsets_rad=ENCODERS_AT_REST_RAD, seed: int = 0, angle_unit: str = "mrad"):
+             offsets_rad=ENCODERS_AT_REST_RAD, seed: int = 0, angle_unit: str = "mrad", torque_lead_s: float = 0.0):
     """Every ``(omega rad/s, amplitude N m, driven flywheel)`` point recorded as a lab's DAQ writes a
     drive train's test: a fixed sample rate (not a whole number of samples per period), from a
     random phase of the steady state, ``n_periods`` periods (an incomplete last one), encoders not
     zeroed (their readings at rest, ``offsets_rad``, the same in every run), white noise at
     ``snr_db`` on every angle and on the torque cell of each motor (an idle motor's cell reads
     noise about 0), angles in ``angle_unit`` (rad or mrad), time in ms. One CSV, one block of rows
-    per run."""
+    per run. ``torque_lead_s``: the torque cells read the torque that acts this much later (a
+    current loop's or an amplifier's lag between the recorded and the acting torque)."""
     scale = {"rad": 1.0, "mrad": 1e3}[angle_unit]
     rng = np.random.default_rng(seed)
     driven = sorted({i for _, _, i in points})
@@ -370,7 +371,7 @@ def daq_file(train: Train, points, path, *, fs_Hz: float = 20000.0, n_periods: f
         n = int(n_periods * T * fs_Hz)
         t_eval = start + np.arange(n) / fs_Hz
         ys, _, _ = simulate(train, drive, t_eval, y, mode, t0=t)
-        torques = {d: (M0 * np.cos(w * t_eval) if d == i else np.zeros(n)) for d in driven}
+        torques = {d: (M0 * np.cos(w * (t_eval + torque_lead_s)) if d == i else np.zeros(n)) for d in driven}
         cells = []
         for d in driven:  # a torque cell's noise is set by its range: the drive's level here
             cells.append(torques[d] + rng.normal(0.0, M0 / math.sqrt(2) * 10 ** (-snr_db / 20), n))
