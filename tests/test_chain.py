@@ -500,3 +500,19 @@ def test_a_drives_lag_in_the_rig_acts_later_and_is_recorded_as_commanded():
         np.testing.assert_array_equal(a, b)
     np.testing.assert_allclose(lagged.torques_Nm[0], 60.0 * np.cos(w * lagged.time_s), rtol=0, atol=1e-12 * 60.0)
     assert np.max(np.abs(direct.torques_Nm[0] - lagged.torques_Nm[0])) > 0.05 * 60.0
+
+
+def test_a_delayed_record_is_the_record_shifted_in_time():
+    # x(t - tau) of a band-limited periodic record, exact to round-off (1e-13): two periods of
+    # cos(w t) + 0.3 sin(3 w t) delayed by a fraction of a sample.
+    from jointrig.identify.chain import delayed
+
+    w, tau, n = 5.0, 0.0123, 512
+    t = np.arange(n) * (2 * 2 * np.pi / w) / n
+
+    def x(s):
+        return np.cos(w * s) + 0.3 * np.sin(3 * w * s)
+
+    np.testing.assert_allclose(delayed(x(t), w, 2, tau), x(t - tau), rtol=0, atol=1e-13)
+    np.testing.assert_array_equal(delayed(x(t), w, 2, 0.0), np.fft.irfft(np.fft.rfft(x(t)) * np.r_[np.ones(n // 2), 0],
+                                                                       n=n))
