@@ -66,6 +66,10 @@ MODULES = {
     "jointrig.present.diagnosis_json": ("present/diagnosis_json.py", ["tests/test_diagnosis_json.py"]),
     # the joint card, of two flywheels and of every joint of a train
     "jointrig.identify.card": ("identify/card.py", ["tests/test_card.py"]),
+    # a train's harmonic balance (stick masks, the drives' lag) and its diagnosis
+    "jointrig.identify.chain": ("identify/chain.py", ["tests/test_chain.py"]),
+    "jointrig.identify.chain_diagnose": ("identify/chain_diagnose.py", ["tests/test_chain_diagnose.py",
+                                                                       "tests/test_train_misfit.py"]),
 }
 #: tests that exercise other parts of the project and only cost time here
 DESELECT = "not killed_sweep_resumes and not truncated_store_point and not dask"

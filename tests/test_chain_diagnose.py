@@ -100,3 +100,91 @@ def test_a_candidates_own_torque_is_its_joint_law_less_the_nominal_terms():
     rub = score((Viscous(), Power(1), Power(3), Coulomb()), (5.0, 1e4, 1e6, 20.0))
     own = _effect_law(Candidate(by_name("coulomb_friction"), Place("joint", 1)), rub)
     np.testing.assert_allclose(own.torque(phi, np.sign(phi) + 0.5), 20.0 * np.sign(np.sign(phi) + 0.5), atol=1e-9)
+
+
+def _linear_problem(seed: int = 0):
+    """A 4-body linear train's runs at five frequencies (exact steady states from its dynamic
+    stiffness, tests/test_chain.py), 4 periods each with 60 dB of noise on every channel, and the
+    chain diagnosis's problem on them with the nominal fit."""
+    import numpy as np
+
+    from jointrig.identify.chain import ChainRecord
+    from jointrig.identify.chain_diagnose import _Problem, nominal_spec, prepare_chain_runs
+    from test_chain import _linear_chain_records
+
+    rng = np.random.default_rng(seed)
+    J, c, k = [0.45, 0.06, 0.12, 0.35], [15.0, 20.0, 10.0], [4e5, 2.5e4, 1.2e5]
+    recs = []
+    for r in _linear_chain_records(J, c, k, [0.0] * 4, {1: 60.0}, [150.0, 300.0, 600.0, 1200.0, 2000.0]):
+        P = 4
+
+        def noisy(x):
+            return None if x is None else np.tile(x, P) + rng.normal(0, 1e-3 * np.std(x), x.size * P)
+
+        t = np.arange(r.time_s.size * P) * (r.time_s[1] - r.time_s[0])
+        recs.append(ChainRecord(r.omega_rad_s, t, [noisy(x) for x in r.torques_Nm], [noisy(x) for x in r.angles_rad],
+                                None, P))
+    runs = prepare_chain_runs(recs, band=20)
+    problem = _Problem(tuple(runs), 20, 2.0 * (4 - 1), 1e-3)
+    return problem, problem.fit(nominal_spec(4))
+
+
+def test_a_bodys_reversal_jumps_by_twice_its_static_friction_over_its_mass():
+    # The jump of a body's acceleration where its rate reverses, the size the kink correction
+    # restores: 2 (F_c + F_x) / m with dry friction and a Stribeck excess to ground, nothing
+    # without values, without friction to ground or with no positive mass.
+    from jointrig.identify.chain import ChainSpec
+    from jointrig.identify.chain_diagnose import _Problem
+    from jointrig.vocab.law import Coulomb, Stribeck, Viscous
+
+    p = _Problem((), 20, 6.0, 1e-3)
+    spec = ChainSpec(((Viscous(),),), grounds=((), (Coulomb(), Stribeck(0.01))))
+    values = {"J2_kgm2": 12.0, "ground2_coulomb_torque_Nm": 25.0, "ground2_stribeck_torque_Nm": 5.0}
+    assert p.jumps(spec, values) == (0.0, pytest.approx(5.0, rel=1e-15))
+    assert p.jumps(spec, None) == (0.0, 0.0)
+    assert p.jumps(spec, dict(values, J2_kgm2=0.0)) == (0.0, 0.0)
+    assert p.jumps(ChainSpec(((Viscous(),),)), values) == (0.0, 0.0)
+
+
+def test_the_candidates_are_every_cause_at_its_places_and_the_drives_lag_once():
+    from jointrig.identify.chain_diagnose import GROUND_CAUSES, JOINT_CAUSES, candidates
+
+    one = [c.label for c in candidates(1, drives=())]
+    assert one == ["bearing_friction at flywheel 1"] + [f"{c.name} to ground at body 1" for c in GROUND_CAUSES]
+    four = [c.label for c in candidates(4)]
+    assert len(four) == 3 * len(JOINT_CAUSES) + 4 + 1 and four[-1] == "drive_delay at the drives"
+    assert not any("to ground" in label for label in four)  # no friction to ground on a train yet
+
+
+def test_a_law_to_ground_sees_its_own_bodys_motion():
+    import numpy as np
+
+    from jointrig.identify.causes import Place
+    from jointrig.identify.chain_diagnose import GROUND_CAUSES, Candidate
+
+    problem, _ = _linear_problem()
+    rec = problem.runs[1].average
+    x, v = Candidate(GROUND_CAUSES[0], Place("ground", 2)).motion(rec)
+    np.testing.assert_array_equal(x, rec.angles_rad[1])
+    np.testing.assert_array_equal(v, rec.rate(1))
+
+
+def test_the_drives_lag_on_data_without_one_stays_at_zero_and_is_no_place_to_drive():
+    # On runs at five frequencies without a lag, the lag's profile stays at its lower bound, 0:
+    # not significant, no rejection note (a lag of 0 is no unphysical negative one). Two joints'
+    # candidates get a flywheel to drive that separates them; the lag, which is no place on the
+    # line, gets none, and the reason.
+    from jointrig.identify.chain_diagnose import JOINT_CAUSES, Candidate, candidates, score, separating_drive
+    from jointrig.identify.causes import Place
+
+    problem, (nominal, w) = _linear_problem()
+    lag = [c for c in candidates(4) if c.at_drive][0]
+    s = score(problem, lag, nominal, w, 10, 1e-3)
+    assert s.magnitude[0] == "drive_delay_s" and s.magnitude[1] == 0.0 and not s.significant and s.note == ""
+    friction = next(c for c in JOINT_CAUSES if c.name == "coulomb_friction")
+    a, b = Candidate(friction, Place("joint", 1)), Candidate(friction, Place("joint", 3))
+    sa, sb = (score(problem, x, nominal, w, 10, 1e-3) for x in (a, b))
+    body, why = separating_drive(problem, a, b, sa, sb)
+    assert body in (1, 2, 3, 4) and why.startswith(f"driving flywheel {body} separates")
+    assert separating_drive(problem, a, lag, sa, s) == (None, separating_drive(problem, a, lag, sa, s)[1])
+    assert "lag" in separating_drive(problem, a, lag, sa, s)[1]
