@@ -139,8 +139,8 @@ def test_a_bodys_reversal_jumps_by_twice_its_static_friction_over_its_mass():
 
     p = _Problem((), 20, 6.0, 1e-3)
     spec = ChainSpec(((Viscous(),),), grounds=((), (Coulomb(), Stribeck(0.01))))
-    values = {"J2_kgm2": 12.0, "ground2_coulomb_torque_Nm": 25.0, "ground2_stribeck_torque_Nm": 5.0}
-    assert p.jumps(spec, values) == (0.0, pytest.approx(5.0, rel=1e-15))
+    values = {"J2_kgm2": 120.0, "ground2_coulomb_torque_Nm": 25.0, "ground2_stribeck_torque_Nm": 5.0}
+    assert p.jumps(spec, values) == (0.0, pytest.approx(0.5, rel=1e-15))
     assert p.jumps(spec, None) == (0.0, 0.0)
     assert p.jumps(spec, dict(values, J2_kgm2=0.0)) == (0.0, 0.0)
     assert p.jumps(ChainSpec(((Viscous(),),)), values) == (0.0, 0.0)
@@ -188,3 +188,15 @@ def test_the_drives_lag_on_data_without_one_stays_at_zero_and_is_no_place_to_dri
     assert body in (1, 2, 3, 4) and why.startswith(f"driving flywheel {body} separates")
     assert separating_drive(problem, a, lag, sa, s) == (None, separating_drive(problem, a, lag, sa, s)[1])
     assert "lag" in separating_drive(problem, a, lag, sa, s)[1]
+
+
+def test_a_fitted_free_play_is_among_the_fits_parameters():
+    # The half gap a profile search set (not a linear column) is listed with the linear values,
+    # at its joint, as the JSON and the model file take it.
+    from jointrig.identify.causes import Place, by_name
+    from jointrig.identify.chain_diagnose import Candidate
+
+    problem, (nominal, w) = _linear_problem()
+    spec = Candidate(by_name("backlash"), Place("joint", 2)).extend(nominal.spec, 2e-6)
+    params = problem.solve(spec, w).parameters()
+    assert params["joint2_backlash_half_gap_rad"] == 2e-6 and "joint1_backlash_half_gap_rad" not in params
