@@ -200,3 +200,64 @@ def test_a_fitted_free_play_is_among_the_fits_parameters():
     spec = Candidate(by_name("backlash"), Place("joint", 2)).extend(nominal.spec, 2e-6)
     params = problem.solve(spec, w).parameters()
     assert params["joint2_backlash_half_gap_rad"] == 2e-6 and "joint1_backlash_half_gap_rad" not in params
+
+
+def test_the_separating_information_is_per_unit_noise_at_every_flywheel():
+    # The information is the separable part's squared norm over the rows' noise variance: half
+    # the noise, four times the information; one entry per flywheel 1..N.
+    from jointrig.vocab.law import JointLaw, QuadraticDamping
+    from jointrig.identify.chain_diagnose import drive_information
+
+    J, c, k = (1.0, 0.5, 0.5, 1.0), (30.0, 20.0, 30.0), (1e4, 5e3, 1e4)
+    damping = JointLaw((QuadraticDamping(),), (10.0,))
+    a, b = ("joint", 1, damping), ("flywheel", 3, 4.0)
+    one = drive_information(J, c, k, (40.0, 110.0), 100.0, 1.0, a, b)
+    half = drive_information(J, c, k, (40.0, 110.0), 100.0, 0.5, a, b)
+    assert sorted(one) == [1, 2, 3, 4]
+    assert all(half[d] == pytest.approx(4.0 * one[d], rel=1e-12) for d in one)
+
+
+def test_prepared_runs_keep_their_start_and_name_their_channels_by_body():
+    # Each run's averaged period starts where the record starts, and the noise of every channel
+    # is named by its body's number (torque1 on the driven body 1, phi1..phi4).
+    problem, _ = _linear_problem()
+    run = problem.runs[2]
+    assert run.average.time_s[0] == 0.0 and run.periods[0].time_s[0] == 0.0
+    assert set(run.noise_std) == {"torque1", "phi1", "phi2", "phi3", "phi4"}
+    assert run.average.torques_Nm[1] is None and run.average.torques_Nm[0] is not None
+
+
+def test_a_fitted_lag_is_among_the_fits_parameters_and_a_jump_corrects_the_rate():
+    # The drives' lag in a structure is listed with the fit's parameters; a body with a jump at
+    # its reversals gets its rate with the kinks restored (a rate the record did not hold), the
+    # others keep theirs (None: the spectral derivative).
+    from dataclasses import replace as dc_replace
+
+    problem, (nominal, w) = _linear_problem()
+    assert problem.solve(dc_replace(nominal.spec, drive_delay_s=1e-5), w).parameters()["drive_delay_s"] == 1e-5
+    assert "drive_delay_s" not in nominal.parameters()
+    recs = problem.records((0.0, 50.0, 0.0, 0.0))
+    avg = recs[0][0]
+    assert avg.rates_rad_s[1] is not None and avg.rates_rad_s[0] is None and len(recs[0]) == 1 + problem.runs[0].n_periods
+    assert all(r[0].rates_rad_s == (None,) * 4 for r in problem.records((0.0,) * 4))
+
+
+def test_a_train_read_wrong_says_which_joint_feeds_energy_in():
+    # A fit with a significantly negative stiffness at joint 2 (and positive inertias) names joint
+    # 2 alone; a plausible fit says nothing.
+    import numpy as np
+
+    from jointrig.identify.chain_diagnose import ChainFit, implausible_train_fit, nominal_spec
+
+    spec = nominal_spec(3)
+    names = spec.names
+    good = {n: (1.0 if n.startswith("J") else 100.0) for n in names}
+    bad = dict(good, joint2_k_Nm_per_rad=-9.0)
+
+    def fit(values):
+        v = np.array([values[n] for n in names])
+        return ChainFit(spec, names, v, np.full(v.size, 0.1), 1.0, 100, np.zeros(100))
+
+    assert implausible_train_fit(fit(good)) == ()
+    said = implausible_train_fit(fit(bad))
+    assert len(said) == 1 and said[0].startswith("joint(s) 2 come out with a negative stiffness")
