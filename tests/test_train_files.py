@@ -31,6 +31,18 @@ def worn_daq(tmp_path_factory):
     return daq_file(with_effect(PUMP_TRAIN, 2, gap=1e-3), POINTS, tmp_path_factory.mktemp("worn") / "worn.csv")
 
 
+def _dry_friction_of_the_carriage(j: dict) -> None:
+    """The verdict on the independent carriage (12 kg, 40 N s/m, 25 N): explained by dry friction
+    to ground alone, the friction, mass and drag each within 3 standard errors, a held-out gain of
+    at least 3 (the verdict's bound)."""
+    assert j["verdict"]["verdict"] == "explained", j["verdict"]
+    assert [s["label"] for s in j["extended"]["steps"]] == ["coulomb_friction to ground at body 1"]
+    ext, se = j["extended"]["parameters"], j["extended"]["std_errors"]
+    for name, truth in (("ground1_coulomb_force_N", 25.0), ("m1_kg", 12.0), ("guide1_damping_Ns_per_m", 40.0)):
+        assert abs(ext[name] - truth) < 3 * se[name], (name, ext[name], se[name])
+    assert j["validation"]["gain"] >= 3
+
+
 @pytest.fixture(scope="module")
 def healthy_daq(tmp_path_factory):
     return daq_file(PUMP_TRAIN, POINTS, tmp_path_factory.mktemp("healthy") / "healthy.csv",
@@ -162,7 +174,9 @@ def test_a_single_axis_linear_drive_in_m_and_N_with_dry_friction(tmp_path, capsy
     # dry friction, event-driven stick-slip), traced at 10 kHz in mm and N from an absolute encoder.
     # The diagnosis names the guide's dry friction, its size to 3 standard errors, the mass and
     # the viscous drag to 3 standard errors; with one run, the later periods are held out and
-    # replayed in the rig (MuJoCo's frictionloss on the slide).
+    # replayed in the rig (MuJoCo's frictionloss on the slide), gain at least 3. Measured
+    # 24.78 +- 0.28 N, 12.006 +- 0.012 kg, 40.33 +- 0.43 N s/m, gain 18.7 (the carriage slides
+    # through rest: its rate's kinks restored; 24.77 +- 0.31 N and gain 6.08 before).
     from bench_slide_sim import Carriage, daq_file as slide_file
 
     data = slide_file(Carriage(), 12.566, 150.0, tmp_path / "axis.csv")
@@ -173,11 +187,8 @@ def test_a_single_axis_linear_drive_in_m_and_N_with_dry_friction(tmp_path, capsy
     j = json.loads(out.read_text())
     assert j["bench"]["kind"] == "slide" and j["bench"]["n_bodies"] == 1 and j["validation"]["kind"] == "held_out_periods"
     assert schema_problems(j) == []
-    assert j["verdict"]["verdict"] == "explained", j["verdict"]
-    assert [s["label"] for s in j["extended"]["steps"]] == ["coulomb_friction to ground at body 1"]
-    ext, se = j["extended"]["parameters"], j["extended"]["std_errors"]
-    for name, truth in (("ground1_coulomb_force_N", 25.0), ("m1_kg", 12.0), ("guide1_damping_Ns_per_m", 40.0)):
-        assert abs(ext[name] - truth) < 3 * se[name], (name, ext[name], se[name])
+    _dry_friction_of_the_carriage(j)
+    ext = j["extended"]["parameters"]
     assert "a single body on a slide" in text and "ground1_coulomb_force = " in text and " N\n" in text
     from jointrig.rig.chain import load_chain
 
@@ -204,12 +215,7 @@ def test_a_carriage_that_sticks_at_every_reversal_is_named_dry_friction(tmp_path
     text = capsys.readouterr().out
     assert code == 0, text
     j = json.loads(out.read_text())
-    assert j["verdict"]["verdict"] == "explained", j["verdict"]
-    assert [s["label"] for s in j["extended"]["steps"]] == ["coulomb_friction to ground at body 1"]
-    ext, se = j["extended"]["parameters"], j["extended"]["std_errors"]
-    for name, truth in (("ground1_coulomb_force_N", 25.0), ("m1_kg", 12.0), ("guide1_damping_Ns_per_m", 40.0)):
-        assert abs(ext[name] - truth) < 3 * se[name], (name, ext[name], se[name])
-    assert j["validation"]["gain"] >= 3
+    _dry_friction_of_the_carriage(j)
 
 
 @pytest.mark.slow
@@ -283,12 +289,7 @@ def test_a_linear_drives_dry_friction_holds_on_runs_of_another_level(tmp_path, c
         assert p["dissipation_J_per_cycle"] == pytest.approx(model[p["run"]]["dissipation_J_per_cycle"], rel=0.02), p
     j = json.loads(out.read_text())
     assert j["validation"]["kind"] == "held_out_runs" and "drive levels between the fitted ones (150 N)" in j["validation"]["generalisation"]
-    assert j["verdict"]["verdict"] == "explained", j["verdict"]
-    assert [s["label"] for s in j["extended"]["steps"]] == ["coulomb_friction to ground at body 1"]
-    ext, se = j["extended"]["parameters"], j["extended"]["std_errors"]
-    for name, truth in (("ground1_coulomb_force_N", 25.0), ("m1_kg", 12.0), ("guide1_damping_Ns_per_m", 40.0)):
-        assert abs(ext[name] - truth) < 3 * se[name], (name, ext[name], se[name])
-    assert j["validation"]["gain"] >= 3
+    _dry_friction_of_the_carriage(j)
 
 
 @pytest.mark.slow
