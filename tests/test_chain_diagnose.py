@@ -102,7 +102,7 @@ def test_a_candidates_own_torque_is_its_joint_law_less_the_nominal_terms():
     np.testing.assert_allclose(own.torque(phi, np.sign(phi) + 0.5), 20.0 * np.sign(np.sign(phi) + 0.5), atol=1e-9)
 
 
-def _linear_problem(seed: int = 0):
+def _linear_problem(seed: int = 0, fidelity: float = 1e-3):
     """A 4-body linear train's runs at five frequencies (exact steady states from its dynamic
     stiffness, tests/test_chain.py), 4 periods each with 60 dB of noise on every channel, and the
     chain diagnosis's problem on them with the nominal fit."""
@@ -125,7 +125,7 @@ def _linear_problem(seed: int = 0):
         recs.append(ChainRecord(r.omega_rad_s, t, [noisy(x) for x in r.torques_Nm], [noisy(x) for x in r.angles_rad],
                                 None, P))
     runs = prepare_chain_runs(recs, band=20)
-    problem = _Problem(tuple(runs), 20, 2.0 * (4 - 1), 1e-3)
+    problem = _Problem(tuple(runs), 20, 2.0 * (4 - 1), fidelity)
     return problem, problem.fit(nominal_spec(4))
 
 
@@ -261,3 +261,69 @@ def test_a_train_read_wrong_says_which_joint_feeds_energy_in():
     assert implausible_train_fit(fit(good)) == ()
     said = implausible_train_fit(fit(bad))
     assert len(said) == 1 and said[0].startswith("joint(s) 2 come out with a negative stiffness")
+
+
+def test_weights_from_the_periods_spread_give_a_right_model_the_noises_chi_square():
+    # The right structure on noisy exact data, weighted by each row's period-to-period spread
+    # (pooled per harmonic and equation) without a fidelity floor: chi2/dof is the noise's,
+    # 1 within 4 / sqrt(dof) (chi-square's spread, with the weights' own scatter).
+    import math
+
+    _, (nominal, _) = _linear_problem(fidelity=0.0)
+    assert abs(nominal.chi2 / nominal.dof - 1.0) < 4.0 / math.sqrt(nominal.dof), (nominal.chi2, nominal.dof)
+
+
+def test_a_drag_that_would_feed_energy_in_rejects_the_extension():
+    # An extended fit holding a bearing drag 5 standard errors below zero is refused with that
+    # reason; one within 2 standard errors of zero is not.
+    import numpy as np
+
+    from jointrig.identify.causes import Place, by_name
+    from jointrig.identify.chain_diagnose import Candidate, ChainFit, _rejection, nominal_spec
+
+    problem, _ = _linear_problem()
+    spec = Candidate(by_name("bearing_friction"), Place("flywheel", 2)).extend(nominal_spec(4), 0.0)
+    names = spec.names
+
+    def fit(drag):
+        v = np.array([drag if n.startswith("bearing") else 1.0 for n in names])
+        return ChainFit(spec, names, v, np.full(v.size, 0.1), 1.0, 100, np.zeros(100))
+
+    cand = Candidate(by_name("quadratic_damping"), Place("joint", 1))
+    assert "would feed energy in" in _rejection(problem, cand, fit(-0.5), ("x", 1.0, 0.1))
+    assert _rejection(problem, cand, fit(-0.15), ("x", 1.0, 0.1)) == ""
+
+
+def test_a_carriage_sliding_through_rest_is_fitted_with_its_kinks_restored():
+    # One carriage of the independent bench (tests/bench_slide_sim.py: 12 kg, 40 N s/m, 25 N)
+    # driven at 150 N, 4 whole periods at 40 dB. Its dry friction makes the acceleration jump by
+    # 2 F_c / m at every reversal; the fit restores the rate's kinks at the fitted friction and
+    # refits until the jump settles: the friction within 3 standard errors of the bench's, and a
+    # chi-square below the fit at the band-limited rate's.
+    import math
+
+    import numpy as np
+
+    from bench_slide_sim import Carriage, _simulate, steady_state
+    from jointrig.identify.causes import Place, by_name
+    from jointrig.identify.chain import ChainRecord
+    from jointrig.identify.chain_diagnose import Candidate, _Problem, nominal_spec, prepare_chain_runs
+
+    car, w, F0, P, n = Carriage(), 4 * math.pi, 150.0, 4, 1000
+    t0, y, mode = steady_state(car, w, F0)
+    t = t0 + np.arange(P * n) * (2 * math.pi / w) / n
+    ys, _, _ = _simulate(car, w, F0, t, y, mode, t0)
+    rng = np.random.default_rng(3)
+    x = ys[:, 0] + rng.normal(0, 1e-2 * np.std(ys[:, 0]), t.size)
+    F = F0 * np.cos(w * t) + rng.normal(0, 1e-2 * F0 / math.sqrt(2), t.size)
+    runs = prepare_chain_runs([ChainRecord(w, t - t0, [F], [x], None, P)], band=20)
+    problem = _Problem(tuple(runs), 20, 2.0 * (P - 1), 1e-3, (True,))
+    assert problem.masks() is None  # it slides through rest: nothing to mask
+    spec = Candidate(by_name("coulomb_friction"), Place("ground", 1)).extend(nominal_spec(1), 0.0)
+    f, wts = problem.fit(spec)
+    fc, se = f.as_dict()["ground1_coulomb_torque_Nm"], f.std_error("ground1_coulomb_torque_Nm")
+    assert abs(fc - 25.0) < 3 * se, (fc, se)
+    jumps = problem.jumps(spec, f.as_dict())
+    assert jumps[0] == 2 * fc / f.as_dict()["J1_kgm2"]
+    plain = problem._fit_of(spec, wts, *problem._solve_once(spec, wts, None), None)
+    assert f.chi2 < plain.chi2
