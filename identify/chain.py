@@ -41,7 +41,7 @@ from .estimates import equilibrated_condition
 from .balance import LinearSystem, harmonic_rows, law_rows, memo_arrays, spectral_rate, upsample
 from jointrig.vocab.law import JointLaw, Term
 from jointrig.vocab.params import DRIVE_DELAY
-from .harmonics import fourier_coefficients, max_harmonic
+from .harmonics import fourier_coefficients, max_harmonic, shift_periodic
 from .periods import period_spectra, white_variance
 from jointrig.vocab.records import RecordError, SteadyStateRecord, WholePeriods
 from .solve import COND_WARN, IdentificationResult
@@ -49,7 +49,7 @@ from .solve import COND_WARN, IdentificationResult
 __all__ = ["ChainRecord", "ChainSpec", "ChainIdentifiabilityError", "identifiability", "chain_system",
            "solve_banded", "identify_chain", "joint_law", "ChainPlant", "plant_of_values", "BandedSystem",
            "fisher_per_period", "row_covariance", "average_chain", "ml_identify_chain", "inertia_name", "bearing_name", "joint_prefix",
-           "ground_prefix", "delayed", "stick_mask", "rest_share", "sticks_to_ground", "STICK_RATE_FRACTION",
+           "ground_prefix", "stick_mask", "rest_share", "sticks_to_ground", "STICK_RATE_FRACTION",
            "REST_RATE_FRACTION", "REST_DWELL"]
 
 
@@ -367,7 +367,7 @@ def chain_system(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics
                 held = (torque,) if m is None else (torque, m)
                 tau = spec.drive_delay_s
                 rhs = memo_arrays(held, ("chain_torque", P, H, tau), lambda: fourier_coefficients(  # noqa: B023
-                    (delayed(torque, rec.omega_rad_s, P, tau) if tau else torque)  # noqa: B023
+                    (shift_periodic(torque, P, rec.omega_rad_s, tau) if tau else torque)  # noqa: B023
                     * (1.0 if m is None else m), P, H))  # noqa: B023
             A, F, harm, part = harmonic_rows(cols, rhs, H)
             keep = harm >= first_harmonic
@@ -397,18 +397,6 @@ def chain_system(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics
     system = LinearSystem(np.vstack(As), np.concatenate(Fs), names, np.concatenate(rec_idx),
                           np.concatenate(harms), np.concatenate(parts), np.concatenate(eqs))
     return BandedSystem(system, tuple(spans))
-
-
-def delayed(x: np.ndarray, omega_rad_s: float, n_periods: int, delay_s: float) -> np.ndarray:
-    """A periodic record ``x(t - delay_s)``: every harmonic below Nyquist turned by ``-n omega
-    delay`` (exact for a band-limited record; the Nyquist bin, whose phase is ambiguous, dropped)."""
-    n = x.shape[-1]
-    X = np.fft.rfft(x)
-    k = np.arange(X.size)
-    X = X * np.exp(-1j * (k / n_periods) * omega_rad_s * delay_s)
-    if n % 2 == 0:
-        X[-1] = 0.0
-    return np.fft.irfft(X, n=n)
 
 
 def solve_banded(banded: BandedSystem, *, row_weights: Optional[np.ndarray] = None) -> IdentificationResult:

@@ -222,7 +222,8 @@ class _Problem:
     #: the same rows and their difference is evidence (:func:`identify.chain.stick_mask`)
     masked: tuple = ()
     _masks: dict = field(default_factory=dict, compare=False, repr=False)
-    #: (run, body) -> its angles (average and periods) and the kink correction's first pass over them
+    #: (run, body, periods) -> its angles (the average's, or each period's) and the kink correction's
+    #: first pass over them
     _first_pass: dict = field(default_factory=dict, compare=False, repr=False)
 
     def masks(self) -> Optional[list]:
@@ -251,30 +252,33 @@ class _Problem:
             out.append(max(2.0 * static / mass, 0.0) if mass > 0 else 0.0)
         return tuple(out)
 
-    def _kinked(self, k: int, i: int, jump: float) -> np.ndarray:
-        """Run k's body i rate, its average and each period ``(1 + P, M)``, with the kinks of
-        a jump ``jump`` at its reversals restored (:func:`identify.diagnose.kink_corrected_rate`)."""
+    def _kinked(self, k: int, i: int, jump: float, periods: bool) -> np.ndarray:
+        """Run k's body i rate, of its average ``(1, M)`` or of each period ``(P, M)``, with the
+        kinks of a jump ``jump`` at its reversals restored
+        (:func:`identify.diagnose.kink_corrected_rate`; its first pass, which does not depend on
+        the jump, is kept)."""
         run = self.runs[k]
-        key = (k, i)
+        key = (k, i, periods)
         if key not in self._first_pass:
-            x = np.vstack([run.average.angles_rad[i]] + [p.angles_rad[i] for p in run.periods])
+            x = np.vstack([p.angles_rad[i] for p in run.periods] if periods else [run.average.angles_rad[i]])
             self._first_pass[key] = (x, kink_first_pass(x, run.average.omega_rad_s, run.band))
         x, first = self._first_pass[key]
         rates = kink_corrected_rate(x, run.average.omega_rad_s, run.band, jump, first_pass=first)
         rates.setflags(write=False)
         return rates
 
-    def records(self, jumps: tuple) -> list[list]:
-        """Per run: its average and each period, with the kink-corrected rate of every body that
-        slides through rest with a jump (unmasked in that run); the prepared records elsewhere."""
+    def records(self, jumps: Optional[tuple], periods: bool) -> list[list]:
+        """Per run: its average (``periods`` False, a list of one) or each of its periods, with the
+        kink-corrected rate of every body that slides through rest with a jump (unmasked in that
+        run); the prepared records elsewhere, and all of them without ``jumps``."""
         masks = self.masks()
         out = []
         for k, run in enumerate(self.runs):
-            recs = [run.average] + list(run.periods)
-            for i, jump in enumerate(jumps):
+            recs = list(run.periods) if periods else [run.average]
+            for i, jump in enumerate(jumps or ()):
                 if jump <= 0 or (masks is not None and masks[k][i] is not None):
                     continue
-                rates = self._kinked(k, i, jump)
+                rates = self._kinked(k, i, jump, periods)
                 recs = [replace(r, rates_rad_s=tuple(rates[n] if b == i else r.rates_rad_s[b]
                                                      for b in range(len(r.rates_rad_s))))
                         for n, r in enumerate(recs)]
@@ -282,18 +286,17 @@ class _Problem:
         return out
 
     def system(self, spec: ChainSpec, jumps: Optional[tuple] = None):
-        recs = self.records(jumps) if jumps is not None and any(jumps) else [[r.average] for r in self.runs]
-        return chain_system([r[0] for r in recs], spec, n_harmonics=self.n_harmonics, first_harmonic=1,
-                            masks=self.masks())
+        return chain_system([r[0] for r in self.records(jumps, periods=False)], spec, n_harmonics=self.n_harmonics,
+                            first_harmonic=1, masks=self.masks())
 
     def row_variance(self, spec: ChainSpec, theta: np.ndarray, like, jumps: Optional[tuple] = None) -> np.ndarray:
         sysl = like.system
         var = np.empty(sysl.F.size)
         masks = self.masks()
-        recs = self.records(jumps) if jumps is not None and any(jumps) else [[None] + list(r.periods) for r in self.runs]
+        recs = self.records(jumps, periods=True)
         for i, run in enumerate(self.runs):
             res = []
-            for per in recs[i][1:]:
+            for per in recs[i]:
                 s = chain_system([per], spec, n_harmonics=self.n_harmonics, first_harmonic=1,
                                  masks=None if masks is None else [masks[i]]).system
                 res.append(s.F - s.A @ theta)

@@ -41,7 +41,7 @@ import numpy as np
 
 from .balance import LinearSystem, assemble, spectral_rate
 from jointrig.vocab.law import Coulomb, JointLaw, Power, Viscous, monotone_runs
-from .harmonics import fourier_coefficients, max_harmonic, synthesize
+from .harmonics import fourier_coefficients, max_harmonic, shift_periodic
 from .periods import RESOLVED_SIGMA, pooled_period_spectra, raw_noise_std
 from jointrig.vocab.plant import Plant, effect_parameters
 from jointrig.vocab.records import RecordError, SteadyStateRecord
@@ -170,15 +170,6 @@ def prepare_runs(records: Sequence[SteadyStateRecord], *, band: int = 20,
 
 # --------------------------------------------------------------------------------------------
 # 2. Models and fits
-
-
-def shift_periodic(x: np.ndarray, n_periods: int, omega_rad_s, shift_s: float) -> np.ndarray:
-    """Whole periods of a band-limited signal moved later in time by ``shift_s`` (negative:
-    earlier), exactly on its harmonics: ``x(t - shift_s)``. ``x`` may hold several records
-    ``(..., n_samples)``, with one ``omega_rad_s`` each (shape ``(..., 1)``)."""
-    C = fourier_coefficients(x, n_periods, max_harmonic(x.shape[-1] // n_periods))
-    n = np.arange(C.shape[-1])
-    return synthesize(C * np.exp(-1j * n * np.asarray(omega_rad_s) * shift_s), x.shape[-1], n_periods)
 
 
 class _Columns:

@@ -22,6 +22,7 @@ __all__ = [
     "synthesize",
     "to_sine_cosine",
     "max_harmonic",
+    "shift_periodic",
 ]
 
 
@@ -89,3 +90,12 @@ def to_sine_cosine(coeffs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The paper's real form: cosine coefficients ``X_n`` and sine coefficients ``X_n*``."""
     coeffs = np.asarray(coeffs)
     return coeffs.real.copy(), -coeffs.imag.copy()
+
+
+def shift_periodic(x: np.ndarray, n_periods: int, omega_rad_s, shift_s: float) -> np.ndarray:
+    """Whole periods of a band-limited signal moved later in time by ``shift_s`` (negative:
+    earlier), exactly on its harmonics: ``x(t - shift_s)``. ``x`` may hold several records
+    ``(..., n_samples)``, with one ``omega_rad_s`` each (shape ``(..., 1)``)."""
+    C = fourier_coefficients(x, n_periods, max_harmonic(x.shape[-1] // n_periods))
+    n = np.arange(C.shape[-1])
+    return synthesize(C * np.exp(-1j * n * np.asarray(omega_rad_s) * shift_s), x.shape[-1], n_periods)

@@ -24,7 +24,6 @@ Iwan) keep one state list per joint, committed after every step.
 from __future__ import annotations
 
 import contextlib
-import cmath
 import copy
 import hashlib
 import math
@@ -40,7 +39,6 @@ import numpy as np
 
 from jointrig.vocab.law import FieldError, JointLaw, law_terms_from_fields
 from jointrig.vocab.params import DRIVE_DELAY, linear_name, rotational_name
-from jointrig.vocab.plant import PeriodicDrive
 from jointrig.identify.chain import ChainPlant, ChainRecord
 
 from .model import JOINT_FIELD as _JOINT_FIELD
@@ -387,9 +385,7 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
         raise ValueError(f"plant of {plant.n_flywheels} flywheels for a chain of {rig.n_flywheels}")
     recorded = drives
     if plant.drive_delay_s:  # the drives act later than recorded: each periodic drive turned by its delay
-        drives = {i: PeriodicDrive(d.omega_rad_s, tuple(c * cmath.exp(-1j * n * d.omega_rad_s * plant.drive_delay_s)
-                                                        for n, c in enumerate(d.coeffs)))
-                  for i, d in drives.items()}
+        drives = {i: d.delayed(plant.drive_delay_s) for i, d in drives.items()}
     grounded = any(g is not None for g in plant.grounds)
     if grounded and backend == "native":
         raise ValueError("backend 'native': the native callback does not simulate laws to ground; use 'auto'")

@@ -17,7 +17,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from jointrig.identify.chain import ChainRecord, inertia_name
+from jointrig.identify.chain import REST_RATE_FRACTION, STICK_RATE_FRACTION, ChainRecord, inertia_name
 from jointrig.identify.chain_diagnose import ChainDiagnosis, plant_and_inertias
 from jointrig.identify.harmonics import fourier_coefficients, max_harmonic
 from jointrig.identify.periods import period_spectra
@@ -309,10 +309,11 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
                        progress=lambda k, n, label: say(f"scored {k}/{n} candidates ({label})") if k == n else None)
     fit_ids = run_ids if split else [run_ids[i] for i in range(len(records)) if i not in held]
     for k, body, rest, masked in d.rests:
-        notes.append(f"run {fit_ids[k]}: body {body} rests {rest:.0%} of its period (its rate below 3% of its peak; "
-                     f"it may stick, held by whatever force its dry friction supplies there, not the law's): its "
-                     f"equation is balanced only where its rate exceeds a tenth of its peak ({masked:.0%} of the "
-                     f"period left out, in every model compared)")
+        notes.append(f"run {fit_ids[k]}: body {body} rests {rest:.0%} of its period (its rate below "
+                     f"{REST_RATE_FRACTION:.0%} of its peak; it may stick, held by whatever force its dry friction "
+                     f"supplies there, not the law's): its equation is balanced only where its rate exceeds "
+                     f"{STICK_RATE_FRACTION:.0%} of its peak ({masked:.0%} of the period left out, in every model "
+                     f"compared)")
     say("replaying the held-out runs' drives on the nominal and the extended model in the rig")
     v = validate_chain(rig, d, held_recs, backend=backend)
     if split:

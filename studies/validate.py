@@ -24,10 +24,9 @@ from typing import Optional, Sequence
 import numpy as np
 
 from jointrig.vocab.law import JointLaw
-from jointrig.identify.diagnose import (DEFAULT_FIDELITY, Diagnosis, Fit, PreparedRun, diagnose, plant_of, prepare_runs,
-                                       shift_periodic)
+from jointrig.identify.diagnose import DEFAULT_FIDELITY, Diagnosis, Fit, PreparedRun, diagnose, plant_of, prepare_runs
 from jointrig.identify.balance import spectral_rate
-from jointrig.identify.harmonics import fourier_coefficients
+from jointrig.identify.harmonics import fourier_coefficients, shift_periodic
 from jointrig.vocab.plant import Plant, drive_of_record
 from jointrig.vocab.records import SteadyStateRecord
 from jointrig.identify.misfit import (MisfitCharacter, ResidualSamples, distinct_settings, misfit_character,

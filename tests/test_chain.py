@@ -503,9 +503,10 @@ def test_a_drives_lag_in_the_rig_acts_later_and_is_recorded_as_commanded():
 
 
 def test_a_delayed_record_is_the_record_shifted_in_time():
-    # x(t - tau) of a band-limited periodic record, exact to round-off (1e-13): two periods of
-    # cos(w t) + 0.3 sin(3 w t) delayed by a fraction of a sample.
-    from jointrig.identify.chain import delayed
+    # x(t - tau) of a band-limited periodic record (the drives' lag in a train's balance,
+    # identify.harmonics.shift_periodic), exact to round-off (1e-13): two periods of
+    # cos(w t) + 0.3 sin(3 w t) delayed by a fraction of a sample; no delay returns the record.
+    from jointrig.identify.harmonics import shift_periodic
 
     w, tau, n = 5.0, 0.0123, 512
     t = np.arange(n) * (2 * 2 * np.pi / w) / n
@@ -513,36 +514,5 @@ def test_a_delayed_record_is_the_record_shifted_in_time():
     def x(s):
         return np.cos(w * s) + 0.3 * np.sin(3 * w * s)
 
-    np.testing.assert_allclose(delayed(x(t), w, 2, tau), x(t - tau), rtol=0, atol=1e-13)
-    np.testing.assert_array_equal(delayed(x(t), w, 2, 0.0), np.fft.irfft(np.fft.rfft(x(t)) * np.r_[np.ones(n // 2), 0],
-                                                                       n=n))
-
-
-def test_the_banded_solve_weighs_rows_as_the_dense_one_does():
-    # Row weights (a noise model) change the solution of rows that do not hold exactly: the block
-    # QR with weights gives the dense weighted solve's values (to 1e-10).
-    J, c, k = [0.5, 0.1, 0.8, 1.2], [2.0, 1.0, 3.0], [4e4, 2e4, 6e4]
-    recs = _linear_chain_records(J, c, k, [0, 0, 0, 0], {1: 100.0, 4: 30j}, [30, 80, 150, 250])
-    spec = ChainSpec(((Power(1),),) * 3)  # no damping in the model: the rows do not hold
-    banded = chain_system(recs, spec, n_harmonics=3)
-    w = np.random.default_rng(1).uniform(0.2, 5.0, banded.system.F.size)
-    np.testing.assert_allclose(solve_banded(banded, row_weights=w).values, solve(banded.system, row_weights=w).values,
-                               rtol=1e-10)
-    assert not np.allclose(solve_banded(banded, row_weights=w).values, solve_banded(banded).values, rtol=1e-6)
-
-
-def test_an_equation_weighted_by_ones_is_the_equation():
-    # A mask of ones on every body's equation (joints on both sides, a law to ground) gives the
-    # rows of the unmasked balance, to round-off (the masked inertia column is the spectral
-    # acceleration's, the unmasked one j w times the rate's: 1e-9 of the largest entry).
-    from jointrig.vocab.law import Coulomb
-
-    J, c, k = [0.5, 0.1, 0.8], [2.0, 1.0], [4e4, 2e4]
-    recs = _linear_chain_records(J, c, k, [0, 0, 0], {1: 100.0}, [30, 80, 150], n=128)
-    spec = ChainSpec(((Viscous(), Power(1)),) * 2, bearings=(2,), grounds=((), (Coulomb(),), ()))
-    plain = chain_system(recs, spec, n_harmonics=5).system
-    ones = [tuple(np.ones(r.time_s.size) for _ in range(3)) for r in recs]
-    masked = chain_system(recs, spec, n_harmonics=5, masks=ones).system
-    scale = np.max(np.abs(plain.A))
-    np.testing.assert_allclose(masked.A, plain.A, rtol=0, atol=1e-9 * scale)
-    np.testing.assert_allclose(masked.F, plain.F, rtol=0, atol=1e-9 * np.max(np.abs(plain.F)))
+    np.testing.assert_allclose(shift_periodic(x(t), 2, w, tau), x(t - tau), rtol=0, atol=1e-13)
+    np.testing.assert_allclose(shift_periodic(x(t), 2, w, 0.0), x(t), rtol=0, atol=1e-13)

@@ -90,6 +90,12 @@ class PeriodicDrive:
 
         return at
 
+    def delayed(self, delay_s: float) -> "PeriodicDrive":
+        """The drive ``T(t - delay_s)`` as a drive of its own: every harmonic n turned by
+        ``-n omega delay_s`` (for a simulator that evaluates drives without a delay of its own)."""
+        w = self.omega_rad_s
+        return PeriodicDrive(w, tuple(c * cmath.exp(-1j * n * w * delay_s) for n, c in enumerate(self.coeffs)))
+
     def mean_free_impulse(self, t_s: float, delay_s: float = 0.0) -> float:
         """The zero-mean antiderivative of ``T(t - delay_s)`` at ``t_s`` (N m s).
 
