@@ -516,3 +516,33 @@ def test_a_delayed_record_is_the_record_shifted_in_time():
 
     np.testing.assert_allclose(shift_periodic(x(t), 2, w, tau), x(t - tau), rtol=0, atol=1e-13)
     np.testing.assert_allclose(shift_periodic(x(t), 2, w, 0.0), x(t), rtol=0, atol=1e-13)
+
+
+def test_the_banded_solve_weighs_rows_as_the_dense_one_does():
+    # Row weights (a noise model) change the solution of rows that do not hold exactly: the block
+    # QR with weights gives the dense weighted solve's values (to 1e-10).
+    J, c, k = [0.5, 0.1, 0.8, 1.2], [2.0, 1.0, 3.0], [4e4, 2e4, 6e4]
+    recs = _linear_chain_records(J, c, k, [0, 0, 0, 0], {1: 100.0, 4: 30j}, [30, 80, 150, 250])
+    spec = ChainSpec(((Power(1),),) * 3)  # no damping in the model: the rows do not hold
+    banded = chain_system(recs, spec, n_harmonics=3)
+    w = np.random.default_rng(1).uniform(0.2, 5.0, banded.system.F.size)
+    np.testing.assert_allclose(solve_banded(banded, row_weights=w).values, solve(banded.system, row_weights=w).values,
+                               rtol=1e-10)
+    assert not np.allclose(solve_banded(banded, row_weights=w).values, solve_banded(banded).values, rtol=1e-6)
+
+
+def test_an_equation_weighted_by_ones_is_the_equation():
+    # A mask of ones on every body's equation (joints on both sides, a law to ground) gives the
+    # rows of the unmasked balance, to round-off (the masked inertia column is the spectral
+    # acceleration's, the unmasked one j w times the rate's: 1e-9 of the largest entry).
+    from jointrig.vocab.law import Coulomb
+
+    J, c, k = [0.5, 0.1, 0.8], [2.0, 1.0], [4e4, 2e4]
+    recs = _linear_chain_records(J, c, k, [0, 0, 0], {1: 100.0}, [30, 80, 150], n=128)
+    spec = ChainSpec(((Viscous(), Power(1)),) * 2, bearings=(2,), grounds=((), (Coulomb(),), ()))
+    plain = chain_system(recs, spec, n_harmonics=5).system
+    ones = [tuple(np.ones(r.time_s.size) for _ in range(3)) for r in recs]
+    masked = chain_system(recs, spec, n_harmonics=5, masks=ones).system
+    scale = np.max(np.abs(plain.A))
+    np.testing.assert_allclose(masked.A, plain.A, rtol=0, atol=1e-9 * scale)
+    np.testing.assert_allclose(masked.F, plain.F, rtol=0, atol=1e-9 * np.max(np.abs(plain.F)))
