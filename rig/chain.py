@@ -42,7 +42,8 @@ from jointrig.vocab.params import DRIVE_DELAY, linear_name, rotational_name
 from jointrig.identify.chain import ChainPlant, ChainRecord
 
 from .model import JOINT_FIELD as _JOINT_FIELD
-from .model import PREFIX, TWIST_SOLIMP, TWIST_SOLREF, RigModelError, compile_model, is_chain_model
+from .model import (PREFIX, TWIST_SOLIMP, TWIST_SOLREF, TWIST_TENDON, RigModelError, compile_model, is_chain_model,
+                    with_twist_tendons)
 from .native_callback import NativeChain, choose_native, session_active
 from .simulate import (SettleInfo, SimulationConfig, SimulationError, _activated, _Jump, _settle, dry_friction_split,
                        passive_callback, set_inertias)
@@ -65,6 +66,8 @@ class ChainRig:
       drives: ``(flywheel number, actuator id, sensor address)`` of every drive.
       angle_adr, rate_adr: per flywheel, the sensor address or None (not measured).
       digest: SHA-256 of the file.
+      twist_tendons: per joint, the id of the fixed tendon ``phi<j> - phi<j+1>`` the rig adds
+        (``jointrig_twist<j>``): its ``frictionloss`` holds the joint's dry friction.
     """
 
     path: Path
@@ -79,6 +82,7 @@ class ChainRig:
     digest: str
     #: "hinge" (angles in rad, torques in N m, inertias in kg m^2) or "slide" (m, N, kg)
     kind: str = "hinge"
+    twist_tendons: tuple = ()
 
     @property
     def n_flywheels(self) -> int:
@@ -225,6 +229,11 @@ def load_chain(path: Union[str, os.PathLike]) -> ChainRig:
     angle_adr = tuple(sensor(f"{coord}{i}", mujoco.mjtSensor.mjSENS_JOINTPOS) for i in range(1, N + 1))
     rate_adr = tuple(sensor(f"rate{i}", mujoco.mjtSensor.mjSENS_JOINTVEL) for i in range(1, N + 1))
     plant = _plant(model, N, src, kind)
+    # A joint's dry friction is held by MuJoCo's constraint on its twist, as the two-flywheel
+    # rig's is: the fixed tendon phi<j> - phi<j+1>, its frictionloss set per run.
+    names = [f"{TWIST_TENDON}{j}" for j in range(1, N)]
+    if names:
+        model = with_twist_tendons(path, src, [(t, f"{coord}{j}", f"{coord}{j + 1}") for j, t in enumerate(names, 1)])
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     mass = np.zeros((model.nv, model.nv))
@@ -237,7 +246,8 @@ def load_chain(path: Union[str, os.PathLike]) -> ChainRig:
                     inertias_kgm2=tuple(float(mass[d, d]) for d in dofs),
                     qpos_adr=tuple(int(model.jnt_qposadr[j]) for j in ids), dof_adr=dofs,
                     drives=tuple(sorted(drives)), angle_adr=angle_adr, rate_adr=rate_adr,
-                    digest=hashlib.sha256(text).hexdigest(), kind=kind)
+                    digest=hashlib.sha256(text).hexdigest(), kind=kind,
+                    twist_tendons=tuple(int(mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TENDON, t)) for t in names))
 
 
 def chain_model_xml(plant: ChainPlant, inertias_kgm2: Sequence[float], driven: Sequence[int], *,
@@ -403,6 +413,12 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
             m.dof_frictionloss[dof] = static
             m.dof_solref[dof] = TWIST_SOLREF  # the two-flywheel rig's stiff friction constraint
             m.dof_solimp[dof] = TWIST_SOLIMP
+    # A joint's is held by the constraint on its twist tendon.
+    at_joints = [dry_friction_split(law) for law in plant.laws]
+    if any(static > 0 for _, static in at_joints):
+        plant = replace(plant, laws=tuple(p.law for p, _ in at_joints))
+        for j, (_, static) in enumerate(at_joints):
+            m.tendon_frictionloss[rig.twist_tendons[j]] = static
     J = rig.inertias_kgm2
     if inertias_kgm2 is not None:
         if len(inertias_kgm2) != N or not all(math.isfinite(x) and x > 0 for x in inertias_kgm2):

@@ -117,19 +117,25 @@ TWIST_SOLREF = (1e-6, 1.0)
 TWIST_SOLIMP = (0.9999, 0.9999, 0.001, 0.5, 2.0)
 
 
-def _with_twist_tendon(path: Path, source: str) -> mujoco.MjModel:
-    """The file's model with the :data:`TWIST_TENDON` added (frictionloss 0)."""
+def with_twist_tendons(path: Path, source: str, tendons) -> mujoco.MjModel:
+    """The file's model with fixed tendons ``(name, joint a, joint b)`` of length ``a - b``
+    added (frictionloss 0, the stiff friction constraint :data:`TWIST_SOLREF`): the rig holds a
+    joint's dry friction as their ``frictionloss``. A tendon of the file with one of those names
+    is refused, naming it."""
     # MuJoCo picks the file's decoder by its suffix: a model written under another name (an
     # atomic writer's temporary file) is read from its text.
     spec = (mujoco.MjSpec.from_file(str(path)) if path.suffix.lower() == ".xml"
             else mujoco.MjSpec.from_string(path.read_text(encoding="utf-8")))
-    if any(t.name == TWIST_TENDON for t in spec.tendons):
-        raise RigModelError(f"{source}: a tendon named '{TWIST_TENDON}' is the rig's own (dry friction in the joint); "
-                            f"rename yours")
-    tendon = spec.add_tendon(name=TWIST_TENDON, frictionloss=0.0, solref_friction=list(TWIST_SOLREF),
-                             solimp_friction=list(TWIST_SOLIMP))
-    tendon.wrap_joint(JOINTS[0], 1.0)
-    tendon.wrap_joint(JOINTS[1], -1.0)
+    ours = {name for name, _, _ in tendons}
+    for t in spec.tendons:
+        if t.name in ours:
+            raise RigModelError(f"{source}: a tendon named '{t.name}' is the rig's own (dry friction in a joint); "
+                                f"rename yours")
+    for name, a, b in tendons:
+        tendon = spec.add_tendon(name=name, frictionloss=0.0, solref_friction=list(TWIST_SOLREF),
+                                 solimp_friction=list(TWIST_SOLIMP))
+        tendon.wrap_joint(a, 1.0)
+        tendon.wrap_joint(b, -1.0)
     return spec.compile()
 
 
@@ -254,7 +260,7 @@ def load_rig(path: Union[str, os.PathLike] = DEFAULT_MODEL) -> RigModel:
         sensor_adr[name] = int(model.sensor_adr[sid])
     plant = plant_from_model(model, src)
     law = plant.law
-    model = _with_twist_tendon(path, src)
+    model = with_twist_tendons(path, src, ((TWIST_TENDON, JOINTS[0], JOINTS[1]),))
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     mass = np.zeros((model.nv, model.nv))
