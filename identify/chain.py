@@ -49,7 +49,7 @@ from .solve import COND_WARN, IdentificationResult
 __all__ = ["ChainRecord", "ChainSpec", "ChainIdentifiabilityError", "identifiability", "chain_system",
            "solve_banded", "identify_chain", "joint_law", "ChainPlant", "plant_of_values", "BandedSystem",
            "fisher_per_period", "row_covariance", "average_chain", "ml_identify_chain", "inertia_name", "bearing_name", "joint_prefix",
-           "ground_prefix", "stick_mask", "rest_share", "sticks_to_ground", "STICK_RATE_FRACTION",
+           "ground_prefix", "stick_mask", "rest_share", "rests", "sticks_to_ground", "STICK_RATE_FRACTION",
            "REST_RATE_FRACTION", "REST_DWELL"]
 
 
@@ -289,7 +289,8 @@ class BandedSystem:
 
 
 def chain_system(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics: int, first_harmonic: int = 0,
-                 oversample: int = 1, masks: Optional[Sequence] = None) -> BandedSystem:
+                 oversample: int = 1, masks: Optional[Sequence] = None,
+                 merged: Optional[Sequence] = None) -> BandedSystem:
     """The harmonic-balance rows of every flywheel of every record (harmonics
     ``first_harmonic..n_harmonics``), ordered for :func:`solve_banded`.
 
@@ -298,6 +299,12 @@ def chain_system(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics
     where it holds with the law's torque. While a body sticks to ground its dry friction is a
     reaction (whatever holds it), not the law's ``F_c sign(rate)``; masked out there, what is
     left is exact (:func:`stick_mask`).
+
+    ``merged``: per record, the joints (0-based) whose two bodies' equations are balanced as
+    their sum alone. While a joint sticks its torque is a reaction, not its law's; the sum of its
+    bodies' equations holds no joint torque of its own and is exact in every harmonic (a mask
+    would mix the stiff neighbours' harmonics above the band into it). The sum's rows sit with
+    the first body's, whose column band then reaches the last merged body's.
 
     Raises:
       ChainIdentifiabilityError: a record lacks an angle a joint needs, or has no drive torque.
@@ -323,6 +330,7 @@ def chain_system(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics
     col = {n: k for k, n in enumerate(names)}
     p = len(names)
     rows_by_fw: list[list] = [[] for _ in range(N)]
+    reach = list(range(N))  # per body: the last body whose equation its rows hold
     for ri, rec in enumerate(records):
         P, H = rec.n_periods, n_harmonics
         jw = 1j * np.arange(H + 1) * rec.omega_rad_s
@@ -372,6 +380,13 @@ def chain_system(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics
             A, F, harm, part = harmonic_rows(cols, rhs, H)
             keep = harm >= first_harmonic
             rows_by_fw[i].append((A[keep], F[keep], harm[keep], part[keep], ri))
+        # Bodies joined by a merged joint: their equations summed, in the first one's rows.
+        joined = set(merged[ri]) if merged is not None else set()
+        for j in sorted(joined, reverse=True):  # from the far end: a run of merged joints sums into one
+            A2, F2, _, _, _ = rows_by_fw[j + 1].pop()
+            A1, F1, harm, part, _ = rows_by_fw[j].pop()
+            rows_by_fw[j].append((A1 + A2, F1 + F2, harm, part, ri))
+            reach[j] = max(reach[j], reach[j + 1], j + 1)
     # Column band of each flywheel: its own block, and the joints on either side.
     blocks = spec.blocks()
     start = {}
@@ -383,7 +398,8 @@ def chain_system(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics
     r0 = 0
     for i in range(N):
         lo = start[("joint", i)][0] if i > 0 else start[("flywheel", 1)][0]
-        hi = start[("joint", i + 1)][1] if i < N - 1 else start[("flywheel", N)][1]
+        last = reach[i]
+        hi = start[("joint", last + 1)][1] if last < N - 1 else start[("flywheel", N)][1]
         for A, F, harm, part, ri in rows_by_fw[i]:
             As.append(A)
             Fs.append(F)
@@ -512,6 +528,13 @@ def rest_share(rate: np.ndarray) -> float:
     return float(np.mean(np.abs(rate) < REST_RATE_FRACTION * top)) if top > 0 else 0.0
 
 
+def rests(rate: np.ndarray) -> bool:
+    """Whether a period's rate (a body's, or a joint's twist rate) rests: it stays below
+    :data:`REST_RATE_FRACTION` of its peak more than :data:`REST_DWELL` times as long as a
+    sinusoid's would. It may stick there."""
+    return rest_share(rate) > REST_DWELL * (2.0 / math.pi) * math.asin(REST_RATE_FRACTION)
+
+
 def stick_mask(rate: np.ndarray, fraction: float = STICK_RATE_FRACTION) -> Optional[np.ndarray]:
     """The weight of a body's equation in :func:`chain_system` over one period of its ``rate``:
     0 where ``|rate|`` is below ``fraction`` of its largest value, 1 elsewhere, when the body
@@ -519,7 +542,7 @@ def stick_mask(rate: np.ndarray, fraction: float = STICK_RATE_FRACTION) -> Optio
     held by whatever force its dry friction supplies, not the law's); None when it only slides
     through rest, whose harmonic balance is exact."""
     rate = np.asarray(rate, dtype=float)
-    if not rest_share(rate) > REST_DWELL * (2.0 / math.pi) * math.asin(REST_RATE_FRACTION):
+    if not rests(rate):
         return None
     out = (np.abs(rate) >= fraction * float(np.max(np.abs(rate)))).astype(float)
     out.setflags(write=False)

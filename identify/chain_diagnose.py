@@ -45,7 +45,7 @@ from jointrig.vocab.law import JointLaw, Power, Viscous, law_parameters
 from jointrig.vocab.params import DRIVE_DELAY
 from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpec, bearing_name, chain_system,
                     ground_laws, ground_prefix, identifiability, inertia_name, joint_prefix, solve_banded, rest_share,
-                    stick_mask, sticks_to_ground)
+                    rests, stick_mask, sticks_to_ground)
 from .causes import (Ambiguity, Cause, CauseScore, Limits, ModelSpec, Place, at, by_name, evidence, forward_select,
                      fundamental_quadrature, harmonic_shares, parsimonious, profile)
 from .diagnose import DEFAULT_FIDELITY, FINE_SAMPLES, KINK_RTOL, kink_corrected_rate, kink_first_pass
@@ -209,6 +209,30 @@ class ChainFit(RowFit):
         return out
 
 
+#: A joint's twist in a run is resolved when the RMS of its band-limited period average exceeds
+#: this many times the RMS its noise leaves there. The pump train's coupling held by 8 N m of dry
+#: friction the whole period (independent DAQ bench): 0.9-1.3; every twist that moves, stuck part
+#: of the period or not, at any joint: 20 or more.
+RESOLVED_SNR = 5.0
+
+
+def _sticks_in_joint(spec: ChainSpec, j: int) -> bool:
+    """True when joint ``j`` (0-based) has a law with a jump at rest (dry friction, a Stribeck
+    law's): it can stick, and its torque while it does is a reaction."""
+    return any(t.dry_friction(1.0) is not None for t in spec.joints[j])
+
+
+def twist_resolved(run: ChainRun, j: int) -> bool:
+    """Whether joint j's (0-based) twist in ``run`` stands above its noise (:data:`RESOLVED_SNR`):
+    the per-sample noise of its two angles, averaged over the run's periods and samples, in the
+    band's ``2 band`` real coefficients."""
+    a = run.average
+    twist = a.angles_rad[j] - a.angles_rad[j + 1]
+    noise = math.hypot(run.noise_std[f"phi{j + 1}"], run.noise_std[f"phi{j + 2}"])
+    in_band = noise * math.sqrt(2 * run.band / (run.samples_per_period * run.n_periods))
+    return bool(np.std(twist) > RESOLVED_SNR * in_band)
+
+
 @dataclass(frozen=True)
 class _Problem:
     runs: tuple
@@ -221,6 +245,10 @@ class _Problem:
     #: phases masked out in *every* fit, so the nominal and extended fits' chi-squares are of
     #: the same rows and their difference is evidence (:func:`identify.chain.stick_mask`)
     masked: tuple = ()
+    #: per joint: True where some model of the diagnosis has dry friction in it: in every run
+    #: where its twist rests, its two bodies' equations are balanced as their sum alone, in
+    #: every fit (:func:`identify.chain.chain_system`'s ``merged``)
+    merging: tuple = ()
     _masks: dict = field(default_factory=dict, compare=False, repr=False)
     #: (run, body, periods) -> its angles (the average's, or each period's) and the kink correction's
     #: first pass over them
@@ -237,6 +265,17 @@ class _Problem:
                                          for i, on in enumerate(self.masked)) for k, run in enumerate(self.runs)})
         out = [self._masks[k] for k in range(len(self.runs))]
         return out if any(m is not None for ms in out for m in ms) else None
+
+    def merged(self) -> Optional[list]:
+        """Per run, the joints (0-based) that may stick and may be stuck in it: their twist rests
+        (of its period-average twist rate, :func:`identify.chain.rests`) or is not resolved above
+        its noise (:func:`twist_resolved`: stuck the whole period); None when there is none."""
+        if not any(self.merging):
+            return None
+        out = [tuple(j for j, on in enumerate(self.merging)
+                     if on and (rests(run.average.rate(j) - run.average.rate(j + 1)) or not twist_resolved(run, j)))
+               for run in self.runs]
+        return out if any(out) else None
 
     def jumps(self, spec: ChainSpec, values: Optional[dict]) -> tuple:
         """Per body: the jump of its acceleration where its rate reverses, ``2 F_s / m`` (F_s the
@@ -287,18 +326,19 @@ class _Problem:
 
     def system(self, spec: ChainSpec, jumps: Optional[tuple] = None):
         return chain_system([r[0] for r in self.records(jumps, periods=False)], spec, n_harmonics=self.n_harmonics,
-                            first_harmonic=1, masks=self.masks())
+                            first_harmonic=1, masks=self.masks(), merged=self.merged())
 
     def row_variance(self, spec: ChainSpec, theta: np.ndarray, like, jumps: Optional[tuple] = None) -> np.ndarray:
         sysl = like.system
         var = np.empty(sysl.F.size)
-        masks = self.masks()
+        masks, merged = self.masks(), self.merged()
         recs = self.records(jumps, periods=True)
         for i, run in enumerate(self.runs):
             res = []
             for per in recs[i]:
                 s = chain_system([per], spec, n_harmonics=self.n_harmonics, first_harmonic=1,
-                                 masks=None if masks is None else [masks[i]]).system
+                                 masks=None if masks is None else [masks[i]],
+                                 merged=None if merged is None else [merged[i]]).system
                 res.append(s.F - s.A @ theta)
             v = np.array(res).var(axis=0, ddof=1) / run.n_periods
             rows = np.flatnonzero(sysl.row_record == i)
@@ -621,6 +661,10 @@ class ChainDiagnosis:
     #: masked out of its equation)`` for every run where a body that may stick rests
     #: (:func:`identify.chain.stick_mask`)
     rests: tuple = ()
+    #: ``(run index among the fitted runs, joint number, share of the period its twist rests,
+    #: whether its twist is resolved above the noise)`` for every run where a joint that may
+    #: stick may be stuck: its two bodies' equations are balanced as their sum alone there
+    stuck_joints: tuple = ()
 
     @property
     def found(self) -> Optional[CauseScore]:
@@ -681,7 +725,10 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
     masked = tuple(sticks_to_ground(structure, i) or any(c.ground and c.place == i + 1
                                                          and sticks_to_ground(c.extend(structure, 1e-3), i)
                                                          for c in pool) for i in range(N))
-    problem = _Problem(runs, H, nu, fidelity, masked)
+    merging = tuple(_sticks_in_joint(structure, j) or any(c.at_joint and c.place == j + 1
+                                                          and _sticks_in_joint(c.extend(structure, 1e-3), j)
+                                                          for c in pool) for j in range(N - 1))
+    problem = _Problem(runs, H, nu, fidelity, masked, merging)
     nominal, w = problem.fit(structure)
     ambiguous: list[Ambiguity] = []
     by_label = {c.label: c for c in pool}
@@ -739,8 +786,10 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
     masks = problem.masks() or ()
     rests = tuple((k, i + 1, rest_share(runs[k].average.rate(i)), 1.0 - float(np.mean(m)))
                   for k, ms in enumerate(masks) for i, m in enumerate(ms) if m is not None)
+    stuck = tuple((k, j + 1, rest_share(runs[k].average.rate(j) - runs[k].average.rate(j + 1)),
+                   twist_resolved(runs[k], j)) for k, js in enumerate(problem.merged() or ()) for j in js)
     return ChainDiagnosis(nominal, first, tuple(steps), current, tuple(ambiguous), H, noise, nu,
-                          implausible_train_fit(nominal), rests)
+                          implausible_train_fit(nominal), rests, stuck)
 
 
 #: A fitted value this many standard errors on the wrong side of zero is no body's or joint's.
