@@ -275,7 +275,18 @@ class _Problem:
         out = [tuple(j for j, on in enumerate(self.merging)
                      if on and (rests(run.average.rate(j) - run.average.rate(j + 1)) or not twist_resolved(run, j)))
                for run in self.runs]
+        # a joint stuck in every run leaves its law nothing to be fitted on: balanced as it is
+        everywhere = set.intersection(*(set(m) for m in out))
+        out = [tuple(j for j in m if j not in everywhere) for m in out]
         return out if any(out) else None
+
+    def balanced_runs(self, cand: "Candidate") -> list:
+        """The runs that balance the candidate's place on its own: for a joint, those where its
+        bodies' equations are not summed (:meth:`merged`); all runs elsewhere."""
+        merged = self.merged()
+        if merged is None or not cand.at_joint:
+            return list(self.runs)
+        return [r for r, m in zip(self.runs, merged) if cand.place - 1 not in m]
 
     def jumps(self, spec: ChainSpec, values: Optional[dict]) -> tuple:
         """Per body: the jump of its acceleration where its rate reverses, ``2 F_s / m`` (F_s the
@@ -488,12 +499,13 @@ def _twist_runs(problem: _Problem, cand: Candidate) -> list:
     as the two-flywheel causes' search bounds read runs (``average.phi_rad``). In a chain a joint
     may barely twist in runs far from its modes; the bounds of a free play or a slip angle must
     reach the largest twist, and those of a rate (a Stribeck rate, ``profiled`` in rad/s) the
-    largest twist rate: the run where that swings most."""
+    largest twist rate: the run where that swings most, among the runs that balance the place
+    on its own (:meth:`_Problem.balanced_runs`)."""
     if cand.at_drive:  # a drive's lag is bounded by the runs' periods
         return list(problem.runs)
     by_rate = cand.cause.profiled is not None and cand.cause.profiled.endswith("_rad_s")
     best, amp = None, -1.0
-    for r in problem.runs:
+    for r in problem.balanced_runs(cand):
         a = r.average
         twist, rate = cand.motion(a)
         size = float(np.ptp(rate if by_rate else twist))
@@ -505,7 +517,7 @@ def _twist_runs(problem: _Problem, cand: Candidate) -> list:
 
 
 def _rate_amplitude(problem: _Problem, cand: Candidate) -> float:
-    return max(float(np.max(np.abs(cand.motion(r.average)[1]))) for r in problem.runs)
+    return max(float(np.max(np.abs(cand.motion(r.average)[1]))) for r in problem.balanced_runs(cand))
 
 
 def angle_resolution(problem: _Problem, cand: Candidate) -> float:
@@ -690,6 +702,27 @@ def candidates(n_flywheels: int, causes: Sequence[Cause] = JOINT_CAUSES, bearing
     return out
 
 
+def _joints_that_may_stick(problem: _Problem, structure: ChainSpec, pool: Sequence[Candidate], alpha: float
+                           ) -> tuple:
+    """Per joint: whether it may stick, so that its bodies' equations are summed where its twist
+    rests (:meth:`_Problem.merged`): its nominal law has dry friction, or the simplest dry
+    friction among the candidates there (one without a profiled parameter) is significant on the
+    nominal fit with every equation balanced. A joint's twist far from a sinusoid rests by the
+    rule's measure too (the pump train's stiff shafts: 4-11% of some periods); summing its
+    equations there would only lose what they say, and on the worn coupling's file it let the
+    nominal fit of a shaft soften until the rig found no steady state."""
+    N = structure.n_flywheels
+    out = [_sticks_in_joint(structure, j) for j in range(N - 1)]
+    dry = [c for c in pool if c.at_joint and c.cause.bounds is None and not out[c.place - 1]
+           and _sticks_in_joint(c.extend(structure, 1e-3), c.place - 1)]
+    if dry:
+        base, w = problem.fit(structure)
+        for c in dry:
+            s = score(problem, c, base, w, len(pool), alpha)
+            out[c.place - 1] = out[c.place - 1] or (s.significant and s.magnitude[1] > 0)
+    return tuple(out)
+
+
 def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: float = 1e-3, max_effects: int = 2,
                    fidelity: float = DEFAULT_FIDELITY, causes: Sequence[Cause] = JOINT_CAUSES,
                    nominal: Optional[ChainSpec] = None, progress=None, workers: Optional[int] = None) -> ChainDiagnosis:
@@ -725,10 +758,10 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
     masked = tuple(sticks_to_ground(structure, i) or any(c.ground and c.place == i + 1
                                                          and sticks_to_ground(c.extend(structure, 1e-3), i)
                                                          for c in pool) for i in range(N))
-    merging = tuple(_sticks_in_joint(structure, j) or any(c.at_joint and c.place == j + 1
-                                                          and _sticks_in_joint(c.extend(structure, 1e-3), j)
-                                                          for c in pool) for j in range(N - 1))
-    problem = _Problem(runs, H, nu, fidelity, masked, merging)
+    problem = _Problem(runs, H, nu, fidelity, masked)
+    merging = _joints_that_may_stick(problem, structure, pool, alpha)
+    if any(merging):
+        problem = _Problem(runs, H, nu, fidelity, masked, merging)
     nominal, w = problem.fit(structure)
     ambiguous: list[Ambiguity] = []
     by_label = {c.label: c for c in pool}
