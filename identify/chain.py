@@ -74,6 +74,11 @@ def ground_prefix(i: int) -> str:
     return f"ground{i}_"
 
 
+def _read_only(a: np.ndarray) -> np.ndarray:
+    a.setflags(write=False)
+    return a
+
+
 def _opt_rows(name: str, rows, n: Optional[int], count: int, src: str) -> tuple:
     if rows is None:
         return (None,) * count
@@ -85,7 +90,9 @@ def _opt_rows(name: str, rows, n: Optional[int], count: int, src: str) -> tuple:
         if r is None:
             out.append(None)
             continue
-        a = np.array(r, dtype=float)
+        # a read-only float array is kept as it is (a record rebuilt with one channel replaced
+        # shares the others, and the columns memoised by their identity)
+        a = r if isinstance(r, np.ndarray) and r.dtype == np.float64 and not r.flags.writeable else np.array(r, dtype=float)
         if a.ndim != 1 or (n is not None and a.size != n):
             raise RecordError(f"{src}: '{name}' of flywheel {i} has shape {a.shape}, expected ({n},) like 'time_s'")
         if not np.all(np.isfinite(a)):
@@ -159,7 +166,11 @@ class ChainRecord(WholePeriods):
     def rate(self, i: int) -> np.ndarray:
         """Rate of flywheel i (0-based index) (rad/s): measured, else the spectral derivative."""
         r = self.rates_rad_s[i]
-        return r if r is not None else spectral_rate(self.angles_rad[i], self.omega_rad_s, self.n_periods)
+        if r is not None:
+            return r
+        a = self.angles_rad[i]  # memoised by the angle's identity (read-only): asked for in every column
+        return memo_arrays((a,), ("spectral_rate", self.omega_rad_s, self.n_periods),
+                           lambda: _read_only(spectral_rate(a, self.omega_rad_s, self.n_periods)))
 
     def relative(self, j: int) -> tuple[np.ndarray, np.ndarray]:
         """Relative angle and rate of joint j (0-based: flywheels j and j+1)."""

@@ -234,6 +234,24 @@ def twist_resolved(run: ChainRun, j: int) -> bool:
 
 
 @dataclass(frozen=True)
+class Jumps:
+    """Where dry friction makes an acceleration jump at a reversal (:meth:`_Problem.jumps`):
+    ``sizes`` per body (its rate's reversal, to ground: rad/s^2 or m/s^2) then per joint (its
+    twist rate's reversal); ``shares`` per joint: body j's part of its joint's jump,
+    ``(1/J_j) / (1/J_j + 1/J_j+1)`` (body j+1 takes the rest, with the opposite sign)."""
+
+    sizes: tuple = ()
+    shares: tuple = ()
+
+    def __bool__(self) -> bool:
+        return any(s > 0 for s in self.sizes)
+
+    def settled(self, other: Optional["Jumps"]) -> bool:
+        """Whether every jump is within ``KINK_RTOL`` of ``other``'s."""
+        return other is not None and all(abs(a - b) <= KINK_RTOL * a for a, b in zip(self.sizes, other.sizes))
+
+
+@dataclass(frozen=True)
 class _Problem:
     runs: tuple
     n_harmonics: int
@@ -288,58 +306,85 @@ class _Problem:
             return list(self.runs)
         return [r for r, m in zip(self.runs, merged) if cand.place - 1 not in m]
 
-    def jumps(self, spec: ChainSpec, values: Optional[dict]) -> tuple:
-        """Per body: the jump of its acceleration where its rate reverses, ``2 F_s / m`` (F_s the
-        static friction of its law to ground at ``values``), for a body with dry friction to
-        ground in ``spec``; 0 elsewhere or without values."""
-        out = []
-        for i, terms in enumerate(spec.grounds):
-            if values is None or not sticks_to_ground(spec, i):
-                out.append(0.0)
-                continue
-            static = sum((t.dry_friction(values[ground_prefix(i + 1) + t.name]) or (0.0,))[0] for t in terms)
-            mass = values[inertia_name(i + 1)]
-            out.append(max(2.0 * static / mass, 0.0) if mass > 0 else 0.0)
-        return tuple(out)
+    def jumps(self, spec: ChainSpec, values: Optional[dict]) -> "Jumps":
+        """Where dry friction makes an acceleration jump at a reversal, per body then per joint
+        (N + N - 1 sizes; 0 where nothing jumps, and everywhere without ``values``).
 
-    def _kinked(self, k: int, i: int, jump: float, periods: bool) -> np.ndarray:
-        """Run k's body i rate, of its average ``(1, M)`` or of each period ``(P, M)``, with the
-        kinks of a jump ``jump`` at its reversals restored
+        A body's (to ground): ``2 F_s / m`` where its rate reverses (F_s the static friction of
+        its law to ground at ``values``). A joint j's: ``2 F_s (1/J_j + 1/J_j+1)`` where its twist
+        rate reverses, the jump of the twist's acceleration, shared by its bodies as ``1/J``."""
+        N = spec.n_flywheels
+        if values is None:
+            return Jumps((0.0,) * (2 * N - 1))
+
+        def static(terms, prefix) -> float:
+            return sum(t.dry_friction(values[prefix + t.name])[0] for t in terms if t.dry_friction(1.0) is not None)
+
+        inverse = [1.0 / m if (m := values.get(inertia_name(i + 1), 0.0)) > 0 else 0.0 for i in range(N)]
+        out = [max(2.0 * static(terms, ground_prefix(i + 1)) * inverse[i], 0.0) if sticks_to_ground(spec, i) else 0.0
+               for i, terms in enumerate(spec.grounds)]
+        out += [max(2.0 * static(terms, joint_prefix(j + 1)) * (inverse[j] + inverse[j + 1]), 0.0)
+                for j, terms in enumerate(spec.joints)]
+        shares = tuple(inverse[j] / (inverse[j] + inverse[j + 1]) if inverse[j] + inverse[j + 1] > 0 else 0.5
+                       for j in range(N - 1))
+        return Jumps(tuple(out), shares)
+
+    def _kinked(self, k: int, i: int, jump: float, periods: bool) -> tuple[np.ndarray, np.ndarray]:
+        """Run k's rate of body i (``i < N``) or twist rate of joint ``i - N`` (0-based), of its
+        average ``(1, M)`` or of each period ``(P, M)``, with the kinks of a jump ``jump`` at its
+        reversals restored, and the band-limited rate it corrects
         (:func:`identify.diagnose.kink_corrected_rate`; its first pass, which does not depend on
         the jump, is kept)."""
         run = self.runs[k]
         key = (k, i, periods)
         if key not in self._first_pass:
-            x = np.vstack([p.angles_rad[i] for p in run.periods] if periods else [run.average.angles_rad[i]])
+            N = run.average.n_flywheels
+
+            def angle(r):
+                return r.angles_rad[i] if i < N else r.angles_rad[i - N] - r.angles_rad[i - N + 1]
+
+            x = np.vstack([angle(p) for p in run.periods] if periods else [angle(run.average)])
             self._first_pass[key] = (x, kink_first_pass(x, run.average.omega_rad_s, run.band))
         x, first = self._first_pass[key]
-        rates = kink_corrected_rate(x, run.average.omega_rad_s, run.band, jump, first_pass=first)
-        rates.setflags(write=False)
-        return rates
+        return kink_corrected_rate(x, run.average.omega_rad_s, run.band, jump, first_pass=first), first.rate_rad_s
 
-    def records(self, jumps: Optional[tuple], periods: bool) -> list[list]:
+    def records(self, jumps: Optional["Jumps"], periods: bool) -> list[list]:
         """Per run: its average (``periods`` False, a list of one) or each of its periods, with the
-        kink-corrected rate of every body that slides through rest with a jump (unmasked in that
-        run); the prepared records elsewhere, and all of them without ``jumps``."""
-        masks = self.masks()
+        kinks of every reversal with a jump (:meth:`jumps`) restored in its rates: a body's that
+        slides through rest (unmasked in that run), and a joint's that slides through rest (its
+        bodies' equations not summed in that run) in both its bodies' rates, shared as the jump
+        is; the prepared records elsewhere, and all of them without ``jumps``."""
+        masks, merged = self.masks(), self.merged()
         out = []
         for k, run in enumerate(self.runs):
             recs = list(run.periods) if periods else [run.average]
-            for i, jump in enumerate(jumps or ()):
-                if jump <= 0 or (masks is not None and masks[k][i] is not None):
+            N = recs[0].n_flywheels
+            rates = {}  # body -> its rates, periods stacked, where a kink is restored
+
+            def add(b, correction, recs=recs):
+                rates[b] = (rates[b] if b in rates else np.vstack([r.rate(b) for r in recs])) + correction
+
+            for i, jump in enumerate(jumps.sizes if jumps else ()):
+                skip = (masks is not None and masks[k][i] is not None) if i < N else \
+                    (merged is not None and i - N in merged[k])
+                if jump <= 0 or skip:
                     continue
-                rates = self._kinked(k, i, jump, periods)
-                recs = [replace(r, rates_rad_s=tuple(rates[n] if b == i else r.rates_rad_s[b]
-                                                     for b in range(len(r.rates_rad_s))))
-                        for n, r in enumerate(recs)]
-            out.append(recs)
+                kinked, plain = self._kinked(k, i, jump, periods)
+                if i < N:
+                    add(i, kinked - plain)
+                else:  # joint j between bodies j and j+1: each body's rate takes its share
+                    j, share = i - N, jumps.shares[i - N]
+                    add(j, (kinked - plain) * share)
+                    add(j + 1, -(kinked - plain) * (1.0 - share))
+            out.append([replace(r, rates_rad_s=tuple(rates[b][n] if b in rates else r.rates_rad_s[b] for b in range(N)))
+                        for n, r in enumerate(recs)] if rates else recs)
         return out
 
-    def system(self, spec: ChainSpec, jumps: Optional[tuple] = None):
+    def system(self, spec: ChainSpec, jumps: Optional[Jumps] = None):
         return chain_system([r[0] for r in self.records(jumps, periods=False)], spec, n_harmonics=self.n_harmonics,
                             first_harmonic=1, masks=self.masks(), merged=self.merged())
 
-    def row_variance(self, spec: ChainSpec, theta: np.ndarray, like, jumps: Optional[tuple] = None) -> np.ndarray:
+    def row_variance(self, spec: ChainSpec, theta: np.ndarray, like, jumps: Optional[Jumps] = None) -> np.ndarray:
         sysl = like.system
         var = np.empty(sysl.F.size)
         masks, merged = self.masks(), self.merged()
@@ -375,13 +420,13 @@ class _Problem:
         banded, res = self._solve_once(spec, weights, jumps)
         for _ in range(2):
             new = self.jumps(spec, dict(zip(res.names, res.values)))
-            if not any(new) or (jumps is not None and all(abs(a - b) <= KINK_RTOL * a for a, b in zip(new, jumps))):
+            if not new or new.settled(jumps):
                 break
             jumps = new
             banded, res = self._solve_once(spec, weights, jumps)
         return self._fit_of(spec, weights, banded, res, jumps)
 
-    def _solve_once(self, spec: ChainSpec, weights: np.ndarray, jumps: Optional[tuple]):
+    def _solve_once(self, spec: ChainSpec, weights: np.ndarray, jumps: Optional[Jumps]):
         banded = self.system(spec, jumps)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", IllConditionedWarning)

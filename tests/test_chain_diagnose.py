@@ -140,10 +140,10 @@ def test_a_bodys_reversal_jumps_by_twice_its_static_friction_over_its_mass():
     p = _Problem((), 20, 6.0, 1e-3)
     spec = ChainSpec(((Viscous(),),), grounds=((), (Coulomb(), Stribeck(0.01))))
     values = {"J2_kgm2": 120.0, "ground2_coulomb_torque_Nm": 25.0, "ground2_stribeck_torque_Nm": 5.0}
-    assert p.jumps(spec, values) == (0.0, pytest.approx(0.5, rel=1e-15))
-    assert p.jumps(spec, None) == (0.0, 0.0)
-    assert p.jumps(spec, dict(values, J2_kgm2=0.0)) == (0.0, 0.0)
-    assert p.jumps(ChainSpec(((Viscous(),),)), values) == (0.0, 0.0)
+    assert p.jumps(spec, values).sizes == (0.0, pytest.approx(0.5, rel=1e-15), 0.0)
+    assert not p.jumps(spec, None) and p.jumps(spec, None).sizes == (0.0, 0.0, 0.0)
+    assert p.jumps(spec, dict(values, J2_kgm2=0.0)).sizes == (0.0, 0.0, 0.0)
+    assert p.jumps(ChainSpec(((Viscous(),),)), values).sizes == (0.0, 0.0, 0.0)
 
 
 def test_the_candidates_are_every_cause_at_its_places_and_the_drives_lag_once():
@@ -236,12 +236,14 @@ def test_a_fitted_lag_is_among_the_fits_parameters_and_a_jump_corrects_the_rate(
     problem, (nominal, w) = _linear_problem()
     assert problem.solve(dc_replace(nominal.spec, drive_delay_s=1e-5), w).parameters()["drive_delay_s"] == 1e-5
     assert "drive_delay_s" not in nominal.parameters()
-    jumps = (0.0, 50.0, 0.0, 0.0)
+    from jointrig.identify.chain_diagnose import Jumps
+
+    jumps = Jumps((0.0, 50.0, 0.0, 0.0))
     (avg,) = problem.records(jumps, periods=False)[0]
     periods = problem.records(jumps, periods=True)[0]
     assert avg.rates_rad_s[1] is not None and avg.rates_rad_s[0] is None
     assert len(periods) == problem.runs[0].n_periods and all(r.rates_rad_s[1] is not None for r in periods)
-    assert all(r[0].rates_rad_s == (None,) * 4 for r in problem.records((0.0,) * 4, periods=False))
+    assert all(r[0].rates_rad_s == (None,) * 4 for r in problem.records(Jumps((0.0,) * 4), periods=False))
 
 
 def test_a_train_read_wrong_says_which_joint_feeds_energy_in():
@@ -326,6 +328,6 @@ def test_a_carriage_sliding_through_rest_is_fitted_with_its_kinks_restored():
     fc, se = f.as_dict()["ground1_coulomb_torque_Nm"], f.std_error("ground1_coulomb_torque_Nm")
     assert abs(fc - 25.0) < 3 * se, (fc, se)
     jumps = problem.jumps(spec, f.as_dict())
-    assert jumps[0] == 2 * fc / f.as_dict()["J1_kgm2"]
+    assert jumps.sizes[0] == 2 * fc / f.as_dict()["J1_kgm2"]
     plain = problem._fit_of(spec, wts, *problem._solve_once(spec, wts, None), None)
     assert f.chi2 < plain.chi2
