@@ -546,3 +546,33 @@ def test_an_equation_weighted_by_ones_is_the_equation():
     scale = np.max(np.abs(plain.A))
     np.testing.assert_allclose(masked.A, plain.A, rtol=0, atol=1e-9 * scale)
     np.testing.assert_allclose(masked.F, plain.F, rtol=0, atol=1e-9 * np.max(np.abs(plain.F)))
+
+
+def test_a_joint_that_sticks_is_balanced_exactly_by_its_bodies_summed_equation():
+    # While a joint sticks, its torque is a reaction, not its law's: here an extra torque pair
+    # +R, -R on its two bodies over a fifth of one run's period (a window: harmonics far above
+    # the band). Balanced body by body, that run's rows leave R as a residual; with the joint's
+    # two bodies' equations summed in that run (R cancels) the balance is exact, and the other
+    # runs identify the joint's law: parameters to 1e-9, residual round-off. The banded solve of
+    # the merged rows (a block whose band reaches the next body's) equals the dense one.
+    J, c, k = [0.45, 0.06, 0.12, 0.35], [15.0, 20.0, 10.0], [4e5, 2.5e4, 1.2e5]
+    recs = _linear_chain_records(J, c, k, [0.0] * 4, {1: 60.0}, [150.0, 300.0, 600.0, 1200.0], n=256)
+    first = recs[0]
+    phase = np.arange(first.time_s.size) / first.time_s.size
+    R = np.where((phase > 0.3) & (phase < 0.5), 4.0, 0.0)
+    stuck = ChainRecord(first.omega_rad_s, first.time_s, [first.torques_Nm[0], R, -R, None], first.angles_rad,
+                        first.rates_rad_s)
+    recs = [stuck] + recs[1:]
+    spec = ChainSpec(((Viscous(), Power(1)),) * 3)
+    truth = dict(zip(spec.names, [0.45, 15.0, 4e5, 0.06, 20.0, 2.5e4, 0.12, 10.0, 1.2e5, 0.35]))
+    merged = [(1,), (), (), ()]
+    banded = chain_system(recs, spec, n_harmonics=20, first_harmonic=1, merged=merged)
+    res = solve_banded(banded)
+    for name, value in zip(res.names, res.values):
+        assert value == pytest.approx(truth[name], rel=1e-9), name
+    assert res.relative_residual < 1e-10
+    np.testing.assert_allclose(res.values, solve(banded.system).values, rtol=1e-9)
+    # bodies 2 and 3 of the stuck run: one summed equation; every other run keeps four
+    eqs = banded.system.row_equation[banded.system.row_record == 0]
+    assert sorted(set(eqs.tolist())) == [0, 1, 3]
+    assert solve_banded(chain_system(recs, spec, n_harmonics=20, first_harmonic=1)).relative_residual > 1e-3

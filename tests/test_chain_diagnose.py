@@ -331,3 +331,73 @@ def test_a_carriage_sliding_through_rest_is_fitted_with_its_kinks_restored():
     assert jumps.sizes[0] == 2 * fc / f.as_dict()["J1_kgm2"]
     plain = problem._fit_of(spec, wts, *problem._solve_once(spec, wts, None), None)
     assert f.chi2 < plain.chi2
+
+
+def test_a_joints_reversal_jumps_the_twists_acceleration_shared_by_its_bodies():
+    # Dry friction F in joint 2 flips by 2F where the twist rate reverses: body 2's acceleration
+    # jumps by 2F/J2, body 3's by 2F/J3 the other way, the twist's by their sum; body 2 takes
+    # the share (1/J2) / (1/J2 + 1/J3) of it. Nothing jumps at a joint without dry friction.
+    from jointrig.identify.chain import ChainSpec
+    from jointrig.identify.chain_diagnose import Jumps, _Problem
+    from jointrig.vocab.law import Coulomb, Power, Viscous
+
+    p = _Problem((), 20, 6.0, 1e-3)
+    spec = ChainSpec(((Viscous(),), (Power(1), Coulomb()), (Viscous(),)))
+    values = {"J1_kgm2": 1.0, "J2_kgm2": 0.5, "J3_kgm2": 0.25, "J4_kgm2": 2.0, "joint1_c_Nms_per_rad": 1.0,
+              "joint2_k_Nm_per_rad": 1e4, "joint2_coulomb_torque_Nm": 3.0, "joint3_c_Nms_per_rad": 1.0}
+    jumps = p.jumps(spec, values)
+    assert jumps.sizes == (0.0, 0.0, 0.0, 0.0, 0.0, pytest.approx(2 * 3.0 * (2.0 + 4.0), rel=1e-15), 0.0)
+    assert jumps.shares[1] == pytest.approx(2.0 / 6.0, rel=1e-15)
+    assert jumps and not Jumps((0.0,) * 7)
+    assert jumps.settled(Jumps(tuple(s * (1 + 1e-9) for s in jumps.sizes))) and not jumps.settled(None)
+    assert not jumps.settled(Jumps(tuple(s * 1.1 for s in jumps.sizes)))
+
+
+def test_a_twist_at_the_noise_is_not_resolved_and_its_joint_is_summed_only_if_it_may_stick():
+    # The linear train's twists stand far above their noise (60 dB): resolved, and the
+    # coupling's (joint 2) does not rest. Make bodies 2 and 3 move alike (joint 2 stuck the whole period; only noise is left
+    # in its twist): not resolved, so its bodies' equations are summed in that run, but only
+    # where a model may let joint 2 stick. A joint stuck in every run is left balanced.
+    from dataclasses import replace
+
+    import numpy as np
+
+    from jointrig.identify.chain_diagnose import _Problem, twist_resolved
+
+    problem, _ = _linear_problem()
+    runs = problem.runs
+    assert all(twist_resolved(r, j) for r in runs for j in range(3))
+    assert _Problem(runs, 20, 6.0, 1e-3, (), (False, True, False)).merged() is None
+
+    def stuck(run, rng=np.random.default_rng(5)):
+        def alike(rec):
+            a = list(rec.angles_rad)
+            a[2] = a[1] + rng.normal(0, 1e-3 * np.std(a[1]), a[1].size)
+            return replace(rec, angles_rad=tuple(a))
+        return replace(run, average=alike(run.average), periods=tuple(alike(p) for p in run.periods))
+
+    held = (stuck(runs[0]),) + runs[1:]
+    assert not twist_resolved(held[0], 1) and twist_resolved(held[0], 0)
+    assert _Problem(held, 20, 6.0, 1e-3, (), (False, True, False)).merged() == [(1,), (), (), (), ()]
+    assert _Problem(held, 20, 6.0, 1e-3, (), (False, False, False)).merged() is None
+    everywhere = tuple(stuck(r) for r in runs)
+    assert _Problem(everywhere, 20, 6.0, 1e-3, (), (False, True, False)).merged() is None
+
+
+def test_a_joint_may_stick_where_the_nominal_law_or_significant_evidence_gives_it_dry_friction():
+    # The linear train has no dry friction: no joint's Coulomb candidate is significant, so no
+    # joint's equations are ever summed (a stiff shaft's noisy twist rate may rest by the rule's
+    # measure, and summing there would only lose rows). A nominal law with dry friction at joint
+    # 2 lets that joint stick, and only it.
+    from dataclasses import replace
+
+    from jointrig.identify.chain_diagnose import _joints_that_may_stick, candidates, nominal_spec
+    from jointrig.vocab.law import Coulomb
+
+    problem, _ = _linear_problem()
+    pool = candidates(4)
+    assert _joints_that_may_stick(problem, nominal_spec(4), pool, 1e-3) == (False, False, False)
+    spec = nominal_spec(4)
+    joints = list(spec.joints)
+    joints[1] = joints[1] + (Coulomb(),)
+    assert _joints_that_may_stick(problem, replace(spec, joints=tuple(joints)), pool, 1e-3) == (False, True, False)
