@@ -16,7 +16,10 @@ A chain model file (``models/pump_train.xml``) has
   rig turns each periodic drive by its delay; the record holds the drive as commanded).
 
 The passive callback applies every joint's torque (``-M_j`` on flywheel j, ``+M_j`` on j+1),
-the bearings and the drives, evaluated at continuous time as in :mod:`rig.simulate`; it is
+the bearings and the drives, evaluated at continuous time as in :mod:`rig.simulate`, except
+the jump of a law's dry friction: a joint's is held by MuJoCo's friction constraint on the
+fixed tendon ``phi<j> - phi<j+1>`` (``jointrig_twist<j>``, added on loading), a body's to ground
+by its dof's ``frictionloss``, so a joint or body that sticks stays stuck. The callback is
 installed only around a run by :func:`rig.callback.passive_callback`. Stateful terms (Jenkins,
 Iwan) keep one state list per joint, committed after every step.
 """

@@ -69,8 +69,9 @@ BACKENDS = _CALLBACK_BACKENDS + ("native-stepped",)
 
 #: How the rig simulates a law, versioned: a sweep store (studies/sweep.py) is keyed by it, so a
 #: resumed sweep never reuses points of an older simulation of the same law. 2: dry friction
-#: held as a constraint on the twist tendon (:func:`dry_friction_split`).
-SIMULATOR_VERSION = 2
+#: held as a constraint on the twist tendon (:func:`dry_friction_split`). 3: a train's joint's
+#: dry friction held so too (the tendon ``jointrig_twist<j>`` of :func:`rig.chain.load_chain`).
+SIMULATOR_VERSION = 3
 
 
 class SimulationError(RuntimeError):

@@ -2,8 +2,8 @@
 
 A point is ``(omega rad/s, amplitude N m, driven flywheel)``. Each finished point is written
 atomically as ``.npz`` into the store directory, whose manifest ties it to the model file's
-digest and the simulation settings; a sweep started again loads the points it finds and
-simulates the rest.
+digest, the simulation settings and the simulator's version (:data:`rig.simulate.SIMULATOR_VERSION`);
+a sweep started again loads the points it finds and simulates the rest.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from jointrig.identify.chain import ChainRecord
 from jointrig.vocab.plant import PeriodicDrive
 
 from jointrig.rig.chain import ChainRig, simulate_chain
-from jointrig.rig.simulate import SettleInfo, SimulationConfig
+from jointrig.rig.simulate import SIMULATOR_VERSION, SettleInfo, SimulationConfig
 from jointrig.rig.native_callback import choose_native
 from jointrig.files import write_atomic, write_json_atomic
 
@@ -62,7 +62,8 @@ class ChainPoint:
 
 
 def _manifest(rig: ChainRig, config: SimulationConfig) -> dict:
-    return {"format": 1, "kind": "chain", "model_sha256": rig.digest, "config": dataclasses.asdict(config)}
+    return {"format": 1, "kind": "chain", "simulator": SIMULATOR_VERSION, "model_sha256": rig.digest,
+            "config": dataclasses.asdict(config)}
 
 
 def _path(store: Path, w: float, a: float, i: int) -> Path:
@@ -122,7 +123,7 @@ def _remote_point(model_name: str, model_text: bytes, digest: str, plant, point:
 
 def default_chain_store(rig: ChainRig, config: SimulationConfig, root: Path = Path("runs/store")) -> Path:
     """Where a chain sweep keeps its finished points by default (as :func:`studies.sweep.default_store`)."""
-    key = json.dumps(["chain", rig.digest, dataclasses.asdict(config)], sort_keys=True)
+    key = json.dumps(["chain", SIMULATOR_VERSION, rig.digest, dataclasses.asdict(config)], sort_keys=True)
     return root / f"{rig.path.stem}-{hashlib.sha256(key.encode()).hexdigest()[:12]}"
 
 
@@ -144,7 +145,8 @@ def run_chain_sweep(rig: ChainRig, points: Sequence[tuple], config: SimulationCo
     Raises:
       ValueError: a point whose flywheel has no motor, or a non-positive frequency or amplitude
         (checked for all points before any simulation); ``workers > 1`` without the native backend.
-      SweepStoreMismatch: ``store`` holds points of another model or other settings.
+      SweepStoreMismatch: ``store`` holds points of another model, other settings or another
+        simulator version.
     """
     if workers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
@@ -170,8 +172,10 @@ def run_chain_sweep(rig: ChainRig, points: Sequence[tuple], config: SimulationCo
         if man.exists():
             have = json.loads(man.read_text())
             if have != want:
-                raise SweepStoreMismatch(f"{store}: holds points of another model or other settings; use another "
-                                         f"--store or delete it")
+                what = ("another version of the simulator (its manifest.json: "
+                        f"{have.get('simulator')}, this one: {want['simulator']})"
+                        if have.get("simulator") != want["simulator"] else "another model or other settings")
+                raise SweepStoreMismatch(f"{store}: holds points of {what}; use another --store or delete it")
         else:
             write_json_atomic(man, want)
     total = len(points)

@@ -124,6 +124,8 @@ def _edit(tmp_path, old, new, name="chain.xml"):
     ('<joint name="phi3" type="hinge" axis="0 0 1"', '<joint name="phi3" type="hinge" axis="0 1 0"', "phi3.*axis"),
     ('<motor name="drive4" joint="phi4"', '<motor name="drive4" joint="phi3"', "drive4.*must drive joint 'phi4'"),
     ('name="jointrig_joint1_k_Nm_per_rad"', 'name="jointrig_joint7_k_Nm_per_rad"', "unknown field jointrig_joint7"),
+    ("  </worldbody>", '  </worldbody>\n  <tendon><fixed name="jointrig_twist2"><joint joint="phi1" coef="1"/></fixed></tendon>',
+     "tendon named 'jointrig_twist2' is the rig's own"),
 ])
 def test_bad_chain_models_are_refused_naming_the_item(tmp_path, old, new, message):
     with pytest.raises(RigModelError, match=message):
@@ -576,3 +578,26 @@ def test_a_joint_that_sticks_is_balanced_exactly_by_its_bodies_summed_equation()
     eqs = banded.system.row_equation[banded.system.row_record == 0]
     assert sorted(set(eqs.tolist())) == [0, 1, 3]
     assert solve_banded(chain_system(recs, spec, n_harmonics=20, first_harmonic=1)).relative_residual > 1e-3
+
+
+def test_a_chain_sweep_store_of_another_simulator_version_is_not_reused(tmp_path, monkeypatch):
+    # A change in how a law is simulated (a joint's dry friction now held by a constraint) must
+    # not reuse a store's points: the store's default folder and its manifest carry the
+    # simulator's version, and a store written by another version is refused before any run.
+    from jointrig.rig.simulate import SimulationConfig
+    from jointrig.studies import chain_sweep
+    from jointrig.studies.sweep import SweepStoreMismatch
+
+    rig = load_chain(PUMP_TRAIN)
+    config = SimulationConfig(n_periods=2)
+    here = chain_sweep.default_chain_store(rig, config, tmp_path)
+    store = tmp_path / "store"
+    store.mkdir()
+    old = dict(chain_sweep._manifest(rig, config), simulator=chain_sweep.SIMULATOR_VERSION - 1)
+    (store / "manifest.json").write_text(json.dumps(old))
+    v = chain_sweep.SIMULATOR_VERSION
+    with pytest.raises(SweepStoreMismatch, match=rf"another version of the simulator \(its manifest.json: {v - 1}, "
+                                                 rf"this one: {v}\)"):
+        chain_sweep.run_chain_sweep(rig, [(150.0, 60.0, 1)], config, store=store)
+    monkeypatch.setattr(chain_sweep, "SIMULATOR_VERSION", chain_sweep.SIMULATOR_VERSION + 1)
+    assert chain_sweep.default_chain_store(rig, config, tmp_path) != here
