@@ -29,6 +29,14 @@ two-flywheel joint's) is scored at every joint, and bearing drag at every flywhe
    place that neither needs the other nor is needed by it (both ways not significant) makes
    the two *places* ambiguous: :func:`separating_drive` then says, from the Fisher
    information of each drive location, which drive would tell them apart.
+
+Dry friction balanced over a whole period is wrong where it sticks, and its kinks lie above the
+band where it slides through rest. A body that may stick to ground has its equation masked where
+it rests (:func:`identify.chain.stick_mask`); the joint that may stick
+(:func:`_joints_that_may_stick`) has its two bodies' equations summed in the runs where it may be
+stuck (its torque cancels there); elsewhere a friction's kinks are restored at the fitted size
+(:meth:`_Problem.solve`). Which rows are masked or summed is fixed for the whole diagnosis, so
+every chi-square compared is of the same rows.
 """
 
 from __future__ import annotations
@@ -263,13 +271,15 @@ class _Problem:
     #: phases masked out in *every* fit, so the nominal and extended fits' chi-squares are of
     #: the same rows and their difference is evidence (:func:`identify.chain.stick_mask`)
     masked: tuple = ()
-    #: per joint: True where some model of the diagnosis has dry friction in it: in every run
-    #: where its twist rests, its two bodies' equations are balanced as their sum alone, in
-    #: every fit (:func:`identify.chain.chain_system`'s ``merged``)
+    #: per joint: True where it may stick (:func:`_joints_that_may_stick`): in every run where
+    #: it may be stuck, its two bodies' equations are balanced as their sum alone, in every fit,
+    #: so that chi-squares stay of the same rows (:meth:`merged`;
+    #: :func:`identify.chain.chain_system`'s ``merged``)
     merging: tuple = ()
     _masks: dict = field(default_factory=dict, compare=False, repr=False)
-    #: (run, body, periods) -> its angles (the average's, or each period's) and the kink correction's
-    #: first pass over them
+    _merged: list = field(default_factory=list, compare=False, repr=False)
+    #: (run, body i or N + joint j, periods) -> its angles or twist (the average's, or each
+    #: period's) and the kink correction's first pass over them
     _first_pass: dict = field(default_factory=dict, compare=False, repr=False)
 
     def masks(self) -> Optional[list]:
@@ -290,12 +300,14 @@ class _Problem:
         its noise (:func:`twist_resolved`: stuck the whole period); None when there is none."""
         if not any(self.merging):
             return None
-        out = [tuple(j for j, on in enumerate(self.merging)
-                     if on and (rests(run.average.rate(j) - run.average.rate(j + 1)) or not twist_resolved(run, j)))
-               for run in self.runs]
-        # a joint stuck in every run leaves its law nothing to be fitted on: balanced as it is
-        everywhere = set.intersection(*(set(m) for m in out))
-        out = [tuple(j for j in m if j not in everywhere) for m in out]
+        if not self._merged:
+            out = [tuple(j for j, on in enumerate(self.merging)
+                         if on and (rests(run.average.rate(j) - run.average.rate(j + 1)) or not twist_resolved(run, j)))
+                   for run in self.runs]
+            # a joint stuck in every run leaves its law nothing to be fitted on: balanced as it is
+            everywhere = set.intersection(*(set(m) for m in out))
+            self._merged.append([tuple(j for j in m if j not in everywhere) for m in out])
+        out = self._merged[0]
         return out if any(out) else None
 
     def balanced_runs(self, cand: "Candidate") -> list:
@@ -412,10 +424,10 @@ class _Problem:
         return np.maximum(var, (1e-12 * scale) ** 2)
 
     def solve(self, spec: ChainSpec, weights: np.ndarray) -> ChainFit:
-        """Weighted fit of ``spec``; with dry friction to ground on a body that slides through
-        rest, its rate's kinks restored at the fitted friction and refitted until the jump
-        settles (to ``KINK_RTOL``, at most two refits), as two flywheels' joint is
-        (:func:`identify.diagnose._solve`)."""
+        """Weighted fit of ``spec``; with dry friction to ground on a body, or in a joint, that
+        slides through rest, its rate's (twist rate's) kinks restored at the fitted friction and
+        refitted until the jumps settle (to ``KINK_RTOL``, at most two refits), as two flywheels'
+        joint is (:func:`identify.diagnose._solve`)."""
         jumps = None
         banded, res = self._solve_once(spec, weights, jumps)
         for _ in range(2):
