@@ -102,7 +102,7 @@ def test_a_candidates_own_torque_is_its_joint_law_less_the_nominal_terms():
     np.testing.assert_allclose(own.torque(phi, np.sign(phi) + 0.5), 20.0 * np.sign(np.sign(phi) + 0.5), atol=1e-9)
 
 
-def _linear_problem(seed: int = 0, fidelity: float = 1e-3):
+def _linear_problem(seed: int = 0, fidelity: float = 1e-3, bearings=(0.0, 0.0, 0.0, 0.0)):
     """A 4-body linear train's runs at five frequencies (exact steady states from its dynamic
     stiffness, tests/test_chain.py), 4 periods each with 60 dB of noise on every channel, and the
     chain diagnosis's problem on them with the nominal fit."""
@@ -115,7 +115,7 @@ def _linear_problem(seed: int = 0, fidelity: float = 1e-3):
     rng = np.random.default_rng(seed)
     J, c, k = [0.45, 0.06, 0.12, 0.35], [15.0, 20.0, 10.0], [4e5, 2.5e4, 1.2e5]
     recs = []
-    for r in _linear_chain_records(J, c, k, [0.0] * 4, {1: 60.0}, [150.0, 300.0, 600.0, 1200.0, 2000.0]):
+    for r in _linear_chain_records(J, c, k, list(bearings), {1: 60.0}, [150.0, 300.0, 600.0, 1200.0, 2000.0]):
         P = 4
 
         def noisy(x):
@@ -401,3 +401,29 @@ def test_a_joint_may_stick_where_the_nominal_law_or_significant_evidence_gives_i
     joints = list(spec.joints)
     joints[1] = joints[1] + (Coulomb(),)
     assert _joints_that_may_stick(problem, replace(spec, joints=tuple(joints)), pool, 1e-3) == (False, True, False)
+
+
+def test_a_clean_train_gets_no_cause_and_a_bodys_drag_is_named_at_its_body():
+    # The whole diagnosis on exact steady states of the linear train (60 dB): without any effect,
+    # no candidate of the 32 (9 causes at 3 joints, drag at 4 bodies, the drives' lag) is
+    # significant and nothing is adopted, nothing rests or is summed, and the noise per channel
+    # is the runs' median. With 4 N m s/rad of drag at body 3 it is ranked first, adopted alone
+    # and sized within 3 standard errors (the evidence's own scatter).
+    import numpy as np
+
+    from jointrig.identify.chain_diagnose import diagnose_chain
+
+    problem, _ = _linear_problem()
+    d = diagnose_chain(problem.runs, n_harmonics=20, workers=1)
+    assert d.steps == () and len(d.first_round) == 32 and not any(s.significant for s in d.first_round)
+    assert d.rests == () and d.stuck_joints == () and d.plausibility == () and d.ambiguities == ()
+    assert d.final is d.nominal and d.found is None
+    assert d.noise_std["phi1"] == float(np.median([r.noise_std["phi1"] for r in problem.runs]))
+    assert d.nu == 6.0 and d.n_harmonics == 20
+
+    dragged, _ = _linear_problem(bearings=(0.0, 0.0, 4.0, 0.0))
+    d = diagnose_chain(dragged.runs, n_harmonics=20, workers=1)
+    assert [s.label for s in d.steps] == ["bearing_friction at flywheel 3"] == [d.first_round[0].label]
+    name, value, se = d.found.magnitude
+    assert name == "bearing3_damping_Nms_per_rad" and abs(value - 4.0) < 3 * se, (value, se)
+    assert d.reduced_chi2(d.final) < d.reduced_chi2(d.nominal)
