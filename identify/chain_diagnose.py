@@ -1201,7 +1201,7 @@ def place_law(fit: ChainFit, place: int) -> tuple[JointLaw, float]:
     J_j+1)``, the mode of its two bodies alone; a single body's drag and law to ground and its mass."""
     plant, J = plant_and_inertias(fit)
     if len(J) == 1:
-        g = plant.grounds[0]
+        (g,) = plant.grounds
         terms = (g.terms if g is not None else ()) + (Viscous(),)
         values = (g.values if g is not None else ()) + (plant.bearings_Nms_per_rad[0],)
         return JointLaw(terms, values), J[0]

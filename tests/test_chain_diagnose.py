@@ -223,6 +223,8 @@ def test_prepared_runs_keep_their_start_and_name_their_channels_by_body():
     problem, _ = _linear_problem()
     run = problem.runs[2]
     assert run.average.time_s[0] == 0.0 and run.periods[0].time_s[0] == 0.0
+    assert run.periods[0].source.endswith("(period 1, band-limited)")
+    assert run.average.source.endswith("(period average, band-limited)")
     assert set(run.noise_std) == {"torque1", "phi1", "phi2", "phi3", "phi4"}
     assert run.average.torques_Nm[1] is None and run.average.torques_Nm[0] is not None
 
@@ -427,3 +429,86 @@ def test_a_clean_train_gets_no_cause_and_a_bodys_drag_is_named_at_its_body():
     name, value, se = d.found.magnitude
     assert name == "bearing3_damping_Nms_per_rad" and abs(value - 4.0) < 3 * se, (value, se)
     assert d.reduced_chi2(d.final) < d.reduced_chi2(d.nominal)
+
+    # two drags: both adopted (the default allows two effects), each at its body
+    both, _ = _linear_problem(bearings=(6.0, 0.0, 4.0, 0.0))
+    d = diagnose_chain(both.runs, n_harmonics=20, workers=1)
+    assert sorted(s.label for s in d.steps) == ["bearing_friction at flywheel 1", "bearing_friction at flywheel 3"]
+    fitted = d.final.as_dict()
+    for name, truth in (("bearing1_damping_Nms_per_rad", 6.0), ("bearing3_damping_Nms_per_rad", 4.0)):
+        assert abs(fitted[name] - truth) < 3 * d.final.std_error(name), (name, fitted[name])
+
+
+def test_the_drives_lag_is_a_candidate_from_two_frequencies_on():
+    # A lag only turns every harmonic by a fixed angle at one frequency, where a law can do the
+    # same: it is scored once the runs hold two frequencies (apart by more than 1e-3), whatever
+    # their number.
+    from dataclasses import replace
+
+    from jointrig.identify.chain_diagnose import diagnose_chain
+
+    problem, _ = _linear_problem()
+    two = problem.runs[:2]  # 150 and 300 rad/s
+    labels = [s.label for s in diagnose_chain(two, n_harmonics=20, workers=1).first_round]
+    assert len(labels) == 32 and "drive_delay at the drives" in labels
+
+    def at(run, w):  # the same samples, read at another frequency
+        def rec(r):
+            return replace(r, omega_rad_s=w, time_s=r.time_s * (r.omega_rad_s / w))
+        return replace(run, average=rec(run.average), periods=tuple(rec(p) for p in run.periods))
+
+    same = (two[0], at(two[1], 150.0 * (1 + 5e-4)))
+    labels = [s.label for s in diagnose_chain(same, n_harmonics=20, workers=1).first_round]
+    assert len(labels) == 31 and "drive_delay at the drives" not in labels
+
+
+def test_a_trains_misfit_is_described_at_every_joint_and_a_places_law_is_its_own():
+    # The linear train fitted without the drag it has at body 3: the residual is measured at
+    # each of its three joints, named in order; a joint's place law is its fitted law with the
+    # inertia of its two bodies' mode, and a single body's is its drag to ground with its mass.
+    import math
+
+    import numpy as np
+
+    from jointrig.identify.chain import ChainRecord
+    from jointrig.identify.chain_diagnose import (_Problem, nominal_spec, place_law, plant_and_inertias,
+                                                  prepare_chain_runs, train_joint_runs, train_misfit)
+    from test_chain import _linear_chain_records
+
+    dragged, (fit, _) = _linear_problem(bearings=(0.0, 0.0, 4.0, 0.0))
+    m = train_misfit(dragged.runs, [str(k) for k in range(5)], [60.0] * 5, fit, 20)
+    assert [name for name, _ in m.by_place] == ["joint 1", "joint 2", "joint 3"]
+    places = train_joint_runs(dragged.runs, [str(k) for k in range(5)], fit, 20)
+    assert len(places) == 3 and all(len(p) == 5 for p in places)
+    assert all(r.phi.shape == (4, 21) == r.torque.shape for p in places for r in p)
+    assert all(math.isfinite(r) and r > 0 for _, r in m.by_place)
+    law, J = place_law(fit, 1)
+    p = fit.as_dict()
+    assert law == plant_and_inertias(fit)[0].laws[1]
+    assert J == p["J2_kgm2"] * p["J3_kgm2"] / (p["J2_kgm2"] + p["J3_kgm2"])
+
+    rng = np.random.default_rng(2)
+    recs = []
+    for r in _linear_chain_records([12.0], [], [], [40.0], {1: 150.0}, [5.0, 10.0, 20.0]):
+        t = np.arange(r.time_s.size * 3) * (r.time_s[1] - r.time_s[0])
+        recs.append(ChainRecord(r.omega_rad_s, t, [np.tile(r.torques_Nm[0], 3) + rng.normal(0, 0.01, t.size)],
+                                [np.tile(r.angles_rad[0], 3) + rng.normal(0, 1e-6, t.size)], None, 3))
+    single = _Problem(tuple(prepare_chain_runs(recs, band=20)), 20, 4.0, 1e-3)
+    f1, _ = single.fit(nominal_spec(1))
+    law, mass = place_law(f1, 0)
+    assert len(train_joint_runs(single.runs, ["a", "b", "c"], f1, 20)) == 1
+    assert mass == f1.as_dict()["J1_kgm2"] and law.values[-1] == f1.as_dict()["bearing1_damping_Nms_per_rad"]
+    assert abs(mass - 12.0) < 1e-3 * 12.0 and abs(law.values[-1] - 40.0) < 0.05 * 40.0
+
+
+def test_information_is_none_for_an_effect_without_a_torque():
+    # An effect that adds no torque along the motion cannot be told from anything: no drive gives
+    # information (0, not a division by zero).
+    from jointrig.identify.chain_diagnose import drive_information
+    from jointrig.vocab.law import JointLaw, Viscous
+
+    nothing = ("joint", 2, JointLaw((Viscous(),), (0.0,)))
+    drag = ("flywheel", 3, 4.0)
+    info = drive_information([0.45, 0.06, 0.12, 0.35], [15.0, 20.0, 10.0], [4e5, 2.5e4, 1.2e5], [150.0, 600.0],
+                             60.0, 0.04, nothing, drag)
+    assert info == {1: 0.0, 2: 0.0, 3: 0.0, 4: 0.0}
