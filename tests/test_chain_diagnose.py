@@ -509,6 +509,23 @@ def test_information_is_none_for_an_effect_without_a_torque():
 
     nothing = ("joint", 2, JointLaw((Viscous(),), (0.0,)))
     drag = ("flywheel", 3, 4.0)
-    info = drive_information([0.45, 0.06, 0.12, 0.35], [15.0, 20.0, 10.0], [4e5, 2.5e4, 1.2e5], [150.0, 600.0],
-                             60.0, 0.04, nothing, drag)
-    assert info == {1: 0.0, 2: 0.0, 3: 0.0, 4: 0.0}
+    chain = ([0.45, 0.06, 0.12, 0.35], [15.0, 20.0, 10.0], [4e5, 2.5e4, 1.2e5], [150.0, 600.0], 60.0, 0.04)
+    for first, second in ((nothing, drag), (drag, nothing)):
+        assert drive_information(*chain, first, second) == {1: 0.0, 2: 0.0, 3: 0.0, 4: 0.0}
+    assert all(v > 0 for v in drive_information(*chain, ("joint", 2, JointLaw((Viscous(),), (5.0,))), drag).values())
+
+
+def test_what_a_candidates_motion_resolves_is_three_noise_deviations_of_its_band():
+    # The angle resolution a slip angle or a free play is judged against: 3 standard deviations
+    # of one sample of the band-limited period average of the candidate's two angles, the
+    # largest over the runs (identify.diagnose.angle_resolution's rule).
+    import math
+
+    from jointrig.identify.causes import Place, by_name
+    from jointrig.identify.chain_diagnose import Candidate, angle_resolution
+
+    problem, _ = _linear_problem()
+    cand = Candidate(by_name("backlash"), Place("joint", 2))
+    want = max(3.0 * math.hypot(r.noise_std["phi2"], r.noise_std["phi3"])
+               * math.sqrt(min(1.0, 41 / r.samples_per_period) / r.n_periods) for r in problem.runs)
+    assert angle_resolution(problem, cand) == pytest.approx(want, rel=1e-12) and want > 0
