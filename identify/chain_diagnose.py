@@ -659,7 +659,7 @@ def score(problem: _Problem, cand: Candidate, base: ChainFit, weights: np.ndarra
     # The one evidence measure (identify.causes.evidence): BIC score, chi-square(q) p-value,
     # Bonferroni over the round; a candidate that adds no parameter (q = 0: dry friction where a
     # Stribeck law already holds it) is never significant.
-    trials = cand.cause.n_trials(_twist_runs(problem, cand)) if cand.cause.trials is not None else 1.0
+    trials = cand.cause.n_trials(_twist_runs(problem, cand))
     bic, p, significant = evidence(delta, q, base.n_rows, alpha, n_tests * trials)
     name = cand.magnitude_name()
     if cand.at_joint or cand.ground:
@@ -820,10 +820,8 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
     masked = tuple(sticks_to_ground(structure, i) or any(c.ground and c.place == i + 1
                                                          and sticks_to_ground(c.extend(structure, 1e-3), i)
                                                          for c in pool) for i in range(N))
-    problem = _Problem(runs, H, nu, fidelity, masked)
-    merging = _joints_that_may_stick(problem, structure, pool, alpha)
-    if any(merging):
-        problem = _Problem(runs, H, nu, fidelity, masked, merging)
+    merging = _joints_that_may_stick(_Problem(runs, H, nu, fidelity, masked), structure, pool, alpha)
+    problem = _Problem(runs, H, nu, fidelity, masked, merging)
     nominal, w = problem.fit(structure)
     ambiguous: list[Ambiguity] = []
     by_label = {c.label: c for c in pool}
@@ -1201,9 +1199,9 @@ def place_law(fit: ChainFit, place: int) -> tuple[JointLaw, float]:
     J_j+1)``, the mode of its two bodies alone; a single body's drag and law to ground and its mass."""
     plant, J = plant_and_inertias(fit)
     if len(J) == 1:
-        (g,) = plant.grounds
+        (g,), (drag,) = plant.grounds, plant.bearings_Nms_per_rad
         terms = (g.terms if g is not None else ()) + (Viscous(),)
-        values = (g.values if g is not None else ()) + (plant.bearings_Nms_per_rad[0],)
+        values = (g.values if g is not None else ()) + (drag,)
         return JointLaw(terms, values), J[0]
     return plant.laws[place], J[place] * J[place + 1] / (J[place] + J[place + 1])
 
