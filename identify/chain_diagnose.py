@@ -659,7 +659,8 @@ def score(problem: _Problem, cand: Candidate, base: ChainFit, weights: np.ndarra
     # The one evidence measure (identify.causes.evidence): BIC score, chi-square(q) p-value,
     # Bonferroni over the round; a candidate that adds no parameter (q = 0: dry friction where a
     # Stribeck law already holds it) is never significant.
-    trials = cand.cause.n_trials(_twist_runs(problem, cand))
+    # (a cause without trials has no search bounds at a body's drag: no runs to ask of it)
+    trials = cand.cause.n_trials(_twist_runs(problem, cand)) if cand.cause.trials is not None else 1.0
     bic, p, significant = evidence(delta, q, base.n_rows, alpha, n_tests * trials)
     name = cand.magnitude_name()
     if cand.at_joint or cand.ground:
