@@ -441,9 +441,10 @@ def solve_banded(banded: BandedSystem, *, row_weights: Optional[np.ndarray] = No
     m, p = A.shape
     if m < p:
         raise ValueError(f"{m} equations for {p} unknowns {list(system.names)}: add harmonics or runs")
-    sw = np.ones(m) if row_weights is None else np.sqrt(np.asarray(row_weights, dtype=float))
-    if sw.shape != (m,) or not np.all(np.isfinite(sw)) or np.any(sw <= 0):
+    w = np.ones(m) if row_weights is None else np.asarray(row_weights, dtype=float)
+    if w.shape != (m,) or not np.all(np.isfinite(w)) or np.any(w <= 0):
         raise ValueError(f"row_weights must be {m} finite numbers > 0")
+    sw = np.sqrt(w)
     norms = np.zeros(p)
     for r0, r1, c0, c1 in banded.spans:
         norms[c0:c1] += np.sum((A[r0:r1, c0:c1] * sw[r0:r1, None]) ** 2, axis=0)

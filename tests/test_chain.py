@@ -601,3 +601,79 @@ def test_a_chain_sweep_store_of_another_simulator_version_is_not_reused(tmp_path
         chain_sweep.run_chain_sweep(rig, [(150.0, 60.0, 1)], config, store=store)
     monkeypatch.setattr(chain_sweep, "SIMULATOR_VERSION", chain_sweep.SIMULATOR_VERSION + 1)
     assert chain_sweep.default_chain_store(rig, config, tmp_path) != here
+
+
+def test_a_records_channels_are_named_by_their_body_and_a_callers_array_stays_its_own():
+    # A malformed channel is named by its body (1-based); a writeable array handed in is copied
+    # (the caller may change it later), a read-only float array is shared (a record rebuilt with
+    # one channel replaced keeps the others, and their memoised columns).
+    from jointrig.vocab.records import RecordError
+
+    t = np.arange(64) * 2 * np.pi / (10.0 * 64)
+    x = np.sin(10.0 * t)
+    with pytest.raises(RecordError, match="'angles_rad' of flywheel 2 has shape"):
+        ChainRecord(10.0, t, [x, None], [x, x[:10]])
+    with pytest.raises(RecordError, match="'torques_Nm' of flywheel 1 holds non-finite"):
+        ChainRecord(10.0, t, [np.full(64, np.nan), None], [x, x])
+    mine = x.copy()
+    rec = ChainRecord(10.0, t, [mine, None], [mine, x])
+    assert mine.flags.writeable and rec.angles_rad[0] is not mine and not rec.angles_rad[0].flags.writeable
+    again = ChainRecord(10.0, t, rec.torques_Nm, rec.angles_rad)
+    assert again.angles_rad[0] is rec.angles_rad[0] and again.torques_Nm[0] is rec.torques_Nm[0]
+
+
+def test_a_joints_zero_offset_is_taken_off_its_twist():
+    # Two bodies driven each, a cubic joint law of the twist less its zero u = phi1 - phi2 - o:
+    # with the offset o in the spec the balance is exact (to round-off); with -o it is not.
+    from jointrig.identify.chain import solve_banded
+
+    J1, J2, k, g, o = 0.5, 0.2, 2.0e4, 3.0e8, 2e-3
+    recs = []
+    for w in (30.0, 70.0):
+        n = 256
+        t = np.arange(n) * 2 * np.pi / (w * n)
+        p1, p2 = 0.01 * np.cos(w * t) + o, 0.004 * np.sin(w * t)
+        u = p1 - p2 - o
+        M = k * u + g * u**3
+        T1 = J1 * -w**2 * (p1 - o) + M
+        T2 = J2 * -w**2 * p2 - M
+        recs.append(ChainRecord(w, t, [T1, T2], [p1, p2]))
+    spec = ChainSpec(((Power(1), Power(3)),), offsets_rad=(o,))
+    res = solve_banded(chain_system(recs, spec, n_harmonics=6, first_harmonic=1))
+    np.testing.assert_allclose(res.values, [J1, k, g, J2], rtol=1e-9)
+    wrong = solve_banded(chain_system(recs, ChainSpec(((Power(1), Power(3)),), offsets_rad=(-o,)), n_harmonics=6,
+                                      first_harmonic=1))
+    assert wrong.relative_residual > 1e-3
+
+
+def test_the_banded_solve_refuses_bad_weights_and_its_covariance_is_the_dense_ones():
+    # Weights that are not one finite positive number per row are refused; the standard errors
+    # and covariance of the block QR are the dense weighted solve's (to 1e-9).
+    J, c, k = [0.5, 0.1, 0.8, 1.2], [2.0, 1.0, 3.0], [4e4, 2e4, 6e4]
+    recs = _linear_chain_records(J, c, k, [0, 0, 0, 0], {1: 100.0, 4: 30j}, [30, 80, 150, 250])
+    banded = chain_system(recs, ChainSpec(((Power(1),),) * 3), n_harmonics=3)
+    m = banded.system.F.size
+    for bad in (np.ones(m - 1), np.r_[np.ones(m - 1), np.nan], np.r_[np.ones(m - 1), 0.0], -np.ones(m)):
+        with pytest.raises(ValueError, match="row_weights must be"):
+            solve_banded(banded, row_weights=bad)
+    w = np.random.default_rng(1).uniform(0.2, 5.0, m)
+    mine, dense = solve_banded(banded, row_weights=w), solve(banded.system, row_weights=w)
+    np.testing.assert_allclose(mine.std_errors, dense.std_errors, rtol=1e-9)
+    np.testing.assert_allclose(mine.covariance, dense.covariance, rtol=1e-8, atol=1e-12 * np.max(np.abs(dense.covariance)))
+
+
+def test_a_plants_drag_and_laws_to_ground_sit_at_their_bodies():
+    # A plant with drag at body 2 and a law to ground at body 3 names them there, its structure
+    # holds them there, and the plant of its own values is itself.
+    from jointrig.identify.chain import ChainPlant, plant_of_values
+    from jointrig.vocab.law import Coulomb, JointLaw
+
+    law = JointLaw((Viscous(), Power(1)), (2.0, 1e4))
+    plant = ChainPlant((law, law, law), (0.0, 1.5, 0.0, 0.0), grounds=(None, None, JointLaw((Coulomb(),), (4.0,)), None))
+    p = plant.parameters()
+    assert p["bearing2_damping_Nms_per_rad"] == 1.5 and p["ground3_coulomb_torque_Nm"] == 4.0
+    assert not any(k.startswith(("bearing1", "bearing3", "ground1", "ground2")) for k in p)
+    spec = plant.spec()
+    assert spec.bearings == (2,) and spec.grounds == ((), (), (Coulomb(),), ())
+    again = plant_of_values(p, spec)
+    assert again.bearings_Nms_per_rad == (0.0, 1.5, 0.0, 0.0) and again.grounds == plant.grounds

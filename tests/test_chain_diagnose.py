@@ -529,3 +529,74 @@ def test_what_a_candidates_motion_resolves_is_three_noise_deviations_of_its_band
     want = max(3.0 * math.hypot(r.noise_std["phi2"], r.noise_std["phi3"])
                * math.sqrt(min(1.0, 41 / r.samples_per_period) / r.n_periods) for r in problem.runs)
     assert angle_resolution(problem, cand) == pytest.approx(want, rel=1e-12) and want > 0
+
+
+def test_a_fits_zero_offset_is_named_at_its_joint_and_a_negative_friction_jumps_nothing():
+    # A fit whose structure holds a zero offset at joint 2 lists it as joint 2's; a friction to
+    # ground fitted negative (nonphysical) makes no jump (the kink correction needs a positive
+    # one).
+    from dataclasses import replace
+
+    from jointrig.identify.chain import ChainSpec
+    from jointrig.identify.chain_diagnose import _Problem
+    from jointrig.vocab.law import Coulomb, Viscous
+
+    problem, (nominal, w) = _linear_problem()
+    spec = replace(nominal.spec, offsets_rad=(0.0, 3e-4, 0.0))
+    params = problem.solve(spec, w).parameters()
+    assert params["joint2_angle_offset_rad"] == 3e-4
+    assert "joint1_angle_offset_rad" not in params and "joint3_angle_offset_rad" not in params
+    p = _Problem((), 20, 6.0, 1e-3)
+    ground = ChainSpec(((Viscous(),),), grounds=((), (Coulomb(),)))
+    assert p.jumps(ground, {"J2_kgm2": 120.0, "ground2_coulomb_torque_Nm": -25.0}).sizes == (0.0, 0.0, 0.0)
+
+
+def test_a_joint_whose_twist_rests_is_summed_there_and_reported():
+    # Joint 2's twist made to rest a fifth of run 0's period (flat, resolved far above the noise)
+    # in a model whose coupling has dry friction: its bodies' equations are summed in that run
+    # alone, and the diagnosis reports it with the share of the period its twist rests.
+    from dataclasses import replace
+
+    import numpy as np
+
+    from jointrig.identify.chain import rest_share
+    from jointrig.identify.chain_diagnose import _Problem, diagnose_chain, nominal_spec, twist_resolved
+    from jointrig.vocab.law import Coulomb
+
+    problem, _ = _linear_problem()
+    runs = problem.runs
+
+    def resting(rec):
+        a = list(rec.angles_rad)
+        M = a[1].size
+        u = np.sin(2 * np.pi * np.arange(M) / M)
+        flat = np.clip(u, -0.8, 0.8) * np.std(a[1] - a[2]) * 3.0
+        a[2] = a[1] - flat
+        return replace(rec, angles_rad=tuple(a))
+
+    held = (replace(runs[0], average=resting(runs[0].average), periods=tuple(resting(p) for p in runs[0].periods)),)
+    held += runs[1:]
+    assert twist_resolved(held[0], 1)
+    assert _Problem(held, 20, 6.0, 1e-3, (), (False, True, False)).merged() == [(1,), (), (), (), ()]
+    spec = nominal_spec(4)
+    joints = list(spec.joints)
+    joints[1] = joints[1] + (Coulomb(),)
+    d = diagnose_chain(held, n_harmonics=20, workers=1, nominal=replace(spec, joints=tuple(joints)), max_effects=0)
+    share = rest_share(held[0].average.rate(1) - held[0].average.rate(2))
+    assert (0, 2, share, True) in d.stuck_joints and share > 0.1
+    assert [k for k, j, *_ in d.stuck_joints if j == 2] == [0]  # the coupling's twist moves in the others
+
+
+def test_the_separating_drive_takes_a_joints_law_and_a_bodys_drag_as_each_is():
+    # A joint cause and a body's drag, both scored on the linear train: the drive that tells them
+    # apart is named with the information of every drive (each effect evaluated as its kind).
+    from jointrig.identify.causes import Place, by_name
+    from jointrig.identify.chain_diagnose import Candidate, score, separating_drive
+
+    problem, (nominal, w) = _linear_problem(bearings=(0.0, 0.0, 4.0, 0.0))
+    joint = Candidate(by_name("quadratic_damping"), Place("joint", 2))
+    drag = Candidate(by_name("bearing_friction"), Place("flywheel", 3))
+    sj, sd = (score(problem, c, nominal, w, 32, 1e-3) for c in (joint, drag))
+    drive, why = separating_drive(problem, joint, drag, sj, sd)
+    assert drive in (1, 2, 3, 4) and f"driving flywheel {drive} separates" in why
+    assert all(f"flywheel {i}:" in why for i in range(1, 5))
