@@ -771,8 +771,8 @@ def _joints_that_may_stick(problem: _Problem, structure: ChainSpec, pool: Sequen
     Only that one joint: a joint's twist far from a sinusoid rests by the rule's measure too
     (the pump train's stiff shafts: 4-11% of some periods), and summing its equations there
     only loses what they say. A misfit elsewhere makes a small friction significant at other
-    joints (0.2 N m at both shafts of the independent bench's train with an Iwan element in its
-    first joint); summed there, the Iwan element's profile moved to another minimum, four times
+    joints (0.2 N m at both other joints of the independent bench's train with an Iwan element in
+    its first joint); summed there, the Iwan element's profile moved to another minimum, four times
     its size."""
     N = structure.n_flywheels
     out = [_sticks_in_joint(structure, j) for j in range(N - 1)]

@@ -99,7 +99,7 @@ def test_the_worn_coupling_of_a_measured_pump_train_is_named_with_its_free_play(
 @pytest.mark.slow
 def test_a_coupling_whose_dry_friction_sticks_is_named_with_its_size(tmp_path, capsys):
     # 8 N m of dry friction in the pump train's coupling (joint 2): it sticks part of the period
-    # in most runs, the whole period in three (driven at 1200 to 3000 rad/s; its twist is noise
+    # in most runs, the whole period in three (driven at 1200, 1500, 3000 rad/s; its twist is noise
     # there). Its two bodies' equations are summed where it may be stuck, and its twist rate's
     # kinks restored where it slides through rest. Explained by dry friction at joint 2 alone,
     # the friction and the coupling's stiffness within 3 standard errors, replayed in the rig
