@@ -49,7 +49,7 @@ from .solve import COND_WARN, IdentificationResult
 __all__ = ["ChainRecord", "ChainSpec", "ChainIdentifiabilityError", "identifiability", "chain_system",
            "solve_banded", "identify_chain", "joint_law", "ChainPlant", "plant_of_values", "BandedSystem",
            "fisher_per_period", "row_covariance", "average_chain", "ml_identify_chain", "inertia_name", "bearing_name", "joint_prefix",
-           "ground_prefix", "stick_mask", "rest_share", "rests", "sticks_to_ground", "STICK_RATE_FRACTION",
+           "ground_prefix", "stick_mask", "rest_share", "rests", "sticks_to_ground", "jumps_at_rest", "STICK_RATE_FRACTION",
            "REST_RATE_FRACTION", "REST_DWELL"]
 
 
@@ -530,7 +530,13 @@ REST_DWELL = 2.0
 def sticks_to_ground(spec: ChainSpec, i: int) -> bool:
     """True when body ``i`` (0-based) has a law to ground with a jump at rest (dry friction, a
     Stribeck law's): it can stick, and its equation while it does holds a reaction."""
-    return any(t.dry_friction(1.0) is not None for t in spec.grounds[i])
+    return jumps_at_rest(spec.grounds[i])
+
+
+def jumps_at_rest(terms) -> bool:
+    """True when a law's terms jump at zero rate (dry friction, a Stribeck law's): a body or
+    joint with it can stick, and its force while it does is a reaction, not the law's."""
+    return any(t.dry_friction(1.0) is not None for t in terms)
 
 
 def rest_share(rate: np.ndarray) -> float:

@@ -53,7 +53,7 @@ from jointrig.vocab.law import JointLaw, Power, Viscous, law_parameters
 from jointrig.vocab.params import DRIVE_DELAY
 from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpec, bearing_name, chain_system,
                     ground_laws, ground_prefix, identifiability, inertia_name, joint_prefix, solve_banded, rest_share,
-                    rests, stick_mask, sticks_to_ground)
+                    rests, stick_mask, sticks_to_ground, jumps_at_rest)
 from .causes import (Ambiguity, Cause, CauseScore, Limits, ModelSpec, Place, at, by_name, evidence, forward_select,
                      fundamental_quadrature, harmonic_shares, parsimonious, profile)
 from .diagnose import DEFAULT_FIDELITY, FINE_SAMPLES, KINK_RTOL, kink_corrected_rate, kink_first_pass
@@ -224,12 +224,6 @@ class ChainFit(RowFit):
 RESOLVED_SNR = 5.0
 
 
-def _sticks_in_joint(spec: ChainSpec, j: int) -> bool:
-    """True when joint ``j`` (0-based) has a law with a jump at rest (dry friction, a Stribeck
-    law's): it can stick, and its torque while it does is a reaction."""
-    return any(t.dry_friction(1.0) is not None for t in spec.joints[j])
-
-
 def twist_resolved(run: ChainRun, j: int) -> bool:
     """Whether joint j's (0-based) twist in ``run`` stands above its noise (:data:`RESOLVED_SNR`):
     the per-sample noise of its two angles, averaged over the run's periods and samples, in the
@@ -330,7 +324,7 @@ class _Problem:
             return Jumps((0.0,) * (2 * N - 1))
 
         def static(terms, prefix) -> float:
-            return sum(t.dry_friction(values[prefix + t.name])[0] for t in terms if t.dry_friction(1.0) is not None)
+            return sum(t.dry_friction(values[prefix + t.name])[0] for t in terms if jumps_at_rest((t,)))
 
         inverse = [1.0 / m if (m := values.get(inertia_name(i + 1), 0.0)) > 0 else 0.0 for i in range(N)]
         out = [max(2.0 * static(terms, ground_prefix(i + 1)) * inverse[i], 0.0) if sticks_to_ground(spec, i) else 0.0
@@ -775,9 +769,9 @@ def _joints_that_may_stick(problem: _Problem, structure: ChainSpec, pool: Sequen
     its first joint); summed there, the Iwan element's profile moved to another minimum, four times
     its size."""
     N = structure.n_flywheels
-    out = [_sticks_in_joint(structure, j) for j in range(N - 1)]
+    out = [jumps_at_rest(structure.joints[j]) for j in range(N - 1)]
     dry = [c for c in pool if c.at_joint and c.cause.bounds is None and not out[c.place - 1]
-           and _sticks_in_joint(c.extend(structure, 1e-3), c.place - 1)]
+           and jumps_at_rest(c.extend(structure, 1e-3).joints[c.place - 1])]
     if dry:
         base, w = problem.fit(structure)
         scored = [(score(problem, c, base, w, len(pool), alpha), c) for c in dry]
