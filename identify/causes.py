@@ -88,7 +88,9 @@ class Cause:
     #: where the cause is sought: ``"joint"`` (a law of a joint's twist: the two-flywheel joint
     #: and every joint of a train), ``"two_flywheel"`` (the two-flywheel bench only: its drive,
     #: bearings and flywheel 2's angle), ``"ground"`` (a single body's law to the frame), ``"drive"``
-    #: (a train's drive channels: their lag) and
+    #: (a train's drive channels: their lag), ``"channel"`` (a train's angle channel of body 2..N,
+    #: read against the drive's and body 1's: its skew and scale; named for flywheel 2, renamed
+    #: per body by :func:`vocab.params.channel_name`) and
     #: ``"oscillator"`` (the one-coordinate extension, the Silverbox)
     places: frozenset = frozenset({"joint"})
     #: the profile grid's spacing in the nonlinear parameter, from the runs (None: the fixed
@@ -111,6 +113,11 @@ class Cause:
     #: two flywheels' bearing drags, named by the one)
     magnitude_parts: tuple = ()
     magnitude_is: str = "length"
+    #: its bounds read the smallest swing of the runs too, not only the largest (a periodic
+    #: torque's highest order is the one its smallest swing still resolves); a train's joint may
+    #: barely twist in some runs, so there only runs within ``identify.chain_diagnose.BOUNDS_SPAN``
+    #: of the largest swing are read
+    bounds_read_smallest: bool = False
 
     def magnitude_of(self, params: dict, std_error: Callable[[str], float], prefix: str = ""
                      ) -> tuple[str, float, float]:
@@ -312,13 +319,13 @@ CATALOGUE: tuple[Cause, ...] = (
           "angle (a multiplexed DAQ's channel skew, a filter's group delay)",
           lambda s, h: replace(s, angle2_delay_s=float(h)), "angle2_delay_s", 0,
           bounds=lambda runs: (-_skew_bound(runs), _skew_bound(runs)), nonnegative=False, needs_two_angles=True,
-          profiled="angle2_delay_s", kind="measurement", first_only=True, places=frozenset({"two_flywheel"})),
+          profiled="angle2_delay_s", kind="measurement", first_only=True, places=frozenset({"two_flywheel", "channel"})),
     Cause("angle_gain", "measurement: flywheel 2's angle reads a fixed factor too large or too small (an encoder's "
           "lines per revolution or a gear ratio set wrong)",
           lambda s, h: replace(s, angle2_gain_error=float(h)), "angle2_gain_error", 0,
           bounds=lambda runs: (-ANGLE_GAIN_TOLERANCE, ANGLE_GAIN_TOLERANCE), nonnegative=False,
           needs_two_angles=True, profiled="angle2_gain_error", kind="measurement", first_only=True,
-          places=frozenset({"two_flywheel"})),
+          places=frozenset({"two_flywheel", "channel"})),
     # Laws of the one-coordinate oscillator's extension (the Silverbox: y'' + law(y, y') = u),
     # not sought on the two-flywheel joint (its default selection is CAUSES).
     Cause("quintic_stiffness", "stiffening beyond cubic: odd lines growing with amplitude",
@@ -331,7 +338,7 @@ CATALOGUE: tuple[Cause, ...] = (
           "z periods per revolution",
           _with_cogging, "cogging_amplitude_Nm", 2, bounds=_cogging_bounds, profiled="cogging_order_rad_per_rad",
           grid_step=lambda runs: COGGING_GRID / _largest_amplitude(runs), places=_JOINT_GROUND,
-          trials=_cogging_trials, magnitude_parts=("cogging_sin_Nm", "cogging_cos_Nm")),
+          trials=_cogging_trials, magnitude_parts=("cogging_sin_Nm", "cogging_cos_Nm"), bounds_read_smallest=True),
 )
 
 
@@ -407,8 +414,8 @@ def fundamental_quadrature(torques: Sequence[np.ndarray], motions: Sequence[np.n
 @dataclass(frozen=True)
 class Place:
     """Where in a train a cause is sought: ``"joint"`` j (its twist), ``"flywheel"`` i (a viscous
-    drag to ground, a bearing), ``"ground"`` i (body i's own law to the frame) or ``"drive"``
-    (the drives' channels, number None)."""
+    drag to ground, a bearing), ``"ground"`` i (body i's own law to the frame), ``"channel"`` i
+    (body i's angle sensor) or ``"drive"`` (the drives' channels, number None)."""
 
     kind: str
     number: Optional[int]
@@ -418,6 +425,8 @@ class Place:
             return f"to ground at body {self.number}"
         if self.kind == "drive":
             return "at the drives"
+        if self.kind == "channel":
+            return f"at body {self.number}'s angle channel"
         return f"at {self.kind} {self.number}"
 
 

@@ -32,7 +32,7 @@ Names: ``J{i}_kgm2``, ``bearing{i}_damping_Nms_per_rad`` and ``joint{j}_<term na
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Optional, Sequence
 
 import numpy as np
@@ -49,7 +49,7 @@ from .solve import COND_WARN, IdentificationResult
 __all__ = ["ChainRecord", "ChainSpec", "ChainIdentifiabilityError", "identifiability", "chain_system",
            "solve_banded", "identify_chain", "joint_law", "ChainPlant", "plant_of_values", "BandedSystem",
            "fisher_per_period", "row_covariance", "average_chain", "ml_identify_chain", "inertia_name", "bearing_name", "joint_prefix",
-           "ground_prefix", "stick_mask", "rest_share", "rests", "sticks_to_ground", "jumps_at_rest", "STICK_RATE_FRACTION",
+           "ground_prefix", "channel_corrected", "stick_mask", "rest_share", "rests", "sticks_to_ground", "jumps_at_rest", "STICK_RATE_FRACTION",
            "REST_RATE_FRACTION", "REST_DWELL"]
 
 
@@ -192,6 +192,10 @@ class ChainSpec:
         (no joints) is a chain of N = 1.
       drive_delay_s: the drives act this long after they are recorded (s; every drive channel
         alike: one amplifier's or DAQ's lag): the torque ``T_i(t - tau)`` acts at ``t``.
+      channel_delays_s, channel_gains: per body, its angle channel as read against the drive's
+        and body 1's (a DAQ's channel skew, an encoder's line count or a gear ratio set wrong):
+        read ``delay`` late and ``1 + gain`` times too large (:func:`channel_corrected`).
+        Default: none. Sensors, not the plant: the rig does not simulate them.
     """
 
     joints: tuple
@@ -199,6 +203,8 @@ class ChainSpec:
     offsets_rad: tuple = ()
     grounds: tuple = ()
     drive_delay_s: float = 0.0
+    channel_delays_s: tuple = ()
+    channel_gains: tuple = ()
 
     def __post_init__(self):
         joints = tuple(tuple(j) for j in self.joints)
@@ -219,6 +225,15 @@ class ChainSpec:
                              f"{self.offsets_rad}")
         if not math.isfinite(self.drive_delay_s):
             raise ValueError(f"ChainSpec.drive_delay_s must be finite, got {self.drive_delay_s}")
+        for name in ("channel_delays_s", "channel_gains"):
+            v = tuple(float(x) for x in getattr(self, name)) or (0.0,) * N
+            if len(v) != N or not all(math.isfinite(x) for x in v) or v[0] != 0.0:
+                raise ValueError(f"ChainSpec.{name} must hold one finite number per body ({N}), 0 for body 1 (the "
+                                 f"reference of the others), got {getattr(self, name)}")
+            if name == "channel_gains" and min(v) <= -1.0:
+                raise ValueError(f"ChainSpec.channel_gains must be > -1 (a channel reads 1 + gain times its body's "
+                                 f"motion), got {v}")
+            object.__setattr__(self, name, v)
         object.__setattr__(self, "joints", joints)
         object.__setattr__(self, "bearings", bearings)
         object.__setattr__(self, "offsets_rad", offsets)
@@ -227,6 +242,11 @@ class ChainSpec:
     @property
     def n_flywheels(self) -> int:
         return len(self.joints) + 1
+
+    @property
+    def reads_channels(self) -> bool:
+        """Whether some angle channel is read skewed or scaled (:func:`channel_corrected`)."""
+        return any(self.channel_delays_s) or any(self.channel_gains)
 
     def blocks(self) -> list[tuple[str, int, tuple[str, ...]]]:
         """The unknowns in banded order, grouped: ("flywheel", i, names) and ("joint", j, names)."""
@@ -242,6 +262,34 @@ class ChainSpec:
     @property
     def names(self) -> tuple[str, ...]:
         return tuple(n for _, _, names in self.blocks() for n in names)
+
+
+def _channel(x: Optional[np.ndarray], rec: "ChainRecord", gain: float, delay_s: float, read: bool):
+    """One channel as read (``read``: ``(1 + gain) x(t - delay)``) or as its body moved (the inverse)."""
+    if x is None or (gain == 0.0 and delay_s == 0.0):
+        return x
+    P, w = rec.n_periods, rec.omega_rad_s
+
+    def compute():
+        if read:
+            return _read_only((1.0 + gain) * (shift_periodic(x, P, w, delay_s) if delay_s else x))
+        return _read_only((shift_periodic(x, P, w, -delay_s) if delay_s else x) / (1.0 + gain))
+    return memo_arrays((x,), ("channel", read, gain, delay_s, w, P), compute)
+
+
+def channel_corrected(rec: "ChainRecord", spec: ChainSpec, *, read: bool = False) -> "ChainRecord":
+    """The record as its bodies moved, each body's angle (and a rate given with it) divided by
+    ``1 + channel_gains[i]`` and moved ``channel_delays_s[i]`` earlier, exactly on its harmonics
+    (gain and shift are linear, so a rate is corrected as its angle); ``read``: the other way, a
+    simulated record as the channels would read it. The record itself where nothing is skewed
+    or scaled."""
+    if not spec.reads_channels:
+        return rec
+    rates = rec.rates_rad_s
+    return replace(rec, angles_rad=tuple(_channel(a, rec, g, d, read) for a, g, d in
+                                         zip(rec.angles_rad, spec.channel_gains, spec.channel_delays_s)),
+                   rates_rad_s=tuple(_channel(r, rec, g, d, read) for r, g, d in
+                                     zip(rates, spec.channel_gains, spec.channel_delays_s)))
 
 
 def identifiability(n_flywheels: int, measured: Sequence[bool], driven: Sequence[bool]) -> list[str]:
@@ -337,6 +385,7 @@ def chain_system(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics
         if not 0 <= n_harmonics <= top:
             raise RecordError(f"{r.source}: n_harmonics={n_harmonics} needs more than the record's "
                               f"{r.samples_per_period} samples per period (at most {top} harmonics)")
+    records = [channel_corrected(r, spec) for r in records]
     names = spec.names
     col = {n: k for k, n in enumerate(names)}
     p = len(names)

@@ -50,8 +50,8 @@ from typing import Optional, Sequence
 import numpy as np
 
 from jointrig.vocab.law import JointLaw, Power, Viscous, law_parameters
-from jointrig.vocab.params import DRIVE_DELAY
-from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpec, bearing_name, chain_system,
+from jointrig.vocab.params import ANGLE2_DELAY, ANGLE2_GAIN, DRIVE_DELAY, channel_name
+from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpec, bearing_name, chain_system, channel_corrected,
                     ground_laws, ground_prefix, identifiability, inertia_name, joint_prefix, solve_banded, rest_share,
                     rests, stick_mask, sticks_to_ground, jumps_at_rest)
 from .causes import (Ambiguity, Cause, CauseScore, Limits, ModelSpec, Place, at, by_name, evidence, forward_select,
@@ -69,8 +69,8 @@ __all__ = ["ChainRun", "prepare_chain_runs", "ChainFit", "Candidate", "CauseScor
 
 #: The catalogue's causes that live in a joint (scored at every joint); bearing drag is scored
 #: at every flywheel; an angle's zero at a joint is its twist's offset; the drives' lag is scored
-#: once (:data:`DRIVE_CAUSES`). The channel skew and gain of flywheel 2's angle are two-flywheel
-#: causes not carried over.
+#: once (:data:`DRIVE_CAUSES`), each angle channel's skew and scale at bodies 2..N
+#: (:data:`CHANNEL_CAUSES`).
 JOINT_CAUSES: tuple[Cause, ...] = at("joint")
 _BEARING = by_name("bearing_friction")
 
@@ -78,6 +78,8 @@ _BEARING = by_name("bearing_friction")
 GROUND_CAUSES: tuple[Cause, ...] = at("ground")
 #: The causes of the drives' channels, scored once: their lag behind the record.
 DRIVE_CAUSES: tuple[Cause, ...] = at("drive")
+#: The causes of body 2..N's angle channel (against the drive's and body 1's): its skew and scale.
+CHANNEL_CAUSES: tuple[Cause, ...] = at("channel")
 #: On a train of two or more bodies no friction to ground is scored yet (viscous bearing drag
 #: is). The independent bench's Stribeck joint 3 (its law shaped unlike the project's) drew a
 #: second cause at the next body: Stribeck friction to ground (p < 1e-3 after Bonferroni over 40
@@ -212,6 +214,11 @@ class ChainFit(RowFit):
                 out[joint_prefix(j) + "angle_offset_rad"] = o
         if self.spec.drive_delay_s:
             out[DRIVE_DELAY] = self.spec.drive_delay_s
+        for i, (d, g) in enumerate(zip(self.spec.channel_delays_s, self.spec.channel_gains), start=1):
+            if d:
+                out[channel_name(i, ANGLE2_DELAY)] = d
+            if g:
+                out[channel_name(i, ANGLE2_GAIN)] = g
         for name, value, _ in self.profiled:  # a profile's value where the structure holds none (a lag of 0)
             out.setdefault(name, value)
         return out
@@ -486,6 +493,11 @@ class Candidate:
         return self.where.kind == "drive"
 
     @property
+    def at_channel(self) -> bool:
+        """A body's angle channel (its skew and scale against the drive's and body 1's)."""
+        return self.where.kind == "channel"
+
+    @property
     def label(self) -> str:
         return f"{self.cause.name} {self.where.describe()}"
 
@@ -506,6 +518,11 @@ class Candidate:
             return replace(spec, drive_delay_s=self.cause.extend(ModelSpec((), drive_delay_s=spec.drive_delay_s),
                                                                  h).drive_delay_s)
         k = self.place - 1
+        if self.at_channel:  # a channel's skew and scale, as flywheel 2's of two flywheels
+            delays, gains = list(spec.channel_delays_s), list(spec.channel_gains)
+            ext = self.cause.extend(ModelSpec((), angle2_delay_s=delays[k], angle2_gain_error=gains[k]), h)
+            delays[k], gains[k] = ext.angle2_delay_s, ext.angle2_gain_error
+            return replace(spec, channel_delays_s=tuple(delays), channel_gains=tuple(gains))
         if self.ground:
             grounds = list(spec.grounds)
             grounds[k] = self.cause.extend(ModelSpec(grounds[k]), h).terms
@@ -519,52 +536,68 @@ class Candidate:
 
     @property
     def prefix(self) -> str:
-        if self.at_drive:
+        if self.at_drive or self.at_channel:
             return ""
         return ground_prefix(self.place) if self.ground else joint_prefix(self.place)
 
     def magnitude_name(self) -> str:
         if self.at_drive:
             return self.cause.magnitude
+        if self.at_channel:
+            return channel_name(self.place, self.cause.magnitude)
         if not self.at_joint and not self.ground:
             return bearing_name(self.place)
         return self.prefix + self.cause.magnitude
 
     def profiled_name(self) -> Optional[str]:
-        return None if self.cause.profiled is None else self.prefix + self.cause.profiled
+        if self.cause.profiled is None:
+            return None
+        return channel_name(self.place, self.cause.profiled) if self.at_channel else self.prefix + self.cause.profiled
 
     def motion(self, rec: ChainRecord) -> tuple[np.ndarray, np.ndarray]:
         """The motion this candidate's law sees in a record: its joint's twist and twist rate, or
-        its body's own angle and rate (ground)."""
-        if self.ground:
+        its body's own angle and rate (ground, an angle channel)."""
+        if self.ground or self.at_channel:
             return rec.angles_rad[self.place - 1], rec.rate(self.place - 1)
         return rec.relative(self.place - 1)
 
     def channels(self) -> tuple[str, ...]:
         """The angle channels this candidate's motion is read from."""
+        if self.at_channel:
+            return (f"phi{self.place}",)
         return (f"phi{self.place}",) if self.ground else (f"phi{self.place}", f"phi{self.place + 1}")
 
 
+#: The smallest swing a cause's search bounds read (``Cause.bounds_read_smallest``), as a share
+#: of the largest: a joint of a chain may barely twist in runs far from its modes, and a bound
+#: read from such a run (a periodic torque's highest order, phase over the smallest swing) would
+#: search orders no other run resolves. Two flywheels' runs at three frequencies and two levels
+#: span 4.6 in twist.
+BOUNDS_SPAN = 8.0
+
+
 def _twist_runs(problem: _Problem, cand: Candidate) -> list:
-    """The run where the candidate's motion (its joint's twist, or its body's angle) swings most,
-    as the two-flywheel causes' search bounds read runs (``average.phi_rad``). In a chain a joint
-    may barely twist in runs far from its modes; the bounds of a free play or a slip angle must
-    reach the largest twist, and those of a rate (a Stribeck rate, ``profiled`` in rad/s) the
-    largest twist rate: the run where that swings most, among the runs that balance the place
-    on its own (:meth:`_Problem.balanced_runs`)."""
-    if cand.at_drive:  # a drive's lag is bounded by the runs' periods
+    """The runs whose motion (the candidate's joint's twist, or its body's angle) a cause's
+    search bounds read (as the two-flywheel causes' bounds read runs, ``average.phi_rad``): the
+    run where it swings most, among the runs that balance the place on its own
+    (:meth:`_Problem.balanced_runs`), and for a cause whose bounds read the smallest swing too
+    (``Cause.bounds_read_smallest``) the one where it swings least but at least
+    1/:data:`BOUNDS_SPAN` of that. In a chain a joint may barely twist in runs far from its modes;
+    the bounds of a free play or a slip angle must reach the largest twist, and those of a rate
+    (a Stribeck rate, ``profiled`` in rad/s) the largest twist rate: swings are of the rate there."""
+    if cand.at_drive or cand.at_channel:  # a lag or a skew is bounded by the runs' periods, a scale not
         return list(problem.runs)
     by_rate = cand.cause.profiled is not None and cand.cause.profiled.endswith("_rad_s")
-    best, amp = None, -1.0
+    swings = []
     for r in problem.balanced_runs(cand):
         a = r.average
         twist, rate = cand.motion(a)
-        size = float(np.ptp(rate if by_rate else twist))
-        if size > amp:
-            best, amp = (a, twist), size
-    a, twist = best
+        swings.append((float(np.ptp(rate if by_rate else twist)), a, twist))
+    most = max(swings, key=lambda x: x[0])
+    least = min((x for x in swings if x[0] >= most[0] / BOUNDS_SPAN), key=lambda x: x[0])
+    read = (most, least) if cand.cause.bounds_read_smallest and least is not most else (most,)
     return [SimpleNamespace(average=SteadyStateRecord(a.omega_rad_s, a.time_s, np.zeros_like(twist), twist, None,
-                                                      source=a.source))]
+                                                      source=a.source)) for _, a, twist in read]
 
 
 def _rate_amplitude(problem: _Problem, cand: Candidate) -> float:
@@ -741,9 +774,10 @@ class ChainDiagnosis:
 
 
 def candidates(n_flywheels: int, causes: Sequence[Cause] = JOINT_CAUSES, bearings: bool = True,
-               ground: Sequence[Cause] = GROUND_CAUSES, drives: Sequence[Cause] = DRIVE_CAUSES) -> list[Candidate]:
-    """Every cause at every joint, bearing drag at every body, the ground causes at every body and
-    the drives' causes (their lag) once."""
+               ground: Sequence[Cause] = GROUND_CAUSES, drives: Sequence[Cause] = DRIVE_CAUSES,
+               channels: Sequence[Cause] = CHANNEL_CAUSES) -> list[Candidate]:
+    """Every cause at every joint, bearing drag at every body, the ground causes at every body,
+    the drives' causes (their lag) once and the channel causes at bodies 2..N."""
     out = [Candidate(c, Place("joint", j)) for j in range(1, n_flywheels) for c in causes]
     if bearings:
         out += [Candidate(_BEARING, Place("flywheel", i)) for i in range(1, n_flywheels + 1)]
@@ -751,6 +785,7 @@ def candidates(n_flywheels: int, causes: Sequence[Cause] = JOINT_CAUSES, bearing
         ground = [c for c in ground if c.name in TRAIN_GROUND_CAUSES]
     out += [Candidate(c, Place("ground", i)) for i in range(1, n_flywheels + 1) for c in ground]
     out += [Candidate(c, Place("drive", None)) for c in drives]
+    out += [Candidate(c, Place("channel", i)) for i in range(2, n_flywheels + 1) for c in channels]
     return out
 
 
@@ -980,6 +1015,10 @@ def separating_drive(problem: _Problem, a: Candidate, b: Candidate, sa: CauseSco
     if a.ground or b.ground:
         return None, (f"{a.label} and {b.label}: no linearised drive information for a law to ground; runs at "
                       f"other levels would tell them apart")
+    if a.at_drive or b.at_drive or a.at_channel or b.at_channel:
+        return None, (f"{a.label} and {b.label}: a channel's lag or scale is not a place on the line; runs at "
+                      f"several frequencies at one level tell a lag (its phase grows with the frequency) from a law, "
+                      f"a static reading against a reference a channel's scale")
     base = problem.fit(nominal_spec(N))[0].as_dict()
     J = [base[inertia_name(i)] for i in range(1, N + 1)]
     c = [base[joint_prefix(j) + "c_Nms_per_rad"] for j in range(1, N)]
@@ -988,9 +1027,6 @@ def separating_drive(problem: _Problem, a: Candidate, b: Candidate, sa: CauseSco
     torque = float(np.median([max(float(np.ptp(t)) / 2 for t in r.average.torques_Nm if t is not None) for r in runs]))
     sigma = float(np.median([max(v for kk, v in r.noise_std.items() if kk.startswith("torque")) for r in runs])) or 1.0
 
-    if a.at_drive or b.at_drive:
-        return None, (f"{a.label} and {b.label}: a drive's lag is not a place on the line; runs at several "
-                      f"frequencies at one level tell a lag (its phase grows with the frequency) from a law")
 
     def effect(cand, sc):
         if cand.at_joint:
@@ -1217,6 +1253,7 @@ def train_joint_runs(runs: Sequence[ChainRun], run_ids: Sequence[str], fit: Chai
         phi: list[list] = [[] for _ in places]
         torque: list[list] = [[] for _ in places]
         for period in run.periods:
+            period = channel_corrected(period, fit.spec)  # as the bodies moved
             X = [fourier_coefficients(period.angles_rad[i], 1, band) for i in range(N)]
             for k, c in enumerate(carried_torques(period.angles_rad, period.torques_Nm, w, plant, J, band)):
                 phi[k].append(X[0] if N == 1 else X[k] - X[k + 1])

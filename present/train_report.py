@@ -59,7 +59,11 @@ def plain_train_verdict(report: TrainReport) -> str:
         return wrong + "The model's structure explains the data: no cause at any joint or body is missing."
     if v.verdict == "explained":
         final = _values(d.final)
-        found = "; ".join(f"{s.label} ({quantity_of(nm(s.magnitude[0]))} {with_se(*final.get(s.magnitude[0], s.magnitude[1:]))}"
+
+        def size(s) -> tuple:  # in the final fit; a magnitude made of parts (an amplitude) as scored
+            v, se = final.get(s.magnitude[0], (math.nan, math.nan))
+            return (v, se) if math.isfinite(se) else tuple(s.magnitude[1:])
+        found = "; ".join(f"{s.label} ({quantity_of(nm(s.magnitude[0]))} {with_se(*size(s))}"
                           f" {unit_of(nm(s.magnitude[0]))})" for s in d.steps)
         better = (f"{val.gain:.3g} times better than without" if math.isfinite(val.gain) else
                   "where the model without it reaches no steady state")
@@ -77,11 +81,13 @@ def _sought(report: TrainReport) -> str:
     n_joint = sum(1 for s in d.first_round if s.at_joint)
     n_ground = sum(1 for s in d.first_round if s.ground)
     n_drive = sum(1 for s in d.first_round if s.where is not None and s.where.kind == "drive")
-    n_drag = len(d.first_round) - n_joint - n_ground - n_drive
+    n_channel = sum(1 for s in d.first_round if s.where is not None and s.where.kind == "channel")
+    n_drag = len(d.first_round) - n_joint - n_ground - n_drive - n_channel
     places = ([f"{n_joint} at {N - 1} joint(s)"] if N > 1 else []) + (
         [f"viscous drag at {n_drag} {'bodies' if n_drag > 1 else 'body'}"] if n_drag else []) + (
         [f"{n_ground} laws to ground"] if n_ground else []) + (
-        ["the drives' lag"] if n_drive else [])
+        ["the drives' lag"] if n_drive else []) + (
+        [f"skew and scale of {n_channel // 2} angle channel(s)"] if n_channel else [])
     return f"{len(d.first_round)} candidates: {', '.join(places)}"
 
 

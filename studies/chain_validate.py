@@ -17,7 +17,8 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from jointrig.identify.chain import REST_RATE_FRACTION, STICK_RATE_FRACTION, ChainRecord, inertia_name
+from jointrig.identify.chain import (REST_RATE_FRACTION, STICK_RATE_FRACTION, ChainRecord, channel_corrected,
+                                    inertia_name)
 from jointrig.identify.chain_diagnose import ChainDiagnosis, plant_and_inertias
 from jointrig.identify.harmonics import fourier_coefficients, max_harmonic
 from jointrig.identify.periods import period_spectra
@@ -125,6 +126,8 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
     ``backend`` as :func:`rig.chain.simulate_chain`'s."""
     cfg = replace(config, absolute_angles_periodic=False, max_wall_s=max_wall_s, n_periods=1)
     models = {"nominal": plant_and_inertias(diagnosis.nominal)}
+    # a sensor's skew or scale is not simulated: the simulated angles are read as its channel reads
+    reads = {"nominal": diagnosis.nominal.spec, "extended": diagnosis.final.spec}
     if diagnosis.steps:  # without a cause the extended model is the nominal one
         models["extended"] = plant_and_inertias(diagnosis.final)
     num = {k: 0.0 for k in models}
@@ -150,6 +153,7 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
                 failed[name] = (f"the {name} model reaches no periodic steady state under the measured drive of "
                                 f"{meas.source}: {err}")
                 continue
+            sim = channel_corrected(sim, reads[name], read=True)
             sims[name] = sim
             e, d = twist_error(sim, meas, top)
             num[name] += e

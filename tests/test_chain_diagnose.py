@@ -146,13 +146,17 @@ def test_a_bodys_reversal_jumps_by_twice_its_static_friction_over_its_mass():
     assert p.jumps(ChainSpec(((Viscous(),),)), values).sizes == (0.0, 0.0, 0.0)
 
 
-def test_the_candidates_are_every_cause_at_its_places_and_the_drives_lag_once():
-    from jointrig.identify.chain_diagnose import GROUND_CAUSES, JOINT_CAUSES, candidates
+def test_the_candidates_are_every_cause_at_its_places_the_drives_lag_once_and_channels_past_the_first():
+    from jointrig.identify.chain_diagnose import CHANNEL_CAUSES, GROUND_CAUSES, JOINT_CAUSES, candidates
 
     one = [c.label for c in candidates(1, drives=())]
     assert one == ["bearing_friction at flywheel 1"] + [f"{c.name} to ground at body 1" for c in GROUND_CAUSES]
     four = [c.label for c in candidates(4)]
-    assert len(four) == 3 * len(JOINT_CAUSES) + 4 + 1 and four[-1] == "drive_delay at the drives"
+    assert {c.name for c in CHANNEL_CAUSES} == {"angle_skew", "angle_gain"}
+    # body 1's channel is the reference of the others' (its skew is the drives' lag)
+    assert len(four) == 3 * len(JOINT_CAUSES) + 4 + 1 + 3 * 2 and four[3 * len(JOINT_CAUSES) + 4] == \
+        "drive_delay at the drives"
+    assert four[-2:] == ["angle_skew at body 4's angle channel", "angle_gain at body 4's angle channel"]
     assert not any("to ground" in label for label in four)  # no friction to ground on a train yet
 
 
@@ -407,9 +411,9 @@ def test_a_joint_may_stick_where_the_nominal_law_or_significant_evidence_gives_i
 
 def test_a_clean_train_gets_no_cause_and_a_bodys_drag_is_named_at_its_body():
     # The whole diagnosis on exact steady states of the linear train (60 dB): without any effect,
-    # no candidate of the 32 (9 causes at 3 joints, drag at 4 bodies, the drives' lag) is
-    # significant and nothing is adopted, nothing rests or is summed, and the noise per channel
-    # is the runs' median. With 4 N m s/rad of drag at body 3 it is ranked first, adopted alone
+    # no candidate of the 38 (9 causes at 3 joints, drag at 4 bodies, the drives' lag, the skew
+    # and scale of bodies 2-4's angle channels) is significant and nothing is adopted, nothing
+    # rests or is summed, and the noise per channel is the runs' median. With 4 N m s/rad of drag at body 3 it is ranked first, adopted alone
     # and sized within 3 standard errors (the evidence's own scatter).
     import numpy as np
 
@@ -417,7 +421,7 @@ def test_a_clean_train_gets_no_cause_and_a_bodys_drag_is_named_at_its_body():
 
     problem, _ = _linear_problem()
     d = diagnose_chain(problem.runs, n_harmonics=20, workers=1)
-    assert d.steps == () and len(d.first_round) == 32 and not any(s.significant for s in d.first_round)
+    assert d.steps == () and len(d.first_round) == 38 and not any(s.significant for s in d.first_round)
     assert d.rests == () and d.stuck_joints == () and d.plausibility == () and d.ambiguities == ()
     assert d.final is d.nominal and d.found is None
     assert d.noise_std["phi1"] == float(np.median([r.noise_std["phi1"] for r in problem.runs]))
@@ -450,7 +454,7 @@ def test_the_drives_lag_is_a_candidate_from_two_frequencies_on():
     problem, _ = _linear_problem()
     two = problem.runs[:2]  # 150 and 300 rad/s
     labels = [s.label for s in diagnose_chain(two, n_harmonics=20, workers=1).first_round]
-    assert len(labels) == 32 and "drive_delay at the drives" in labels
+    assert len(labels) == 38 and "drive_delay at the drives" in labels
 
     def at(run, w):  # the same samples, read at another frequency
         def rec(r):
@@ -459,7 +463,7 @@ def test_the_drives_lag_is_a_candidate_from_two_frequencies_on():
 
     same = (two[0], at(two[1], 150.0 * (1 + 5e-4)))
     labels = [s.label for s in diagnose_chain(same, n_harmonics=20, workers=1).first_round]
-    assert len(labels) == 31 and "drive_delay at the drives" not in labels
+    assert len(labels) == 37 and "drive_delay at the drives" not in labels
 
 
 def test_a_trains_misfit_is_described_at_every_joint_and_a_places_law_is_its_own():

@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import re
 
-__all__ = ["Param", "unit_of", "quantity_of", "J1", "J2", "JE", "BEARING1", "BEARING2", "DRIVE_DELAY", "linear_name",
-           "rotational_name"]
+__all__ = ["Param", "unit_of", "quantity_of", "J1", "J2", "JE", "BEARING1", "BEARING2", "DRIVE_DELAY", "ANGLE2_DELAY",
+           "ANGLE2_GAIN", "channel_name", "linear_name", "rotational_name"]
 
 # Unit atoms as they appear in names, longest first, and how a person writes them.
 _ATOMS = (("kgm2", "kg m^2"), ("kg", "kg"), ("Nms2", "N m s^2"), ("Nms", "N m s"), ("Nm", "N m"), ("Ns", "N s"),
@@ -78,6 +78,17 @@ J1, J2, JE = Param("J1_kgm2"), Param("J2_kgm2"), Param("Je_kgm2")
 BEARING1, BEARING2 = Param("bearing1_damping_Nms_per_rad"), Param("bearing2_damping_Nms_per_rad")
 #: The drive acts this long after it is recorded.
 DRIVE_DELAY = Param("drive_delay_s")
+#: Flywheel 2's angle channel read late, or a fixed factor too large (the two-flywheel names of
+#: a sensor's skew and scale error, :func:`channel_name` for body i of a train).
+ANGLE2_DELAY, ANGLE2_GAIN = Param("angle2_delay_s"), Param("angle2_gain_error")
+
+
+def channel_name(i: int, name: str) -> Param:
+    """A sensor parameter of body i's angle channel from its flywheel-2 name:
+    ``channel_name(3, "angle2_delay_s")`` -> ``angle3_delay_s``."""
+    if not name.startswith("angle2_"):
+        raise ValueError(f"{name!r} is not a channel's parameter (angle2_...)")
+    return Param(f"angle{int(i)}_" + name[len("angle2_"):])
 
 
 # A body on a slide has the laws of a body on a hinge in other units: N and m where a hinge has
@@ -87,11 +98,13 @@ DRIVE_DELAY = Param("drive_delay_s")
 _TO_LINEAR = ((r"_Nms2_per_rad2$", "_Ns2_per_m2"), (r"_Nms_per_rad$", "_Ns_per_m"),
               (r"_Nm_per_rad(\d?)$", r"_N_per_m\1"), (r"_rad_s$", "_m_s"), (r"^J(\d+)_kgm2$", r"m\1_kg"),
               (r"torque_Nm$", "force_N"), (r"angle_offset_rad$", "position_offset_m"),
-              (r"angle_rad$", "displacement_m"), (r"_Nm$", "_N"), (r"_rad$", "_m"), (r"^bearing(\d+)_", r"guide\1_"))
+              (r"angle_rad$", "displacement_m"), (r"^angle(\d+)_", r"position\1_"), (r"_Nm$", "_N"), (r"_rad$", "_m"),
+              (r"^bearing(\d+)_", r"guide\1_"))
 _TO_ROTATIONAL = ((r"_Ns2_per_m2$", "_Nms2_per_rad2"), (r"_Ns_per_m$", "_Nms_per_rad"),
                   (r"_N_per_m(\d?)$", r"_Nm_per_rad\1"), (r"_m_s$", "_rad_s"), (r"^m(\d+)_kg$", r"J\1_kgm2"),
                   (r"force_N$", "torque_Nm"), (r"position_offset_m$", "angle_offset_rad"),
-                  (r"displacement_m$", "angle_rad"), (r"_N$", "_Nm"), (r"_m$", "_rad"), (r"^guide(\d+)_", r"bearing\1_"))
+                  (r"displacement_m$", "angle_rad"), (r"^position(\d+)_", r"angle\1_"), (r"_N$", "_Nm"), (r"_m$", "_rad"),
+                  (r"^guide(\d+)_", r"bearing\1_"))
 
 
 def _translate(name: str, rules) -> str:
