@@ -113,6 +113,9 @@ class Cause:
     #: two flywheels' bearing drags, named by the one)
     magnitude_parts: tuple = ()
     magnitude_is: str = "length"
+    #: the cause in a few plain words, for the verdict a user reads ("dry friction"; the name
+    #: where empty)
+    plain: str = ""
     #: its bounds read the smallest swing of the runs too, not only the largest (a periodic
     #: torque's highest order is the one its smallest swing still resolves); a train's joint may
     #: barely twist in some runs, so there only runs within ``identify.chain_diagnose.BOUNDS_SPAN``
@@ -276,69 +279,79 @@ def _with_cogging(spec: ModelSpec, order: float) -> ModelSpec:
 #: :data:`OSCILLATOR_CAUSES`.
 CATALOGUE: tuple[Cause, ...] = (
     Cause("coulomb_friction", "dry friction in the joint: a torque of constant size opposing the relative rate",
-          lambda s, h: _with_terms(s, (Coulomb(),)), "coulomb_torque_Nm", 1, places=_JOINT_GROUND),
+          lambda s, h: _with_terms(s, (Coulomb(),)), "coulomb_torque_Nm", 1, places=_JOINT_GROUND,
+          plain="dry friction"),
     Cause("backlash", "free play in the elastic element: no stiffness within +-half gap",
           _with_gap, "backlash_half_gap_rad", 0, bounds=lambda runs: (1e-4 * _amplitude(runs), 0.8 * _largest_amplitude(runs)),
-          profiled="backlash_half_gap_rad", degenerate=_below_resolution("half gap", "no free play is resolved")),
+          profiled="backlash_half_gap_rad", degenerate=_below_resolution("half gap", "no free play is resolved"),
+          plain="free play"),
     Cause("asymmetric_stiffness", "an even stiffness term a phi^2 (an asymmetric restoring force): even harmonics",
           lambda s, h: _with_terms(s, (Power(2),)), "a_Nm_per_rad2", 1, nonnegative=False,
-          places=frozenset({"joint", "oscillator"})),
+          places=frozenset({"joint", "oscillator"}), plain="an asymmetric stiffness (a phi^2)"),
     Cause("hysteresis", "a Jenkins (one-element Iwan) element: spring and dry-friction slider in series",
           _with_jenkins, "hysteresis_slip_torque_Nm", 1,
           bounds=lambda runs: (1e-3 * _amplitude(runs), 0.9 * _amplitude(runs)), log_scale=True,
           profiled="hysteresis_slip_angle_rad",
-          degenerate=_below_resolution("slip angle", "a Jenkins element that never sticks is dry friction (see {friction})")),
+          degenerate=_below_resolution("slip angle", "a Jenkins element that never sticks is dry friction (see {friction})"),
+          plain="hysteresis (a Jenkins element)"),
     Cause("micro_slip", "micro-slip: an Iwan element (Segalman's four-parameter distribution of Jenkins elements, "
           f"chi = {IWAN_CHI}, beta = {IWAN_BETA}), as in bolted and clamped joints",
           _with_iwan, "iwan_slip_torque_Nm", 1,
           bounds=lambda runs: (1e-3 * _amplitude(runs), 2.0 * _largest_amplitude(runs)), log_scale=True,
           profiled="iwan_slip_angle_rad", degenerate=_below_resolution(
-              "largest slip angle", "an Iwan element that never sticks is dry friction (see {friction})")),
+              "largest slip angle", "an Iwan element that never sticks is dry friction (see {friction})"),
+          plain="micro-slip (an Iwan element)"),
     Cause("stribeck_friction", "dry friction with a Stribeck peak: static friction above the sliding one, falling "
           "off with the rate (velocity weakening)",
           _with_stribeck, "stribeck_torque_Nm", 2,
           bounds=lambda runs: (0.02 * min(rate_amplitudes(runs)), 2.0 * max(rate_amplitudes(runs))), log_scale=True,
           profiled="stribeck_velocity_rad_s", reduces_to="coulomb_friction", places=_JOINT_GROUND,
-          degenerate=_stribeck_degenerate),
+          degenerate=_stribeck_degenerate, plain="dry friction with a Stribeck peak"),
     Cause("quadratic_damping", "damping torque proportional to the rate squared",
           lambda s, h: _with_terms(s, (QuadraticDamping(),)), "quadratic_damping_Nms2_per_rad2", 1,
-          places=_JOINT_GROUND),
+          places=_JOINT_GROUND, plain="quadratic damping"),
     Cause("drive_delay", "the drive acts later than it is recorded: a phase lag growing linearly with frequency",
           lambda s, h: replace(s, drive_delay_s=float(h)), DRIVE_DELAY, 0,
           bounds=lambda runs: (0.0, 0.1 * min(2 * math.pi / r.average.omega_rad_s for r in runs)),
-          profiled=DRIVE_DELAY, places=frozenset({"two_flywheel", "oscillator", "drive"})),
+          profiled=DRIVE_DELAY, places=frozenset({"two_flywheel", "oscillator", "drive"}), plain="a lag of the drive"),
     Cause("bearing_friction", "viscous drag of a flywheel to ground (not through the joint)",
           lambda s, h: replace(s, bearings=True), "bearing_damping_Nms_per_rad", 2, needs_two_angles=True,
-          places=frozenset({"two_flywheel"}), magnitude_parts=(BEARING1, BEARING2), magnitude_is="largest"),
+          places=frozenset({"two_flywheel"}), magnitude_parts=(BEARING1, BEARING2), magnitude_is="largest",
+          plain="bearing drag"),
     Cause("angle_offset", "measurement: the zero of the relative angle is off (an encoder's zero); under a cubic "
           "term it creates even harmonics as an asymmetric spring would",
           lambda s, h: replace(s, angle_offset_rad=float(h)), "angle_offset_rad", 0,
           bounds=lambda runs: (-_zero_bound(runs), _zero_bound(runs)), nonnegative=False,
-          profiled="angle_offset_rad", kind="measurement"),
+          profiled="angle_offset_rad", kind="measurement", plain="an angle sensor's zero offset"),
     Cause("angle_skew", "measurement: flywheel 2's angle is read later (or earlier) than the torque and flywheel 1's "
           "angle (a multiplexed DAQ's channel skew, a filter's group delay)",
           lambda s, h: replace(s, angle2_delay_s=float(h)), "angle2_delay_s", 0,
           bounds=lambda runs: (-_skew_bound(runs), _skew_bound(runs)), nonnegative=False, needs_two_angles=True,
-          profiled="angle2_delay_s", kind="measurement", first_only=True, places=frozenset({"two_flywheel", "channel"})),
+          profiled="angle2_delay_s", kind="measurement", first_only=True, places=frozenset({"two_flywheel", "channel"}),
+          plain="a time skew"),
     Cause("angle_gain", "measurement: flywheel 2's angle reads a fixed factor too large or too small (an encoder's "
           "lines per revolution or a gear ratio set wrong)",
           lambda s, h: replace(s, angle2_gain_error=float(h)), "angle2_gain_error", 0,
           bounds=lambda runs: (-ANGLE_GAIN_TOLERANCE, ANGLE_GAIN_TOLERANCE), nonnegative=False,
           needs_two_angles=True, profiled="angle2_gain_error", kind="measurement", first_only=True,
-          places=frozenset({"two_flywheel", "channel"})),
+          places=frozenset({"two_flywheel", "channel"}), plain="a scale error"),
     # Laws of the one-coordinate oscillator's extension (the Silverbox: y'' + law(y, y') = u),
     # not sought on the two-flywheel joint (its default selection is CAUSES).
     Cause("quintic_stiffness", "stiffening beyond cubic: odd lines growing with amplitude",
-          lambda s, h: _with_terms(s, (Power(5),)), "p5_Nm_per_rad5", 1, nonnegative=False, places=_OSCILLATOR),
+          lambda s, h: _with_terms(s, (Power(5),)), "p5_Nm_per_rad5", 1, nonnegative=False, places=_OSCILLATOR,
+          plain="a quintic stiffness"),
     Cause("cubic_damping", "damping growing with the rate, x'^3",
-          lambda s, h: _with_terms(s, (Monomial(0, 3),)), "c_p0_q3", 1, nonnegative=False, places=_OSCILLATOR),
+          lambda s, h: _with_terms(s, (Monomial(0, 3),)), "c_p0_q3", 1, nonnegative=False, places=_OSCILLATOR,
+          plain="cubic damping"),
     Cause("amplitude_damping", "damping growing with the amplitude, x^2 x'",
-          lambda s, h: _with_terms(s, (Monomial(2, 1),)), "c_p2_q1", 1, nonnegative=False, places=_OSCILLATOR),
+          lambda s, h: _with_terms(s, (Monomial(2, 1),)), "c_p2_q1", 1, nonnegative=False, places=_OSCILLATOR,
+          plain="damping growing with the amplitude"),
     Cause("cogging", "a torque periodic in the angle, A sin(z phi + p): a gear's mesh, a motor's cogging, detents; "
           "z periods per revolution",
           _with_cogging, "cogging_amplitude_Nm", 2, bounds=_cogging_bounds, profiled="cogging_order_rad_per_rad",
           grid_step=lambda runs: COGGING_GRID / _largest_amplitude(runs), places=_JOINT_GROUND,
-          trials=_cogging_trials, magnitude_parts=("cogging_sin_Nm", "cogging_cos_Nm"), bounds_read_smallest=True),
+          trials=_cogging_trials, magnitude_parts=("cogging_sin_Nm", "cogging_cos_Nm"), bounds_read_smallest=True,
+          plain="a torque periodic in the angle (cogging, a gear mesh)"),
 )
 
 

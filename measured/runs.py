@@ -54,7 +54,7 @@ from jointrig.vocab.records import MAX_SI_VALUE, RecordError, SteadyStateRecord
 from .formats import SUFFIXES, FormatError, RawTable, read_tables
 
 __all__ = ["RunsFileError", "LoadedRuns", "read_runs", "write_runs", "estimate_omega", "COLUMNS", "UNITS",
-           "parse_mapping", "REPEAT_THRESHOLD"]
+           "parse_mapping", "REPEAT_THRESHOLD", "as_train", "chain_record_of"]
 
 #: Canonical columns and their SI units.
 #: Most bodies of a drive train (``phi1..phi8``, ``torque1..torque8``).
@@ -685,6 +685,33 @@ def driven_first(loaded: "LoadedRuns", torque_on: str) -> "LoadedRuns":
             "your flywheel 2 and flywheel 2 (J2, phi2) your flywheel 1; the relative angle is your phi2 - phi1 (an "
             "even term or an angle offset comes out with the opposite sign of yours)")
     return replace(loaded, records=records, notes=loaded.notes + (note,))
+
+
+def as_train(loaded: "LoadedRuns", torque_on: str = "flywheel1") -> "LoadedRuns":
+    """Two flywheels' runs (``torque, phi1, phi2``) as a train of two bodies, the one model of
+    every bench (pure): the torque drives body 1, or body 2 with ``torque_on="flywheel2"`` (the
+    bodies keep your numbering); the rates, where the file gives them, go with their angles. A
+    torque measured in the shaft is refused (:func:`driven_first`'s reason). A train's runs are
+    returned as they are; runs with the relative angle only cannot be a train and are refused."""
+    if loaded.is_train:
+        return loaded
+    if torque_on not in TORQUE_ON or torque_on == "shaft":
+        driven_first(loaded, torque_on)  # raises with the reason
+    if not loaded.has_both_angles:
+        raise RunsFileError(f"{loaded.path}: the runs hold the relative angle only ('phi'); a train needs each "
+                            f"body's angle (phi1, phi2)")
+    body = 2 if torque_on == "flywheel2" else 1
+    return replace(loaded, records=tuple(chain_record_of(r, body) for r in loaded.records))
+
+
+def chain_record_of(rec: SteadyStateRecord, driven: int = 1) -> ChainRecord:
+    """One run of two flywheels (both angles) as a run of the train of two bodies, the torque on
+    body ``driven`` (pure)."""
+    if rec.phi2_rad is None:
+        raise RecordError(f"{rec.source}: the relative angle only ('phi'); a train needs each body's angle")
+    rates = None if rec.rate1_rad_s is None and rec.rate2_rad_s is None else (rec.rate1_rad_s, rec.rate2_rad_s)
+    return ChainRecord(rec.omega_rad_s, rec.time_s, (rec.torque_Nm, None) if driven == 1 else (None, rec.torque_Nm),
+                       (rec.phi1_rad, rec.phi2_rad), rates, rec.n_periods, rec.drive_amplitude_Nm, source=rec.source)
 
 
 @dataclass(frozen=True)

@@ -57,21 +57,29 @@ def expected_entities(run_labels: Sequence[str]) -> set[str]:
 def open_recording(rrd_path: Optional[Path], *, spawn: bool = False,
                    connect: Optional[str] = None) -> Iterator[rr.RecordingStream]:
     """A recording stream that writes ``rrd_path`` atomically (temp file, renamed on success)
-    and optionally streams to a live viewer (``spawn``: start one; ``connect``: gRPC URL)."""
+    and optionally streams to a live viewer (``spawn``: start one; ``connect``: gRPC URL).
+
+    Without a viewer the recording is held in memory and written by :func:`jointrig.files.write_atomic`
+    (a full disk is then Python's own error, named with the file): rerun's file writer, on a full
+    disk, only logs "File-writer thread shut down prematurely", and a flush after it could hang."""
     rec = rr.RecordingStream(APP_ID)
     sinks = []
     tmp = None
-    if rrd_path is not None:
-        from jointrig.files import temp_beside
-
-        rrd_path = Path(rrd_path)
-        tmp = str(temp_beside(rrd_path))
-        sinks.append(rr.FileSink(tmp))
+    memory = None
     if spawn:
         rr.spawn(connect=False)
         sinks.append(rr.GrpcSink())
     elif connect is not None:
         sinks.append(rr.GrpcSink(connect))
+    if rrd_path is not None:
+        rrd_path = Path(rrd_path)
+        if sinks:
+            from jointrig.files import temp_beside
+
+            tmp = str(temp_beside(rrd_path))
+            sinks.append(rr.FileSink(tmp))
+        else:
+            memory = rec.memory_recording()
     if sinks:
         rec.set_sinks(*sinks)
     ok = False
@@ -81,6 +89,11 @@ def open_recording(rrd_path: Optional[Path], *, spawn: bool = False,
     finally:
         try:
             rec.flush()
+            if memory is not None and ok:
+                from jointrig.files import write_atomic
+
+                data = memory.drain_as_bytes()
+                write_atomic(rrd_path, lambda path: Path(path).write_bytes(data))
             rec.disconnect()
             if tmp is not None and ok:
                 from jointrig.files import readable_mode
@@ -91,7 +104,7 @@ def open_recording(rrd_path: Optional[Path], *, spawn: bool = False,
             if tmp is not None:
                 with contextlib.suppress(OSError):
                     os.unlink(tmp)
-            if ok:
+            if ok and tmp is not None:
                 import errno
                 import shutil
 
@@ -412,12 +425,16 @@ def log_chain_laws(rec: rr.RecordingStream, true_laws, identified_laws, records,
                                  columns=rr.Scalars.columns(scalars=np.asarray(law.elastic_torque(phi), dtype=float)))
 
 
-def log_chain_diagnosis(rec: rr.RecordingStream, diagnosis, validation, n_flywheels: int, misfit=None) -> None:
-    """A chain diagnosis: where (the best score at every joint and flywheel, and the ranked
-    candidates as a table), the held-out runs (the found joint's twist, measured against the
-    nominal and the extended model), and an unexplained ``misfit``
+def log_chain_diagnosis(rec: rr.RecordingStream, diagnosis, validation, n_flywheels: int, misfit=None,
+                        text: str = "") -> None:
+    """A chain diagnosis: the verdict and the report (``text``, the console's), where (the best
+    score at every joint and flywheel, and the ranked candidates as a table), the held-out runs
+    (the found joint's twist, measured against the nominal and the extended model, and each
+    model's departure from the measurement), and an unexplained ``misfit``
     (:class:`identify.chain_diagnose.TrainMisfit`) as a restoring-force surface, with its blueprint."""
     import rerun.blueprint as rrb
+
+    from jointrig.identify.harmonics import fourier_coefficients, synthesize
 
     places = [f"joint {j}" for j in range(1, n_flywheels)] + [f"flywheel {i}" for i in range(1, n_flywheels + 1)]
     if any(s.where is not None and s.where.kind == "drive" for s in diagnosis.first_round):
@@ -452,17 +469,30 @@ def log_chain_diagnosis(rec: rr.RecordingStream, diagnosis, validation, n_flywhe
             t = rr.TimeColumn("t_s", duration=meas.time_s[:N] - meas.time_s[0])
             base = f"held_out/run{k + 1}"
             rec.send_columns(f"{base}/measured", indexes=[t], columns=rr.Scalars.columns(scalars=x.reshape(P, N).mean(axis=0)))
+            band = min(validation.band, N // 2 - 1)
+            measured = synthesize(fourier_coefficients(x, P, band) * (np.arange(band + 1) > 0), N)
             for name, sim in (("nominal", nom), ("extended", ext)):
+                xs = found_motion(sim, step)[1]
                 ts = rr.TimeColumn("t_s", duration=sim.time_s - sim.time_s[0])
-                rec.send_columns(f"{base}/{name}", indexes=[ts], columns=rr.Scalars.columns(scalars=found_motion(sim, step)[1]))
-            views.append(rrb.TimeSeriesView(
-                origin=base, name=f"held-out {meas.omega_rad_s:g} rad/s: {what} (SI), measured (period average) vs "
-                                  f"nominal vs extended (timeline t_s)"))
+                rec.send_columns(f"{base}/{name}", indexes=[ts], columns=rr.Scalars.columns(scalars=xs))
+                m = min(band, sim.samples_per_period // 2 - 1)
+                on_grid = synthesize(fourier_coefficients(xs, sim.n_periods, m) * (np.arange(m + 1) > 0), N)
+                rec.send_columns(f"departure/run{k + 1}/{name}", indexes=[t],
+                                 columns=rr.Scalars.columns(scalars=on_grid - measured))
+            views.append(rrb.Vertical(
+                rrb.TimeSeriesView(origin=base, name=f"held-out {meas.omega_rad_s:g} rad/s: {what} (SI), measured "
+                                                     f"(period average) vs nominal vs extended (timeline t_s)"),
+                rrb.TimeSeriesView(origin=f"departure/run{k + 1}",
+                                   name=f"held-out {meas.omega_rad_s:g} rad/s: model minus measurement (harmonics "
+                                        f"1..{band})")))
     where = rrb.Horizontal(rrb.TextDocumentView(origin="where/candidates", name="found, and every candidate scored"),
                            rrb.BarChartView(origin="where/best_score_log10",
                                             name="log10(1 + best BIC score) per place: joints 1.., then flywheels 1.."),
                            column_shares=[3, 2], name="Where and what")
     tabs = [where] + ([rrb.Grid(*views, name="Held-out runs")] if views else [])
+    if text:
+        rec.log("verdict", rr.TextDocument(text, media_type=rr.MediaType.TEXT), static=True)
+        tabs.insert(0, rrb.TextDocumentView(origin="verdict", name="Verdict and report"))
     if misfit is not None:
         character, surface = misfit.describe()
         log_misfit(rec, misfit.surface, misfit.samples,

@@ -12,6 +12,8 @@ import math
 import re
 from typing import Sequence
 
+import numpy as np
+
 from jointrig.studies.chain_validate import TrainReport
 
 from jointrig.vocab.params import linear_name
@@ -49,6 +51,14 @@ def _values(fit) -> dict:
     return {n: (v, fit.std_error(n)) for n, v in fit.parameters().items()}
 
 
+def plain_label(step) -> str:
+    """A cause found, in plain words at its place ("dry friction at joint 1")."""
+    from jointrig.identify.causes import by_name
+
+    plain = by_name(step.effect).plain or step.effect
+    return f"{plain} {step.where.describe()}" if step.where is not None else plain
+
+
 def plain_train_verdict(report: TrainReport) -> str:
     """The verdict in words, after the parameters of the user's model the data contradict."""
     v, d, val = report.verdict, report.diagnosis, report.validation
@@ -63,13 +73,16 @@ def plain_train_verdict(report: TrainReport) -> str:
         def size(s) -> tuple:  # in the final fit; a magnitude made of parts (an amplitude) as scored
             v, se = final.get(s.magnitude[0], (math.nan, math.nan))
             return (v, se) if math.isfinite(se) else tuple(s.magnitude[1:])
-        found = "; ".join(f"{s.label} ({quantity_of(nm(s.magnitude[0]))} {with_se(*size(s))}"
+        found = "; ".join(f"{plain_label(s)} ({quantity_of(nm(s.magnitude[0]))} {with_se(*size(s))}"
                           f" {unit_of(nm(s.magnitude[0]))})" for s in d.steps)
         better = (f"{val.gain:.3g} times better than without" if math.isfinite(val.gain) else
                   "where the model without it reaches no steady state")
         them = "them" if len(d.steps) > 1 else "it"
-        return (wrong + f"Your model misses {found}. With {them}, simulated in the rig, it predicts the {held} {better} "
-                f"(at {val.extended_error / val.noise_floor:.2g} times the noise floor).")
+        c2 = d.reduced_chi2(d.final)
+        fits = (f"the model fits the runs to their noise (chi2/dof {c2:.2g}: about 1 when only noise is left)"
+                if c2 < 1.5 else f"the model fits the runs to chi2/dof {c2:.2g} (about 1 when only noise is left)")
+        return (wrong + f"Your model misses {found}. With {them}, {fits}, and simulated in the rig it predicts the "
+                f"{held} {better} (at {val.extended_error / val.noise_floor:.2g} times the noise floor).")
     return wrong + ("A significant misfit remains that no catalogued cause at any joint or body explains; the "
                     "candidates below are ranked by evidence, none is adopted.")
 
@@ -211,7 +224,11 @@ def train_report_json(report: TrainReport, *, source: str = "", notes: Sequence[
 def train_figure(report: TrainReport) -> str:
     """SVG: per held-out run, over one period, what the first cause found acts on (its joint's
     twist, or the body's position for a law to ground): measured (period average), nominal and
-    extended model in the rig. Empty without a cause or without simulated runs."""
+    extended model in the rig; below each, where each model departs from the measurement (on the
+    harmonics the validation compares, model minus measurement: the extended model's departure
+    at the noise, the nominal's the misfit the cause removes). Empty without a cause or without
+    simulated runs."""
+    from jointrig.identify.harmonics import fourier_coefficients, synthesize
     from jointrig.studies.chain_validate import found_motion
 
     from . import svg
@@ -221,23 +238,33 @@ def train_figure(report: TrainReport) -> str:
         return ""
     step = d.steps[0]
     unit = "m" if report.kind == "slide" else "rad"
-    panels = []
+    panels, departures = [], []
     for meas, nom, ext in v.records:
         P, N = meas.n_periods, meas.samples_per_period
         what, x = found_motion(meas, step)
         p = svg.Panel(f"{meas.omega_rad_s:.4g} rad/s: {what}", "t [s]", f"about its mean [{unit}]")
+        q = svg.Panel(f"{meas.omega_rad_s:.4g} rad/s: model minus measurement", "t [s]", f"departure [{unit}]")
         t = meas.time_s[:N] - meas.time_s[0]
         xm = x.reshape(P, N).mean(axis=0)
         # each about its own mean: the comparison leaves the mean out (a sensor's zero is arbitrary)
         p.line(t, xm - xm.mean(), color=svg.COLORS["black"], width=2.2, opacity=0.5, label="measured")
+        band = min(v.band, N // 2 - 1)
+        on_grid = synthesize(fourier_coefficients(x, P, band) * (np.arange(band + 1) > 0), N)
         for name, sim, style in (("nominal", nom, dict(color=svg.COLORS["red"], dash="5 3")),
                                  ("extended", ext, dict(color=svg.COLORS["blue"]))):
             xs = found_motion(sim, step)[1]
             p.line(sim.time_s - sim.time_s[0], xs - xs.mean(), width=1.2, label=name, **style)
+            m = min(band, sim.samples_per_period // 2 - 1)
+            sim_grid = synthesize(fourier_coefficients(xs, sim.n_periods, m) * (np.arange(m + 1) > 0), N)
+            q.line(t, sim_grid - on_grid, width=1.2, label=name, **style)
         panels.append(p)
-    panels[0].legend = True
-    return svg.figure(panels, cols=min(3, len(panels)), panel_width=400, panel_height=260,
-                      title=f"held-out data: {step.label}")
+        departures.append(q)
+    panels[0].legend = departures[0].legend = True
+    cols = min(3, len(panels))
+    ordered = []
+    for k in range(0, len(panels), cols):  # a row of runs, then the row of their departures
+        ordered += panels[k:k + cols] + departures[k:k + cols]
+    return svg.figure(ordered, cols=cols, panel_width=400, panel_height=260, title=f"held-out data: {step.label}")
 
 
 def write_train_html(path, report: TrainReport, text: str, *, title: str, source: str = "",

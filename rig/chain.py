@@ -253,6 +253,42 @@ def load_chain(path: Union[str, os.PathLike]) -> ChainRig:
                     twist_tendons=tuple(int(mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TENDON, t)) for t in names))
 
 
+def rig_of_bodies(n_bodies: int, driven: Sequence[int], kind: str = "hinge") -> ChainRig:
+    """The rig of a measured file's bodies and drives, without the user's model: the paper's law
+    at every joint (a single body: its drag to ground) and unit inertias, hinges or slides; a
+    diagnosis replaces the plant and the inertias by each fit's. Named ``train.xml``."""
+    import tempfile
+
+    from jointrig.identify.chain import plant_of_values
+    from jointrig.identify.chain_diagnose import nominal_spec
+
+    spec = nominal_spec(n_bodies)
+    plant = plant_of_values({n: 0.0 for n in spec.names}, spec)
+    with tempfile.TemporaryDirectory(prefix="jointrig-train-") as tmp:
+        path = Path(tmp) / "train.xml"
+        path.write_text(chain_model_xml(plant, [1.0] * n_bodies, driven, kind=kind), encoding="utf-8")
+        out = load_chain(path)
+    return replace(out, path=Path("train.xml"))
+
+
+def chain_of_two_flywheels(rig, driven: Sequence[int]) -> ChainRig:
+    """A two-flywheel model (:func:`rig.model.load_rig`'s) as the train of its two bodies, the one
+    model of every bench: its law at joint 1, its bearings, inertias and drive lag, with motors on
+    ``driven`` (the bodies the data drive); named by its own file and digest."""
+    import tempfile
+
+    plant = ChainPlant((rig.plant.law,), (rig.plant.bearing1_damping_Nms_per_rad, rig.plant.bearing2_damping_Nms_per_rad),
+                       (), rig.plant.drive_delay_s)
+    with tempfile.TemporaryDirectory(prefix="jointrig-two-flywheels-") as tmp:
+        path = Path(tmp) / rig.path.name
+        try:
+            path.write_text(chain_model_xml(plant, (rig.J1_kgm2, rig.J2_kgm2), driven), encoding="utf-8")
+        except ValueError as err:  # a law the chain's fields cannot write
+            raise RigModelError(f"{rig.path}: {err}") from None
+        out = load_chain(path)
+    return replace(out, path=rig.path, digest=rig.digest)
+
+
 def chain_model_xml(plant: ChainPlant, inertias_kgm2: Sequence[float], driven: Sequence[int], *,
                     timestep_s: float = 1e-4, header: str = "", kind: str = "hinge") -> str:
     """The MJCF text of a chain that :func:`load_chain` reads back to ``plant`` with these

@@ -146,6 +146,10 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
         for name, (plant, J) in models.items():
             if name in failed:
                 continue
+            bad = [f"J{i} = {v:.3g}" for i, v in enumerate(J, start=1) if not (math.isfinite(v) and v > 0)]
+            if bad:  # no body's (a file read wrong): nothing to simulate
+                failed[name] = f"the {name} model has no body's inertia ({', '.join(bad)} kg m^2): it cannot be simulated"
+                continue
             try:
                 sim, _ = simulate_chain(rig.with_plant(plant), meas.omega_rad_s, drives, cfg, inertias_kgm2=J,
                                         backend=backend)

@@ -140,10 +140,10 @@ def cards_of_train(report, records) -> tuple[CardReport, ...]:
     ``records`` its runs, in order): every joint's, or a single body's at its guide. The model
     is the adopted one (the nominal one when nothing is adopted, with the warning); the runs'
     rows come from the equations of motion with its inertias and drags
-    (:func:`identify.chain_diagnose.train_joint_runs`). The model's curves carry no standard
-    errors here: a train's fit keeps no covariance."""
+    (:func:`identify.chain_diagnose.train_joint_runs`). The model's curves carry the standard
+    errors of its law and of its mode's inertia (:func:`identify.chain_diagnose.place_covariance`)."""
     from jointrig.identify.card import MASING_HARMONICS, joint_masing_check, joint_runs_card
-    from jointrig.identify.chain_diagnose import place_law, prepare_chain_runs, train_joint_runs
+    from jointrig.identify.chain_diagnose import place_covariance, place_law, prepare_chain_runs, train_joint_runs
 
     d = report.diagnosis
     fit = report.adopted_fit
@@ -164,8 +164,10 @@ def cards_of_train(report, records) -> tuple[CardReport, ...]:
         card = joint_runs_card(runs, je)
         amps = [q.amplitude_rad for q in card.points]
         grid = np.geomspace(min(amps), max(amps), N_CURVE_POINTS) if max(amps) > min(amps) else np.array(amps[:1])
-        model = law_card(law, je, grid)
-        at_runs = law_card(law, je, amps, omegas_rad_s=[q.omega_rad_s for q in card.points])
+        cov = place_covariance(fit, k)
+        model = law_card(law, je, grid, covariance=cov, inertia_index=0)
+        at_runs = law_card(law, je, amps, covariance=cov, inertia_index=0,
+                           omegas_rad_s=[q.omega_rad_s for q in card.points])
         place = "body 1 to ground" if N == 1 else f"joint {k + 1}"
         mode = ("mode of the body on its guide, its mass" if N == 1 else
                 f"mode of bodies {k + 1} and {k + 2} on joint {k + 1} alone, J{k + 1} J{k + 2} / (J{k + 1} + J{k + 2})")

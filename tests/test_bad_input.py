@@ -265,7 +265,7 @@ DIAGNOSE = {
     "report under a file": (["--report", "{data}/x.html"], "is a file, not a folder"),
     "rrd where nothing can be written": (["--rrd", "/proc/jointrig.rrd"], "cannot create a file"),
     "holdout unknown run": (["--holdout", "7"], r"--holdout names run\(s\) \['7'\]"),
-    "holdout everything": (["--holdout", "0", "1", "2"], "holds out all 3 runs"),
+    "holdout everything": (["--holdout", "0", "1", "2"], r"--holdout leaves 0 run\(s\) to fit; expected at least 3"),
     "columns bad": (["--columns", "torque"], "not NAME=VALUE"),
     "units bad": (["--units", "phi1=parsec"], "unit 'parsec'"),
 }
@@ -288,7 +288,7 @@ def test_diagnose_command_refuses_before_any_work(tmp_path, data3, capsys, case)
 @pytest.mark.parametrize("data, match", [
     ("missing.csv", "no such file or folder"),
     ("two_runs.csv", r"2 run\(s\), and run\(s\) a \(3\), b \(3\) hold fewer than 4 whole periods: the diagnosis "
-                     r"needs 3 runs \(some held out for validation\) or runs of at least 4 periods"),
+                     r"needs 4 runs \(some held out for validation\) or runs of at least 4 periods"),
     ("header_only.csv", "no data rows"),
     ("nan.csv", "non-finite"),
     # a dead channel: all-zero angles, and angles so small that their squares underflow (issue 35:

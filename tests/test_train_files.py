@@ -91,7 +91,7 @@ def test_the_worn_coupling_of_a_measured_pump_train_is_named_with_its_free_play(
     assert "a train of 4 bodies" in text and "Extended model: backlash at joint 2" in text
     # the HTML report opens on the verdict in words and shows the held-out runs' coupling twist
     page = (tmp_path / "d.html").read_text()
-    assert "<b>EXPLAINED</b>: Your model misses backlash at joint 2" in page and "With them, simulated in the rig" in page
+    assert "<b>EXPLAINED</b>: Your model misses free play at joint 2" in page and "simulated in the rig it predicts" in page
     assert page.count("data:image/svg+xml;base64,") == 1 and "What the data show" in page
     _check_cards(tmp_path, text, page)
 
@@ -426,7 +426,7 @@ def test_a_trains_report_renders_in_a_real_browser_with_the_answer_first(tmp_pat
             browser.close()
     assert errors == [] and all(u == page_path.as_uri() or u.startswith("data:") for u in requests)
     assert m["doc"] <= m["win"] and m["imgs"] == [True]
-    assert m["verdict"].startswith("EXPLAINED: Your model misses backlash at joint 2")
+    assert m["verdict"].startswith("EXPLAINED: Your model misses free play at joint 2")
     assert m["found"] < 900 and m["folded"] and not any(m["folded"])  # the candidates (and any notes) folded
 
 

@@ -218,7 +218,8 @@ def test_a_file_read_wrong_is_named_before_any_cause(tmp_path):
     # issue 37: a file whose model comes out as no flywheel pair (here the two angle columns
     # swapped, the independent bench's example file) got a hint that pointed the wrong way. The
     # fitted model's implausible values come first in what to do next, with the likely fix; the
-    # candidate models diverge in the rig, and MuJoCo's own warning text stays out of the output.
+    # models cannot be simulated (a negative inertia, a divergence), and MuJoCo's own warning
+    # text stays out of the output.
     import json
     import subprocess
     import sys
@@ -234,15 +235,16 @@ def test_a_file_read_wrong_is_named_before_any_cause(tmp_path):
     assert done.returncode == 0, done.stderr
     out = done.stdout
     js = json.loads((tmp_path / "d.json").read_text())
-    assert js["plausibility"] and "swapped columns" in js["plausibility"][0]
+    assert js["plausibility"] and "two swapped give this" in js["plausibility"][0]
     assert js["verdict"]["verdict"] == "unexplained"
-    assert any("extended" in r["no_steady_state"] for r in js["validation"]["per_run"])
+    assert "cannot be simulated" in js["validation"]["note"] or "no periodic steady state" in js["validation"]["note"]
     first_step = out.split("What to do next")[1].splitlines()[1]
-    assert "swapped columns" in first_step, out
+    assert "two swapped give this" in first_step, out
     assert "Nan, Inf or huge value" not in out + done.stderr, done.stderr
     # the right file has nothing implausible
-    right = read_runs(example)
-    assert run_diagnosis(right.records, run_ids=right.run_ids).diagnosis.plausibility == ()
+    done = subprocess.run([sys.executable, "-m", "jointrig", "diagnose", str(example), "-q", "--json",
+                           str(tmp_path / "d.json")], capture_output=True, text=True)
+    assert done.returncode == 0 and json.loads((tmp_path / "d.json").read_text())["plausibility"] == []
 
 
 def _model_with(tmp_path, **fields) -> str:
@@ -277,19 +279,21 @@ def test_the_users_model_as_written_is_held_against_the_data(tmp_path, capsys):
                           "--json", str(out)]) == 0
     text = capsys.readouterr().out
     js = json.loads(out.read_text())
+    # two flywheels are the train of two bodies: the law is joint 1's, the inertias are as written too
     rows = js["as_written"]
-    assert rows["k_Nm_per_rad"]["differs"] and rows["k_Nm_per_rad"]["change"] == "20% lower"
-    assert abs(rows["k_Nm_per_rad"]["data"] - 2000) <= 3 * rows["k_Nm_per_rad"]["std_error"]
-    assert [n for n, r in rows.items() if r["differs"]] == ["k_Nm_per_rad"]
-    assert "As written, your model has k = 2500 N m/rad" in text
-    assert js["verdict"]["verdict"] == "explained" and js["extended"]["effects"] == ["coulomb_friction"]
+    k = rows["joint1_k_Nm_per_rad"]
+    assert k["differs"] and k["change"] == "20% lower" and abs(k["data"] - 2000) <= 3 * k["std_error"]
+    assert [n for n, r in rows.items() if r["differs"]] == ["joint1_k_Nm_per_rad"]
+    assert {"J1_kgm2", "J2_kgm2", "joint1_c_Nms_per_rad", "joint1_gamma_Nm_per_rad3"} < set(rows)
+    assert "As written, your model has joint1_k = 2500 N m/rad" in text
+    assert js["verdict"]["verdict"] == "explained" and js["extended"]["effects"] == ["coulomb_friction at joint 1"]
 
     # The same model with the friction written in: nothing is missing, every parameter agrees
     assert diagnose.main([str(example), "--model", _model_with(tmp_path, coulomb_torque_Nm=60), "-q",
                           "--json", str(out)]) == 0
     js = json.loads(out.read_text())
     assert js["verdict"]["verdict"] == "no_misfit"
-    assert not any(r["differs"] for r in js["as_written"].values()) and "coulomb_torque_Nm" in js["as_written"]
+    assert not any(r["differs"] for r in js["as_written"].values()) and "joint1_coulomb_torque_Nm" in js["as_written"]
 
 
 def test_a_bad_model_file_is_refused_before_the_work(tmp_path, capsys):
@@ -305,8 +309,9 @@ def test_a_bad_model_file_is_refused_before_the_work(tmp_path, capsys):
 
 def test_where_the_torque_acts_is_an_option(tmp_path, capsys):
     # issue 37: `torque` is the drive on flywheel 1; a bench that drives flywheel 2 says so with
-    # --torque-on flywheel2 and gets the same diagnosis; a shaft torque is refused with what to
-    # record instead. The independent bench's example file with its angle columns swapped.
+    # --torque-on flywheel2 and gets the same diagnosis in its own numbering (the drive on body 2,
+    # J1 and J2 as its file names them); a shaft torque is refused with what to record instead.
+    # The independent bench's example file with its angle columns swapped.
     import json
     from pathlib import Path
 
@@ -322,9 +327,12 @@ def test_where_the_torque_acts_is_an_option(tmp_path, capsys):
         assert diagnose.main([str(data), "-q", "--json", str(out), *extra]) == 0
         outs.append(json.loads(out.read_text()))
     assert outs[1]["verdict"]["verdict"] == outs[0]["verdict"]["verdict"] == "explained"
-    # the same numbers but for round-off (the file's channels are read in another order)
-    assert outs[1]["extended"]["parameters"] == pytest.approx(outs[0]["extended"]["parameters"], rel=1e-9)
-    assert any("--torque-on flywheel2" in n for n in outs[1]["notes"])
+    # the same numbers but for round-off (the file's channels are read in another order), the
+    # bodies' numbers swapped
+    swap = {"J1_kgm2": "J2_kgm2", "J2_kgm2": "J1_kgm2"}
+    one, two = outs[0]["extended"]["parameters"], outs[1]["extended"]["parameters"]
+    assert {swap.get(n, n): v for n, v in two.items()} == pytest.approx(one, rel=1e-9)
+    assert outs[1]["noise_std_per_sample"].keys() == {"phi1", "phi2", "torque2"}
     capsys.readouterr()
     assert diagnose.main([str(tmp_path / "on2.csv"), "-q", "--torque-on", "shaft"]) == 2
     assert "the joint's own torque, not a drive" in capsys.readouterr().err

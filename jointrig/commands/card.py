@@ -6,13 +6,13 @@ The runs are diagnosed first (``jointrig diagnose``: the nominal model, the caus
 extension, validated in the rig); the card is then computed twice (identify/card.py,
 studies/joint_card.py): from the runs alone (first harmonics and loop areas, the inertias from the
 fit) and from the identified model (describing function), at each run's amplitude and drive
-frequency and along the model's backbone. It prints the card; ``--json`` holds a list
-``amplitudes`` (``amplitude_rad``, ``natural_frequency_rad_s``, ``damping_ratio``,
-``dissipation_J_per_cycle``, ``secant_stiffness_Nm_per_rad``, each with ``_std``, and
-``source``: runs, model_at_runs, model) and the dissipation slopes with their standard errors.
-A drive train's file (or a single axis's) gets one card per joint (a single body: at its
-guide): ``--json`` holds them as ``cards``, each with its ``place``, and ``--png OUT.png``
-writes ``OUT-joint<j>.png`` per joint. Exit status as ``jointrig diagnose``.
+frequency and along the model's backbone. Every joint gets one (two flywheels: joint 1; a single
+body: at its guide). It prints the cards; ``--json`` holds them as ``cards``, each with its
+``place`` and a list ``amplitudes`` (``amplitude_rad``, ``natural_frequency_rad_s``,
+``damping_ratio``, ``dissipation_J_per_cycle``, ``secant_stiffness_Nm_per_rad``, each with
+``_std``, and ``source``: runs, model_at_runs, model) and the dissipation slopes with their
+standard errors; ``--png OUT.png`` writes the figure (a train of more joints: ``OUT-joint<j>.png``
+per joint). Exit status as ``jointrig diagnose``.
 """
 
 from __future__ import annotations

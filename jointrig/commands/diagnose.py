@@ -138,10 +138,10 @@ def _main(args: argparse.Namespace, writer) -> int:
     quiet_mujoco()
 
     from jointrig.vocab.records import RecordError
-    from jointrig.measured.runs import RunsFileError, driven_first, read_runs
+    from jointrig.measured.runs import RunsFileError, as_train, driven_first, read_runs
     from jointrig.present.diagnosis_report import format_report, report_json
     from jointrig.rig.simulate import SimulationError
-    from jointrig.files import write_json_atomic
+    from jointrig.files import OutputError, write_json_atomic
     from jointrig.studies.validate import MIN_PERIODS_TO_SPLIT, MIN_RUNS_TO_HOLD_OUT, run_diagnosis
 
     logging.basicConfig(level=progress_level(args.quiet), format="%(message)s",
@@ -165,6 +165,8 @@ def _main(args: argparse.Namespace, writer) -> int:
             except RigModelError as err:
                 raise BadArgument(f"--model: {err}") from None
         loaded = read_runs(args.data, columns=args.columns, units=args.units, zero_per_run=args.zero_per_run)
+        if not loaded.is_train and loaded.has_both_angles:  # two flywheels: a train of two bodies
+            return _train(args, as_train(loaded, args.torque_on), model, writer, two_flywheels=True)
         if loaded.is_train or hasattr(model, "n_flywheels"):
             return _train(args, loaded, model, writer)
         loaded = driven_first(loaded, args.torque_on)
@@ -185,7 +187,7 @@ def _main(args: argparse.Namespace, writer) -> int:
         report = run_diagnosis(loaded.records, run_ids=ids, holdout=holdout, band=args.band,
                                torque_share=args.torque_share, alpha=args.alpha, fidelity=args.fidelity,
                                progress=lambda msg: log.info("%s", msg), model=model)
-    except (RunsFileError, RecordError, BadArgument) as err:
+    except (RunsFileError, RecordError, BadArgument, OutputError) as err:  # a train's outputs are written in there
         return _said(err, 2)
     except (SimulationError, ValueError, np.linalg.LinAlgError) as err:
         return _said(err, 1)
@@ -244,21 +246,20 @@ def held_out_runs(args: argparse.Namespace, ids: list) -> "list[int] | None":
     return sorted({ids.index(h) for h in args.holdout})
 
 
-def _train(args: argparse.Namespace, loaded, model, writer) -> int:
-    """A drive train's file (``phi1..phiN``, ``torque<i>``): the chain diagnosis, validated on
-    held-out runs in a rig of the user's model (``--model``) or of the file's bodies and drives."""
-    import tempfile
-
+def _train(args: argparse.Namespace, loaded, model, writer, two_flywheels: bool = False) -> int:
+    """A drive train's file (``phi1..phiN``, ``torque<i>``; two flywheels' ``torque, phi1, phi2``
+    as a train of two bodies, ``two_flywheels``): the chain diagnosis, validated on held-out runs
+    in a rig of the user's model (``--model``) or of the file's bodies and drives."""
     import numpy as np
 
     from jointrig.files import write_atomic, write_json_atomic
     from jointrig.identify.chain import ChainIdentifiabilityError
-    from jointrig.identify.chain_diagnose import nominal_spec
     from jointrig.measured.runs import RunsFileError
     from jointrig.present.train_report import format_train_report, train_report_json
-    from jointrig.rig.chain import chain_model_xml, load_chain
+    from jointrig.rig.chain import chain_model_xml, load_chain, rig_of_bodies
     from jointrig.rig.simulate import SimulationError
     from jointrig.studies.chain_validate import run_train_diagnosis, written_of
+    from jointrig.studies.validate import MIN_PERIODS_TO_SPLIT, MIN_RUNS_TO_HOLD_OUT
     from jointrig.vocab.records import RecordError
 
     t0 = time.perf_counter()
@@ -268,16 +269,24 @@ def _train(args: argparse.Namespace, loaded, model, writer) -> int:
                               f"holds a two-flywheel bench's columns (torque, phi1, phi2); give a train's file "
                               f"(phi1..phiN, torque<i>) or a two-flywheel model")
         N = loaded.records[0].n_flywheels
+        driven = sorted({i for r in loaded.records for i, t in enumerate(r.torques_Nm, start=1) if t is not None})
+        if model is not None and not hasattr(model, "n_flywheels") and two_flywheels:
+            from jointrig.rig.chain import chain_of_two_flywheels
+            from jointrig.rig.model import RigModelError
+
+            try:
+                model = chain_of_two_flywheels(model, driven)
+            except RigModelError as err:
+                raise BadArgument(f"--model: {err}") from None
         if model is not None and not hasattr(model, "n_flywheels"):
             raise BadArgument(f"--model {args.model} is a two-flywheel model, but {args.data} holds a train of {N} "
                               f"bodies (phi1..phi{N}); give a chain model (models/pump_train.xml shows one)")
         if model is not None and (model.n_flywheels, model.kind) != (N, loaded.kind):
             raise BadArgument(f"--model {args.model} has {model.n_flywheels} bodies on {model.kind}s, {args.data} "
                               f"{N} on {loaded.kind}s")
-        if args.torque_on != "flywheel1":
+        if args.torque_on != "flywheel1" and not two_flywheels:
             raise BadArgument("--torque-on: a drive train's file names the driven bodies by its torque<i> columns; "
                               "leave it out")
-        driven = sorted({i for r in loaded.records for i, t in enumerate(r.torques_Nm, start=1) if t is not None})
         if model is not None:
             missing = sorted(set(driven) - set(model.driven))
             if missing:
@@ -287,25 +296,20 @@ def _train(args: argparse.Namespace, loaded, model, writer) -> int:
         holdout = held_out_runs(args, ids)
         if holdout is not None and len(ids) - len(holdout) < 3:
             raise BadArgument(f"--holdout leaves {len(ids) - len(holdout)} run(s) to fit; expected at least 3")
+        if holdout is None and len(ids) < MIN_RUNS_TO_HOLD_OUT + 1:  # each run's later periods are held out
+            short = [f"{rid} ({r.n_periods})" for rid, r in zip(ids, loaded.records) if r.n_periods < MIN_PERIODS_TO_SPLIT]
+            if short:
+                raise RunsFileError(f"{args.data}: {len(ids)} run(s), and run(s) {', '.join(short)} hold fewer than "
+                                    f"{MIN_PERIODS_TO_SPLIT} whole periods: the diagnosis needs {MIN_RUNS_TO_HOLD_OUT + 1} "
+                                    f"runs (some held out for validation) or runs of at least {MIN_PERIODS_TO_SPLIT} "
+                                    f"periods (the later half held out)")
         for n in loaded.notes:
             log.info("note: %s", n)
-        with tempfile.TemporaryDirectory(prefix="jointrig-train-") as tmp:
-            if model is None:
-                # The file's bodies and drives, the paper's law at every joint, unit inertias: the
-                # validation replaces the plant and the inertias by each fit's.
-                from jointrig.identify.chain import plant_of_values
-
-                spec = nominal_spec(N)
-                plant = plant_of_values({n: 0.0 for n in spec.names}, spec)
-                path = Path(tmp) / "train.xml"
-                path.write_text(chain_model_xml(plant, [1.0] * N, driven, kind=loaded.kind), encoding="utf-8")
-                rig = load_chain(path)
-            else:
-                rig = model
-            written = written_of(model) if model is not None else ()
-            report = run_train_diagnosis(loaded.records, run_ids=ids, rig=rig, holdout=holdout, written=written,
-                                         band=args.band, alpha=args.alpha, fidelity=args.fidelity,
-                                         progress=lambda msg: log.info("%s", msg))
+        rig = model if model is not None else rig_of_bodies(N, driven, loaded.kind)
+        written = written_of(model) if model is not None else ()
+        report = run_train_diagnosis(loaded.records, run_ids=ids, rig=rig, holdout=holdout, written=written,
+                                     band=args.band, alpha=args.alpha, fidelity=args.fidelity,
+                                     progress=lambda msg: log.info("%s", msg))
     except (RunsFileError, RecordError, BadArgument, ChainIdentifiabilityError) as err:
         return _said(err, 2)
     except (SimulationError, ValueError, np.linalg.LinAlgError) as err:
@@ -331,7 +335,7 @@ def _train(args: argparse.Namespace, loaded, model, writer) -> int:
 
         with open_recording(args.rrd) as rec:
             log_chain_diagnosis(rec, report.diagnosis, report.validation, report.diagnosis.nominal.spec.n_flywheels,
-                                report.misfit)
+                                report.misfit, text=text)
         log.info("wrote %s", args.rrd)
     if args.mjcf:
         from jointrig.identify.chain_diagnose import plant_and_inertias

@@ -13,7 +13,7 @@ from __future__ import annotations
 import re
 
 __all__ = ["Param", "unit_of", "quantity_of", "J1", "J2", "JE", "BEARING1", "BEARING2", "DRIVE_DELAY", "ANGLE2_DELAY",
-           "ANGLE2_GAIN", "channel_name", "linear_name", "rotational_name"]
+           "ANGLE2_GAIN", "channel_name", "train_name", "linear_name", "rotational_name"]
 
 # Unit atoms as they appear in names, longest first, and how a person writes them.
 _ATOMS = (("kgm2", "kg m^2"), ("kg", "kg"), ("Nms2", "N m s^2"), ("Nms", "N m s"), ("Nm", "N m"), ("Ns", "N s"),
@@ -81,6 +81,15 @@ DRIVE_DELAY = Param("drive_delay_s")
 #: Flywheel 2's angle channel read late, or a fixed factor too large (the two-flywheel names of
 #: a sensor's skew and scale error, :func:`channel_name` for body i of a train).
 ANGLE2_DELAY, ANGLE2_GAIN = Param("angle2_delay_s"), Param("angle2_gain_error")
+
+
+def train_name(name: str) -> Param:
+    """A two-flywheel parameter's name in the train of two bodies (the one model of every bench):
+    a law's at joint 1 (``coulomb_torque_Nm`` -> ``joint1_coulomb_torque_Nm``); inertias, bearings,
+    the drive's lag and flywheel 2's channel keep theirs."""
+    if name.startswith(("J1_", "J2_", "bearing", "drive_", "angle2_")):
+        return Param(name)
+    return Param("joint1_" + name)
 
 
 def channel_name(i: int, name: str) -> Param:
