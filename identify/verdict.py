@@ -10,7 +10,8 @@ import math
 from dataclasses import dataclass
 from typing import Sequence
 
-__all__ = ["CHI2_PER_DOF_OK", "HELDOUT_OK", "HELDOUT_EXTENDED_OK", "GAIN_OK", "RIG_FIDELITY", "Verdict", "judge"]
+__all__ = ["CHI2_PER_DOF_OK", "HELDOUT_OK", "HELDOUT_EXTENDED_OK", "GAIN_OK", "GAIN_AT_NOISE", "AT_NOISE",
+           "RIG_FIDELITY", "Verdict", "judge"]
 
 #: A model explains the data to the noise when its chi-square per degree of freedom is at most
 #: this (a correct model gives 0.4-1.0: the model-fidelity floor inflates the row variances) ...
@@ -33,6 +34,16 @@ HELDOUT_EXTENDED_OK = 100.0
 #: error held out at the fit's own levels is fitted by quadratic damping with a gain of 7.95, so
 #: the open-world test holds it out at another level).
 GAIN_OK = 3.0
+#: ... or at least this much when it brings the held-out error to the noise, at most
+#: :data:`AT_NOISE` times the floor: a held-out run where the effect barely shows leaves the
+#: nominal model little to lose (the light joint's 10 N m dry friction on the independent bench,
+#: its run 1 held out: nominal 3.6 floors, extended 1.29, gain 2.78; every other run held out,
+#: and every run of the paper's joint's 20 N m, gave 6.6-53). Effects outside the catalogue that
+#: a catalogued cause half fits stay below it (gains 0.8-1.5, their extensions 20-115 floors off).
+GAIN_AT_NOISE = 2.0
+#: A held-out error within this many times the floor is the noise's (the right extension reads
+#: 0.8-2.5 floors on the independent bench's dry friction, whichever run is held out).
+AT_NOISE = 2.0
 
 
 @dataclass(frozen=True)
@@ -76,6 +87,10 @@ def judge(causes: Sequence[str], chi2_per_dof: float, error_ratio: float, gain: 
     if fits and gain >= GAIN_OK:
         return Verdict("explained", f"{names} {verb} the data: {figures}, held-out gain {gain:.3g} (at least "
                                     f"{GAIN_OK:g})")
+    if fits and error_ratio <= AT_NOISE and gain >= GAIN_AT_NOISE:
+        return Verdict("explained", f"{names} {verb} the data: {figures}, held-out gain {gain:.3g}, to the noise (at "
+                                    f"least {GAIN_AT_NOISE:g} where the held-out error falls to within {AT_NOISE:g} "
+                                    f"times its floor)")
     if fits and nominal_lost:
         # The nominal model has no steady state where the extension predicts the runs: an
         # infinite gain, stated in words.

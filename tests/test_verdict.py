@@ -25,13 +25,11 @@ import pytest
 from bench_sim import JOINTS, POINTS, measure, with_effect
 from jointrig.identify import diagnose as D
 from jointrig.identify.causes import CAUSES, parsimonious
-from jointrig.measured.runs import read_runs
+from jointrig.measured.runs import as_train, read_runs
+from jointrig.rig.chain import rig_of_bodies
+from jointrig.studies.chain_validate import run_train_diagnosis
 from jointrig.present.diagnosis_json import schema_problems
-from jointrig.present.diagnosis_report import format_report, report_json
 from jointrig.rig.simulate import SimulationError
-from jointrig.studies import validate
-from jointrig.present.card import card_json
-from jointrig.studies.joint_card import card_of_diagnosis
 from jointrig.studies.validate import run_diagnosis
 
 KIND = {c.name: c.kind for c in CAUSES}
@@ -47,51 +45,61 @@ def _loaded(tmp_path, joint: str, seed: int = 7, **effect):
     return read_runs(path)
 
 
+def _train(loaded, holdout=None):
+    """The diagnosis of every bench (``jointrig diagnose``): two flywheels as the train of two bodies."""
+    return run_train_diagnosis(as_train(loaded).records, run_ids=loaded.run_ids, rig=rig_of_bodies(2, [1]),
+                               holdout=holdout)
+
+
+def _dynamic(report) -> list:
+    return [s.effect for s in report.diagnosis.steps if KIND[s.effect] == "dynamic"] if report.adopted else []
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("joint, friction_Nm", [("paper", 20.0), ("light", 10.0)])
 def test_dry_friction_is_adopted_whichever_run_is_held_out(tmp_path, joint, friction_Nm):
     loaded = _loaded(tmp_path, joint, Fc=friction_Nm)
     for held in range(len(loaded.records)):
-        report = run_diagnosis(loaded.records, run_ids=loaded.run_ids, holdout=(held,))
+        report = _train(loaded, holdout=(held,))
         d = report.diagnosis
-        dynamic = [e for e in report.adopted if KIND[e] == "dynamic"]
-        assert report.verdict.verdict == "explained" and dynamic == ["coulomb_friction"], (held, report.verdict)
-        value = d.extended.as_dict()["coulomb_torque_Nm"]
-        se = d.extended.std_error("coulomb_torque_Nm")
+        assert report.verdict.verdict == "explained" and _dynamic(report) == ["coulomb_friction"], (held, report.verdict)
+        value = d.final.as_dict()["joint1_coulomb_torque_Nm"]
+        se = d.final.std_error("joint1_coulomb_torque_Nm")
         # 3 standard errors (the diagnosis's own, with its model-fidelity floor), as the
         # independent-bench acceptance
         assert abs(value - friction_Nm) <= 3 * se, (held, value, se)
 
 
 def test_a_diverging_candidate_is_rejected_with_its_reason(tmp_path, monkeypatch):
+    from jointrig.present.train_report import format_train_report, train_report_json
+    from jointrig.studies import chain_validate
+
     loaded = _loaded(tmp_path, "paper", Fc=20.0)
-    real = validate._simulate
+    real = chain_validate.simulate_chain
 
-    def diverging(rig, plant, J, run, *args):
+    def diverging(rig, *args, **kwargs):
         # the extended model (with dry friction) diverges in the rig, as a gear-mesh candidate did
-        if "coulomb_torque_Nm" in plant.law.names:
-            raise SimulationError("two_flywheels.xml: MuJoCo warned: mjWARN_BADQACC x1; the simulation diverged")
-        return real(rig, plant, J, run, *args)
+        if "coulomb_torque_Nm" in rig.plant.laws[0].names:
+            raise SimulationError("train.xml: MuJoCo warned: mjWARN_BADQACC x1; the simulation diverged")
+        return real(rig, *args, **kwargs)
 
-    monkeypatch.setattr(validate, "_simulate", diverging)
-    report = run_diagnosis(loaded.records, run_ids=loaded.run_ids)
+    monkeypatch.setattr(chain_validate, "simulate_chain", diverging)
+    report = _train(loaded)
     v = report.verdict
-    assert v.verdict == "unexplained" and report.adopted == ()
-    assert "rejected" in v.reason and "it diverges" in v.reason, v
-    assert report.unsimulated("extended") == tuple(loaded.run_ids) and report.unsimulated("nominal") == ()
-    text = format_report(report)
+    assert v.verdict == "unexplained" and not report.adopted
+    assert "is not adopted" in v.reason and "diverged" in v.reason, v
+    text = format_train_report(report)
     assert not re.search(r"\b(inf|nan)\b", text, re.IGNORECASE), text
-    assert "diverges" in text
-    js = report_json(report)
+    assert "diverged" in text
+    js = train_report_json(report)
     json.dumps(js, allow_nan=False)  # no inf or nan
-    assert {r["run"]: r["no_steady_state"].get("extended") for r in js["validation"]["per_run"]} == {
-        r: "it diverges" for r in loaded.run_ids}
-    assert js["validation"]["gain"] is None and not schema_problems(js)
-    # The card describes the nominal model, says so, and measures the runs with the inertias of
-    # the fit that explains them better (the friction's)
-    card = card_of_diagnosis(report, loaded.records, run_ids=loaded.run_ids)
+    assert js["validation"]["gain"] is None and js["validation"]["extended_error"] is None and not schema_problems(js)
+    # The card describes the nominal model and says so
+    from jointrig.present.card import card_json
+    from jointrig.studies.joint_card import cards_of_train
+
+    (card,) = cards_of_train(report, as_train(loaded).records)
     assert "did NOT adopt" in card.warning and "unexplained" in card.warning
-    assert "tried extension" in card.runs_inertias
     cj = card_json(card)
     assert cj["model_adopted"] is False and cj["warning"] == card.warning
     json.dumps(cj, allow_nan=False)
@@ -122,46 +130,43 @@ def test_large_free_play_is_found_with_its_stiffness(tmp_path, joint, gap_rad):
     # Free play up to about half the largest twist (paper: 0.3 of 0.70 rad; light: the issue's
     # 0.02 rad, larger than the smallest runs' twist, so those runs never engage): the gap, k and
     # gamma within 2 standard errors (issue 35, item 5). The search for the gap reaches 0.8 of the
-    # largest twist (it stopped at 0.8 of the smallest, 0.013 rad on the light joint).
+    # largest twist.
     loaded = _loaded(tmp_path, joint, seed=11, gap=gap_rad)
-    report = run_diagnosis(loaded.records, run_ids=loaded.run_ids)
+    report = _train(loaded)
     d = report.diagnosis
     assert report.verdict.verdict == "explained", report.verdict
-    assert [e for e in report.adopted if KIND[e] == "dynamic"] == ["backlash"], d.effects
-    truth = {"backlash_half_gap_rad": gap_rad, "k_Nm_per_rad": JOINTS[joint].k,
-             "gamma_Nm_per_rad3": JOINTS[joint].gamma}
-    params = d.extended.effect_parameters()
+    assert _dynamic(report) == ["backlash"], [s.label for s in d.steps]
+    truth = {"joint1_backlash_half_gap_rad": gap_rad, "joint1_k_Nm_per_rad": JOINTS[joint].k,
+             "joint1_gamma_Nm_per_rad3": JOINTS[joint].gamma}
+    params = d.final.parameters()
     for name, true in truth.items():
-        value, se = params[name], d.extended.std_error(name)
+        value, se = params[name], d.final.std_error(name)
         assert abs(value - true) <= 2 * se, (name, value, se, true)
 
 
 @pytest.mark.parametrize("points", [[(40.0, 2500.0)], [(25.0, 1500.0), (55.0, 3500.0)]], ids=["one run", "two runs"])
 def test_one_or_two_runs_are_diagnosed_on_their_later_periods(tmp_path, points):
     # A bench's single long record (or two): no run can be held out, so each run's first half of
-    # periods is fitted and the rest predicted in the rig; the verdict says that no held-out
-    # excitation exists and what evidence stands instead (issue 35, item 6).
+    # periods is fitted and the rest predicted in the rig; the verdict says so (issue 35, item 6).
+    from jointrig.present.train_report import format_train_report, train_report_json
+
     path = measure(with_effect(JOINTS["paper"], Fc=20.0), points, tmp_path / "bench.csv", seed=3, fs_Hz=2000.0,
                    n_periods=8.5)
     loaded = read_runs(path)
-    report = run_diagnosis(loaded.records, run_ids=loaded.run_ids)
-    assert report.validation_kind == validate.HELD_OUT_PERIODS
-    assert report.verdict.verdict == "explained" and report.adopted == ("coulomb_friction",), report.verdict
+    report = _train(loaded)
+    assert report.held_out_periods
+    assert report.verdict.verdict == "explained" and _dynamic(report) == ["coulomb_friction"], report.verdict
     assert "held-out later periods" in report.verdict.reason
-    fit = [r.run_id for r in report.runs if not r.held_out]
-    held = [r.run_id for r in report.runs if r.held_out]
-    assert fit == [f"{i} (periods 1-4)" for i in loaded.run_ids] and held == [f"{i} (periods 5-8)" for i in loaded.run_ids]
-    js = report_json(report)
+    js = train_report_json(report)
     assert js["validation"]["kind"] == "held_out_periods"
-    assert "no held-out excitation exists" in js["validation"]["statement"]
-    assert "no held-out excitation exists" in format_report(report)
+    assert "later periods" in format_train_report(report)
 
 
 def test_a_run_too_short_to_split_is_refused(tmp_path):
     path = measure(JOINTS["paper"], [(40.0, 2500.0)], tmp_path / "bench.csv", seed=3, fs_Hz=2000.0, n_periods=3.5)
     loaded = read_runs(path)
-    with pytest.raises(ValueError, match=r"1 run\(s\), and run\(s\) 0 \(3\) hold fewer than 4 whole periods"):
-        run_diagnosis(loaded.records, run_ids=loaded.run_ids)
+    with pytest.raises(ValueError, match=r"run\(s\) \['0'\] hold fewer than 4 whole periods"):
+        _train(loaded)
 
 
 #: The issue's cases on the independent bench (``python tests/test_verdict.py`` prints each one's
@@ -194,13 +199,14 @@ def _issue_case(name: str) -> str:
                        seed=7, fs_Hz=2000.0, n_periods=6.5)
         loaded = read_runs(path)
         try:
-            r = run_diagnosis(loaded.records, run_ids=loaded.run_ids)
+            r = _train(loaded)
         except Exception as err:  # noqa: BLE001 - the table shows a crash as such
             return f"{name:46s} CRASH {err!r}"
     v = r.verdict.verdict
-    named = [e for e in r.adopted if KIND[e] == "dynamic"]
+    named = _dynamic(r)
     ok = (v == "explained" and named == [right]) or (v == "unexplained" and not r.adopted)
-    return f"{name:46s} {v:12s} {'+'.join(r.adopted) or '-':28s} {'right' if ok else 'WRONG':6s} {r.verdict.reason}"
+    found = "+".join(s.label for s in r.diagnosis.steps) if r.adopted else "-"
+    return f"{name:46s} {v:12s} {found:40s} {'right' if ok else 'WRONG':6s} {r.verdict.reason}"
 
 
 if __name__ == "__main__":

@@ -10,7 +10,8 @@ import math
 
 import pytest
 
-from jointrig.identify.verdict import CHI2_PER_DOF_OK, GAIN_OK, HELDOUT_EXTENDED_OK, HELDOUT_OK, judge
+from jointrig.identify.verdict import (AT_NOISE, CHI2_PER_DOF_OK, GAIN_AT_NOISE, GAIN_OK, HELDOUT_EXTENDED_OK, HELDOUT_OK,
+                                     judge)
 
 
 @pytest.mark.parametrize("c2,ratio,verdict", [
@@ -63,3 +64,17 @@ def test_the_thresholds_are_the_measured_ones():
     # Set from the independent bench's cases (their derivation beside them in
     # identify/verdict.py): a change moves every verdict and must be deliberate.
     assert (CHI2_PER_DOF_OK, HELDOUT_OK, HELDOUT_EXTENDED_OK, GAIN_OK) == (2.0, 8.0, 100.0, 3.0)
+    assert (GAIN_AT_NOISE, AT_NOISE) == (2.0, 2.0)
+
+
+@pytest.mark.parametrize("ratio,gain,verdict", [
+    (AT_NOISE, GAIN_AT_NOISE, "explained"),              # to the noise: a smaller gain confirms it (inclusive)
+    (1.29, 2.78, "explained"),                           # the light joint's dry friction, run 1 held out
+    (AT_NOISE * 1.001, GAIN_OK * 0.999, "unexplained"),  # not at the noise: the full gain is needed
+    (1.0, GAIN_AT_NOISE * 0.999, "unexplained"),         # at the noise, but the nominal model was too
+])
+def test_an_extension_that_brings_the_held_out_error_to_the_noise_needs_a_smaller_gain(ratio, gain, verdict):
+    v = judge(("coulomb_friction",), 1.0, ratio, gain)
+    assert v.verdict == verdict, v
+    if verdict == "explained":
+        assert f"held-out gain {gain:.3g}, to the noise (at least {GAIN_AT_NOISE:g}" in v.reason
