@@ -677,3 +677,44 @@ def test_a_plants_drag_and_laws_to_ground_sit_at_their_bodies():
     assert spec.bearings == (2,) and spec.grounds == ((), (), (Coulomb(),), ())
     again = plant_of_values(p, spec)
     assert again.bearings_Nms_per_rad == (0.0, 1.5, 0.0, 0.0) and again.grounds == plant.grounds
+
+
+def test_a_channel_read_late_and_scaled_is_balanced_exactly_once_corrected():
+    # Body 2's angle of an exact linear chain read 0.4 ms late and 3% too large (a multiplexed
+    # DAQ's skew, a line count set wrong): with the spec's channel values the rows are exact again
+    # (the truth to 1e-9), without them the fit misses; reading a record and correcting it gives
+    # it back (to round-off: both are exact on its harmonics).
+    from dataclasses import replace as rep
+
+    from jointrig.identify.chain import channel_corrected
+
+    J, c, k = [0.5, 0.1, 0.8], [2.0, 1.0], [4e4, 2e4]
+    recs = _linear_chain_records(J, c, k, [0, 0, 0], {1: 100.0}, [30, 80, 150, 250])
+    recs = [rep(r, rates_rad_s=None) for r in recs]
+    spec = ChainSpec(((Viscous(), Power(1)),) * 2)
+    read = rep(spec, channel_delays_s=(0.0, 4e-4, 0.0), channel_gains=(0.0, 0.03, 0.0))
+    assert read.reads_channels and not spec.reads_channels
+    measured = [channel_corrected(r, read, read=True) for r in recs]
+    np.testing.assert_allclose(measured[0].angles_rad[1][:8], 1.03 * np.interp(
+        recs[0].time_s[:8] - 4e-4, recs[0].time_s, recs[0].angles_rad[1], period=recs[0].time_s[-1] * 64 / 63),
+        atol=2e-3 * np.ptp(recs[0].angles_rad[1]))  # a read 0.4 ms late, 3% large (interpolated: 0.2%)
+    assert measured[0].angles_rad[0] is recs[0].angles_rad[0]  # body 1's channel is the reference
+    back = channel_corrected(measured[1], read)
+    np.testing.assert_allclose(back.angles_rad[1], recs[1].angles_rad[1], atol=1e-12 * np.ptp(recs[1].angles_rad[1]))
+    truth = dict(zip(spec.names, [0.5, 2.0, 4e4, 0.1, 1.0, 2e4, 0.8]))
+    fit = solve_banded(chain_system(measured, read, n_harmonics=3))
+    for n, v in zip(fit.names, fit.values):
+        assert v == pytest.approx(truth[n], rel=1e-9), n
+    wrong = solve_banded(chain_system(measured, spec, n_harmonics=3))
+    assert max(abs(v / truth[n] - 1) for n, v in zip(wrong.names, wrong.values)) > 1e-3
+
+
+@pytest.mark.parametrize("field, values, message", [
+    ("channel_delays_s", (1e-4, 0.0, 0.0), "0 for body 1"),
+    ("channel_gains", (0.0, 0.1), "one finite number per body"),
+    ("channel_gains", (0.0, -1.0, 0.0), "must be > -1"),
+    ("channel_delays_s", (0.0, float("nan"), 0.0), "one finite number per body"),
+])
+def test_a_channels_skew_and_scale_are_checked(field, values, message):
+    with pytest.raises(ValueError, match=message):
+        ChainSpec(((Viscous(),),) * 2, **{field: values})

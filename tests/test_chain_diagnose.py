@@ -102,13 +102,16 @@ def test_a_candidates_own_torque_is_its_joint_law_less_the_nominal_terms():
     np.testing.assert_allclose(own.torque(phi, np.sign(phi) + 0.5), 20.0 * np.sign(np.sign(phi) + 0.5), atol=1e-9)
 
 
-def _linear_problem(seed: int = 0, fidelity: float = 1e-3, bearings=(0.0, 0.0, 0.0, 0.0)):
+def _linear_problem(seed: int = 0, fidelity: float = 1e-3, bearings=(0.0, 0.0, 0.0, 0.0), read=None):
     """A 4-body linear train's runs at five frequencies (exact steady states from its dynamic
     stiffness, tests/test_chain.py), 4 periods each with 60 dB of noise on every channel, and the
-    chain diagnosis's problem on them with the nominal fit."""
+    chain diagnosis's problem on them with the nominal fit. ``read``: a spec whose channel skews
+    and scales the angles are read with."""
+    from dataclasses import replace
+
     import numpy as np
 
-    from jointrig.identify.chain import ChainRecord
+    from jointrig.identify.chain import ChainRecord, channel_corrected
     from jointrig.identify.chain_diagnose import _Problem, nominal_spec, prepare_chain_runs
     from test_chain import _linear_chain_records
 
@@ -117,6 +120,8 @@ def _linear_problem(seed: int = 0, fidelity: float = 1e-3, bearings=(0.0, 0.0, 0
     recs = []
     for r in _linear_chain_records(J, c, k, list(bearings), {1: 60.0}, [150.0, 300.0, 600.0, 1200.0, 2000.0]):
         P = 4
+        if read is not None:
+            r = channel_corrected(replace(r, rates_rad_s=None), read, read=True)
 
         def noisy(x):
             return None if x is None else np.tile(x, P) + rng.normal(0, 1e-3 * np.std(x), x.size * P)
@@ -606,3 +611,49 @@ def test_the_separating_drive_takes_a_joints_law_and_a_bodys_drag_as_each_is():
     drive, why = separating_drive(problem, joint, drag, sj, sd)
     assert drive in (1, 2, 3, 4) and f"driving flywheel {drive} separates" in why
     assert all(f"flywheel {i}:" in why for i in range(1, 5))
+
+
+@pytest.mark.parametrize("delay_s, gain", [(2e-5, 0.0), (0.0, 0.02)])
+def test_a_channel_read_late_or_scaled_is_found_at_its_body_with_its_size(delay_s, gain):
+    # Body 3's angle read 20 us late (the search reaches 5% of the fastest run's period, 157 us)
+    # or 2% too large: the cause at body 3's channel is significant and its size within 3
+    # standard errors of the truth (60 dB of noise), and it explains more than the same cause at
+    # another body's channel.
+    from jointrig.identify.causes import Place, by_name
+    from jointrig.identify.chain import ChainSpec
+    from jointrig.identify.chain_diagnose import Candidate, score
+    from jointrig.vocab.law import Power, Viscous
+
+    read = ChainSpec(((Viscous(), Power(1)),) * 3, channel_delays_s=(0.0, 0.0, delay_s, 0.0),
+                     channel_gains=(0.0, 0.0, gain, 0.0))
+    problem, (nominal, w) = _linear_problem(read=read)
+    cause = by_name("angle_skew" if delay_s else "angle_gain")
+    here = score(problem, Candidate(cause, Place("channel", 3)), nominal, w, 38, 1e-3)
+    there = score(problem, Candidate(cause, Place("channel", 2)), nominal, w, 38, 1e-3)
+    name, value, se = here.magnitude
+    assert name == ("angle3_delay_s" if delay_s else "angle3_gain_error")
+    assert here.significant and abs(value - (delay_s or gain)) <= 3 * se, (value, se)
+    assert here.delta_chi2 > there.delta_chi2
+    assert here.label == f"{cause.name} at body 3's angle channel"
+
+
+def test_a_places_covariance_is_its_laws_and_its_modes_inertia():
+    # The card's model curves carry the fit's covariance mapped onto (the mode's inertia, the
+    # law's values): the law's block as the fit has it, the inertia's variance to first order
+    # in the two bodies' (J_a J_b / (J_a + J_b)).
+    import numpy as np
+
+    from jointrig.identify.chain_diagnose import place_covariance, place_law
+
+    problem, (fit, _) = _linear_problem()
+    law, je = place_law(fit, 1)
+    cov = place_covariance(fit, 1)
+    idx = {n: i for i, n in enumerate(fit.names)}
+    names = [f"joint2_{n}" for n in law.names]
+    block = fit.covariance[np.ix_([idx[n] for n in names], [idx[n] for n in names])]
+    np.testing.assert_allclose(cov[1:, 1:], block, rtol=1e-12)
+    Ja, Jb = fit.as_dict()["J2_kgm2"], fit.as_dict()["J3_kgm2"]
+    g = np.zeros(len(fit.names))
+    g[idx["J2_kgm2"]], g[idx["J3_kgm2"]] = (Jb / (Ja + Jb)) ** 2, (Ja / (Ja + Jb)) ** 2
+    assert cov[0, 0] == pytest.approx(g @ fit.covariance @ g, rel=1e-12)
+    assert je == pytest.approx(Ja * Jb / (Ja + Jb), rel=1e-12)
