@@ -229,7 +229,7 @@ def train_figure(report: TrainReport) -> str:
     at the noise, the nominal's the misfit the cause removes). Empty without a cause or without
     simulated runs."""
     from jointrig.identify.harmonics import fourier_coefficients, synthesize
-    from jointrig.studies.chain_validate import found_motion
+    from jointrig.studies.chain_validate import found_motion, train_setting
 
     from . import svg
 
@@ -242,8 +242,10 @@ def train_figure(report: TrainReport) -> str:
     for meas, nom, ext in v.records:
         P, N = meas.n_periods, meas.samples_per_period
         what, x = found_motion(meas, step)
-        p = svg.Panel(f"{meas.omega_rad_s:.4g} rad/s: {what}", "t [s]", f"about its mean [{unit}]")
-        q = svg.Panel(f"{meas.omega_rad_s:.4g} rad/s: model minus measurement", "t [s]", f"departure [{unit}]")
+        _, amp, _ = train_setting(meas)
+        run = f"{meas.omega_rad_s:.4g} rad/s, {amp:.4g} {'N' if report.kind == 'slide' else 'N m'}"
+        p = svg.Panel(f"{run}: {what}", "t [s]", f"about its mean [{unit}]")
+        q = svg.Panel(f"{run}: model minus measurement", "t [s]", f"departure [m{unit}]")
         t = meas.time_s[:N] - meas.time_s[0]
         xm = x.reshape(P, N).mean(axis=0)
         # each about its own mean: the comparison leaves the mean out (a sensor's zero is arbitrary)
@@ -256,7 +258,7 @@ def train_figure(report: TrainReport) -> str:
             p.line(sim.time_s - sim.time_s[0], xs - xs.mean(), width=1.2, label=name, **style)
             m = min(band, sim.samples_per_period // 2 - 1)
             sim_grid = synthesize(fourier_coefficients(xs, sim.n_periods, m) * (np.arange(m + 1) > 0), N)
-            q.line(t, sim_grid - on_grid, width=1.2, label=name, **style)
+            q.line(t, 1e3 * (sim_grid - on_grid), width=1.2, label=name, **style)
         panels.append(p)
         departures.append(q)
     panels[0].legend = departures[0].legend = True
