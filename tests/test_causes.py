@@ -366,3 +366,49 @@ def test_a_score_says_where_and_reads_the_same_in_json_for_two_flywheels_and_a_t
     assert a.as_json() == {"effects": ["backlash at joint 2", "coulomb_friction at joint 3"],
                            "excitation": "drive body 4", "separating_drive_body": 4}
     assert Ambiguity(("a", "b"), "x").as_json()["separating_drive_body"] is None
+
+
+def test_the_profile_search_below_a_vertex_outside_its_range_takes_the_one_sided_curvature():
+    # chi2 = 50 + ((h - 0.25) / 0.01)^2 searched on [0.3, 1]: the vertex lies outside, the minimum
+    # on the bound; the one-sided second difference of a parabola (the points above the bound) is
+    # still exact: 0.01, the fit's chi2/dof 0.75 leaving it unscaled. One below the bound would
+    # read another side of the parabola.
+    from jointrig.identify.causes import profile
+
+    found = profile(lambda h: _Fit(50.0 + ((h - 0.25) / 0.01) ** 2), by_name("backlash"), 0.3, 1.0)
+    assert found.value == pytest.approx(0.3, abs=1e-6) and found.std_error == pytest.approx(0.01, rel=1e-6)
+
+
+def test_a_causes_improvement_is_shared_by_harmonic_class():
+    # rows of harmonics 0..5 dropping 1..6: the mean 1, the fundamental 2, the even 3 + 5, the
+    # odd from 3 up 4 + 6, of 21
+    from jointrig.identify.causes import harmonic_shares
+
+    shares = harmonic_shares(np.arange(1.0, 7.0), np.arange(6))
+    assert shares == pytest.approx({"mean": 1 / 21, "fundamental": 2 / 21, "even": 8 / 21, "odd>=3": 10 / 21},
+                                   rel=1e-15)
+    assert harmonic_shares(np.zeros(3), np.array([1, 2, 3])) == {"mean": 0.0, "fundamental": 0.0, "even": 0.0,
+                                                                 "odd>=3": 0.0}
+
+
+def test_a_channels_skew_is_sought_either_way_within_a_twentieth_of_the_shortest_period():
+    # Runs at 10 and 20 rad/s: the skew is searched over +-5% of 2 pi / 20 s, the scale over
+    # +-20%; both only against the nominal model (a sensor's fault shows in the whole record).
+    from types import SimpleNamespace
+
+    runs = [SimpleNamespace(average=SimpleNamespace(omega_rad_s=w)) for w in (10.0, 20.0)]
+    b = 0.05 * 2 * math.pi / 20.0
+    assert by_name("angle_skew").bounds(runs) == (pytest.approx(-b, rel=1e-15), pytest.approx(b, rel=1e-15))
+    assert by_name("angle_gain").bounds(runs) == (-0.2, 0.2)
+    assert {c.name for c in CATALOGUE if c.first_only} == {"angle_skew", "angle_gain"}
+
+
+def test_forward_selection_stops_at_the_first_round_that_adopts_nothing():
+    calls = []
+
+    def rank(base, pool, rnd):
+        calls.append(rnd)
+        return list(pool)
+
+    chosen = forward_select("base", CAUSES[:3], rank=rank, adopt=lambda base, ranked: None, max_effects=3)
+    assert calls == [0] and chosen.adopted == () and len(chosen.rounds) == 1 and chosen.base == "base"

@@ -718,3 +718,18 @@ def test_a_channel_read_late_and_scaled_is_balanced_exactly_once_corrected():
 def test_a_channels_skew_and_scale_are_checked(field, values, message):
     with pytest.raises(ValueError, match=message):
         ChainSpec(((Viscous(),),) * 2, **{field: values})
+
+
+def test_a_banded_systems_density_is_the_share_of_its_blocks_and_masks_need_no_oversampling():
+    J, c, k = [0.5, 0.1, 0.8], [2.0, 1.0], [4e4, 2e4]
+    recs = _linear_chain_records(J, c, k, [0, 0, 0], {1: 100.0}, [30, 80])
+    banded = chain_system(recs, ChainSpec(((Viscous(), Power(1)),) * 2), n_harmonics=3)
+    m, p = banded.system.A.shape
+    inside = np.zeros((m, p), bool)
+    for r0, r1, c0, c1 in banded.spans:
+        inside[r0:r1, c0:c1] = True
+    assert banded.density == pytest.approx(inside.sum() / (m * p), rel=1e-15) and banded.density < 1
+    assert not np.any(banded.system.A[~inside])  # nothing outside the blocks
+    with pytest.raises(ValueError, match="masks need oversample 1"):
+        chain_system(recs, ChainSpec(((Viscous(), Power(1)),) * 2), n_harmonics=3, oversample=2,
+                     masks=[(np.ones(recs[0].time_s.size), None, None)] * len(recs))

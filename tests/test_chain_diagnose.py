@@ -657,3 +657,54 @@ def test_a_places_covariance_is_its_laws_and_its_modes_inertia():
     g[idx["J2_kgm2"]], g[idx["J3_kgm2"]] = (Jb / (Ja + Jb)) ** 2, (Ja / (Ja + Jb)) ** 2
     assert cov[0, 0] == pytest.approx(g @ fit.covariance @ g, rel=1e-12)
     assert je == pytest.approx(Ja * Jb / (Ja + Jb), rel=1e-12)
+
+
+def test_the_last_bodys_inertia_is_checked_for_plausibility_too():
+    import numpy as np
+
+    from jointrig.identify.chain import ChainSpec
+    from jointrig.identify.chain_diagnose import ChainFit, implausible_train_fit
+    from jointrig.vocab.law import Power
+
+    spec = ChainSpec(((Power(1),),) * 2)
+    names = spec.names  # J1, joint1_k, J2, joint2_k, J3
+
+    def fit(values):
+        return ChainFit(spec, names, np.array(values, float), np.full(len(names), 0.01), 10.0, 100,
+                        np.zeros(100))
+    assert implausible_train_fit(fit([1.0, 1e4, 1.0, 1e4, 1.0])) == ()
+    said = implausible_train_fit(fit([1.0, 1e4, 1.0, 1e4, -0.5]))
+    assert said and "body(ies) 3" in said[0] and "J3 = -0.5" in said[0]
+
+
+def test_a_joint_cards_runs_read_its_twist():
+    # The card's runs at joint 2 of the linear train: each period's twist harmonics are phi2 - phi3's.
+    import numpy as np
+
+    from jointrig.identify.chain_diagnose import train_joint_runs
+    from jointrig.identify.harmonics import fourier_coefficients
+
+    problem, (fit, _) = _linear_problem()
+    places = train_joint_runs(problem.runs[:2], ["a", "b"], fit, 5)
+    assert len(places) == 3 and [jr.run for jr in places[1]] == ["a", "b"]
+    period = problem.runs[0].periods[0]
+    twist = fourier_coefficients(period.angles_rad[1] - period.angles_rad[2], 1, 5)
+    np.testing.assert_allclose(places[1][0].phi[0], twist, rtol=1e-12, atol=1e-15)
+
+
+def test_the_separating_information_of_two_drags_is_the_smaller_ones_rows_in_closed_form():
+    # Drags at the two bodies of a 2-body chain load different equations: neither takes up any of
+    # the other, and the information is the smaller drag torque's squared amplitude at the
+    # fundamental, |w X_i b_i|^2, over the noise, X = Z(w)^-1 e_d T (Z the dynamic stiffness).
+    import numpy as np
+
+    from jointrig.identify.chain_diagnose import drive_information
+
+    J, c, k, T, w, sigma = (2.0, 0.5), (30.0,), (1e4,), 100.0, 60.0, 0.5
+    info = drive_information(J, c, k, (w,), T, sigma, ("flywheel", 1, 4.0), ("flywheel", 2, 3.0))
+    z = k[0] + 1j * w * c[0]
+    Z = np.array([[-w**2 * J[0] + z, -z], [-z, -w**2 * J[1] + z]])
+    for d in (1, 2):
+        X = np.linalg.solve(Z, np.eye(2)[d - 1] * T)
+        expected = min(abs(w * X[0] * 4.0) ** 2, abs(w * X[1] * 3.0) ** 2) / sigma**2
+        assert info[d] == pytest.approx(expected, rel=1e-12), d

@@ -11,7 +11,7 @@ import math
 import pytest
 
 from jointrig.identify.verdict import (AT_NOISE, CHI2_PER_DOF_OK, GAIN_AT_NOISE, GAIN_OK, HELDOUT_EXTENDED_OK, HELDOUT_OK,
-                                     judge)
+                                     RIG_FIDELITY, judge)
 
 
 @pytest.mark.parametrize("c2,ratio,verdict", [
@@ -65,6 +65,7 @@ def test_the_thresholds_are_the_measured_ones():
     # identify/verdict.py): a change moves every verdict and must be deliberate.
     assert (CHI2_PER_DOF_OK, HELDOUT_OK, HELDOUT_EXTENDED_OK, GAIN_OK) == (2.0, 8.0, 100.0, 3.0)
     assert (GAIN_AT_NOISE, AT_NOISE) == (2.0, 2.0)
+    assert RIG_FIDELITY == 1e-5
 
 
 @pytest.mark.parametrize("ratio,gain,verdict", [
