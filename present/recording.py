@@ -434,8 +434,6 @@ def log_chain_diagnosis(rec: rr.RecordingStream, diagnosis, validation, n_flywhe
     (:class:`identify.chain_diagnose.TrainMisfit`) as a restoring-force surface, with its blueprint."""
     import rerun.blueprint as rrb
 
-    from jointrig.identify.harmonics import fourier_coefficients, synthesize
-
     places = [f"joint {j}" for j in range(1, n_flywheels)] + [f"flywheel {i}" for i in range(1, n_flywheels + 1)]
     if any(s.where is not None and s.where.kind == "drive" for s in diagnosis.first_round):
         places.append("drives")
@@ -460,7 +458,7 @@ def log_chain_diagnosis(rec: rr.RecordingStream, diagnosis, validation, n_flywhe
     rec.log("where/candidates", rr.TextDocument(head + "\n".join(lines), media_type=rr.MediaType.MARKDOWN), static=True)
     views = []
     if validation is not None and diagnosis.steps:
-        from jointrig.studies.chain_validate import found_motion
+        from jointrig.studies.chain_validate import departure, found_motion
 
         step = diagnosis.steps[0]
         for k, (meas, nom, ext) in enumerate(validation.records):
@@ -469,22 +467,18 @@ def log_chain_diagnosis(rec: rr.RecordingStream, diagnosis, validation, n_flywhe
             t = rr.TimeColumn("t_s", duration=meas.time_s[:N] - meas.time_s[0])
             base = f"held_out/run{k + 1}"
             rec.send_columns(f"{base}/measured", indexes=[t], columns=rr.Scalars.columns(scalars=x.reshape(P, N).mean(axis=0)))
-            band = min(validation.band, N // 2 - 1)
-            measured = synthesize(fourier_coefficients(x, P, band) * (np.arange(band + 1) > 0), N)
             for name, sim in (("nominal", nom), ("extended", ext)):
-                xs = found_motion(sim, step)[1]
                 ts = rr.TimeColumn("t_s", duration=sim.time_s - sim.time_s[0])
-                rec.send_columns(f"{base}/{name}", indexes=[ts], columns=rr.Scalars.columns(scalars=xs))
-                m = min(band, sim.samples_per_period // 2 - 1)
-                on_grid = synthesize(fourier_coefficients(xs, sim.n_periods, m) * (np.arange(m + 1) > 0), N)
+                rec.send_columns(f"{base}/{name}", indexes=[ts],
+                                 columns=rr.Scalars.columns(scalars=found_motion(sim, step)[1]))
                 rec.send_columns(f"departure/run{k + 1}/{name}", indexes=[t],
-                                 columns=rr.Scalars.columns(scalars=on_grid - measured))
+                                 columns=rr.Scalars.columns(scalars=departure(meas, sim, step, validation.band)))
             views.append(rrb.Vertical(
                 rrb.TimeSeriesView(origin=base, name=f"held-out {meas.omega_rad_s:g} rad/s: {what} (SI), measured "
                                                      f"(period average) vs nominal vs extended (timeline t_s)"),
                 rrb.TimeSeriesView(origin=f"departure/run{k + 1}",
                                    name=f"held-out {meas.omega_rad_s:g} rad/s: model minus measurement (harmonics "
-                                        f"1..{band})")))
+                                        f"1..{validation.band})")))
     where = rrb.Horizontal(rrb.TextDocumentView(origin="where/candidates", name="found, and every candidate scored"),
                            rrb.BarChartView(origin="where/best_score_log10",
                                             name="log10(1 + best BIC score) per place: joints 1.., then flywheels 1.."),

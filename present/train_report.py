@@ -12,8 +12,6 @@ import math
 import re
 from typing import Sequence
 
-import numpy as np
-
 from jointrig.studies.chain_validate import TrainReport
 
 from jointrig.vocab.params import linear_name
@@ -228,8 +226,7 @@ def train_figure(report: TrainReport) -> str:
     harmonics the validation compares, model minus measurement: the extended model's departure
     at the noise, the nominal's the misfit the cause removes). Empty without a cause or without
     simulated runs."""
-    from jointrig.identify.harmonics import fourier_coefficients, synthesize
-    from jointrig.studies.chain_validate import found_motion, train_setting
+    from jointrig.studies.chain_validate import departure, found_motion, train_setting
 
     from . import svg
 
@@ -250,15 +247,11 @@ def train_figure(report: TrainReport) -> str:
         xm = x.reshape(P, N).mean(axis=0)
         # each about its own mean: the comparison leaves the mean out (a sensor's zero is arbitrary)
         p.line(t, xm - xm.mean(), color=svg.COLORS["black"], width=2.2, opacity=0.5, label="measured")
-        band = min(v.band, N // 2 - 1)
-        on_grid = synthesize(fourier_coefficients(x, P, band) * (np.arange(band + 1) > 0), N)
         for name, sim, style in (("nominal", nom, dict(color=svg.COLORS["red"], dash="5 3")),
                                  ("extended", ext, dict(color=svg.COLORS["blue"]))):
             xs = found_motion(sim, step)[1]
             p.line(sim.time_s - sim.time_s[0], xs - xs.mean(), width=1.2, label=name, **style)
-            m = min(band, sim.samples_per_period // 2 - 1)
-            sim_grid = synthesize(fourier_coefficients(xs, sim.n_periods, m) * (np.arange(m + 1) > 0), N)
-            q.line(t, 1e3 * (sim_grid - on_grid), width=1.2, label=name, **style)
+            q.line(t, 1e3 * departure(meas, sim, step, v.band), width=1.2, label=name, **style)
         panels.append(p)
         departures.append(q)
     panels[0].legend = departures[0].legend = True

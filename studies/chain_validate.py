@@ -20,7 +20,7 @@ import numpy as np
 from jointrig.identify.chain import (REST_RATE_FRACTION, STICK_RATE_FRACTION, ChainRecord, channel_corrected,
                                     inertia_name)
 from jointrig.identify.chain_diagnose import ChainDiagnosis, plant_and_inertias
-from jointrig.identify.harmonics import fourier_coefficients, max_harmonic
+from jointrig.identify.harmonics import fourier_coefficients, max_harmonic, synthesize
 from jointrig.identify.periods import period_spectra
 from jointrig.vocab.plant import drive_of_record
 
@@ -32,7 +32,7 @@ from .validate import MIN_PERIODS_TO_SPLIT, MIN_RUNS_TO_HOLD_OUT, generalisation
 from jointrig.vocab.records import RecordError
 from jointrig.rig.simulate import SimulationConfig, SimulationError
 
-__all__ = ["ChainValidation", "validate_chain", "twist_error", "found_motion", "TrainReport", "train_verdict", "run_train_diagnosis",
+__all__ = ["ChainValidation", "validate_chain", "twist_error", "found_motion", "departure", "TrainReport", "train_verdict", "run_train_diagnosis",
            "written_of"]
 
 
@@ -80,6 +80,20 @@ def found_motion(rec: ChainRecord, step) -> tuple[str, np.ndarray]:
         return f"body {i} position", rec.angles_rad[i - 1]
     j = step.place if step.at_joint else min(step.place or 1, N - 1)
     return f"joint {j} twist", rec.angles_rad[j - 1] - rec.angles_rad[j]
+
+
+def departure(meas: ChainRecord, sim: ChainRecord, step, band: int) -> np.ndarray:
+    """Where a simulated record departs from the measured one in what ``step``'s cause acts on
+    (:func:`found_motion`): model minus measurement over one period on the measured record's
+    samples, harmonics 1..``band`` (those the validation compares; the mean left out, a sensor's
+    zero being arbitrary) (pure)."""
+    N = meas.samples_per_period
+    out = []
+    for rec in (sim, meas):
+        x = found_motion(rec, step)[1]
+        top = min(band, rec.samples_per_period // 2 - 1, N // 2 - 1)
+        out.append(synthesize(fourier_coefficients(x, rec.n_periods, top) * (np.arange(top + 1) > 0), N))
+    return out[0] - out[1]
 
 
 def _motions(rec: ChainRecord) -> list[np.ndarray]:
