@@ -637,7 +637,8 @@ class ChainPlant:
       laws: one :class:`vocab.law.JointLaw` per joint (N - 1).
       bearings_Nms_per_rad: drag of each flywheel to ground (N m s/rad, >= 0), N of them.
       grounds: per body, its law to ground (a :class:`vocab.law.JointLaw` of its own angle and
-        rate, without memory: no Jenkins or Iwan sliders) or None.
+        rate; sliders with memory too: a guide's pre-sliding, the relative-angle form's joint) or
+        None.
     """
 
     laws: tuple
@@ -655,11 +656,6 @@ class ChainPlant:
         grounds = tuple(self.grounds) or (None,) * (len(laws) + 1)
         if len(grounds) != len(laws) + 1 or not all(g is None or isinstance(g, JointLaw) for g in grounds):
             raise TypeError(f"ChainPlant.grounds must be one JointLaw or None per body ({len(laws) + 1})")
-        for i, g in enumerate(grounds, start=1):
-            if g is not None and any(t.stateful for t in g.terms):
-                raise ValueError(f"ChainPlant: body {i}'s law to ground has a term with memory "
-                                 f"({[t.name for t in g.terms if t.stateful]}): a law to ground takes terms of the "
-                                 f"body's own position and rate only")
         object.__setattr__(self, "grounds", grounds)
         b = tuple(float(v) for v in self.bearings_Nms_per_rad)
         if len(b) != len(laws) + 1:

@@ -54,7 +54,7 @@ from jointrig.vocab.params import ANGLE2_DELAY, ANGLE2_GAIN, DRIVE_DELAY, channe
 from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpec, bearing_name, chain_system, channel_corrected,
                     ground_laws, ground_prefix, identifiability, inertia_name, joint_prefix, solve_banded, rest_share,
                     rests, stick_mask, sticks_to_ground, jumps_at_rest)
-from .causes import (Ambiguity, Cause, CauseScore, Limits, ModelSpec, Place, at, by_name, evidence, forward_select,
+from .causes import (CATALOGUE, Ambiguity, Cause, CauseScore, Limits, ModelSpec, Place, at, by_name, evidence, forward_select,
                      fundamental_quadrature, harmonic_shares, parsimonious, profile)
 from .diagnose import DEFAULT_FIDELITY, FINE_SAMPLES, KINK_RTOL, kink_corrected_rate, kink_first_pass
 from .harmonics import max_harmonic
@@ -88,12 +88,19 @@ CHANNEL_CAUSES: tuple[Cause, ...] = at("channel")
 TRAIN_GROUND_CAUSES: tuple[str, ...] = ()
 
 
-def nominal_spec(n_flywheels: int) -> ChainSpec:
-    """Every joint ``c phi' + k phi + gamma phi^3`` (paper eq. 11), no bearings; a single body
-    (N = 1) its mass and a viscous drag to ground (the one law it surely has)."""
+#: The paper's joint law (eq. 11), ``c phi' + k phi + gamma phi^3``: every joint's nominal one.
+PAPER_LAW = (Viscous(), Power(1), Power(3))
+
+
+def nominal_spec(n_flywheels: int, twist: bool = False) -> ChainSpec:
+    """Every joint the paper's law (:data:`PAPER_LAW`), no bearings; a single body (N = 1) its
+    mass and a viscous drag to ground (the one law it surely has), or with ``twist`` (the
+    relative-angle form: the joint's twist as one body) the paper's law to the frame."""
     if n_flywheels == 1:
-        return ChainSpec((), bearings=(1,))
-    return ChainSpec(((Viscous(), Power(1), Power(3)),) * (n_flywheels - 1))
+        return ChainSpec((), grounds=(PAPER_LAW,)) if twist else ChainSpec((), bearings=(1,))
+    if twist:
+        raise ValueError("nominal_spec: the relative-angle form is one body")
+    return ChainSpec((PAPER_LAW,) * (n_flywheels - 1))
 
 
 # --------------------------------------------------------------------------------------------
@@ -779,15 +786,20 @@ class ChainDiagnosis:
 
 def candidates(n_flywheels: int, causes: Sequence[Cause] = JOINT_CAUSES, bearings: bool = True,
                ground: Sequence[Cause] = GROUND_CAUSES, drives: Sequence[Cause] = DRIVE_CAUSES,
-               channels: Sequence[Cause] = CHANNEL_CAUSES) -> list[Candidate]:
+               channels: Sequence[Cause] = CHANNEL_CAUSES, elastic_grounds: Sequence[int] = ()) -> list[Candidate]:
     """Every cause at every joint, bearing drag at every body, the ground causes at every body,
-    the drives' causes (their lag) once and the channel causes at bodies 2..N."""
+    the drives' causes (their lag) once and the channel causes at bodies 2..N. A body tied to the
+    frame by an elastic law (``elastic_grounds``, 1-based: a spring to ground, the relative-angle
+    form's joint) is a joint to the frame: the joint's dynamic causes are sought there too (a
+    zero offset is not: a body's own angle has no offset cause)."""
     out = [Candidate(c, Place("joint", j)) for j in range(1, n_flywheels) for c in causes]
     if bearings:
         out += [Candidate(_BEARING, Place("flywheel", i)) for i in range(1, n_flywheels + 1)]
     if n_flywheels > 1:  # see TRAIN_GROUND_CAUSES
         ground = [c for c in ground if c.name in TRAIN_GROUND_CAUSES]
-    out += [Candidate(c, Place("ground", i)) for i in range(1, n_flywheels + 1) for c in ground]
+    for i in range(1, n_flywheels + 1):
+        here = set(ground) | ({c for c in causes if c.kind == "dynamic"} if i in elastic_grounds else set())
+        out += [Candidate(c, Place("ground", i)) for c in CATALOGUE if c in here]
     out += [Candidate(c, Place("drive", None)) for c in drives]
     out += [Candidate(c, Place("channel", i)) for i in range(2, n_flywheels + 1) for c in channels]
     return out
@@ -849,8 +861,11 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
     several = any(b > a * (1 + 1e-3) for a, b in zip(omegas, omegas[1:]))
     # a cause the nominal model already holds at a place is no candidate there (a single body's
     # drag to ground, a user's model with a guide's friction)
-    pool = [c for c in candidates(N, causes, drives=DRIVE_CAUSES if several else ())
-            if c.extend(structure, 1e-3) != structure or c.cause.bounds is not None]
+    elastic = [i for i, g in enumerate(structure.grounds, start=1) if any(t.elastic for t in g)]
+    # (nor a drag at a body whose law to ground has one: the relative-angle form's joint)
+    pool = [c for c in candidates(N, causes, drives=DRIVE_CAUSES if several else (), elastic_grounds=elastic)
+            if (c.extend(structure, 1e-3) != structure or c.cause.bounds is not None)
+            and not (c.where.kind == "flywheel" and any(isinstance(t, Viscous) for t in structure.grounds[c.place - 1]))]
     masked = tuple(sticks_to_ground(structure, i) or any(c.ground and c.place == i + 1
                                                          and sticks_to_ground(c.extend(structure, 1e-3), i)
                                                          for c in pool) for i in range(N))
@@ -1267,10 +1282,19 @@ def place_law(fit: ChainFit, place: int) -> tuple[JointLaw, float]:
     plant, J = plant_and_inertias(fit)
     if len(J) == 1:
         (g,), (drag,) = plant.grounds, plant.bearings_Nms_per_rad
-        terms = (g.terms if g is not None else ()) + (Viscous(),)
-        values = (g.values if g is not None else ()) + (drag,)
-        return JointLaw(terms, values), J[0]
+        terms, values = list(g.terms if g is not None else ()), list(g.values if g is not None else ())
+        viscous = _viscous_at(terms)
+        if viscous is None:
+            terms, values = terms + [Viscous()], values + [drag]
+        else:  # the law's own damping (the relative-angle form's joint) holds the drag too
+            values[viscous] += drag
+        return JointLaw(tuple(terms), tuple(values)), J[0]
     return plant.laws[place], J[place] * J[place + 1] / (J[place] + J[place + 1])
+
+
+def _viscous_at(terms) -> Optional[int]:
+    """The index of a law's viscous term, None without one."""
+    return next((k for k, t in enumerate(terms) if isinstance(t, Viscous)), None)
 
 
 def place_covariance(fit: ChainFit, place: int) -> Optional[np.ndarray]:
@@ -1282,19 +1306,25 @@ def place_covariance(fit: ChainFit, place: int) -> Optional[np.ndarray]:
     law, _ = place_law(fit, place)
     idx = {n: i for i, n in enumerate(fit.names)}
     vals = fit.as_dict()
-    if fit.spec.n_flywheels == 1:
-        names = [ground_prefix(1) + t.name for t in fit.spec.grounds[0]] + [bearing_name(1)]
+    if fit.spec.n_flywheels == 1:  # per law value, the fit's parameters it sums (see place_law)
+        names = [[ground_prefix(1) + t.name] for t in fit.spec.grounds[0]]
+        viscous = _viscous_at(fit.spec.grounds[0])
+        if viscous is None:
+            names.append([bearing_name(1)])
+        else:
+            names[viscous].append(bearing_name(1))
         inertia = {inertia_name(1): 1.0}
     else:
         Ja, Jb = vals[inertia_name(place + 1)], vals[inertia_name(place + 2)]
-        names = [joint_prefix(place + 1) + t.name for t in fit.spec.joints[place]]
+        names = [[joint_prefix(place + 1) + t.name] for t in fit.spec.joints[place]]
         inertia = {inertia_name(place + 1): (Jb / (Ja + Jb)) ** 2, inertia_name(place + 2): (Ja / (Ja + Jb)) ** 2}
     T = np.zeros((1 + len(law.values), len(fit.names)))
     for n, g in inertia.items():
         T[0, idx[n]] = g
-    for r, n in enumerate(names):
-        if n in idx and vals[n] == law.values[r]:  # a drag clipped at 0 is not the fit's value
-            T[1 + r, idx[n]] = 1.0
+    for r, ns in enumerate(names):
+        for n in ns:
+            if n in idx and (len(ns) > 1 or vals[n] == law.values[r]):  # a drag clipped at 0 is not the fit's value
+                T[1 + r, idx[n]] = 1.0
     return T @ fit.covariance @ T.T
 
 

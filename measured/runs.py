@@ -125,6 +125,9 @@ class LoadedRuns:
     #: a train's bodies: "hinge" (rad, N m, kg m^2) or "slide" (m, N, kg; held in the records'
     #: angle and torque fields, which are the project's generic coordinate and drive)
     kind: str = "hinge"
+    #: the relative-angle form as one body (:func:`as_train`): the share ``s`` of the drive that
+    #: twists the joint (J of the undriven flywheel over J1 + J2), None for any other runs
+    torque_share: Optional[float] = None
 
     @property
     def has_both_angles(self) -> bool:
@@ -687,21 +690,36 @@ def driven_first(loaded: "LoadedRuns", torque_on: str) -> "LoadedRuns":
     return replace(loaded, records=records, notes=loaded.notes + (note,))
 
 
-def as_train(loaded: "LoadedRuns", torque_on: str = "flywheel1") -> "LoadedRuns":
-    """Two flywheels' runs (``torque, phi1, phi2``) as a train of two bodies, the one model of
-    every bench (pure): the torque drives body 1, or body 2 with ``torque_on="flywheel2"`` (the
-    bodies keep your numbering); the rates, where the file gives them, go with their angles. A
-    torque measured in the shaft is refused (:func:`driven_first`'s reason). A train's runs are
-    returned as they are; runs with the relative angle only cannot be a train and are refused."""
+def as_train(loaded: "LoadedRuns", torque_on: str = "flywheel1", torque_share: float = 0.5) -> "LoadedRuns":
+    """Two flywheels' runs as a train, the one model of every bench (pure).
+
+    Both angles (``torque, phi1, phi2``): the train of two bodies, the torque driving body 1, or
+    body 2 with ``torque_on="flywheel2"`` (the bodies keep your numbering); the rates, where the
+    file gives them, go with their angles. The relative angle alone (``phi``): one body, the
+    joint's twist, tied to the frame by the joint's law and driven by ``s T`` (``-s T`` on
+    flywheel 2): ``J1 J2/(J1 + J2) phi'' + M(phi, phi') = s T`` with ``s = torque_share``, the
+    undriven flywheel's inertia over both (exact without bearing drag). A torque measured in the
+    shaft is refused (:func:`driven_first`'s reason). A train's runs are returned as they are."""
     if loaded.is_train:
         return loaded
     if torque_on not in TORQUE_ON or torque_on == "shaft":
         driven_first(loaded, torque_on)  # raises with the reason
     if not loaded.has_both_angles:
-        raise RunsFileError(f"{loaded.path}: the runs hold the relative angle only ('phi'); a train needs each "
-                            f"body's angle (phi1, phi2)")
+        if not 0 < torque_share < 1:
+            raise RunsFileError(f"--torque-share {torque_share}: expected J2/(J1 + J2), strictly between 0 and 1")
+        share = torque_share if torque_on == "flywheel1" else -torque_share
+        return replace(loaded, torque_share=torque_share,
+                       records=tuple(relative_record_of(r, share) for r in loaded.records))
     body = 2 if torque_on == "flywheel2" else 1
     return replace(loaded, records=tuple(chain_record_of(r, body) for r in loaded.records))
+
+
+def relative_record_of(rec: SteadyStateRecord, share: float) -> ChainRecord:
+    """One run of the relative angle alone as one body's run driven by ``share`` times the
+    torque (pure; see :func:`as_train`)."""
+    rates = None if rec.rate1_rad_s is None else (rec.rate1_rad_s,)
+    return ChainRecord(rec.omega_rad_s, rec.time_s, (share * rec.torque_Nm,), (rec.phi1_rad,), rates, rec.n_periods,
+                       abs(share) * rec.drive_amplitude_Nm, source=rec.source)
 
 
 def chain_record_of(rec: SteadyStateRecord, driven: int = 1) -> ChainRecord:

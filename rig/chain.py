@@ -161,10 +161,7 @@ def _plant(model: mujoco.MjModel, N: int, src: str, kind: str) -> ChainPlant:
         laws.append(law)
     grounds = tuple(_law(per_ground[i], f"body {i}'s law to ground", f"ground{i}_", src, kind)
                     for i in range(1, N + 1))
-    try:
-        return ChainPlant(tuple(laws), tuple(bearings), grounds, delay)
-    except ValueError as err:  # a law to ground with memory
-        raise RigModelError(f"{src}: {str(err).removeprefix('ChainPlant: ')}") from None
+    return ChainPlant(tuple(laws), tuple(bearings), grounds, delay)
 
 
 def load_chain(path: Union[str, os.PathLike]) -> ChainRig:
@@ -289,6 +286,28 @@ def chain_of_two_flywheels(rig, driven: Sequence[int]) -> ChainRig:
     return replace(out, path=rig.path, digest=rig.digest)
 
 
+def relative_chain_of_two_flywheels(rig) -> ChainRig:
+    """A two-flywheel model as its relative-angle form (:func:`measured.runs.as_train`): one body
+    of inertia ``J1 J2/(J1 + J2)`` tied to the frame by the joint's law, driven on body 1 (by the
+    drive's share); exact without bearing drag, which the relative angle alone cannot hold."""
+    import tempfile
+
+    p = rig.plant
+    if p.bearing1_damping_Nms_per_rad or p.bearing2_damping_Nms_per_rad:
+        raise RigModelError(f"{rig.path}: bearing drag to ground (jointrig_bearing*): the relative angle alone ('phi') "
+                            f"moves as one body only without it; give both angles (phi1, phi2) to diagnose this model")
+    J = rig.J1_kgm2 * rig.J2_kgm2 / (rig.J1_kgm2 + rig.J2_kgm2)
+    plant = ChainPlant((), (0.0,), (p.law,), p.drive_delay_s)
+    with tempfile.TemporaryDirectory(prefix="jointrig-relative-") as tmp:
+        path = Path(tmp) / rig.path.name
+        try:
+            path.write_text(chain_model_xml(plant, (J,), (1,)), encoding="utf-8")
+        except ValueError as err:  # a law the chain's fields cannot write
+            raise RigModelError(f"{rig.path}: {err}") from None
+        out = load_chain(path)
+    return replace(out, path=rig.path, digest=rig.digest)
+
+
 def chain_model_xml(plant: ChainPlant, inertias_kgm2: Sequence[float], driven: Sequence[int], *,
                     timestep_s: float = 1e-4, header: str = "", kind: str = "hinge") -> str:
     """The MJCF text of a chain that :func:`load_chain` reads back to ``plant`` with these
@@ -353,24 +372,30 @@ def chain_model_xml(plant: ChainPlant, inertias_kgm2: Sequence[float], driven: S
             f"  <sensor>\n{sensors}\n  </sensor>\n</mujoco>\n")
 
 
-def chain_callback(rig: ChainRig, plant: ChainPlant, drives: dict, errors: list, states: list) -> Callable:
+def _split_law(law: JointLaw, state: list) -> tuple:
+    """A law as the callback evaluates it: its stateless terms' torque, and per slider term
+    ``(step_torque, value, first state)`` over ``state`` (committed by the caller)."""
+    stateless = [(t, x) for t, x in zip(law.terms, law.values) if not t.stateful]
+    torque = (JointLaw(tuple(t for t, _ in stateless), tuple(x for _, x in stateless)).torque
+              if stateless else (lambda phi, rate: 0.0))
+    hyst, at = [], 0
+    for t, x in zip(law.terms, law.values):
+        if t.stateful:
+            hyst.append((t.step_torque, x, at))
+            at += t.n_states
+    return torque, hyst, state
+
+
+def chain_callback(rig: ChainRig, plant: ChainPlant, drives: dict, errors: list, states: list,
+                   ground_states: Sequence = ()) -> Callable:
     """The passive callback of a chain: every joint's law, the bearings, every body's law to
-    ground, the drives at continuous time. ``states[j]`` holds joint j's slider states
-    (committed by the caller)."""
+    ground, the drives at continuous time. ``states[j]`` holds joint j's slider states and
+    ``ground_states[i]`` body i's (0-based; committed by the caller)."""
     q, v = rig.qpos_adr, rig.dof_adr
-    joints = []
-    for j, law in enumerate(plant.laws):
-        stateless = [(t, x) for t, x in zip(law.terms, law.values) if not t.stateful]
-        torque = (JointLaw(tuple(t for t, _ in stateless), tuple(x for _, x in stateless)).torque
-                  if stateless else (lambda phi, rate: 0.0))
-        hyst, at = [], 0
-        for t, x in zip(law.terms, law.values):
-            if t.stateful:
-                hyst.append((t.step_torque, x, at))
-                at += t.n_states
-        joints.append((q[j], q[j + 1], v[j], v[j + 1], torque, hyst, states[j]))
+    ground_states = list(ground_states) or [[] for _ in plant.grounds]
+    joints = [(q[j], q[j + 1], v[j], v[j + 1]) + _split_law(law, states[j]) for j, law in enumerate(plant.laws)]
     bearings = [(v[i], b) for i, b in enumerate(plant.bearings_Nms_per_rad) if b]
-    grounds = [(q[i], v[i], g.torque) for i, g in enumerate(plant.grounds) if g is not None]
+    grounds = [(q[i], v[i]) + _split_law(g, ground_states[i]) for i, g in enumerate(plant.grounds) if g is not None]
     acts = [(a, drives[i].evaluator()) for i, a, _ in rig.drives if i in drives]
 
     def callback(m, d):
@@ -385,8 +410,12 @@ def chain_callback(rig: ChainRig, plant: ChainPlant, drives: dict, errors: list,
                 frc[vb] += tau
             for va, b in bearings:
                 frc[va] -= b * qvel[va]
-            for qa, va, torque in grounds:
-                frc[va] -= torque(float(qpos[qa]), float(qvel[va]))
+            for qa, va, torque, hyst, st in grounds:
+                phi = float(qpos[qa])
+                tau = torque(phi, float(qvel[va]))
+                for f, x, i in hyst:
+                    tau += x * f(phi, st, i)
+                frc[va] -= tau
             t = d.time
             for a, at in acts:
                 d.ctrl[a] = at(t)
@@ -473,8 +502,13 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
     d = mujoco.MjData(m)
     d.qvel[list(rig.dof_adr)] = sum(drv.mean_free_impulse(0.0) for drv in drives.values()) / sum(J)
     states = [[0.0] * sum(t.n_states for t in law.terms if t.stateful) for law in plant.laws]
-    stateful = [(j, [t for t in law.terms if t.stateful]) for j, law in enumerate(plant.laws)]
-    stateful = [(j, ts) for j, ts in stateful if ts]
+    ground_states = [[0.0] * sum(t.n_states for t in g.terms if t.stateful) if g is not None else []
+                     for g in plant.grounds]
+    # (angle of, minus angle of or None, its slider terms, their states): joints' then grounds'
+    stateful = [(j, j + 1, [t for t in law.terms if t.stateful], states[j]) for j, law in enumerate(plant.laws)]
+    stateful += [(i, None, [t for t in g.terms if t.stateful], ground_states[i])
+                 for i, g in enumerate(plant.grounds) if g is not None]
+    stateful = [x for x in stateful if x[2]]
     errors: list = []
     q, v = np.array(rig.qpos_adr), np.array(rig.dof_adr)
     act_idx = {i: adr for i, _, adr in rig.drives}
@@ -487,14 +521,14 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
         def commit():
             nat.commit(d.qpos)
     else:
-        callback = chain_callback(rig, plant, drives, errors, states)
+        callback = chain_callback(rig, plant, drives, errors, states, ground_states)
 
         def commit():
-            for j, terms in stateful:
-                phi = float(d.qpos[q[j]] - d.qpos[q[j + 1]])
+            for a, b, terms, st in stateful:
+                phi = float(d.qpos[q[a]] - (d.qpos[q[b]] if b is not None else 0.0))
                 at = 0
                 for t in terms:
-                    t.commit(phi, states[j], at)
+                    t.commit(phi, st, at)
                     at += t.n_states
 
     def period():

@@ -17,7 +17,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from jointrig.identify.chain import (REST_RATE_FRACTION, STICK_RATE_FRACTION, ChainRecord, channel_corrected,
+from jointrig.identify.chain import (REST_RATE_FRACTION, STICK_RATE_FRACTION, ChainRecord, ChainSpec, channel_corrected,
                                     inertia_name)
 from jointrig.identify.chain_diagnose import ChainDiagnosis, plant_and_inertias
 from jointrig.identify.harmonics import fourier_coefficients, max_harmonic, synthesize
@@ -291,11 +291,12 @@ def train_setting(rec: ChainRecord) -> tuple[float, float, int]:
 def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str], rig: ChainRig,
                         holdout: Optional[Sequence[int]] = None, written: Sequence[tuple] = (),
                         band: int = 20, alpha: float = 1e-3, fidelity: Optional[float] = None,
-                        progress=None, backend: str = "auto") -> TrainReport:
+                        progress=None, backend: str = "auto", nominal: Optional[ChainSpec] = None) -> TrainReport:
     """Diagnose a measured train on the runs not held out, and replay the held-out runs' drives on
     the nominal and the extended model in ``rig`` (its bodies and drives; the user's model, or
     one written for the file's bodies and drives). ``holdout``: run indices (default: runs of
-    another kind, :func:`holdout_of_another_kind`)."""
+    another kind, :func:`holdout_of_another_kind`). ``nominal``: the structure fitted without a
+    written model (default: :func:`identify.chain_diagnose.nominal_spec` of the file's bodies)."""
     from jointrig.identify.chain_diagnose import diagnose_chain, prepare_chain_runs, train_misfit
     from jointrig.identify.diagnose import DEFAULT_FIDELITY
 
@@ -325,7 +326,7 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
                      f"{records[worst].samples_per_period} samples per period, enough for {top}")
         band = top
     runs = prepare_chain_runs(fit_recs, band=band)
-    nominal = rig.plant.spec() if written else None
+    nominal = rig.plant.spec() if written else nominal
     d = diagnose_chain(runs, n_harmonics=band, alpha=alpha, nominal=nominal,
                        fidelity=DEFAULT_FIDELITY if fidelity is None else fidelity,
                        progress=lambda k, n, label: say(f"scored {k}/{n} candidates ({label})") if k == n else None)

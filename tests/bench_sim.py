@@ -361,25 +361,29 @@ def record(joint: Joint, w: float, M0: float, *, fs_Hz: float, n_periods: float,
 
 def measure(joint: Joint, points, path: Path, *, noise: float = 0.002, seed: int = 0, fs_Hz: float = 5000.0,
             n_periods: float = 8.4, columns=("run", "Time [s]", "Torque [N m]", "phi1 [rad]", "phi2 [rad]"),
-            transform: Optional[Callable] = None) -> Path:
+            transform: Optional[Callable] = None, relative: bool = False) -> Path:
     """Simulate every (omega, M0) point and write one CSV as a DAQ would (module docstring).
 
     ``noise``: standard deviation of each channel's white noise relative to its RMS.
     ``transform(t, torque, phi1, phi2) -> same``: a measurement artefact applied before the noise.
+    ``relative``: one twist sensor across the joint instead of two encoders: the columns ``run,
+    Time [s], Torque [N m], phi [rad]``, phi1 - phi2 with one channel's offset and noise.
     """
     rng = np.random.default_rng(seed)
     offsets = rng.uniform(-1, 1, 3) * np.array([0.5, 2e-3, 2e-3])  # N m, rad, rad
-    lines = [",".join(columns)]
+    lines = [",".join(columns[:4]) if relative else ",".join(columns)]
+    if relative:
+        lines[0] = lines[0].replace("phi1 [rad]", "phi [rad]")
     for i, (w, M0) in enumerate(points):
         t, T, p1, p2 = record(joint, w, M0, fs_Hz=fs_Hz, n_periods=n_periods, start_phase=rng.uniform(0, 2 * math.pi))
         if transform is not None:
             t, T, p1, p2 = transform(t, T, p1, p2)
         chans = []
-        for x, off in zip((T, p1, p2), offsets):
+        for x, off in zip((T, p1 - p2) if relative else (T, p1, p2), offsets):
             rms = float(np.std(x))
             chans.append(x + off + noise * rms * rng.standard_normal(x.size))
         for k in range(t.size):
-            lines.append(f"{i},{t[k]:.7f},{chans[0][k]:.6f},{chans[1][k]:.9f},{chans[2][k]:.9f}")
+            lines.append(f"{i},{t[k]:.7f},{chans[0][k]:.6f}," + ",".join(f"{c[k]:.9f}" for c in chans[1:]))
     path.write_text("\n".join(lines) + "\n")
     return path
 

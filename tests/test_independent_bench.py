@@ -30,7 +30,7 @@ import pytest
 
 from bench_sim import JOINTS, POINTS, measure, with_effect
 from jointrig.identify.causes import CATALOGUE
-from jointrig.identify.chain_diagnose import plant_and_inertias
+from jointrig.identify.chain_diagnose import nominal_spec, plant_and_inertias
 from jointrig.measured.runs import as_train, read_runs
 from jointrig.rig.chain import rig_of_bodies
 from jointrig.studies.chain_validate import run_train_diagnosis
@@ -102,13 +102,15 @@ def _points(joint: str):
     return [p for i, p in enumerate(pts) if i % 3 != 1]
 
 
-def _diagnose(tmp_path, joint: str, case: str):
+def _diagnose(tmp_path, joint: str, case: str, relative: bool = False):
     params, _ = CASES[joint][case]
     bench = with_effect(JOINTS[joint], **params)
     seed = sum(map(ord, joint + case))
-    path = measure(bench, _points(joint), tmp_path / "bench.csv", seed=seed, fs_Hz=2000.0, n_periods=6.5)
-    loaded = as_train(read_runs(path))
-    return run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(2, [1]), holdout=HOLDOUT)
+    path = measure(bench, _points(joint), tmp_path / "bench.csv", seed=seed, fs_Hz=2000.0, n_periods=6.5,
+                   relative=relative)
+    loaded = as_train(read_runs(path))  # the relative angle: the share of two equal flywheels, 0.5
+    return run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(1 if relative else 2, [1]),
+                               holdout=HOLDOUT, nominal=nominal_spec(1, twist=True) if relative else None)
 
 
 #: The suite's cases: no effect, and every effect at its smaller magnitude (the harder to find),
@@ -123,8 +125,22 @@ def test_independent_bench_effect_is_found_sized_and_pays_off(tmp_path, joint, c
     _accept(_diagnose(tmp_path, joint, case), joint, case)
 
 
-def _accept(report, joint: str, case: str) -> None:
-    """The acceptance (module docstring), as assertions."""
+#: The relative angle alone (one twist sensor): the joint's twist as one body tied to the frame
+#: by the joint's law (``measured.runs.as_train``), its causes sought there; a cause of each
+#: kind the form can hold (the sliders' memory replayed at a body's law to ground).
+RELATIVE = [("paper", "hysteresis/1"), ("light", "micro_slip/1"), ("paper", "backlash/1"),
+            ("light", "coulomb_friction/1"), ("paper", "none")]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("joint, case", RELATIVE)
+def test_the_relative_angle_alone_is_diagnosed_as_one_body(tmp_path, joint, case):
+    _accept(_diagnose(tmp_path, joint, case, relative=True), joint, case, relative=True)
+
+
+def _accept(report, joint: str, case: str, relative: bool = False) -> None:
+    """The acceptance (module docstring), as assertions; ``relative``: the law's parameters are
+    body 1's to ground (``ground1_*``), the inertia J1 J2/(J1 + J2)."""
     d = report.diagnosis
     dynamic = [s.effect for s in d.steps if KIND[s.effect] == "dynamic"]
     ranked = [c.effect for c in d.first_round if KIND[c.effect] == "dynamic"]
@@ -139,8 +155,10 @@ def _accept(report, joint: str, case: str) -> None:
     assert ranked[0] == effect and first.significant, table
     assert dynamic == [effect], (dynamic, table)
     params = d.final.parameters()
+    if relative:
+        assert abs(params["J1_kgm2"] - 1.0) <= 3 * d.final.std_error("J1_kgm2")  # 2 and 2 kg m^2: 1
     for name, true in CASES[joint][case][1].items():  # a Stribeck friction: all three of its parameters
-        name = train_name(name)
+        name = "ground1_" + name if relative else train_name(name)
         value, se = params[name], d.final.std_error(name)
         assert math.isfinite(se) and se > 0
         assert abs(value - true) <= 3 * se, (name, value, se, true)

@@ -93,60 +93,21 @@ def parse_args(argv=None) -> argparse.Namespace:
     return p.parse_args(argv)
 
 
-def writer_modules(args: argparse.Namespace) -> list[str]:
-    """What writing the outputs asked for imports beyond the diagnosis, imported meanwhile by the
-    process that will write them (:class:`jointrig.parallel.WarmProcess`): rerun for the
-    recording (0.3 s), and what its first recording would load lazily (pyarrow's compute
-    functions and numpy.ma, else loaded while the recording is written); the report's SVG figures need
-    nothing more; the joint card's figure (in the report, or ``--card-png`` beside an output the
-    writer writes) matplotlib."""
-    modules = []
-    if args.rrd:
-        modules += ["jointrig.present.recording", "pyarrow.compute", "numpy.ma"]
-    if args.report:
-        modules.append("jointrig.present.svg")
-    if card_drawn_by_writer(args) or (args.report and (args.card or args.card_only)):
-        modules += ["jointrig.present.card", "matplotlib.pyplot"]
-    return modules
-
-
-def card_drawn_by_writer(args: argparse.Namespace) -> bool:
-    """Whether the joint card's PNG (``--card-png``) is written with the recording and the report
-    (:func:`present.diagnosis_report.write_outputs`: the figure drawn once, for the report too),
-    not by the command itself."""
-    return bool(args.card_png and (args.rrd or args.report))
-
-
 def main(argv=None) -> int:
-    args = parse_args(argv)
-    from jointrig.parallel import WarmProcess, default_workers
-    from jointrig.present.diagnosis_report import format_report  # noqa: F401  (the diagnosis's stack)
-
-    if (args.rrd or args.report) and default_workers() > 1:
-        # Forked once this process has its own stack (the writer shares it), so the writer's
-        # imports overlap the reading and fitting, on the core they leave idle.
-        with WarmProcess(writer_modules(args)) as writer:
-            return _main(args, writer)
-    return _main(args, None)
+    return _main(parse_args(argv))
 
 
-def _main(args: argparse.Namespace, writer) -> int:
-    import numpy as np
-
+def _main(args: argparse.Namespace) -> int:
     from jointrig.rig.runtime import quiet_mujoco
 
     quiet_mujoco()
 
     from jointrig.vocab.records import RecordError
-    from jointrig.measured.runs import RunsFileError, as_train, driven_first, read_runs
-    from jointrig.present.diagnosis_report import format_report, report_json
-    from jointrig.rig.simulate import SimulationError
-    from jointrig.files import OutputError, write_json_atomic
-    from jointrig.studies.validate import MIN_PERIODS_TO_SPLIT, MIN_RUNS_TO_HOLD_OUT, run_diagnosis
+    from jointrig.measured.runs import RunsFileError, as_train, read_runs
+    from jointrig.files import OutputError
 
     logging.basicConfig(level=progress_level(args.quiet), format="%(message)s",
                         stream=sys.stderr)
-    t0 = time.perf_counter()
     try:
         check_range(args.band, "--band", lo=1, hi=100, integer=True)
         check_range(args.torque_share, "--torque-share", lo=0, hi=1, lo_open=True, hi_open=True)
@@ -165,67 +126,14 @@ def _main(args: argparse.Namespace, writer) -> int:
             except RigModelError as err:
                 raise BadArgument(f"--model: {err}") from None
         loaded = read_runs(args.data, columns=args.columns, units=args.units, zero_per_run=args.zero_per_run)
-        if not loaded.is_train and loaded.has_both_angles:  # two flywheels: a train of two bodies
-            return _train(args, as_train(loaded, args.torque_on), model, writer, two_flywheels=True)
-        if loaded.is_train or hasattr(model, "n_flywheels"):
-            return _train(args, loaded, model, writer)
-        loaded = driven_first(loaded, args.torque_on)
-        ids = list(loaded.run_ids)
-        holdout = held_out_runs(args, ids)
-        if holdout is not None and len(holdout) >= len(ids):
-            raise BadArgument(f"--holdout holds out all {len(ids)} runs; expected at least one run left to fit")
-        elif holdout is None and len(ids) < MIN_RUNS_TO_HOLD_OUT:
-            short = [f"{rid} ({r.n_periods})" for rid, r in zip(ids, loaded.records)
-                     if r.n_periods < MIN_PERIODS_TO_SPLIT]
-            if short:
-                raise RunsFileError(f"{args.data}: {len(ids)} run(s), and run(s) {', '.join(short)} hold fewer than "
-                                    f"{MIN_PERIODS_TO_SPLIT} whole periods: the diagnosis needs {MIN_RUNS_TO_HOLD_OUT} "
-                                    f"runs (some held out for validation) or runs of at least {MIN_PERIODS_TO_SPLIT} "
-                                    f"periods (the later half held out)")
-        for n in loaded.notes:
-            log.info("note: %s", n)
-        report = run_diagnosis(loaded.records, run_ids=ids, holdout=holdout, band=args.band,
-                               torque_share=args.torque_share, alpha=args.alpha, fidelity=args.fidelity,
-                               progress=lambda msg: log.info("%s", msg), model=model)
-    except (RunsFileError, RecordError, BadArgument, OutputError) as err:  # a train's outputs are written in there
+        if loaded.is_train:
+            return _train(args, loaded, model)
+        share = args.torque_share
+        if not loaded.has_both_angles and model is not None and not hasattr(model, "n_flywheels"):
+            share = (model.J1_kgm2 if args.torque_on == "flywheel2" else model.J2_kgm2) / (model.J1_kgm2 + model.J2_kgm2)
+        return _train(args, as_train(loaded, args.torque_on, share), model, two_flywheels=True)
+    except (RunsFileError, RecordError, BadArgument, OutputError) as err:
         return _said(err, 2)
-    except (SimulationError, ValueError, np.linalg.LinAlgError) as err:
-        return _said(err, 1)
-    text = format_report(report, source=str(args.data), notes=loaded.notes)
-    if not args.card_only:
-        print(text)
-    if args.json:
-        write_json_atomic(args.json, report_json(report, source=str(args.data), notes=loaded.notes,
-                                                 input_sha256=loaded.sha256,
-                                                 model=str(args.model) if args.model else None))
-        log.info("wrote %s", args.json)
-    card = None
-    if args.card or args.card_png or args.card_only:
-        from jointrig.studies.joint_card import card_of_diagnosis
-
-        log.info("computing the joint card")
-        card = card_of_diagnosis(report, loaded.records, run_ids=loaded.run_ids, torque_share=args.torque_share)
-    if args.rrd or args.report:
-        from jointrig.present.diagnosis_report import write_outputs
-
-        outputs = [p for p in (args.rrd, args.report, args.card_png if card_drawn_by_writer(args) else None) if p]
-        log.info("writing %s", " and ".join(str(p) for p in outputs))
-        options = dict(rrd=args.rrd, html_path=args.report, title=f"jointrig diagnosis of {args.data.name}",
-                       input_sha256=loaded.sha256, source=str(args.data), notes=loaded.notes, card=card)
-        if card_drawn_by_writer(args):
-            options.update(card_png_path=args.card_png, card_title=card_title(args, card))
-        if writer is not None:
-            writer.call(write_outputs, report, text, **options)
-        else:
-            write_outputs(report, text, **options)
-        for path in outputs:
-            log.info("wrote %s", path)
-    if card is not None:
-        write_card(args, loaded, card)
-    if args.mjcf:
-        write_mjcf(args, loaded, report)
-    log.info("done in %.1f s", time.perf_counter() - t0)
-    return 0
 
 
 def _said(err: Exception, status: int) -> int:
@@ -246,10 +154,12 @@ def held_out_runs(args: argparse.Namespace, ids: list) -> "list[int] | None":
     return sorted({ids.index(h) for h in args.holdout})
 
 
-def _train(args: argparse.Namespace, loaded, model, writer, two_flywheels: bool = False) -> int:
+def _train(args: argparse.Namespace, loaded, model, two_flywheels: bool = False) -> int:
     """A drive train's file (``phi1..phiN``, ``torque<i>``; two flywheels' ``torque, phi1, phi2``
     as a train of two bodies, ``two_flywheels``): the chain diagnosis, validated on held-out runs
     in a rig of the user's model (``--model``) or of the file's bodies and drives."""
+    from dataclasses import replace
+
     import numpy as np
 
     from jointrig.files import write_atomic, write_json_atomic
@@ -258,8 +168,8 @@ def _train(args: argparse.Namespace, loaded, model, writer, two_flywheels: bool 
     from jointrig.present.train_report import format_train_report, train_report_json
     from jointrig.rig.chain import chain_model_xml, load_chain, rig_of_bodies
     from jointrig.rig.simulate import SimulationError
-    from jointrig.studies.chain_validate import run_train_diagnosis, written_of
-    from jointrig.studies.validate import MIN_PERIODS_TO_SPLIT, MIN_RUNS_TO_HOLD_OUT
+    from jointrig.identify.chain_diagnose import nominal_spec
+    from jointrig.studies.chain_validate import MIN_PERIODS_TO_SPLIT, MIN_RUNS_TO_HOLD_OUT, run_train_diagnosis, written_of
     from jointrig.vocab.records import RecordError
 
     t0 = time.perf_counter()
@@ -270,12 +180,13 @@ def _train(args: argparse.Namespace, loaded, model, writer, two_flywheels: bool 
                               f"(phi1..phiN, torque<i>) or a two-flywheel model")
         N = loaded.records[0].n_flywheels
         driven = sorted({i for r in loaded.records for i, t in enumerate(r.torques_Nm, start=1) if t is not None})
+        relative = loaded.torque_share is not None  # the relative angle alone: one body
         if model is not None and not hasattr(model, "n_flywheels") and two_flywheels:
-            from jointrig.rig.chain import chain_of_two_flywheels
+            from jointrig.rig.chain import chain_of_two_flywheels, relative_chain_of_two_flywheels
             from jointrig.rig.model import RigModelError
 
             try:
-                model = chain_of_two_flywheels(model, driven)
+                model = relative_chain_of_two_flywheels(model) if relative else chain_of_two_flywheels(model, driven)
             except RigModelError as err:
                 raise BadArgument(f"--model: {err}") from None
         if model is not None and not hasattr(model, "n_flywheels"):
@@ -303,13 +214,22 @@ def _train(args: argparse.Namespace, loaded, model, writer, two_flywheels: bool 
                                     f"{MIN_PERIODS_TO_SPLIT} whole periods: the diagnosis needs {MIN_RUNS_TO_HOLD_OUT + 1} "
                                     f"runs (some held out for validation) or runs of at least {MIN_PERIODS_TO_SPLIT} "
                                     f"periods (the later half held out)")
+        if relative:
+            s = loaded.torque_share
+            loaded = replace(loaded, notes=loaded.notes + (
+                f"the relative angle alone ('phi'): the joint's twist moves as one body of inertia J1 J2/(J1 + J2) "
+                f"(J1 below) tied to the frame by the joint's law (ground1_* below are the joint's), driven by "
+                f"{s:g} of the torque (--torque-share: the undriven flywheel's J over J1 + J2"
+                + (", from your model" if model is not None else "") + "); bearing drag and the angle sensors' "
+                "zero offset are not sought: they need both angles",))
         for n in loaded.notes:
             log.info("note: %s", n)
         rig = model if model is not None else rig_of_bodies(N, driven, loaded.kind)
         written = written_of(model) if model is not None else ()
         report = run_train_diagnosis(loaded.records, run_ids=ids, rig=rig, holdout=holdout, written=written,
                                      band=args.band, alpha=args.alpha, fidelity=args.fidelity,
-                                     progress=lambda msg: log.info("%s", msg))
+                                     progress=lambda msg: log.info("%s", msg),
+                                     nominal=nominal_spec(1, twist=True) if relative else None)
     except (RunsFileError, RecordError, BadArgument, ChainIdentifiabilityError) as err:
         return _said(err, 2)
     except (SimulationError, ValueError, np.linalg.LinAlgError) as err:
@@ -345,6 +265,10 @@ def _train(args: argparse.Namespace, loaded, model, writer, two_flywheels: bool 
         what = "extended" if report.adopted else "nominal"
         header = (f"jointrig {__version__}: the {what} train identified from {args.data} (SHA-256 {loaded.sha256}).\n"
                   f"Verdict: {report.verdict.verdict}: {report.verdict.reason}")
+        if relative:  # the one body back as the two flywheels it stands for
+            plant, J, driven = relative_as_two_flywheels(plant, J[0], loaded.torque_share, args.torque_on)
+            header += (f"\nFrom the relative angle alone: J1, J2 from the identified J1 J2/(J1 + J2) = {J[0] * J[1] / sum(J)!r} "
+                       f"kg m^2 and the torque share {loaded.torque_share:g}")
 
         def write(tmp):
             tmp.write_text(chain_model_xml(plant, J, driven, header=header, kind=loaded.kind), encoding="utf-8")
@@ -354,6 +278,19 @@ def _train(args: argparse.Namespace, loaded, model, writer, two_flywheels: bool 
         log.info("wrote %s", args.mjcf)
     log.info("done in %.1f s", time.perf_counter() - t0)
     return 0
+
+
+def relative_as_two_flywheels(plant, J_kgm2: float, share: float, torque_on: str) -> tuple:
+    """The relative-angle form's one body (its law to ground, inertia ``J1 J2/(J1 + J2)``) as the
+    two flywheels it stands for: ``(plant, (J1, J2), driven)``, the law at joint 1, the undriven
+    flywheel's inertia ``J/(1 - share)`` and the driven one's ``J/share`` (pure)."""
+    from jointrig.identify.chain import ChainPlant
+
+    driven_J, other_J = J_kgm2 / share, J_kgm2 / (1.0 - share)
+    two = ChainPlant((plant.grounds[0],), (0.0, 0.0), (), plant.drive_delay_s)
+    if torque_on == "flywheel2":
+        return two, (other_J, driven_J), [2]
+    return two, (driven_J, other_J), [1]
 
 
 def write_train_cards(args, loaded, report) -> tuple:
@@ -382,49 +319,3 @@ def write_train_cards(args, loaded, report) -> tuple:
             write_atomic(path, lambda tmp, png=png: tmp.write_bytes(png))
             log.info("wrote %s", path)
     return tuple(zip(cards, pngs))
-
-
-def write_card(args, loaded, card) -> None:
-    """The joint card of the diagnosis (studies/joint_card.py): printed, and written as JSON and PNG."""
-    from jointrig.present.card import card_json, card_png, format_card
-    from jointrig.files import write_atomic, write_json_atomic
-
-    print(format_card(card))
-    if args.card:
-        write_json_atomic(args.card, card_json(card, source=str(args.data), input_sha256=loaded.sha256))
-        log.info("wrote %s", args.card)
-    if args.card_png and not card_drawn_by_writer(args):
-        png = card_png(card, title=card_title(args, card))
-        write_atomic(args.card_png, lambda tmp: tmp.write_bytes(png))
-        log.info("wrote %s", args.card_png)
-
-
-def card_title(args: argparse.Namespace, card) -> str:
-    return f"joint card of {args.data.name}: {card.model_name}"
-
-
-def write_mjcf(args, loaded, report) -> None:
-    """The adopted model as a rig model file, checked by compiling it before it is put in place."""
-    from jointrig.identify.diagnose import plant_of
-    from jointrig.rig.model import identified_model_xml, load_rig
-    from jointrig.files import write_atomic
-    from jointrig import __version__
-
-    d = report.diagnosis
-    explained = report.verdict.verdict == "explained"
-    f = d.extended if explained else d.nominal
-    plant, J = plant_of(f, args.torque_share)
-    what = f"extended model ({' + '.join(d.effects)})" if explained and d.effects else "nominal model (paper eq. 11)"
-    lines = [f"jointrig {__version__}: the {what} identified from {args.data} (SHA-256 {loaded.sha256}).",
-             f"Verdict: {report.verdict.verdict}: {report.verdict.reason}",
-             f"Flywheel inertias J1 = {J[0]!r}, J2 = {J[1]!r} kg m^2; parameters +- standard error (SI):"]
-    lines += [f"  {n} = {v!r} +- {f.std_error(n):.3g}" for n, v in f.effect_parameters().items()]
-    lines.append("Simulate it: jointrig sweep, with this file as its model option; from Python, "
-                 "rig.load_rig(THIS_FILE).")
-
-    def write(tmp):
-        tmp.write_text(identified_model_xml(plant, J, header="\n".join(lines)), encoding="utf-8")
-        load_rig(tmp)  # it must compile and read back before it replaces anything
-
-    write_atomic(args.mjcf, write)
-    log.info("wrote %s", args.mjcf)
