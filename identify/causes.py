@@ -2,10 +2,10 @@
 
 A :class:`Cause` extends a :class:`ModelSpec` (joint terms, bearing drag, a drive delay, the
 sensors' zero, skew and scale) with its columns and at most one nonlinear parameter, found by a
-profile search within ``bounds``. :data:`CATALOGUE` holds every cause; the two-flywheel
-diagnosis (:mod:`identify.diagnose`) scores :data:`CAUSES`, the one-coordinate oscillator's
-extension (:mod:`identify.extend`, the Silverbox) :data:`OSCILLATOR_CAUSES`, a train's joints and
-bodies the causes sought there (:func:`at`), and all judge a cause by :func:`evidence` into one
+profile search within ``bounds``. :data:`CATALOGUE` holds every cause; the diagnosis of every
+bench (:mod:`identify.chain_diagnose`: two flywheels, trains, a single axis) scores the causes
+sought at each place (:func:`at`), the one-coordinate oscillator's extension
+(:mod:`identify.extend`, the Silverbox) :data:`OSCILLATOR_CAUSES`, and both judge a cause by :func:`evidence` into one
 :class:`CauseScore`. Adding a cause is one entry here: it carries where it is sought, how its
 magnitude reads, its search and its degeneracy rule, so no diagnosis names it.
 """
@@ -24,9 +24,9 @@ from jointrig.vocab.params import BEARING1, BEARING2, DRIVE_DELAY
 
 from .balance import spectral_rate
 
-__all__ = ["ModelSpec", "NOMINAL", "Cause", "Limits", "Place", "CauseScore", "Ambiguity", "CATALOGUE", "CAUSES",
+__all__ = ["ModelSpec", "NOMINAL", "Cause", "Limits", "Place", "CauseScore", "Ambiguity", "CATALOGUE",
            "OSCILLATOR_CAUSES", "at", "by_name", "evidence", "chi2_survival",
-           "SEPARATING_EXCITATION", "DEFAULT_SEPARATION", "DIMENSIONLESS", "TIE", "IWAN_CHI",
+           "SEPARATING_EXCITATION", "DEFAULT_SEPARATION", "DIMENSIONLESS", "IWAN_CHI",
            "IWAN_BETA", "rate_amplitudes", "Selection", "forward_select", "harmonic_shares", "fundamental_quadrature"]
 
 
@@ -68,7 +68,6 @@ class Cause:
     n_linear: int
     bounds: Optional[Callable[[Sequence], tuple[float, float]]] = None  # of the prepared runs (their .average)
     log_scale: bool = False
-    needs_two_angles: bool = False
     nonnegative: bool = True  # a negative magnitude is unphysical (friction, damping, delay)
     profiled: Optional[str] = None  # name of the nonlinear parameter the profile search finds
     #: "dynamic" (in the plant: the rig simulates it) or "measurement" (in the sensors: the data
@@ -85,10 +84,10 @@ class Cause:
     #: adopted over the simpler only if its extra parameters are significant by themselves (a
     #: nested chi-square test at the round's alpha), so pure dry friction is named as such.
     reduces_to: Optional[str] = None
-    #: where the cause is sought: ``"joint"`` (a law of a joint's twist: the two-flywheel joint
-    #: and every joint of a train), ``"two_flywheel"`` (the two-flywheel bench only: its drive,
-    #: bearings and flywheel 2's angle), ``"ground"`` (a single body's law to the frame), ``"drive"``
-    #: (a train's drive channels: their lag), ``"channel"`` (a train's angle channel of body 2..N,
+    #: where the cause is sought: ``"joint"`` (a law of a joint's twist: every joint of a train,
+    #: two flywheels' one; and a body's elastic law to the frame), ``"ground"`` (a single body's
+    #: law to the frame), ``"drive"`` (the drive channels: their lag), ``"flywheel"`` (a body's
+    #: viscous drag to ground, at every body), ``"channel"`` (a train's angle channel of body 2..N,
     #: read against the drive's and body 1's: its skew and scale; named for flywheel 2, renamed
     #: per body by :func:`vocab.params.channel_name`) and
     #: ``"oscillator"`` (the one-coordinate extension, the Silverbox)
@@ -274,9 +273,8 @@ def _with_cogging(spec: ModelSpec, order: float) -> ModelSpec:
 
 
 #: Every cause the project knows, once. Each pipeline takes the causes sought at its places
-#: (:func:`at`): the two-flywheel diagnosis :data:`CAUSES`, a train's joints and single bodies
-#: (``identify.chain_diagnose``), the one-coordinate oscillator's extension (the Silverbox)
-#: :data:`OSCILLATOR_CAUSES`.
+#: (:func:`at`): every bench's joints, bodies and channels (``identify.chain_diagnose``), the
+#: one-coordinate oscillator's extension (the Silverbox) :data:`OSCILLATOR_CAUSES`.
 CATALOGUE: tuple[Cause, ...] = (
     Cause("coulomb_friction", "dry friction in the joint: a torque of constant size opposing the relative rate",
           lambda s, h: _with_terms(s, (Coulomb(),)), "coulomb_torque_Nm", 1, places=_JOINT_GROUND,
@@ -313,10 +311,10 @@ CATALOGUE: tuple[Cause, ...] = (
     Cause("drive_delay", "the drive acts later than it is recorded: a phase lag growing linearly with frequency",
           lambda s, h: replace(s, drive_delay_s=float(h)), DRIVE_DELAY, 0,
           bounds=lambda runs: (0.0, 0.1 * min(2 * math.pi / r.average.omega_rad_s for r in runs)),
-          profiled=DRIVE_DELAY, places=frozenset({"two_flywheel", "oscillator", "drive"}), plain="a lag of the drive"),
+          profiled=DRIVE_DELAY, places=frozenset({"oscillator", "drive"}), plain="a lag of the drive"),
     Cause("bearing_friction", "viscous drag of a flywheel to ground (not through the joint)",
-          lambda s, h: replace(s, bearings=True), "bearing_damping_Nms_per_rad", 2, needs_two_angles=True,
-          places=frozenset({"two_flywheel"}), magnitude_parts=(BEARING1, BEARING2), magnitude_is="largest",
+          lambda s, h: replace(s, bearings=True), "bearing_damping_Nms_per_rad", 2,
+          places=frozenset({"flywheel"}), magnitude_parts=(BEARING1, BEARING2), magnitude_is="largest",
           plain="bearing drag"),
     Cause("angle_offset", "measurement: the zero of the relative angle is off (an encoder's zero); under a cubic "
           "term it creates even harmonics as an asymmetric spring would",
@@ -326,17 +324,17 @@ CATALOGUE: tuple[Cause, ...] = (
     Cause("angle_skew", "measurement: flywheel 2's angle is read later (or earlier) than the torque and flywheel 1's "
           "angle (a multiplexed DAQ's channel skew, a filter's group delay)",
           lambda s, h: replace(s, angle2_delay_s=float(h)), "angle2_delay_s", 0,
-          bounds=lambda runs: (-_skew_bound(runs), _skew_bound(runs)), nonnegative=False, needs_two_angles=True,
-          profiled="angle2_delay_s", kind="measurement", first_only=True, places=frozenset({"two_flywheel", "channel"}),
+          bounds=lambda runs: (-_skew_bound(runs), _skew_bound(runs)), nonnegative=False,
+          profiled="angle2_delay_s", kind="measurement", first_only=True, places=frozenset({"channel"}),
           plain="a time skew"),
     Cause("angle_gain", "measurement: flywheel 2's angle reads a fixed factor too large or too small (an encoder's "
           "lines per revolution or a gear ratio set wrong)",
           lambda s, h: replace(s, angle2_gain_error=float(h)), "angle2_gain_error", 0,
           bounds=lambda runs: (-ANGLE_GAIN_TOLERANCE, ANGLE_GAIN_TOLERANCE), nonnegative=False,
-          needs_two_angles=True, profiled="angle2_gain_error", kind="measurement", first_only=True,
-          places=frozenset({"two_flywheel", "channel"}), plain="a scale error"),
+          profiled="angle2_gain_error", kind="measurement", first_only=True,
+          places=frozenset({"channel"}), plain="a scale error"),
     # Laws of the one-coordinate oscillator's extension (the Silverbox: y'' + law(y, y') = u),
-    # not sought on the two-flywheel joint (its default selection is CAUSES).
+    # not sought at a joint.
     Cause("quintic_stiffness", "stiffening beyond cubic: odd lines growing with amplitude",
           lambda s, h: _with_terms(s, (Power(5),)), "p5_Nm_per_rad5", 1, nonnegative=False, places=_OSCILLATOR,
           plain="a quintic stiffness"),
@@ -359,9 +357,6 @@ def at(*places: str) -> tuple[Cause, ...]:
     """The catalogue's causes sought at any of ``places`` (``Cause.places``), in catalogue order."""
     return tuple(c for c in CATALOGUE if c.places & set(places))
 
-
-#: The two-flywheel diagnosis's causes, in the order they are scored.
-CAUSES: tuple[Cause, ...] = at("joint", "two_flywheel")
 
 #: The one-coordinate oscillator's candidate extensions (scripts/silverbox.py): an even and a
 #: quintic stiffness, damping growing with the rate or with the amplitude, a late input.
@@ -546,9 +541,9 @@ def forward_select(base: Base, causes: Sequence[Cause], *,
     Each round ``rank(base, remaining causes, round)`` scores the causes not yet adopted on the
     present model, best first; ``adopt(base, ranked)`` returns the cause it takes with the
     extended (refitted) model, or None to stop. What earns adoption is the pipeline's own: the
-    two-flywheel diagnosis (:func:`identify.diagnose.diagnose`) takes the best significant
+    diagnosis (:func:`identify.chain_diagnose.diagnose_chain`) takes the best significant
     :func:`evidence` (its harmonic-balance fits are cheap; the simulated held-out runs judge
-    the result afterwards, :mod:`studies.validate`); the oscillator's extension
+    the result afterwards, :mod:`studies.chain_validate`); the oscillator's extension
     (:func:`identify.extend.extend_model`) tries causes in order of evidence and takes the first
     that lowers the simulation error on held-out records (each trial is a full output-error fit).
     A cause adopted leaves the pool, and so does every ``first_only`` cause (sought only against
@@ -667,9 +662,6 @@ def parsimonious(ranked: list, by_name: dict, n_rows: int, alpha: float, *, name
             out.insert(out.index(simpler) + 1, richer)
     return out
 
-
-#: A measurement cause whose chi-square drop is within 1% of the best cause's is taken first.
-TIE = 0.99
 
 #: Largest zero error of the relative angle that a bench plausibly has (rad): about 0.6 degree.
 #: A larger apparent offset is not sought as a sensor error (it would be a preloaded joint).

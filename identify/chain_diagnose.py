@@ -1,13 +1,14 @@
 """Which joint of a drive train is worn, and how: the diagnosis of a chain.
 
-The two-flywheel diagnosis (:mod:`identify.diagnose`) asks which cause explains a misfit;
-in a chain the question is also *where*. Every catalogued joint cause (the same
-:data:`identify.causes.CAUSES` entries, extending a joint's terms exactly as they extend the
-two-flywheel joint's) is scored at every joint, and bearing drag at every flywheel:
+The one diagnosis of every bench: two flywheels (the train of two bodies), a train of up to
+eight, a single axis, and the relative angle alone (its twist as one body tied to the frame). It
+asks which cause explains a misfit, and *where*. Every catalogued joint cause
+(:func:`identify.causes.at`) is scored at every joint (and at a body tied to the frame by an
+elastic law), bearing drag at every flywheel:
 
 1. **Prepare** (:func:`prepare_chain_runs`): average each run's P periods in the frequency
    domain, keep harmonics 0..band of every channel and resynthesise the mean period and each
-   period on :data:`identify.diagnose.FINE_SAMPLES` samples (the law columns of a jump or a
+   period on :data:`identify.kink.FINE_SAMPLES` samples (the law columns of a jump or a
    kink alias 16 times less there); rates are exact spectral derivatives of the band.
 2. **Weights**: every harmonic-balance row's noise variance is the period-to-period variance
    of its residual at the current parameters, over P (cosine and sine rows of one harmonic of
@@ -56,7 +57,8 @@ from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpe
                     rests, stick_mask, sticks_to_ground, jumps_at_rest)
 from .causes import (CATALOGUE, Ambiguity, Cause, CauseScore, Limits, ModelSpec, Place, at, by_name, evidence, forward_select,
                      fundamental_quadrature, harmonic_shares, parsimonious, profile)
-from .diagnose import DEFAULT_FIDELITY, FINE_SAMPLES, KINK_RTOL, kink_corrected_rate, kink_first_pass
+from .defaults import DEFAULT_FIDELITY
+from .kink import FINE_SAMPLES, KINK_RTOL, kink_corrected_rate, kink_first_pass
 from .harmonics import max_harmonic
 from .periods import period_spectra, raw_noise_std
 from jointrig.vocab.records import RecordError, SteadyStateRecord
@@ -356,7 +358,7 @@ class _Problem:
         """Run k's rate of body i (``i < N``) or twist rate of joint ``i - N`` (0-based), of its
         average ``(1, M)`` or of each period ``(P, M)``, with the kinks of a jump ``jump`` at its
         reversals restored, and the band-limited rate it corrects
-        (:func:`identify.diagnose.kink_corrected_rate`; its first pass, which does not depend on
+        (:func:`identify.kink.kink_corrected_rate`; its first pass, which does not depend on
         the jump, is kept)."""
         run = self.runs[k]
         key = (k, i, periods)
@@ -437,8 +439,7 @@ class _Problem:
     def solve(self, spec: ChainSpec, weights: np.ndarray) -> ChainFit:
         """Weighted fit of ``spec``; with dry friction to ground on a body, or in a joint, that
         slides through rest, its rate's (twist rate's) kinks restored at the fitted friction and
-        refitted until the jumps settle (to ``KINK_RTOL``, at most two refits), as two flywheels'
-        joint is (:func:`identify.diagnose._solve`)."""
+        refitted until the jumps settle (to ``KINK_RTOL``, at most two refits; :mod:`identify.kink`)."""
         jumps = None
         banded, res = self._solve_once(spec, weights, jumps)
         for _ in range(2):
@@ -617,7 +618,7 @@ def _rate_amplitude(problem: _Problem, cand: Candidate) -> float:
 
 def angle_resolution(problem: _Problem, cand: Candidate) -> float:
     """What the candidate's motion resolves (rad): 3 noise standard deviations of one sample of
-    the band-limited period average (as :func:`identify.diagnose.angle_resolution`)."""
+    the band-limited period average."""
     out = 0.0
     for r in problem.runs:
         sd = math.sqrt(sum(r.noise_std[ch] ** 2 for ch in cand.channels()))

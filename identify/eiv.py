@@ -361,7 +361,8 @@ def prepare_eiv_runs(records: Sequence[SteadyStateRecord], terms: Sequence[Term]
                  torque_share: float, rate_band: int = DEFAULT_RATE_BAND) -> list:
     """The per-run pieces of :func:`ml_identify` (for estimators built on it, e.g. identify.hat):
     the errors-in-variables rows and covariance of every run. (The diagnosis's run preparation,
-    :func:`identify.diagnose.prepare_runs`, averages and band-limits for the causes instead.)"""
+    :func:`identify.chain_diagnose.prepare_chain_runs`, averages and band-limits for the causes
+    instead.)"""
     if not records:
         raise ValueError("at least one record is needed")
     if not 0 < torque_share <= 1:

@@ -2,8 +2,8 @@
 the status of the fit that produced them.
 
 Each fit of the project (:class:`identify.solve.IdentificationResult`, the errors-in-variables
-:class:`identify.eiv.EivResult`, the diagnosis's :class:`identify.diagnose.Fit` and
-:class:`identify.chain_diagnose.ChainFit`, the output-error
+:class:`identify.eiv.EivResult`, the diagnosis's :class:`identify.chain_diagnose.ChainFit`, the
+output-error
 :class:`identify.output_error.OutputErrorResult`) is a frozen dataclass that is an
 :class:`Estimates`: it holds ``names`` (unit-carrying, :class:`jointrig.vocab.params.Param`),
 ``values``, ``std_errors``, ``condition_number`` (of the problem its solver inverted: the
@@ -65,9 +65,8 @@ class Estimates:
 
 
 class RowFit(Estimates):
-    """A weighted least-squares fit of ``n_rows`` harmonic-balance rows: the diagnoses' fits
-    (:class:`identify.diagnose.Fit` of two flywheels, :class:`identify.chain_diagnose.ChainFit`
-    of a train), with their degrees of freedom."""
+    """A weighted least-squares fit of ``n_rows`` harmonic-balance rows (the diagnosis's
+    :class:`identify.chain_diagnose.ChainFit`), with its degrees of freedom."""
 
     n_rows: int
 

@@ -29,7 +29,7 @@ class ResidualRun:
     """What a misfit's description reads of one run (SI): its setting, the place's motion on the
     harmonics the measurement resolves (an angle in rad, or a position in m), and the torque (N m,
     or force in N) there: measured through the equations of motion, and the final model's law
-    along that motion. Two flywheels' ``studies.validate.RunComparison`` has these fields too."""
+    along that motion."""
 
     run_id: str
     omega_rad_s: float

@@ -2,7 +2,7 @@
 
 Text and numbers (:mod:`formatting`: units read from the quantity names, values rounded to their
 standard errors), the diagnosis report as text, JSON and a self-contained HTML file
-(:mod:`diagnosis_report`, its figures as SVG by :mod:`svg`), and the rerun recordings with their
+(:mod:`train_report`, :mod:`page`, its figures as SVG by :mod:`svg`), and the rerun recordings with their
 blueprints (:mod:`recording`).
 Nothing here simulates or fits.
 """

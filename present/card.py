@@ -1,4 +1,4 @@
-"""The joint card as people read it (from :func:`studies.joint_card.card_of_diagnosis`): its text
+"""The joint card as people read it (from :func:`studies.joint_card.cards_of_train`): its text
 (:func:`format_card`, printed by ``jointrig card`` and ``diagnose --card``), its JSON, its figure
 (PNG) and the sentence on Masing's rule."""
 

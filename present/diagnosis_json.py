@@ -125,8 +125,8 @@ def _cause(s: CauseScore, name: Callable[[str], str]) -> dict:
 
 @dataclass(frozen=True)
 class DiagnosisJson:
-    """Everything a diagnosis's JSON holds (:data:`KEYS`), filled by either pipeline's report
-    (``present.diagnosis_report`` of two flywheels, ``present.train_report`` of a train)."""
+    """Everything a diagnosis's JSON holds (:data:`KEYS`), filled by the report
+    (``present.train_report``)."""
 
     source: str
     input_sha256: str

@@ -1,7 +1,7 @@
 """The sections of the diagnosis's text report, one layout for every bench (pure).
 
-Two flywheels (``present.diagnosis_report.format_report``) and a train or a single axis
-(``present.train_report.format_train_report``) print the same sections in the same columns:
+Every bench's report (``present.train_report.format_train_report``: two flywheels, a train, a
+single axis) prints these sections in these columns:
 the verdict and what to do next; the data; the nominal model; the causes ranked by evidence;
 the extended model; the validation in the rig; the notes on the data.
 """

@@ -102,6 +102,48 @@ def _sought(report: TrainReport) -> str:
     return f"{len(d.first_round)} candidates: {', '.join(places)}"
 
 
+#: The largest zero offset of a twist or an angle read as a sensor's (rad, about 11 deg): beyond
+#: it an even stiffness is taken as the joint's.
+MAX_ZERO_OFFSET_RAD = 0.2
+
+
+def offset_readings(report: TrainReport) -> tuple[str, ...]:
+    """An even stiffness ``a phi^2`` tried or adopted beside a cubic ``gamma phi^3`` is, to first
+    order, what a constant zero offset ``delta = -a / (3 gamma)`` of the angle the law reads
+    makes of the cubic: the data cannot tell the two apart, and an encoder's zero is the
+    likelier. One reading in words per such place (pure)."""
+    d = report.diagnosis
+    p = d.final.as_dict()
+    out = []
+    slide = report.kind == "slide"
+    for s in d.steps:
+        if s.effect != "asymmetric_stiffness":
+            continue
+        prefix = s.magnitude[0][: -len("a_Nm_per_rad2")]
+        a, gamma = p.get(prefix + "a_Nm_per_rad2"), p.get(prefix + "gamma_Nm_per_rad3")
+        if not a or not gamma or gamma <= 0:
+            continue
+        delta = -a / (3 * gamma)  # gamma (phi - delta)^3 = gamma phi^3 - 3 gamma delta phi^2 + ...
+        if abs(delta) > MAX_ZERO_OFFSET_RAD:
+            continue
+        x = "x" if slide else "phi"
+        place = re.fullmatch(r"(joint|ground)(\d+)_", prefix)
+        i = int(place.group(2))
+        what = (f"the twist of joint {i} ({x}{i} - {x}{i + 1})" if place.group(1) == "joint"
+                else (f"body {i}'s position ({x}{i})" if slide else f"body {i}'s angle ({x}{i}; the relative angle "
+                      f"in the relative-angle form)"))
+        nm = _namer(report)
+        unit = lambda n: unit_of(nm(prefix + n))  # noqa: E731
+        length = unit("backlash_half_gap_rad")
+        degrees = "" if slide else f" ({math.degrees(delta):.2g} deg)"
+        out.append(f"the even stiffness a = {a:.4g} {unit('a_Nm_per_rad2')} is exactly what a zero offset of {what} of "
+                   f"-a / (3 gamma) = {delta:.3g} {length}{degrees} makes of the cubic gamma = {gamma:.4g} "
+                   f"{unit('gamma_Nm_per_rad3')}: the data cannot tell the two apart. Check the "
+                   f"{'position' if slide else 'angle'} sensors' zero; if the joint is symmetric, subtract {delta:.3g} "
+                   f"{length} from {what} and run the diagnosis again")
+    return tuple(out)
+
+
 def _cell(error: float) -> str:
     return sig_or(error, "no steady")
 
@@ -116,9 +158,10 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
     held_ids = [report.run_ids[i] for i in report.held_out]
     m = report.misfit
     if v.verdict != "unexplained":
-        steps = d.plausibility + steps_after(v.verdict, d.ambiguities, report.held_out_periods)
+        steps = d.plausibility + offset_readings(report) + steps_after(v.verdict, d.ambiguities,
+                                                                       report.held_out_periods)
     else:  # no cause mends a file read wrong: that comes first
-        steps = d.plausibility + (m.next_measurements if m is not None else ())
+        steps = d.plausibility + offset_readings(report) + (m.next_measurements if m is not None else ())
     misfit = ([f"Where the misfit is: {m.describe_places()}",
                f"What the misfit looks like there: {m.describe()[0]}",
                f"Its restoring-force surface: {m.describe()[1]}"] if m is not None else [])
@@ -180,7 +223,7 @@ def train_report_json(report: TrainReport, *, source: str = "", notes: Sequence[
                       input_sha256: str = "") -> dict:
     """The train's diagnosis as the one diagnosis document (:mod:`present.diagnosis_json`; SI,
     parameter names carry their units, a slide's in N, m, kg)."""
-    from jointrig.studies.validate import HELD_OUT_PERIODS, HELD_OUT_RUNS
+    from jointrig.studies.holdout import HELD_OUT_PERIODS, HELD_OUT_RUNS
 
     d, v = report.diagnosis, report.validation
     nm = _namer(report)
@@ -272,7 +315,7 @@ def write_train_html(path, report: TrainReport, text: str, *, title: str, source
 
     from jointrig.files import write_atomic
 
-    from .diagnosis_report import _card_section, _row, _table, page_top, surface_figure, svg_figure_html
+    from .page import card_section, page_top, row, surface_figure, svg_figure_html, table
 
     d = report.diagnosis
     nm = _namer(report)
@@ -283,13 +326,13 @@ def write_train_html(path, report: TrainReport, text: str, *, title: str, source
     if d.steps:
         parts.append("<h2>What the data show</h2>" if report.adopted else
                      "<h2>The best extension, not adopted (see the verdict)</h2>")
-        parts.append(_table(["cause", "size", "unit"], [
-            _row([s.label, (with_se(*final.get(s.magnitude[0], s.magnitude[1:])), "num"), unit_of(nm(s.magnitude[0]))])
+        parts.append(table(["cause", "size", "unit"], [
+            row([s.label, (with_se(*final.get(s.magnitude[0], s.magnitude[1:])), "num"), unit_of(nm(s.magnitude[0]))])
             for s in d.steps]))
     if written:
         parts.append("<h2>Your model as written</h2>")
-        parts.append(_table(["parameter", "written", "the data", "unit", ""], [
-            _row([nm(w.name), (f"{w.written:.6g}", "num"), (with_se(w.data, w.std_error), "num"), unit_of(nm(w.name)),
+        parts.append(table(["parameter", "written", "the data", "unit", ""], [
+            row([nm(w.name), (f"{w.written:.6g}", "num"), (with_se(w.data, w.std_error), "num"), unit_of(nm(w.name)),
                   ("differs: " + w.change) if w.differs else "agrees"], "adopted" if w.differs else "")
             for w in written]))
     m = report.misfit
@@ -309,15 +352,15 @@ def write_train_html(path, report: TrainReport, text: str, *, title: str, source
         parts.append(svg_figure_html(f"Held-out data ({report.generalisation}): measured, and simulated in the rig "
                                      f"with the nominal and the extended model", image))
     parts.append(f"<h2>{'Extended' if report.adopted else 'Nominal'} model</h2>")
-    parts.append(_table(["parameter", "value ± standard error", "unit"], [
-        _row([nm(n), (with_se(x, se), "num"), unit_of(nm(n))]) for n, (x, se) in _values(fit).items()]))
+    parts.append(table(["parameter", "value ± standard error", "unit"], [
+        row([nm(n), (with_se(x, se), "num"), unit_of(nm(n))]) for n, (x, se) in _values(fit).items()]))
     for card, png in cards:  # (card, its PNG) per place, with --card: folded, one per joint
-        section = _card_section(card, png)
+        section = card_section(card, png)
         parts.append(f"<details class='section'><summary>Joint card of {html.escape(card.place)}</summary>"
                      + "".join(section[1:]) + "</details>")
     parts.append("<details class='section'><summary>Every candidate, scored on the nominal model</summary>")
-    parts.append(_table(["candidate", "BIC score", "p", "size", "note"], [
-        _row([s.label, (f"{s.score:.1f}", "num"), (f"{s.p_value:.2g}", "num"),
+    parts.append(table(["candidate", "BIC score", "p", "size", "note"], [
+        row([s.label, (f"{s.score:.1f}", "num"), (f"{s.p_value:.2g}", "num"),
               f"{quantity_of(nm(s.magnitude[0]))} = {with_se(s.magnitude[1], s.magnitude[2])} {unit_of(nm(s.magnitude[0]))}",
               _words(report, s.note)]) for s in d.first_round]))
     parts.append("</details>")

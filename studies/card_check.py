@@ -4,9 +4,9 @@ A study, not a step of the diagnosis: for a joint whose law is known (``CARD_CAS
 
 1. the rig simulates (native callback, bit-identical to the Python one) a stepped sine test (3 frequencies x 3 levels around the joint's mode,
    ``n_periods`` each) and measures it at ``snr_db``;
-2. the diagnosis identifies the joint from those runs alone (nominal model of the paper plus
-   whatever cause it adopts) and :func:`studies.joint_card.identified_law` gives the law it stands
-   behind with its covariance;
+2. the diagnosis identifies the joint from those runs alone, as the train of two bodies
+   (nominal model of the paper plus whatever cause it adopts), and
+   :func:`identify.chain_diagnose.place_law` gives the law it stands behind, with its covariance;
 3. the rig runs the phase-resonance test (:func:`studies.phase_resonance.phase_resonance`, noise
    free, true law) at ``pr_levels_Nm``: the backbone and damping as a lab measures them;
 4. the identified law's card (:func:`identify.card.law_card`) is evaluated at the amplitudes the
@@ -31,12 +31,15 @@ import numpy as np
 from jointrig.vocab.law import Iwan, Jenkins, JointLaw, Power, Viscous
 from jointrig.identify.card import JointCard, law_card, runs_card
 
-from .joint_card import identified_law, inertia_covariance
+from jointrig.identify.chain_diagnose import place_covariance, place_law, plant_and_inertias
+from jointrig.identify.chain import inertia_name
+from jointrig.measured.runs import chain_record_of
+from jointrig.rig.chain import chain_of_two_flywheels
 from jointrig.rig.measurement import add_noise
 from jointrig.rig.model import RigModel
+from .chain_validate import run_train_diagnosis
 from .phase_resonance import phase_resonance
 from jointrig.rig.simulate import SimulationConfig, simulate_steady_state
-from .validate import run_diagnosis
 
 __all__ = ["CardCase", "CARD_CASES", "CardComparison", "CardCheck", "check_card", "check_text", "worst", "QUANTITIES"]
 
@@ -140,8 +143,17 @@ def check_card(rig: RigModel, case: str, *, snr_db: float = 40.0, seed: int = 1,
         say(f"{case}:   {msg.strip()}")
 
     say(f"{case}: diagnosing")
-    report = run_diagnosis(records, rig=rig, progress=step)
-    id_law, je, cov, name, (J1, J2) = identified_law(report)
+    report = run_train_diagnosis([chain_record_of(r) for r in records], run_ids=[str(i) for i in range(len(records))],
+                                 rig=chain_of_two_flywheels(rig, (1,)), progress=step)
+    fit = report.adopted_fit
+    id_law, je = place_law(fit, 0)
+    cov = place_covariance(fit, 0)
+    adopted = tuple(s.effect for s in report.diagnosis.steps) if report.adopted else ()
+    name = (f"extended: {' + '.join(adopted)}" if adopted
+            else f"nominal (paper eq. 11; verdict {report.verdict.verdict})")
+    J1, J2 = plant_and_inertias(fit)[1]
+    both = [fit.names.index(inertia_name(i)) for i in (1, 2)]
+    J_cov = None if fit.covariance is None else fit.covariance[np.ix_(both, both)]
     say(f"{case}: phase resonance at {', '.join(f'{m:g}' for m in c.pr_levels_Nm)} N m")
     pr = phase_resonance(rig, c.pr_levels_Nm, law=law, omega_bracket_rad_s=c.pr_bracket_rad_s,
                          xtol_rad_s=c.pr_xtol_rad_s, config=SimulationConfig(n_periods=2, settle_tol=c.settle_tol),
@@ -156,11 +168,11 @@ def check_card(rig: RigModel, case: str, *, snr_db: float = 40.0, seed: int = 1,
     measured = [add_noise(simulate_steady_state(rig, p.omega_rad_s, m, config, law=law)[0], snr_db, rng)
                 for p, m in zip(pr.points, levels)]
     runs = runs_card(measured, J1, J2, run_ids=[p.run for p in pr.points],
-                     inertia_covariance=inertia_covariance(report))
+                     inertia_covariance=J_cov)
     comps = tuple(CardComparison(p.amplitude_rad, q, getattr(p, q), getattr(i, q), getattr(i, q + "_std"),
                                  getattr(t, q), getattr(r, q), getattr(r, q + "_std"))
                   for p, i, t, r in zip(pr.points, card.points, true.points, runs.points) for q in QUANTITIES)
-    return CardCheck(case, report.verdict.verdict, tuple(report.adopted), name, card, pr, runs, comps)
+    return CardCheck(case, report.verdict.verdict, adopted, name, card, pr, runs, comps)
 
 
 def check_text(check: CardCheck) -> str:

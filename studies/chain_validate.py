@@ -21,14 +21,14 @@ from jointrig.identify.chain import (REST_RATE_FRACTION, STICK_RATE_FRACTION, Ch
                                     inertia_name)
 from jointrig.identify.chain_diagnose import ChainDiagnosis, plant_and_inertias
 from jointrig.identify.harmonics import fourier_coefficients, max_harmonic, synthesize
-from jointrig.identify.periods import period_spectra
+from jointrig.identify.periods import RESOLVED_SIGMA, period_spectra, pooled_period_spectra
 from jointrig.vocab.plant import drive_of_record
 
 from jointrig.rig.chain import ChainRig, simulate_chain
 
 from jointrig.identify.verdict import RIG_FIDELITY, Verdict, judge
 
-from .validate import MIN_PERIODS_TO_SPLIT, MIN_RUNS_TO_HOLD_OUT, generalisation_kind, holdout_of_another_kind
+from .holdout import MIN_PERIODS_TO_SPLIT, MIN_RUNS_TO_HOLD_OUT, generalisation_kind, holdout_of_another_kind
 from jointrig.vocab.records import RecordError
 from jointrig.rig.simulate import SimulationConfig, SimulationError
 
@@ -281,11 +281,24 @@ def split_chain_periods(rec: ChainRecord) -> tuple[ChainRecord, ChainRecord]:
     return part(0, k, f"periods 1-{k}"), part(k, P, f"periods {k + 1}-{P}")
 
 
+#: The band in which a drive's lines are counted for its kind (a sine, or several lines).
+SETTING_BAND = 20
+
+
 def train_setting(rec: ChainRecord) -> tuple[float, float, int]:
     """A train run's setting for :func:`holdout_of_another_kind`: (omega rad/s, the largest drive's
-    fundamental amplitude N m, 0)."""
-    amp = max(float(abs(fourier_coefficients(t, rec.n_periods, 1)[1])) for t in rec.torques_Nm if t is not None)
-    return rec.omega_rad_s, amp, 0
+    fundamental amplitude N m, its lines 2..:data:`SETTING_BAND` that stand out of the noise:
+    0 for a sine, more for a multisine). With one period, no noise is estimated and no line
+    counted."""
+    drives = [t for t in rec.torques_Nm if t is not None]
+    amp = [float(abs(fourier_coefficients(t, rec.n_periods, 1)[1])) for t in drives]
+    k = int(np.argmax(amp))
+    lines = 0
+    if rec.n_periods >= 2:
+        _, mean, var = pooled_period_spectra(drives[k], rec.n_periods)
+        top = min(SETTING_BAND, mean.size - 1)
+        lines = int(np.count_nonzero(np.abs(mean[2:top + 1]) > RESOLVED_SIGMA * np.sqrt(var[2:top + 1])))
+    return rec.omega_rad_s, amp[k], lines
 
 
 def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str], rig: ChainRig,
@@ -298,7 +311,7 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
     another kind, :func:`holdout_of_another_kind`). ``nominal``: the structure fitted without a
     written model (default: :func:`identify.chain_diagnose.nominal_spec` of the file's bodies)."""
     from jointrig.identify.chain_diagnose import diagnose_chain, prepare_chain_runs, train_misfit
-    from jointrig.identify.diagnose import DEFAULT_FIDELITY
+    from jointrig.identify.defaults import DEFAULT_FIDELITY
 
     records = list(records)
     settings = [train_setting(r) for r in records]

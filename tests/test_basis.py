@@ -52,7 +52,7 @@ STATELESS = [Viscous(), Power(0), Power(1), Power(3), Monomial(0, 3), Monomial(2
 @pytest.mark.parametrize("term", STATELESS)
 def test_a_term_without_sliders_evaluates_records_at_once_bit_for_bit(term):
     # The diagnosis evaluates such a term on all its records at once, (records, samples), and a
-    # term with sliders record by record (identify.diagnose._Columns.law): the same bits as row
+    # term with sliders record by record (identify.balance.law_rows): the same bits as row
     # by row, whatever the rows' lengths relative to numpy's SIMD blocks.
     assert not term.stateful
     rng = np.random.default_rng(2)

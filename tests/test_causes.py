@@ -7,7 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from jointrig.identify.causes import CATALOGUE, CAUSES, OSCILLATOR_CAUSES, by_name, evidence, forward_select
+from jointrig.identify.causes import CATALOGUE, OSCILLATOR_CAUSES, at, by_name, evidence, forward_select
+
+JOINT = at("joint")
 from jointrig.identify.extend import _added_term
 from jointrig.vocab.law import Monomial, Power
 
@@ -15,11 +17,11 @@ from jointrig.vocab.law import Monomial, Power
 def test_every_selection_is_drawn_from_the_one_catalogue():
     names = [c.name for c in CATALOGUE]
     assert len(names) == len(set(names))
-    for selection in (CAUSES, OSCILLATOR_CAUSES):
+    for selection in (JOINT, OSCILLATOR_CAUSES):
         assert all(any(c is k for k in CATALOGUE) for c in selection)
     # the causes both pipelines seek are the very same entries
-    shared = {c.name for c in CAUSES} & {c.name for c in OSCILLATOR_CAUSES}
-    assert shared == {"asymmetric_stiffness", "drive_delay"}
+    shared = {c.name for c in JOINT} & {c.name for c in OSCILLATOR_CAUSES}
+    assert shared == {"asymmetric_stiffness"}
     assert by_name("drive_delay") is next(c for c in OSCILLATOR_CAUSES if c.name == "drive_delay")
     with pytest.raises(KeyError, match="quartic"):
         by_name("quartic")
@@ -178,9 +180,8 @@ def test_the_profile_search_at_its_lower_bound_takes_the_one_sided_curvature():
 
 def test_the_catalogue_says_what_each_cause_adds():
     # n_linear: the linear parameters a cause adds to the nominal model (its law terms, or the
-    # two bearings), what a cause's score counts when it cannot be fitted; needs_two_angles
-    # only for the causes on flywheel 2's own angle or drag; the model structure's defaults
-    # are no offset, no delay, no gain error.
+    # two bearings), what a cause's score counts when it cannot be fitted; the model
+    # structure's defaults are no offset, no delay, no gain error.
     from jointrig.identify.causes import NOMINAL, ModelSpec
 
     assert ModelSpec(()) == ModelSpec((), bearings=False, drive_delay_s=0.0, angle_offset_rad=0.0,
@@ -189,7 +190,6 @@ def test_the_catalogue_says_what_each_cause_adds():
         ext = cause.extend(NOMINAL, 1e-3 if cause.bounds is not None else 0.0)
         added = len(ext.terms) - len(NOMINAL.terms) + (2 if ext.bearings else 0)
         assert cause.n_linear == added, (cause.name, cause.n_linear, added)
-    assert {c.name for c in CATALOGUE if c.needs_two_angles} == {"bearing_friction", "angle_skew", "angle_gain"}
 
 
 class _Avg:
@@ -241,7 +241,7 @@ def test_a_richer_cause_without_its_own_evidence_goes_right_after_the_simpler_on
     from jointrig.identify.causes import parsimonious
 
     names = lambda out: [s.effect for s in out]  # noqa: E731
-    catalogue = {c.name: c for c in CAUSES}
+    catalogue = {c.name: c for c in CATALOGUE}
     ranked = [_Score("stribeck_friction", 1012.0, 3), _Score("hysteresis", 1005.0, 2),
               _Score("coulomb_friction", 1000.0, 1), _Score("quadratic_damping", 900.0, 1)]
     assert names(parsimonious(ranked, catalogue, 100, 1e-3)) == [
@@ -265,8 +265,10 @@ def test_each_selection_is_the_causes_sought_at_a_place():
     assert [c.name for c in at("ground")] == ["coulomb_friction", "stribeck_friction", "quadratic_damping", "cogging"]
     assert [c.name for c in at("oscillator")] == ["asymmetric_stiffness", "drive_delay", "quintic_stiffness",
                                                    "cubic_damping", "amplitude_damping"]
-    assert CAUSES == at("joint", "two_flywheel") and OSCILLATOR_CAUSES == at("oscillator")
-    assert "cogging" in {c.name for c in CAUSES} and "bearing_friction" not in {c.name for c in at("joint")}
+    assert OSCILLATOR_CAUSES == at("oscillator") and [c.name for c in at("flywheel")] == ["bearing_friction"]
+    assert [c.name for c in at("channel")] == ["angle_skew", "angle_gain"] and [c.name for c in at("drive")] == [
+        "drive_delay"]
+    assert "cogging" in {c.name for c in JOINT} and "bearing_friction" not in {c.name for c in JOINT}
     assert at() == () and at("nowhere") == ()
 
 
@@ -410,5 +412,5 @@ def test_forward_selection_stops_at_the_first_round_that_adopts_nothing():
         calls.append(rnd)
         return list(pool)
 
-    chosen = forward_select("base", CAUSES[:3], rank=rank, adopt=lambda base, ranked: None, max_effects=3)
+    chosen = forward_select("base", JOINT[:3], rank=rank, adopt=lambda base, ranked: None, max_effects=3)
     assert calls == [0] and chosen.adopted == () and len(chosen.rounds) == 1 and chosen.base == "base"

@@ -529,7 +529,7 @@ def test_information_is_none_for_an_effect_without_a_torque():
 def test_what_a_candidates_motion_resolves_is_three_noise_deviations_of_its_band():
     # The angle resolution a slip angle or a free play is judged against: 3 standard deviations
     # of one sample of the band-limited period average of the candidate's two angles, the
-    # largest over the runs (identify.diagnose.angle_resolution's rule).
+    # largest over the runs (identify.chain_diagnose.angle_resolution).
     import math
 
     from jointrig.identify.causes import Place, by_name

@@ -9,14 +9,13 @@ import numpy as np
 import pytest
 
 from jointrig.identify.chain_diagnose import ChainFit
-from jointrig.identify.diagnose import Fit
 from jointrig.identify.eiv import EivResult
 from jointrig.identify.estimates import Estimates, equilibrated_condition
 from jointrig.identify.output_error import OutputErrorResult
 from jointrig.identify.solve import IdentificationResult
 from jointrig.vocab.params import BEARING1, J1, JE, Param
 
-FAMILY = (IdentificationResult, EivResult, Fit, ChainFit, OutputErrorResult)
+FAMILY = (IdentificationResult, EivResult, ChainFit, OutputErrorResult)
 
 
 @pytest.mark.parametrize("cls", FAMILY, ids=lambda c: c.__name__)

@@ -23,16 +23,14 @@ import re
 import pytest
 
 from bench_sim import JOINTS, POINTS, measure, with_effect
-from jointrig.identify import diagnose as D
-from jointrig.identify.causes import CAUSES, parsimonious
+from jointrig.identify.causes import CATALOGUE, CauseScore, parsimonious
 from jointrig.measured.runs import as_train, read_runs
 from jointrig.rig.chain import rig_of_bodies
 from jointrig.studies.chain_validate import run_train_diagnosis
 from jointrig.present.diagnosis_json import schema_problems
 from jointrig.rig.simulate import SimulationError
-from jointrig.studies.validate import run_diagnosis
 
-KIND = {c.name: c.kind for c in CAUSES}
+KIND = {c.name: c.kind for c in CATALOGUE}
 
 
 def _points(joint: str):
@@ -105,8 +103,8 @@ def test_a_diverging_candidate_is_rejected_with_its_reason(tmp_path, monkeypatch
     json.dumps(cj, allow_nan=False)
 
 
-def _score(effect: str, delta: float, q: int, n_rows: int) -> D.CauseScore:
-    return D.CauseScore(effect, delta, q, delta - q * math.log(n_rows), 1e-30, True, None, (effect, 1.0, 0.1), {})
+def _score(effect: str, delta: float, q: int, n_rows: int) -> CauseScore:
+    return CauseScore(effect, delta, q, delta - q * math.log(n_rows), 1e-30, True, None, (effect, 1.0, 0.1), {})
 
 
 @pytest.mark.parametrize("extra_drop, stribeck_first", [(12.0, False), (30.0, True)])
@@ -118,7 +116,7 @@ def test_a_stribeck_peak_the_data_do_not_show_ranks_behind_dry_friction(extra_dr
     ranked = [_score("stribeck_friction", 1000.0 + extra_drop, 3, n_rows), _score("coulomb_friction", 1000.0, 1, n_rows)]
     ranked.sort(key=lambda s: -s.score)
     assert ranked[0].effect == "stribeck_friction"  # by BIC alone
-    by_name = {c.name: c for c in CAUSES}
+    by_name = {c.name: c for c in CATALOGUE}
     out = parsimonious(ranked, by_name, n_rows, 1e-3)
     assert [s.effect for s in out][0] == ("stribeck_friction" if stribeck_first else "coulomb_friction")
     assert sorted(s.effect for s in out) == ["coulomb_friction", "stribeck_friction"]
@@ -347,18 +345,17 @@ def test_where_the_torque_acts_is_an_option(tmp_path, capsys):
 def test_a_constant_zero_offset_is_named_as_such(tmp_path):
     # issue 37: a constant 0.05 rad offset of the relative angle was taken for an asymmetric
     # stiffness (a = 3 gamma 0.05) with only a hint. On the stiff cubic joint of the independent
-    # bench, the first thing to do names the offset and its size (within 10%: the fit's a and
-    # gamma carry the noise).
-    from jointrig.present.summary import next_steps
+    # bench, the first thing to do names the offset of joint 1's twist and its size (within 10%:
+    # the fit's a and gamma carry the noise).
+    from jointrig.present.train_report import offset_readings
 
     def shifted(t, T, p1, p2):
         return t, T, p1 + 0.05, p2
 
     path = measure(JOINTS["light"], _points("light"), tmp_path / "bench.csv", seed=4, fs_Hz=2000.0, n_periods=6.5,
                    transform=shifted)
-    loaded = read_runs(path)
-    report = run_diagnosis(loaded.records, run_ids=loaded.run_ids)
-    first = next_steps(report)[0]
-    assert "zero offset of the relative angle" in first, next_steps(report)
+    report = _train(read_runs(path))
+    (first,) = offset_readings(report)
+    assert "zero offset of the twist of joint 1 (phi1 - phi2)" in first, first
     delta = float(first.split("(3 gamma) = ")[1].split(" rad")[0])
     assert delta == pytest.approx(0.05, rel=0.1)

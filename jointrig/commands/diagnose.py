@@ -10,13 +10,14 @@ per sample, columns ``run, time, torque, phi1, phi2`` in s, N m, rad (``phi`` ma
 (``force``) in m and N. Each run is one steady-state record of several whole periods at one
 drive setting, sampled at any rate (see measured/runs.py).
 
-The tool fits the nominal model (Je or J1, J2; c phi' + k phi + gamma phi^3; a train: every
-joint's law and every body's inertia, or your --model), ranks the physical causes of what it
+The tool fits the nominal model (every body's inertia and every joint's law, c phi' + k phi +
+gamma phi^3, or your --model; two flywheels are a train of two bodies, the relative angle alone
+one body tied to the frame by the joint's law), ranks the physical causes of what it
 misses by evidence (a train: at every joint and body), extends the model, and measures the gain by
 running both models in the MuJoCo rig under the measured drive of runs held out of the fit
 (default: runs of another kind than the fit where the data allow: multisines against stepped
 sines, else an inner drive level, else an inner frequency, else every third run;
-studies.validate.holdout_of_another_kind).
+studies.holdout.holdout_of_another_kind).
 
 Exit status: 0 on success, 2 on bad input (the message names the file, run, column or
 option), 1 when the identification itself fails.
@@ -54,9 +55,8 @@ def add_data_options(p: argparse.ArgumentParser) -> None:
                         "its laws and shows each parameter as written beside what the data say (default: the paper's "
                         "structure c phi' + k phi + gamma phi^3 at every joint, no values as written)")
     p.add_argument("--torque-on", choices=("flywheel1", "flywheel2", "shaft"), default="flywheel1",
-                   help="where the file's torque acts: the drive on flywheel 1 (default) or on flywheel 2 (the "
-                        "angles are swapped so the driven one is flywheel 1); a torque measured in the shaft is "
-                        "refused with what to record instead")
+                   help="where the file's torque acts: the drive on flywheel 1 (default) or on flywheel 2 (your "
+                        "numbering is kept); a torque measured in the shaft is refused with what to record instead")
     p.add_argument("--zero-per-run", action="store_true",
                    help="take each run's mean angles as their zero (encoders zeroed at the start of each recording; "
                         "right for a symmetric joint). Without it such a file is refused")
@@ -66,7 +66,10 @@ def add_data_options(p: argparse.ArgumentParser) -> None:
                         "with one or two runs, the later half of each run's periods)")
     p.add_argument("--band", type=int, default=20, help="harmonics 0..BAND fitted and compared (default: %(default)s)")
     p.add_argument("--torque-share", type=float, default=0.5,
-                   help="J2/(J1+J2), needed only for data with the relative angle 'phi' (default: %(default)s)")
+                   help="the undriven flywheel's inertia over J1 + J2 (J2/(J1+J2) with the drive on flywheel 1), "
+                        "needed only for data with the relative angle 'phi', whose twist is fitted as one body "
+                        "driven by this share of the torque; from your model's inertias with --model "
+                        "(default: %(default)s)")
     p.add_argument("--alpha", type=float, default=1e-3,
                    help="false-alarm probability per round over all causes (default: %(default)s)")
     p.add_argument("--fidelity", type=float, default=DEFAULT_FIDELITY,

@@ -1,0 +1,112 @@
+"""Which runs a diagnosis holds out for validation, and what they ask of the model (pure).
+
+Runs of another kind than the fit where the data allow (another excitation, an inner level, an
+inner frequency), else every third; with fewer than :data:`MIN_RUNS_TO_HOLD_OUT` runs each run's
+later periods are held out (:func:`studies.chain_validate.split_chain_periods`).
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+from jointrig.identify.misfit import distinct_settings, same_setting
+
+__all__ = ["MIN_RUNS_TO_HOLD_OUT", "MIN_PERIODS_TO_SPLIT", "HELD_OUT_RUNS", "HELD_OUT_PERIODS", "default_holdout",
+           "holdout_of_another_kind", "generalisation_kind"]
+
+
+#: Fewer runs than this: no run can be held out (the fit needs the rest), so each run's periods
+#: are split instead (:func:`split_periods`).
+MIN_RUNS_TO_HOLD_OUT = 3
+#: Whole periods a run needs for its periods to be split into a fit part and a held-out part of
+#: at least two each (two periods give the fit part a noise estimate from their difference).
+MIN_PERIODS_TO_SPLIT = 4
+#: What the validation held out, in the verdict's JSON (``validation.kind``).
+HELD_OUT_RUNS, HELD_OUT_PERIODS = "held_out_runs", "held_out_periods"
+
+
+def default_holdout(n_runs: int) -> tuple[int, ...]:
+    """Runs held out of the fit: every third, starting with the second (indices 1, 4, 7, ...),
+    so the lowest and the highest setting of a sorted sweep stay in the fit and the held-out
+    runs test interpolation between fitted ones."""
+    if n_runs < 3:
+        raise ValueError(f"{n_runs} run(s): need at least 3 to hold one out for validation")
+    return tuple(range(1, n_runs, 3))
+
+
+def _near(v: float, settings: Sequence[float]) -> int:
+    return int(np.argmin([abs(v - s) for s in settings])) if settings else -1
+
+
+def holdout_of_another_kind(settings: Sequence[tuple[float, float, int]]) -> tuple[int, ...]:
+    """Runs to hold out so that validation tests a kind of run the fit did not see, wherever the
+    data allow (pure): ``settings`` are per run (omega rad/s, drive amplitude N m, the drive's
+    lines besides the fundamental that stand out of the noise).
+
+    In this order, the first that leaves at least three runs to fit:
+    1. another excitation: with sines and multi-line drives (multisines) both present, the
+       smaller group is held out, and the model fitted on one excitation predicts the other;
+    2. another level: with three or more drive levels, every other inner level (the middle one
+       of three), so the held-out runs sit between fitted levels at fitted frequencies;
+    3. another frequency: likewise with three or more frequencies;
+    4. else every third run (:func:`default_holdout`).
+    A sorted 3 x 3 sweep (frequency-major) gives the same runs as :func:`default_holdout`.
+    """
+    n = len(settings)
+    if n < 3:
+        raise ValueError(f"{n} run(s): need at least 3 to hold one out for validation")
+    multi = [i for i, (_, _, e) in enumerate(settings) if e > 0]
+    single = [i for i in range(n) if i not in multi]
+    if multi and single:
+        held = multi if len(multi) <= len(single) else single
+        if n - len(held) >= 3:
+            return tuple(held)
+    for axis in (1, 0):  # drive level first, then frequency
+        values = [s[axis] for s in settings]
+        levels = distinct_settings(values)
+        if len(levels) >= 3:
+            inner = set(range(1, len(levels) - 1, 2))
+            held = [i for i, v in enumerate(values) if _near(v, levels) in inner]
+            if held and n - len(held) >= 3:
+                return tuple(held)
+    return default_holdout(n)
+
+
+def generalisation_kind(fit: Sequence[tuple[float, float, int]], held: Sequence[tuple[float, float, int]]) -> str:
+    """What the held-out runs ``(omega rad/s, drive level N m, extra drive lines)`` ask of a model
+    fitted on ``fit``: another excitation (a multi-line drive against sines, or the reverse),
+    drive levels or frequencies outside the fitted range (extrapolation), frequencies the fit did
+    not see inside its range, or only interpolation between fitted levels at fitted frequencies.
+    Frequencies and levels count as equal within 1%."""
+    def close(a, values):
+        return any(same_setting(a, v, 0.01) for v in values)
+
+    def distinct(values):
+        return ", ".join(f"{v:.4g}" for v in distinct_settings(values, 0.01))
+
+    kinds = []
+    if {e > 0 for *_, e in held} - {e > 0 for *_, e in fit}:
+        kinds.append("another excitation (held-out drives with "
+                     + ("several lines, the fit's sines)" if any(e > 0 for *_, e in held) else "one line, the fit's several)"))
+    fw, fl = [w for w, _, _ in fit], [a for _, a, _ in fit]
+    hw, hl = [w for w, _, _ in held], [a for _, a, _ in held]
+    out_l = [a for a in hl if (a < min(fl) and not close(a, fl)) or (a > max(fl) and not close(a, fl))]
+    out_w = [w for w in hw if (w < min(fw) and not close(w, fw)) or (w > max(fw) and not close(w, fw))]
+    new_w = [w for w in hw if w not in out_w and not close(w, fw)]
+    new_l = [a for a in hl if a not in out_l and not close(a, fl)]
+    if out_l:
+        kinds.append(f"extrapolation in drive level ({distinct(out_l)} N m, outside the "
+                     f"fitted {min(fl):.4g}-{max(fl):.4g} N m)")
+    if out_w:
+        kinds.append(f"extrapolation in frequency ({distinct(out_w)} rad/s, outside the "
+                     f"fitted {min(fw):.4g}-{max(fw):.4g} rad/s)")
+    if new_w:
+        kinds.append(f"frequencies the fit did not see ({distinct(new_w)} rad/s, inside "
+                     f"its range)")
+    if new_l:
+        kinds.append(f"drive levels between the fitted ones ({distinct(new_l)} N m)")
+    if not kinds:
+        return "the held-out runs repeat frequencies and drive levels of the fit (another realisation only)"
+    return "the held-out runs test " + "; ".join(kinds)
