@@ -465,9 +465,7 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
     if plant.drive_delay_s:  # the drives act later than recorded: each periodic drive turned by its delay
         drives = {i: d.delayed(plant.drive_delay_s) for i, d in drives.items()}
     grounded = any(g is not None for g in plant.grounds)
-    if grounded and backend == "native":
-        raise ValueError("backend 'native': the native callback does not simulate laws to ground; use 'auto'")
-    native = choose_native(backend, plant.laws) and not grounded
+    native = choose_native(backend, tuple(plant.laws) + tuple(g for g in plant.grounds if g is not None))
     N = rig.n_flywheels
     m = copy.copy(rig.model)
     # A body's dry friction to ground is held by MuJoCo's own constraint on its joint (the
@@ -513,13 +511,17 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
     q, v = np.array(rig.qpos_adr), np.array(rig.dof_adr)
     act_idx = {i: adr for i, _, adr in rig.drives}
 
+    # sliders stepped in C read the state from the sensors: a model without every position and
+    # rate sensor runs them in the Python callback
+    sensed = list(rig.angle_adr) + list(rig.rate_adr) + [act_idx[i] for i in sorted(act_idx)]
+    native = native and not (stateful and None in sensed)
     nat = None
     if native:
         nat = NativeChain(rig, plant, drives)
         callback = nat.function
 
-        def commit():
-            nat.commit(d.qpos)
+        def commit():  # never called: the native path steps a law with sliders in C
+            raise AssertionError("the native chain commits its sliders in C")
     else:
         callback = chain_callback(rig, plant, drives, errors, states, ground_states)
 
@@ -563,7 +565,16 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
         tq = np.column_stack([sd[0, ::k, a] if a is not None else np.zeros(n) for a in sens])
         return before[:, 1 + q], before[:, 1 + m.nq + v], tq, before[:, 0]
 
-    advance = rollout_period if native and not stateful else period
+    def native_period():
+        # One C call per period, the sliders committed after every step (rig/native/jointrig_law.c,
+        # jointrig_run): the sensors after each sample's first step are the state before it.
+        buf, tbuf = nat.run(m, d, n, k, np.array(sensed))
+        tq = np.zeros((n, N))
+        for c, i in enumerate(sorted(act_idx)):
+            tq[:, i - 1] = buf[:, 2 * N + c]
+        return buf[:, :N], buf[:, N:2 * N], tq, tbuf
+
+    advance = (rollout_period if not stateful else native_period) if native else period
     absolute = config.absolute_angles_periodic
     names = (tuple(f"phi{j} - phi{j + 1}" for j in range(1, N)) + tuple(f"rate{i}" for i in range(1, N + 1))
              + (tuple(f"phi{i}" for i in range(1, N + 1)) if absolute else ()))

@@ -367,10 +367,11 @@ def _pack_drive(p: _Params, drive: PeriodicDrive) -> None:
 class NativeChain:
     """The native callback's parameters for a chain (rig/chain.py): one block per joint (its law
     between its two flywheels, the drag of its left flywheel, and of the last flywheel for the
-    last joint; a single body's drag in a block of its own), then one block per drive, linked in
-    that order: every generalised force gets its terms in the order the Python chain callback
-    adds them, so the same bits. Laws to ground are the Python callback's only
-    (:func:`rig.chain.simulate_chain`)."""
+    last joint; a single body's drag in a block of its own), one per body's law to ground (its
+    angle alone, ``q2 = -1``), then one block per drive, linked in that order: every generalised
+    force gets its terms in the order the Python chain callback adds them, so the same bits.
+    Sliders (Jenkins, Iwan) at joints and to ground are committed in C after every step by
+    :meth:`run`."""
 
     def __init__(self, rig, plant, drives: dict):
         N = rig.n_flywheels
@@ -389,6 +390,12 @@ class NativeChain:
             p.q1, p.q2, p.v1, p.v2, p.act = rig.qpos_adr[0], -1, rig.dof_adr[0], -1, -1
             p.b1 = plant.bearings_Nms_per_rad[0]
             blocks.append(p)
+        for i, g in enumerate(plant.grounds):  # after every joint and drag, as the Python callback
+            if g is not None:
+                p = _Params()
+                _pack_law(p, g)
+                p.q1, p.q2, p.v1, p.v2, p.act = rig.qpos_adr[i], -1, rig.dof_adr[i], -1, -1
+                blocks.append(p)
         acts = {i: a for i, a, _ in rig.drives}
         for i, drive in sorted(drives.items()):
             p = _Params()
@@ -410,13 +417,11 @@ class NativeChain:
         with _registry_lock:
             self.lib.jointrig_unregister(d._address)
 
-    def commit(self, qpos: np.ndarray) -> None:
-        """Advance every joint's sliders to its accepted twist (after a step), as the Python path."""
-        for p in self.blocks:
-            if p.n_sliders:
-                phi = float(qpos[p.q1] - qpos[p.q2])
-                for j in range(p.n_sliders):
-                    p.slider[j] = play(phi, p.slider[j], p.slider_slip[j])
+    def run(self, m: mujoco.MjModel, d: mujoco.MjData, n: int, k: int, idx: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray]:
+        """``n`` samples of ``k`` steps each, stepped in C with every block's sliders committed
+        after every step (:meth:`NativeLaw.run`; the blocks are linked from the first)."""
+        return NativeLaw.run(self, m, d, n, k, idx)
 
     @property
     def error(self) -> bool:

@@ -11,7 +11,7 @@ from jointrig.vocab.law import Power, Viscous
 from jointrig.identify.chain import (ChainIdentifiabilityError, ChainRecord, ChainSpec, chain_system, identifiability,
                                      solve_banded)
 from jointrig.identify.solve import solve
-from jointrig.rig.chain import is_chain_model, load_chain
+from jointrig.rig.chain import chain_model_xml, is_chain_model, load_chain
 from jointrig.rig.model import RigModelError
 
 from conftest import MODELS_DIR, needs_cc
@@ -195,17 +195,19 @@ def _both_backends(rig, w, drives, cfg, plant):
 
 @needs_cc
 @pytest.mark.parametrize("kind", ["hinge", "slide"])
-def test_a_single_bodys_drag_in_the_native_callback_is_bit_identical_to_the_python_one(tmp_path, kind):
+def test_a_single_bodys_drag_and_law_to_ground_in_the_native_callback_are_bit_identical_to_the_python_one(
+        tmp_path, kind):
     # A single body with its drag alone, on a hinge and on a slide: the C callback dropped the
     # drag (it lived in joint blocks, and one body has none), so a single axis's nominal model
-    # was replayed undamped. Now its records are the Python callback's bit for bit. A law to
-    # ground is the Python callback's only: "native" refuses it, "auto" takes Python.
+    # was replayed undamped. Now its records are the Python callback's bit for bit, and so are a
+    # law to ground's (a block of its own, after the joints' and drags', as the Python callback
+    # adds them): a guide's dry friction and spring, and one with sliders (the relative-angle
+    # form's joint: a Jenkins and an Iwan element, committed in C after every step).
     import dataclasses
 
     from jointrig.identify.chain import ChainPlant
-    from jointrig.rig.chain import chain_model_xml, simulate_chain
     from jointrig.studies.chain_sweep import CHAIN_CONFIG
-    from jointrig.vocab.law import Coulomb, JointLaw, Power
+    from jointrig.vocab.law import Coulomb, Iwan, Jenkins, JointLaw, Power, Viscous
     from jointrig.vocab.plant import PeriodicDrive
 
     cfg = dataclasses.replace(CHAIN_CONFIG, absolute_angles_periodic=False, n_periods=2, samples_per_period=64,
@@ -218,11 +220,34 @@ def test_a_single_bodys_drag_in_the_native_callback_is_bit_identical_to_the_pyth
     a = _both_backends(one, 20.0, drives, cfg, drag_only)
     assert np.ptp(a.angles_rad[0]) > 0
     guided = ChainPlant((), (30.0,), (JointLaw((Coulomb(), Power(1)), (20.0, 4000.0)),))
-    with pytest.raises(ValueError, match="does not simulate laws to ground"):
-        simulate_chain(one, 20.0, drives, cfg, plant=guided, backend="native")
-    auto, _ = simulate_chain(one, 20.0, drives, cfg, plant=guided)
-    python, _ = simulate_chain(one, 20.0, drives, cfg, plant=guided, backend="python")
-    np.testing.assert_array_equal(auto.angles_rad[0], python.angles_rad[0])
+    assert np.ptp(_both_backends(one, 20.0, drives, cfg, guided).angles_rad[0]) > 0
+    hysteretic = ChainPlant((), (0.0,), (JointLaw((Viscous(), Power(1), Jenkins(0.01), Iwan(0.02)),
+                                                   (5.0, 2000.0, 40.0, 30.0)),))
+    swing = np.ptp(_both_backends(one, 20.0, drives, cfg, hysteretic).angles_rad[0]) / 2
+    assert swing > 0.02  # beyond both slip angles: the sliders slip
+
+
+@needs_cc
+def test_sliders_at_joints_are_committed_in_c_bit_identical_to_the_python_callback(tmp_path):
+    # A train whose joints hold a Jenkins and an Iwan element: the native callback steps the
+    # period in C and commits every slider after every step (rig/native/jointrig_law.c,
+    # jointrig_run), with the same records as the Python callback's stepping loop, bit for bit.
+    import dataclasses
+
+    from jointrig.identify.chain import ChainPlant
+    from jointrig.rig.chain import rig_of_bodies
+    from jointrig.studies.chain_sweep import CHAIN_CONFIG
+    from jointrig.vocab.law import Iwan, Jenkins, JointLaw, Power, Viscous
+    from jointrig.vocab.plant import PeriodicDrive
+
+    cfg = dataclasses.replace(CHAIN_CONFIG, absolute_angles_periodic=False, n_periods=2, samples_per_period=64,
+                              max_step_s=2e-4, settle_tol=1e-7)
+    plant = ChainPlant((JointLaw((Viscous(), Power(1), Jenkins(0.005)), (10.0, 3000.0, 40.0)),
+                        JointLaw((Viscous(), Power(1), Iwan(0.01)), (10.0, 3000.0, 30.0))), (1.0, 0.0, 2.0))
+    rig = rig_of_bodies(3, (1, 3))
+    drives = {1: PeriodicDrive.cosine(15.0, 200.0), 3: PeriodicDrive.cosine(15.0, 80.0)}
+    rec = _both_backends(rig, 15.0, drives, cfg, plant)
+    assert np.ptp(rec.angles_rad[0] - rec.angles_rad[1]) / 2 > 0.005
 
 
 @needs_cc
