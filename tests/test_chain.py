@@ -201,13 +201,14 @@ def test_a_single_bodys_drag_and_law_to_ground_in_the_native_callback_are_bit_id
     # drag (it lived in joint blocks, and one body has none), so a single axis's nominal model
     # was replayed undamped. Now its records are the Python callback's bit for bit, and so are a
     # law to ground's (a block of its own, after the joints' and drags', as the Python callback
-    # adds them): a guide's dry friction and spring, and one with sliders (the relative-angle
-    # form's joint: a Jenkins and an Iwan element, committed in C after every step).
+    # adds them): a guide's dry friction and spring, and one with a slider (the relative-angle
+    # form's joint: a Jenkins element, committed in C after every step; an Iwan element's
+    # sliders at a joint are the next test's, by the same C commit).
     import dataclasses
 
     from jointrig.identify.chain import ChainPlant
     from jointrig.studies.chain_sweep import CHAIN_CONFIG
-    from jointrig.vocab.law import Coulomb, Iwan, Jenkins, JointLaw, Power, Viscous
+    from jointrig.vocab.law import Coulomb, Jenkins, JointLaw, Power, Viscous
     from jointrig.vocab.plant import PeriodicDrive
 
     cfg = dataclasses.replace(CHAIN_CONFIG, absolute_angles_periodic=False, n_periods=2, samples_per_period=64,
@@ -221,10 +222,9 @@ def test_a_single_bodys_drag_and_law_to_ground_in_the_native_callback_are_bit_id
     assert np.ptp(a.angles_rad[0]) > 0
     guided = ChainPlant((), (30.0,), (JointLaw((Coulomb(), Power(1)), (20.0, 4000.0)),))
     assert np.ptp(_both_backends(one, 20.0, drives, cfg, guided).angles_rad[0]) > 0
-    hysteretic = ChainPlant((), (0.0,), (JointLaw((Viscous(), Power(1), Jenkins(0.01), Iwan(0.02)),
-                                                   (5.0, 2000.0, 40.0, 30.0)),))
+    hysteretic = ChainPlant((), (0.0,), (JointLaw((Viscous(), Power(1), Jenkins(0.01)), (5.0, 2000.0, 40.0)),))
     swing = np.ptp(_both_backends(one, 20.0, drives, cfg, hysteretic).angles_rad[0]) / 2
-    assert swing > 0.02  # beyond both slip angles: the sliders slip
+    assert swing > 0.01  # beyond the slip angle: the slider slips
 
 
 @needs_cc

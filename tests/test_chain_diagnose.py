@@ -19,12 +19,15 @@ from chain_cases import EFFECTS, TRAIN, run_case
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("cause,place", [("backlash", 2), ("coulomb_friction", 3), ("bearing_friction", 4),
-                                         ("stribeck_friction", 2)])
+@pytest.mark.parametrize("cause,place", [("backlash", 2), ("bearing_friction", 4)])
 def test_the_right_joint_and_cause_ranked_first_with_a_gain_of_5(cause, place):
     # Bounds of the issue: right place and cause first, gain >= 5 on held-out runs of another
     # level. The magnitude is checked to 15% of the bench's (the bench's law is not the
     # project's: a continuum Iwan, event-driven friction), which is 10x its standard error.
+    # The suite runs a joint's and a body's cause; every cause at every place (dry friction at
+    # joint 3 and Stribeck friction at joint 2 among them, 25 s each) is the benchmark's,
+    # with the same bounds (scripts/bench_chain_cases.py); a train's sticking dry friction is
+    # tests/test_train_files.py's.
     r = run_case(cause, place)
     kind = "flywheel" if cause == "bearing_friction" else "joint"
     assert r.first == r.found == f"{cause} at {kind} {place}", (r.first, r.found)

@@ -128,12 +128,13 @@ def test_independent_bench_effect_is_found_sized_and_pays_off(tmp_path, joint, c
 #: The relative angle alone (one twist sensor): the joint's twist as one body tied to the frame
 #: by the joint's law (``measured.runs.as_train``), its causes sought there; a cause of each
 #: kind the form can hold (the sliders' memory replayed at a body's law to ground).
-RELATIVE = [("paper", "hysteresis/1"), ("light", "micro_slip/1"), ("paper", "backlash/1"),
-            ("light", "coulomb_friction/1"), ("paper", "none")]
+#: The suite runs the sliders' (hysteresis, micro-slip) and no effect; the script all of them.
+RELATIVE = [("paper", "hysteresis/1"), ("light", "micro_slip/1"), ("paper", "none"), ("paper", "backlash/1"),
+            ("light", "coulomb_friction/1")]
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("joint, case", RELATIVE)
+@pytest.mark.parametrize("joint, case", RELATIVE[:3])
 def test_the_relative_angle_alone_is_diagnosed_as_one_body(tmp_path, joint, case):
     _accept(_diagnose(tmp_path, joint, case, relative=True), joint, case, relative=True)
 
@@ -171,23 +172,24 @@ def _figures(case):
     import tempfile
     from pathlib import Path
 
-    joint, name = case
+    joint, name, *relative = case
     with tempfile.TemporaryDirectory() as tmp:
-        r = _diagnose(Path(tmp), joint, name)
+        r = _diagnose(Path(tmp), joint, name, relative=bool(relative))
     d, v = r.diagnosis, r.validation
     try:
-        _accept(r, joint, name)
+        _accept(r, joint, name, relative=bool(relative))
         ok = "ok"
     except AssertionError:
         ok = "FAILS"
+    name = name + (" (phi)" if relative else "")
     return (f"{ok:5s} {joint:6s} {name:24s} {r.verdict.verdict:12s} {'+'.join(s.label for s in d.steps) or '-':44s} "
             f"{d.reduced_chi2(d.nominal):8.3g} {d.reduced_chi2(d.final):8.3g} "
             f"{v.nominal_error / v.noise_floor:8.3g} {v.extended_error / v.noise_floor:8.3g} {v.gain:8.3g}")
 
 
 if __name__ == "__main__":
-    # Every case (the suite runs SUITE) with its acceptance and the figures behind the verdict's
-    # thresholds (identify/verdict.py), on two cores:
+    # Every case (the suite runs SUITE), then the relative angle's (RELATIVE, "(phi)"), with its
+    # acceptance and the figures behind the verdict's thresholds (identify/verdict.py), on two cores:
     #   .venv/bin/python tests/test_independent_bench.py
     from concurrent.futures import ProcessPoolExecutor
 
@@ -197,5 +199,5 @@ if __name__ == "__main__":
     print(f"{'':5s} {'joint':6s} {'case':24s} {'verdict':12s} {'adopted':44s} {'chi2/dof':>8s} {'ext.':>8s} "
           f"{'nom/flr':>8s} {'ext/flr':>8s} {'gain':>8s}")
     with ProcessPoolExecutor(2) as pool:
-        for row in pool.map(_figures, [(j, c) for j in CASES for c in CASES[j]]):
+        for row in pool.map(_figures, [(j, c) for j in CASES for c in CASES[j]] + [(j, c, "phi") for j, c in RELATIVE]):
             print(row, flush=True)

@@ -146,28 +146,38 @@ def test_a_wrong_stiffness_in_the_users_model_is_named_with_its_size(tmp_path, c
     assert "differs: 17% lower" in page and "data:image/svg+xml" not in page  # no cause: nothing to draw
 
 
-def test_the_rigs_own_train_data_are_diagnosed_against_the_users_model(tmp_path, capsys):
-    # The demo of the one path (issue 36): make-data writes the worn pump train's runs from its
-    # MJCF, diagnose reads them with the healthy model as the user's. Exact data up to 40 dB
-    # noise: the free play to 3 standard errors.
+@pytest.fixture(scope="module")
+def demo(tmp_path_factory):
+    """The demo of the one path (issue 36), run once for the tests that read its outputs:
+    make-data writes the worn pump train's runs from its MJCF (8 periods, 40 dB), diagnose
+    reads them with the healthy model as the user's: ``(folder, exit code)``, the folder holding
+    ``d.json``, ``mine.xml`` (--mjcf) and ``d.html`` (--report)."""
     from pathlib import Path
 
     models = Path(__file__).parent.parent / "models"
-    data = tmp_path / "train.csv"
-    assert cli(["make-data", str(data), "--model", str(models / "pump_train_worn.xml"), "--periods", "8", "-q"]) == 0
-    out = tmp_path / "d.json"
-    code = cli(["diagnose", str(data), "--model", str(models / "pump_train.xml"), "--json", str(out),
-                "--mjcf", str(tmp_path / "mine.xml"), "-q"])
-    capsys.readouterr()
+    out = tmp_path_factory.mktemp("demo")
+    assert cli(["make-data", str(out / "train.csv"), "--model", str(models / "pump_train_worn.xml"), "--periods", "8",
+                "-q"]) == 0
+    code = cli(["diagnose", str(out / "train.csv"), "--model", str(models / "pump_train.xml"), "--json",
+                str(out / "d.json"), "--mjcf", str(out / "mine.xml"), "--report", str(out / "d.html"), "-q"])
+    return out, code
+
+
+@pytest.mark.slow
+@pytest.mark.xdist_group("demo")
+def test_the_rigs_own_train_data_are_diagnosed_against_the_users_model(demo):
+    # Exact data up to 40 dB noise: the free play to 3 standard errors, and the model written
+    # back is a chain the rig reads, with the coupling's stiffness as fitted.
+    out, code = demo
     assert code == 0
-    j = json.loads(out.read_text())
+    j = json.loads((out / "d.json").read_text())
     assert j["verdict"]["verdict"] == "explained" and j["extended"]["steps"][0]["label"] == "backlash at joint 2"
     v, se = j["extended"]["parameters"]["joint2_backlash_half_gap_rad"], \
         j["extended"]["std_errors"]["joint2_backlash_half_gap_rad"]
     assert abs(v - 1e-3) < 3 * se
     from jointrig.rig.chain import load_chain
 
-    back = load_chain(tmp_path / "mine.xml")  # the written model is a chain the rig reads back
+    back = load_chain(out / "mine.xml")  # the written model is a chain the rig reads back
     # the coupling's stiffness as fitted (its standard error ~0.2% at 40 dB: 1% is 5 of them)
     assert back.plant.laws[1].as_dict().get("k_Nm_per_rad") == pytest.approx(2.5e4, rel=0.01)
     assert back.driven == (1, 4)
@@ -388,24 +398,23 @@ def test_exact_data_of_the_rig_itself_are_explained_not_a_misfit_of_millions_of_
 
 
 @pytest.mark.slow
-def test_a_trains_report_renders_in_a_real_browser_with_the_answer_first(tmp_path, capsys):
-    # The worn pump train's HTML report in headless Chromium (Debian's, as the two-flywheel
-    # report's test): no console or page errors, no request leaves the file, nothing wider than
-    # the window, its one figure decoded, and the verdict in words and the causes found on the
-    # first screen (1280 x 900); the candidates (and the notes, where there are any) folded.
+@pytest.mark.xdist_group("demo")
+def test_a_trains_report_renders_in_a_real_browser_with_the_answer_first(demo):
+    # The worn pump train's HTML report (the demo's) in headless Chromium (Debian's, as the
+    # two-flywheel report's test): no console or page errors, no request leaves the file,
+    # nothing wider than the window, its one figure decoded, and the verdict in words and the
+    # causes found on the first screen (1280 x 900); the candidates (and the notes, where there
+    # are any) folded.
     sync_api = pytest.importorskip("playwright.sync_api")
-    from pathlib import Path
 
     from test_diagnose_script import _chromium
 
     exe = _chromium()
     if exe is None:
         pytest.skip("no Chromium on PATH (Debian: apt-get install chromium)")
-    models = Path(__file__).parent.parent / "models"
-    data, page_path = tmp_path / "train.csv", tmp_path / "train.html"
-    assert cli(["make-data", str(data), "--model", str(models / "pump_train_worn.xml"), "--periods", "8", "-q"]) == 0
-    assert cli(["diagnose", str(data), "--model", str(models / "pump_train.xml"), "--report", str(page_path), "-q"]) == 0
-    capsys.readouterr()
+    out, code = demo
+    assert code == 0
+    page_path = out / "d.html"
     errors, requests = [], []
     with sync_api.sync_playwright() as p:
         browser = p.chromium.launch(executable_path=exe, args=["--no-sandbox", "--disable-gpu", "--no-first-run"])
