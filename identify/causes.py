@@ -120,6 +120,10 @@ class Cause:
     #: barely twist in some runs, so there only runs within ``identify.chain_diagnose.BOUNDS_SPAN``
     #: of the largest swing are read
     bounds_read_smallest: bool = False
+    #: an even stiffness beside a cubic ``gamma phi^3`` is, to first order, what a constant zero
+    #: offset ``-a / (3 gamma)`` of the angle makes of the cubic: the report names that offset
+    #: (``present.train_report.offset_readings``)
+    reads_as_offset: bool = False
 
     def magnitude_of(self, params: dict, std_error: Callable[[str], float], prefix: str = ""
                      ) -> tuple[str, float, float]:
@@ -285,7 +289,7 @@ CATALOGUE: tuple[Cause, ...] = (
           plain="free play"),
     Cause("asymmetric_stiffness", "an even stiffness term a phi^2 (an asymmetric restoring force): even harmonics",
           lambda s, h: _with_terms(s, (Power(2),)), "a_Nm_per_rad2", 1, nonnegative=False,
-          places=frozenset({"joint", "oscillator"}), plain="an asymmetric stiffness (a phi^2)"),
+          places=frozenset({"joint", "oscillator"}), plain="an asymmetric stiffness (a phi^2)", reads_as_offset=True),
     Cause("hysteresis", "a Jenkins (one-element Iwan) element: spring and dry-friction slider in series",
           _with_jenkins, "hysteresis_slip_torque_Nm", 1,
           bounds=lambda runs: (1e-3 * _amplitude(runs), 0.9 * _amplitude(runs)), log_scale=True,

@@ -116,11 +116,14 @@ def offset_readings(report: TrainReport) -> tuple[str, ...]:
     p = d.final.as_dict()
     out = []
     slide = report.kind == "slide"
+    from jointrig.identify.causes import by_name
+
     for s in d.steps:
-        if s.effect != "asymmetric_stiffness":
+        cause = by_name(s.effect)
+        if not cause.reads_as_offset:
             continue
-        prefix = s.magnitude[0][: -len("a_Nm_per_rad2")]
-        a, gamma = p.get(prefix + "a_Nm_per_rad2"), p.get(prefix + "gamma_Nm_per_rad3")
+        prefix = s.magnitude[0][: -len(cause.magnitude)]
+        a, gamma = p.get(prefix + cause.magnitude), p.get(prefix + "gamma_Nm_per_rad3")
         if not a or not gamma or gamma <= 0:
             continue
         delta = -a / (3 * gamma)  # gamma (phi - delta)^3 = gamma phi^3 - 3 gamma delta phi^2 + ...
@@ -136,7 +139,7 @@ def offset_readings(report: TrainReport) -> tuple[str, ...]:
         unit = lambda n: unit_of(nm(prefix + n))  # noqa: E731
         length = unit("backlash_half_gap_rad")
         degrees = "" if slide else f" ({math.degrees(delta):.2g} deg)"
-        out.append(f"the even stiffness a = {a:.4g} {unit('a_Nm_per_rad2')} is exactly what a zero offset of {what} of "
+        out.append(f"the even stiffness a = {a:.4g} {unit(cause.magnitude)} is exactly what a zero offset of {what} of "
                    f"-a / (3 gamma) = {delta:.3g} {length}{degrees} makes of the cubic gamma = {gamma:.4g} "
                    f"{unit('gamma_Nm_per_rad3')}: the data cannot tell the two apart. Check the "
                    f"{'position' if slide else 'angle'} sensors' zero; if the joint is symmetric, subtract {delta:.3g} "

@@ -414,3 +414,27 @@ def test_forward_selection_stops_at_the_first_round_that_adopts_nothing():
 
     chosen = forward_select("base", JOINT[:3], rank=rank, adopt=lambda base, ranked: None, max_effects=3)
     assert calls == [0] and chosen.adopted == () and len(chosen.rounds) == 1 and chosen.base == "base"
+
+
+def test_evidence_is_significant_only_with_a_positive_score():
+    # A drop whose p is far below the level but whose BIC score is just negative (the cause's
+    # parameters cost more than they explain) is not significant; just positive, it is.
+    n_rows, q = 10**6, 2  # a drop of 27.6: p ~ 1e-6
+    cost = q * math.log(n_rows)
+    for margin, significant in ((-0.5, False), (0.5, True)):
+        score, p, sig = evidence(cost + margin, q, n_rows, 1e-3)
+        assert score == pytest.approx(margin, abs=1e-12) and p < 1e-3 and sig is significant
+
+
+def test_the_dissipative_share_is_the_fundamentals_quadrature_part():
+    # 0 for a torque in phase with the motion (a spring), 1 in quadrature (a damper), sin(a) for
+    # one a radians off, whatever the sizes of torque and motion; None without a fundamental.
+    from jointrig.identify.causes import fundamental_quadrature
+
+    t = np.arange(64) * 2 * math.pi / 64
+    motion = 0.03 * np.cos(t)
+    assert fundamental_quadrature([500.0 * np.cos(t)], [motion]) == pytest.approx(0.0, abs=1e-12)
+    assert fundamental_quadrature([500.0 * np.sin(t)], [motion]) == pytest.approx(1.0, rel=1e-12)
+    assert fundamental_quadrature([7.0 * np.cos(t + 0.4), 80.0 * np.cos(t + 0.4)], [motion, 2 * motion]) == \
+        pytest.approx(math.sin(0.4), rel=1e-12)
+    assert fundamental_quadrature([np.ones(64)], [motion]) is None

@@ -771,3 +771,42 @@ def test_a_banded_systems_density_is_the_share_of_its_blocks_and_masks_need_no_o
     with pytest.raises(ValueError, match="masks need oversample 1"):
         chain_system(recs, ChainSpec(((Viscous(), Power(1)),) * 2), n_harmonics=3, oversample=2,
                      masks=[(np.ones(recs[0].time_s.size), None, None)] * len(recs))
+
+
+def test_a_plant_refuses_grounds_of_another_length_and_a_negative_drag():
+    from jointrig.identify.chain import ChainPlant
+    from jointrig.vocab.law import JointLaw
+
+    law = JointLaw((Power(1),), (1e4,))
+    with pytest.raises(TypeError, match="one JointLaw or None per body"):
+        ChainPlant((law,), (0.0, 0.0), (None,))
+    with pytest.raises(TypeError, match="one JointLaw or None per body"):
+        ChainPlant((law,), (0.0, 0.0), (None, "spring"))
+    with pytest.raises(ValueError):
+        ChainPlant((law,), (0.0, -1.0))
+
+
+def test_a_banded_solves_results_are_read_only():
+    # A result is shared by every caller that reads it (a profile's cache, the report): its
+    # values, standard errors and covariance cannot be written.
+    J, c, k = [0.5, 0.1, 0.8], [2.0, 1.0], [4e4, 2e4]
+    recs = _linear_chain_records(J, c, k, [0, 0, 0], {1: 100.0}, [30, 80, 150, 250])
+    res = solve_banded(chain_system(recs, ChainSpec(((Viscous(), Power(1)),) * 2), n_harmonics=3))
+    for arr in (res.values, res.std_errors, res.covariance):
+        with pytest.raises(ValueError, match="read-only"):
+            arr[0] = 0.0
+
+
+def test_equations_masked_by_ones_are_the_unmasked_ones_whatever_each_joints_law():
+    # A mask of ones keeps every sample: the masked rows are the unmasked ones (to round-off:
+    # 1e-12 of the largest entry), each joint's own law at its own bodies (the joints' laws
+    # differ: the masked path must take joint j's terms for body j + 1's left neighbour).
+    J, c, k = [0.5, 0.1, 0.8], [2.0, 1.0], [4e4, 2e4]
+    recs = _linear_chain_records(J, c, k, [0, 0, 0], {1: 100.0}, [30, 80, 150, 250])
+    spec = ChainSpec(((Viscous(), Power(1)), (Viscous(), Power(1), Power(3))))
+    plain = chain_system(recs, spec, n_harmonics=3).system
+    ones = [tuple(np.ones(r.time_s.size) for _ in range(3)) for r in recs]
+    masked = chain_system(recs, spec, n_harmonics=3, masks=ones).system
+    scale = np.abs(plain.A).max()
+    np.testing.assert_allclose(masked.A, plain.A, rtol=0, atol=1e-12 * scale)
+    np.testing.assert_allclose(masked.F, plain.F, rtol=0, atol=1e-12 * np.abs(plain.F).max())

@@ -711,3 +711,93 @@ def test_the_separating_information_of_two_drags_is_the_smaller_ones_rows_in_clo
         X = np.linalg.solve(Z, np.eye(2)[d - 1] * T)
         expected = min(abs(w * X[0] * 4.0) ** 2, abs(w * X[1] * 3.0) ** 2) / sigma**2
         assert info[d] == pytest.approx(expected, rel=1e-12), d
+
+
+def test_a_free_plays_bounds_read_the_twist_and_a_stribeck_rate_the_twist_rate():
+    # The search bounds of a cause read the run where its place swings most: of the twist for a
+    # free play, of the twist's rate for a Stribeck rate (rad/s). On the linear train's runs at
+    # 150, 1200 and 2000 rad/s joint 1 twists most at the first and fastest at the last (the
+    # rate is the twist times omega), so each cause reads the run of its own kind.
+    import numpy as np
+
+    from jointrig.identify.causes import Place, by_name
+    from jointrig.identify.chain_diagnose import Candidate, _Problem, _twist_runs
+
+    full, _ = _linear_problem()
+    problem = _Problem(tuple(full.runs[i] for i in (0, 3, 4)), 20, 6.0, 1e-3)
+    gap, peak = (Candidate(by_name(n), Place("joint", 1)) for n in ("backlash", "stribeck_friction"))
+    twists = [gap.motion(r.average) for r in problem.balanced_runs(gap)]
+    by_twist = int(np.argmax([np.ptp(x) for x, _ in twists]))
+    by_rate = int(np.argmax([np.ptp(v) for _, v in twists]))
+    assert by_twist != by_rate  # the case that tells the two readings apart
+    (g,), (p,) = _twist_runs(problem, gap), _twist_runs(problem, peak)
+    np.testing.assert_array_equal(g.average.phi_rad, twists[by_twist][0])
+    np.testing.assert_array_equal(p.average.phi_rad, twists[by_rate][0])
+
+
+def test_no_drive_is_named_to_tell_a_law_to_ground_from_a_joint():
+    # The linearised drive information holds joints and drags only: a law to ground beside a
+    # joint's cause (either way round) gets no drive, and the reason.
+    from jointrig.identify.causes import Place, by_name
+    from jointrig.identify.chain_diagnose import Candidate, score, separating_drive
+
+    problem, (nominal, w) = _linear_problem()
+    ground = Candidate(by_name("coulomb_friction"), Place("ground", 2))
+    joint = Candidate(by_name("coulomb_friction"), Place("joint", 2))
+    sg, sj = (score(problem, c, nominal, w, 10, 1e-3) for c in (ground, joint))
+    for pair in ((ground, joint, sg, sj), (joint, ground, sj, sg)):
+        drive, why = separating_drive(problem, *pair)
+        assert drive is None and "no linearised drive information for a law to ground" in why
+
+
+def _one_body_problem(terms=None):
+    """One body of 2 kg m^2 tied to the frame by c 5 N m s/rad and k 2000 N m/rad (the
+    relative-angle form's joint), exact steady states at five frequencies from its dynamic
+    stiffness, 4 periods each with 60 dB of noise; the problem and its fit of ``terms`` to
+    ground (default the paper's law, the relative-angle form's nominal model)."""
+    import numpy as np
+
+    from jointrig.identify.chain import ChainRecord, ChainSpec
+    from jointrig.identify.chain_diagnose import _Problem, nominal_spec, prepare_chain_runs
+
+    rng = np.random.default_rng(3)
+    recs, n, P = [], 64, 4
+    for w in (20.0, 26.0, 32.0, 40.0, 55.0):
+        X = 100.0 / (2000.0 - 2.0 * w**2 + 1j * w * 5.0)
+        t = np.arange(n * P) * 2 * np.pi / (w * n)
+        x, T = np.real(X * np.exp(1j * w * t)), 100.0 * np.cos(w * t)
+        recs.append(ChainRecord(w, t, [T + rng.normal(0, 1e-3 * np.std(T), T.size)],
+                                [x + rng.normal(0, 1e-3 * np.std(x), x.size)], None, P))
+    problem = _Problem(tuple(prepare_chain_runs(recs, band=20)), 20, 2.0 * (P - 1), 1e-3)
+    spec = nominal_spec(1, twist=True) if terms is None else ChainSpec((), grounds=(tuple(terms),))
+    return problem, problem.fit(spec)[0]
+
+
+def test_a_single_bodys_card_law_is_its_law_to_ground_whose_damping_holds_the_drag():
+    # The relative-angle form's card: the law of its one place is the body's law to ground (its
+    # viscous term holds any drag, not a second one beside it), the mode's inertia the body's,
+    # and the covariance the fit's, on (J1, the law's values), exactly.
+    import numpy as np
+
+    from jointrig.identify.chain_diagnose import place_covariance, place_law
+
+    _, fit = _one_body_problem()
+    law, je = place_law(fit, 0)
+    names = [f"ground1_{n}" for n in law.names]
+    assert law.names == ("c_Nms_per_rad", "k_Nm_per_rad", "gamma_Nm_per_rad3") and je == fit.as_dict()["J1_kgm2"]
+    assert law.values == pytest.approx([fit.as_dict()[n] for n in names], rel=1e-15)
+    assert law.values[1] == pytest.approx(2000.0, rel=0.01)
+    idx = [fit.names.index(n) for n in ["J1_kgm2"] + names]
+    np.testing.assert_allclose(place_covariance(fit, 0), fit.covariance[np.ix_(idx, idx)], rtol=1e-12)
+
+
+def test_a_single_bodys_missing_spring_is_its_law_to_grounds_elastic_misfit():
+    # A model of the body's law to ground without its linear spring: the misfit is placed at
+    # body 1 to ground and is elastic (in phase with the angle at the fundamental).
+    from jointrig.identify.chain_diagnose import train_misfit
+    from jointrig.vocab.law import Power, Viscous
+
+    problem, fit = _one_body_problem((Viscous(), Power(3)))
+    m = train_misfit(problem.runs, [str(k) for k in range(5)], [100.0] * 5, fit, 20)
+    assert m.where == "body 1 to ground" and len(m.by_place) == 1 and m.by_place[0][1] > 0.05
+    assert m.character.dissipative_share < 0.1, m.character
