@@ -438,3 +438,36 @@ def test_the_dissipative_share_is_the_fundamentals_quadrature_part():
     assert fundamental_quadrature([7.0 * np.cos(t + 0.4), 80.0 * np.cos(t + 0.4)], [motion, 2 * motion]) == \
         pytest.approx(math.sin(0.4), rel=1e-12)
     assert fundamental_quadrature([np.ones(64)], [motion]) is None
+
+
+def test_the_profile_search_reaches_its_tolerance_on_a_narrow_range():
+    # Brent's tolerance is 1e-6 of the searched range, whatever its size: a quartic well at
+    # 3.7e-4 on [0, 1e-3] (not a parabola, which Brent's interpolation would hit at once) is
+    # found to 2e-9, the grid's step being 6.25e-5.
+    from jointrig.identify.causes import profile
+
+    def chi2(h):
+        u = (h - 3.7e-4) / 1e-4
+        return _Fit(50.0 + u**4 + 0.01 * u**2)
+
+    found = profile(chi2, by_name("backlash"), 0.0, 1e-3)
+    assert found.value == pytest.approx(3.7e-4, abs=2e-9)
+
+
+def test_the_profile_search_at_zero_and_on_a_flat_profile():
+    # A minimum at a lower bound of 0 (a free play the data do not show): the curvature's step is
+    # 1e-6 of the range there (1e-3 of a zero value would be no step), and the one-sided
+    # difference of the parabola gives its standard error, 0.01. A flat profile has no
+    # curvature: no standard error (NaN), not a division by zero.
+    from jointrig.identify.causes import profile
+
+    found = profile(lambda h: _Fit(50.0 + (h / 0.01) ** 2), by_name("backlash"), 0.0, 1.0)
+    assert found.value == 0.0 and found.std_error == pytest.approx(0.01, rel=1e-3)
+    flat = profile(lambda h: _Fit(50.0), by_name("backlash"), 0.0, 1.0)
+    assert math.isnan(flat.std_error)
+
+
+def test_only_an_even_stiffness_reads_as_a_zero_offset():
+    # a = -3 gamma delta holds for an even stiffness beside a cubic; no other cause is what an
+    # angle's zero offset makes of the law, so no other is read as one.
+    assert [c.name for c in CATALOGUE if c.reads_as_offset] == ["asymmetric_stiffness"]

@@ -810,3 +810,18 @@ def test_equations_masked_by_ones_are_the_unmasked_ones_whatever_each_joints_law
     scale = np.abs(plain.A).max()
     np.testing.assert_allclose(masked.A, plain.A, rtol=0, atol=1e-12 * scale)
     np.testing.assert_allclose(masked.F, plain.F, rtol=0, atol=1e-12 * np.abs(plain.F).max())
+
+
+def test_a_spec_refuses_grounds_of_another_length_and_a_column_the_data_do_not_excite():
+    # One tuple of law terms per body, no more, no fewer; and the parameters whose columns are
+    # zero in every row (a body that never moves in the records: its inertia and its drag) are
+    # named, not solved for.
+    with pytest.raises(ValueError, match="one tuple of law terms per body"):
+        ChainSpec(((Viscous(), Power(1)),), grounds=((),))
+    J, c, k = [0.5, 0.1, 0.8], [2.0, 1.0], [4e4, 2e4]
+    recs = _linear_chain_records(J, c, k, [0, 0, 0], {1: 100.0}, [30, 80, 150, 250])
+    still = [ChainRecord(r.omega_rad_s, r.time_s, r.torques_Nm, r.angles_rad[:2] + (0 * r.angles_rad[2],),
+                         r.rates_rad_s[:2] + (0 * r.rates_rad_s[2],)) for r in recs]
+    system = chain_system(still, ChainSpec(((Viscous(), Power(1)),) * 2, bearings=(3,)), n_harmonics=3)
+    with pytest.raises(ValueError, match=r"\['J3_kgm2', 'bearing3_damping_Nms_per_rad'\] have an all-zero column"):
+        solve_banded(system)

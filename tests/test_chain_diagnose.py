@@ -616,10 +616,10 @@ def test_the_separating_drive_takes_a_joints_law_and_a_bodys_drag_as_each_is():
     assert all(f"flywheel {i}:" in why for i in range(1, 5))
 
 
-@pytest.mark.parametrize("delay_s, gain", [(2e-5, 0.0), (0.0, 0.02)])
+@pytest.mark.parametrize("delay_s, gain", [(2e-5, 0.0), (-2e-5, 0.0), (0.0, 0.02)])
 def test_a_channel_read_late_or_scaled_is_found_at_its_body_with_its_size(delay_s, gain):
-    # Body 3's angle read 20 us late (the search reaches 5% of the fastest run's period, 157 us)
-    # or 2% too large: the cause at body 3's channel is significant and its size within 3
+    # Body 3's angle read 20 us late or early (the search reaches +-5% of the fastest run's
+    # period, 157 us; a skew has either sign) or 2% too large: the cause at body 3's channel is significant and its size within 3
     # standard errors of the truth (60 dB of noise), and it explains more than the same cause at
     # another body's channel.
     from jointrig.identify.causes import Place, by_name
@@ -801,3 +801,39 @@ def test_a_single_bodys_missing_spring_is_its_law_to_grounds_elastic_misfit():
     m = train_misfit(problem.runs, [str(k) for k in range(5)], [100.0] * 5, fit, 20)
     assert m.where == "body 1 to ground" and len(m.by_place) == 1 and m.by_place[0][1] > 0.05
     assert m.character.dissipative_share < 0.1, m.character
+
+
+def test_a_single_bodys_card_covariance_sums_what_its_law_value_sums():
+    # place_covariance of one body maps the fit's covariance onto (J1, the law's values) as
+    # place_law builds the law: a drag beside a law without damping is a viscous term of its
+    # own (its variance the drag's); a drag beside a law with damping is summed into that term
+    # (its variance that of the sum: var(c) + var(b) + 2 cov(c, b)). Fits made by hand.
+    import numpy as np
+
+    from jointrig.identify.chain import ChainSpec
+    from jointrig.identify.chain_diagnose import ChainFit, place_covariance, place_law
+    from jointrig.vocab.law import Power, Viscous
+
+    def fit(grounds):
+        spec = ChainSpec((), bearings=(1,), grounds=(grounds,))
+        names = spec.names
+        values = np.arange(1.0, len(names) + 1.0)
+        rng = np.random.default_rng(4)
+        a = rng.normal(size=(len(names), len(names)))
+        return ChainFit(spec, names, values, np.ones(len(names)), 0.0, 10, np.zeros(10), covariance=a @ a.T)
+
+    spring = fit((Power(1),))  # names: J1, bearing1, ground1_k
+    law, _ = place_law(spring, 0)
+    assert law.names == ("k_Nm_per_rad", "c_Nms_per_rad")
+    idx = [spring.names.index(n) for n in ("J1_kgm2", "ground1_k_Nm_per_rad", "bearing1_damping_Nms_per_rad")]
+    np.testing.assert_allclose(place_covariance(spring, 0), spring.covariance[np.ix_(idx, idx)], rtol=1e-12)
+    damped = fit((Viscous(), Power(1)))
+    law, _ = place_law(damped, 0)
+    vals = damped.as_dict()
+    assert law.names == ("c_Nms_per_rad", "k_Nm_per_rad")
+    assert law.values[0] == vals["ground1_c_Nms_per_rad"] + vals["bearing1_damping_Nms_per_rad"]
+    T = np.zeros((3, len(damped.names)))
+    T[0, damped.names.index("J1_kgm2")] = 1.0
+    T[1, damped.names.index("ground1_c_Nms_per_rad")] = T[1, damped.names.index("bearing1_damping_Nms_per_rad")] = 1.0
+    T[2, damped.names.index("ground1_k_Nm_per_rad")] = 1.0
+    np.testing.assert_allclose(place_covariance(damped, 0), T @ damped.covariance @ T.T, rtol=1e-12)
