@@ -218,17 +218,6 @@ def _issue_case(name: str) -> str:
     return f"{name:46s} {v:12s} {found:40s} {'right' if ok else 'WRONG':6s} {r.verdict.reason}"
 
 
-if __name__ == "__main__":
-    from concurrent.futures import ProcessPoolExecutor
-
-    from jointrig.rig.runtime import limit_threads
-
-    limit_threads()
-    with ProcessPoolExecutor(2) as pool:
-        for row in pool.map(_issue_case, list(ISSUE_CASES)):
-            print(row, flush=True)
-
-
 def test_a_file_read_wrong_is_named_before_any_cause(tmp_path):
     # issue 37: a file whose model comes out as no flywheel pair (here the two angle columns
     # swapped, the independent bench's example file) got a hint that pointed the wrong way. The
@@ -409,11 +398,19 @@ def test_the_relative_angle_alone_goes_through_the_one_pipeline_with_the_users_m
 
 
 if __name__ == "__main__":
-    # Every joint's dry friction with each run held out (the suite runs the light joint's):
+    # The issue's cases with their verdicts, then every joint's dry friction with each run held
+    # out (the suite runs the light joint's):
     #   .venv/bin/python tests/test_verdict.py
     import tempfile
+    from concurrent.futures import ProcessPoolExecutor
     from pathlib import Path
 
+    from jointrig.rig.runtime import limit_threads
+
+    limit_threads()
+    with ProcessPoolExecutor(2) as pool:
+        for row in pool.map(_issue_case, list(ISSUE_CASES)):
+            print(row, flush=True)
     for joint in FRICTION_CASES:
         with tempfile.TemporaryDirectory() as tmp:
             _whichever_run(Path(tmp), joint)
