@@ -972,15 +972,22 @@ IMPLAUSIBLE_SE = 2.0
 
 
 def implausible_train_fit(f: ChainFit) -> tuple[str, ...]:
-    """What a train's fitted model says about how the data were read (pure): an inertia not
-    significantly above zero is no body's, and a joint whose fitted stiffness or damping is
+    """What a train's fitted model says about how the data were read (pure): an inertia
+    significantly below zero is no body's, and a joint whose fitted stiffness or damping is
     significantly negative would feed energy in. Their likely cause is named: position columns out
     of the bodies' order along the line (two swapped give both), a drive column on another body
-    than its number says, or other units than the file says. Parameter names in the hinge's
-    units (a slide's are named at the edges)."""
+    than its number says, or other units than the file says. An inertia within its errors of zero,
+    with nothing else read wrong, is not determined by the runs: at too few frequencies an inertia
+    and a stiffness act alike on a sine. Parameter names in the hinge's units (a slide's are named
+    at the edges)."""
     p = f.as_dict()
     N = f.spec.n_flywheels
-    bodies = [i for i in range(1, N + 1) if not p[inertia_name(i)] > IMPLAUSIBLE_SE * f.std_error(inertia_name(i))]
+
+    def listed(bodies):
+        return ", ".join(f"J{i} = {p[inertia_name(i)]:.3g} +- {f.std_error(inertia_name(i)):.2g}" for i in bodies)
+
+    lows = [i for i in range(1, N + 1) if not p[inertia_name(i)] > IMPLAUSIBLE_SE * f.std_error(inertia_name(i))]
+    negative = [i for i in lows if p[inertia_name(i)] < -IMPLAUSIBLE_SE * f.std_error(inertia_name(i))]
     joints = []
     for j in range(1, N):
         for name in ("k_Nm_per_rad", "c_Nms_per_rad"):
@@ -988,16 +995,22 @@ def implausible_train_fit(f: ChainFit) -> tuple[str, ...]:
             if key in p and p[key] < -IMPLAUSIBLE_SE * f.std_error(key):
                 joints.append(j)
                 break
-    if not bodies and not joints:
-        return ()
-    said = ([f"the fitted inertia of body(ies) {', '.join(map(str, bodies))} "
-             f"({', '.join(f'J{i} = {p[inertia_name(i)]:.3g} +- {f.std_error(inertia_name(i)):.2g}' for i in bodies)}) "
-             f"is no body's"] if bodies else []) + (
+    # beside something read wrong, an undetermined inertia is part of it (swapped columns give both)
+    bodies, unknown = (lows, []) if negative or joints else ([], lows)
+    out = []
+    if bodies or joints:
+        said = ([f"the fitted inertia of body(ies) {', '.join(map(str, bodies))} ({listed(bodies)}) is no body's"]
+                if bodies else []) + (
             [f"joint(s) {', '.join(map(str, joints))} come out with a negative stiffness or damping (they would feed "
              f"energy in)"] if joints else [])
-    return (" and ".join(said) + ": check that the position columns (phi1..phiN, x1..xN) are the bodies in their "
-            "order along the line (two swapped give this), that each drive column torque<i> (force<i>) acts on body "
-            "i, and the units (angles in rad, not deg; torques in N m, not N mm)",)
+        out.append(" and ".join(said) + ": check that the position columns (phi1..phiN, x1..xN) are the bodies in "
+                   "their order along the line (two swapped give this), that each drive column torque<i> (force<i>) "
+                   "acts on body i, and the units (angles in rad, not deg; torques in N m, not N mm)")
+    if unknown:
+        out.append(f"the inertia of body(ies) {', '.join(map(str, unknown))} ({listed(unknown)}) is not determined by "
+                   f"these runs (within two standard errors of zero): at too few drive frequencies an inertia and a "
+                   f"stiffness act alike on a sine; runs at more frequencies tell them apart")
+    return tuple(out)
 
 
 def drive_information(J_kgm2, c_Nms_per_rad, k_Nm_per_rad, omegas_rad_s, torque_Nm: float, sigma_Nm: float,
