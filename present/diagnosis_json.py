@@ -134,7 +134,7 @@ class DiagnosisJson:
     #: "hinge" (rad, N m, kg m^2) or "slide" (m, N, kg)
     kind: str
     n_bodies: int
-    #: which equations were fitted: "two_dof", "equivalent" (the relative angle alone) or "train"
+    #: which runs were fitted: "train" (every body's position) or "relative" (the relative angle alone)
     form: str
     model: Optional[str]
     verdict: Verdict

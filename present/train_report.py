@@ -49,12 +49,18 @@ def _values(fit) -> dict:
     return {n: (v, fit.std_error(n)) for n, v in fit.parameters().items()}
 
 
-def plain_label(step) -> str:
-    """A cause found, in plain words at its place ("dry friction at joint 1")."""
+def plain_label(step, form: str = "train") -> str:
+    """A cause found, in plain words at its place ("dry friction at joint 1"); in the
+    relative-angle form (``form``) body 1's law to ground is the joint's ("dry friction in the
+    joint")."""
     from jointrig.identify.causes import by_name
 
     plain = by_name(step.effect).plain or step.effect
-    return f"{plain} {step.where.describe()}" if step.where is not None else plain
+    if step.where is None:
+        return plain
+    if form == "relative" and step.where.kind == "ground":
+        return f"{plain} in the joint"
+    return f"{plain} {step.where.describe()}"
 
 
 def plain_train_verdict(report: TrainReport) -> str:
@@ -71,7 +77,7 @@ def plain_train_verdict(report: TrainReport) -> str:
         def size(s) -> tuple:  # in the final fit; a magnitude made of parts (an amplitude) as scored
             v, se = final.get(s.magnitude[0], (math.nan, math.nan))
             return (v, se) if math.isfinite(se) else tuple(s.magnitude[1:])
-        found = "; ".join(f"{plain_label(s)} ({quantity_of(nm(s.magnitude[0]))} {with_se(*size(s))}"
+        found = "; ".join(f"{plain_label(s, report.form)} ({quantity_of(nm(s.magnitude[0]))} {with_se(*size(s))}"
                           f" {unit_of(nm(s.magnitude[0]))})" for s in d.steps)
         better = (f"{val.gain:.3g} times better than without" if math.isfinite(val.gain) else
                   "where the model without it reaches no steady state")
@@ -251,7 +257,7 @@ def train_report_json(report: TrainReport, *, source: str = "", notes: Sequence[
     units = "SI; parameter names carry their units" + (" (bodies on slides: N, m, kg)" if report.kind == "slide" else "")
     return DiagnosisJson(
         source=source, input_sha256=input_sha256, units=units, kind=report.kind,
-        n_bodies=d.nominal.spec.n_flywheels, form="train", model=report.model_path, verdict=report.verdict,
+        n_bodies=d.nominal.spec.n_flywheels, form=report.form, model=report.model_path, verdict=report.verdict,
         band_harmonics=d.n_harmonics, fit_runs=tuple(fit_ids), held_out_runs=tuple(held_ids),
         noise_std_per_sample={_channel(report, k): x for k, x in d.noise_std.items()},
         nominal=FitJson.of(d.nominal, nm), causes=tuple(d.first_round), steps=tuple(d.steps),

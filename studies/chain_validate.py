@@ -223,6 +223,10 @@ def train_verdict(diagnosis: ChainDiagnosis, validation: Optional[ChainValidatio
     return judge([s.label for s in d.steps], c2, ratio, gain, held=held, nominal_lost=lost)
 
 
+#: The forms a bench's runs come in (:attr:`TrainReport.form`).
+FORMS = ("train", "relative")
+
+
 @dataclass(frozen=True)
 class TrainReport:
     """A measured train's diagnosis: the fit runs' diagnosis, the held-out runs' validation in
@@ -247,6 +251,9 @@ class TrainReport:
     #: where an unexplained misfit is and what it looks like, the nominal model's
     #: (:class:`identify.chain_diagnose.TrainMisfit`; None unless unexplained)
     misfit: Optional[object] = None
+    #: :data:`FORMS`: "train" (every body's position measured) or "relative" (the relative angle
+    #: alone: the joint's twist as one body tied to the frame by the joint's law)
+    form: str = "train"
 
     @property
     def adopted(self) -> bool:
@@ -304,12 +311,16 @@ def train_setting(rec: ChainRecord) -> tuple[float, float, int]:
 def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str], rig: ChainRig,
                         holdout: Optional[Sequence[int]] = None, written: Sequence[tuple] = (),
                         band: int = 20, alpha: float = 1e-3, fidelity: Optional[float] = None,
-                        progress=None, backend: str = "auto", nominal: Optional[ChainSpec] = None) -> TrainReport:
+                        progress=None, backend: str = "auto", nominal: Optional[ChainSpec] = None,
+                        form: str = "train") -> TrainReport:
     """Diagnose a measured train on the runs not held out, and replay the held-out runs' drives on
     the nominal and the extended model in ``rig`` (its bodies and drives; the user's model, or
     one written for the file's bodies and drives). ``holdout``: run indices (default: runs of
     another kind, :func:`holdout_of_another_kind`). ``nominal``: the structure fitted without a
-    written model (default: :func:`identify.chain_diagnose.nominal_spec` of the file's bodies)."""
+    written model (default: :func:`identify.chain_diagnose.nominal_spec` of the file's bodies).
+    ``form``: the runs' form (:data:`FORMS`), for the report's words."""
+    if form not in FORMS:
+        raise ValueError(f"form must be one of {FORMS}, got {form!r}")
     from jointrig.identify.chain_diagnose import diagnose_chain, prepare_chain_runs, train_misfit
     from jointrig.identify.defaults import DEFAULT_FIDELITY
 
@@ -376,4 +387,5 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
         misfit = train_misfit(prepare_chain_runs(records, band=band), run_ids, [s[1] for s in settings],
                               d.nominal, band, rig.kind)
     return TrainReport(tuple(run_ids), held, d, v, verdict, general, tuple(written),
-                       str(rig.path) if written else None, tuple(notes), split, rig.kind, tuple(settings), misfit)
+                       str(rig.path) if written else None, tuple(notes), split, rig.kind, tuple(settings), misfit,
+                       form)

@@ -379,7 +379,9 @@ def test_the_relative_angle_alone_goes_through_the_one_pipeline_with_the_users_m
     assert diagnose.main([str(path), "--model", _model_with(tmp_path), "-q", "--json", str(out),
                           "--mjcf", str(xml)]) == 0
     js = json.loads(out.read_text())
-    assert js["bench"]["n_bodies"] == 1 and any("relative angle alone" in n for n in js["notes"])
+    assert js["bench"]["n_bodies"] == 1 and js["bench"]["form"] == "relative"
+    assert any("relative angle alone" in n for n in js["notes"])
+    assert "Your model misses dry friction in the joint (ground1_coulomb_torque" in capsys.readouterr().out
     assert js["verdict"]["verdict"] == "explained" and js["extended"]["effects"] == ["coulomb_friction to ground at body 1"]
     ext, se = js["extended"]["parameters"], js["extended"]["std_errors"]
     assert abs(ext["ground1_coulomb_torque_Nm"] - 40.0) <= 3 * se["ground1_coulomb_torque_Nm"]

@@ -232,7 +232,8 @@ def _train(args: argparse.Namespace, loaded, model, two_flywheels: bool = False)
         report = run_train_diagnosis(loaded.records, run_ids=ids, rig=rig, holdout=holdout, written=written,
                                      band=args.band, alpha=args.alpha, fidelity=args.fidelity,
                                      progress=lambda msg: log.info("%s", msg),
-                                     nominal=nominal_spec(1, twist=True) if relative else None)
+                                     nominal=nominal_spec(1, twist=True) if relative else None,
+                                     form="relative" if relative else "train")
     except (RunsFileError, RecordError, BadArgument, ChainIdentifiabilityError) as err:
         return _said(err, 2)
     except (SimulationError, ValueError, np.linalg.LinAlgError) as err:
