@@ -250,62 +250,71 @@ def load_chain(path: Union[str, os.PathLike]) -> ChainRig:
                     twist_tendons=tuple(int(mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TENDON, t)) for t in names))
 
 
+def _compiled(plant: ChainPlant, inertias_kgm2: Sequence[float], driven: Sequence[int], name: str,
+              kind: str = "hinge", source=None) -> ChainRig:
+    """The chain rig of ``plant`` (:func:`chain_model_xml`, compiled from a temporary file),
+    named ``name``; ``source``: the model file it was made from (its path and digest are kept,
+    and a law the chain's fields cannot write is refused naming it)."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory(prefix="jointrig-chain-") as tmp:
+        path = Path(tmp) / name
+        try:
+            path.write_text(chain_model_xml(plant, inertias_kgm2, driven, kind=kind), encoding="utf-8")
+        except ValueError as err:  # a law the chain's fields cannot write
+            if source is None:
+                raise
+            raise RigModelError(f"{source.path}: {err}") from None
+        out = load_chain(path)
+    return replace(out, path=Path(name)) if source is None else replace(out, path=source.path, digest=source.digest)
+
+
 def rig_of_bodies(n_bodies: int, driven: Sequence[int], kind: str = "hinge") -> ChainRig:
     """The rig of a measured file's bodies and drives, without the user's model: the paper's law
     at every joint (a single body: its drag to ground) and unit inertias, hinges or slides; a
     diagnosis replaces the plant and the inertias by each fit's. Named ``train.xml``."""
-    import tempfile
-
     from jointrig.identify.chain import plant_of_values
     from jointrig.identify.chain_diagnose import nominal_spec
 
     spec = nominal_spec(n_bodies)
-    plant = plant_of_values({n: 0.0 for n in spec.names}, spec)
-    with tempfile.TemporaryDirectory(prefix="jointrig-train-") as tmp:
-        path = Path(tmp) / "train.xml"
-        path.write_text(chain_model_xml(plant, [1.0] * n_bodies, driven, kind=kind), encoding="utf-8")
-        out = load_chain(path)
-    return replace(out, path=Path("train.xml"))
+    return _compiled(plant_of_values({n: 0.0 for n in spec.names}, spec), [1.0] * n_bodies, driven, "train.xml", kind)
 
 
 def chain_of_two_flywheels(rig, driven: Sequence[int]) -> ChainRig:
     """A two-flywheel model (:func:`rig.model.load_rig`'s) as the train of its two bodies, the one
     model of every bench: its law at joint 1, its bearings, inertias and drive lag, with motors on
     ``driven`` (the bodies the data drive); named by its own file and digest."""
-    import tempfile
-
-    plant = ChainPlant((rig.plant.law,), (rig.plant.bearing1_damping_Nms_per_rad, rig.plant.bearing2_damping_Nms_per_rad),
-                       (), rig.plant.drive_delay_s)
-    with tempfile.TemporaryDirectory(prefix="jointrig-two-flywheels-") as tmp:
-        path = Path(tmp) / rig.path.name
-        try:
-            path.write_text(chain_model_xml(plant, (rig.J1_kgm2, rig.J2_kgm2), driven), encoding="utf-8")
-        except ValueError as err:  # a law the chain's fields cannot write
-            raise RigModelError(f"{rig.path}: {err}") from None
-        out = load_chain(path)
-    return replace(out, path=rig.path, digest=rig.digest)
+    p = rig.plant
+    plant = ChainPlant((p.law,), (p.bearing1_damping_Nms_per_rad, p.bearing2_damping_Nms_per_rad), (), p.drive_delay_s)
+    return _compiled(plant, (rig.J1_kgm2, rig.J2_kgm2), driven, rig.path.name, source=rig)
 
 
-def relative_chain_of_two_flywheels(rig) -> ChainRig:
+def relative_chain_of_two_flywheels(rig, torque_on: str = "flywheel1") -> tuple[ChainRig, float]:
     """A two-flywheel model as its relative-angle form (:func:`measured.runs.as_train`): one body
-    of inertia ``J1 J2/(J1 + J2)`` tied to the frame by the joint's law, driven on body 1 (by the
-    drive's share); exact without bearing drag, which the relative angle alone cannot hold."""
-    import tempfile
-
+    of inertia ``J1 J2/(J1 + J2)`` tied to the frame by the joint's law, driven on body 1, and the
+    share of the drive that twists the joint (the undriven flywheel's inertia over both, for
+    ``torque_on``); exact without bearing drag, which the relative angle alone cannot hold."""
     p = rig.plant
     if p.bearing1_damping_Nms_per_rad or p.bearing2_damping_Nms_per_rad:
         raise RigModelError(f"{rig.path}: bearing drag to ground (jointrig_bearing*): the relative angle alone ('phi') "
                             f"moves as one body only without it; give both angles (phi1, phi2) to diagnose this model")
-    J = rig.J1_kgm2 * rig.J2_kgm2 / (rig.J1_kgm2 + rig.J2_kgm2)
-    plant = ChainPlant((), (0.0,), (p.law,), p.drive_delay_s)
-    with tempfile.TemporaryDirectory(prefix="jointrig-relative-") as tmp:
-        path = Path(tmp) / rig.path.name
-        try:
-            path.write_text(chain_model_xml(plant, (J,), (1,)), encoding="utf-8")
-        except ValueError as err:  # a law the chain's fields cannot write
-            raise RigModelError(f"{rig.path}: {err}") from None
-        out = load_chain(path)
-    return replace(out, path=rig.path, digest=rig.digest)
+    J1, J2 = rig.J1_kgm2, rig.J2_kgm2
+    share = (J1 if torque_on == "flywheel2" else J2) / (J1 + J2)
+    one = _compiled(ChainPlant((), (0.0,), (p.law,), p.drive_delay_s), (J1 * J2 / (J1 + J2),), (1,), rig.path.name,
+                    source=rig)
+    return one, share
+
+
+def two_flywheels_of_relative(plant: ChainPlant, J_kgm2: float, share: float, torque_on: str) -> tuple:
+    """The relative-angle form's one body (its law to ground, inertia ``J1 J2/(J1 + J2)``) as the
+    two flywheels it stands for, the inverse of :func:`relative_chain_of_two_flywheels`:
+    ``(plant, (J1, J2), driven)``, the law at joint 1, the undriven flywheel's inertia
+    ``J/(1 - share)`` and the driven one's ``J/share`` (pure)."""
+    driven_J, other_J = J_kgm2 / share, J_kgm2 / (1.0 - share)
+    two = ChainPlant((plant.grounds[0],), (0.0, 0.0), (), plant.drive_delay_s)
+    if torque_on == "flywheel2":
+        return two, (other_J, driven_J), [2]
+    return two, (driven_J, other_J), [1]
 
 
 def chain_model_xml(plant: ChainPlant, inertias_kgm2: Sequence[float], driven: Sequence[int], *,
@@ -520,8 +529,6 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
         nat = NativeChain(rig, plant, drives)
         callback = nat.function
 
-        def commit():  # never called: the native path steps a law with sliders in C
-            raise AssertionError("the native chain commits its sliders in C")
     else:
         callback = chain_callback(rig, plant, drives, errors, states, ground_states)
 

@@ -17,7 +17,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from jointrig.identify.chain import (REST_RATE_FRACTION, STICK_RATE_FRACTION, ChainRecord, ChainSpec, channel_corrected,
+from jointrig.identify.chain import (REST_RATE_FRACTION, STICK_RATE_FRACTION, ChainRecord, channel_corrected,
                                     inertia_name)
 from jointrig.identify.chain_diagnose import ChainDiagnosis, plant_and_inertias
 from jointrig.identify.harmonics import fourier_coefficients, max_harmonic, synthesize
@@ -311,17 +311,16 @@ def train_setting(rec: ChainRecord) -> tuple[float, float, int]:
 def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str], rig: ChainRig,
                         holdout: Optional[Sequence[int]] = None, written: Sequence[tuple] = (),
                         band: int = 20, alpha: float = 1e-3, fidelity: Optional[float] = None,
-                        progress=None, backend: str = "auto", nominal: Optional[ChainSpec] = None,
-                        form: str = "train") -> TrainReport:
+                        progress=None, backend: str = "auto", form: str = "train") -> TrainReport:
     """Diagnose a measured train on the runs not held out, and replay the held-out runs' drives on
     the nominal and the extended model in ``rig`` (its bodies and drives; the user's model, or
     one written for the file's bodies and drives). ``holdout``: run indices (default: runs of
-    another kind, :func:`holdout_of_another_kind`). ``nominal``: the structure fitted without a
-    written model (default: :func:`identify.chain_diagnose.nominal_spec` of the file's bodies).
-    ``form``: the runs' form (:data:`FORMS`), for the report's words."""
+    another kind, :func:`holdout_of_another_kind`). ``form``: the runs' form (:data:`FORMS`):
+    without a written model, a "relative" one is fitted with the joint's law to the frame
+    (:func:`identify.chain_diagnose.nominal_spec` with ``twist``), and the report says "joint"."""
     if form not in FORMS:
         raise ValueError(f"form must be one of {FORMS}, got {form!r}")
-    from jointrig.identify.chain_diagnose import diagnose_chain, prepare_chain_runs, train_misfit
+    from jointrig.identify.chain_diagnose import diagnose_chain, nominal_spec, prepare_chain_runs, train_misfit
     from jointrig.identify.defaults import DEFAULT_FIDELITY
 
     records = list(records)
@@ -350,7 +349,7 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
                      f"{records[worst].samples_per_period} samples per period, enough for {top}")
         band = top
     runs = prepare_chain_runs(fit_recs, band=band)
-    nominal = rig.plant.spec() if written else nominal
+    nominal = rig.plant.spec() if written else (nominal_spec(1, twist=True) if form == "relative" else None)
     d = diagnose_chain(runs, n_harmonics=band, alpha=alpha, nominal=nominal,
                        fidelity=DEFAULT_FIDELITY if fidelity is None else fidelity,
                        progress=lambda k, n, label: say(f"scored {k}/{n} candidates ({label})") if k == n else None)

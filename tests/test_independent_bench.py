@@ -30,7 +30,7 @@ import pytest
 
 from bench_sim import JOINTS, POINTS, measure, with_effect
 from jointrig.identify.causes import CATALOGUE
-from jointrig.identify.chain_diagnose import nominal_spec, plant_and_inertias
+from jointrig.identify.chain_diagnose import plant_and_inertias
 from jointrig.measured.runs import as_train, read_runs
 from jointrig.rig.chain import rig_of_bodies
 from jointrig.studies.chain_validate import run_train_diagnosis
@@ -110,7 +110,7 @@ def _diagnose(tmp_path, joint: str, case: str, relative: bool = False):
                    relative=relative)
     loaded = as_train(read_runs(path))  # the relative angle: the share of two equal flywheels, 0.5
     return run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(1 if relative else 2, [1]),
-                               holdout=HOLDOUT, nominal=nominal_spec(1, twist=True) if relative else None)
+                               holdout=HOLDOUT, form="relative" if relative else "train")
 
 
 #: The suite's cases: no effect on both joints, and every effect at its smaller magnitude (the

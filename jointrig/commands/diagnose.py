@@ -133,7 +133,12 @@ def _main(args: argparse.Namespace) -> int:
             return _train(args, loaded, model)
         share = args.torque_share
         if not loaded.has_both_angles and model is not None and not hasattr(model, "n_flywheels"):
-            share = (model.J1_kgm2 if args.torque_on == "flywheel2" else model.J2_kgm2) / (model.J1_kgm2 + model.J2_kgm2)
+            from jointrig.rig.chain import relative_chain_of_two_flywheels
+
+            try:  # the model's relative-angle form, and its share of the drive
+                model, share = relative_chain_of_two_flywheels(model, args.torque_on)
+            except RigModelError as err:
+                raise BadArgument(f"--model: {err}") from None
         return _train(args, as_train(loaded, args.torque_on, share), model, two_flywheels=True)
     except (RunsFileError, RecordError, BadArgument, OutputError) as err:
         return _said(err, 2)
@@ -169,9 +174,8 @@ def _train(args: argparse.Namespace, loaded, model, two_flywheels: bool = False)
     from jointrig.identify.chain import ChainIdentifiabilityError
     from jointrig.measured.runs import RunsFileError
     from jointrig.present.train_report import format_train_report, train_report_json
-    from jointrig.rig.chain import chain_model_xml, load_chain, rig_of_bodies
+    from jointrig.rig.chain import chain_model_xml, load_chain, rig_of_bodies, two_flywheels_of_relative
     from jointrig.rig.simulate import SimulationError
-    from jointrig.identify.chain_diagnose import nominal_spec
     from jointrig.studies.chain_validate import MIN_PERIODS_TO_SPLIT, MIN_RUNS_TO_HOLD_OUT, run_train_diagnosis, written_of
     from jointrig.vocab.records import RecordError
 
@@ -185,11 +189,11 @@ def _train(args: argparse.Namespace, loaded, model, two_flywheels: bool = False)
         driven = sorted({i for r in loaded.records for i, t in enumerate(r.torques_Nm, start=1) if t is not None})
         relative = loaded.torque_share is not None  # the relative angle alone: one body
         if model is not None and not hasattr(model, "n_flywheels") and two_flywheels:
-            from jointrig.rig.chain import chain_of_two_flywheels, relative_chain_of_two_flywheels
+            from jointrig.rig.chain import chain_of_two_flywheels
             from jointrig.rig.model import RigModelError
 
             try:
-                model = relative_chain_of_two_flywheels(model) if relative else chain_of_two_flywheels(model, driven)
+                model = chain_of_two_flywheels(model, driven)
             except RigModelError as err:
                 raise BadArgument(f"--model: {err}") from None
         if model is not None and not hasattr(model, "n_flywheels"):
@@ -232,7 +236,6 @@ def _train(args: argparse.Namespace, loaded, model, two_flywheels: bool = False)
         report = run_train_diagnosis(loaded.records, run_ids=ids, rig=rig, holdout=holdout, written=written,
                                      band=args.band, alpha=args.alpha, fidelity=args.fidelity,
                                      progress=lambda msg: log.info("%s", msg),
-                                     nominal=nominal_spec(1, twist=True) if relative else None,
                                      form="relative" if relative else "train")
     except (RunsFileError, RecordError, BadArgument, ChainIdentifiabilityError) as err:
         return _said(err, 2)
@@ -270,7 +273,7 @@ def _train(args: argparse.Namespace, loaded, model, two_flywheels: bool = False)
         header = (f"jointrig {__version__}: the {what} train identified from {args.data} (SHA-256 {loaded.sha256}).\n"
                   f"Verdict: {report.verdict.verdict}: {report.verdict.reason}")
         if relative:  # the one body back as the two flywheels it stands for
-            plant, J, driven = relative_as_two_flywheels(plant, J[0], loaded.torque_share, args.torque_on)
+            plant, J, driven = two_flywheels_of_relative(plant, J[0], loaded.torque_share, args.torque_on)
             header += (f"\nFrom the relative angle alone: J1, J2 from the identified J1 J2/(J1 + J2) = {J[0] * J[1] / sum(J)!r} "
                        f"kg m^2 and the torque share {loaded.torque_share:g}")
 
@@ -282,19 +285,6 @@ def _train(args: argparse.Namespace, loaded, model, two_flywheels: bool = False)
         log.info("wrote %s", args.mjcf)
     log.info("done in %.1f s", time.perf_counter() - t0)
     return 0
-
-
-def relative_as_two_flywheels(plant, J_kgm2: float, share: float, torque_on: str) -> tuple:
-    """The relative-angle form's one body (its law to ground, inertia ``J1 J2/(J1 + J2)``) as the
-    two flywheels it stands for: ``(plant, (J1, J2), driven)``, the law at joint 1, the undriven
-    flywheel's inertia ``J/(1 - share)`` and the driven one's ``J/share`` (pure)."""
-    from jointrig.identify.chain import ChainPlant
-
-    driven_J, other_J = J_kgm2 / share, J_kgm2 / (1.0 - share)
-    two = ChainPlant((plant.grounds[0],), (0.0, 0.0), (), plant.drive_delay_s)
-    if torque_on == "flywheel2":
-        return two, (other_J, driven_J), [2]
-    return two, (driven_J, other_J), [1]
 
 
 def write_train_cards(args, loaded, report) -> tuple:
