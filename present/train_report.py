@@ -118,18 +118,21 @@ def offset_readings(report: TrainReport) -> tuple[str, ...]:
     order, what a constant zero offset ``delta = -a / (3 gamma)`` of the angle the law reads
     makes of the cubic: the data cannot tell the two apart, and an encoder's zero is the
     likelier. One reading in words per such place (pure)."""
+    from jointrig.identify.causes import by_name
+    from jointrig.vocab.law import Power
+
     d = report.diagnosis
     p = d.final.as_dict()
     out = []
     slide = report.kind == "slide"
-    from jointrig.identify.causes import by_name
-
+    nm = _namer(report)
+    cubic = Power(3).name
     for s in d.steps:
         cause = by_name(s.effect)
         if not cause.reads_as_offset:
             continue
         prefix = s.magnitude[0][: -len(cause.magnitude)]
-        a, gamma = p.get(prefix + cause.magnitude), p.get(prefix + "gamma_Nm_per_rad3")
+        a, gamma = p.get(prefix + cause.magnitude), p.get(prefix + cubic)
         if not a or not gamma or gamma <= 0:
             continue
         delta = -a / (3 * gamma)  # gamma (phi - delta)^3 = gamma phi^3 - 3 gamma delta phi^2 + ...
@@ -138,16 +141,18 @@ def offset_readings(report: TrainReport) -> tuple[str, ...]:
         x = "x" if slide else "phi"
         place = re.fullmatch(r"(joint|ground)(\d+)_", prefix)
         i = int(place.group(2))
-        what = (f"the twist of joint {i} ({x}{i} - {x}{i + 1})" if place.group(1) == "joint"
-                else (f"body {i}'s position ({x}{i})" if slide else f"body {i}'s angle ({x}{i}; the relative angle "
-                      f"in the relative-angle form)"))
-        nm = _namer(report)
+        if place.group(1) == "joint":
+            what = f"the twist of joint {i} ({x}{i} - {x}{i + 1})"
+        elif report.form == "relative":
+            what = "the relative angle (phi)"
+        else:
+            what = f"body {i}'s {'position' if slide else 'angle'} ({x}{i})"
         unit = lambda n: unit_of(nm(prefix + n))  # noqa: E731
         length = unit("backlash_half_gap_rad")
         degrees = "" if slide else f" ({math.degrees(delta):.2g} deg)"
         out.append(f"the even stiffness a = {a:.4g} {unit(cause.magnitude)} is exactly what a zero offset of {what} of "
                    f"-a / (3 gamma) = {delta:.3g} {length}{degrees} makes of the cubic gamma = {gamma:.4g} "
-                   f"{unit('gamma_Nm_per_rad3')}: the data cannot tell the two apart. Check the "
+                   f"{unit(cubic)}: the data cannot tell the two apart. Check the "
                    f"{'position' if slide else 'angle'} sensors' zero; if the joint is symmetric, subtract {delta:.3g} "
                    f"{length} from {what} and run the diagnosis again")
     return tuple(out)
