@@ -447,7 +447,7 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
         instead of the file's (each body's inertia scaled).
       amplitude_Nm: a label for the record.
       backend: ``"native"``: every joint's law, the bearings and the drives in the compiled C
-        callback (rig/native_callback.py ``NativeChain``): bit-identical records; a chain
+        callback (rig/native_callback.py ``NativeChain``): the Python callback's records to 1e-8; a chain
         without sliders is integrated a period per ``mujoco.rollout`` call (no Python between
         steps). ``"python"``: the Python callback; ``"auto"`` (the default): native wherever the
         machine can build it and it knows every law's terms

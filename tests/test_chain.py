@@ -14,7 +14,7 @@ from jointrig.identify.solve import solve
 from jointrig.rig.chain import chain_model_xml, is_chain_model, load_chain
 from jointrig.rig.model import RigModelError
 
-from conftest import MODELS_DIR, needs_cc
+from conftest import CALLBACK_RTOL, MODELS_DIR, needs_cc
 
 PUMP_TRAIN = MODELS_DIR / "pump_train.xml"
 
@@ -178,8 +178,8 @@ def test_chain_simulates_the_inertias_asked_for():
 
 
 def _both_backends(rig, w, drives, cfg, plant):
-    """The chain simulated by the Python and the C callback: every record channel equal bit for
-    bit (no tolerance); the Python one returned."""
+    """The chain simulated by the Python and the C callback: every record channel within
+    conftest.CALLBACK_RTOL of its peak (why not bit for bit: there); the Python one returned."""
     from jointrig.rig.chain import simulate_chain
 
     a, _ = simulate_chain(rig, w, drives, cfg, plant=plant, backend="python")
@@ -189,17 +189,17 @@ def _both_backends(rig, w, drives, cfg, plant):
         if x is None:
             assert y is None
         else:
-            np.testing.assert_array_equal(x, y)
+            np.testing.assert_allclose(y, x, rtol=0, atol=CALLBACK_RTOL * max(np.abs(x).max(), 1e-300))
     return a
 
 
 @needs_cc
 @pytest.mark.parametrize("kind", ["hinge", "slide"])
-def test_a_single_bodys_drag_and_law_to_ground_in_the_native_callback_are_bit_identical_to_the_python_one(
+def test_a_single_bodys_drag_and_law_to_ground_in_the_native_callback_agree_with_the_python_one(
         tmp_path, kind):
     # A single body with its drag alone, on a hinge and on a slide: the C callback dropped the
     # drag (it lived in joint blocks, and one body has none), so a single axis's nominal model
-    # was replayed undamped. Now its records are the Python callback's bit for bit, and so are a
+    # was replayed undamped. Now its records are the Python callback's (to CALLBACK_RTOL), and so are a
     # law to ground's (a block of its own, after the joints' and drags', as the Python callback
     # adds them): a guide's dry friction and spring, and one with a slider (the relative-angle
     # form's joint: a Jenkins element, committed in C after every step; an Iwan element's
@@ -228,10 +228,10 @@ def test_a_single_bodys_drag_and_law_to_ground_in_the_native_callback_are_bit_id
 
 
 @needs_cc
-def test_sliders_at_joints_are_committed_in_c_bit_identical_to_the_python_callback(tmp_path):
+def test_sliders_at_joints_are_committed_in_c_as_in_the_python_callback(tmp_path):
     # A train whose joints hold a Jenkins and an Iwan element: the native callback steps the
     # period in C and commits every slider after every step (rig/native/jointrig_law.c,
-    # jointrig_run), with the same records as the Python callback's stepping loop, bit for bit.
+    # jointrig_run), with the same records as the Python callback's stepping loop (to CALLBACK_RTOL).
     import dataclasses
 
     from jointrig.identify.chain import ChainPlant
@@ -252,9 +252,9 @@ def test_sliders_at_joints_are_committed_in_c_bit_identical_to_the_python_callba
 
 @needs_cc
 @pytest.mark.parametrize("model", ["pump_train.xml", "pump_train_worn.xml"])
-def test_native_chain_callback_is_bit_identical_to_the_python_one(model):
+def test_native_chain_callback_agrees_with_the_python_one(model):
     # Every joint's law, the bearings and two drives (one of several harmonics) in C, summed in
-    # the Python callback's order: the records agree bit for bit (no tolerance). The worn train
+    # the Python callback's order: the records agree to CALLBACK_RTOL. The worn train
     # holds free play; a Jenkins element at joint 3 adds sliders (stepped, committed per step).
     import dataclasses
 
@@ -405,7 +405,7 @@ def test_chain_sweep_on_a_dask_cluster_gives_the_local_records(tmp_path):
 
     rig = load_chain(MODELS_DIR / "pump_train.xml")
     points = [(1200.0, 60.0, 1), (400.0, 30.0, 4), (2000.0, 60.0, 1)]
-    backend = "auto"  # native wherever a C compiler builds it, else Python: bit-identical either way
+    backend = "auto"  # native wherever a C compiler builds it, else Python: the same on both sides
     local = run_chain_sweep(rig, points, CHAIN_CONFIG, backend=backend)
     remote = run_chain_sweep(rig, points, CHAIN_CONFIG, backend=backend, workers=2, executor="dask",
                              store=tmp_path / "store")
@@ -516,9 +516,10 @@ def test_a_body_that_only_slides_through_rest_is_not_masked():
 
 def test_a_drives_lag_in_the_rig_acts_later_and_is_recorded_as_commanded():
     # A plant whose drives act tau = 0.2 ms after they are recorded: its angles are those of the
-    # same plant without a lag under the drive turned by -n omega tau (bit for bit: the same
-    # drive coefficients reach the callback), and its record holds the drive as commanded, the
-    # cosine itself (to round-off, 1e-12 of the level).
+    # same plant without a lag under the drive turned by -n omega tau (to CALLBACK_RTOL: numpy's
+    # complex exp below and cmath's in PeriodicDrive.delayed may round the coefficient's last bit
+    # otherwise), and its record holds the drive as commanded, the cosine itself (to round-off,
+    # 1e-12 of the level).
     from dataclasses import replace as dc_replace
 
     from jointrig.vocab.law import JointLaw
@@ -537,7 +538,7 @@ def test_a_drives_lag_in_the_rig_acts_later_and_is_recorded_as_commanded():
     turned = PeriodicDrive(w, (0.0, 60.0 * np.exp(-1j * w * tau)))
     direct, _ = simulate_chain(rig.with_plant(plant), w, {1: turned}, cfg)
     for a, b in zip(lagged.angles_rad, direct.angles_rad):
-        np.testing.assert_array_equal(a, b)
+        np.testing.assert_allclose(b, a, rtol=0, atol=CALLBACK_RTOL * np.abs(a).max())
     np.testing.assert_allclose(lagged.torques_Nm[0], 60.0 * np.cos(w * lagged.time_s), rtol=0, atol=1e-12 * 60.0)
     assert np.max(np.abs(direct.torques_Nm[0] - lagged.torques_Nm[0])) > 0.05 * 60.0
 

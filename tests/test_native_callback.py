@@ -1,4 +1,5 @@
-"""The native (C) passive callback computes exactly what the Python reference computes."""
+"""The native (C) passive callback computes what the Python reference computes, to the rounding of
+the elementary functions (conftest.CALLBACK_RTOL says why not bit for bit on every machine)."""
 
 
 import mujoco
@@ -8,7 +9,7 @@ from jointrig.vocab.plant import PeriodicDrive
 from jointrig.rig import SimulationConfig, load_rig, simulate_steady_state
 from jointrig.studies.hidden_effects import HIDDEN_EFFECTS
 
-from conftest import MODELS_DIR, assert_identical_records as _identical, needs_cc
+from conftest import CALLBACK_RTOL, MODELS_DIR, assert_records_agree as _agree, needs_cc
 
 pytestmark = needs_cc
 
@@ -24,7 +25,7 @@ def test_every_effect_gives_identical_trajectories(rig, case):
     cfg = SimulationConfig(n_periods=2)
     python, _ = simulate_steady_state(rig, 40.0, 2500.0, cfg, law=plant, backend="python")
     native, _ = simulate_steady_state(rig, 40.0, 2500.0, cfg, law=plant, backend="native")
-    _identical(python, native)
+    _agree(python, native)
 
 
 def test_an_iwan_joint_stepped_in_c_gives_identical_trajectories(rig):
@@ -33,7 +34,7 @@ def test_an_iwan_joint_stepped_in_c_gives_identical_trajectories(rig):
 
     law = JointLaw((Viscous(), Power(1), Iwan(0.02, -0.3, 0.1)), (5.0, 500.0, 40.0))
     cfg = SimulationConfig(n_periods=2)
-    _identical(simulate_steady_state(rig, 25.0, 400.0, cfg, law=law, backend="python")[0],
+    _agree(simulate_steady_state(rig, 25.0, 400.0, cfg, law=law, backend="python")[0],
                simulate_steady_state(rig, 25.0, 400.0, cfg, law=law, backend="native")[0])
 
 
@@ -42,7 +43,7 @@ def test_a_stribeck_friction_gives_identical_trajectories(rig):
 
     law = JointLaw((Viscous(), Power(1), Coulomb(), Stribeck(0.5)), (5.0, 500.0, 20.0, 15.0))
     cfg = SimulationConfig(n_periods=2)
-    _identical(simulate_steady_state(rig, 25.0, 400.0, cfg, law=law, backend="python")[0],
+    _agree(simulate_steady_state(rig, 25.0, 400.0, cfg, law=law, backend="python")[0],
                simulate_steady_state(rig, 25.0, 400.0, cfg, law=law, backend="native")[0])
 
 
@@ -51,7 +52,7 @@ def test_a_tanh_friction_gives_identical_trajectories(rig):
 
     law = JointLaw((Viscous(), Power(1), TanhFriction(0.5)), (5.0, 500.0, 20.0))
     cfg = SimulationConfig(n_periods=2)
-    _identical(simulate_steady_state(rig, 25.0, 400.0, cfg, law=law, backend="python")[0],
+    _agree(simulate_steady_state(rig, 25.0, 400.0, cfg, law=law, backend="python")[0],
                simulate_steady_state(rig, 25.0, 400.0, cfg, law=law, backend="native")[0])
 
 
@@ -60,16 +61,16 @@ def test_a_cogging_torque_gives_identical_trajectories(rig):
 
     law = JointLaw((Viscous(), Power(1), Cogging(125.0), Cogging(125.0, True)), (5.0, 500.0, 30.0, -20.0))
     cfg = SimulationConfig(n_periods=2)
-    _identical(simulate_steady_state(rig, 25.0, 400.0, cfg, law=law, backend="python")[0],
+    _agree(simulate_steady_state(rig, 25.0, 400.0, cfg, law=law, backend="python")[0],
                simulate_steady_state(rig, 25.0, 400.0, cfg, law=law, backend="native")[0])
 
 
 def test_hat_law_and_a_replayed_multiharmonic_drive(rig):
     drive = PeriodicDrive(30.0, (0, 1000.0, 50 - 20j, 0, 10j))
-    _identical(simulate_steady_state(rig, 30.0, 1000.0, SimulationConfig(), drive=drive, backend="python")[0],
+    _agree(simulate_steady_state(rig, 30.0, 1000.0, SimulationConfig(), drive=drive, backend="python")[0],
                simulate_steady_state(rig, 30.0, 1000.0, SimulationConfig(), drive=drive, backend="native")[0])
     hat = load_rig(MODELS_DIR / "two_flywheels_hat.xml")
-    _identical(simulate_steady_state(hat, 30.0, 1000.0, SimulationConfig(), backend="python")[0],
+    _agree(simulate_steady_state(hat, 30.0, 1000.0, SimulationConfig(), backend="python")[0],
                simulate_steady_state(hat, 30.0, 1000.0, SimulationConfig(), backend="native")[0])
 
 
@@ -82,16 +83,17 @@ def test_parallel_native_sweep_equals_the_serial_python_sweep(rig, tmp_path):
     serial = records_of(run_sweep(rig, plan, SimulationConfig(), backend="python"))
     parallel = records_of(run_sweep(rig, plan, SimulationConfig(), backend="native", workers=2, store=tmp_path / "s"))
     for a, b in zip(serial, parallel):
-        _identical(a, b)
+        _agree(a, b)
     assert mujoco.get_mjcb_passive() is None
     with pytest.raises(ValueError, match="needs the native callback"):
         run_sweep(rig, plan, SimulationConfig(), backend="python", workers=2)
 
 
-def test_the_oscillator_free_run_in_c_is_the_python_free_run_to_the_last_bit():
+def test_the_oscillator_free_run_in_c_is_the_python_free_run():
     # The Silverbox's free runs: a one-degree-of-freedom law with even and odd stiffness, a rate
     # monomial and an input delay (so the input is zero for the first stage times), under a
-    # sampled random input; the C block against the Python callback, every sample equal.
+    # sampled random input; the C block against the Python callback, every sample within
+    # CALLBACK_RTOL of the output's peak.
     import numpy as np
 
     from jointrig.identify.signals import BandlimitedInput
@@ -103,7 +105,8 @@ def test_the_oscillator_free_run_in_c_is_the_python_free_run_to_the_last_bit():
     runs = {b: simulate_free_run(law, 1.0, u, 700, 610.35, substeps=8, delay_s=2.5e-4, backend=b)
             for b in ("python", "native")}
     assert np.std(runs["python"]) > 1e-4  # it moves
-    np.testing.assert_array_equal(runs["native"], runs["python"])
+    np.testing.assert_allclose(runs["native"], runs["python"], rtol=0,
+                               atol=CALLBACK_RTOL * np.abs(runs["python"]).max())
 
 
 def test_auto_backend_falls_back_to_python_where_native_cannot_run(rig, monkeypatch):
@@ -126,7 +129,7 @@ def test_auto_backend_falls_back_to_python_where_native_cannot_run(rig, monkeypa
     cfg = SimulationConfig(n_periods=1)
     auto, _ = simulate_steady_state(rig, 40.0, 2500.0, cfg)
     python, _ = simulate_steady_state(rig, 40.0, 2500.0, cfg, backend="python")
-    _identical(auto, python)
+    _agree(auto, python)
 
     monkeypatch.setattr(nc, "_unavailable", None)
 
