@@ -592,6 +592,21 @@ class Profiled(Generic[T]):
     value: float
     fit: T
     std_error: float
+    #: d(linear parameters)/d(value) along the profile (the fits' ``values`` either side), for
+    #: the linear parameters' standard errors with the profiled one's uncertainty carried in
+    #: (:meth:`widened`); None where the fits hold no ``values``
+    slope: Optional[np.ndarray] = None
+
+    def widened(self) -> T:
+        """The fit with each linear parameter's variance (and covariance) widened by what the
+        profiled parameter's own uncertainty moves it: ``+ slope slope^T se^2`` (first order; at
+        a fixed profiled value the fit alone understates them: a Stribeck excess read 4.75 +- 0.12
+        N against a true 10 N)."""
+        f, g, se = self.fit, self.slope, self.std_error
+        if g is None or not math.isfinite(se) or getattr(f, "covariance", None) is None:
+            return f
+        cov = np.asarray(f.covariance) + np.outer(g, g) * se**2
+        return replace(f, covariance=cov, std_errors=np.sqrt(np.asarray(f.std_errors) ** 2 + (g * se) ** 2))
 
 
 def profile(solve: Callable[[float], T], cause: "Cause", lo: float, hi: float, *,
@@ -635,12 +650,20 @@ def profile(solve: Callable[[float], T], cause: "Cause", lo: float, hi: float, *
     def chi2_at(x):
         return (solve_aside or solve)(x).chi2
 
+    aside = solve_aside or solve
     if h - step >= lo:
-        curv = (chi2_at(h - step) - 2 * best.chi2 + chi2_at(h + step)) / step**2
+        below, above = aside(h - step), aside(h + step)
+        curv = (below.chi2 - 2 * best.chi2 + above.chi2) / step**2
+        ends = (below, above, 2 * step)
     else:
-        curv = (chi2_at(h + 2 * step) - 2 * chi2_at(h + step) + best.chi2) / step**2
+        one, two = aside(h + step), aside(h + 2 * step)
+        curv = (two.chi2 - 2 * one.chi2 + best.chi2) / step**2
+        ends = (best, one, step)
     se = math.sqrt(2.0 / curv * max(1.0, best.chi2 / max(best.dof, 1))) if curv > 0 else math.nan
-    return Profiled(h, best, se)
+    slope = None
+    if getattr(best, "values", None) is not None and np.shape(ends[0].values) == np.shape(ends[1].values):
+        slope = (np.asarray(ends[1].values, dtype=float) - np.asarray(ends[0].values, dtype=float)) / ends[2]
+    return Profiled(h, best, se, slope)
 
 
 def parsimonious(ranked: list, by_name: dict, n_rows: int, alpha: float, *, name_of=lambda s: s.effect,

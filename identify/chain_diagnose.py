@@ -46,7 +46,7 @@ import math
 import warnings
 from dataclasses import dataclass, field, replace
 from types import SimpleNamespace
-from typing import Optional, Sequence
+from typing import Callable, Optional, Sequence
 
 import numpy as np
 
@@ -55,7 +55,7 @@ from jointrig.vocab.params import ANGLE2_DELAY, ANGLE2_GAIN, DRIVE_DELAY, channe
 from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpec, bearing_name, chain_system, channel_corrected,
                     ground_laws, ground_prefix, identifiability, inertia_name, joint_prefix, solve_banded, rest_share,
                     rests, stick_mask, sticks_to_ground, jumps_at_rest)
-from .causes import (CATALOGUE, Ambiguity, Cause, CauseScore, Limits, ModelSpec, Place, at, by_name, evidence, forward_select,
+from .causes import (CATALOGUE, Ambiguity, Cause, CauseScore, Limits, ModelSpec, Place, Profiled, at, by_name, evidence, forward_select,
                      fundamental_quadrature, harmonic_shares, parsimonious, profile)
 from .defaults import DEFAULT_FIDELITY
 from .kink import FINE_SAMPLES, KINK_RTOL, kink_corrected_rate, kink_first_pass
@@ -273,10 +273,50 @@ class Jumps:
 
 
 @dataclass(frozen=True)
+class BalanceFidelity:
+    """What the harmonic balance misses on noise-free data of a model: the model's own records,
+    replayed in the rig under each fitted run's measured drive and balanced exactly as the
+    measured runs are, at the model's own parameters (pure data).
+
+    The balance is exact for a smooth law on band-limited motion; a jump or a kink (dry
+    friction, free play, sliders) leaves a misfit above the band that the kink correction only
+    partly restores, and the rig's integrator adds its own. A row's variance adds this misfit's
+    mean square (its harmonic's cosine and sine rows of one equation pooled), so that a right
+    model reads chi-square per degree of freedom near 1 whatever the noise.
+
+    Attributes:
+      variance: ``(run, harmonic, equation) -> mean square misfit`` (N^2 m^2, N^2 on a slide).
+      relative: RMS misfit over RMS balanced torque, every row.
+      model: the replayed model's causes in words ("the nominal model" without any).
+    """
+
+    variance: dict = field(repr=False)
+    relative: float
+    model: str
+
+    def at(self, run: int, harmonic: int, equation: int) -> float:
+        return self.variance.get((run, harmonic, equation), 0.0)
+
+
+def _shape(spec: ChainSpec) -> tuple:
+    """What kind of model ``spec`` is, its numbers left out: the kinds of term at every joint and
+    to ground (with or without free play), the bearings with a drag, whether the drives lag and
+    which channels are read late or scaled."""
+    def kinds(terms):
+        return tuple((type(t).__name__, getattr(t, "power", None), bool(getattr(t, "gap_rad", 0.0))) for t in terms)
+
+    return (tuple(kinds(t) for t in spec.joints), tuple(kinds(g) for g in spec.grounds), tuple(spec.bearings),
+            bool(spec.drive_delay_s), tuple(bool(d) for d in spec.channel_delays_s),
+            tuple(bool(g) for g in spec.channel_gains))
+
+
+@dataclass(frozen=True)
 class _Problem:
     runs: tuple
     n_harmonics: int
     nu: float
+    #: the fixed model-fidelity floor relative to each run's largest balanced term (``--fidelity``),
+    #: used where ``replay`` is None
     fidelity: float
 
     #: per body: True where some model of the diagnosis lets it stick to ground (its nominal law
@@ -294,6 +334,25 @@ class _Problem:
     #: (run, body i or N + joint j, periods) -> its angles or twist (the average's, or each
     #: period's) and the kink correction's first pass over them
     _first_pass: dict = field(default_factory=dict, compare=False, repr=False)
+    #: ``replay(fit) -> list[ChainRun] | str``: the fitted model's noise-free records under each
+    #: run's measured drive, prepared as the runs were (or why it could not be replayed); with it
+    #: the fidelity is measured per model (:meth:`measured_fidelity`), not fixed
+    replay: Optional[Callable] = field(default=None, compare=False, repr=False)
+    #: measured fidelities by model, shared by the problems of one diagnosis
+    _fidelities: dict = field(default_factory=dict, compare=False, repr=False)
+
+    def measured_fidelity(self, fit: "ChainFit", label: str = "") -> "BalanceFidelity | str":
+        """The balance's misfit on the replay of ``fit`` (:class:`BalanceFidelity`), or why the
+        model could not be replayed (then the fixed floor stands in)."""
+        # one replay per kind of model (:func:`_shape`): a fidelity is a variance, which a
+        # profiled parameter's or a twist zero's next digits do not change
+        key = _shape(fit.spec)
+        if key not in self._fidelities:
+            replays = self.replay(fit)
+            self._fidelities[key] = (replays if isinstance(replays, str) else
+                                     balance_fidelity(replays, fit, self.n_harmonics, self.masked, self.merging,
+                                                      label or "the fitted model"))
+        return self._fidelities[key]
 
     def masks(self) -> Optional[list]:
         """Per run, per body: the stick mask of a masked body where it rests in that run (of its
@@ -409,7 +468,13 @@ class _Problem:
         return chain_system([r[0] for r in self.records(jumps, periods=False)], spec, n_harmonics=self.n_harmonics,
                             first_harmonic=1, masks=self.masks(), merged=self.merged())
 
-    def row_variance(self, spec: ChainSpec, theta: np.ndarray, like, jumps: Optional[Jumps] = None) -> np.ndarray:
+    def row_variance(self, spec: ChainSpec, theta: np.ndarray, like, jumps: Optional[Jumps] = None,
+                     measured: "BalanceFidelity | float | None" = None) -> np.ndarray:
+        """Every row's variance: its residual's period-to-period variance over P (a harmonic's
+        cosine and sine rows of one equation pooled), plus the balance's own misfit: ``measured``
+        (a replay's, :class:`BalanceFidelity`), or a floor ``(f * size)^2`` (``size`` the run's
+        largest balanced term) with ``f`` = ``measured`` if a number, else the fixed
+        :attr:`fidelity`."""
         sysl = like.system
         var = np.empty(sysl.F.size)
         masks, merged = self.masks(), self.merged()
@@ -428,7 +493,11 @@ class _Problem:
             pooled = v.copy()
             for key in set(zip(h.tolist(), e.tolist())):
                 sel = (h == key[0]) & (e == key[1])
-                pooled[sel] = v[sel].mean() + self.fidelity**2 * size2
+                if isinstance(measured, BalanceFidelity):
+                    floor = measured.at(i, key[0], key[1])
+                else:
+                    floor = (self.fidelity if measured is None else measured) ** 2 * size2
+                pooled[sel] = v[sel].mean() + floor
             # The single-run system lists the rows of each equation in the same order as the
             # stacked one lists this run's rows of that equation.
             for eq in np.unique(e):
@@ -465,13 +534,54 @@ class _Problem:
                         covariance=np.array(res.covariance) * scale)
 
     def fit(self, spec: ChainSpec, iterations: int = 2) -> tuple[ChainFit, np.ndarray]:
+        """The weighted fit of ``spec``: weights from the noise, then (with a replay) from the
+        noise and the fidelity measured on the replay of the first weighted fit."""
         banded = self.system(spec)
         w = np.ones(banded.system.F.size)
         f = self.solve(spec, w)
-        for _ in range(iterations):
-            w = 1.0 / self.row_variance(spec, f.values, banded, self.jumps(spec, f.as_dict()))
+        measured = None if self.replay is None else 0.0
+        for k in range(iterations):
+            if k and self.replay is not None and k == 1:
+                got = self.measured_fidelity(f)
+                measured = got if isinstance(got, BalanceFidelity) else None  # None: the fixed floor
+            w = 1.0 / self.row_variance(spec, f.values, banded, self.jumps(spec, f.as_dict()), measured)
             f = self.solve(spec, w)
         return f, w
+
+    def fidelity_of(self, fit: ChainFit) -> "BalanceFidelity | str":
+        """The fidelity ``fit``'s weights carry, as the report states it: measured (a
+        :class:`BalanceFidelity`), or a sentence (the fixed floor, and why)."""
+        if self.replay is None:
+            return f"fixed at {self.fidelity:g} of each run's largest balanced torque (--fidelity)"
+        shape = _shape(fit.spec)
+        for key, got in self._fidelities.items():
+            if key == shape:
+                if isinstance(got, BalanceFidelity):
+                    return got
+                return (f"not measured ({got}); fixed at {self.fidelity:g} of each run's largest balanced torque "
+                        f"instead")
+        return f"fixed at {self.fidelity:g} of each run's largest balanced torque"
+
+
+def balance_fidelity(replays: Sequence[ChainRun], fit: ChainFit, n_harmonics: int, masked: tuple = (),
+                     merging: tuple = (), model: str = "the fitted model") -> BalanceFidelity:
+    """The balance's misfit on ``replays`` (the noise-free records of ``fit``'s model, one per fitted
+    run, prepared as the runs were) at ``fit``'s own parameters (pure): the rows of every run,
+    harmonic and equation as the diagnosis balances them (the same bodies masked, the same
+    joints' equations summed where they may stick), each harmonic's cosine and sine rows pooled.
+    The replays are the rig's true twists: the fit's angle offsets are not applied to them."""
+    spec = replace(fit.spec, offsets_rad=(0.0,) * len(fit.spec.offsets_rad))
+    problem = _Problem(tuple(replays), n_harmonics, 2.0, 0.0, masked, merging)
+    values = fit.as_dict()
+    banded = problem.system(spec, problem.jumps(spec, values))
+    s = banded.system
+    r = s.F - s.A @ np.array([values[n] for n in s.names])
+    out = {}
+    for key in set(zip(s.row_record.tolist(), s.row_harmonic.tolist(), s.row_equation.tolist())):
+        sel = (s.row_record == key[0]) & (s.row_harmonic == key[1]) & (s.row_equation == key[2])
+        out[key] = float(np.mean(r[sel] ** 2))
+    size = float(np.sqrt(np.mean(s.F ** 2))) if s.F.size else 1.0
+    return BalanceFidelity(out, float(np.sqrt(np.mean(r ** 2))) / size if size > 0 else 0.0, model)
 
 
 # --------------------------------------------------------------------------------------------
@@ -665,6 +775,52 @@ def _refine(problem: _Problem, adopted: Sequence[Candidate], fit: ChainFit, weig
     return replace(refit, profiled=fit.profiled), weights
 
 
+#: A twist's zero as part of the nominal model: the angle-offset cause searched over a full turn
+#: either way (two encoders mounted by hand read any zero), not only a sensor's small error.
+TWIST_ZERO = replace(by_name("angle_offset"), bounds=lambda runs: (-math.pi, math.pi))
+
+
+def _widened(problem: _Problem, cands: Sequence[Candidate], fit: ChainFit, weights) -> ChainFit:
+    """``fit`` with every linear parameter's standard error (and covariance) carrying each profiled
+    parameter's own uncertainty (:meth:`identify.causes.Profiled.widened`): the fit's slope along
+    each profiled parameter by a central difference at its value, its variance from its profile."""
+    found = {n: (v, e) for n, v, e in fit.profiled}
+    for cand in cands:
+        if cand.cause.bounds is None or cand.profiled_name() not in found:
+            continue
+        h, se = found[cand.profiled_name()]
+        lo, hi = cand.cause.bounds(_twist_runs(problem, cand))
+        step = max(1e-3 * abs(h), 1e-6 * (hi - lo))
+        below, above = (problem.solve(cand.extend(fit.spec, x), weights) for x in (h - step, h + step))
+        if np.shape(below.values) != np.shape(fit.values):
+            continue
+        slope = (np.asarray(above.values) - np.asarray(below.values)) / (2 * step)
+        fit = replace(Profiled(h, fit, se, slope).widened(), profiled=fit.profiled)
+    return fit
+
+
+def zeroed_joints(spec: ChainSpec) -> list[int]:
+    """The joints (1-based) whose twist's zero the data determine: those whose law has a
+    nonlinear elastic term (a power above 1, or free play). A linear law only shifts the mean
+    twist, which the balance leaves out."""
+    def nonlinear(t) -> bool:
+        return t.elastic and not (isinstance(t, Power) and t.power <= 1 and not t.gap_rad)
+
+    return [j for j, terms in enumerate(spec.joints, start=1) if any(nonlinear(t) for t in terms)]
+
+
+def _twist_zeros(problem: _Problem, zeros: Sequence[Candidate], spec: ChainSpec, weights) -> tuple[ChainSpec, tuple]:
+    """Each joint's twist zero profiled in turn on the nominal structure (a pass per joint, then
+    once more beside the others'); returns the structure with them and their profiles."""
+    profiled = {}
+    for _ in range(2 if len(zeros) > 1 else 1):
+        for cand in zeros:
+            f = _profile(problem, cand, spec, weights)
+            spec = f.spec
+            profiled.update({n: (n, v, e) for n, v, e in f.profiled})
+    return spec, tuple(profiled.values())
+
+
 def _dissipative(fit: ChainFit) -> list[str]:
     names = [joint_prefix(j) + t.name for j, terms in enumerate(fit.spec.joints, start=1) for t in terms
              if t.dissipative]
@@ -774,6 +930,13 @@ class ChainDiagnosis:
     #: whether its twist is resolved above the noise)`` for every run where a joint that may
     #: stick may be stuck: its two bodies' equations are balanced as their sum alone there
     stuck_joints: tuple = ()
+    #: the fidelity the final (extended) model's weights carry: measured on its replay
+    #: (:class:`BalanceFidelity`) or, in words, the fixed floor and why
+    fidelity: "BalanceFidelity | str" = ""
+    #: the same for the nominal model
+    nominal_fidelity: "BalanceFidelity | str" = ""
+    #: the most causes the forward selection could adopt (``--max-causes``)
+    max_effects: int = 2
 
     @property
     def found(self) -> Optional[CauseScore]:
@@ -834,7 +997,8 @@ def _joints_that_may_stick(problem: _Problem, structure: ChainSpec, pool: Sequen
 
 def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: float = 1e-3, max_effects: int = 2,
                    fidelity: float = DEFAULT_FIDELITY, causes: Sequence[Cause] = JOINT_CAUSES,
-                   nominal: Optional[ChainSpec] = None, progress=None, workers: Optional[int] = None) -> ChainDiagnosis:
+                   nominal: Optional[ChainSpec] = None, progress=None, workers: Optional[int] = None,
+                   replay: Optional[Callable] = None) -> ChainDiagnosis:
     """Fit the nominal chain, score every cause at every place, extend greedily (module docstring).
 
     Args:
@@ -842,6 +1006,10 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
         default :func:`nominal_spec` (paper eq. 11 at every joint).
       progress: optional callable ``(done, total, label)`` called after every candidate scored.
       workers: processes that score a round's candidates (default :func:`jointrig.parallel.default_workers`).
+      replay: ``replay(fit) -> list[ChainRun] | str``, the fitted model's noise-free records
+        under each run's drive (``studies.chain_validate.rig_replay``): every fit's weights then
+        carry the fidelity measured on its own replay (:class:`BalanceFidelity`), not the fixed
+        ``fidelity``.
     """
     from jointrig.parallel import fork_map
 
@@ -870,9 +1038,21 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
     masked = tuple(sticks_to_ground(structure, i) or any(c.ground and c.place == i + 1
                                                          and sticks_to_ground(c.extend(structure, 1e-3), i)
                                                          for c in pool) for i in range(N))
-    merging = _joints_that_may_stick(_Problem(runs, H, nu, fidelity, masked), structure, pool, alpha)
-    problem = _Problem(runs, H, nu, fidelity, masked, merging)
+    measured: dict = {}
+    merging = _joints_that_may_stick(_Problem(runs, H, nu, fidelity, masked, replay=replay, _fidelities=measured),
+                                     structure, pool, alpha)
+    problem = _Problem(runs, H, nu, fidelity, masked, merging, replay=replay, _fidelities=measured if not any(merging)
+                       else {})
     nominal, w = problem.fit(structure)
+    # Every twist's zero is unknown (each encoder has its own): under a nonlinear elastic law it
+    # is part of the nominal model, profiled at every such joint, not a cause to be found.
+    zeros = [Candidate(TWIST_ZERO, Place("joint", j)) for j in zeroed_joints(structure)
+             if any(p.cause.name == TWIST_ZERO.name and p.where == Place("joint", j) for p in pool)]
+    if zeros:
+        structure, profiled = _twist_zeros(problem, zeros, structure, w)
+        nominal, w = problem.fit(structure)
+        nominal = replace(nominal, profiled=profiled)
+        pool = [c for c in pool if not any(c.cause.name == z.cause.name and c.where == z.where for z in zeros)]
     ambiguous: list[Ambiguity] = []
     by_label = {c.label: c for c in pool}
     causes_by_name = {c.cause.name: c.cause for c in pool}
@@ -901,8 +1081,8 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
         profiled = base[0].profiled + best.fit.profiled
         current, wcur = problem.fit(best.fit.spec)
         current = replace(current, profiled=profiled)
-        if sum(c.cause.bounds is not None for c in adopted) > 1:
-            current, wcur = _refine(problem, adopted, current, wcur)
+        if sum(c.cause.bounds is not None for c in zeros + adopted) > 1:
+            current, wcur = _refine(problem, zeros + adopted, current, wcur)
         return best, (current, wcur)
 
     def rivals_of(base, best, scored, pool):
@@ -921,8 +1101,10 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
 
     chosen = forward_select((nominal, w), pool, rank=rank, adopt=adopt, after=rivals_of,
                             max_effects=max_effects, name_of=lambda s: s.label)
-    steps, (current, _) = _reduced(problem, structure, adopted, list(chosen.adopted), chosen.rounds, chosen.base,
-                                   alpha, by_label)
+    steps, (current, wfinal) = _reduced(problem, structure, adopted, list(chosen.adopted), chosen.rounds, chosen.base,
+                                        alpha, by_label)
+    current = _widened(problem, zeros + adopted, current, wfinal)
+    nominal = _widened(problem, zeros, nominal, w)
     first = chosen.rounds[0] if chosen.rounds else ()
     channels = sorted({ch for r in runs for ch in r.noise_std})
     noise = {ch: float(np.median([r.noise_std[ch] for r in runs if ch in r.noise_std])) for ch in channels}
@@ -932,7 +1114,8 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
     stuck = tuple((k, j + 1, rest_share(runs[k].average.rate(j) - runs[k].average.rate(j + 1)),
                    twist_resolved(runs[k], j)) for k, js in enumerate(problem.merged() or ()) for j in js)
     return ChainDiagnosis(nominal, first, tuple(steps), current, tuple(ambiguous), H, noise, nu,
-                          implausible_train_fit(nominal), rests, stuck)
+                          implausible_train_fit(nominal), rests, stuck, problem.fidelity_of(current),
+                          problem.fidelity_of(nominal), max_effects)
 
 
 def _reduced(problem: _Problem, structure: ChainSpec, adopted: list, steps: list, rounds: Sequence, base: tuple,

@@ -127,6 +127,18 @@ def offset_readings(report: TrainReport) -> tuple[str, ...]:
     slide = report.kind == "slide"
     nm = _namer(report)
     cubic = Power(3).name
+    x = "x" if slide else "phi"
+    # each twist's zero, part of the nominal model under a nonlinear law, where the data resolve it
+    for name, value, se in d.final.profiled:
+        place = re.fullmatch(r"joint(\d+)_angle_offset_rad", name)
+        if place is None or not (math.isfinite(se) and abs(value) > 3 * se):
+            continue
+        i = int(place.group(1))
+        length = unit_of(nm("joint1_backlash_half_gap_rad"))
+        degrees = "" if slide else f" ({math.degrees(value):.3g} deg)"
+        out.append(f"the twist of joint {i} ({x}{i} - {x}{i + 1}) reads {value:.4g} +- {se:.2g} {length}{degrees} at "
+                   f"rest: the {'position' if slide else 'angle'} sensors were not zeroed together (the fit reads the "
+                   f"joint's law from the twist minus it)")
     for s in d.steps:
         cause = by_name(s.effect)
         if not cause.reads_as_offset:

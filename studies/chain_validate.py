@@ -26,6 +26,7 @@ from jointrig.vocab.plant import drive_of_record
 
 from jointrig.rig.chain import ChainRig, simulate_chain
 
+from jointrig.identify.defaults import DEFAULT_MAX_CAUSES
 from jointrig.identify.verdict import RIG_FIDELITY, Verdict, judge
 
 from .holdout import MIN_PERIODS_TO_SPLIT, MIN_RUNS_TO_HOLD_OUT, generalisation_kind, holdout_of_another_kind
@@ -194,6 +195,36 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
                            note="; ".join(failed.values()), band=band, records=tuple(records))
 
 
+def rig_replay(rig: ChainRig, runs: Sequence, band: int, *, backend: str = "auto", max_wall_s: float = 60.0):
+    """``replay(fit)``: the fitted model's noise-free records in ``rig`` under each prepared run's
+    measured drive (harmonics 1..band of its period average), at the run's own samples per
+    period, read through the model's channels and prepared as the runs were
+    (:func:`identify.chain_diagnose.prepare_chain_runs`); or why it could not be replayed. The
+    diagnosis measures the balance's fidelity on them (:class:`identify.chain_diagnose.BalanceFidelity`)."""
+    from jointrig.identify.chain_diagnose import prepare_chain_runs
+
+    def replay(fit):
+        plant, J = plant_and_inertias(fit)
+        if not all(math.isfinite(v) and v > 0 for v in J):
+            return "a fitted inertia is no body's"
+        out = []
+        for run in runs:
+            rec = run.average
+            drives = {i + 1: drive_of_record(rec.omega_rad_s, fourier_coefficients(t, 1, band))
+                      for i, t in enumerate(rec.torques_Nm) if t is not None}
+            cfg = SimulationConfig(samples_per_period=int(min(max(run.samples_per_period, 8 * band), 2048)),
+                                   max_step_s=5e-5, n_periods=2, absolute_angles_periodic=False, max_wall_s=max_wall_s)
+            try:
+                sim, _ = simulate_chain(rig.with_plant(plant), rec.omega_rad_s, drives, cfg, inertias_kgm2=J,
+                                        backend=backend)
+            except SimulationError as err:
+                return f"no periodic steady state under the drive of {rec.source}: {err}"
+            out.append(prepare_chain_runs([channel_corrected(sim, fit.spec, read=True)], band=band)[0])
+        return out
+
+    return replay
+
+
 # --------------------------------------------------------------------------------------------
 # A measured drive train, diagnosed and validated (``jointrig diagnose TRAIN_FILE``)
 
@@ -311,13 +342,17 @@ def train_setting(rec: ChainRecord) -> tuple[float, float, int]:
 def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str], rig: ChainRig,
                         holdout: Optional[Sequence[int]] = None, written: Sequence[tuple] = (),
                         band: int = 20, alpha: float = 1e-3, fidelity: Optional[float] = None,
-                        progress=None, backend: str = "auto", form: str = "train") -> TrainReport:
+                        progress=None, backend: str = "auto", form: str = "train",
+                        max_causes: int = DEFAULT_MAX_CAUSES) -> TrainReport:
     """Diagnose a measured train on the runs not held out, and replay the held-out runs' drives on
     the nominal and the extended model in ``rig`` (its bodies and drives; the user's model, or
     one written for the file's bodies and drives). ``holdout``: run indices (default: runs of
     another kind, :func:`holdout_of_another_kind`). ``form``: the runs' form (:data:`FORMS`):
     without a written model, a "relative" one is fitted with the joint's law to the frame
-    (:func:`identify.chain_diagnose.nominal_spec` with ``twist``), and the report says "joint"."""
+    (:func:`identify.chain_diagnose.nominal_spec` with ``twist``), and the report says "joint".
+    ``fidelity``: None measures the balance's fidelity on each model's replay in ``rig``
+    (:func:`rig_replay`); a number fixes it relative to each run's largest balanced torque.
+    ``max_causes``: the most causes adopted (the evidence decides below it)."""
     if form not in FORMS:
         raise ValueError(f"form must be one of {FORMS}, got {form!r}")
     from jointrig.identify.chain_diagnose import diagnose_chain, nominal_spec, prepare_chain_runs, train_misfit
@@ -350,8 +385,9 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
         band = top
     runs = prepare_chain_runs(fit_recs, band=band)
     nominal = rig.plant.spec() if written else (nominal_spec(1, twist=True) if form == "relative" else None)
-    d = diagnose_chain(runs, n_harmonics=band, alpha=alpha, nominal=nominal,
+    d = diagnose_chain(runs, n_harmonics=band, alpha=alpha, nominal=nominal, max_effects=max_causes,
                        fidelity=DEFAULT_FIDELITY if fidelity is None else fidelity,
+                       replay=rig_replay(rig, runs, band, backend=backend) if fidelity is None else None,
                        progress=lambda k, n, label: say(f"scored {k}/{n} candidates ({label})") if k == n else None)
     fit_ids = run_ids if split else [run_ids[i] for i in range(len(records)) if i not in held]
     for k, body, rest, masked in d.rests:
