@@ -25,7 +25,7 @@ from jointrig.vocab.params import BEARING1, BEARING2, DRIVE_DELAY
 from .balance import spectral_rate
 
 __all__ = ["ModelSpec", "NOMINAL", "Cause", "Limits", "Place", "CauseScore", "Ambiguity", "CATALOGUE",
-           "OSCILLATOR_CAUSES", "at", "by_name", "evidence", "chi2_survival",
+           "OSCILLATOR_CAUSES", "at", "by_name", "evidence", "chi2_survival", "detection_limit", "DETECTION_POWER",
            "SEPARATING_EXCITATION", "DEFAULT_SEPARATION", "DIMENSIONLESS", "IWAN_CHI",
            "IWAN_BETA", "rate_amplitudes", "Selection", "forward_select", "harmonic_shares", "fundamental_quadrature"]
 
@@ -399,6 +399,30 @@ def evidence(delta_chi2: float, q: int, n_rows: int, alpha: float = 1e-3, n_caus
     p = chi2_survival(max(delta_chi2, 0.0), q)
     score = delta_chi2 - q * math.log(n_rows)
     return float(score), p, bool(p < alpha / n_causes and score > 0)
+
+
+#: The probability with which a cause at its detection limit is found (:func:`detection_limit`).
+DETECTION_POWER = 0.95
+
+
+def detection_limit(score: "CauseScore", n_rows: int, alpha: float = 1e-3, n_causes: float = 1) -> float:
+    """The smallest size of a cause that these data would have found significant with
+    probability :data:`DETECTION_POWER` (pure): its drop in chi-square is about ``(m / SE)^2``
+    (non-central chi-square), and :func:`evidence` asks it to pass both the chi-square(q)
+    quantile at ``alpha / n_causes`` and the BIC's ``q ln(n_rows)``; so ``m = SE (sqrt(threshold)
+    + z)`` with ``z`` the normal quantile of the power, from the magnitude's standard error where
+    it was scored. NaN where the score holds no finite standard error (a cause rejected, or one
+    without a size)."""
+    from scipy.stats import chi2, norm
+
+    if not score.magnitude or score.n_params <= 0:
+        return math.nan
+    se = float(score.magnitude[2])
+    if not (math.isfinite(se) and se > 0):
+        return math.nan
+    q = score.n_params
+    threshold = max(float(chi2.isf(alpha / n_causes, q)), q * math.log(n_rows))
+    return se * (math.sqrt(threshold) + float(norm.isf(1.0 - DETECTION_POWER)))
 
 
 def harmonic_shares(row_drop: np.ndarray, row_harmonic: np.ndarray) -> dict:

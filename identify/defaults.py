@@ -9,3 +9,14 @@ DEFAULT_FIDELITY = 1e-3
 #: must be significant beside the ones before it and pass parsimony); the limit only bounds the
 #: work on a train of eight bodies, where every round scores every cause at every place.
 DEFAULT_MAX_CAUSES = 4
+
+#: The rig's largest integrator step when a diagnosis replays a run (s): the held-out validation
+#: and the fidelity replays (studies.chain_validate); fine enough for the stiffest joints of the
+#: benches (k 20000 N m/rad on 2 kg m^2: omega_n dt = 0.007).
+REPLAY_MAX_STEP_S = 5e-5
+
+#: The most replay steps one period may take (periods up to 10 s at REPLAY_MAX_STEP_S; a slow
+#: positioning axis's reference has a few seconds): every run is replayed for every fit the
+#: diagnosis weighs, so a longer period (most often a time column in ms read as s) is refused
+#: before any work (``jointrig diagnose``).
+MAX_REPLAY_STEPS_PER_PERIOD = 2e5

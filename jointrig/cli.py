@@ -41,7 +41,7 @@ SUBCOMMANDS = {
 
 def _usage() -> str:
     width = max(map(len, SUBCOMMANDS))
-    lines = [f"usage: jointrig [--version] SUBCOMMAND [options]   (jointrig {__version__})", "", "subcommands:"]
+    lines = [f"usage: jointrig [-V | --version] SUBCOMMAND [options]   (jointrig {__version__})", "", "subcommands:"]
     lines += [f"  {name:{width}s}  {summary}" for name, (_, summary) in SUBCOMMANDS.items()]
     lines += ["", "jointrig SUBCOMMAND --help lists its options with units and defaults."]
     return "\n".join(lines)
@@ -52,7 +52,7 @@ def main(argv=None) -> int:
     if not argv or argv[0] in ("-h", "--help", "help"):
         print(_usage())
         return 0 if argv else 2
-    if argv[0] == "--version":
+    if argv[0] in ("-V", "--version"):
         print(f"jointrig {__version__}")
         return 0
     name, rest = argv[0], argv[1:]

@@ -25,14 +25,19 @@ class OutputError(ValueError):
 
 def output_failed(path: Path, err: BaseException) -> OutputError:
     """The clear error for a write of ``path`` that failed with ``err``."""
+    fix = "write elsewhere"
     if isinstance(err, OSError) and err.errno == errno.ENOSPC:
-        why = "no space left on the device"
+        why, fix = "no space left on the device", "free space or write elsewhere"
     elif isinstance(err, OSError):
         why = err.strerror or str(err)
+        if err.errno in (errno.EACCES, errno.EPERM):
+            fix = "write where you may (e.g. under your home folder), or ask the folder's owner for write permission"
+        elif err.errno == errno.EROFS:
+            fix = "write on another file system (e.g. under your home folder)"
     else:
         why = str(err)
     return OutputError(f"{path}: could not be written ({why}); nothing half-written was left there (an older file of "
-                       f"that name is unchanged): free space or write elsewhere")
+                       f"that name is unchanged): {fix}")
 
 
 def _alive(pid: int) -> bool:
@@ -66,18 +71,21 @@ def write_atomic(path: Path, write: Callable[[Path], None]) -> None:
     write that fails for want of space (or any other OSError) removes the temporary file and
     raises :class:`OutputError` naming ``path``."""
     path = Path(path)
-    tmp = temp_beside(path)
+    tmp = None
     try:
+        tmp = temp_beside(path)  # its folder made here: a failure to is named as the write's
         write(tmp)
         os.chmod(tmp, readable_mode())
         os.replace(tmp, path)
     except OSError as err:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
+        if tmp is not None:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
         raise output_failed(path, err) from None
     except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
+        if tmp is not None:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
         raise
 
 

@@ -15,17 +15,19 @@ from typing import Callable, Optional, Sequence
 from jointrig.identify.causes import Ambiguity, CauseScore
 from jointrig.identify.verdict import Verdict
 
-__all__ = ["SCHEMA", "KEYS", "FIT_KEYS", "VALIDATION_KEYS", "RUN_KEYS", "CAUSE_KEYS", "FitJson", "RunJson",
+__all__ = ["SCHEMA", "KEYS", "FIDELITY_KEYS", "RULED_OUT_KEYS", "FIT_KEYS", "VALIDATION_KEYS", "RUN_KEYS", "CAUSE_KEYS", "FitJson", "RunJson",
            "ValidationJson", "DiagnosisJson", "finite", "schema_problems"]
 
 #: The document's name and version: a script checks it before it reads the keys.
-SCHEMA = "jointrig-diagnosis/2"
+SCHEMA = "jointrig-diagnosis/3"
 #: The top-level keys, in the order written (the demo ``jointrig diagnose-chain`` adds ``demo``
 #: last: its truth model and settings).
-KEYS = ("schema", "source", "input_sha256", "units", "bench", "verdict", "band_harmonics", "fit_runs",
-        "held_out_runs", "noise_std_per_sample", "nominal", "causes", "extended", "ambiguities", "as_written",
+KEYS = ("schema", "source", "input_sha256", "units", "bench", "verdict", "band_harmonics", "fidelity", "fit_runs",
+        "held_out_runs", "noise_std_per_sample", "nominal", "causes", "extended", "ruled_out", "ambiguities", "as_written",
         "validation", "plausibility", "misfit_character", "misfit_surface", "next_measurements", "notes")
 BENCH_KEYS = ("kind", "n_bodies", "form", "model")
+FIDELITY_KEYS = ("how", "relative_misfit", "replayed_model", "statement")
+RULED_OUT_KEYS = ("label", "effect", "place", "magnitude_name", "limit", "std_error", "detection_probability")
 FIT_KEYS = ("chi2", "dof", "chi2_per_dof", "parameters", "std_errors")
 EXTENDED_KEYS = ("effects", "tried", "steps") + FIT_KEYS
 VALIDATION_KEYS = ("kind", "generalisation", "statement", "measure", "unit", "nominal_error", "extended_error",
@@ -158,16 +160,24 @@ class DiagnosisJson:
     next_measurements: tuple[str, ...] = ()
     #: a parameter's name for the user's bench (a slide's: :func:`vocab.params.linear_name`)
     name: Callable[[str], str] = str
+    #: the fidelity the final model's weights carry (:data:`FIDELITY_KEYS`)
+    fidelity: Optional[dict] = None
+    #: what the runs rule out (:data:`RULED_OUT_KEYS`), one object per cause not adopted
+    ruled_out: tuple = ()
 
     def as_json(self) -> dict:
         out = {"schema": SCHEMA, "source": self.source, "input_sha256": self.input_sha256, "units": self.units,
                "bench": {"kind": self.kind, "n_bodies": self.n_bodies, "form": self.form, "model": self.model},
                "verdict": {"verdict": self.verdict.verdict, "reason": self.verdict.reason},
-               "band_harmonics": self.band_harmonics, "fit_runs": list(self.fit_runs),
+               "band_harmonics": self.band_harmonics,
+               "fidelity": dict(self.fidelity or {"how": None, "relative_misfit": None, "replayed_model": None,
+                                                  "statement": ""}),
+               "fit_runs": list(self.fit_runs),
                "held_out_runs": list(self.held_out_runs), "noise_std_per_sample": dict(self.noise_std_per_sample),
                "nominal": self.nominal.as_json(), "causes": [_cause(s, self.name) for s in self.causes],
                "extended": {"effects": list(self.adopted), "tried": [s.label for s in self.steps],
                             "steps": [_cause(s, self.name) for s in self.steps], **self.extended.as_json()},
+               "ruled_out": [dict(r) for r in self.ruled_out],
                "ambiguities": [a.as_json() for a in self.ambiguities], "as_written": dict(self.as_written),
                "validation": self.validation.as_json(), "plausibility": list(self.plausibility),
                "misfit_character": self.misfit_character, "misfit_surface": self.misfit_surface,
@@ -192,6 +202,9 @@ def schema_problems(doc: dict) -> list[str]:
     if doc["schema"] != SCHEMA:
         problems.append(f"schema: {doc['schema']!r}, expected {SCHEMA!r}")
     keys("bench", doc["bench"], BENCH_KEYS)
+    keys("fidelity", doc["fidelity"], FIDELITY_KEYS)
+    for i, r in enumerate(doc["ruled_out"] if isinstance(doc["ruled_out"], list) else []):
+        keys(f"ruled_out[{i}]", r, RULED_OUT_KEYS)
     keys("nominal", doc["nominal"], FIT_KEYS)
     keys("extended", doc["extended"], EXTENDED_KEYS)
     keys("validation", doc["validation"], VALIDATION_KEYS)

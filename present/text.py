@@ -76,6 +76,24 @@ def causes_lines(scores: Sequence[CauseScore], *, name: Callable[[str], str] = s
     return lines
 
 
+def ruled_out_lines(limits: Sequence[tuple], *, name: Callable[[str], str] = str, shown: int = 8) -> list[str]:
+    """What the runs rule out: for each cause not adopted (``(score, limit)`` pairs,
+    :meth:`identify.chain_diagnose.ChainDiagnosis.ruled_out`), the size above which these runs
+    would have found it, in the order the causes were ranked (the first ``shown``)."""
+    from jointrig.identify.causes import DETECTION_POWER
+
+    if not limits:
+        return []
+    out = [f"What these runs rule out (a cause this size or larger is found {DETECTION_POWER:.0%} of the time; "
+           f"below it these runs could not see it):"]
+    for s, lim in list(limits)[:shown]:
+        q = name(s.magnitude[0])
+        out.append(f"  {s.label}: {quantity_of(q)} above {lim:.2g} {unit_of(q)}".rstrip())
+    if len(limits) > shown:
+        out.append(f"  ... and {len(limits) - shown} more (every one is in --json)")
+    return out
+
+
 def ambiguity_lines(ambiguities: Sequence[Ambiguity]) -> list[str]:
     return [f"  CANNOT TELL APART: {a.effects[0]} and {a.effects[1]} explain the same part of the data (neither is "
             f"significant given the other). To separate them: {a.excitation}." for a in ambiguities]

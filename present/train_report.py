@@ -19,7 +19,8 @@ from jointrig.vocab.params import linear_name
 from .diagnosis_json import DiagnosisJson, FitJson, RunJson, ValidationJson
 from .formatting import quantity_of, sig, sig_or, unit_of, with_se
 from .summary import NO_GAIN, compare_written, steps_after, wrong_sentence
-from .text import ValidationRow, ambiguity_lines, causes_lines, head_lines, notes_lines, parameter_lines, validation_lines
+from .text import (ValidationRow, ambiguity_lines, causes_lines, head_lines, notes_lines, parameter_lines,
+                   ruled_out_lines, validation_lines)
 
 
 def _namer(report: TrainReport):
@@ -128,10 +129,13 @@ def offset_readings(report: TrainReport) -> tuple[str, ...]:
     nm = _namer(report)
     cubic = Power(3).name
     x = "x" if slide else "phi"
+    zeros = {n: v for n, v, _ in d.final.profiled if n.endswith("angle_offset_rad")}
+    even = {s.magnitude[0][: -len(by_name(s.effect).magnitude)] for s in d.steps if by_name(s.effect).reads_as_offset}
     # each twist's zero, part of the nominal model under a nonlinear law, where the data resolve it
+    # (beside an even stiffness at the same joint the two are read together, below)
     for name, value, se in d.final.profiled:
         place = re.fullmatch(r"joint(\d+)_angle_offset_rad", name)
-        if place is None or not (math.isfinite(se) and abs(value) > 3 * se):
+        if place is None or not (math.isfinite(se) and abs(value) > 3 * se) or f"joint{place.group(1)}_" in even:
             continue
         i = int(place.group(1))
         length = unit_of(nm("joint1_backlash_half_gap_rad"))
@@ -147,7 +151,9 @@ def offset_readings(report: TrainReport) -> tuple[str, ...]:
         a, gamma = p.get(prefix + cause.magnitude), p.get(prefix + cubic)
         if not a or not gamma or gamma <= 0:
             continue
-        delta = -a / (3 * gamma)  # gamma (phi - delta)^3 = gamma phi^3 - 3 gamma delta phi^2 + ...
+        # gamma (phi - delta)^3 = gamma phi^3 - 3 gamma delta phi^2 + ...; beside the twist's zero
+        # the nominal model holds already (within a sensor's range), the two add up
+        delta = -a / (3 * gamma) + zeros.get(prefix + "angle_offset_rad", 0.0)
         if abs(delta) > MAX_ZERO_OFFSET_RAD:
             continue
         x = "x" if slide else "phi"
@@ -208,6 +214,7 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
     lines.append("  noise per sample (from period-to-period variation): "
                  + ", ".join(f"{_channel(report, k)} {sig(x, 2)} {units[0] if k.startswith('torque') else units[1]}"
                              for k, x in d.noise_std.items()))
+    lines.append(f"  model fidelity (added to each row's noise variance): {fidelity_statement(d.fidelity)}")
     all_notes = list(notes) + list(report.notes)
     if all_notes:
         lines.append(f"  {len(all_notes)} note(s) on the data: at the end")
@@ -222,6 +229,9 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
         lines.append("Extended model: none needed (no cause is significant at any joint or body; the nominal model "
                      "explains the data to the noise)")
     lines += parameter_lines(_values(d.final), nm)
+    ruled = ruled_out_lines(d.ruled_out(), name=nm)
+    if ruled:
+        lines += [""] + ruled
     lines += ambiguity_lines(d.ambiguities)
     lines.append("")
     if val is None:
@@ -285,7 +295,35 @@ def train_report_json(report: TrainReport, *, source: str = "", notes: Sequence[
         plausibility=tuple(_words(report, t) for t in d.plausibility),
         misfit_character=report.misfit.as_json() if report.misfit is not None else None,
         misfit_surface=report.misfit.surface.as_json() if report.misfit is not None else None,
-        next_measurements=tuple(report.misfit.next_measurements) if report.misfit is not None else ()).as_json()
+        next_measurements=tuple(report.misfit.next_measurements) if report.misfit is not None else (),
+        fidelity=fidelity_json(d.fidelity),
+        ruled_out=tuple({"label": s.label, "effect": s.effect, "place": s.as_json()["place"],
+                         "magnitude_name": nm(s.magnitude[0]), "limit": lim, "std_error": s.magnitude[2],
+                         "detection_probability": DETECTION_POWER} for s, lim in d.ruled_out())).as_json()
+
+
+from jointrig.identify.causes import DETECTION_POWER  # noqa: E402  (light: no rig)
+
+
+def fidelity_json(fid) -> dict:
+    """The fidelity every model's weights carried, for the JSON (:data:`FIDELITY_KEYS`)."""
+    from jointrig.identify.chain_diagnose import BalanceFidelity
+
+    if isinstance(fid, BalanceFidelity):
+        return {"how": "measured", "relative_misfit": fid.relative, "replayed_model": fid.model,
+                "statement": fidelity_statement(fid)}
+    return {"how": "fixed", "relative_misfit": None, "replayed_model": None, "statement": fidelity_statement(fid)}
+
+
+def fidelity_statement(fid) -> str:
+    """The fidelity in words: measured on the replay of a model (and how large), or fixed."""
+    from jointrig.identify.chain_diagnose import BalanceFidelity
+
+    if isinstance(fid, BalanceFidelity):
+        return (f"measured: {fid.model} replayed in the rig under each fitted run's drive, noise-free, and balanced "
+                f"as the runs are, misses {fid.relative:.2g} of the balanced torque (RMS); each row's variance adds "
+                f"that run's and harmonic's share, for every model compared")
+    return f"fixed at {fid:g} of each run's largest balanced torque"
 
 
 def train_figure(report: TrainReport) -> str:

@@ -607,7 +607,8 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
         periods, (p, change, bound, ratio) = _settle(
             advance, watched, names, lambda pl: bool(np.all(np.isfinite(pl[0])) and np.all(np.isfinite(pl[1]))),
             failure, config, d, where, t_start,
-            _Jump(d, rig.qpos_adr, rig.dof_adr, J) if config.accelerate and not stateful and not grounded else None)
+            _Jump(d, rig.qpos_adr, rig.dof_adr, J, free=not any(b > 0 for b in plant.bearings_Nms_per_rad))
+            if config.accelerate and not stateful and not grounded else None)
     pos = np.vstack([x[0] for x in periods]).T
     vel = np.vstack([x[1] for x in periods]).T
     tq = np.vstack([x[2] for x in periods]).T

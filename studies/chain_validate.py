@@ -26,8 +26,8 @@ from jointrig.vocab.plant import drive_of_record
 
 from jointrig.rig.chain import ChainRig, simulate_chain
 
-from jointrig.identify.defaults import DEFAULT_MAX_CAUSES
-from jointrig.identify.verdict import RIG_FIDELITY, Verdict, judge
+from jointrig.identify.defaults import DEFAULT_FIDELITY, DEFAULT_MAX_CAUSES, REPLAY_MAX_STEP_S
+from jointrig.identify.verdict import CHI2_PER_DOF_OK, RIG_FIDELITY, Verdict, judge
 
 from .holdout import MIN_PERIODS_TO_SPLIT, MIN_RUNS_TO_HOLD_OUT, generalisation_kind, holdout_of_another_kind
 from jointrig.vocab.records import RecordError
@@ -135,7 +135,8 @@ def _floor(noise: float, den: float) -> float:
 
 
 def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[ChainRecord], *,
-                   band: int = 10, config: SimulationConfig = SimulationConfig(samples_per_period=128, max_step_s=5e-5),
+                   band: int = 10, config: SimulationConfig = SimulationConfig(samples_per_period=128,
+                                                                               max_step_s=REPLAY_MAX_STEP_S),
                    max_wall_s: Optional[float] = 120.0, backend: str = "auto") -> ChainValidation:
     """Replay every held-out run's drives on the nominal and the extended plant (module docstring);
     ``backend`` as :func:`rig.chain.simulate_chain`'s."""
@@ -195,12 +196,15 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
                            note="; ".join(failed.values()), band=band, records=tuple(records))
 
 
-def rig_replay(rig: ChainRig, runs: Sequence, band: int, *, backend: str = "auto", max_wall_s: float = 60.0):
+def rig_replay(rig: ChainRig, runs: Sequence, band: int, *, backend: str = "auto", max_wall_s: float = 5.0):
     """``replay(fit)``: the fitted model's noise-free records in ``rig`` under each prepared run's
     measured drive (harmonics 1..band of its period average), at the run's own samples per
     period, read through the model's channels and prepared as the runs were
-    (:func:`identify.chain_diagnose.prepare_chain_runs`); or why it could not be replayed. The
-    diagnosis measures the balance's fidelity on them (:class:`identify.chain_diagnose.BalanceFidelity`)."""
+    (:func:`identify.chain_diagnose.prepare_chain_runs`); or why it could not be replayed (the
+    fixed floor then stands in). The diagnosis measures the balance's fidelity on them
+    (:class:`identify.chain_diagnose.BalanceFidelity`). A replay that has not settled in
+    ``max_wall_s`` seconds of a run is given up: a fidelity is not worth a long wait. Settled to
+    1e-7 of each channel's swing: a variance estimate, at most 80 dB below the signal, needs no more."""
     from jointrig.identify.chain_diagnose import prepare_chain_runs
 
     def replay(fit):
@@ -213,7 +217,9 @@ def rig_replay(rig: ChainRig, runs: Sequence, band: int, *, backend: str = "auto
             drives = {i + 1: drive_of_record(rec.omega_rad_s, fourier_coefficients(t, 1, band))
                       for i, t in enumerate(rec.torques_Nm) if t is not None}
             cfg = SimulationConfig(samples_per_period=int(min(max(run.samples_per_period, 8 * band), 2048)),
-                                   max_step_s=5e-5, n_periods=2, absolute_angles_periodic=False, max_wall_s=max_wall_s)
+                                   max_step_s=REPLAY_MAX_STEP_S, n_periods=2, absolute_angles_periodic=False,
+                                   max_wall_s=max_wall_s,
+                                   settle_tol=1e-7)
             try:
                 sim, _ = simulate_chain(rig.with_plant(plant), rec.omega_rad_s, drives, cfg, inertias_kgm2=J,
                                         backend=backend)
@@ -223,6 +229,49 @@ def rig_replay(rig: ChainRig, runs: Sequence, band: int, *, backend: str = "auto
         return out
 
     return replay
+
+
+#: Diagnoses with a measured fidelity after the first (with the fixed floor): each measures the
+#: fidelity on the replay of the model the one before adopted, until the adopted kind of model
+#: repeats (two sufficed on every bench: the floor's model, then its own fidelity's).
+FIDELITY_PASSES = 2
+
+
+def measured_diagnosis(diagnosed, replay, say=lambda msg: None) -> tuple:
+    """The diagnosis whose fidelity is its own model's: first with the fixed floor
+    (:data:`identify.defaults.DEFAULT_FIDELITY`), then again with the balance's misfit measured on
+    the noise-free replay of the model it adopted (:func:`identify.chain_diagnose.balance_fidelity`;
+    one table for every model compared, so their chi-squares stay comparable), until the kind of
+    model adopted repeats (at most :data:`FIDELITY_PASSES` more). Where the measured fidelity leaves
+    even the best model above the verdict's chi2/dof bound, the records hold a misfit the replay
+    does not reproduce, and the fixed floor's diagnosis stands. ``diagnosed(fidelity)`` runs one
+    diagnosis; ``replay(fit)`` is :func:`rig_replay`'s. Returns the diagnosis and notes (why the
+    fidelity stayed fixed, if it did)."""
+    from jointrig.identify.chain_diagnose import balance_fidelity, model_kind
+
+    d = diagnosed(DEFAULT_FIDELITY)
+    for _ in range(FIDELITY_PASSES):
+        label = " + ".join(s.label for s in d.steps) or "the nominal model"
+        say(f"measuring the balance's fidelity on the noise-free replay of {label}")
+        got = replay(d.final)
+        if isinstance(got, str):
+            return d, (f"the model fidelity is fixed at {DEFAULT_FIDELITY:g} of each run's largest balanced torque: "
+                       f"{label} could not be replayed to measure it ({got})",)
+        fid = balance_fidelity(got, d.final, d.n_harmonics, d.masked, d.merging, label)
+        again = diagnosed(fid)
+        if again.reduced_chi2(again.final) > CHI2_PER_DOF_OK:
+            # the replay misses less than the records do even on the best model: they hold a misfit
+            # the rig's replay does not reproduce (records of the rig itself at another step, noise
+            # free), and a measured fidelity would read it as causes
+            return d, (f"the model fidelity is fixed at {DEFAULT_FIDELITY:g} of each run's largest balanced torque: "
+                       f"measured on the replay of {label} ({fid.relative:.2g} of the balanced torque), it left the "
+                       f"best model at chi2/dof {again.reduced_chi2(again.final):.3g}: the records hold a misfit the "
+                       f"rig's replay does not",)
+        same = model_kind(again.final.spec) == model_kind(d.final.spec)
+        d = again
+        if same:
+            break
+    return d, ()
 
 
 # --------------------------------------------------------------------------------------------
@@ -350,8 +399,8 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
     another kind, :func:`holdout_of_another_kind`). ``form``: the runs' form (:data:`FORMS`):
     without a written model, a "relative" one is fitted with the joint's law to the frame
     (:func:`identify.chain_diagnose.nominal_spec` with ``twist``), and the report says "joint".
-    ``fidelity``: None measures the balance's fidelity on each model's replay in ``rig``
-    (:func:`rig_replay`); a number fixes it relative to each run's largest balanced torque.
+    ``fidelity``: None measures the balance's fidelity on the adopted model's replay in ``rig``
+    (:func:`measured_diagnosis`); a number fixes it relative to each run's largest balanced torque.
     ``max_causes``: the most causes adopted (the evidence decides below it)."""
     if form not in FORMS:
         raise ValueError(f"form must be one of {FORMS}, got {form!r}")
@@ -385,10 +434,16 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
         band = top
     runs = prepare_chain_runs(fit_recs, band=band)
     nominal = rig.plant.spec() if written else (nominal_spec(1, twist=True) if form == "relative" else None)
-    d = diagnose_chain(runs, n_harmonics=band, alpha=alpha, nominal=nominal, max_effects=max_causes,
-                       fidelity=DEFAULT_FIDELITY if fidelity is None else fidelity,
-                       replay=rig_replay(rig, runs, band, backend=backend) if fidelity is None else None,
-                       progress=lambda k, n, label: say(f"scored {k}/{n} candidates ({label})") if k == n else None)
+    def diagnosed(fid):
+        return diagnose_chain(runs, n_harmonics=band, alpha=alpha, nominal=nominal, max_effects=max_causes,
+                              fidelity=fid, progress=lambda k, n, label: say(f"scored {k}/{n} candidates ({label})")
+                              if k == n else None)
+
+    if fidelity is not None:
+        d = diagnosed(fidelity)
+    else:
+        d, why = measured_diagnosis(diagnosed, rig_replay(rig, runs, band, backend=backend), say)
+        notes += list(why)
     fit_ids = run_ids if split else [run_ids[i] for i in range(len(records)) if i not in held]
     for k, body, rest, masked in d.rests:
         notes.append(f"run {fit_ids[k]}: body {body} rests {rest:.0%} of its period (its rate below "

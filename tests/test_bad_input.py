@@ -735,3 +735,18 @@ def test_units_stated_only_in_a_comment_are_refused(tmp_path):
     text = good_csv().replace("run,time,torque,phi1,phi2", "run,time,torque,phi1 [deg],phi2 [deg]", 1)
     (tmp_path / "d.csv").write_text("# bench 3, encoders: phi1 and phi2 in deg\n" + text)
     assert read_runs(tmp_path / "d.csv").records
+
+
+def test_periods_the_rig_would_replay_for_minutes_are_refused(tmp_path, capsys):
+    # A fuzz of periodic records ran past 120 s: time stretched (a time column in ms read as s)
+    # makes every period thousands of times more integrator steps in the diagnosis's replays.
+    lines = (ROOT / "examples" / "bench_dry_friction.csv").read_text().splitlines()
+    rows = [line.split(",") for line in lines[1:]]
+    stretched = tmp_path / "ms.csv"
+    stretched.write_text("run,time,torque,phi1,phi2\n" + "\n".join(
+        ",".join([r[0], repr(float(r[1]) * 1000), *r[2:]]) for r in rows) + "\n")
+    code = _script("diagnose").main([str(stretched), "-q"])
+    err = capsys.readouterr().err
+    assert code == 2 and "Traceback" not in err, err
+    assert "run(s) 0 (0.025 rad/s)" in err and "expected periods of at most 10 s (omega >= 0.628 rad/s)" in err, err
+    assert "--units time=ms" in err

@@ -45,7 +45,8 @@ def test_every_option_has_help_with_its_default(name, monkeypatch):
 
 
 def test_version_usage_and_unknown_subcommand(capsys):
-    assert main(["--version"]) == 0 and capsys.readouterr().out.strip() == f"jointrig {__version__}"
+    for flag in ("--version", "-V"):  # as every subcommand spells it
+        assert main([flag]) == 0 and capsys.readouterr().out.strip() == f"jointrig {__version__}"
     assert main([]) == 2
     usage = capsys.readouterr().out
     assert all(name in usage for name in SUBCOMMANDS)

@@ -346,13 +346,11 @@ def test_where_the_torque_acts_is_an_option(tmp_path, capsys):
 
 
 def test_a_constant_zero_offset_is_named_as_such(tmp_path):
-    # issue 37, then 49: a constant 0.05 rad offset of the relative angle was taken for an
-    # asymmetric stiffness (a = 3 gamma 0.05). Every twist's zero is now part of the nominal model
-    # under a nonlinear law: on the stiff cubic joint of the independent bench, nothing is missing
-    # (no misfit), and the first thing to do names the twist's zero of joint 1 within 3 standard
-    # errors of the truth (0.05 rad plus the bench's own offsets of the two encoders).
-    import numpy as np
-
+    # issue 37: a constant 0.05 rad offset of the relative angle was taken for an asymmetric
+    # stiffness (a = 3 gamma 0.05) with only a hint. On the stiff cubic joint of the independent
+    # bench, the first thing to do names the offset of joint 1's twist and its size (within 10%:
+    # the fit's a and gamma carry the noise): the nominal model's twist zero (a sensor's range,
+    # 0.01 rad) and what the even stiffness reads as, added.
     from jointrig.present.train_report import offset_readings
 
     def shifted(t, T, p1, p2):
@@ -360,14 +358,12 @@ def test_a_constant_zero_offset_is_named_as_such(tmp_path):
 
     path = measure(JOINTS["light"], _points("light"), tmp_path / "bench.csv", seed=4, fs_Hz=2000.0, n_periods=6.5,
                    transform=shifted)
-    own = np.random.default_rng(4).uniform(-1, 1, 3) * np.array([0.5, 2e-3, 2e-3])  # as bench_sim.measure draws them
-    truth = 0.05 + own[1] - own[2]
     report = _train(read_runs(path))
-    assert report.verdict.verdict == "no_misfit", report.verdict
     (first,) = offset_readings(report)
-    assert "the twist of joint 1 (phi1 - phi2) reads" in first and "not zeroed together" in first, first
-    (value, se), = [(v, e) for n, v, e in report.diagnosis.final.profiled if n == "joint1_angle_offset_rad"]
-    assert abs(value - truth) <= 3 * se, (value, se, truth)
+    assert "zero offset of the twist of joint 1 (phi1 - phi2)" in first, first
+    delta = float(first.split("(3 gamma) = ")[1].split(" rad")[0])
+    assert delta == pytest.approx(0.05, rel=0.1)
+
 
 @pytest.mark.slow
 def test_the_relative_angle_alone_goes_through_the_one_pipeline_with_the_users_model(tmp_path, capsys):

@@ -28,8 +28,15 @@ def main(argv=None) -> int:
     p.add_argument("--json", type=Path, help="write the card as JSON")
     p.add_argument("--png", type=Path, help="write the card's figure (PNG)")
     args = p.parse_args(argv)
+    from jointrig.commands.options import check_output
+
+    # Checked here to name this command's options (diagnose would name them --card, --card-png).
+    check_output(args.json, "--json")
+    check_output(args.png, "--png")
     forwarded = [str(args.data), "--card-only", "--band", str(args.band), "--torque-share", str(args.torque_share),
-                 "--alpha", str(args.alpha), "--fidelity", str(args.fidelity)]
+                 "--alpha", str(args.alpha), "--max-causes", str(args.max_causes)]
+    if args.fidelity is not None:
+        forwarded += ["--fidelity", str(args.fidelity)]
     for option, value in (("--columns", args.columns), ("--units", args.units), ("--card", args.json),
                           ("--card-png", args.png)):
         if value is not None:

@@ -33,13 +33,14 @@ import time
 from pathlib import Path
 
 from jointrig.commands import add_quiet, command_parser
-from jointrig.identify.defaults import DEFAULT_FIDELITY
+from jointrig.identify.defaults import DEFAULT_MAX_CAUSES, MAX_REPLAY_STEPS_PER_PERIOD, REPLAY_MAX_STEP_S
 from jointrig.commands.options import BadArgument, check_output, check_range, progress_level
 
 # The numerical stack (MuJoCo; rerun for --rrd; matplotlib for a joint card's figure) is
 # imported in main, after the arguments are parsed: ``--help`` and bad options answer at once.
 
 log = logging.getLogger("diagnose")
+
 
 
 def add_data_options(p: argparse.ArgumentParser) -> None:
@@ -72,9 +73,11 @@ def add_data_options(p: argparse.ArgumentParser) -> None:
                         "(default: %(default)s)")
     p.add_argument("--alpha", type=float, default=1e-3,
                    help="false-alarm probability per round over all causes (default: %(default)s)")
-    p.add_argument("--fidelity", type=float, default=DEFAULT_FIDELITY,
-                   help="model-fidelity floor relative to each run's torque: misfits below it are not evidence "
-                        "(default: %(default)s)")
+    p.add_argument("--fidelity", type=float, default=None,
+                   help="fix the model-fidelity floor relative to each run's largest torque (misfits below it are "
+                        "not evidence), e.g. 1e-3; default: measured on each model's noise-free replay in the rig")
+    p.add_argument("--max-causes", type=int, default=DEFAULT_MAX_CAUSES,
+                   help="the most causes adopted; the evidence decides below it (default: %(default)s)")
     add_quiet(p)
 
 
@@ -115,7 +118,9 @@ def _main(args: argparse.Namespace) -> int:
         check_range(args.band, "--band", lo=1, hi=100, integer=True)
         check_range(args.torque_share, "--torque-share", lo=0, hi=1, lo_open=True, hi_open=True)
         check_range(args.alpha, "--alpha", lo=0, hi=1, lo_open=True, hi_open=True)
-        check_range(args.fidelity, "--fidelity", lo=0, hi=0.5)
+        if args.fidelity is not None:
+            check_range(args.fidelity, "--fidelity", lo=0, hi=0.5)
+        check_range(args.max_causes, "--max-causes", lo=1, hi=20, integer=True)
         for option, path in (("--json", args.json), ("--rrd", args.rrd), ("--report", args.report),
                              ("--card", args.card), ("--card-png", args.card_png), ("--mjcf", args.mjcf)):
             check_output(path, option)
@@ -211,6 +216,7 @@ def _train(args: argparse.Namespace, loaded, model, two_flywheels: bool = False)
                 raise BadArgument(f"--model {args.model} has no drive on body(ies) {missing}, which {args.data} "
                                   f"drives (torque{missing[0]}); add <motor name=\"drive{missing[0]}\" ...>")
         ids = list(loaded.run_ids)
+        _refuse_long_periods(args, ids, loaded.records)
         holdout = held_out_runs(args, ids)
         if holdout is not None and len(ids) - len(holdout) < 3:
             raise BadArgument(f"--holdout leaves {len(ids) - len(holdout)} run(s) to fit; expected at least 3")
@@ -229,12 +235,17 @@ def _train(args: argparse.Namespace, loaded, model, two_flywheels: bool = False)
                 f"{s:g} of the torque (--torque-share: the undriven flywheel's J over J1 + J2"
                 + (", from your model" if model is not None else "") + "); bearing drag and the angle sensors' "
                 "zero offset are not sought: they need both angles",))
+        if args.card_png and N > 2:  # a card figure per joint, beside --card-png (write_train_cards)
+            for j in range(1, N):
+                check_output(args.card_png.with_name(f"{args.card_png.stem}-joint{j}{args.card_png.suffix}"),
+                             "--card-png")
         for n in loaded.notes:
             log.info("note: %s", n)
         rig = model if model is not None else rig_of_bodies(N, driven, loaded.kind)
         written = written_of(model) if model is not None else ()
         report = run_train_diagnosis(loaded.records, run_ids=ids, rig=rig, holdout=holdout, written=written,
                                      band=args.band, alpha=args.alpha, fidelity=args.fidelity,
+                                     max_causes=args.max_causes,
                                      progress=lambda msg: log.info("%s", msg),
                                      form="relative" if relative else "train")
     except (RunsFileError, RecordError, BadArgument, ChainIdentifiabilityError) as err:
@@ -285,6 +296,26 @@ def _train(args: argparse.Namespace, loaded, model, two_flywheels: bool = False)
         log.info("wrote %s", args.mjcf)
     log.info("done in %.1f s", time.perf_counter() - t0)
     return 0
+
+
+def _refuse_long_periods(args: argparse.Namespace, ids: list, records) -> None:
+    """Refuse, before the diagnosis, runs whose period the rig would replay in more than
+    :data:`MAX_REPLAY_STEPS_PER_PERIOD` steps (a time column in ms read as s, most often)."""
+    import math
+
+    from jointrig.measured.runs import RunsFileError
+
+    slow = [(rid, r.omega_rad_s) for rid, r in zip(ids, records)
+            if 2 * math.pi / r.omega_rad_s / REPLAY_MAX_STEP_S > MAX_REPLAY_STEPS_PER_PERIOD]
+    if slow:
+        longest = max(2 * math.pi / w for _, w in slow)
+        runs = ", ".join(f"{rid} ({w:.4g} rad/s)" for rid, w in slow[:5]) + (", ..." if len(slow) > 5 else "")
+        raise RunsFileError(
+            f"{args.data}: run(s) {runs} have periods of up to {longest:.3g} s: the diagnosis replays every run in the "
+            f"rig many times at steps of {REPLAY_MAX_STEP_S:g} s, {longest / REPLAY_MAX_STEP_S:.3g} steps a period, and would "
+            f"take many minutes; expected periods of at most {MAX_REPLAY_STEPS_PER_PERIOD * REPLAY_MAX_STEP_S:g} s (omega >= "
+            f"{2 * math.pi / (MAX_REPLAY_STEPS_PER_PERIOD * REPLAY_MAX_STEP_S):.3g} rad/s). If the time column is not in "
+            f"seconds, give its unit (--units time=ms, or a header 'time [ms]')")
 
 
 def write_train_cards(args, loaded, report) -> tuple:

@@ -31,7 +31,7 @@ from jointrig.rig.model import DEFAULT_MODEL
 from jointrig.studies.chain_sweep import CHAIN_CONFIG, CHAIN_PLAN, HELD_OUT, run_chain_sweep
 from jointrig.studies.chain_validate import run_train_diagnosis, written_of
 from jointrig.rig.measurement import measure_chain
-from jointrig.commands.options import add_backend_option, check_output, check_range, progress_level
+from jointrig.commands.options import add_backend_option, check_folder, check_output, check_range, progress_level
 from jointrig.files import write_json_atomic
 
 log = logging.getLogger("diagnose_chain")
@@ -80,6 +80,9 @@ def main(argv=None) -> int:
     check_output(args.json, "--json")
     if not args.no_rrd:
         check_output(args.rrd, "--rrd")
+    if args.store is not None:  # the store and the two folders the runs are kept in
+        for folder in (args.store, args.store / "estimation", args.store / "held_out"):
+            check_folder(folder, "--store")
     truth, nominal = load_chain(args.truth), load_chain(args.model)
     if truth.n_flywheels != nominal.n_flywheels:
         raise ValueError(f"--truth has {truth.n_flywheels} flywheels, --model {nominal.n_flywheels}")

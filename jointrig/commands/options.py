@@ -12,7 +12,42 @@ class BadArgument(ValueError):
     """A command-line argument that cannot be used (names the option and what was expected)."""
 
 
-def _probe_writable(option: str, p, what: str) -> None:
+# Every output a command writes (a file: JSON, HTML, PNG, MJCF, rerun recording, measured runs)
+# and every store it keeps (a folder: sweep points) is checked here, before any work, as the user
+# running the command meets it: no permission, a read-only file system, a file where a folder is
+# expected, a folder where a file is expected, a folder that cannot be entered. Each refusal is a
+# BadArgument (exit 2) naming the option, the path, what was expected and the fix; the check
+# writes nothing but a probe file it removes at once. The outputs themselves are then written
+# atomically (jointrig.files.write_atomic).
+
+
+def _fix(err: OSError, place) -> str:
+    """Why no file can be created in ``place`` (the OSError of the attempt), and the fix."""
+    import errno
+
+    code = getattr(err, "errno", None)
+    if code == errno.EROFS:
+        return "expected a writable file system; write on another one (e.g. under your home folder)"
+    if code in (errno.EACCES, errno.EPERM):
+        return (f"expected a folder you may write in; write elsewhere (e.g. under your home folder), or ask the "
+                f"owner of {place}{_owner(place)} for write permission")
+    if code in (errno.ENOSPC, errno.EDQUOT):
+        return "expected room for the output; free space (or quota) or write elsewhere"
+    return "expected a folder a file can be created in; write elsewhere"
+
+
+def _owner(path) -> str:
+    """`` (uid N, mode 0755)`` of ``path``, or nothing where it cannot be read."""
+    import os
+
+    try:
+        st = os.stat(path)
+    except OSError:
+        return ""
+    return f" (uid {st.st_uid}, mode {st.st_mode & 0o7777:04o})"
+
+
+def _probe_writable(option: str, p, what: str, expected: str = "a file") -> None:
     """Refuse ``p`` (an output file's folder or an output folder) unless a file can be created in
     it, or in the nearest existing folder above it (probed by creating and removing one)."""
     import os
@@ -22,42 +57,88 @@ def _probe_writable(option: str, p, what: str) -> None:
     while not place.exists():
         place = place.parent
     if not place.is_dir():
-        raise BadArgument(f"{option} {what}: {place} is a file, not a folder")
+        raise BadArgument(f"{option} {what}: {place} is a file, not a folder: expected {expected} inside a folder; "
+                          f"choose another path")
     try:
         fd, tmp = tempfile.mkstemp(prefix=".jointrig-probe.", dir=place)
         os.close(fd)
         os.unlink(tmp)
     except OSError as err:
-        raise BadArgument(f"{option} {what}: cannot create a file in {place} ({err.strerror})") from None
+        raise BadArgument(f"{option} {what}: cannot create a file in {place} ({err.strerror}): "
+                          f"{_fix(err, place)}") from None
+
+
+def _replaceable(option: str, p) -> None:
+    """Refuse an existing output file the user may not replace: not writable (its mode, a
+    read-only file system), or another user's in a folder with the sticky bit (like /tmp,
+    where only a file's owner may rename over it)."""
+    import os
+    import stat
+
+    if not os.access(p, os.W_OK):
+        try:
+            read_only = bool(os.statvfs(p).f_flag & os.ST_RDONLY)
+        except OSError:
+            read_only = False
+        if read_only:
+            raise BadArgument(f"{option} {p}: exists on a read-only file system: expected a file you may replace; "
+                              f"write on another file system (e.g. under your home folder)")
+        raise BadArgument(f"{option} {p}: exists and is not writable{_owner(p)}: expected a file you may replace; "
+                          f"make it writable (chmod u+w {p}, if it is yours), remove it, or write elsewhere")
+    st, folder = os.stat(p), os.stat(p.parent)
+    me = os.geteuid()
+    if folder.st_mode & stat.S_ISVTX and me not in (0, st.st_uid, folder.st_uid):
+        raise BadArgument(f"{option} {p}: exists and is another user's (uid {st.st_uid}) in {p.parent}, a folder with "
+                          f"the sticky bit (like /tmp), where only its owner may replace it: expected a file you may "
+                          f"replace; write under another name or elsewhere")
 
 
 def check_output(path, option: str) -> None:
-    """Refuse an output path before any work: a directory, or a place where no file can be
-    created (probed in the nearest existing folder)."""
-    import os
+    """Refuse an output file's path before any work: a folder, an existing file the user may not
+    replace, or a place where no file can be created (probed in the nearest existing folder): a
+    :class:`BadArgument` naming ``option``, the path, what was expected and the fix."""
     from pathlib import Path
 
     if path is None:
         return
     p = Path(path)
-    if p.exists() and p.is_dir():
-        raise BadArgument(f"{option} {p}: is a folder; expected a file path")
-    if p.exists() and not os.access(p, os.W_OK):
-        raise BadArgument(f"{option} {p}: exists and is not writable")
-    _probe_writable(option, p.parent, str(p))
+    try:
+        if p.is_dir():
+            raise BadArgument(f"{option} {p}: is a folder; expected a file path: name a file (in that folder "
+                              f"or elsewhere), not a folder")
+        if p.exists():
+            _replaceable(option, p)
+        _probe_writable(option, p.parent, str(p), "a file")
+    except OSError as err:  # a folder on the way that cannot be entered, a name too long
+        raise _unreachable(option, p, err, "a file") from None
 
 
 def check_folder(path, option: str) -> None:
-    """Refuse an output folder before any work: a file in its place, or a place where the folder
-    cannot be made or written (probed in it, or in the nearest existing folder above it)."""
+    """Refuse an output folder (a store) before any work: a file in its place or on its way, or a
+    place where the folder cannot be made or written (probed in it, or in the nearest existing
+    folder above it)."""
     from pathlib import Path
 
     if path is None:
         return
     p = Path(path)
-    if p.exists() and not p.is_dir():
-        raise BadArgument(f"{option} {p}: is a file; expected a folder")
-    _probe_writable(option, p, str(p))
+    try:
+        if p.exists() and not p.is_dir():
+            raise BadArgument(f"{option} {p}: is a file; expected a folder: name a new or an existing folder, "
+                              f"not a file")
+        _probe_writable(option, p, str(p), "a folder")
+    except OSError as err:
+        raise _unreachable(option, p, err, "a folder") from None
+
+
+def _unreachable(option: str, p, err: OSError, expected: str) -> BadArgument:
+    """The refusal of a path whose folders cannot even be looked into (``err`` of the look)."""
+    import os
+
+    blocked = next((d for d in reversed(p.absolute().parents) if not os.access(d, os.X_OK)), None)
+    where = f"; the folder {blocked}{_owner(blocked)} cannot be entered" if blocked is not None else ""
+    return BadArgument(f"{option} {p}: cannot be reached ({err.strerror or err}{where}): expected {expected} in a "
+                       f"folder you may enter and write in; write elsewhere (e.g. under your home folder)")
 
 
 def check_range(value, option: str, *, lo=None, hi=None, lo_open=False, hi_open=False, integer=False) -> None:

@@ -170,6 +170,7 @@ def main(argv=None) -> int:
                               settle_tol=args.settle_tol, integrator=args.integrator,
                               sample_rate_Hz=args.sample_rate_hz)
     store = None if args.no_store else (args.store or default_store(rig, config))
+    check_folder(store, "--store")  # the default store too, before the sweep
     log.info("model %s: law %s, J1 %.6g, J2 %.6g kg m^2; %d sweep points; store %s", rig.path,
              rig.law.as_dict(), rig.J1_kgm2, rig.J2_kgm2, len(plan.points()), store)
     if args.excitation == "stepped":
@@ -279,7 +280,7 @@ def chain_main(args: argparse.Namespace) -> int:
     from jointrig.studies.chain_sweep import CHAIN_CONFIG, CHAIN_PLAN, default_chain_store, run_chain_sweep
     from jointrig.present.recording import (chain_blueprint, log_chain_laws, log_chain_run, log_parameter_table,
                                          open_recording)
-    from jointrig.commands.options import check_each
+    from jointrig.commands.options import check_each, check_folder
 
     unsupported = [flag for flag, on in (("--form two_dof", args.form != "equivalent"),
                                          ("--excitation multisine", args.excitation != "stepped"),
@@ -310,6 +311,7 @@ def chain_main(args: argparse.Namespace) -> int:
                             else CHAIN_CONFIG.samples_per_period))
     harmonics = 9 if args.harmonics is None else args.harmonics
     store = None if args.no_store else (args.store or default_chain_store(rig, config))
+    check_folder(store, "--store")  # the default store too, before the sweep
     log.info("chain model %s: %d flywheels, inertias %s kg m^2, %d sweep points; store %s", rig.path,
              rig.n_flywheels, rig.inertias_kgm2, len(points), store)
     done = run_chain_sweep(rig, points, config, store=store, backend=args.backend, workers=args.workers,

@@ -1,0 +1,95 @@
+"""The diagnosis's numbers mean what they say at every sensor quality (issue 48), on files of the
+independent two-flywheel bench (tests/bench_sim.py: scipy, event-driven friction, a DAQ's
+writer with sensor offsets on every channel).
+
+The weights carry the harmonic balance's own misfit measured on each model's noise-free replay
+in the rig, not a fixed floor, and every twist's zero is part of the nominal model: a right
+model reads chi-square per degree of freedom near 1 from 2% to 0.01% noise, its standard errors
+shrink with the noise, a small effect stands out at high SNR, and the limits of what the runs
+rule out are the sizes at which an effect is found. The slow script
+``scripts/bench_calibration.py`` runs the same on trains and a slide at four levels, and
+``scripts/coverage.py`` the coverage of the intervals over seeds (docs/noisy-measurements.md).
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from bench_sim import JOINTS, POINTS, measure, with_effect
+from jointrig.measured.runs import as_train, read_runs
+from jointrig.rig.chain import rig_of_bodies
+from jointrig.studies.chain_validate import run_train_diagnosis
+
+#: 6 runs: 3 frequencies x the lowest and highest level; the middle frequency's two held out
+HOLDOUT = (2, 3)
+
+
+def _diagnose(tmp_path, noise: float, seed: int = 1, **effect):
+    points = [p for i, p in enumerate(POINTS["paper"]) if i % 3 != 1]
+    path = measure(with_effect(JOINTS["paper"], **effect), points, tmp_path / f"b{noise:g}-{seed}.csv", seed=seed,
+                   fs_Hz=2000.0, n_periods=6.5, noise=noise)
+    loaded = as_train(read_runs(path))
+    return run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(2, [1]), holdout=HOLDOUT)
+
+
+@pytest.mark.slow
+def test_a_right_model_reads_chi2_near_one_and_learns_from_a_better_sensor(tmp_path):
+    # No effect at 2% and at 0.01% of each signal: no misfit, chi2/dof within 0.7-1.5 at both (the
+    # band the issue sets: with 4 fitted runs of 6 periods the chi-square of about 300 rows
+    # scatters by +-10% around 1 if only noise is left; it read 0.045 at 0.01% with the fixed
+    # 1e-3 floor). A sensor 200 times better gives a stiffness 50-400 times surer (the SE scales
+    # with the noise: 200; the twists' zero and the period estimates add their own share).
+    from jointrig.identify.chain_diagnose import BalanceFidelity
+
+    rough, fine = _diagnose(tmp_path, 0.02), _diagnose(tmp_path, 0.0001)
+    se = []
+    for r in (rough, fine):
+        d = r.diagnosis
+        assert r.verdict.verdict == "no_misfit", r.verdict
+        assert 0.7 <= d.reduced_chi2(d.final) <= 1.5, d.reduced_chi2(d.final)
+        assert isinstance(d.fidelity, BalanceFidelity), d.fidelity  # measured on the replay, not fixed
+        k, s = d.final.parameters()["joint1_k_Nm_per_rad"], d.final.std_error("joint1_k_Nm_per_rad")
+        assert abs(k - 2000.0) <= 3 * s, (k, s)
+        se.append(s)
+    assert 50 <= se[0] / se[1] <= 400, se
+
+
+@pytest.mark.slow
+def test_two_newton_metres_of_dry_friction_at_a_fine_sensor_are_explained(tmp_path):
+    # The issue's case: 2 N m of dry friction on the paper's joint at 0.02% noise was UNEXPLAINED
+    # (friction 1.97 +- 0.79 "not significant", held-out 25.7 floors). Now: EXPLAINED, the friction
+    # within 2 standard errors (measured 2.0006 +- 0.0083), a held-out gain of at least 3 (29.2),
+    # chi2/dof within 0.7-1.5.
+    from jointrig.identify.chain_diagnose import BalanceFidelity
+
+    r = _diagnose(tmp_path, 0.0002, Fc=2.0)
+    d = r.diagnosis
+    assert r.verdict.verdict == "explained", r.verdict
+    assert [s.effect for s in d.steps] == ["coulomb_friction"], [s.label for s in d.steps]
+    value, se = d.final.parameters()["joint1_coulomb_torque_Nm"], d.final.std_error("joint1_coulomb_torque_Nm")
+    assert abs(value - 2.0) <= 2 * se, (value, se)
+    assert r.validation.gain >= 3
+    assert 0.7 <= d.reduced_chi2(d.final) <= 1.5
+    # the fidelity was measured on the replay of the model with the friction, and is stated
+    assert isinstance(d.fidelity, BalanceFidelity) and 0 < d.fidelity.relative < 1e-2, d.fidelity
+
+
+@pytest.mark.slow
+def test_what_the_runs_rule_out_is_the_size_at_which_an_effect_is_found(tmp_path):
+    # The limit the report gives for dry friction at 0.2% noise (measured 0.47 N m on this seed), then
+    # the same bench with dry friction at 0.4 and at 2 times that limit. At the limit an effect is
+    # found 95% of the time by construction (its drop in chi-square (m/SE)^2 against the evidence's
+    # threshold); at 0.4 times it about 4% of the time (m/SE 2.2 against a threshold of 3.95), at 2
+    # times always (m/SE 11): the small one is not adopted, the large one is.
+    r = _diagnose(tmp_path, 0.002, seed=3)
+    assert r.verdict.verdict == "no_misfit", r.verdict
+    limits = {s.label: lim for s, lim in r.diagnosis.ruled_out()}
+    limit = limits["coulomb_friction at joint 1"]
+    assert 0.05 < limit < 5.0, limit
+    below, above = (_diagnose(tmp_path, 0.002, seed=3, Fc=f * limit) for f in (0.4, 2.0))
+    assert not any(s.effect == "coulomb_friction" for s in below.diagnosis.steps), [s.label for s in below.diagnosis.steps]
+    assert [s.effect for s in above.diagnosis.steps] == ["coulomb_friction"], [s.label for s in above.diagnosis.steps]
+    value = above.diagnosis.final.parameters()["joint1_coulomb_torque_Nm"]
+    assert math.isclose(value, 2 * limit, rel_tol=0.5), (value, limit)
