@@ -332,13 +332,15 @@ def test_where_the_torque_acts_is_an_option(tmp_path, capsys):
         outs.append(json.loads(out.read_text()))
     assert outs[1]["verdict"]["verdict"] == outs[0]["verdict"]["verdict"] == "explained"
     # the same numbers (the file's channels are read in another order), the bodies' numbers
-    # swapped and the twist's zero of the other sign (phi2 - phi1 read as phi1 - phi2); to 1e-6:
-    # the twist's zero is profiled by a bounded search from the other side (agreeing to 1e-5 of
-    # itself, which moves gamma by 3e-8 of itself), not by the same arithmetic
+    # swapped and the twist's zero of the other sign (phi2 - phi1 read as phi1 - phi2). The zero
+    # is profiled by a bounded search, from the other side here: it agrees to 1e-4 of its own
+    # standard error (measured 6e-8 rad against 0.087), and moves the others by 3e-8 of themselves
     swap = {"J1_kgm2": "J2_kgm2", "J2_kgm2": "J1_kgm2"}
     one, two = outs[0]["extended"]["parameters"], outs[1]["extended"]["parameters"]
     two = {swap.get(n, n): (-v if n.endswith("angle_offset_rad") else v) for n, v in two.items()}
-    assert two == pytest.approx(one, rel=1e-5)
+    zero = "joint1_angle_offset_rad"
+    assert abs(two.pop(zero) - one.pop(zero)) <= 1e-4 * outs[0]["extended"]["std_errors"][zero]
+    assert two == pytest.approx(one, rel=1e-6)
     assert outs[1]["noise_std_per_sample"].keys() == {"phi1", "phi2", "torque2"}
     capsys.readouterr()
     assert diagnose.main([str(tmp_path / "on2.csv"), "-q", "--torque-on", "shaft"]) == 2
