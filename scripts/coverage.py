@@ -1,0 +1,255 @@
+#!/usr/bin/env python3
+"""Coverage of the diagnosis's 95% intervals over seeds, on files of the independent bench.
+
+    python scripts/coverage.py [--seeds N] [--first-seed S] [--db 20 40 70] [--out DIR]
+                               [--workers W] [--json OUT]
+
+Why: a standard error is only worth printing if value +- 1.96 SE holds the truth 95% of the
+time. The two-flywheel paper joint with 20 N m of dry friction (tests/bench_sim.py: scipy,
+event-driven stick-slip, a DAQ's CSV with sensor offsets) is measured at each noise level with
+N seeds (a seed draws the white noise, the sensor offsets and the start phases), 6 runs (3
+frequencies x 1500 and 3500 N m, the middle frequency held out), and diagnosed as
+``jointrig diagnose`` does (``studies.chain_validate.run_train_diagnosis``). For every reported
+parameter with a known truth (J1, J2 = 2 kg m^2; c = 100 N m s/rad, k = 2000 N m/rad, gamma =
+200 N m/rad^3, Coulomb 20 N m; the twist's zero: the DAQ's drawn offsets phi1 - phi2) it
+records whether |value - truth| <= 1.96 SE, and prints per parameter and level the share
+covered with its binomial standard error and the median z = (value - truth) / SE (median |z|
+is 0.674 for a calibrated Gaussian estimate).
+
+A noise level L dB is white noise of standard deviation 10^(-L/20) times each channel's RMS
+(tests/bench_sim.py ``noise``): 20 dB is 10%, 40 dB 1%, 70 dB 0.032%.
+
+Resumable: ``--out DIR`` keeps one small JSON per (level, seed), written atomically, and cases
+whose file exists are not run again. Cases run in ``--workers`` processes (default 2); progress
+goes to stderr.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import statistics
+import sys
+import tempfile
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+#: The bench's truth (tests/bench_sim.py PAPER with Fc = 20 N m); the twist's zero is per seed.
+FRICTION_Nm = 20.0
+TRUTH = {"J1_kgm2": 2.0, "J2_kgm2": 2.0, "joint1_c_Nms_per_rad": 100.0, "joint1_k_Nm_per_rad": 2000.0,
+         "joint1_gamma_Nm_per_rad3": 200.0, "joint1_coulomb_torque_Nm": FRICTION_Nm}
+OFFSET = "joint1_angle_offset_rad"
+RIGHT_STEP = "coulomb_friction at joint 1"
+HOLDOUT = (2, 3)
+FS_HZ = 2000.0
+N_PERIODS = 6.5
+Z95 = 1.96
+
+
+def noise_fraction(db: float) -> float:
+    """Noise standard deviation relative to each channel's RMS at an SNR of ``db`` dB."""
+    return 10.0 ** (-db / 20.0)
+
+
+def case_path(out: Path, db: float, seed: int) -> Path:
+    return out / f"db{db:g}_seed{seed:04d}.json"
+
+
+def write_json_atomic(path: Path, obj) -> None:
+    """``obj`` as JSON in ``path``: written to a temporary file beside it, then renamed."""
+    tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
+    tmp.write_text(json.dumps(_finite(obj), indent=1, allow_nan=False) + "\n")
+    os.replace(tmp, path)
+
+
+def _finite(obj):
+    """``obj`` with every non-finite number as None (strict JSON)."""
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite(v) for v in obj]
+    return obj
+
+
+def _twist_zero_rad(seed: int) -> float:
+    """The twist's zero the DAQ wrote (bench_sim.measure's first draw: the offsets of torque,
+    phi1, phi2): phi1's minus phi2's, the reading of the twist at zero twist."""
+    import numpy as np
+
+    offsets = np.random.default_rng(seed).uniform(-1, 1, 3) * np.array([0.5, 2e-3, 2e-3])
+    return float(offsets[1] - offsets[2])
+
+
+def run_case(db: float, seed: int, out: str) -> dict:
+    """One diagnosis (in a worker process); its record is written to ``out`` and returned."""
+    os.environ["JOINTRIG_WORKERS"] = "1"  # one process per case: no forked scoring inside
+    sys.path.insert(0, str(ROOT / "tests"))
+    from jointrig.rig.runtime import limit_threads
+
+    limit_threads()
+    from bench_sim import JOINTS, POINTS, measure, with_effect
+    from jointrig.measured.runs import as_train, read_runs
+    from jointrig.rig.chain import rig_of_bodies
+    from jointrig.studies.chain_validate import run_train_diagnosis
+
+    t0 = time.perf_counter()
+    rec = {"db": db, "seed": seed, "noise_fraction": noise_fraction(db)}
+    truth = dict(TRUTH, **{OFFSET: _twist_zero_rad(seed)})
+    rec["truth"] = truth
+    try:
+        with tempfile.TemporaryDirectory() as tmp:
+            points = [p for i, p in enumerate(POINTS["paper"]) if i % 3 != 1]
+            path = measure(with_effect(JOINTS["paper"], Fc=FRICTION_Nm), points, Path(tmp) / "b.csv", seed=seed,
+                           fs_Hz=FS_HZ, n_periods=N_PERIODS, noise=noise_fraction(db))
+            loaded = as_train(read_runs(path))
+            r = run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(2, [1]),
+                                    holdout=HOLDOUT)
+        d = r.diagnosis
+        params = d.final.parameters()
+        rec.update(verdict=r.verdict.verdict, steps=[s.label for s in d.steps],
+                   chi2_per_dof=float(d.reduced_chi2(d.final)),
+                   parameters={k: float(v) for k, v in params.items()},
+                   std_errors={k: float(d.final.std_error(k)) for k in params},
+                   fidelity=getattr(d.fidelity, "relative", None))
+    except Exception as err:  # a failed case is recorded, counted and reported, not retried
+        rec["error"] = f"{type(err).__name__}: {err}"
+    rec["wall_s"] = time.perf_counter() - t0
+    write_json_atomic(case_path(Path(out), db, seed), rec)
+    return rec
+
+
+def right_structure(r: dict) -> bool:
+    """The final model is the bench's: dry friction at the joint adopted, nothing else."""
+    return r.get("steps") == [RIGHT_STEP]
+
+
+def summarise(records: list[dict], levels: list[float], right_only: bool = False) -> dict:
+    """Per level and parameter: n, share covered, its binomial SE, median z and |z|; with
+    ``right_only`` over the seeds whose final model has the bench's structure only."""
+    table = {}
+    for db in levels:
+        recs = [r for r in records if r["db"] == db and (not right_only or right_structure(r))]
+        ok = [r for r in recs if "error" not in r]
+        level = {"n_cases": len(recs), "n_failed": len(recs) - len(ok),
+                 "n_friction_adopted": sum("joint1_coulomb_torque_Nm" in r["parameters"] for r in ok),
+                 "verdicts": {v: sum(r["verdict"] == v for r in ok) for v in sorted({r["verdict"] for r in ok})},
+                 "median_chi2_per_dof": statistics.median(r["chi2_per_dof"] for r in ok) if ok else math.nan,
+                 "parameters": {}}
+        for name in list(TRUTH) + [OFFSET]:
+            zs, no_se = [], 0
+            for r in ok:
+                if name not in r["parameters"]:
+                    continue
+                se = r["std_errors"].get(name)
+                if se is None or not math.isfinite(se) or se <= 0:  # no interval stated: counted apart
+                    no_se += 1
+                    continue
+                zs.append((r["parameters"][name] - r["truth"][name]) / se)
+            n = len(zs)
+            if not n:
+                level["parameters"][name] = {"n": 0, "n_without_std_error": no_se}
+                continue
+            p = sum(abs(z) <= Z95 for z in zs) / n
+            level["parameters"][name] = {"n": n, "n_without_std_error": no_se, "covered": p, "binomial_se": math.sqrt(p * (1 - p) / n),
+                                         "median_z": statistics.median(zs),
+                                         "median_abs_z": statistics.median(abs(z) for z in zs)}
+        table[f"{db:g}"] = level
+    return table
+
+
+def print_table(table: dict) -> None:
+    for db, level in table.items():
+        print(f"\n{db} dB (noise {noise_fraction(float(db)):.3%} of each channel's RMS): {level['n_cases']} seeds, "
+              f"{level['n_failed']} failed; verdicts {level['verdicts']}; coulomb_friction adopted in "
+              f"{level['n_friction_adopted']}; median chi2/dof {level['median_chi2_per_dof']:.3f}")
+        print(f"  {'parameter':28s} {'n':>4s} {'covered':>8s} {'+-':>6s} {'median z':>9s} {'median |z|':>10s}")
+        for name, s in level["parameters"].items():
+            apart = f"  ({s['n_without_std_error']} without a standard error)" if s["n_without_std_error"] else ""
+            if not s["n"]:
+                print(f"  {name:28s} {0:4d}        -{apart}")
+                continue
+            flag = ("" if 0.90 <= s["covered"] <= 0.98 else "  <- outside 90-98%") + apart
+            print(f"  {name:28s} {s['n']:4d} {s['covered']:8.1%} {s['binomial_se']:6.1%} {s['median_z']:9.2f} "
+                  f"{s['median_abs_z']:10.2f}{flag}")
+
+
+def parse(argv) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--seeds", type=int, default=100, help="seeds per level (default 100)")
+    p.add_argument("--first-seed", type=int, default=0, help="the first seed (default 0)")
+    p.add_argument("--db", type=float, nargs="+", default=[20.0, 40.0, 70.0],
+                   help="noise levels, SNR in dB per channel (default 20 40 70)")
+    p.add_argument("--out", type=Path, default=ROOT / "runs" / "coverage",
+                   help="folder of the per-case JSON files (default runs/coverage)")
+    p.add_argument("--workers", type=int, default=2, help="processes (default 2)")
+    p.add_argument("--json", type=Path, help="write the summary table here (atomically)")
+    args = p.parse_args(argv)
+    if args.seeds < 1:
+        p.exit(2, f"{p.prog}: error: --seeds must be at least 1, got {args.seeds}\n")
+    if args.first_seed < 0:
+        p.exit(2, f"{p.prog}: error: --first-seed must be >= 0, got {args.first_seed}\n")
+    if args.workers < 1:
+        p.exit(2, f"{p.prog}: error: --workers must be at least 1, got {args.workers}\n")
+    bad = [d for d in args.db if not (math.isfinite(d) and 0.0 < d <= 200.0)]
+    if bad:
+        p.exit(2, f"{p.prog}: error: --db levels must be in (0, 200] dB, got {bad}\n")
+    try:
+        args.out.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        p.exit(2, f"{p.prog}: error: cannot use --out {args.out}: {err.strerror}\n")
+    if args.json is not None and not args.json.parent.is_dir():
+        p.exit(2, f"{p.prog}: error: --json {args.json}: folder {args.json.parent} does not exist\n")
+    return args
+
+
+def main(argv=None) -> int:
+    args = parse(argv)
+    levels = list(dict.fromkeys(args.db))
+    seeds = range(args.first_seed, args.first_seed + args.seeds)
+    records, todo = [], []
+    for seed in seeds:  # seed by seed across the levels: a run stopped early leaves every level alike
+        for db in levels:
+            path = case_path(args.out, db, seed)
+            if path.exists():
+                records.append(json.loads(path.read_text()))
+            else:
+                todo.append((db, seed))
+    print(f"coverage: {len(records)} case(s) already in {args.out}, {len(todo)} to run in {args.workers} "
+          "process(es)", file=sys.stderr, flush=True)
+    t0 = time.perf_counter()
+    if todo:
+        with ProcessPoolExecutor(args.workers) as pool:
+            futures = {pool.submit(run_case, db, seed, str(args.out)): (db, seed) for db, seed in todo}
+            for k, fut in enumerate(as_completed(futures), 1):
+                db, seed = futures[fut]
+                r = fut.result()
+                records.append(r)
+                what = r.get("error") or (f"{r['verdict']}, chi2/dof {r['chi2_per_dof']:.3f}, "
+                                          f"{', '.join(r['steps']) or 'no cause adopted'}")
+                eta = (time.perf_counter() - t0) / k * (len(todo) - k)
+                print(f"[{k}/{len(todo)}] {db:g} dB seed {seed}: {what} ({r['wall_s']:.1f} s; about "
+                      f"{eta / 60:.0f} min left)", file=sys.stderr, flush=True)
+    table = summarise(records, levels)
+    right = summarise(records, levels, right_only=True)
+    print(f"Coverage of value +- {Z95} SE over seeds {seeds.start}-{seeds.stop - 1}: two flywheels, paper joint, "
+          f"{FRICTION_Nm:g} N m dry friction (tests/bench_sim.py), 6 runs, runs {HOLDOUT} held out")
+    print_table(table)
+    print(f"\nOnly the seeds whose final model has the bench's structure ({RIGHT_STEP} adopted, nothing else):")
+    print_table(right)
+    if args.json is not None:
+        write_json_atomic(args.json, {"seeds": [seeds.start, seeds.stop - 1], "levels_db": levels,
+                                      "truth": TRUTH, "table": table,
+                                      "right_structure_only": right})
+        print(f"wrote {args.json}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
