@@ -108,7 +108,8 @@ def _diagnose_cli(path: Path, out: Path, *extra: str) -> dict:
             "chi2_per_dof": ext["chi2_per_dof"], "nominal_chi2_per_dof": j["nominal"]["chi2_per_dof"],
             "parameters": ext["parameters"], "std_errors": ext["std_errors"],
             "fidelity": fid.get("relative_misfit"), "fidelity_how": fid.get("how"),
-            "fidelity_statement": fid.get("statement")}
+            "fidelity_statement": fid.get("statement"),
+            "fidelity_notes": [n for n in j.get("notes", []) if "fidelity" in n]}
 
 
 def _flywheels(db: float, friction: bool, seed: int, tmp: Path) -> dict:
