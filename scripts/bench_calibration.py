@@ -42,6 +42,8 @@ import subprocess
 import sys
 import tempfile
 import time
+
+from jointrig.files import write_json_atomic
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -75,22 +77,6 @@ def _train_truth() -> dict:
     return out
 
 
-def _finite(obj):
-    """``obj`` with every non-finite number as None (strict JSON)."""
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    if isinstance(obj, dict):
-        return {k: _finite(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_finite(v) for v in obj]
-    return obj
-
-
-def write_json_atomic(path: Path, obj) -> None:
-    """``obj`` as strict JSON in ``path``: written to ``path``.tmp, then renamed into place."""
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(_finite(obj), indent=1, allow_nan=False) + "\n")
-    os.replace(tmp, path)
 
 
 def _diagnose_cli(path: Path, out: Path, *extra: str) -> dict:

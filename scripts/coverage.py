@@ -34,6 +34,8 @@ import statistics
 import sys
 import tempfile
 import time
+
+from jointrig.files import write_json_atomic
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
@@ -60,22 +62,6 @@ def case_path(out: Path, db: float, seed: int) -> Path:
     return out / f"db{db:g}_seed{seed:04d}.json"
 
 
-def write_json_atomic(path: Path, obj) -> None:
-    """``obj`` as JSON in ``path``: written to a temporary file beside it, then renamed."""
-    tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(_finite(obj), indent=1, allow_nan=False) + "\n")
-    os.replace(tmp, path)
-
-
-def _finite(obj):
-    """``obj`` with every non-finite number as None (strict JSON)."""
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    if isinstance(obj, dict):
-        return {k: _finite(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_finite(v) for v in obj]
-    return obj
 
 
 def _twist_zero_rad(seed: int) -> float:
