@@ -622,10 +622,43 @@ def _centred(r):
                    phi2_rad=None if r.phi2_rad is None else r.phi2_rad - r.phi2_rad.mean())
 
 
+def _body_angles(r) -> list:
+    if isinstance(r, ChainRecord):
+        return list(r.angles_rad)
+    return [r.phi1_rad] + ([] if r.phi2_rad is None else [r.phi2_rad])
+
+
+def _in_degrees(path: Path, records: Sequence, unstated: set, what: str) -> None:
+    """Where some angles' units are stated and others' not, and reading the unstated ones in
+    degrees makes every joint's twist plausible (a swing below :data:`MAX_TWIST_RAD`, one mean for
+    all runs), refuse naming the unit forgotten: the fix that applies, not a re-zeroing."""
+    bodies = sorted(unstated, key=lambda c: (len(c), c))
+    index = {c: (int(c.lstrip("phix")) - 1 if c.lstrip("phix") else 0) for c in bodies}
+    alt = []
+    for r in records:
+        a = [x * (math.pi / 180.0) if i in index.values() else x for i, x in enumerate(_body_angles(r))]
+        if len(a) < 2:
+            return
+        alt.append([a[j] - a[j + 1] for j in range(len(a) - 1)])
+    amps = [max(float(np.ptp(x)) / 2 for x in tw) for tw in alt]
+    for j in range(len(alt[0])):
+        means = [float(np.mean(tw[j])) for tw in alt]
+        if max(amps) > MAX_TWIST_RAD or (len(alt) >= 2 and max(means) - min(means) > ZERO_SPREAD * max(amps)):
+            return
+    names = ", ".join(bodies)
+    raise RunsFileError(
+        f"{path}: {what}; {names} {'has' if len(bodies) == 1 else 'have'} no unit stated (read as rad) while the other "
+        f"angles' are stated, and read in degrees every joint's twist is plausible (one zero for all runs, a swing of "
+        f"+-{max(amps):.3g} rad): state the unit in the header ('{bodies[0]} [deg]') or with --units "
+        + ",".join(f"{c}=deg" for c in bodies))
+
+
 def _plausible_angles(path: Path, run_ids: Sequence[str], records: Sequence,
-                      angles_stated: bool, zero_per_run: bool, notes: list) -> list:
-    """Refuse angles that are probably not in rad (no unit stated, a twist of several rad), and
-    runs whose angle sensors were zeroed one by one, or centre each run's angles when asked."""
+                      angles_stated: bool, zero_per_run: bool, notes: list, unstated: set = frozenset()) -> list:
+    """Refuse angles that are probably not in rad (no unit stated, a twist of several rad; or one
+    angle's unit forgotten beside the others'), and runs whose angle sensors were zeroed one by
+    one, or centre each run's angles when asked. ``unstated``: the angle columns read as rad for
+    want of a unit while others' are stated."""
     twists = [_twists(r) for r in records]
     if not twists[0]:  # a single body: its position's zero is its own affair
         if zero_per_run:
@@ -635,6 +668,9 @@ def _plausible_angles(path: Path, run_ids: Sequence[str], records: Sequence,
     joint = "the relative angle" if len(twists[0]) == 1 else "a joint's twist"
     amps = [max(float(np.ptp(x)) / 2 for x in tw) for tw in twists]
     worst = int(np.argmax(amps))
+    if amps[worst] > MAX_TWIST_RAD and unstated:
+        _in_degrees(path, records, unstated, f"run {run_ids[worst]}: {joint} swings by +-{amps[worst]:.3g} rad, more "
+                                             f"than any joint twists")
     if amps[worst] > MAX_TWIST_RAD and not angles_stated:
         raise RunsFileError(
             f"{path}: run {run_ids[worst]}: {joint} swings by +-{amps[worst]:.3g} rad, more than any joint "
@@ -651,6 +687,9 @@ def _plausible_angles(path: Path, run_ids: Sequence[str], records: Sequence,
         if len(records) >= 2 and max(means) - min(means) > ZERO_SPREAD * max(amps):
             lo, hi = int(np.argmin(means)), int(np.argmax(means))
             what = "the relative angle's mean" if len(twists[0]) == 1 else f"joint {j + 1}'s mean twist"
+            if unstated:
+                _in_degrees(path, records, unstated, f"{what} differs between runs by {max(means) - min(means):.3g} "
+                                                     f"rad")
             raise RunsFileError(
                 f"{path}: {what} differs between runs by {max(means) - min(means):.3g} rad (run "
                 f"{run_ids[lo]}: {means[lo]:.3g} rad, run {run_ids[hi]}: {means[hi]:.3g} rad), "
@@ -838,11 +877,13 @@ def read_runs(path: Union[str, os.PathLike], *, samples_per_period: Optional[int
     # A folder's files are runs named by their stems, however many it holds (one included).
     named_by_file = multi or Path(path).is_dir()
     run_ids, records, seen, any_units, angles_stated, layouts = [], [], set(), False, False, []
+    unstated: set = set()  # angle columns read as rad for want of a unit
     for f, table in tables:
         cols, stated = _resolve(table, columns, units, notes)
         _units_in_comments(table, columns, stated)
         any_units = any_units or bool(stated)
         angles_stated = angles_stated or any(c.startswith(("phi", "x")) for c in stated)
+        unstated |= {c for c in cols if c.startswith(("phi", "x")) and c not in stated}
         where = table.source
         train = _train_layout(where, cols)
         if layouts and (train is None) != (layouts[-1] is None):
@@ -923,7 +964,8 @@ def read_runs(path: Union[str, os.PathLike], *, samples_per_period: Optional[int
     if not any_units:
         notes.insert(0, "no units stated in the file or the options: SI assumed (time s, torque N m, angles rad, "
                         "omega rad/s); state others with --units, e.g. phi1=deg,time=ms")
-    records = _plausible_angles(path, run_ids, records, angles_stated, zero_per_run, notes)
+    records = _plausible_angles(path, run_ids, records, angles_stated, zero_per_run, notes,
+                                unstated if angles_stated else set())
     kind = layouts[0].kind if layouts and layouts[0] else "hinge"
     return LoadedRuns(path, tuple(run_ids), tuple(records), tuple(notes), _digest(files), kind)
 

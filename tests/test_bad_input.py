@@ -462,6 +462,18 @@ def test_angles_in_degrees_without_a_unit_are_refused_with_the_fix(tmp_path, cap
     assert len(read_runs(path, units="phi1=deg,phi2=deg").records) == 6
 
 
+def test_one_angle_unit_forgotten_is_named_not_taken_for_a_zero(tmp_path, capsys):
+    # issue 49: both angles in degrees, the unit written for phi1 only: phi2 read as rad swings the
+    # twist by tens of "rad". The advice names phi2's unit, not a re-zeroing per run.
+    path = _bench_file(tmp_path, lambda first, a, b: (math.degrees(a), math.degrees(b)))
+    path.write_text(path.read_text().replace("run,time,torque,phi1,phi2", "run,time,torque,phi1 [deg],phi2", 1))
+    assert _script("diagnose").main([str(path), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "phi2 has no unit stated" in err and "--units phi2=deg" in err, err
+    assert "--zero-per-run" not in err, err
+    assert len(read_runs(path, units="phi2=deg").records) == 6
+
+
 def test_encoders_zeroed_per_recording_are_refused_or_centred(tmp_path, capsys):
     # issue 37: encoders zeroed at the start of each recording shifted the relative angle's mean
     # by up to 0.37 rad between runs and the law came out wrong without a warning
