@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Callable, Optional, Sequence
+from typing import Callable, Mapping, Optional, Sequence
 
 from jointrig.identify.causes import Ambiguity, CauseScore
 from jointrig.identify.verdict import Verdict
@@ -59,10 +59,11 @@ class FitJson:
     std_errors: dict
 
     @classmethod
-    def of(cls, fit, name: Callable[[str], str] = str) -> "FitJson":
+    def of(cls, fit, name: Callable[[str], str] = str, added: Optional[Mapping[str, float]] = None) -> "FitJson":
         """From either diagnosis's fit (``identify.estimates.RowFit``); ``name`` renames a parameter
-        for the user's bench (a slide's, :func:`vocab.params.linear_name`)."""
-        p = fit.parameters()
+        for the user's bench (a slide's, :func:`vocab.params.linear_name`); ``added``: constants
+        added to parameters (a twist's zero: the mean taken out before the fit)."""
+        p = {n: v + (added or {}).get(n, 0.0) for n, v in fit.parameters().items()}
         return cls(float(fit.chi2), int(fit.dof), {name(n): float(v) for n, v in p.items()},
                    {name(n): fit.std_error(n) for n in p})
 

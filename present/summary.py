@@ -19,7 +19,9 @@ NO_GAIN = "not computed (a model has no steady state in a held-out run)"
 @dataclass(frozen=True)
 class WrittenRow:
     """A parameter of the user's model as written beside what the data say (the adopted model's
-    value, else the nominal fit's), and whether the two differ by more than two standard errors."""
+    value, else the nominal fit's), and whether the two differ by more than two standard errors.
+    ``provisional``: the data are not explained (the verdict is unexplained), so the fit the data's
+    value comes from may itself be wrong: a difference is a lead, not a finding."""
 
     name: str
     quantity: str
@@ -28,6 +30,7 @@ class WrittenRow:
     data: float
     std_error: float
     differs: bool
+    provisional: bool = False
 
     @property
     def change(self) -> str:
@@ -39,12 +42,13 @@ class WrittenRow:
 
     def as_json(self) -> dict:
         return {"written": self.written, "data": self.data, "std_error": self.std_error, "differs": self.differs,
-                "change": self.change}
+                "change": self.change, "provisional": self.provisional}
 
 
-def compare_written(written, fit) -> tuple[WrittenRow, ...]:
+def compare_written(written, fit, provisional: bool = False) -> tuple[WrittenRow, ...]:
     """``written`` ((name, value) pairs of the user's model) beside a fit's values and standard
-    errors (any :class:`identify.estimates.Estimates`); names the fit lacks are left out."""
+    errors (any :class:`identify.estimates.Estimates`); names the fit lacks are left out.
+    ``provisional``: the fit does not explain the data (:attr:`WrittenRow.provisional`)."""
     values = fit.as_dict()
     out = []
     for name, w in written:
@@ -52,7 +56,7 @@ def compare_written(written, fit) -> tuple[WrittenRow, ...]:
             continue
         v, se = values[name], fit.std_error(name)
         differs = bool(math.isfinite(se) and abs(v - w) > 2 * se)
-        out.append(WrittenRow(name, quantity_of(name), unit_of(name), w, v, se, differs))
+        out.append(WrittenRow(name, quantity_of(name), unit_of(name), w, v, se, differs, provisional))
     return tuple(out)
 
 
@@ -62,7 +66,9 @@ def wrong_sentence(rows, name=lambda n: n) -> str:
     rows = [r for r in rows if r.differs]
     if not rows:
         return ""
-    return ("As written, your model has " + "; ".join(
+    lead = ("Provisionally (no model explains the data, so the fit these figures come from may be wrong too): as "
+            "written, your model has " if any(r.provisional for r in rows) else "As written, your model has ")
+    return (lead + "; ".join(
         f"{quantity_of(name(r.name))} = {r.written:.6g}{' ' + unit_of(name(r.name)) if unit_of(name(r.name)) else ''}, "
         f"which the data put at "
         f"{with_se(r.data, r.std_error)} ({r.change})" for r in rows) + ". ")

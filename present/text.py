@@ -26,11 +26,14 @@ def head_lines(verdict, words: str, steps: Sequence[str], *, written: Sequence =
     (``misfit``, when unexplained); and what to do next."""
     lines = [f"VERDICT: {verdict.verdict.upper().replace('_', ' ')}: {verdict.reason}", f"  In words: {words}"]
     if written:
+        provisional = any(w.provisional for w in written)
         lines.append(f"  Your model as written{f' ({model})' if model else ''} against the data (differs: more than "
-                     f"2 standard errors apart):")
+                     f"2 standard errors apart" + ("; PROVISIONAL: no model explains the data, so the fit these figures "
+                                                   "come from may be wrong too" if provisional else "") + "):")
         lines += [f"    {quantity_of(name(w.name)):28s} written {w.written:<12.6g} data "
                   f"{with_se(w.data, w.std_error):>22s} {unit_of(name(w.name)):12s} "
-                  f"{'DIFFERS, ' + w.change if w.differs else 'agrees'}" for w in written]
+                  f"{('may differ, ' if w.provisional else 'DIFFERS, ') + w.change if w.differs else 'agrees'}"
+                  for w in written]
     lines += [f"  {m}" for m in misfit]
     if steps:
         lines.append("  What to do next" + (" (measurements that would tell more):" if verdict.verdict == "unexplained"

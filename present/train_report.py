@@ -44,10 +44,27 @@ __all__ = ["format_train_report", "plain_train_verdict", "train_report_json", "t
            "write_train_html"]
 
 
-def _values(fit) -> dict:
+def _written(report: TrainReport) -> tuple:
+    """The user's model as written beside the adopted fit (else the nominal one), provisional
+    where no model explains the data (:func:`present.summary.compare_written`)."""
+    return compare_written(report.written, report.adopted_fit, report.verdict.verdict == "unexplained")
+
+
+def _taken(report: TrainReport) -> dict:
+    """Per joint's zero parameter, the constant its twist's mean took out before the fit
+    (:mod:`identify.zeros`): the fit's zero is read on top of it."""
+    zs = report.zeros
+    if zs is None or zs.kept:
+        return {}
+    return {f"joint{j}_angle_offset_rad": zs.angles[j - 1] - zs.angles[j] for j in range(1, len(zs.angles))}
+
+
+def _values(fit, report: TrainReport) -> dict:
     """Every parameter of a chain fit with its standard error, as the JSON lists them
-    (:meth:`ChainFit.parameters`: the linear ones, then what the terms imply and the profiled)."""
-    return {n: (v, fit.std_error(n)) for n, v in fit.parameters().items()}
+    (:meth:`ChainFit.parameters`: the linear ones, then what the terms imply and the profiled),
+    each twist's zero as it reads on the user's sensors (:func:`_taken`)."""
+    added = _taken(report)
+    return {n: (v + added.get(n, 0.0), fit.std_error(n)) for n, v in fit.parameters().items()}
 
 
 def plain_label(step, form: str = "train") -> str:
@@ -68,12 +85,12 @@ def plain_train_verdict(report: TrainReport) -> str:
     """The verdict in words, after the parameters of the user's model the data contradict."""
     v, d, val = report.verdict, report.diagnosis, report.validation
     nm = _namer(report)
-    wrong = wrong_sentence(compare_written(report.written, report.adopted_fit), nm)
+    wrong = wrong_sentence(_written(report), nm)
     held = "later periods of the runs" if report.held_out_periods else "runs it was not fitted on"
     if v.verdict == "no_misfit":
         return wrong + "The model's structure explains the data: no cause at any joint or body is missing."
     if v.verdict == "explained":
-        final = _values(d.final)
+        final = _values(d.final, report)
 
         def size(s) -> tuple:  # in the final fit; a magnitude made of parts (an amplitude) as scored
             v, se = final.get(s.magnitude[0], (math.nan, math.nan))
@@ -112,13 +129,49 @@ def _sought(report: TrainReport) -> str:
 #: The largest zero offset of a twist or an angle read as a sensor's (rad, about 11 deg): beyond
 #: it an even stiffness is taken as the joint's.
 MAX_ZERO_OFFSET_RAD = 0.2
+#: With ``--zeroed``, a mean twist above this (rad) is said to contradict it (a sensor's zero error
+#: of :data:`identify.causes.ANGLE_ZERO_TOLERANCE_RAD` is a bench's own).
+MAX_ZEROED_TWIST_RAD = 0.01
+#: A drive's mean below this share of its amplitude is not reported (a DAQ's offset of that size
+#: is within the sensors' class).
+TORQUE_MEAN_SHARE = 1e-3
+
+
+def _torque_means(report: TrainReport) -> list[str]:
+    """Each drive's mean over the fitted runs where it stands out of its run-to-run spread: on a
+    train free to turn (a carriage free to move), the sensor's offset or a constant load where the
+    drive acts, which the data cannot tell apart (a periodic steady state carries no net mean
+    force); where a body is tied to the frame by a spring, a load or the offset."""
+    zs = report.zeros
+    if zs is None:
+        return []
+    slide = report.kind == "slide"
+    amp = max((s[1] for s in report.settings), default=math.nan)
+    tied = report.form != "relative" and any(any(t.elastic for t in g) for g in report.diagnosis.nominal.spec.grounds)
+    out = []
+    for i, (m, se) in enumerate(zip(zs.torques, zs.torque_se), start=1):
+        if not math.isfinite(m) or not abs(m) > max(3 * se if math.isfinite(se) else 0.0, TORQUE_MEAN_SHARE * amp):
+            continue
+        what, unit = ("force", "N") if slide else ("torque", "N m")
+        err = f" +- {se:.2g}" if math.isfinite(se) else ""
+        if tied:
+            why = ("a load on the body or the sensor's offset (a spring to the frame can carry either): the fit and the "
+                   "replay leave it out")
+        else:
+            why = (f"a {'carriage free to move' if slide else 'train free to turn'} carries no net mean {what} in a "
+                   f"steady state, so that is the sensor's offset or a constant load where the drive acts (gravity on "
+                   f"the axis, a cable's drag); the fit and the replay leave it out, which is exact for either")
+        out.append(f"the drive {what} on body {i} averages {m:.4g}{err} {unit} over the fitted runs: {why}")
+    return out
 
 
 def offset_readings(report: TrainReport) -> tuple[str, ...]:
-    """An even stiffness ``a phi^2`` tried or adopted beside a cubic ``gamma phi^3`` is, to first
-    order, what a constant zero offset ``delta = -a / (3 gamma)`` of the angle the law reads
-    makes of the cubic: the data cannot tell the two apart, and an encoder's zero is the
-    likelier. One reading in words per such place (pure)."""
+    """What the sensors read at rest, one reading in words per channel where it matters (pure):
+    each joint's twist (the constant taken out before the diagnosis, :mod:`identify.zeros`, plus
+    the zero the fit reads where the joint's law needs one), the drive's mean, and where an even
+    stiffness ``a phi^2`` is tried or adopted beside a cubic ``gamma phi^3``, the zero offset
+    ``delta = -a / (3 gamma)`` it is, to first order, of the angle the law reads: the data cannot
+    tell the two apart, and an encoder's zero is the likelier."""
     from jointrig.identify.causes import by_name
     from jointrig.vocab.law import Power
 
@@ -129,20 +182,50 @@ def offset_readings(report: TrainReport) -> tuple[str, ...]:
     nm = _namer(report)
     cubic = Power(3).name
     x = "x" if slide else "phi"
-    zeros = {n: v for n, v, _ in d.final.profiled if n.endswith("angle_offset_rad")}
+    length = unit_of(nm("joint1_backlash_half_gap_rad"))
+    sensors = "position sensors" if slide else "angle sensors"
+    zs = report.zeros
+    taken = {}  # per joint number: the constant taken out of its twist before the diagnosis
+    if zs is not None and not zs.kept:
+        taken = {j: zs.angles[j - 1] - zs.angles[j] for j in range(1, len(zs.angles))}
+    zeros = {n: v + _taken(report).get(n, 0.0) for n, v, _ in d.final.profiled
+             if re.fullmatch(r"joint\d+_angle_offset_rad", n)}
     even = {s.magnitude[0][: -len(by_name(s.effect).magnitude)] for s in d.steps if by_name(s.effect).reads_as_offset}
-    # each twist's zero, part of the nominal model under a nonlinear law, where the data resolve it
-    # (beside an even stiffness at the same joint the two are read together, below)
-    for name, value, se in d.final.profiled:
-        place = re.fullmatch(r"joint(\d+)_angle_offset_rad", name)
-        if place is None or not (math.isfinite(se) and abs(value) > 3 * se) or f"joint{place.group(1)}_" in even:
+    fitted = {n: e for n, _, e in d.final.profiled}
+    # each twist's zero: the mean taken out, plus what the fit reads under a nonlinear law (beside an
+    # even stiffness at the same joint the two are read together, below)
+    for i in range(1, (len(zs.angles) if zs is not None else d.final.spec.n_flywheels)):
+        name = f"joint{i}_angle_offset_rad"
+        if f"joint{i}_" in even:
             continue
-        i = int(place.group(1))
-        length = unit_of(nm("joint1_backlash_half_gap_rad"))
+        if name in zeros:
+            value, se = zeros[name], fitted[name]
+            why = "the fit reads the joint's law from the twist minus it"
+        elif zs is not None and not zs.kept and math.isfinite(zs.twists[i - 1]):
+            value, se = zs.twists[i - 1], zs.twist_se[i - 1]
+            why = "its mean over the fitted runs; the joint's law is linear, so its zero does not enter the fit"
+        else:
+            continue
+        if not (abs(value) > 3 * se if math.isfinite(se) else abs(value) > 0):
+            continue
         degrees = "" if slide else f" ({math.degrees(value):.3g} deg)"
-        out.append(f"the twist of joint {i} ({x}{i} - {x}{i + 1}) reads {value:.4g} +- {se:.2g} {length}{degrees} at "
-                   f"rest: the {'position' if slide else 'angle'} sensors were not zeroed together (the fit reads the "
-                   f"joint's law from the twist minus it)")
+        err = f" +- {se:.2g}" if math.isfinite(se) else ""
+        out.append(f"the twist of joint {i} ({x}{i} - {x}{i + 1}) reads {value:.4g}{err} {length}{degrees} at "
+                   f"rest: the {sensors} were not zeroed together ({why})")
+    if zs is not None and zs.kept:
+        for i, (m, se) in enumerate(zip(zs.twists, zs.twist_se), start=1):
+            if math.isfinite(m) and abs(m) > max(3 * se if math.isfinite(se) else 0.0, MAX_ZEROED_TWIST_RAD):
+                out.append(f"you said the {sensors} were zeroed together (--zeroed), but the twist of joint {i} "
+                           f"({x}{i} - {x}{i + 1}) averages {m:.4g} {length} over the fitted runs: if nothing preloads "
+                           f"the joint, they were not, and the diagnosis without --zeroed takes each zero from the data")
+    if report.form == "relative" and zs is not None and not zs.kept:
+        value, se = zs.angles[0], zs.angle_se[0]
+        if abs(value) > 3 * se if math.isfinite(se) else abs(value) > 0:
+            err = f" +- {se:.2g}" if math.isfinite(se) else ""
+            out.append(f"the relative angle (phi) averages {value:.4g}{err} {length} ({math.degrees(value):.3g} deg) "
+                       f"over the fitted runs: its zero, taken out before the fit (a symmetric joint twists about its "
+                       f"rest)")
+    out += _torque_means(report)
     for s in d.steps:
         cause = by_name(s.effect)
         if not cause.reads_as_offset:
@@ -154,6 +237,10 @@ def offset_readings(report: TrainReport) -> tuple[str, ...]:
         # gamma (phi - delta)^3 = gamma phi^3 - 3 gamma delta phi^2 + ...; beside the twist's zero
         # the nominal model holds already (within a sensor's range), the two add up
         delta = -a / (3 * gamma) + zeros.get(prefix + "angle_offset_rad", 0.0)
+        if prefix.startswith("joint") and prefix + "angle_offset_rad" not in zeros:
+            delta += taken.get(int(prefix[5:-1]), 0.0)
+        elif prefix.startswith("ground") and zs is not None and not zs.kept:
+            delta += zs.angles[int(prefix[6:-1]) - 1]
         if abs(delta) > MAX_ZERO_OFFSET_RAD:
             continue
         x = "x" if slide else "phi"
@@ -170,9 +257,10 @@ def offset_readings(report: TrainReport) -> tuple[str, ...]:
         degrees = "" if slide else f" ({math.degrees(delta):.2g} deg)"
         out.append(f"the even stiffness a = {a:.4g} {unit(cause.magnitude)} is exactly what a zero offset of {what} of "
                    f"-a / (3 gamma) = {delta:.3g} {length}{degrees} makes of the cubic gamma = {gamma:.4g} "
-                   f"{unit(cubic)}: the data cannot tell the two apart. Check the "
-                   f"{'position' if slide else 'angle'} sensors' zero; if the joint is symmetric, subtract {delta:.3g} "
-                   f"{length} from {what} and run the diagnosis again")
+                   f"{unit(cubic)}: the data cannot tell the two apart. If the joint is symmetric, {what} reads "
+                   f"{delta:.3g} {length} at rest and there is no even stiffness; to tell, read {what} at rest "
+                   f"without torque, zero the {'position' if slide else 'angle'} sensors there and run the "
+                   f"diagnosis again with --zeroed")
     return tuple(out)
 
 
@@ -198,7 +286,7 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
                f"What the misfit looks like there: {m.describe()[0]}",
                f"Its restoring-force surface: {m.describe()[1]}"] if m is not None else [])
     lines = head_lines(v, plain_train_verdict(report), steps, name=nm, model=report.model_path or "",
-                       written=compare_written(report.written, report.adopted_fit), misfit=misfit)
+                       written=_written(report), misfit=misfit)
     slide = report.kind == "slide"
     if N == 1:
         what = f"a single body on a {'slide' if slide else 'hinge'}"
@@ -219,7 +307,7 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
     if all_notes:
         lines.append(f"  {len(all_notes)} note(s) on the data: at the end")
     lines += ["", f"Nominal model: chi2/dof = {d.reduced_chi2(d.nominal):.3g} (about 1 when only noise is left)"]
-    lines += parameter_lines(_values(d.nominal), nm)
+    lines += parameter_lines(_values(d.nominal, report), nm)
     lines.append("")
     lines += causes_lines(d.first_round, name=nm, note=lambda t: _words(report, t), shown=shown, sought=_sought(report))
     lines.append("")
@@ -228,7 +316,7 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
     else:
         lines.append("Extended model: none needed (no cause is significant at any joint or body; the nominal model "
                      "explains the data to the noise)")
-    lines += parameter_lines(_values(d.final), nm)
+    lines += parameter_lines(_values(d.final, report), nm)
     ruled = ruled_out_lines(d.ruled_out(), name=nm)
     if ruled:
         lines += [""] + ruled
@@ -287,10 +375,10 @@ def train_report_json(report: TrainReport, *, source: str = "", notes: Sequence[
         n_bodies=d.nominal.spec.n_flywheels, form=report.form, model=report.model_path, verdict=report.verdict,
         band_harmonics=d.n_harmonics, fit_runs=tuple(fit_ids), held_out_runs=tuple(held_ids),
         noise_std_per_sample={_channel(report, k): x for k, x in d.noise_std.items()},
-        nominal=FitJson.of(d.nominal, nm), causes=tuple(d.first_round), steps=tuple(d.steps),
-        adopted=tuple(s.label for s in d.steps) if report.adopted else (), extended=FitJson.of(d.final, nm),
+        nominal=FitJson.of(d.nominal, nm, _taken(report)), causes=tuple(d.first_round), steps=tuple(d.steps),
+        adopted=tuple(s.label for s in d.steps) if report.adopted else (), extended=FitJson.of(d.final, nm, _taken(report)),
         ambiguities=tuple(d.ambiguities),
-        as_written={nm(w.name): w.as_json() for w in compare_written(report.written, report.adopted_fit)},
+        as_written={nm(w.name): w.as_json() for w in _written(report)},
         validation=validation, notes=tuple(notes) + tuple(report.notes), name=nm,
         plausibility=tuple(_words(report, t) for t in d.plausibility),
         misfit_character=report.misfit.as_json() if report.misfit is not None else None,
@@ -384,9 +472,9 @@ def write_train_html(path, report: TrainReport, text: str, *, title: str, source
     d = report.diagnosis
     nm = _namer(report)
     fit = report.adopted_fit
-    written = compare_written(report.written, fit)
+    written = _written(report)
     parts = page_top(title, report.verdict, plain_train_verdict(report), input_sha256)
-    final = _values(d.final)
+    final = _values(d.final, report)
     if d.steps:
         parts.append("<h2>What the data show</h2>" if report.adopted else
                      "<h2>The best extension, not adopted (see the verdict)</h2>")
@@ -394,10 +482,13 @@ def write_train_html(path, report: TrainReport, text: str, *, title: str, source
             row([s.label, (with_se(*final.get(s.magnitude[0], s.magnitude[1:])), "num"), unit_of(nm(s.magnitude[0]))])
             for s in d.steps]))
     if written:
-        parts.append("<h2>Your model as written</h2>")
+        parts.append("<h2>Your model as written</h2>" if not written[0].provisional else
+                     "<h2>Your model as written (provisional: no model explains the data, so the fit these figures "
+                     "come from may be wrong too)</h2>")
         parts.append(table(["parameter", "written", "the data", "unit", ""], [
             row([nm(w.name), (f"{w.written:.6g}", "num"), (with_se(w.data, w.std_error), "num"), unit_of(nm(w.name)),
-                  ("differs: " + w.change) if w.differs else "agrees"], "adopted" if w.differs else "")
+                  (("may differ: " if w.provisional else "differs: ") + w.change) if w.differs else "agrees"],
+                "adopted" if w.differs else "")
             for w in written]))
     m = report.misfit
     if m is not None:
@@ -417,7 +508,7 @@ def write_train_html(path, report: TrainReport, text: str, *, title: str, source
                                      f"with the nominal and the extended model", image))
     parts.append(f"<h2>{'Extended' if report.adopted else 'Nominal'} model</h2>")
     parts.append(table(["parameter", "value ± standard error", "unit"], [
-        row([nm(n), (with_se(x, se), "num"), unit_of(nm(n))]) for n, (x, se) in _values(fit).items()]))
+        row([nm(n), (with_se(x, se), "num"), unit_of(nm(n))]) for n, (x, se) in _values(fit, report).items()]))
     for card, png in cards:  # (card, its PNG) per place, with --card: folded, one per joint
         section = card_section(card, png)
         parts.append(f"<details class='section'><summary>Joint card of {html.escape(card.place)}</summary>"

@@ -437,8 +437,10 @@ def chain_callback(rig: ChainRig, plant: ChainPlant, drives: dict, errors: list,
 
 def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: SimulationConfig = SimulationConfig(), *,
                    plant: Optional[ChainPlant] = None, inertias_kgm2: Optional[Sequence[float]] = None,
-                   amplitude_Nm: float = math.nan, backend: str = "auto") -> tuple[ChainRecord, SettleInfo]:
-    """Drive the chain from rest to steady state and log ``config.n_periods`` whole periods.
+                   amplitude_Nm: float = math.nan, backend: str = "auto",
+                   start: Optional[tuple] = None) -> tuple[ChainRecord, SettleInfo]:
+    """Drive the chain from rest (or from ``start``) to steady state and log ``config.n_periods``
+    whole periods.
 
     Args:
       drives: flywheel number -> :class:`vocab.plant.PeriodicDrive` (fundamental
@@ -452,8 +454,13 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
         steps). ``"python"``: the Python callback; ``"auto"`` (the default): native wherever the
         machine can build it and it knows every law's terms
         (:func:`rig.native_callback.choose_native`).
+      start: ``(angles, rates)``, one per body at t = 0 (a measured record's, rad and rad/s, or
+        m and m/s): the replay begins on the measured motion. A law that depends on where a body
+        is (a motor's cogging to ground, a free play) may have several steady states, and the one
+        measured is the one reached from there. The rigid rotation of a train free to turn keeps
+        the drive's mean-free velocity (the measured rates' relative parts are added to it).
 
-    The flywheels start with the common velocity that keeps the rigid rotation periodic
+    Without ``start`` the flywheels start at rest with the common velocity that keeps the rigid rotation periodic
     (:meth:`PeriodicDrive.mean_free_impulse` summed over the drives, over the total inertia).
     Steady state is declared by :func:`rig.simulate.settle_bound` on the relative angles, the
     rates and (with ``config.absolute_angles_periodic``) the absolute angles.
@@ -508,6 +515,16 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
     n = config.samples_for(omega_rad_s)
     d = mujoco.MjData(m)
     d.qvel[list(rig.dof_adr)] = sum(drv.mean_free_impulse(0.0) for drv in drives.values()) / sum(J)
+    if start is not None:
+        angles, rates = (np.asarray(x, dtype=float) for x in start)
+        if angles.shape != (N,) or rates.shape != (N,) or not (np.all(np.isfinite(angles))
+                                                               and np.all(np.isfinite(rates))):
+            raise ValueError(f"start: one finite angle and rate per body ({N}), got {start}")
+        d.qpos[list(rig.qpos_adr)] = angles
+        if grounded:  # tied to the frame: no rigid rotation to keep free of drift
+            d.qvel[list(rig.dof_adr)] = rates
+        else:
+            d.qvel[list(rig.dof_adr)] += rates - float(np.dot(J, rates)) / sum(J)
     states = [[0.0] * sum(t.n_states for t in law.terms if t.stateful) for law in plant.laws]
     ground_states = [[0.0] * sum(t.n_states for t in g.terms if t.stateful) if g is not None else []
                      for g in plant.grounds]

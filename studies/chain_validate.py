@@ -21,6 +21,7 @@ from jointrig.identify.chain import (REST_RATE_FRACTION, STICK_RATE_FRACTION, Ch
                                     inertia_name)
 from jointrig.identify.chain_diagnose import ChainDiagnosis, plant_and_inertias
 from jointrig.identify.harmonics import fourier_coefficients, max_harmonic, synthesize
+from jointrig.identify.zeros import SensorZeros, rezeroed, sensor_zeros
 from jointrig.identify.periods import RESOLVED_SIGMA, period_spectra, pooled_period_spectra
 from jointrig.vocab.plant import drive_of_record
 
@@ -134,6 +135,19 @@ def _floor(noise: float, den: float) -> float:
     return math.sqrt(max(noise, 0.0) / den + RIG_FIDELITY ** 2)
 
 
+def start_of(rec: ChainRecord, band: int) -> Optional[tuple]:
+    """Each body's angle and rate at the record's t = 0 from harmonics 0..``band`` of its periods
+    (the noise above them left out), for a replay that begins on the measured motion
+    (:func:`rig.chain.simulate_chain`'s ``start``); None where a body's angle is not measured."""
+    if any(a is None for a in rec.angles_rad):
+        return None
+    top = min(band, max_harmonic(rec.samples_per_period))
+    n = np.arange(top + 1)
+    c = [fourier_coefficients(a, rec.n_periods, top) for a in rec.angles_rad]
+    return (tuple(float(np.sum(x.real)) for x in c),
+            tuple(float(-np.sum(n * rec.omega_rad_s * x.imag)) for x in c))
+
+
 def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[ChainRecord], *,
                    band: int = 10, config: SimulationConfig = SimulationConfig(samples_per_period=128,
                                                                                max_step_s=REPLAY_MAX_STEP_S),
@@ -168,7 +182,7 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
                 continue
             try:
                 sim, _ = simulate_chain(rig.with_plant(plant), meas.omega_rad_s, drives, cfg, inertias_kgm2=J,
-                                        backend=backend)
+                                        backend=backend, start=start_of(meas, top))
             except SimulationError as err:  # no steady state, or a divergence: a reason, not a crash
                 failed[name] = (f"the {name} model reaches no periodic steady state under the measured drive of "
                                 f"{meas.source}: {err}")
@@ -222,7 +236,7 @@ def rig_replay(rig: ChainRig, runs: Sequence, band: int, *, backend: str = "auto
                                    settle_tol=1e-7)
             try:
                 sim, _ = simulate_chain(rig.with_plant(plant), rec.omega_rad_s, drives, cfg, inertias_kgm2=J,
-                                        backend=backend)
+                                        backend=backend, start=start_of(rec, band))
             except SimulationError as err:
                 return f"no periodic steady state under the drive of {rec.source}: {err}"
             out.append(prepare_chain_runs([channel_corrected(sim, fit.spec, read=True)], band=band)[0])
@@ -334,6 +348,9 @@ class TrainReport:
     #: :data:`FORMS`: "train" (every body's position measured) or "relative" (the relative angle
     #: alone: the joint's twist as one body tied to the frame by the joint's law)
     form: str = "train"
+    #: each channel's mean over the fitted runs, the angles' taken out before the diagnosis
+    #: (:class:`identify.zeros.SensorZeros`; None where not read)
+    zeros: Optional[SensorZeros] = None
 
     @property
     def adopted(self) -> bool:
@@ -392,7 +409,7 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
                         holdout: Optional[Sequence[int]] = None, written: Sequence[tuple] = (),
                         band: int = 20, alpha: float = 1e-3, fidelity: Optional[float] = None,
                         progress=None, backend: str = "auto", form: str = "train",
-                        max_causes: int = DEFAULT_MAX_CAUSES) -> TrainReport:
+                        max_causes: int = DEFAULT_MAX_CAUSES, zeroed: bool = False) -> TrainReport:
     """Diagnose a measured train on the runs not held out, and replay the held-out runs' drives on
     the nominal and the extended model in ``rig`` (its bodies and drives; the user's model, or
     one written for the file's bodies and drives). ``holdout``: run indices (default: runs of
@@ -401,7 +418,10 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
     (:func:`identify.chain_diagnose.nominal_spec` with ``twist``), and the report says "joint".
     ``fidelity``: None measures the balance's fidelity on the adopted model's replay in ``rig``
     (:func:`measured_diagnosis`); a number fixes it relative to each run's largest balanced torque.
-    ``max_causes``: the most causes adopted (the evidence decides below it)."""
+    ``max_causes``: the most causes adopted (the evidence decides below it). ``zeroed``: the
+    encoders were zeroed together, so their zeros are kept; otherwise every angle channel is taken
+    about its mean over the fitted runs first (:mod:`identify.zeros`), and the report says what
+    each twist reads at rest."""
     if form not in FORMS:
         raise ValueError(f"form must be one of {FORMS}, got {form!r}")
     from jointrig.identify.chain_diagnose import diagnose_chain, nominal_spec, prepare_chain_runs, train_misfit
@@ -423,6 +443,9 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
         held = tuple(sorted(holdout)) if holdout is not None else holdout_of_another_kind(settings)
         fit_recs = [r for i, r in enumerate(records) if i not in held]
         held_recs = [r for i, r in enumerate(records) if i in held]
+    zeros = sensor_zeros(fit_recs, keep=zeroed)
+    fit_recs, held_recs = [rezeroed(r, zeros) for r in fit_recs], [rezeroed(r, zeros) for r in held_recs]
+    records = [rezeroed(r, zeros) for r in records]
     say = progress or (lambda msg: None)
     say(f"diagnosing {len(fit_recs)} runs of a {rig.n_flywheels}-body train; {len(held_recs)} held out for validation")
     notes = []
@@ -478,4 +501,4 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
                               d.nominal, band, rig.kind)
     return TrainReport(tuple(run_ids), held, d, v, verdict, general, tuple(written),
                        str(rig.path) if written else None, tuple(notes), split, rig.kind, tuple(settings), misfit,
-                       form)
+                       form, zeros)

@@ -826,3 +826,35 @@ def test_a_spec_refuses_grounds_of_another_length_and_a_column_the_data_do_not_e
     system = chain_system(still, ChainSpec(((Viscous(), Power(1)),) * 2, bearings=(3,)), n_harmonics=3)
     with pytest.raises(ValueError, match=r"\['J3_kgm2', 'bearing3_damping_Nms_per_rad'\] have an all-zero column"):
         solve_banded(system)
+
+
+def test_a_replay_started_on_the_measured_motion_reaches_that_steady_state():
+    # A carriage (12 kg, 40 N s/m) with a linear motor's cogging (3 N, 10 mm pitch) driven at 47 N:
+    # a steady state in every pitch of the cogging. From rest the rig settles in one; started from a
+    # record's state at t = 0 (studies.chain_validate.start_of) it settles in that record's, here the
+    # same motion a pitch on: its positions a pitch from the first's to 1e-6 of the swing (the rig's
+    # settle tolerance, 1e-7, and the band-limited start).
+    import math
+
+    from jointrig.identify.chain import ChainPlant
+    from jointrig.rig.chain import rig_of_bodies, simulate_chain
+    from jointrig.rig.simulate import SimulationConfig
+    from jointrig.studies.chain_validate import start_of
+    from jointrig.vocab.law import Cogging, JointLaw
+    from jointrig.vocab.plant import PeriodicDrive
+
+    z, w = 2 * math.pi / 0.01, 12.566
+    law = JointLaw((Viscous(), Cogging(z), Cogging(z, quadrature=True)), (40.0, 3.0, 0.0))
+    rig = rig_of_bodies(1, (1,), "slide")
+    plant = ChainPlant((), (0.0,), (law,))
+    cfg = SimulationConfig(samples_per_period=256, max_step_s=2e-4, absolute_angles_periodic=False)
+    drives = {1: PeriodicDrive.cosine(w, 47.0)}
+    rest, _ = simulate_chain(rig, w, drives, cfg, plant=plant, inertias_kgm2=(12.0,), backend="python")
+    angles, rates = start_of(rest, 20)
+    shifted = (tuple(a + 0.01 for a in angles), rates)  # the same motion a pitch on
+    again, _ = simulate_chain(rig, w, drives, cfg, plant=plant, inertias_kgm2=(12.0,), backend="python",
+                              start=shifted)
+    swing = float(np.ptp(rest.angles_rad[0]))
+    np.testing.assert_allclose(again.angles_rad[0] - 0.01, rest.angles_rad[0], rtol=0, atol=1e-6 * swing)
+    with pytest.raises(ValueError, match="one finite angle and rate per body"):
+        simulate_chain(rig, w, drives, cfg, plant=plant, inertias_kgm2=(12.0,), start=((0.0, 1.0), (0.0, 0.0)))

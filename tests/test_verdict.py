@@ -350,9 +350,10 @@ def test_where_the_torque_acts_is_an_option(tmp_path, capsys):
 def test_a_constant_zero_offset_is_named_as_such(tmp_path):
     # issue 37: a constant 0.05 rad offset of the relative angle was taken for an asymmetric
     # stiffness (a = 3 gamma 0.05) with only a hint. On the stiff cubic joint of the independent
-    # bench, the first thing to do names the offset of joint 1's twist and its size (within 10%:
-    # the fit's a and gamma carry the noise): the nominal model's twist zero (a sensor's range,
-    # 0.01 rad) and what the even stiffness reads as, added.
+    # bench, the first thing to do names the zero of joint 1's twist and its size: its mean over the
+    # fitted runs (taken out before the fit, identify/zeros.py) and the zero the fit reads on top,
+    # within 3 standard errors of the 0.05 rad added and the bench's own offsets; no even stiffness.
+    import numpy as np
     from jointrig.present.train_report import offset_readings
 
     def shifted(t, T, p1, p2):
@@ -362,9 +363,11 @@ def test_a_constant_zero_offset_is_named_as_such(tmp_path):
                    transform=shifted)
     report = _train(read_runs(path))
     (first,) = offset_readings(report)
-    assert "zero offset of the twist of joint 1 (phi1 - phi2)" in first, first
-    delta = float(first.split("(3 gamma) = ")[1].split(" rad")[0])
-    assert delta == pytest.approx(0.05, rel=0.1)
+    assert first.startswith("the twist of joint 1 (phi1 - phi2) reads "), first
+    value, se = (float(x) for x in first.split(" reads ")[1].split(" rad")[0].split(" +- "))
+    bench = np.random.default_rng(4).uniform(-1, 1, 3) * np.array([0.5, 2e-3, 2e-3])  # bench_sim.measure's first draw
+    assert abs(value - (0.05 + bench[1] - bench[2])) <= 3 * se, (value, se)
+    assert not [s for s in report.diagnosis.steps if s.effect == "asymmetric_stiffness"]
 
 
 @pytest.mark.slow
@@ -423,3 +426,28 @@ if __name__ == "__main__":
         with tempfile.TemporaryDirectory() as tmp:
             _whichever_run(Path(tmp), joint)
         print(f"{joint}: dry friction adopted whichever run is held out, within 3 standard errors")
+
+
+def test_the_users_model_is_compared_only_provisionally_when_nothing_explains_the_data(tmp_path):
+    # issue 49: where the verdict is unexplained, the fit the data's values come from may itself be
+    # wrong, so a parameter that differs from the user's model is a lead, not a finding: the first
+    # screen, the text, the page and the JSON say so; an explained verdict's comparison stays firm.
+    import json
+    from dataclasses import replace
+
+    from jointrig.identify.verdict import Verdict
+    from jointrig.present.train_report import format_train_report, train_report_json, write_train_html
+
+    path = measure(JOINTS["paper"], _points("paper"), tmp_path / "bench.csv", seed=2, fs_Hz=2000.0, n_periods=6.5)
+    report = replace(_train(read_runs(path)), written=(("joint1_k_Nm_per_rad", 2500.0), ("J1_kgm2", 2.0)))
+    firm = format_train_report(report)
+    assert "As written, your model has joint1_k = 2500" in firm and "PROVISIONAL" not in firm, firm[:1500]
+    lead = replace(report, verdict=Verdict("unexplained", "a misfit no catalogued cause explains"))
+    text = format_train_report(lead)
+    assert "Provisionally (no model explains the data" in text and "PROVISIONAL" in text, text[:1500]
+    assert "may differ, 20% lower" in text and "DIFFERS" not in text
+    rows = json.loads(json.dumps(train_report_json(lead)))["as_written"]
+    assert rows["joint1_k_Nm_per_rad"]["provisional"] and rows["joint1_k_Nm_per_rad"]["differs"]
+    assert not train_report_json(report)["as_written"]["joint1_k_Nm_per_rad"]["provisional"]
+    write_train_html(tmp_path / "r.html", lead, text, title="t")
+    assert "provisional: no model explains the data" in (tmp_path / "r.html").read_text()

@@ -47,6 +47,8 @@ def main(argv=None) -> int:
         forwarded.append("-q")
     if args.zero_per_run:
         forwarded.append("--zero-per-run")
+    if args.zeroed:
+        forwarded.append("--zeroed")
     if args.model is not None:
         forwarded += ["--model", str(args.model)]
     forwarded += ["--torque-on", args.torque_on]

@@ -61,10 +61,18 @@ def add_data_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--zero-per-run", action="store_true",
                    help="take each run's mean angles as their zero (encoders zeroed at the start of each recording; "
                         "right for a symmetric joint). Without it such a file is refused")
+    p.add_argument("--zeroed", action="store_true",
+                   help="the encoders were zeroed together (every twist reads 0 at rest without torque): their zeros "
+                        "are kept, and the report says where the data disagree. Without it every angle channel is "
+                        "taken about its mean over the fitted runs and each twist's zero is read from the data")
     p.add_argument("--holdout", nargs="+", metavar="RUN",
                    help="run labels held out of the fit for validation (default: runs of another kind than the "
                         "fit: another excitation, else an inner level, else an inner frequency, else every third; "
                         "with one or two runs, the later half of each run's periods)")
+    p.add_argument("--validate", type=Path, metavar="OTHER",
+                   help="hold out every run of another file or folder (the same bench, same columns and units; any "
+                        "excitation the rig can replay: other levels, a multisine) and fit on every run of DATA, as "
+                        "benchmarks give a separate validation record. Not with --holdout")
     p.add_argument("--band", type=int, default=20, help="harmonics 0..BAND fitted and compared (default: %(default)s)")
     p.add_argument("--torque-share", type=float, default=0.5,
                    help="the undriven flywheel's inertia over J1 + J2 (J2/(J1+J2) with the drive on flywheel 1), "
@@ -121,6 +129,9 @@ def _main(args: argparse.Namespace) -> int:
         if args.fidelity is not None:
             check_range(args.fidelity, "--fidelity", lo=0, hi=0.5)
         check_range(args.max_causes, "--max-causes", lo=1, hi=20, integer=True)
+        if args.validate is not None and args.holdout:
+            raise BadArgument("--validate holds out every run of another record and --holdout some of this one's: "
+                              "give one of them")
         for option, path in (("--json", args.json), ("--rrd", args.rrd), ("--report", args.report),
                              ("--card", args.card), ("--card-png", args.card_png), ("--mjcf", args.mjcf)):
             check_output(path, option)
@@ -134,6 +145,13 @@ def _main(args: argparse.Namespace) -> int:
             except RigModelError as err:
                 raise BadArgument(f"--model: {err}") from None
         loaded = read_runs(args.data, columns=args.columns, units=args.units, zero_per_run=args.zero_per_run)
+        if args.validate is not None:
+            other = read_runs(args.validate, columns=args.columns, units=args.units, zero_per_run=args.zero_per_run)
+            if (other.is_train, other.has_both_angles, other.kind) != (loaded.is_train, loaded.has_both_angles,
+                                                                        loaded.kind):
+                raise BadArgument(f"--validate {args.validate}: its columns are another bench's than {args.data}'s "
+                                  f"(expected the same angles and drives)")
+            loaded = _with_validation(loaded, other, args.validate)
         if loaded.is_train:
             return _train(args, loaded, model)
         share = args.torque_share
@@ -155,10 +173,28 @@ def _said(err: Exception, status: int) -> int:
     return status
 
 
+#: Before a run label of the --validate record: which record it came from.
+VALIDATE_PREFIX = "validate:"
+
+
+def _with_validation(loaded, other, path: Path):
+    """``loaded``'s runs then ``other``'s, labelled ``validate:<run>`` (:func:`held_out_runs`
+    holds those out), with ``other``'s notes said of it."""
+    from dataclasses import replace
+
+    ids = tuple(VALIDATE_PREFIX + r for r in other.run_ids)
+    notes = tuple(f"{path} (--validate): {n}" for n in other.notes)
+    return replace(loaded, run_ids=loaded.run_ids + ids, records=loaded.records + other.records,
+                   notes=loaded.notes + notes)
+
+
 def held_out_runs(args: argparse.Namespace, ids: list) -> "list[int] | None":
-    """The indices of the runs ``--holdout`` names (None without it), refusing a label not in the file."""
+    """The indices of the runs ``--holdout`` names (with ``--validate``: every run of that record;
+    None without either), refusing a label not in the file."""
     from jointrig.measured.runs import RunsFileError
 
+    if args.validate is not None:
+        return [i for i, r in enumerate(ids) if r.startswith(VALIDATE_PREFIX)]
     if not args.holdout:
         return None
     unknown = [h for h in args.holdout if h not in ids]
@@ -218,8 +254,18 @@ def _train(args: argparse.Namespace, loaded, model, two_flywheels: bool = False)
         ids = list(loaded.run_ids)
         _refuse_long_periods(args, ids, loaded.records)
         holdout = held_out_runs(args, ids)
-        if holdout is not None and len(ids) - len(holdout) < 3:
+        if holdout is not None and args.validate is None and len(ids) - len(holdout) < 3:
             raise BadArgument(f"--holdout leaves {len(ids) - len(holdout)} run(s) to fit; expected at least 3")
+        if args.validate is not None:
+            fit = [r for i, r in enumerate(loaded.records) if i not in holdout]
+            held = [r for i, r in enumerate(loaded.records) if i in holdout]
+
+            def drives(rs) -> set:
+                return {i for r in rs for i, t in enumerate(r.torques_Nm, start=1) if t is not None}
+            if {r.n_flywheels for r in held} != {N} or not drives(held) <= drives(fit):
+                raise BadArgument(f"--validate {args.validate}: {held[0].n_flywheels} bodies driven at "
+                                  f"{sorted(drives(held))}, {args.data} {N} driven at {sorted(drives(fit))}: expected "
+                                  f"the same bench")
         if holdout is None and len(ids) < MIN_RUNS_TO_HOLD_OUT + 1:  # each run's later periods are held out
             short = [f"{rid} ({r.n_periods})" for rid, r in zip(ids, loaded.records) if r.n_periods < MIN_PERIODS_TO_SPLIT]
             if short:
@@ -245,7 +291,7 @@ def _train(args: argparse.Namespace, loaded, model, two_flywheels: bool = False)
         written = written_of(model) if model is not None else ()
         report = run_train_diagnosis(loaded.records, run_ids=ids, rig=rig, holdout=holdout, written=written,
                                      band=args.band, alpha=args.alpha, fidelity=args.fidelity,
-                                     max_causes=args.max_causes,
+                                     max_causes=args.max_causes, zeroed=args.zeroed,
                                      progress=lambda msg: log.info("%s", msg),
                                      form="relative" if relative else "train")
     except (RunsFileError, RecordError, BadArgument, ChainIdentifiabilityError) as err:

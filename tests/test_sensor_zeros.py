@@ -1,0 +1,101 @@
+"""Sensors as a lab has them (issue 49): every encoder with its own zero, a torque cell's offset.
+
+The files come from the independent bench (tests/bench_sim.py: scipy, event-driven friction and
+free play), each encoder's zero drawn uniform in +-pi and the torque cell's offset up to 2% of the
+largest drive amplitude, added before the bench's own small offsets and its 0.2% noise (the same
+noise as the zeroed file's: the bench draws it after the offsets). The diagnosis takes every angle
+channel about its mean over the fitted runs (identify/zeros.py) and reads each twist's zero on
+top, so the verdict, the causes and every parameter are those of the zeroed sensors; the zero
+read and the torque's mean are each within 3 of their standard errors of what the bench added.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from bench_sim import JOINTS, POINTS, measure, with_effect
+from jointrig.identify.zeros import rezeroed, sensor_zeros
+from jointrig.measured.runs import as_train, read_runs
+from jointrig.present.train_report import _values, format_train_report, offset_readings, train_report_json
+from jointrig.rig.chain import rig_of_bodies
+from jointrig.studies.chain_validate import run_train_diagnosis
+
+#: The two runs of the middle frequency held out, as tests/test_independent_bench.py holds them.
+HOLDOUT = (2, 3)
+EFFECT = {"none": {}, "backlash": {"gap": 0.003}}
+
+
+def _file(tmp_path, joint: str, effect: str, zeros_rad=(0.0, 0.0), torque_offset_Nm: float = 0.0, seed: int = 7):
+    pts = [p for i, p in enumerate(POINTS[joint]) if i % 3 != 1]
+
+    def unzeroed(t, T, p1, p2):
+        return t, T + torque_offset_Nm, p1 + zeros_rad[0], p2 + zeros_rad[1]
+
+    name = f"{joint}-{effect}-{zeros_rad[0]:.3f}-{zeros_rad[1]:.3f}.csv"
+    return measure(with_effect(JOINTS[joint], **EFFECT[effect]), pts, tmp_path / name, seed=seed, fs_Hz=2000.0,
+                   n_periods=6.5, transform=unzeroed)
+
+
+def _bench_offsets(seed: int) -> np.ndarray:
+    """The bench's own sensor offsets (torque N m, phi1 rad, phi2 rad): its first draw
+    (bench_sim.measure)."""
+    return np.random.default_rng(seed).uniform(-1, 1, 3) * np.array([0.5, 2e-3, 2e-3])
+
+
+def _diagnose(path, zeroed: bool = False):
+    loaded = as_train(read_runs(path))
+    return run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(2, [1]), holdout=HOLDOUT,
+                               zeroed=zeroed)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("joint, effect", [("paper", "none"), ("light", "backlash")])
+def test_encoders_with_their_own_zeros_give_the_zeroed_diagnosis_and_read_the_zero(tmp_path, joint, effect):
+    rng = np.random.default_rng(sum(map(ord, joint + effect)))
+    zeros = rng.uniform(-math.pi, math.pi, 2)
+    amp = max(M0 for _, M0 in POINTS[joint])
+    offset = rng.uniform(-0.02, 0.02) * amp
+    zeroed = _diagnose(_file(tmp_path, joint, effect))
+    lab = _diagnose(_file(tmp_path, joint, effect, tuple(zeros), offset))
+    assert lab.verdict.verdict == zeroed.verdict.verdict, (lab.verdict, zeroed.verdict)
+    assert [s.label for s in lab.diagnosis.steps] == [s.label for s in zeroed.diagnosis.steps]
+    want = _values(zeroed.diagnosis.final, zeroed)
+    got = _values(lab.diagnosis.final, lab)
+    assert got.keys() == want.keys()
+    bench = _bench_offsets(7)
+    for name, (value, se) in got.items():
+        if name == "joint1_angle_offset_rad":  # the zero each reads: the bench's own, and the one added
+            continue
+        assert abs(value - want[name][0]) <= 3 * want[name][1], (name, value, want[name])
+    # the twist's zero read, against what the bench added: a symmetric joint under a drive with no
+    # mean twists about its rest (the rubber joint's cubic law and the free play read it in the fit)
+    value, se = got["joint1_angle_offset_rad"]
+    truth = zeros[0] - zeros[1] + bench[1] - bench[2]
+    assert abs(value - truth) <= 3 * se, (value, se, truth)
+    # the torque cell's offset: a train free to turn carries no mean torque
+    mean, se_t = lab.zeros.torques[0], lab.zeros.torque_se[0]
+    assert abs(mean - (offset + bench[0])) <= 3 * se_t, (mean, se_t, offset + bench[0])
+    text = format_train_report(lab)
+    assert "reads" in text and "at rest: the angle sensors were not zeroed together" in text, text[:2000]
+    assert f"averages {mean:.4g}" in text
+    # the JSON's twist zero is the one read, as the text's
+    j = train_report_json(lab)
+    assert j["extended"]["parameters"]["joint1_angle_offset_rad"] == pytest.approx(value, rel=1e-12)
+
+
+@pytest.mark.slow
+def test_zeroed_sensors_are_kept_and_checked_against_the_data(tmp_path):
+    # --zeroed keeps the encoders' zeros: nothing is taken out of the records, and where the data's
+    # mean twist says the encoders were not zeroed together, the report says so.
+    path = _file(tmp_path, "paper", "none", (2.0, 0.0))
+    loaded = as_train(read_runs(path))
+    kept = sensor_zeros(loaded.records, keep=True)
+    assert kept.angles == (0.0, 0.0) and all(rezeroed(r, kept) is r for r in loaded.records)
+    report = _diagnose(path, zeroed=True)
+    assert report.zeros.kept and report.zeros.twists[0] == pytest.approx(2.0, abs=0.01)
+    (line,) = [s for s in offset_readings(report) if "--zeroed" in s]
+    assert "the twist of joint 1 (phi1 - phi2) averages 2" in line, line
