@@ -710,6 +710,11 @@ def _profile(problem: _Problem, cand: Candidate, base: ChainSpec, weights) -> Ch
     """:func:`identify.causes.profile` over the candidate's bounds at its place."""
     here = _twist_runs(problem, cand)
     lo, hi = cand.cause.bounds(here)
+    if cand.cause.name == TWIST_ZERO.name and cand.at_joint:
+        # a free play's rest is anywhere in its play: the twist's mean (what identify.zeros takes
+        # out) may sit off it by up to the half gap, beyond a sensor's zero error
+        gap = max((t.gap_rad for t in base.joints[cand.place - 1] if isinstance(t, Power)), default=0.0)
+        lo, hi = min(lo, -gap), max(hi, gap)
     mag = cand.magnitude_name()
 
     def penalised(f: ChainFit) -> float:

@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Optional
+from typing import Optional, Sequence
 
 import numpy as np
 
@@ -287,6 +287,50 @@ def periods_by_least_squares(t: np.ndarray, channels: np.ndarray, omega: float, 
         ss += np.sum((x[:, sel].T - B @ coef) ** 2, axis=0)
     used = sum(sel.size for sel in idx)
     return PeriodFit(out, P, N, H, np.sqrt(ss / max(used, 1)), cond)
+
+
+#: A record's leading periods are a transient (a record from rest, a drive just switched on) while
+#: they depart from its last period by more than this many times the last two periods' own
+#: difference, both over the lowest harmonics (:data:`TRANSIENT_HARMONICS`) where a transient
+#: shows and each coefficient's noise is the sample noise over the square root of the samples:
+#: steady periods differ by their noise alone (over 2 x 11 coefficients per channel the ratio of
+#: two such differences exceeds 4 by chance about once in 1e8).
+TRANSIENT_FACTOR = 4.0
+#: ... and by more than this share of each channel's swing (a simulated record settles to 1e-7
+#: of it; no balance sees a transient below this).
+TRANSIENT_FLOOR = 1e-6
+#: Harmonics 0..this of each period compared (fewer where a period holds fewer samples).
+TRANSIENT_HARMONICS = 10
+
+
+def transient_periods(channels: Sequence[np.ndarray], n_periods: int, own_mean: Sequence[bool] = ()) -> int:
+    """How many leading whole periods of a record are a transient (:data:`TRANSIENT_FACTOR`):
+    harmonics 0..:data:`TRANSIENT_HARMONICS` of each channel's every period (whole periods,
+    ``n_periods`` of them), each over the channel's swing, compared with the last period's. A
+    channel marked in ``own_mean`` loses its mean (a free body's position may move from period to
+    period; a joint's twist may not). At most all but the last two periods (they measure the
+    noise) are cut; 0 with fewer than three periods or no channel (pure)."""
+    P = int(n_periods)
+    if P < 3 or not channels:
+        return 0
+    coeffs = []
+    for k, x in enumerate(channels):
+        per = np.asarray(x, float).reshape(P, -1)
+        H = min(TRANSIENT_HARMONICS, per.shape[1] // 2 - 1)
+        c = np.fft.rfft(per, axis=1)[:, : H + 1] / per.shape[1]
+        if k < len(own_mean) and own_mean[k]:
+            c = c[:, 1:]
+        coeffs.append(c / max(float(np.ptp(x)), 1e-300))
+    C = np.concatenate(coeffs, axis=1)  # (P, coefficients)
+
+    def rms(a) -> float:
+        return float(np.sqrt(np.mean(np.abs(a) ** 2)))
+
+    bound = max(TRANSIENT_FACTOR * rms(C[-1] - C[-2]), TRANSIENT_FLOOR)
+    k = 0
+    while k < P - 2 and rms(C[k] - C[-1]) > bound:
+        k += 1
+    return k
 
 
 @dataclass(frozen=True)

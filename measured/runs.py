@@ -46,8 +46,9 @@ from typing import Mapping, Optional, Sequence, Union
 
 import numpy as np
 
-from jointrig.identify.periods import (MAX_CLOCK_DEVIATION, estimate_fundamental, fit_at, linear_drift,
-                              ls_harmonics, periods_by_least_squares, repeat_statistic, uniform_clock)
+from jointrig.identify.periods import (MAX_CLOCK_DEVIATION, TRANSIENT_FACTOR, estimate_fundamental, fit_at,
+                                      linear_drift, ls_harmonics, periods_by_least_squares, repeat_statistic,
+                                      transient_periods, uniform_clock)
 from jointrig.identify.chain import ChainRecord
 from jointrig.vocab.records import MAX_SI_VALUE, RecordError, SteadyStateRecord
 
@@ -460,6 +461,17 @@ def _whole_periods(where: str, run: str, t: np.ndarray, chans: dict, drive: str,
                      f"per period; residual RMS relative to each channel's RMS (noise plus content above harmonic "
                      f"{fit.harmonics}): {share}"
                      + (f"; the last {n - used} samples (an incomplete period) are not used" if n - used > 0 else ""))
+    angles = [np.asarray(d) for name, d in zip(chans, data) if name.startswith(("phi", "x"))]
+    # every joint's twist (a free train may turn as a whole, its angles ramping); one body's own angle
+    twists = [a - b for a, b in zip(angles, angles[1:])]
+    cut = transient_periods(twists or angles, P, () if twists else (True,) * len(angles))
+    if cut:  # a record from rest: its transient is not a steady state
+        n_cut = cut * (len(t_rec) // P)
+        data, t_rec = [np.asarray(d)[n_cut:] for d in data], t_rec[n_cut:]
+        notes.append(f"run {run}: its first {cut} period(s) are a transient (they depart from its last period by more "
+                     f"than {TRANSIENT_FACTOR:g} times its last two periods' own difference: a record from rest, or a "
+                     f"drive just switched on): left out, the {P - cut} steady period(s) after them kept")
+        P -= cut
     return w_rec, t_rec, P, dict(zip(chans, data))
 
 
@@ -493,7 +505,8 @@ def _refuse_twist_drift(where: str, run: str, what: str, x: np.ndarray, d, unit:
         raise RunsFileError(
             f"{where}: run {run}: {what} drifts by {d.over_record:.3g} {unit} over the record ({d.slope:.3g} "
             f"{unit}/s, {abs(d.t_stat):.3g} standard errors): a steady-state record repeats every period (a slipping "
-            f"encoder or an unsettled transient?)")
+            f"encoder, or a transient that has not settled: from rest, record until at least 2 steady periods follow "
+            f"the transient)")
 
 
 def _check_drift(where: str, run: str, t: np.ndarray, data: dict, omega: float, notes: list) -> None:

@@ -369,20 +369,22 @@ def written_of(rig: ChainRig) -> tuple:
             + tuple(rig.plant.parameters().items()))
 
 
+def periods_of(rec: ChainRecord, lo: int, hi: int, label: str = "") -> ChainRecord:
+    """Whole periods ``lo..hi - 1`` (0-based) of a run, its source labelled (pure)."""
+    n = rec.samples_per_period
+    cut = slice(lo * n, hi * n)
+    pick = (lambda xs: None if xs is None else tuple(None if x is None else x[cut] for x in xs))
+    return replace(rec, time_s=rec.time_s[cut], torques_Nm=pick(rec.torques_Nm), angles_rad=pick(rec.angles_rad),
+                   rates_rad_s=pick(rec.rates_rad_s), n_periods=hi - lo,
+                   source=f"{rec.source} ({label})" if label else rec.source)
+
+
 def split_chain_periods(rec: ChainRecord) -> tuple[ChainRecord, ChainRecord]:
     """A train's run as its earlier and its later whole periods (half each; the later half gets
     the odd one), to fit on one and validate on the other when there are too few runs to hold
     one out (pure)."""
-    P, n = rec.n_periods, rec.samples_per_period
-    k = P // 2
-
-    def part(lo, hi, label):
-        cut = slice(lo * n, hi * n)
-        pick = (lambda xs: None if xs is None else tuple(None if x is None else x[cut] for x in xs))
-        return replace(rec, time_s=rec.time_s[cut], torques_Nm=pick(rec.torques_Nm), angles_rad=pick(rec.angles_rad),
-                       rates_rad_s=pick(rec.rates_rad_s), n_periods=hi - lo, source=f"{rec.source} ({label})")
-
-    return part(0, k, f"periods 1-{k}"), part(k, P, f"periods {k + 1}-{P}")
+    P, k = rec.n_periods, rec.n_periods // 2
+    return periods_of(rec, 0, k, f"periods 1-{k}"), periods_of(rec, k, P, f"periods {k + 1}-{P}")
 
 
 #: The band in which a drive's lines are counted for its kind (a sine, or several lines).
@@ -428,14 +430,16 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
     from jointrig.identify.defaults import DEFAULT_FIDELITY
 
     records = list(records)
+    notes = []
     settings = [train_setting(r) for r in records]
     split = holdout is None and len(records) < MIN_RUNS_TO_HOLD_OUT + 1
     if split:  # one long run (or a few): each one's later periods are held out
-        short = [rid for rid, r in zip(run_ids, records) if r.n_periods < MIN_PERIODS_TO_SPLIT]
+        short = [f"{rid} ({r.n_periods})" for rid, r in zip(run_ids, records) if r.n_periods < MIN_PERIODS_TO_SPLIT]
         if short:
-            raise RecordError(f"run(s) {short} hold fewer than {MIN_PERIODS_TO_SPLIT} whole periods: with fewer than "
-                              f"{MIN_RUNS_TO_HOLD_OUT + 1} runs the diagnosis fits each run's earlier periods and "
-                              f"holds out the later ones")
+            raise RecordError(f"run(s) {', '.join(short)} hold fewer than {MIN_PERIODS_TO_SPLIT} steady whole periods: "
+                              f"with fewer than {MIN_RUNS_TO_HOLD_OUT + 1} runs the diagnosis fits each run's earlier "
+                              f"periods and holds out the later ones. Record at least {MIN_PERIODS_TO_SPLIT} periods "
+                              f"after the transient, or give a separate validation record (--validate OTHER)")
         halves = [split_chain_periods(r) for r in records]
         fit_recs, held_recs = [a for a, _ in halves], [b for _, b in halves]
         held = ()
@@ -448,7 +452,6 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
     records = [rezeroed(r, zeros) for r in records]
     say = progress or (lambda msg: None)
     say(f"diagnosing {len(fit_recs)} runs of a {rig.n_flywheels}-body train; {len(held_recs)} held out for validation")
-    notes = []
     top = min(max_harmonic(r.samples_per_period) for r in records)
     if top < band:
         worst = min(range(len(records)), key=lambda i: records[i].samples_per_period)

@@ -348,8 +348,18 @@ def steady_state(joint: Joint, w: float, M0: float, *, tol: float = 1e-8, max_pe
     raise RuntimeError(f"no steady state after {max_periods} periods at omega = {w}, M0 = {M0}")
 
 
-def record(joint: Joint, w: float, M0: float, *, fs_Hz: float, n_periods: float, start_phase: float):
-    """Clean samples at a fixed rate: time (from 0), recorded drive torque, phi1, phi2."""
+def record(joint: Joint, w: float, M0: float, *, fs_Hz: float, n_periods: float, start_phase: float,
+           from_rest: bool = False):
+    """Clean samples at a fixed rate: time (from 0), recorded drive torque, phi1, phi2.
+    ``from_rest``: the drive switched on at t = 0 at its crest with the flywheels at rest (no
+    steady state sought, ``start_phase`` not used; at the crest the drive's impulse has no mean,
+    so the train does not start turning as a whole), the transient recorded."""
+    if from_rest:
+        y0 = np.zeros_like(_linear_start(joint, w, M0))
+        mode = {"s": 1, "j": 0, "i": 1, "xr": None, "Fr": 0.0, "kinks": (1 if joint.gap > 0 else -1, -1)}
+        t_eval = np.arange(int(n_periods * 2 * math.pi / w * fs_Hz)) / fs_Hz
+        ys, _, _ = simulate(joint, w, M0, t_eval, y0, mode, t0=0.0)
+        return t_eval, M0 * np.cos(w * t_eval), ys[:, 0], ys[:, 1]
     t_ss, y, mode = steady_state(joint, w, M0)
     t_start = t_ss + start_phase / w
     n = int(n_periods * 2 * math.pi / w * fs_Hz)
@@ -361,13 +371,15 @@ def record(joint: Joint, w: float, M0: float, *, fs_Hz: float, n_periods: float,
 
 def measure(joint: Joint, points, path: Path, *, noise: float = 0.002, seed: int = 0, fs_Hz: float = 5000.0,
             n_periods: float = 8.4, columns=("run", "Time [s]", "Torque [N m]", "phi1 [rad]", "phi2 [rad]"),
-            transform: Optional[Callable] = None, relative: bool = False) -> Path:
+            transform: Optional[Callable] = None, relative: bool = False, from_rest: bool = False) -> Path:
     """Simulate every (omega, M0) point and write one CSV as a DAQ would (module docstring).
 
     ``noise``: standard deviation of each channel's white noise relative to its RMS.
     ``transform(t, torque, phi1, phi2) -> same``: a measurement artefact applied before the noise.
     ``relative``: one twist sensor across the joint instead of two encoders: the columns ``run,
     Time [s], Torque [N m], phi [rad]``, phi1 - phi2 with one channel's offset and noise.
+    ``from_rest``: each run recorded from the drive's start with the flywheels at rest
+    (:func:`record`).
     """
     rng = np.random.default_rng(seed)
     offsets = rng.uniform(-1, 1, 3) * np.array([0.5, 2e-3, 2e-3])  # N m, rad, rad
@@ -375,7 +387,8 @@ def measure(joint: Joint, points, path: Path, *, noise: float = 0.002, seed: int
     if relative:
         lines[0] = lines[0].replace("phi1 [rad]", "phi [rad]")
     for i, (w, M0) in enumerate(points):
-        t, T, p1, p2 = record(joint, w, M0, fs_Hz=fs_Hz, n_periods=n_periods, start_phase=rng.uniform(0, 2 * math.pi))
+        t, T, p1, p2 = record(joint, w, M0, fs_Hz=fs_Hz, n_periods=n_periods, start_phase=rng.uniform(0, 2 * math.pi),
+                              from_rest=from_rest)
         if transform is not None:
             t, T, p1, p2 = transform(t, T, p1, p2)
         chans = []

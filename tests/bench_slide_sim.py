@@ -100,7 +100,7 @@ def steady_state(car: Carriage, w: float, F0: float, *, tol: float = 1e-9, max_p
 
 
 def _trace(car: Carriage, w: float, F0: float, rng, fs_Hz: float, n_periods: float, snr_db: float,
-           at_rest_m: float):
+           at_rest_m: float, force_offset_N: float = 0.0):
     t, y, mode = steady_state(car, w, F0)
     T = 2 * math.pi / w
     start = t + rng.uniform(0, T)
@@ -109,17 +109,18 @@ def _trace(car: Carriage, w: float, F0: float, rng, fs_Hz: float, n_periods: flo
     ys, _, _ = _simulate(car, w, F0, t_eval, y, mode, t)
     x = ys[:, 0]
     F = F0 * np.cos(w * t_eval)
-    F_meas = F + rng.normal(0.0, np.std(F) * 10 ** (-snr_db / 20), n)
+    F_meas = F + force_offset_N + rng.normal(0.0, np.std(F) * 10 ** (-snr_db / 20), n)
     x_meas = at_rest_m + x + rng.normal(0.0, np.std(x) * 10 ** (-snr_db / 20), n)
     return t_eval - start, F_meas, x_meas
 
 
 def daq_file(car: Carriage, w: float, F0: float, path, *, fs_Hz: float = 10000.0, n_periods: float = 30.4,
-             snr_db: float = 40.0, at_rest_m: float = 0.3512, seed: int = 0):
+             snr_db: float = 40.0, at_rest_m: float = 0.3512, seed: int = 0, force_offset_N: float = 0.0):
     """One long run of the drive at ``w`` rad/s and ``F0`` N, written as a motion controller's trace:
     ``time [s], force [N], x [mm]`` at a fixed rate from a random phase, the absolute encoder's
-    position (``at_rest_m`` plus the motion), white noise at ``snr_db`` on both."""
-    t, F, x = _trace(car, w, F0, np.random.default_rng(seed), fs_Hz, n_periods, snr_db, at_rest_m)
+    position (``at_rest_m`` plus the motion), white noise at ``snr_db`` on both; the force sensor
+    reads ``force_offset_N`` at rest (or a constant load acts: gravity on the axis, a cable's drag)."""
+    t, F, x = _trace(car, w, F0, np.random.default_rng(seed), fs_Hz, n_periods, snr_db, at_rest_m, force_offset_N)
     lines = ["time [s],force [N],x [mm]"]
     lines += [f"{tt:.5f},{f:.5f},{xx * 1e3:.6f}" for tt, f, xx in zip(t, F, x)]
     path.write_text("\n".join(lines) + "\n")

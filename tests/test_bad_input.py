@@ -288,7 +288,7 @@ def test_diagnose_command_refuses_before_any_work(tmp_path, data3, capsys, case)
 @pytest.mark.parametrize("data, match", [
     ("missing.csv", "no such file or folder"),
     ("two_runs.csv", r"2 run\(s\), and run\(s\) a \(3\), b \(3\) hold fewer than 4 whole periods: the diagnosis "
-                     r"needs 4 runs \(some held out for validation\) or runs of at least 4 periods"),
+                     r"needs 4 runs \(some held out for validation\), runs of at least 4 steady periods .*--validate"),
     ("header_only.csv", "no data rows"),
     ("nan.csv", "non-finite"),
     # a dead channel: all-zero angles, and angles so small that their squares underflow (issue 35:

@@ -99,3 +99,28 @@ def test_zeroed_sensors_are_kept_and_checked_against_the_data(tmp_path):
     assert report.zeros.kept and report.zeros.twists[0] == pytest.approx(2.0, abs=0.01)
     (line,) = [s for s in offset_readings(report) if "--zeroed" in s]
     assert "the twist of joint 1 (phi1 - phi2) averages 2" in line, line
+
+
+@pytest.mark.slow
+def test_a_constant_force_on_a_free_carriage_is_reported_and_changes_nothing(tmp_path):
+    # The independent carriage (12 kg, 40 N s/m, 25 N of dry friction; one long run at 150 N),
+    # its force sensor reading 6 N at rest (or a constant load: the two are the same data): the
+    # verdict and the friction as without it, each parameter within 3 of its standard errors of
+    # the zeroed sensor's, the mean force reported within 3 standard errors of the 6 N.
+    from bench_slide_sim import Carriage, daq_file as slide_file
+
+    def diagnosed(path):
+        loaded = read_runs(path)
+        return run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(1, [1], "slide"))
+
+    zeroed = diagnosed(slide_file(Carriage(), 12.566, 150.0, tmp_path / "a.csv"))
+    loaded = diagnosed(slide_file(Carriage(), 12.566, 150.0, tmp_path / "b.csv", force_offset_N=6.0))
+    assert loaded.verdict.verdict == zeroed.verdict.verdict == "explained"
+    assert [s.label for s in loaded.diagnosis.steps] == [s.label for s in zeroed.diagnosis.steps]
+    want, got = _values(zeroed.diagnosis.final, zeroed), _values(loaded.diagnosis.final, loaded)
+    for name, (value, se) in got.items():
+        assert abs(value - want[name][0]) <= 3 * want[name][1], (name, value, want[name])
+    mean, se = loaded.zeros.torques[0], loaded.zeros.torque_se[0]
+    assert abs(mean - 6.0) <= 3 * se if math.isfinite(se) else abs(mean - 6.0) < 0.1, (mean, se)
+    line = [s for s in offset_readings(loaded) if s.startswith("the drive force on body 1 averages")]
+    assert line and "a carriage free to move" in line[0] and "gravity on the axis" in line[0], line

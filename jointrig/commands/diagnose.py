@@ -271,8 +271,9 @@ def _train(args: argparse.Namespace, loaded, model, two_flywheels: bool = False)
             if short:
                 raise RunsFileError(f"{args.data}: {len(ids)} run(s), and run(s) {', '.join(short)} hold fewer than "
                                     f"{MIN_PERIODS_TO_SPLIT} whole periods: the diagnosis needs {MIN_RUNS_TO_HOLD_OUT + 1} "
-                                    f"runs (some held out for validation) or runs of at least {MIN_PERIODS_TO_SPLIT} "
-                                    f"periods (the later half held out)")
+                                    f"runs (some held out for validation), runs of at least {MIN_PERIODS_TO_SPLIT} "
+                                    f"steady periods (the later half held out), or a separate validation record "
+                                    f"(--validate OTHER)")
         if relative:
             s = loaded.torque_share
             loaded = replace(loaded, notes=loaded.notes + (
