@@ -33,3 +33,22 @@ def test_the_noise_level_is_one_option_name(name, capsys):
         main([name, "--help"])
     text = capsys.readouterr().out
     assert "--snr-db" in text, text
+
+
+def test_held_out_runs_are_one_option_name_and_a_verdict_is_no_error(capsys):
+    # issue 53: --holdout in every subcommand that holds runs out (diagnose-chain had --held-out),
+    # and the verdict is what the command reports, not its exit status: both diagnoses document
+    # 0 for any verdict, 2 for bad input, 1 for a failed identification.
+    import re
+
+    from jointrig.commands import diagnose, diagnose_chain
+
+    names = {}
+    for name in SUBCOMMANDS:
+        with pytest.raises(SystemExit):
+            main([name, "--help"])
+        names[name] = set(re.findall(r"--[a-z][a-z-]*", capsys.readouterr().out))
+    assert not any("--held-out" in n for n in names.values()), {k for k, n in names.items() if "--held-out" in n}
+    assert {"diagnose", "diagnose-chain", "card"} <= {k for k, n in names.items() if "--holdout" in n}
+    for module in (diagnose, diagnose_chain):
+        assert "unexplained" not in module.__doc__.split("Exit status")[1].split(".")[0], module.__doc__
