@@ -297,11 +297,16 @@ class BalanceFidelity:
       variance: ``(run, harmonic, equation) -> mean square misfit`` (N^2 m^2, N^2 on a slide).
       relative: RMS misfit over RMS balanced torque, every row.
       model: the replayed model's causes in words ("the nominal model" without any).
+      unmeasured: the runs (indices among the fitted ones) whose replay reached no steady state
+        (a joint stuck at a high frequency creeps under the rig's friction constraint): their
+        rows keep the fixed floor ``floor`` (relative to each run's largest balanced term).
     """
 
     variance: dict = field(repr=False)
     relative: float
     model: str
+    unmeasured: tuple = ()
+    floor: float = DEFAULT_FIDELITY
 
     def at(self, run: int, harmonic: int, equation: int) -> float:
         return self.variance.get((run, harmonic, equation), 0.0)
@@ -482,7 +487,9 @@ class _Problem:
             pooled = v.copy()
             for key in set(zip(h.tolist(), e.tolist())):
                 sel = (h == key[0]) & (e == key[1])
-                if isinstance(self.fidelity, BalanceFidelity):
+                if isinstance(self.fidelity, BalanceFidelity) and i in self.fidelity.unmeasured:
+                    floor = self.fidelity.floor ** 2 * size2
+                elif isinstance(self.fidelity, BalanceFidelity):
                     floor = max(self.fidelity.at(i, key[0], key[1]), (RIG_BALANCE_FLOOR**2) * size2)
                 else:
                     floor = self.fidelity ** 2 * size2
@@ -532,15 +539,20 @@ class _Problem:
         return f, w
 
 
-def balance_fidelity(replays: Sequence[ChainRun], fit: ChainFit, n_harmonics: int, masked: tuple = (),
+def balance_fidelity(replays: Sequence[Optional[ChainRun]], fit: ChainFit, n_harmonics: int, masked: tuple = (),
                      merging: tuple = (), model: str = "the fitted model") -> BalanceFidelity:
     """The balance's misfit on ``replays`` (the noise-free records of ``fit``'s model, one per fitted
-    run, prepared as the runs were) at ``fit``'s own parameters (pure): the rows of every run,
-    harmonic and equation as the diagnosis balances them (the same bodies masked, the same
-    joints' equations summed where they may stick), each harmonic's cosine and sine rows pooled.
-    The replays are the rig's true twists: the fit's angle offsets are not applied to them."""
+    run, prepared as the runs were; None where a run's replay reached no steady state) at
+    ``fit``'s own parameters (pure): the rows of every run, harmonic and equation as the diagnosis
+    balances them (the same bodies masked, the same joints' equations summed where they may
+    stick), each harmonic's cosine and sine rows pooled; a run without a replay is
+    :attr:`BalanceFidelity.unmeasured`. The replays are the rig's true twists: the fit's angle
+    offsets are not applied to them."""
+    kept = [i for i, r in enumerate(replays) if r is not None]
+    if not kept:
+        raise ValueError("balance_fidelity: no run was replayed")
     spec = replace(fit.spec, offsets_rad=(0.0,) * len(fit.spec.offsets_rad))
-    problem = _Problem(tuple(replays), n_harmonics, 2.0, 0.0, masked, merging)
+    problem = _Problem(tuple(replays[i] for i in kept), n_harmonics, 2.0, 0.0, masked, merging)
     values = fit.as_dict()
     banded = problem.system(spec, problem.jumps(spec, values))
     s = banded.system
@@ -548,9 +560,10 @@ def balance_fidelity(replays: Sequence[ChainRun], fit: ChainFit, n_harmonics: in
     out = {}
     for key in set(zip(s.row_record.tolist(), s.row_harmonic.tolist(), s.row_equation.tolist())):
         sel = (s.row_record == key[0]) & (s.row_harmonic == key[1]) & (s.row_equation == key[2])
-        out[key] = float(np.mean(r[sel] ** 2))
+        out[(kept[key[0]],) + key[1:]] = float(np.mean(r[sel] ** 2))
     size = float(np.sqrt(np.mean(s.F ** 2))) if s.F.size else 1.0
-    return BalanceFidelity(out, float(np.sqrt(np.mean(r ** 2))) / size if size > 0 else 0.0, model)
+    return BalanceFidelity(out, float(np.sqrt(np.mean(r ** 2))) / size if size > 0 else 0.0, model,
+                           tuple(i for i in range(len(replays)) if replays[i] is None))
 
 
 # --------------------------------------------------------------------------------------------

@@ -26,7 +26,7 @@ KEYS = ("schema", "source", "input_sha256", "units", "bench", "verdict", "band_h
         "held_out_runs", "noise_std_per_sample", "nominal", "causes", "extended", "ruled_out", "ambiguities", "as_written",
         "validation", "plausibility", "misfit_character", "misfit_surface", "next_measurements", "notes")
 BENCH_KEYS = ("kind", "n_bodies", "form", "model")
-FIDELITY_KEYS = ("how", "relative_misfit", "replayed_model", "statement")
+FIDELITY_KEYS = ("how", "relative_misfit", "replayed_model", "fixed_runs", "statement")
 RULED_OUT_KEYS = ("label", "effect", "place", "magnitude_name", "limit", "std_error", "detection_probability")
 FIT_KEYS = ("chi2", "dof", "chi2_per_dof", "parameters", "std_errors")
 EXTENDED_KEYS = ("effects", "tried", "steps") + FIT_KEYS

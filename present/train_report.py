@@ -302,7 +302,8 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
     lines.append("  noise per sample (from period-to-period variation): "
                  + ", ".join(f"{_channel(report, k)} {sig(x, 2)} {units[0] if k.startswith('torque') else units[1]}"
                              for k, x in d.noise_std.items()))
-    lines.append(f"  model fidelity (added to each row's noise variance): {fidelity_statement(d.fidelity)}")
+    lines.append(f"  model fidelity (added to each row's noise variance): "
+                 f"{fidelity_statement(d.fidelity, report.run_ids if report.held_out_periods else fit_ids)}")
     all_notes = list(notes) + list(report.notes)
     if all_notes:
         lines.append(f"  {len(all_notes)} note(s) on the data: at the end")
@@ -384,7 +385,7 @@ def train_report_json(report: TrainReport, *, source: str = "", notes: Sequence[
         misfit_character=report.misfit.as_json() if report.misfit is not None else None,
         misfit_surface=report.misfit.surface.as_json() if report.misfit is not None else None,
         next_measurements=tuple(report.misfit.next_measurements) if report.misfit is not None else (),
-        fidelity=fidelity_json(d.fidelity),
+        fidelity=fidelity_json(d.fidelity, fit_ids),
         ruled_out=tuple({"label": s.label, "effect": s.effect, "place": s.as_json()["place"],
                          "magnitude_name": nm(s.magnitude[0]), "limit": lim, "std_error": s.magnitude[2],
                          "detection_probability": DETECTION_POWER} for s, lim in d.ruled_out())).as_json()
@@ -393,24 +394,37 @@ def train_report_json(report: TrainReport, *, source: str = "", notes: Sequence[
 from jointrig.identify.causes import DETECTION_POWER  # noqa: E402  (light: no rig)
 
 
-def fidelity_json(fid) -> dict:
-    """The fidelity every model's weights carried, for the JSON (:data:`FIDELITY_KEYS`)."""
+def fidelity_json(fid, fit_ids: Sequence[str] = ()) -> dict:
+    """The fidelity every model's weights carried, for the JSON (:data:`FIDELITY_KEYS`);
+    ``fit_ids``: the fitted runs' labels (a run whose replay did not settle is named by it)."""
     from jointrig.identify.chain_diagnose import BalanceFidelity
 
     if isinstance(fid, BalanceFidelity):
         return {"how": "measured", "relative_misfit": fid.relative, "replayed_model": fid.model,
-                "statement": fidelity_statement(fid)}
-    return {"how": "fixed", "relative_misfit": None, "replayed_model": None, "statement": fidelity_statement(fid)}
+                "fixed_runs": [_run_label(k, fit_ids) for k in fid.unmeasured],
+                "statement": fidelity_statement(fid, fit_ids)}
+    return {"how": "fixed", "relative_misfit": None, "replayed_model": None, "fixed_runs": [],
+            "statement": fidelity_statement(fid)}
 
 
-def fidelity_statement(fid) -> str:
+def _run_label(k: int, ids: Sequence[str]) -> str:
+    return str(ids[k]) if k < len(ids) else str(k)
+
+
+def fidelity_statement(fid, fit_ids: Sequence[str] = ()) -> str:
     """The fidelity in words: measured on the replay of a model (and how large), or fixed."""
     from jointrig.identify.chain_diagnose import BalanceFidelity
 
     if isinstance(fid, BalanceFidelity):
+        fixed = ""
+        if fid.unmeasured:
+            runs = ", ".join(_run_label(k, fit_ids) for k in fid.unmeasured)
+            fixed = (f"; the replay of run(s) {runs} reached no periodic steady state (a joint stuck most of the "
+                     f"period creeps under the rig's friction constraint): their rows keep the fixed {fid.floor:g} "
+                     f"of each run's largest balanced torque")
         return (f"measured: {fid.model} replayed in the rig under each fitted run's drive, noise-free, and balanced "
                 f"as the runs are, misses {fid.relative:.2g} of the balanced torque (RMS); each row's variance adds "
-                f"that run's and harmonic's share, for every model compared")
+                f"that run's and harmonic's share, for every model compared{fixed}")
     return f"fixed at {fid:g} of each run's largest balanced torque"
 
 

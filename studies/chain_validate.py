@@ -217,15 +217,16 @@ def rig_replay(rig: ChainRig, runs: Sequence, band: int, *, backend: str = "auto
     (:func:`identify.chain_diagnose.prepare_chain_runs`); or why it could not be replayed (the
     fixed floor then stands in). The diagnosis measures the balance's fidelity on them
     (:class:`identify.chain_diagnose.BalanceFidelity`). A replay that has not settled in
-    ``max_wall_s`` seconds of a run is given up: a fidelity is not worth a long wait. Settled to
-    1e-7 of each channel's swing: a variance estimate, at most 80 dB below the signal, needs no more."""
+    ``max_wall_s`` seconds of a run is given up: a fidelity is not worth a long wait (that run's
+    replay is None, its rows keep the fixed floor; every run's: why, in words). Settled to 1e-7 of
+    each channel's swing: a variance estimate, at most 80 dB below the signal, needs no more."""
     from jointrig.identify.chain_diagnose import prepare_chain_runs
 
     def replay(fit):
         plant, J = plant_and_inertias(fit)
         if not all(math.isfinite(v) and v > 0 for v in J):
             return "a fitted inertia is no body's"
-        out = []
+        out, why = [], []
         for run in runs:
             rec = run.average
             drives = {i + 1: drive_of_record(rec.omega_rad_s, fourier_coefficients(t, 1, band))
@@ -238,8 +239,12 @@ def rig_replay(rig: ChainRig, runs: Sequence, band: int, *, backend: str = "auto
                 sim, _ = simulate_chain(rig.with_plant(plant), rec.omega_rad_s, drives, cfg, inertias_kgm2=J,
                                         backend=backend, start=start_of(rec, band))
             except SimulationError as err:
-                return f"no periodic steady state under the drive of {rec.source}: {err}"
+                out.append(None)
+                why.append(f"no periodic steady state under the drive of {rec.source}: {err}")
+                continue
             out.append(prepare_chain_runs([channel_corrected(sim, fit.spec, read=True)], band=band)[0])
+        if all(r is None for r in out):
+            return "; ".join(why)
         return out
 
     return replay
