@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Is the diagnosis the same whatever zero each sensor had? Every case of the independent bench.
 
-    python scripts/bench_zeros.py [--joint paper light] [--case none coulomb_friction/1 ...]
+    python scripts/bench_zeros.py [--suite] [--joint paper light] [--case none coulomb_friction/1 ...]
                                   [--seed S] [--json OUT]
 
 Why: encoders mounted by hand each have their own zero, a torque cell reads an offset. The
@@ -14,7 +14,8 @@ every catalogued effect at two sizes; scipy, event-driven friction, nothing of j
 written twice with the same noise: as the bench writes it, and with each encoder's zero drawn
 uniform in +-pi and the torque cell's offset uniform in +-2% of the largest drive amplitude.
 Both are diagnosed in-process (``studies.chain_validate.run_train_diagnosis``, runs 2 and 3 held
-out, as the test does).
+out, as the test does). ``--suite``: only the 13 cases the test suite runs (no effect on both
+joints, every effect at its smaller size on one).
 
 One row per case: whether the verdicts and the adopted causes agree, the largest
 |unzeroed - zeroed| / SE over the parameters (the twist's zero left out), and the twist's zero
@@ -81,19 +82,21 @@ def _case(tmp: Path, joint: str, case: str, seed: int) -> dict:
 
 
 def main(argv=None) -> int:
-    from test_independent_bench import CASES
+    from test_independent_bench import CASES, SUITE
 
     from jointrig.rig.runtime import limit_threads
 
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--joint", nargs="+", choices=sorted(CASES), default=sorted(CASES))
     p.add_argument("--case", nargs="+", help="cases of tests/test_independent_bench.py (default: all)")
+    p.add_argument("--suite", action="store_true", help="only the cases the test suite runs")
     p.add_argument("--seed", type=int, default=49, help="seed of the zeros and offsets (default: %(default)s)")
     p.add_argument("--json", type=Path, help="write the table (JSON, atomically)")
     args = p.parse_args(argv)
     limit_threads()
     rows = []
-    todo = [(j, c) for j in args.joint for c in (args.case or CASES[j]) if c in CASES[j]]
+    todo = [(j, c) for j in args.joint for c in (args.case or CASES[j]) if c in CASES[j]
+            and (not args.suite or (j, c) in SUITE)]
     if not todo:
         print("bench_zeros: no such case (see tests/test_independent_bench.py CASES)", file=sys.stderr)
         return 2
