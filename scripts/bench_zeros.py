@@ -14,7 +14,7 @@ every catalogued effect at two sizes; scipy, event-driven friction, nothing of j
 written twice with the same noise: as the bench writes it, and with each encoder's zero drawn
 uniform in +-pi and the torque cell's offset uniform in +-2% of the largest drive amplitude.
 Both are diagnosed in-process (``studies.chain_validate.run_train_diagnosis``, runs 2 and 3 held
-out, as the test does). ``--suite``: only the 13 cases the test suite runs (no effect on both
+out, as the test does). ``--suite``: only the 11 cases the test suite runs (no effect on both
 joints, every effect at its smaller size on one).
 
 One row per case: whether the verdicts and the adopted causes agree, the largest
