@@ -12,7 +12,8 @@
     jointrig cases            every hidden-effect case of the diagnosis
     jointrig diagnose-chain   which joint of a drive train is worn, and how
 
-``jointrig SUBCOMMAND --help`` lists the subcommand's options with units and defaults.
+``jointrig SUBCOMMAND --help`` lists the subcommand's options with units and defaults;
+``jointrig -V`` prints the version, and ``-q`` before a subcommand is its own ``-q``.
 """
 
 from __future__ import annotations
@@ -41,7 +42,8 @@ SUBCOMMANDS = {
 
 def _usage() -> str:
     width = max(map(len, SUBCOMMANDS))
-    lines = [f"usage: jointrig [-V | --version] SUBCOMMAND [options]   (jointrig {__version__})", "", "subcommands:"]
+    lines = [f"usage: jointrig [-V | --version] [-q | --quiet] SUBCOMMAND [options]   (jointrig {__version__})", "",
+             "subcommands:"]
     lines += [f"  {name:{width}s}  {summary}" for name, (_, summary) in SUBCOMMANDS.items()]
     lines += ["", "jointrig SUBCOMMAND --help lists its options with units and defaults."]
     return "\n".join(lines)
@@ -55,7 +57,13 @@ def main(argv=None) -> int:
     if argv[0] in ("-V", "--version"):
         print(f"jointrig {__version__}")
         return 0
-    name, rest = argv[0], argv[1:]
+    quiet = []  # -q before the subcommand is the subcommand's -q: no progress, as at every level
+    while argv and argv[0] in ("-q", "--quiet"):
+        quiet, argv = ["-q"], argv[1:]
+    if not argv:
+        print(_usage(), file=sys.stderr)
+        return 2
+    name, rest = argv[0], argv[1:] + quiet
     if name not in SUBCOMMANDS:
         print(f"jointrig: error: unknown subcommand {name!r}; expected one of {', '.join(SUBCOMMANDS)}",
               file=sys.stderr)

@@ -52,3 +52,16 @@ def test_held_out_runs_are_one_option_name_and_a_verdict_is_no_error(capsys):
     assert {"diagnose", "diagnose-chain", "card"} <= {k for k, n in names.items() if "--holdout" in n}
     for module in (diagnose, diagnose_chain):
         assert "unexplained" not in module.__doc__.split("Exit status")[1].split(".")[0], module.__doc__
+
+
+def test_quiet_before_the_subcommand_is_the_subcommands(monkeypatch, capsys):
+    # issue 53: -q at every level, as -V: `jointrig -q diagnose DATA` is `jointrig diagnose DATA -q`
+    from jointrig.commands import options
+
+    seen = []
+    monkeypatch.setattr(options, "run_cli", lambda fn, prog, argv: seen.append((prog, list(argv))) or 0)
+    assert main(["-q", "diagnose", "data.csv", "--json", "d.json"]) == 0
+    assert main(["--quiet", "make-data", "out.csv"]) == 0
+    assert seen == [("jointrig diagnose", ["data.csv", "--json", "d.json", "-q"]),
+                    ("jointrig make-data", ["out.csv", "-q"])]
+    assert main(["-q"]) == 2 and "usage: jointrig [-V | --version] [-q | --quiet]" in capsys.readouterr().err
