@@ -65,3 +65,14 @@ def test_quiet_before_the_subcommand_is_the_subcommands(monkeypatch, capsys):
     assert seen == [("jointrig diagnose", ["data.csv", "--json", "d.json", "-q"]),
                     ("jointrig make-data", ["out.csv", "-q"])]
     assert main(["-q"]) == 2 and "usage: jointrig [-V | --version] [-q | --quiet]" in capsys.readouterr().err
+
+
+def test_ctrl_c_is_a_line_and_exit_130_not_a_traceback(capsys):
+    from jointrig.commands.options import run_cli
+
+    def interrupted(argv):
+        raise KeyboardInterrupt
+
+    assert run_cli(interrupted, "jointrig diagnose", []) == 130
+    err = capsys.readouterr().err
+    assert "jointrig diagnose: interrupted" in err and "Traceback" not in err

@@ -172,11 +172,16 @@ def check_each(values, option: str, **bounds) -> None:
 def run_cli(main, name: str, argv=None) -> int:
     """Run a command's ``main``: bad input (a ``ValueError``: the message names the file,
     option or field) exits 2 with the message; a failed simulation (``RuntimeError``) exits 1;
-    neither prints a traceback."""
+    Ctrl-C exits 130 (the shell's code for SIGINT) with a line, not a traceback: every output is
+    written to a temporary file and renamed when whole, so none is left half written."""
     import sys
 
     try:
         return main(argv)
+    except KeyboardInterrupt:
+        print(f"\n{name}: interrupted; no output was left half written (each is renamed into place "
+              f"only when whole; a sweep with a store resumes from it)", file=sys.stderr)
+        return 130
     except BrokenPipeError:
         # The reader went away (``jointrig diagnose DATA | head``): not an error of the command.
         import os
