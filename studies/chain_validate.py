@@ -135,16 +135,20 @@ def _floor(noise: float, den: float) -> float:
     return math.sqrt(max(noise, 0.0) / den + RIG_FIDELITY ** 2)
 
 
-def start_of(rec: ChainRecord, band: int) -> Optional[tuple]:
+def start_of(rec: ChainRecord, band: int, offsets_rad: Sequence[float] = ()) -> Optional[tuple]:
     """Each body's angle and rate at the record's t = 0 from harmonics 0..``band`` of its periods
     (the noise above them left out), for a replay that begins on the measured motion
-    (:func:`rig.chain.simulate_chain`'s ``start``); None where a body's angle is not measured."""
+    (:func:`rig.chain.simulate_chain`'s ``start``); None where a body's angle is not measured.
+    ``offsets_rad``: each joint's fitted twist zero (``ChainSpec.offsets_rad``): the rig's twist
+    is the measured one minus it, so each body after a joint starts that much further on."""
     if any(a is None for a in rec.angles_rad):
         return None
     top = min(band, max_harmonic(rec.samples_per_period))
     n = np.arange(top + 1)
     c = [fourier_coefficients(a, rec.n_periods, top) for a in rec.angles_rad]
-    return (tuple(float(np.sum(x.real)) for x in c),
+    shift = np.concatenate([[0.0], np.cumsum(np.asarray(offsets_rad, float))])[:len(c)] if len(offsets_rad) else \
+        np.zeros(len(c))
+    return (tuple(float(np.sum(x.real)) + float(d) for x, d in zip(c, shift)),
             tuple(float(-np.sum(n * rec.omega_rad_s * x.imag)) for x in c))
 
 
@@ -182,7 +186,7 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
                 continue
             try:
                 sim, _ = simulate_chain(rig.with_plant(plant), meas.omega_rad_s, drives, cfg, inertias_kgm2=J,
-                                        backend=backend, start=start_of(meas, top))
+                                        backend=backend, start=start_of(meas, top, reads[name].offsets_rad))
             except SimulationError as err:  # no steady state, or a divergence: a reason, not a crash
                 failed[name] = (f"the {name} model reaches no periodic steady state under the measured drive of "
                                 f"{meas.source}: {err}")
@@ -237,7 +241,7 @@ def rig_replay(rig: ChainRig, runs: Sequence, band: int, *, backend: str = "auto
                                    settle_tol=1e-7)
             try:
                 sim, _ = simulate_chain(rig.with_plant(plant), rec.omega_rad_s, drives, cfg, inertias_kgm2=J,
-                                        backend=backend, start=start_of(rec, band))
+                                        backend=backend, start=start_of(rec, band, fit.spec.offsets_rad))
             except SimulationError as err:
                 out.append(None)
                 why.append(f"no periodic steady state under the drive of {rec.source}: {err}")
