@@ -202,9 +202,6 @@ def parse(argv) -> argparse.Namespace:
     if args.quick and args.db:
         p.exit(2, f"{p.prog}: error: --quick and --db exclude each other\n")
     args.levels = [40.0, 80.0] if args.quick else (args.db or [20.0, 40.0, 60.0, 80.0])
-    bad = [d for d in args.levels if not (math.isfinite(d) and 0.0 < d <= 200.0)]
-    if bad:
-        p.exit(2, f"{p.prog}: error: --db levels must be in (0, 200] dB, got {bad}\n")
     unknown = [b for b in args.bench if b not in BENCHES]
     if unknown:
         p.exit(2, f"{p.prog}: error: unknown bench(es) {unknown}: choose from {', '.join(BENCHES)}\n")
@@ -212,8 +209,9 @@ def parse(argv) -> argparse.Namespace:
         p.exit(2, f"{p.prog}: error: --train-friction-Nm must be > 0, got {args.train_friction_Nm}\n")
     if args.seed < 0:
         p.exit(2, f"{p.prog}: error: --seed must be >= 0, got {args.seed}\n")
-    if args.json is not None and not args.json.parent.is_dir():
-        p.exit(2, f"{p.prog}: error: --json {args.json}: folder {args.json.parent} does not exist\n")
+    from jointrig.commands.options import check_levels_db, check_output, refused
+
+    refused(p, lambda: check_levels_db(args.levels), lambda: check_output(args.json, "--json"))
     return args
 
 

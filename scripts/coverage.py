@@ -183,15 +183,13 @@ def parse(argv) -> argparse.Namespace:
         p.exit(2, f"{p.prog}: error: --first-seed must be >= 0, got {args.first_seed}\n")
     if args.workers < 1:
         p.exit(2, f"{p.prog}: error: --workers must be at least 1, got {args.workers}\n")
-    bad = [d for d in args.db if not (math.isfinite(d) and 0.0 < d <= 200.0)]
-    if bad:
-        p.exit(2, f"{p.prog}: error: --db levels must be in (0, 200] dB, got {bad}\n")
     try:
         args.out.mkdir(parents=True, exist_ok=True)
     except OSError as err:
         p.exit(2, f"{p.prog}: error: cannot use --out {args.out}: {err.strerror}\n")
-    if args.json is not None and not args.json.parent.is_dir():
-        p.exit(2, f"{p.prog}: error: --json {args.json}: folder {args.json.parent} does not exist\n")
+    from jointrig.commands.options import check_levels_db, check_output, refused
+
+    refused(p, lambda: check_levels_db(args.db), lambda: check_output(args.json, "--json"))
     return args
 
 

@@ -141,6 +141,23 @@ def _unreachable(option: str, p, err: OSError, expected: str) -> BadArgument:
                        f"folder you may enter and write in; write elsewhere (e.g. under your home folder)")
 
 
+def refused(parser, *checks) -> None:
+    """Run each check (callables raising :class:`BadArgument`); the first refusal exits 2 with its
+    message through ``parser`` (an ``argparse`` parser): a script's options checked as the
+    commands check theirs."""
+    try:
+        for check in checks:
+            check()
+    except BadArgument as err:
+        parser.exit(2, f"{parser.prog}: error: {err}\n")
+
+
+def check_levels_db(levels, option: str = "--db") -> None:
+    """Refuse a noise level (SNR in dB per channel) outside (0, 200]."""
+    for d in levels:
+        check_range(d, option, lo=0.0, hi=200.0, lo_open=True)
+
+
 def check_range(value, option: str, *, lo=None, hi=None, lo_open=False, hi_open=False, integer=False) -> None:
     """Refuse a numeric option outside [lo, hi] (open ends where asked), or not finite."""
     import math
