@@ -473,8 +473,8 @@ def train_figure(report: TrainReport) -> str:
 
 def write_train_html(path, report: TrainReport, text: str, *, title: str, source: str = "",
                      notes: Sequence[str] = (), input_sha256: str = "", cards: Sequence = ()):
-    """A self-contained HTML page of a train's diagnosis, written atomically: the verdict, your
-    model as written, the causes found, the held-out runs as a figure, the parameters; the
+    """A self-contained HTML page of a train's diagnosis, written atomically: the verdict, what
+    the sensors read at rest, your model as written, the causes found, the held-out runs as a figure, the parameters; the
     candidates, the notes on the data and the console text folded below."""
     import html
     from pathlib import Path
@@ -489,6 +489,10 @@ def write_train_html(path, report: TrainReport, text: str, *, title: str, source
     written = _written(report)
     parts = page_top(title, report.verdict, plain_train_verdict(report), input_sha256)
     final = _values(d.final, report)
+    readings = offset_readings(report)
+    if readings:  # what the sensors read at rest, on the first screen as in the text's first lines
+        parts.append("<h2>What your sensors read at rest</h2><ul>"
+                     + "".join(f"<li>{html.escape(r)}</li>" for r in readings) + "</ul>")
     if d.steps:
         parts.append("<h2>What the data show</h2>" if report.adopted else
                      "<h2>The best extension, not adopted (see the verdict)</h2>")
