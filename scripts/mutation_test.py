@@ -53,7 +53,9 @@ MODULES = {
     # test_hat.py: the penalised path of eiv (solve_penalised, penalty rows) is used by the hat fit
     "jointrig.identify.eiv": ("identify/eiv.py", ["tests/test_eiv.py", "tests/test_identify_analytic.py",
                                                  "tests/test_hat.py"]),
-    "jointrig.identify.periods": ("identify/periods.py", ["tests/test_runs_file.py", "tests/test_bad_input.py"]),
+    "jointrig.identify.periods": ("identify/periods.py", ["tests/test_runs_file.py", "tests/test_bad_input.py",
+                                                         "tests/test_validate_record.py"]),
+    "jointrig.identify.zeros": ("identify/zeros.py", ["tests/test_sensor_zeros.py"]),
     "jointrig.measured.runs": ("measured/runs.py", ["tests/test_runs_file.py", "tests/test_train_loader.py",
                                                    "tests/test_bad_input.py"]),
     "jointrig.measured.formats": ("measured/formats.py", ["tests/test_runs_file.py", "tests/test_bad_input.py"]),
