@@ -14,6 +14,7 @@ from typing import Callable, Mapping, Sequence
 from jointrig.identify.causes import Ambiguity, CauseScore
 
 from .formatting import quantity_of, unit_of, with_se
+from .summary import WRITTEN_SE, WRITTEN_SHARE
 
 __all__ = ["ValidationRow", "head_lines", "parameter_lines", "causes_lines", "ambiguity_lines", "validation_lines",
            "notes_lines"]
@@ -28,7 +29,7 @@ def head_lines(verdict, words: str, steps: Sequence[str], *, written: Sequence =
     if written:
         provisional = any(w.provisional for w in written)
         lines.append(f"  Your model as written{f' ({model})' if model else ''} against the data (differs: more than "
-                     f"2 standard errors apart" + ("; PROVISIONAL: no model explains the data, so the fit these figures "
+                     f"{WRITTEN_SE:g} standard errors and {WRITTEN_SHARE:.0%} apart" + ("; PROVISIONAL: no model explains the data, so the fit these figures "
                                                    "come from may be wrong too" if provisional else "") + "):")
         lines += [f"    {quantity_of(name(w.name)):28s} written {w.written:<12.6g} data "
                   f"{with_se(w.data, w.std_error):>22s} {unit_of(name(w.name)):12s} "

@@ -40,3 +40,24 @@ def test_a_value_without_a_number_is_said_in_words():
 
     assert with_se_or(float("nan"), 0.1, "none") == "none" and with_se_or(float("inf"), 1.0, "none") == "none"
     assert with_se_or(1.2345, 0.01, "none") == with_se(1.2345, 0.01)
+
+
+def test_a_written_parameter_differs_only_when_resolved_and_large_enough_to_matter():
+    # present.summary.compare_written: "differs" needs more than 3 standard errors (ten or so
+    # parameters are compared at once) and more than 1% of the written value (the worn pump
+    # train's demo at 40 dB resolved J2 0.06% low, 2.1 standard errors: no reason to change a model).
+    from types import SimpleNamespace
+
+    from jointrig.present.summary import compare_written
+
+    vals = {"J2_kgm2": (0.059964, 0.000017), "k_Nm_per_rad": (1600.0, 40.0), "c_Nms_per_rad": (2.05, 0.01),
+            "offset_rad": (0.004, 0.001), "d_Nms_per_rad": (3.3, 0.2)}
+    fit = SimpleNamespace(as_dict=lambda: {n: v for n, (v, _) in vals.items()}, std_error=lambda n: vals[n][1])
+    rows = {r.name: r for r in compare_written([("J2_kgm2", 0.06), ("k_Nm_per_rad", 2000.0), ("c_Nms_per_rad", 2.0),
+                                                ("offset_rad", 0.0), ("d_Nms_per_rad", 3.0), ("absent", 1.0)], fit)}
+    assert "absent" not in rows
+    assert not rows["J2_kgm2"].differs and rows["J2_kgm2"].change == "0.06% lower"   # 2.1 SE and 0.06%
+    assert rows["k_Nm_per_rad"].differs and rows["k_Nm_per_rad"].change == "20% lower"  # 10 SE and 20%
+    assert rows["c_Nms_per_rad"].differs                      # 5 SE and 2.5%
+    assert rows["offset_rad"].differs and rows["offset_rad"].change == "0.004 instead of 0"  # written 0: SE alone
+    assert not rows["d_Nms_per_rad"].differs                  # 10% but 1.5 SE: not resolved
