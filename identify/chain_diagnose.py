@@ -719,6 +719,28 @@ def angle_resolution(problem: _Problem, cand: Candidate) -> float:
     return out
 
 
+def _preload_twist(problem: _Problem, base: ChainSpec, j: int, weights) -> float:
+    """The twist (rad) a mean torque through joint ``j`` would hold it at under its linear
+    stiffness, at most: the largest run's mean drive torque on the bodies before the joint (a
+    train free to turn passes it to a load beyond; a cell's offset makes it an upper bound),
+    over the joint's ``k`` in ``base``'s fit (0 without a linear stiffness or a mean)."""
+    k_name = joint_prefix(j) + Power(1).name
+    if k_name not in base.names:
+        return 0.0
+    means = [abs(sum(float(np.mean(t)) for t in r.average.torques_Nm[:j] if t is not None)) for r in problem.runs]
+    if not means or max(means) == 0.0:
+        return 0.0
+    k = problem.solve(base, weights).as_dict().get(k_name, math.nan)
+    return PRELOAD_MARGIN * max(means) / abs(k) if math.isfinite(k) and k != 0 else 0.0
+
+
+#: The preload's twist is searched this many times as far as the mean torque over the fitted
+#: ``k``: fitted about the mean twist, ``k`` is the local stiffness there, above the law's ``k``
+#: under a progressive law (the elastomer coupling at 200 N m: 10% above, and its zero 5% past
+#: the bound without a margin).
+PRELOAD_MARGIN = 2.0
+
+
 def _profile(problem: _Problem, cand: Candidate, base: ChainSpec, weights) -> ChainFit:
     """:func:`identify.causes.profile` over the candidate's bounds at its place."""
     here = _twist_runs(problem, cand)
@@ -727,6 +749,8 @@ def _profile(problem: _Problem, cand: Candidate, base: ChainSpec, weights) -> Ch
         # a free play's rest is anywhere in its play: the twist's mean (what identify.zeros takes
         # out) may sit off it by up to the half gap, beyond a sensor's zero error
         gap = max((t.gap_rad for t in base.joints[cand.place - 1] if isinstance(t, Power)), default=0.0)
+        # a joint under a preload rests its twist's mean off the law's zero by the preload's twist
+        gap = max(gap, _preload_twist(problem, base, cand.place, weights))
         lo, hi = min(lo, -gap), max(hi, gap)
     mag = cand.magnitude_name()
 
@@ -1495,6 +1519,41 @@ def place_law(fit: ChainFit, place: int) -> tuple[JointLaw, float]:
 def _viscous_at(terms) -> Optional[int]:
     """The index of a law's viscous term, None without one."""
     return next((k for k, t in enumerate(terms) if isinstance(t, Viscous)), None)
+
+
+def mean_joint_torque(fit: ChainFit, records: Sequence[ChainRecord], j: int) -> tuple[float, float]:
+    """The mean torque (N m; N on a slide) joint ``j`` (1-based) carries in its elastic terms over
+    ``records``, by the fitted law along their twists less the fitted zero, and its standard
+    error: from the linear parameters' covariance and the zero's own (its profile's). A preload:
+    what a mean load passes through the joint (pure). The dissipative terms are left out: a
+    damping's mean is 0, and a dry friction's, read from sign(rate) while the joint rests, would
+    be the noise's. Meaningful where the data determine the twist's zero
+    (:func:`studies.chain_validate.zero_resolved`); elsewhere a linear law reads 0 whatever the load."""
+    from .chain import _law_coeffs
+
+    terms, names = fit.spec.joints[j - 1], list(fit.names)
+    vals = fit.as_dict()
+
+    def columns(offset: float) -> np.ndarray:
+        col = np.zeros(len(names))
+        for rec in records:
+            for t, c in zip(terms, _law_coeffs(channel_corrected(rec, fit.spec), j - 1, terms, 0, 1, offset)):
+                if t.elastic:
+                    col[names.index(joint_prefix(j) + t.name)] += float(c[0].real) / len(records)
+        return col
+
+    theta = np.array([vals[n] for n in names])
+    delta = fit.spec.offsets_rad[j - 1]
+    col = columns(delta)
+    q = float(col @ theta)
+    var = float(col @ fit.covariance @ col) if fit.covariance is not None else float(
+        np.sum((col * np.asarray(fit.std_errors)) ** 2))
+    se_zero = {n: e for n, _, e in fit.profiled}.get(joint_prefix(j) + TWIST_ZERO.profiled, 0.0)
+    if se_zero and math.isfinite(se_zero):
+        step = max(1e-3 * se_zero, 1e-9)
+        slope = float((columns(delta + step) - columns(delta - step)) @ theta) / (2 * step)
+        var += (slope * se_zero) ** 2
+    return q, math.sqrt(max(var, 0.0)) if math.isfinite(var) else math.nan
 
 
 def place_covariance(fit: ChainFit, place: int) -> Optional[np.ndarray]:

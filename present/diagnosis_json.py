@@ -15,19 +15,20 @@ from typing import Callable, Mapping, Optional, Sequence
 from jointrig.identify.causes import Ambiguity, CauseScore
 from jointrig.identify.verdict import Verdict
 
-__all__ = ["SCHEMA", "KEYS", "FIDELITY_KEYS", "RULED_OUT_KEYS", "FIT_KEYS", "VALIDATION_KEYS", "RUN_KEYS", "CAUSE_KEYS", "FitJson", "RunJson",
+__all__ = ["SCHEMA", "KEYS", "FIDELITY_KEYS", "RULED_OUT_KEYS", "PRELOAD_KEYS", "FIT_KEYS", "VALIDATION_KEYS", "RUN_KEYS", "CAUSE_KEYS", "FitJson", "RunJson",
            "ValidationJson", "DiagnosisJson", "finite", "schema_problems"]
 
 #: The document's name and version: a script checks it before it reads the keys.
-SCHEMA = "jointrig-diagnosis/3"
+SCHEMA = "jointrig-diagnosis/4"
 #: The top-level keys, in the order written (the demo ``jointrig diagnose-chain`` adds ``demo``
 #: last: its truth model and settings).
 KEYS = ("schema", "source", "input_sha256", "units", "bench", "verdict", "band_harmonics", "fidelity", "fit_runs",
-        "held_out_runs", "noise_std_per_sample", "nominal", "causes", "extended", "ruled_out", "ambiguities", "as_written",
+        "held_out_runs", "noise_std_per_sample", "nominal", "causes", "extended", "ruled_out", "preloads", "ambiguities", "as_written",
         "validation", "plausibility", "misfit_character", "misfit_surface", "next_measurements", "notes")
 BENCH_KEYS = ("kind", "n_bodies", "form", "model")
 FIDELITY_KEYS = ("how", "relative_misfit", "replayed_model", "fixed_runs", "statement")
 RULED_OUT_KEYS = ("label", "effect", "place", "magnitude_name", "limit", "std_error", "detection_probability")
+PRELOAD_KEYS = ("joint", "mean", "std_error", "unit")
 FIT_KEYS = ("chi2", "dof", "chi2_per_dof", "parameters", "std_errors")
 EXTENDED_KEYS = ("effects", "tried", "steps") + FIT_KEYS
 VALIDATION_KEYS = ("kind", "generalisation", "statement", "measure", "unit", "nominal_error", "extended_error",
@@ -165,6 +166,8 @@ class DiagnosisJson:
     fidelity: Optional[dict] = None
     #: what the runs rule out (:data:`RULED_OUT_KEYS`), one object per cause not adopted
     ruled_out: tuple = ()
+    #: the mean torque (force) each joint whose zero the data determine carries (:data:`PRELOAD_KEYS`)
+    preloads: tuple = ()
 
     def as_json(self) -> dict:
         out = {"schema": SCHEMA, "source": self.source, "input_sha256": self.input_sha256, "units": self.units,
@@ -178,7 +181,7 @@ class DiagnosisJson:
                "nominal": self.nominal.as_json(), "causes": [_cause(s, self.name) for s in self.causes],
                "extended": {"effects": list(self.adopted), "tried": [s.label for s in self.steps],
                             "steps": [_cause(s, self.name) for s in self.steps], **self.extended.as_json()},
-               "ruled_out": [dict(r) for r in self.ruled_out],
+               "ruled_out": [dict(r) for r in self.ruled_out], "preloads": [dict(r) for r in self.preloads],
                "ambiguities": [a.as_json() for a in self.ambiguities], "as_written": dict(self.as_written),
                "validation": self.validation.as_json(), "plausibility": list(self.plausibility),
                "misfit_character": self.misfit_character, "misfit_surface": self.misfit_surface,
@@ -206,6 +209,8 @@ def schema_problems(doc: dict) -> list[str]:
     keys("fidelity", doc["fidelity"], FIDELITY_KEYS)
     for i, r in enumerate(doc["ruled_out"] if isinstance(doc["ruled_out"], list) else []):
         keys(f"ruled_out[{i}]", r, RULED_OUT_KEYS)
+    for i, r in enumerate(doc["preloads"] if isinstance(doc["preloads"], list) else []):
+        keys(f"preloads[{i}]", r, PRELOAD_KEYS)
     keys("nominal", doc["nominal"], FIT_KEYS)
     keys("extended", doc["extended"], EXTENDED_KEYS)
     keys("validation", doc["validation"], VALIDATION_KEYS)

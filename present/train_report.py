@@ -12,7 +12,7 @@ import math
 import re
 from typing import Sequence
 
-from jointrig.studies.chain_validate import TrainReport
+from jointrig.studies.chain_validate import TrainReport, zero_resolved
 
 from jointrig.vocab.params import linear_name
 
@@ -155,12 +155,13 @@ def _torque_means(report: TrainReport) -> list[str]:
         what, unit = ("force", "N") if slide else ("torque", "N m")
         err = f" +- {se:.2g}" if math.isfinite(se) else ""
         if tied:
-            why = ("a load on the body or the sensor's offset (a spring to the frame can carry either): the fit and the "
-                   "replay leave it out")
+            why = ("a load on the body or the sensor's offset (a spring to the frame can carry either): the fit leaves it "
+                   "out, and the replays hold each run's mean position with the constant the model reads")
         else:
             why = (f"a {'carriage free to move' if slide else 'train free to turn'} carries no net mean {what} in a "
                    f"steady state, so that is the sensor's offset or a constant load where the drive acts (gravity on "
-                   f"the axis, a cable's drag); the fit and the replay leave it out, which is exact for either")
+                   f"the axis, a cable's drag); the fit leaves it out, and the replays hold each run's mean "
+                   f"{'positions' if slide else 'twists'} with the constants the model reads")
         out.append(f"the drive {what} on body {i} averages {m:.4g}{err} {unit} over the fitted runs: {why}")
     return out
 
@@ -198,20 +199,24 @@ def offset_readings(report: TrainReport) -> tuple[str, ...]:
         name = f"joint{i}_angle_offset_rad"
         if f"joint{i}_" in even:
             continue
-        if name in zeros:
+        if name in zeros and zero_resolved(d.final, i):
             value, se = zeros[name], fitted[name]
-            why = "the fit reads the joint's law from the twist minus it"
         elif zs is not None and not zs.kept and math.isfinite(zs.twists[i - 1]):
             value, se = zs.twists[i - 1], zs.twist_se[i - 1]
-            why = "its mean over the fitted runs; the joint's law is linear, so its zero does not enter the fit"
         else:
             continue
         if not (abs(value) > 3 * se if math.isfinite(se) else abs(value) > 0):
             continue
         degrees = "" if slide else f" ({math.degrees(value):.3g} deg)"
         err = f" +- {se:.2g}" if math.isfinite(se) else ""
-        out.append(f"the twist of joint {i} ({x}{i} - {x}{i + 1}) reads {value:.4g}{err} {length}{degrees} at "
-                   f"rest: the {sensors} were not zeroed together ({why})")
+        if name in zeros and zero_resolved(d.final, i):
+            out.append(f"the twist of joint {i} ({x}{i} - {x}{i + 1}) reads {value:.4g}{err} {length}{degrees} at "
+                       f"rest: the {sensors} were not zeroed together (the fit reads the joint's law from the twist "
+                       f"minus it)")
+        else:
+            out.append(f"the twist of joint {i} ({x}{i} - {x}{i + 1}) averages {value:.4g}{err} {length}{degrees} over "
+                       f"the fitted runs: the {sensors}' zeros and any preload's twist together (the joint's law does "
+                       f"not show where its zero is, so it is taken out before the fit)")
     if zs is not None and zs.kept:
         for i, (m, se) in enumerate(zip(zs.twists, zs.twist_se), start=1):
             if math.isfinite(m) and abs(m) > max(3 * se if math.isfinite(se) else 0.0, MAX_ZEROED_TWIST_RAD):
@@ -225,6 +230,12 @@ def offset_readings(report: TrainReport) -> tuple[str, ...]:
             out.append(f"the relative angle (phi) averages {value:.4g}{err} {length} ({math.degrees(value):.3g} deg) "
                        f"over the fitted runs: its zero, taken out before the fit (a symmetric joint twists about its "
                        f"rest)")
+    what, unit = ("force", "N") if slide else ("torque", "N m")
+    for j, q, se in report.preloads:
+        if math.isfinite(q) and abs(q) > (3 * se if math.isfinite(se) else 0.0):
+            out.append(f"joint {j} carries a mean {what} of {with_se(q, se)} {unit} over the fitted runs: a preload, the "
+                       f"mean load passed through it between the drive and a load beyond (read from its law at the "
+                       f"measured mean twist; the replays hold it)")
     out += _torque_means(report)
     for s in d.steps:
         cause = by_name(s.effect)
@@ -388,7 +399,9 @@ def train_report_json(report: TrainReport, *, source: str = "", notes: Sequence[
         fidelity=fidelity_json(d.fidelity, fit_ids),
         ruled_out=tuple({"label": s.label, "effect": s.effect, "place": s.as_json()["place"],
                          "magnitude_name": nm(s.magnitude[0]), "limit": lim, "std_error": s.magnitude[2],
-                         "detection_probability": DETECTION_POWER} for s, lim in d.ruled_out())).as_json()
+                         "detection_probability": DETECTION_POWER} for s, lim in d.ruled_out()),
+        preloads=tuple({"joint": j, "mean": q, "std_error": se, "unit": "N" if report.kind == "slide" else "N m"}
+                       for j, q, se in report.preloads)).as_json()
 
 
 from jointrig.identify.causes import DETECTION_POWER  # noqa: E402  (light: no rig)

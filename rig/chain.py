@@ -438,7 +438,7 @@ def chain_callback(rig: ChainRig, plant: ChainPlant, drives: dict, errors: list,
 def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: SimulationConfig = SimulationConfig(), *,
                    plant: Optional[ChainPlant] = None, inertias_kgm2: Optional[Sequence[float]] = None,
                    amplitude_Nm: float = math.nan, backend: str = "auto",
-                   start: Optional[tuple] = None) -> tuple[ChainRecord, SettleInfo]:
+                   start: Optional[tuple] = None, loads_Nm: Sequence[float] = ()) -> tuple[ChainRecord, SettleInfo]:
     """Drive the chain from rest (or from ``start``) to steady state and log ``config.n_periods``
     whole periods.
 
@@ -459,6 +459,9 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
         is (a motor's cogging to ground, a free play) may have several steady states, and the one
         measured is the one reached from there. The rigid rotation of a train free to turn keeps
         the drive's mean-free velocity (the measured rates' relative parts are added to it).
+      loads_Nm: a constant torque (N m; N on a slide) on each body, or none: a mean load and
+        what holds a preload (MuJoCo's ``qfrc_applied``). On a train free to turn they must sum
+        to 0, or it spins up.
 
     Without ``start`` the flywheels start at rest with the common velocity that keeps the rigid rotation periodic
     (:meth:`PeriodicDrive.mean_free_impulse` summed over the drives, over the total inertia).
@@ -514,6 +517,10 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
     k = config.steps_per_sample(omega_rad_s)
     n = config.samples_for(omega_rad_s)
     d = mujoco.MjData(m)
+    if len(loads_Nm):
+        if len(loads_Nm) != N or not all(math.isfinite(x) for x in loads_Nm):
+            raise ValueError(f"loads_Nm must be {N} finite numbers, got {loads_Nm}")
+        d.qfrc_applied[list(rig.dof_adr)] = loads_Nm
     d.qvel[list(rig.dof_adr)] = sum(drv.mean_free_impulse(0.0) for drv in drives.values()) / sum(J)
     if start is not None:
         angles, rates = (np.asarray(x, dtype=float) for x in start)
@@ -576,6 +583,9 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
     spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
     state = np.empty(mujoco.mj_stateSize(m, spec))
     sens = [act_idx.get(i) for i in range(1, N + 1)]
+    applied_spec = mujoco.mjtState.mjSTATE_CTRL | mujoco.mjtState.mjSTATE_QFRC_APPLIED
+    applied = np.empty(mujoco.mj_stateSize(m, applied_spec))
+    mujoco.mj_getState(m, d, applied, applied_spec)
 
     def rollout_period():
         # One C call per period: row j of `st` is the state after step j, row j of `sd` the
@@ -583,7 +593,10 @@ def simulate_chain(rig: ChainRig, omega_rad_s: float, drives: dict, config: Simu
         from mujoco import rollout
 
         mujoco.mj_getState(m, d, state, spec)
-        st, sd = rollout.rollout(m, d, state[None], nstep=n * k)
+        if len(loads_Nm):  # a rollout sets every step's inputs it is given, and clears the rest
+            st, sd = rollout.rollout(m, d, state[None], applied[None, None], control_spec=applied_spec, nstep=n * k)
+        else:
+            st, sd = rollout.rollout(m, d, state[None], nstep=n * k)
         before = np.vstack([state[None], st[0, :-1]])[::k]  # the state before each sample's first step
         mujoco.mj_setState(m, d, st[0, -1], spec)
         tq = np.column_stack([sd[0, ::k, a] if a is not None else np.zeros(n) for a in sens])

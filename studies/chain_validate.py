@@ -35,7 +35,7 @@ from jointrig.vocab.records import RecordError
 from jointrig.rig.simulate import SimulationConfig, SimulationError
 
 __all__ = ["ChainValidation", "validate_chain", "twist_error", "found_motion", "departure", "TrainReport", "train_verdict", "run_train_diagnosis",
-           "written_of"]
+           "written_of", "zero_resolved", "held_means"]
 
 
 @dataclass(frozen=True)
@@ -152,6 +152,29 @@ def start_of(rec: ChainRecord, band: int, offsets_rad: Sequence[float] = ()) -> 
             tuple(float(-np.sum(n * rec.omega_rad_s * x.imag)) for x in c))
 
 
+def held_means(fit, rec: ChainRecord) -> tuple[float, ...]:
+    """The constant torque (N m; N on a slide) on each body that holds ``rec``'s mean twists under
+    the fitted model ``fit`` (a :class:`identify.chain_diagnose.ChainFit`) (pure): each joint whose
+    zero the data determine (:func:`zero_resolved`) carries its elastic terms' mean along the
+    record's twist (:func:`identify.chain_diagnose.mean_joint_torque`), pushed on its two bodies
+    in opposite senses. A mean load (a pump's) preloads the joints between it and the drive; a
+    replay without it swings about the laws' zero instead of the measured mean twist, where an
+    even stiffness or a progressive coupling is another spring. The measured drive's mean cannot
+    stand in: a torque cell reads its own offset, and a load may act where no cell is. Elsewhere
+    the laws do not show where their zero is, and no constant is needed: a linear law's swing is
+    the same about any twist."""
+    from jointrig.identify.chain_diagnose import mean_joint_torque
+
+    loads = [0.0] * fit.spec.n_flywheels
+    for j in range(1, fit.spec.n_flywheels):
+        if zero_resolved(fit, j):
+            q = mean_joint_torque(fit, [rec], j)[0]
+            if math.isfinite(q):
+                loads[j - 1] += q
+                loads[j] -= q
+    return tuple(loads)
+
+
 def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[ChainRecord], *,
                    band: int = 10, config: SimulationConfig = SimulationConfig(samples_per_period=128,
                                                                                max_step_s=REPLAY_MAX_STEP_S),
@@ -162,6 +185,7 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
     models = {"nominal": plant_and_inertias(diagnosis.nominal)}
     # a sensor's skew or scale is not simulated: the simulated angles are read as its channel reads
     reads = {"nominal": diagnosis.nominal.spec, "extended": diagnosis.final.spec}
+    fits = {"nominal": diagnosis.nominal, "extended": diagnosis.final}
     if diagnosis.steps:  # without a cause the extended model is the nominal one
         models["extended"] = plant_and_inertias(diagnosis.final)
     num = {k: 0.0 for k in models}
@@ -186,7 +210,8 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
                 continue
             try:
                 sim, _ = simulate_chain(rig.with_plant(plant), meas.omega_rad_s, drives, cfg, inertias_kgm2=J,
-                                        backend=backend, start=start_of(meas, top, reads[name].offsets_rad))
+                                        backend=backend, start=start_of(meas, top, reads[name].offsets_rad),
+                                        loads_Nm=held_means(fits[name], meas))
             except SimulationError as err:  # no steady state, or a divergence: a reason, not a crash
                 failed[name] = (f"the {name} model reaches no periodic steady state under the measured drive of "
                                 f"{meas.source}: {err}")
@@ -241,7 +266,8 @@ def rig_replay(rig: ChainRig, runs: Sequence, band: int, *, backend: str = "auto
                                    settle_tol=1e-7)
             try:
                 sim, _ = simulate_chain(rig.with_plant(plant), rec.omega_rad_s, drives, cfg, inertias_kgm2=J,
-                                        backend=backend, start=start_of(rec, band, fit.spec.offsets_rad))
+                                        backend=backend, start=start_of(rec, band, fit.spec.offsets_rad),
+                                        loads_Nm=held_means(fit, rec))
             except SimulationError as err:
                 out.append(None)
                 why.append(f"no periodic steady state under the drive of {rec.source}: {err}")
@@ -360,6 +386,10 @@ class TrainReport:
     #: each channel's mean over the fitted runs, the angles' taken out before the diagnosis
     #: (:class:`identify.zeros.SensorZeros`; None where not read)
     zeros: Optional[SensorZeros] = None
+    #: ``(joint, mean torque N m (N on a slide), standard error)`` per joint whose twist's zero
+    #: the data determine (:func:`identify.chain_diagnose.mean_joint_torque` over the fitted
+    #: runs, the adopted model's): what a mean load passes through it, which the replays hold
+    preloads: tuple = ()
 
     @property
     def adopted(self) -> bool:
@@ -369,6 +399,29 @@ class TrainReport:
     def adopted_fit(self):
         """The extended fit if adopted, else the nominal one."""
         return self.diagnosis.final if self.adopted else self.diagnosis.nominal
+
+
+#: A joint's twist zero is read from the data where a nonlinear elastic term of its law stands
+#: this many standard errors clear of 0 (a free play always): a spurious cubic of 2 standard
+#: errors on a linear shaft read a 200 N m preload as -36 +- 26 N m.
+ZERO_RESOLVED_SE = 3.0
+
+
+def zero_resolved(fit, j: int) -> bool:
+    """Whether the data determine joint ``j``'s twist zero in ``fit`` (:data:`ZERO_RESOLVED_SE`)."""
+    from jointrig.identify.chain import joint_prefix
+    from jointrig.vocab.law import Power
+
+    vals = fit.as_dict()
+    for t in fit.spec.joints[j - 1]:
+        if isinstance(t, Power) and t.gap_rad > 0:
+            return True
+        if t.elastic and isinstance(t, Power) and t.power > 1:
+            name = joint_prefix(j) + t.name
+            se = fit.std_error(name)
+            if math.isfinite(se) and abs(vals[name]) > ZERO_RESOLVED_SE * se:
+                return True
+    return False
 
 
 def written_of(rig: ChainRig) -> tuple:
@@ -435,7 +488,8 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
     each twist reads at rest."""
     if form not in FORMS:
         raise ValueError(f"form must be one of {FORMS}, got {form!r}")
-    from jointrig.identify.chain_diagnose import diagnose_chain, nominal_spec, prepare_chain_runs, train_misfit
+    from jointrig.identify.chain_diagnose import (diagnose_chain, mean_joint_torque, nominal_spec, prepare_chain_runs,
+                                                  train_misfit, zeroed_joints)
     from jointrig.identify.defaults import DEFAULT_FIDELITY
 
     records = list(records)
@@ -511,6 +565,9 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
         # a rejected cause
         misfit = train_misfit(prepare_chain_runs(records, band=band), run_ids, [s[1] for s in settings],
                               d.nominal, band, rig.kind)
+    kept = d.final if verdict.verdict == "explained" else d.nominal
+    preloads = tuple((j, *mean_joint_torque(kept, [r.average for r in runs], j)) for j in zeroed_joints(kept.spec)
+                     if form != "relative" and zero_resolved(kept, j))
     return TrainReport(tuple(run_ids), held, d, v, verdict, general, tuple(written),
                        str(rig.path) if written else None, tuple(notes), split, rig.kind, tuple(settings), misfit,
-                       form, zeros)
+                       form, zeros, preloads)
