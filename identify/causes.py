@@ -18,8 +18,8 @@ from typing import Callable, Generic, Optional, Sequence, TypeVar
 
 import numpy as np
 
-from jointrig.vocab.law import (Cogging, ContactViscous, Coulomb, Iwan, Jenkins, Monomial, Power, QuadraticDamping,
-                                Stribeck, Term, Viscous)
+from jointrig.vocab.law import (Cogging, Coulomb, Iwan, Jenkins, Monomial, Power, QuadraticDamping, Stribeck, Term,
+                                Viscous)
 from jointrig.vocab.params import BEARING1, BEARING2, DRIVE_DELAY
 
 from .balance import spectral_rate
@@ -201,13 +201,6 @@ def _with_gap(spec: ModelSpec, gap: float) -> ModelSpec:
     return replace(spec, terms=terms)
 
 
-def _with_contact_damping(spec: ModelSpec, gap: float) -> ModelSpec:
-    """Free play of ``gap`` whose damping changes when the play closes: the law's ``c`` acts
-    everywhere, ``contact_c`` is added while the play is closed."""
-    terms = tuple(t for t in _with_gap(spec, gap).terms if not isinstance(t, ContactViscous))
-    return replace(spec, terms=terms + (ContactViscous(gap),))
-
-
 def _with_jenkins(spec: ModelSpec, slip: float) -> ModelSpec:
     terms = tuple(t for t in spec.terms if not isinstance(t, Jenkins)) + (Jenkins(slip),)
     return replace(spec, terms=terms)
@@ -294,12 +287,6 @@ CATALOGUE: tuple[Cause, ...] = (
           _with_gap, "backlash_half_gap_rad", 0, bounds=lambda runs: (1e-4 * _amplitude(runs), 0.8 * _largest_amplitude(runs)),
           profiled="backlash_half_gap_rad", degenerate=_below_resolution("half gap", "no free play is resolved"),
           plain="free play"),
-    Cause("contact_damping", "free play whose damping changes when the play closes: c everywhere, c + contact_c while "
-          "in contact (contact_c near -c: damping only inside the play)",
-          _with_contact_damping, "contact_c_Nms_per_rad", 1, nonnegative=False,
-          bounds=lambda runs: (1e-4 * _amplitude(runs), 0.8 * _largest_amplitude(runs)),
-          profiled="backlash_half_gap_rad", degenerate=_below_resolution("half gap", "no free play is resolved"),
-          reduces_to="backlash", plain="free play whose damping changes at contact"),
     Cause("asymmetric_stiffness", "an even stiffness term a phi^2 (an asymmetric restoring force): even harmonics",
           lambda s, h: _with_terms(s, (Power(2),)), "a_Nm_per_rad2", 1, nonnegative=False,
           places=frozenset({"joint", "oscillator"}), plain="an asymmetric stiffness (a phi^2)", reads_as_offset=True),

@@ -49,7 +49,6 @@ __all__ = [
     "Viscous",
     "Power",
     "Coulomb",
-    "ContactViscous",
     "QuadraticDamping",
     "Jenkins",
     "Iwan",
@@ -374,51 +373,6 @@ class Power(Term):
         if isinstance(phi, float):
             return ipow(phi, self.power)
         return ipow_array(np.asarray(phi, dtype=float), self.power)
-
-
-@dataclass(frozen=True)
-class ContactViscous(Term):
-    """Damping that acts only while a free play is closed: ``phi' * [|phi| > gap_rad]`` ->
-    ``contact_c_Nms_per_rad``, beside the law's ``c`` that acts everywhere. Oil squeezed out of a
-    closing gear mesh or a spline damps in contact; an oil film in the play damps only there
-    (this term then near ``-c``). The gap is the law's free play (``backlash_half_gap_rad``)."""
-
-    gap_rad: float
-
-    def __post_init__(self):
-        gap = float(self.gap_rad)
-        if not (math.isfinite(gap) and gap > 0):
-            raise ValueError(f"ContactViscous.gap_rad must be a finite number > 0, got {self.gap_rad!r}")
-        object.__setattr__(self, "gap_rad", gap)
-
-    MJCF_FIELDS = ("contact_c_Nms_per_rad",)
-
-    @classmethod
-    def read_fields(cls, fields):
-        v = _scalar(fields, cls.MJCF_FIELDS[0])
-        if v is None:
-            return []
-        gap = _scalar(fields, "backlash_half_gap_rad", nonnegative=True, default=0.0)
-        if not gap > 0:
-            raise FieldError("jointrig_contact_c_Nms_per_rad needs jointrig_backlash_half_gap_rad > 0 (the damping acts "
-                             "only while the free play is closed)")
-        return [(cls(gap), v)]
-
-    def fields(self, value):
-        return {self.MJCF_FIELDS[0]: [value], "backlash_half_gap_rad": [self.gap_rad]}
-
-    @property
-    def name(self) -> str:
-        return "contact_c_Nms_per_rad"
-
-    @property
-    def elastic(self) -> bool:
-        return False
-
-    def __call__(self, phi, rate):
-        if isinstance(phi, float):
-            return rate if abs(phi) > self.gap_rad else 0.0
-        return np.where(np.abs(np.asarray(phi, dtype=float)) > self.gap_rad, np.asarray(rate, dtype=float), 0.0)
 
 
 @dataclass(frozen=True)
@@ -1094,7 +1048,7 @@ def law_parameters(terms: Sequence[Term], values: Sequence[float]) -> dict[str, 
 #: Every term a model file can declare, in the order its terms enter the law (the order of the
 #: sums in both callbacks, so it is part of the bits of every trajectory).
 TERM_CLASSES: tuple[type[Term], ...] = (Viscous, Power, Coulomb, QuadraticDamping, AngleHat, RateHat, Jenkins, Iwan,
-                                        Stribeck, TanhFriction, Cogging, ContactViscous)
+                                        Stribeck, TanhFriction, Cogging)
 
 
 def law_terms_from_fields(fields: dict) -> list[tuple[Term, float]]:
