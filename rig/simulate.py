@@ -123,6 +123,11 @@ class SimulationConfig:
         test on simulated periods after the last jump, so ``settle_tol`` holds either way. The
         default sweep of a lightly damped joint (c = 5 N m s/rad) settles in 329 periods
         instead of 1023 (``scripts/bench_steady.py``). False: plain period-by-period settling.
+      settle: False logs the first ``n_periods`` periods from the start as they come, no
+        steady state sought: a replay over a measured record's own span from its measured
+        state, for a model that reaches no steady state in the rig (a joint that sticks for
+        hundreds of periods before it settles, a quasi-periodic response) but may still
+        follow the record.
     """
 
     max_step_s: float = 5e-4
@@ -134,6 +139,7 @@ class SimulationConfig:
     max_wall_s: Optional[float] = None
     n_periods: int = 1
     integrator: str = "RK4"
+    settle: bool = True
     absolute_angles_periodic: bool = True
     accelerate: bool = True
 
@@ -848,6 +854,18 @@ def _settle(advance: Callable[[], tuple], watched: Callable[[tuple], np.ndarray]
 
     Returns ``(payloads, (periods simulated, last change, error bound, decay ratio))``.
     """
+    if not config.settle:  # the record's own span from its start: no steady state sought
+        periods = []
+        for p in range(1, config.n_periods + 1):
+            payload = advance()
+            err = failure()
+            if err is not None:
+                raise SimulationError(f"{where}: the joint-law callback failed: {err!r}") from err
+            _check_warnings(d, where)
+            if not finite(payload):
+                raise SimulationError(f"{where}: non-finite state in period {p}")
+            periods.append(payload)
+        return periods, (config.n_periods, math.nan, math.nan, math.nan)
     periods: list[tuple] = []
     changes: list[float] = []  # since the last jump: what settle_bound reads
     history: list[float] = []  # every period's change: what settles_in_time reads

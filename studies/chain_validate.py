@@ -32,7 +32,7 @@ from jointrig.identify.verdict import CHI2_PER_DOF_OK, RIG_FIDELITY, Verdict, ju
 
 from .holdout import MIN_PERIODS_TO_SPLIT, MIN_RUNS_TO_HOLD_OUT, generalisation_kind, holdout_of_another_kind
 from jointrig.vocab.records import RecordError
-from jointrig.rig.simulate import SimulationConfig, SimulationError
+from jointrig.rig.simulate import SimulationConfig, SimulationError, SteadyStateNotReached
 
 __all__ = ["ChainValidation", "validate_chain", "twist_error", "found_motion", "departure", "TrainReport", "train_verdict", "run_train_diagnosis",
            "written_of", "zero_resolved", "held_means"]
@@ -61,6 +61,9 @@ class ChainValidation:
     band: int = 10
     #: per held-out run: (measured record, nominal simulation, extended simulation), for plots
     records: tuple = field(default=(), repr=False, compare=False)
+    #: the replays compared over the record's own span from its measured state, no steady state
+    #: reached in the rig (which model, which run, why), in words
+    spanned: tuple = ()
 
     @property
     def gain(self) -> float:
@@ -190,6 +193,7 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
         models["extended"] = plant_and_inertias(diagnosis.final)
     num = {k: 0.0 for k in models}
     failed: dict = {}
+    spanned: list = []
     den = noise = 0.0
     per_run = []
     records = []
@@ -208,11 +212,25 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
             if bad:  # no body's (a file read wrong): nothing to simulate
                 failed[name] = f"the {name} model has no body's inertia ({', '.join(bad)} kg m^2): it cannot be simulated"
                 continue
+            start, loads = start_of(meas, top, reads[name].offsets_rad), held_means(fits[name], meas)
             try:
                 sim, _ = simulate_chain(rig.with_plant(plant), meas.omega_rad_s, drives, cfg, inertias_kgm2=J,
-                                        backend=backend, start=start_of(meas, top, reads[name].offsets_rad),
-                                        loads_Nm=held_means(fits[name], meas))
-            except SimulationError as err:  # no steady state, or a divergence: a reason, not a crash
+                                        backend=backend, start=start, loads_Nm=loads)
+            except SteadyStateNotReached as err:
+                # no steady state in the rig: a right model may still follow the record over its own
+                # span from its measured state (item 4 of issue 50: never the reason a model is refused)
+                try:
+                    sim, _ = simulate_chain(rig.with_plant(plant), meas.omega_rad_s, drives,
+                                            replace(cfg, settle=False, n_periods=meas.n_periods), inertias_kgm2=J,
+                                            backend=backend, start=start, loads_Nm=loads)
+                except SimulationError as again:
+                    failed[name] = (f"the {name} model reaches no periodic steady state under the measured drive of "
+                                    f"{meas.source}, nor follows it over its {meas.n_periods} periods: {again}")
+                    continue
+                spanned.append(f"the {name} model under the drive of {meas.source} (no periodic steady state in the rig "
+                               f"within {cfg.max_periods} periods" + (f" or {cfg.max_wall_s:g} s" if cfg.max_wall_s else "")
+                               + ")")
+            except SimulationError as err:  # a divergence: a reason, not a crash
                 failed[name] = (f"the {name} model reaches no periodic steady state under the measured drive of "
                                 f"{meas.source}: {err}")
                 continue
@@ -236,7 +254,7 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
     if not diagnosis.steps and "nominal" in failed:
         error["extended"] = math.nan
     return ChainValidation(error["nominal"], error["extended"], _floor(noise, den), tuple(per_run),
-                           note="; ".join(failed.values()), band=band, records=tuple(records))
+                           note="; ".join(failed.values()), band=band, records=tuple(records), spanned=tuple(spanned))
 
 
 def rig_replay(rig: ChainRig, runs: Sequence, band: int, *, backend: str = "auto", max_wall_s: float = 5.0):
@@ -558,6 +576,9 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
         if rig.kind == "slide":  # its drive levels are forces
             general = general.replace(" N m", " N")
     verdict = train_verdict(d, v, held_out_periods=split)
+    for what in v.spanned:
+        notes.append(f"{what}: compared over the record's own periods from its measured state instead of a steady "
+                     f"state (a model that settles slowly, or never, in the rig may still follow the record)")
     misfit = None
     if verdict.verdict == "unexplained":
         say("describing the misfit: the residual torque at every joint along every run's measured motion")
