@@ -120,11 +120,19 @@ def twist_error(sim: ChainRecord, meas: ChainRecord, band: int) -> tuple[float, 
     return float(np.sum(np.abs(a - b) ** 2)), float(np.sum(np.abs(b) ** 2))
 
 
-def _noise(meas: ChainRecord, band: int) -> float:
-    """Expected sum |noise|^2 of the averaged twist harmonics (from period-to-period spread)."""
+def _noise(meas: ChainRecord, band: int, noise_std: Optional[dict] = None) -> float:
+    """Expected sum |noise|^2 of the averaged twist harmonics: from the period-to-period spread,
+    or for a record of one period from ``noise_std`` (channel "phi<i>" -> noise per sample, the
+    fit's: each coefficient C_n = 2 X_n of white noise sigma over N samples has E|C_n|^2 =
+    4 sigma^2 / N)."""
     P = meas.n_periods
     if P < 2:
-        return 0.0
+        if not noise_std:
+            return 0.0
+        N, N_bodies = meas.samples_per_period, meas.n_flywheels
+        sig = [noise_std.get(f"phi{i}", 0.0) for i in range(1, N_bodies + 1)]
+        per = [sig[0] ** 2] if N_bodies == 1 else [sig[j] ** 2 + sig[j + 1] ** 2 for j in range(N_bodies - 1)]
+        return 4.0 * band * sum(per) / N
     total = 0.0
     for x in _motions(meas):
         _, _, var = period_spectra(x, P)
@@ -181,9 +189,11 @@ def held_means(fit, rec: ChainRecord) -> tuple[float, ...]:
 def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[ChainRecord], *,
                    band: int = 10, config: SimulationConfig = SimulationConfig(samples_per_period=128,
                                                                                max_step_s=REPLAY_MAX_STEP_S),
-                   max_wall_s: Optional[float] = 120.0, backend: str = "auto") -> ChainValidation:
+                   max_wall_s: Optional[float] = 120.0, backend: str = "auto",
+                   noise_std: Optional[dict] = None) -> ChainValidation:
     """Replay every held-out run's drives on the nominal and the extended plant (module docstring);
-    ``backend`` as :func:`rig.chain.simulate_chain`'s."""
+    ``backend`` as :func:`rig.chain.simulate_chain`'s; ``noise_std``: the fit's noise per sample
+    by channel, the noise floor of a held-out record of one period (:func:`_noise`)."""
     cfg = replace(config, absolute_angles_periodic=False, max_wall_s=max_wall_s, n_periods=1)
     models = {"nominal": plant_and_inertias(diagnosis.nominal)}
     # a sensor's skew or scale is not simulated: the simulated angles are read as its channel reads
@@ -241,7 +251,7 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
             errs[name] = math.sqrt(e / d)
         sims.setdefault("extended", sims.get("nominal"))
         errs.setdefault("extended", errs.get("nominal", math.nan))
-        d_run, n_run = twist_error(meas, meas, top)[1], _noise(meas, top)
+        d_run, n_run = twist_error(meas, meas, top)[1], _noise(meas, top, noise_std)
         den += d_run
         noise += n_run
         per_run.append((meas.source, errs.get("nominal", math.nan), errs["extended"], _floor(n_run, d_run)))
@@ -460,10 +470,10 @@ def periods_of(rec: ChainRecord, lo: int, hi: int, label: str = "") -> ChainReco
 
 
 def split_chain_periods(rec: ChainRecord) -> tuple[ChainRecord, ChainRecord]:
-    """A train's run as its earlier and its later whole periods (half each; the later half gets
-    the odd one), to fit on one and validate on the other when there are too few runs to hold
-    one out (pure)."""
-    P, k = rec.n_periods, rec.n_periods // 2
+    """A train's run as its earlier and its later whole periods (half each, the fit at least two;
+    the later half gets the odd one), to fit on one and validate on the other when there are too
+    few runs to hold one out (pure)."""
+    P, k = rec.n_periods, max(2, rec.n_periods // 2)
     return periods_of(rec, 0, k, f"periods 1-{k}"), periods_of(rec, k, P, f"periods {k + 1}-{P}")
 
 
@@ -565,7 +575,7 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
                      f"it, not its law's, so its two bodies' equations are balanced as their sum alone in this run "
                      f"(in every model compared)")
     say("replaying the held-out runs' drives on the nominal and the extended model in the rig")
-    v = validate_chain(rig, d, held_recs, backend=backend)
+    v = validate_chain(rig, d, held_recs, backend=backend, noise_std=d.noise_std)
     if split:
         general = (f"the later {', '.join(str(r.n_periods) for r in held_recs)} period(s) of the same run(s), fitted "
                    f"on their earlier periods: with {len(records)} run(s) no run of another level or frequency can be "

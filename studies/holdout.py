@@ -20,9 +20,11 @@ __all__ = ["MIN_RUNS_TO_HOLD_OUT", "MIN_PERIODS_TO_SPLIT", "HELD_OUT_RUNS", "HEL
 #: Fewer runs than this: no run can be held out (the fit needs the rest), so each run's periods
 #: are split instead (:func:`split_periods`).
 MIN_RUNS_TO_HOLD_OUT = 3
-#: Whole periods a run needs for its periods to be split into a fit part and a held-out part of
-#: at least two each (two periods give the fit part a noise estimate from their difference).
-MIN_PERIODS_TO_SPLIT = 4
+#: Whole periods a run needs for its periods to be split into a fit part of at least two (two
+#: periods give the fit its noise estimate from their difference) and a held-out part of at least
+#: one (its noise floor then comes from the fit's noise per sample). A record from rest of three
+#: to four periods of a slow reference leaves about this many once its transient is cut.
+MIN_PERIODS_TO_SPLIT = 3
 #: What the validation held out, in the verdict's JSON (``validation.kind``).
 HELD_OUT_RUNS, HELD_OUT_PERIODS = "held_out_runs", "held_out_periods"
 

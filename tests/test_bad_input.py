@@ -287,8 +287,8 @@ def test_diagnose_command_refuses_before_any_work(tmp_path, data3, capsys, case)
 
 @pytest.mark.parametrize("data, match", [
     ("missing.csv", "no such file or folder"),
-    ("two_runs.csv", r"2 run\(s\), and run\(s\) a \(3\), b \(3\) hold fewer than 4 whole periods: the diagnosis "
-                     r"needs 4 runs \(some held out for validation\), runs of at least 4 steady periods .*--validate"),
+    ("two_runs.csv", r"2 run\(s\), and run\(s\) a \(2\), b \(2\) hold fewer than 3 whole periods: the diagnosis "
+                     r"needs 4 runs \(some held out for validation\), runs of at least 3 steady periods .*--validate"),
     ("header_only.csv", "no data rows"),
     ("nan.csv", "non-finite"),
     # a dead channel: all-zero angles, and angles so small that their squares underflow (issue 35:
@@ -299,7 +299,7 @@ def test_diagnose_command_refuses_before_any_work(tmp_path, data3, capsys, case)
 def test_diagnose_command_refuses_bad_data(tmp_path, capsys, data, match):
     if data == "two_runs.csv":
         (tmp_path / data).write_text("run,time,torque,phi1,phi2\n" + "\n".join(
-            _good_rows(run="a") + _good_rows(run="b", omega=70.0)) + "\n")
+            _good_rows(2, run="a") + _good_rows(2, run="b", omega=70.0)) + "\n")
     elif data == "header_only.csv":
         (tmp_path / data).write_text("run,time,torque,phi1,phi2,speed\n")
     elif data == "nan.csv":

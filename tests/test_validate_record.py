@@ -96,7 +96,7 @@ def test_records_from_rest_are_diagnosed_on_their_steady_periods(tmp_path, capsy
     # diagnosis holds out runs of another kind as with steady records; stiffness and damping within
     # 3 standard errors. One record of 4.5 periods from rest leaves 2 steady periods: too few to
     # split (refused, naming --validate), diagnosed with a separate validation record. (Before,
-    # a transient was refused as a drift of the twist.)
+    # a transient was refused as a drift of the twist.) One of 5.5 leaves 3: split (issue 50 item 1).
     pts = [(w, m) for w in (25.0, 40.0, 55.0) for m in (1500.0, 3500.0)]
     rest = measure(JOINTS["paper"], pts, tmp_path / "rest.csv", seed=5, fs_Hz=2000.0, n_periods=6.5, from_rest=True)
     out = tmp_path / "d.json"
@@ -111,6 +111,21 @@ def test_records_from_rest_are_diagnosed_on_their_steady_periods(tmp_path, capsy
                     from_rest=True)
     assert cli(["diagnose", str(short), "-q"]) == 2
     assert "--validate OTHER" in capsys.readouterr().err
+    # 5.5 periods from rest leave 3 steady ones: fitted on the first two (their difference is
+    # the noise estimate), validated on the third (its noise floor from the fit's noise per sample):
+    # the right model predicts it within 3 floors. The verdict is not asserted: a noise estimate
+    # from two periods has one degree of freedom per line, and a cause can reach significance on
+    # it (measured here: a bearing drag, refused by the held-out period, so UNEXPLAINED).
+    three = measure(JOINTS["paper"], [(40.0, 2500.0)], tmp_path / "three.csv", seed=5, fs_Hz=2000.0, n_periods=5.5,
+                    from_rest=True)
+    assert cli(["diagnose", str(three), "--json", str(out), "-q"]) == 0
+    j = json.loads(out.read_text())
+    assert j["held_out_runs"] == ["0 (later periods)"] and j["validation"]["kind"] == "held_out_periods"
+    ratio = j["validation"]["nominal_error"] / j["validation"]["noise_floor"]
+    assert ratio <= 3, ratio  # a right model at its noise (0.2% per sample, one period held out)
+    for name, truth in (("joint1_k_Nm_per_rad", 2000.0), ("joint1_c_Nms_per_rad", 100.0)):
+        v, se = j["nominal"]["parameters"][name], j["nominal"]["std_errors"][name]
+        assert abs(v - truth) <= 3 * se, (name, v, se)
     other = measure(JOINTS["paper"], [(25.0, 1500.0), (55.0, 3500.0)], tmp_path / "other.csv", seed=6, fs_Hz=2000.0,
                     n_periods=6.5)
     assert cli(["diagnose", str(short), "--validate", str(other), "--json", str(out), "-q"]) == 0
