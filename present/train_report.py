@@ -163,7 +163,27 @@ def _torque_means(report: TrainReport) -> list[str]:
                    f"the axis, a cable's drag); the fit leaves it out, and the replays hold each run's mean "
                    f"{'positions' if slide else 'twists'} with the constants the model reads")
         out.append(f"the drive {what} on body {i} averages {m:.4g}{err} {unit} over the fitted runs: {why}")
+        held = _held_load(report, i)
+        if held is not None and not tied:
+            load, load_se = held
+            rest, rest_se = m - load, math.hypot(se if math.isfinite(se) else 0.0, load_se)
+            out.append(f"of it, the joints beside body {i} carry {with_se(load, load_se)} {unit} away by their laws at "
+                       f"the measured mean twists (a load beyond them); the rest, {with_se(rest, rest_se)} {unit}, is "
+                       f"the sensor's offset or a load on body {i} itself")
     return out
+
+
+def _held_load(report: TrainReport, i: int):
+    """The mean torque the joints beside body ``i`` carry away from it by their laws at the
+    measured mean twists (:attr:`TrainReport.preloads`), with its standard error (the two joints'
+    in quadrature); None unless every joint beside it has its zero read from the data."""
+    q = {j: (v, e) for j, v, e in report.preloads}
+    n = report.diagnosis.nominal.spec.n_flywheels
+    beside = [j for j in (i - 1, i) if 1 <= j <= n - 1]
+    if not beside or not all(j in q for j in beside):
+        return None
+    load = sum(q[j][0] * (1 if j == i else -1) for j in beside)
+    return load, math.sqrt(sum(q[j][1] ** 2 for j in beside))
 
 
 def offset_readings(report: TrainReport) -> tuple[str, ...]:

@@ -79,6 +79,14 @@ def test_encoders_with_their_own_zeros_give_the_zeroed_diagnosis_and_read_the_ze
     # the torque cell's offset: a train free to turn carries no mean torque
     mean, se_t = lab.zeros.torques[0], lab.zeros.torque_se[0]
     assert abs(mean - (offset + bench[0])) <= 3 * se_t, (mean, se_t, offset + bench[0])
+    # where the joint's zero is read from the data (its cubic, or its free play), the torque its
+    # law carries at the mean twist (none: nothing loads the train) leaves the cell's offset alone
+    from jointrig.present.train_report import _held_load
+
+    held = _held_load(lab, 1)
+    assert held is not None
+    rest, rest_se = mean - held[0], math.hypot(se_t, held[1])
+    assert abs(rest - (offset + bench[0])) <= 3 * rest_se, (rest, rest_se, offset + bench[0])
     text = format_train_report(lab)
     assert "reads" in text and "at rest: the angle sensors were not zeroed together" in text, text[:2000]
     assert f"averages {mean:.4g}" in text
