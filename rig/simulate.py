@@ -854,18 +854,18 @@ def _settle(advance: Callable[[], tuple], watched: Callable[[tuple], np.ndarray]
 
     Returns ``(payloads, (periods simulated, last change, error bound, decay ratio))``.
     """
+    def checked(p: int) -> tuple:  # period p's payload, or why the simulation cannot go on
+        payload = advance()
+        err = failure()
+        if err is not None:
+            raise SimulationError(f"{where}: the joint-law callback failed: {err!r}") from err
+        _check_warnings(d, where)
+        if not finite(payload):
+            raise SimulationError(f"{where}: non-finite state in period {p}")
+        return payload
+
     if not config.settle:  # the record's own span from its start: no steady state sought
-        periods = []
-        for p in range(1, config.n_periods + 1):
-            payload = advance()
-            err = failure()
-            if err is not None:
-                raise SimulationError(f"{where}: the joint-law callback failed: {err!r}") from err
-            _check_warnings(d, where)
-            if not finite(payload):
-                raise SimulationError(f"{where}: non-finite state in period {p}")
-            periods.append(payload)
-        return periods, (config.n_periods, math.nan, math.nan, math.nan)
+        return [checked(p) for p in range(1, config.n_periods + 1)], (config.n_periods, math.nan, math.nan, math.nan)
     periods: list[tuple] = []
     changes: list[float] = []  # since the last jump: what settle_bound reads
     history: list[float] = []  # every period's change: what settles_in_time reads
@@ -879,14 +879,8 @@ def _settle(advance: Callable[[], tuple], watched: Callable[[tuple], np.ndarray]
     jump_below = math.inf  # jump only while the change is below this (a tenth of a failed jump's)
     jumps = 0
     while True:
-        payload = advance()
         p += 1
-        err = failure()
-        if err is not None:
-            raise SimulationError(f"{where}: the joint-law callback failed: {err!r}") from err
-        _check_warnings(d, where)
-        if not finite(payload):
-            raise SimulationError(f"{where}: non-finite state in period {p}")
+        payload = checked(p)
         if settled_at is None:
             if periods:
                 cur, prev = watched(payload), watched(periods[-1])
