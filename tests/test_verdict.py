@@ -172,9 +172,10 @@ def test_one_or_two_runs_are_diagnosed_on_their_later_periods(tmp_path, points):
 
 
 def test_a_run_too_short_to_split_is_refused(tmp_path):
-    path = measure(JOINTS["paper"], [(40.0, 2500.0)], tmp_path / "bench.csv", seed=3, fs_Hz=2000.0, n_periods=3.5)
+    # two whole periods: the fit needs two for its noise estimate and the validation one more
+    path = measure(JOINTS["paper"], [(40.0, 2500.0)], tmp_path / "bench.csv", seed=3, fs_Hz=2000.0, n_periods=2.5)
     loaded = read_runs(path)
-    with pytest.raises(ValueError, match=r"run\(s\) 0 \(3\) hold fewer than 4 steady whole periods.*--validate OTHER"):
+    with pytest.raises(ValueError, match=r"run\(s\) 0 \(2\) hold fewer than 3 steady whole periods.*--validate OTHER"):
         _train(loaded)
 
 
