@@ -635,6 +635,26 @@ def _centred(r):
                    phi2_rad=None if r.phi2_rad is None else r.phi2_rad - r.phi2_rad.mean())
 
 
+def _drive_means(r) -> list[float]:
+    """Each drive channel's mean over a record (N m; N on a slide; NaN where the run has none)."""
+    if isinstance(r, ChainRecord):
+        return [float(np.mean(t)) if t is not None else math.nan for t in r.torques_Nm]
+    return [float(np.mean(r.torque_Nm))]
+
+
+def _drive_swing(r) -> float:
+    """The largest drive channel's half peak-to-peak over a record."""
+    if isinstance(r, ChainRecord):
+        return max((float(np.ptp(t)) / 2 for t in r.torques_Nm if t is not None), default=0.0)
+    return float(np.ptp(r.torque_Nm)) / 2
+
+
+#: The drives' mean differs between runs by more than this share of their largest swing: the runs
+#: hold different mean loads, and a joint's mean twist may differ between them as its preload
+#: does (a pump's load that grows with its speed), not because its encoders were re-zeroed.
+LOAD_SPREAD = 0.1
+
+
 def _body_angles(r) -> list:
     if isinstance(r, ChainRecord):
         return list(r.angles_rad)
@@ -695,8 +715,17 @@ def _plausible_angles(path: Path, run_ids: Sequence[str], records: Sequence,
                      "mean relative angle, right for a symmetric joint; an asymmetric joint's shift of the mean with "
                      "the level is lost")
         return [_centred(r) for r in records]
+    drive = np.array([_drive_means(r) for r in records])
+    spread = [float(np.ptp(c[np.isfinite(c)])) for c in drive.T if np.isfinite(c).any()]
+    loads = bool(spread) and max(spread) > LOAD_SPREAD * max(_drive_swing(r) for r in records)
     for j in range(len(twists[0])):
         means = [float(np.mean(tw[j])) for tw in twists]
+        if len(records) >= 2 and max(means) - min(means) > ZERO_SPREAD * max(amps) and loads:
+            what = "the relative angle's mean" if len(twists[0]) == 1 else f"joint {j + 1}'s mean twist"
+            notes.append(f"{what} differs between runs by {max(means) - min(means):.3g} rad, as the drives' mean does "
+                         f"(by {max(spread):.4g}): read as a preload that changes between runs "
+                         f"(each run's replay holds its own), not as encoders zeroed per run")
+            continue
         if len(records) >= 2 and max(means) - min(means) > ZERO_SPREAD * max(amps):
             lo, hi = int(np.argmin(means)), int(np.argmax(means))
             what = "the relative angle's mean" if len(twists[0]) == 1 else f"joint {j + 1}'s mean twist"

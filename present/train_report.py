@@ -177,7 +177,7 @@ def _held_load(report: TrainReport, i: int):
     """The mean torque the joints beside body ``i`` carry away from it by their laws at the
     measured mean twists (:attr:`TrainReport.preloads`), with its standard error (the two joints'
     in quadrature); None unless every joint beside it has its zero read from the data."""
-    q = {j: (v, e) for j, v, e in report.preloads}
+    q = {j: (v, e) for j, v, e, _ in report.preloads}
     n = report.diagnosis.nominal.spec.n_flywheels
     beside = [j for j in (i - 1, i) if 1 <= j <= n - 1]
     if not beside or not all(j in q for j in beside):
@@ -251,11 +251,15 @@ def offset_readings(report: TrainReport) -> tuple[str, ...]:
                        f"over the fitted runs: its zero, taken out before the fit (a symmetric joint twists about its "
                        f"rest)")
     what, unit = ("force", "N") if slide else ("torque", "N m")
-    for j, q, se in report.preloads:
-        if math.isfinite(q) and abs(q) > (3 * se if math.isfinite(se) else 0.0):
-            out.append(f"joint {j} carries a mean {what} of {with_se(q, se)} {unit} over the fitted runs: a preload, the "
-                       f"mean load passed through it between the drive and a load beyond (read from its law at the "
-                       f"measured mean twist; the replays hold it)")
+    for j, q, se, by_run in report.preloads:
+        spread = max(by_run) - min(by_run) if by_run else 0.0
+        varies = math.isfinite(se) and spread > 3 * se * math.sqrt(len(by_run))
+        if math.isfinite(q) and (abs(q) > (3 * se if math.isfinite(se) else 0.0) or varies):
+            out.append(f"joint {j} carries a mean {what} of {with_se(q, se)} {unit} over the fitted runs"
+                       + (f" (from {min(by_run):.4g} to {max(by_run):.4g} {unit} by run: a load that changes between "
+                          f"runs)" if varies else "")
+                       + ": a preload, the mean load passed through it between the drive and a load beyond (read from "
+                         "its law at the measured mean twist; each run's replay holds its own)")
     out += _torque_means(report)
     for s in d.steps:
         cause = by_name(s.effect)
@@ -420,8 +424,9 @@ def train_report_json(report: TrainReport, *, source: str = "", notes: Sequence[
         ruled_out=tuple({"label": s.label, "effect": s.effect, "place": s.as_json()["place"],
                          "magnitude_name": nm(s.magnitude[0]), "limit": lim, "std_error": s.magnitude[2],
                          "detection_probability": DETECTION_POWER} for s, lim in d.ruled_out()),
-        preloads=tuple({"joint": j, "mean": q, "std_error": se, "unit": "N" if report.kind == "slide" else "N m"}
-                       for j, q, se in report.preloads)).as_json()
+        preloads=tuple({"joint": j, "mean": q, "std_error": se, "per_run": list(by_run),
+                        "unit": "N" if report.kind == "slide" else "N m"}
+                       for j, q, se, by_run in report.preloads)).as_json()
 
 
 from jointrig.identify.causes import DETECTION_POWER  # noqa: E402  (light: no rig)

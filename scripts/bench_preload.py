@@ -37,7 +37,7 @@ def _row(seed: int, preload: float) -> dict:
     test_preload.PRELOAD_NM = preload
     with tempfile.TemporaryDirectory() as tmp:
         rep = _diagnosed(Path(tmp), seed=seed)
-    loads = {j: (q, se) for j, q, se in rep.preloads}
+    loads = {j: (q, se) for j, q, se, _ in rep.preloads}
     q, se = loads.get(2, (math.nan, math.nan))
     fit = rep.adopted_fit
     k, k_se = fit.as_dict()["joint2_k_Nm_per_rad"], fit.std_error("joint2_k_Nm_per_rad")

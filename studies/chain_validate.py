@@ -414,9 +414,9 @@ class TrainReport:
     #: each channel's mean over the fitted runs, the angles' taken out before the diagnosis
     #: (:class:`identify.zeros.SensorZeros`; None where not read)
     zeros: Optional[SensorZeros] = None
-    #: ``(joint, mean torque N m (N on a slide), standard error)`` per joint whose twist's zero
-    #: the data determine (:func:`identify.chain_diagnose.mean_joint_torque` over the fitted
-    #: runs, the adopted model's): what a mean load passes through it, which the replays hold
+    #: ``(joint, mean torque N m (N on a slide), standard error, per fitted run)`` per joint whose
+    #: twist's zero the data determine (:func:`identify.chain_diagnose.mean_joint_torque` over the
+    #: fitted runs, the adopted model's): what a mean load passes through it, which the replays hold
     preloads: tuple = ()
 
     @property
@@ -597,8 +597,9 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
         misfit = train_misfit(prepare_chain_runs(records, band=band), run_ids, [s[1] for s in settings],
                               d.nominal, band, rig.kind)
     kept = d.final if verdict.verdict == "explained" else d.nominal
-    preloads = tuple((j, *mean_joint_torque(kept, [r.average for r in runs], j)) for j in zeroed_joints(kept.spec)
-                     if form != "relative" and zero_resolved(kept, j))
+    preloads = tuple((j, *mean_joint_torque(kept, [r.average for r in runs], j),
+                      tuple(mean_joint_torque(kept, [r.average], j)[0] for r in runs))
+                     for j in zeroed_joints(kept.spec) if form != "relative" and zero_resolved(kept, j))
     return TrainReport(tuple(run_ids), held, d, v, verdict, general, tuple(written),
                        str(rig.path) if written else None, tuple(notes), split, rig.kind, tuple(settings), misfit,
                        form, zeros, preloads)

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from typing import Optional, Sequence
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -357,7 +358,7 @@ ENCODERS_AT_REST_RAD = (0.7, 0.7 - 1e-5, 0.7 - 1e-5 - 4e-4, 0.7 - 4e-4)
 
 def daq_file(train: Train, points, path, *, fs_Hz: float = 20000.0, n_periods: float = 8.3, snr_db: float = 40.0,
              offsets_rad=ENCODERS_AT_REST_RAD, seed: int = 0, angle_unit: str = "mrad", torque_lead_s: float = 0.0,
-             cell_offset_Nm: float = 0.0):
+             cell_offset_Nm: float = 0.0, loads_by_run: Optional[Sequence[tuple]] = None):
     """Every ``(omega rad/s, amplitude N m, driven flywheel)`` point recorded as a lab's DAQ writes a
     drive train's test: a fixed sample rate (not a whole number of samples per period), from a
     random phase of the steady state, ``n_periods`` periods (an incomplete last one), encoders not
@@ -368,7 +369,8 @@ def daq_file(train: Train, points, path, *, fs_Hz: float = 20000.0, n_periods: f
     current loop's or an amplifier's lag between the recorded and the acting torque).
     ``cell_offset_Nm``: what every torque cell reads at zero torque. The train's ``loads``: a
     driven body's cell reads its mean load too (the motor holds it); a load elsewhere (a pump's)
-    is not measured."""
+    is not measured. ``loads_by_run``: per point, the train's ``loads`` in that run instead (a
+    pump whose mean load changes with its speed)."""
     scale = {"rad": 1.0, "mrad": 1e3}[angle_unit]
     rng = np.random.default_rng(seed)
     driven = sorted({i for _, _, i in points})
@@ -376,7 +378,9 @@ def daq_file(train: Train, points, path, *, fs_Hz: float = 20000.0, n_periods: f
     header = (["run", "t [ms]"] + [f"torque{i} [N m]" for i in driven]
               + [f"phi{i} [{angle_unit}]" for i in range(1, N + 1)])
     lines = [",".join(header)]
+    base = train
     for r, (w, M0, i) in enumerate(points):
+        train = replace(base, loads=tuple(loads_by_run[r])) if loads_by_run is not None else base
         drive = {i: (w, M0)}
         t, y, mode, T = steady_state(train, drive)
         start = t + rng.uniform(0, T)
