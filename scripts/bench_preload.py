@@ -46,6 +46,17 @@ def _row(seed: int, preload: float) -> dict:
             "k_covered": bool(abs(k - 25000.0) <= 1.96 * k_se)}
 
 
+def _timed(seed: int, k: int, n: int, preload: float) -> dict:
+    """One seed's row, printed, and its time on stderr (seed k of n)."""
+    t0 = time.perf_counter()
+    r = _row(seed, preload)
+    print(f"{seed:5d} {r['verdict']:12s} {r['preload_Nm']:10.2f} ± {r['preload_se_Nm']:5.2f} "
+          f"{str(r['preload_covered']):>6s} {r['k_Nm_per_rad']:9.0f} ± {r['k_se']:4.0f} {str(r['k_covered']):>6s}",
+          flush=True)
+    print(f"[{k}/{n}] seed {seed}: {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+    return r
+
+
 def main(argv=None) -> int:
     from jointrig.commands.options import BadArgument, check_output, refused
     from jointrig.files import write_json_atomic
@@ -61,21 +72,15 @@ def main(argv=None) -> int:
             raise BadArgument(f"--seeds must be at least 1, got {args.seeds}")
 
     refused(p, some_seeds, lambda: check_output(args.json, "--json"))
-    rows = []
     print(f"{'seed':>5s} {'verdict':12s} {'preload N m':>18s} {'in 95%':>6s} {'k N m/rad':>16s} {'in 95%':>6s}")
-    for s in range(args.first, args.first + args.seeds):
-        t0 = time.perf_counter()
-        r = _row(s, args.preload)
-        rows.append(r)
-        print(f"{s:5d} {r['verdict']:12s} {r['preload_Nm']:10.2f} ± {r['preload_se_Nm']:5.2f} {str(r['preload_covered']):>6s} "
-              f"{r['k_Nm_per_rad']:9.0f} ± {r['k_se']:4.0f} {str(r['k_covered']):>6s}", flush=True)
-        print(f"[{s - args.first + 1}/{args.seeds}] seed {s}: {time.perf_counter() - t0:.1f} s", file=sys.stderr)
-    n = len(rows)
-    print(f"\nno_misfit: {sum(r['verdict'] == 'no_misfit' for r in rows)} of {n}; preload within its 95% interval: "
-          f"{sum(r['preload_covered'] for r in rows)} of {n}; k within its 95% interval: "
-          f"{sum(r['k_covered'] for r in rows)} of {n}")
+    seeds = range(args.first, args.first + args.seeds)
+    rows = [_timed(s, k, len(seeds), args.preload) for k, s in enumerate(seeds, start=1)]
     if args.json:
         write_json_atomic(args.json, {"preload_Nm": args.preload, "rows": rows})
+    count = {key: sum(bool(r[key]) for r in rows) for key in ("preload_covered", "k_covered")}
+    n_right = sum(r["verdict"] == "no_misfit" for r in rows)
+    print(f"\nno_misfit: {n_right} of {len(rows)}; preload within its 95% interval: {count['preload_covered']} of "
+          f"{len(rows)}; k within its 95% interval: {count['k_covered']} of {len(rows)}")
     return 0
 
 
