@@ -12,7 +12,8 @@ import math
 import re
 from typing import Sequence
 
-from jointrig.studies.chain_validate import TrainReport, zero_resolved
+from jointrig.identify.chain_diagnose import zero_resolved
+from jointrig.studies.chain_validate import TrainReport
 
 from jointrig.vocab.params import linear_name
 

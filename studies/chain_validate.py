@@ -35,7 +35,7 @@ from jointrig.vocab.records import RecordError
 from jointrig.rig.simulate import SimulationConfig, SimulationError, SteadyStateNotReached
 
 __all__ = ["ChainValidation", "validate_chain", "twist_error", "found_motion", "departure", "TrainReport", "train_verdict", "run_train_diagnosis",
-           "written_of", "zero_resolved", "held_means"]
+           "written_of", "held_means"]
 
 
 @dataclass(frozen=True)
@@ -166,7 +166,7 @@ def start_of(rec: ChainRecord, band: int, offsets_rad: Sequence[float] = ()) -> 
 def held_means(fit, rec: ChainRecord) -> tuple[float, ...]:
     """The constant torque (N m; N on a slide) on each body that holds ``rec``'s mean twists under
     the fitted model ``fit`` (a :class:`identify.chain_diagnose.ChainFit`) (pure): each joint whose
-    zero the data determine (:func:`zero_resolved`) carries its elastic terms' mean along the
+    zero the data determine (:func:`identify.chain_diagnose.zero_resolved`) carries its elastic terms' mean along the
     record's twist (:func:`identify.chain_diagnose.mean_joint_torque`), pushed on its two bodies
     in opposite senses. A mean load (a pump's) preloads the joints between it and the drive; a
     replay without it swings about the laws' zero instead of the measured mean twist, where an
@@ -174,12 +174,12 @@ def held_means(fit, rec: ChainRecord) -> tuple[float, ...]:
     stand in: a torque cell reads its own offset, and a load may act where no cell is. Elsewhere
     the laws do not show where their zero is, and no constant is needed: a linear law's swing is
     the same about any twist."""
-    from jointrig.identify.chain_diagnose import mean_joint_torque
+    from jointrig.identify.chain_diagnose import mean_joint_torque, zero_resolved
 
     loads = [0.0] * fit.spec.n_flywheels
     for j in range(1, fit.spec.n_flywheels):
         if zero_resolved(fit, j):
-            q = mean_joint_torque(fit, [rec], j)[0]
+            q = mean_joint_torque(fit, [rec], j, with_error=False)[0]
             if math.isfinite(q):
                 loads[j - 1] += q
                 loads[j] -= q
@@ -429,29 +429,6 @@ class TrainReport:
         return self.diagnosis.final if self.adopted else self.diagnosis.nominal
 
 
-#: A joint's twist zero is read from the data where a nonlinear elastic term of its law stands
-#: this many standard errors clear of 0 (a free play always): a spurious cubic of 2 standard
-#: errors on a linear shaft read a 200 N m preload as -36 +- 26 N m.
-ZERO_RESOLVED_SE = 3.0
-
-
-def zero_resolved(fit, j: int) -> bool:
-    """Whether the data determine joint ``j``'s twist zero in ``fit`` (:data:`ZERO_RESOLVED_SE`)."""
-    from jointrig.identify.chain import joint_prefix
-    from jointrig.vocab.law import Power
-
-    vals = fit.as_dict()
-    for t in fit.spec.joints[j - 1]:
-        if isinstance(t, Power) and t.gap_rad > 0:
-            return True
-        if t.elastic and isinstance(t, Power) and t.power > 1:
-            name = joint_prefix(j) + t.name
-            se = fit.std_error(name)
-            if math.isfinite(se) and abs(vals[name]) > ZERO_RESOLVED_SE * se:
-                return True
-    return False
-
-
 def written_of(rig: ChainRig) -> tuple:
     """A chain model's parameters as its file writes them, ``(name, value)``: the inertias, then
     every joint's law and the bearings (the names of the diagnosis's fits)."""
@@ -517,7 +494,7 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
     if form not in FORMS:
         raise ValueError(f"form must be one of {FORMS}, got {form!r}")
     from jointrig.identify.chain_diagnose import (diagnose_chain, mean_joint_torque, nominal_spec, prepare_chain_runs,
-                                                  train_misfit, zeroed_joints)
+                                                  train_misfit, zero_resolved)
     from jointrig.identify.defaults import DEFAULT_FIDELITY
 
     records = list(records)
@@ -599,7 +576,7 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
     kept = d.final if verdict.verdict == "explained" else d.nominal
     preloads = tuple((j, *mean_joint_torque(kept, [r.average for r in runs], j),
                       tuple(mean_joint_torque(kept, [r.average], j)[0] for r in runs))
-                     for j in zeroed_joints(kept.spec) if form != "relative" and zero_resolved(kept, j))
+                     for j in range(1, kept.spec.n_flywheels) if form != "relative" and zero_resolved(kept, j))
     return TrainReport(tuple(run_ids), held, d, v, verdict, general, tuple(written),
                        str(rig.path) if written else None, tuple(notes), split, rig.kind, tuple(settings), misfit,
                        form, zeros, preloads)
