@@ -66,6 +66,11 @@ MODULES = {
     # what an unexplained misfit looks like, on every bench, and the one JSON document
     "jointrig.identify.misfit": ("identify/misfit.py", ["tests/test_misfit.py", "tests/test_train_misfit.py"]),
     "jointrig.present.diagnosis_json": ("present/diagnosis_json.py", ["tests/test_diagnosis_json.py"]),
+    # the user's model as written beside the data
+    "jointrig.present.summary": ("present/summary.py", ["tests/test_formatting.py"]),
+    # the replay of held-out runs: its start, its constant loads, its span, its noise floor
+    "jointrig.studies.chain_validate": ("studies/chain_validate.py", ["tests/test_validate_record.py",
+                                                                       "tests/test_preload.py"]),
     # the joint card, of two flywheels and of every joint of a train
     "jointrig.identify.card": ("identify/card.py", ["tests/test_card.py"]),
     # a train's harmonic balance (stick masks, the drives' lag) and its diagnosis

@@ -61,3 +61,44 @@ def test_a_written_parameter_differs_only_when_resolved_and_large_enough_to_matt
     assert rows["c_Nms_per_rad"].differs                      # 5 SE and 2.5%
     assert rows["offset_rad"].differs and rows["offset_rad"].change == "0.004 instead of 0"  # written 0: SE alone
     assert not rows["d_Nms_per_rad"].differs                  # 10% but 1.5 SE: not resolved
+
+
+def _rows(vals, written):
+    from types import SimpleNamespace
+
+    from jointrig.present.summary import compare_written
+
+    fit = SimpleNamespace(as_dict=lambda: {n: v for n, (v, _) in vals.items()}, std_error=lambda n: vals[n][1])
+    return {r.name: r for r in compare_written(written, fit)}
+
+
+def test_the_thresholds_of_differs_are_three_standard_errors_and_one_percent():
+    # 2.5 standard errors and 5%: resolved at 2, not at 3 (ten parameters compared at once);
+    # 5 standard errors and 0.5%: resolved, but below 1% of the written value
+    rows = _rows({"k_Nm_per_rad": (2100.0, 40.0), "c_Nms_per_rad": (100.5, 0.1)},
+                 [("k_Nm_per_rad", 2000.0), ("c_Nms_per_rad", 100.0)])
+    assert not rows["k_Nm_per_rad"].differs and not rows["c_Nms_per_rad"].differs
+    assert rows["c_Nms_per_rad"].change == "0.5% higher"
+    # the change in words: a factor from ten times on, a percentage below
+    assert _rows({"k_Nm_per_rad": (22000.0, 1.0)}, [("k_Nm_per_rad", 2000.0)])["k_Nm_per_rad"].change == "11 times"
+    assert _rows({"k_Nm_per_rad": (21000.0, 1.0)}, [("k_Nm_per_rad", 2000.0)])["k_Nm_per_rad"].change == "950% higher"
+    # exactly 1% apart is not more than 1%
+    assert not _rows({"c_Nms_per_rad": (101.0, 0.01)}, [("c_Nms_per_rad", 100.0)])["c_Nms_per_rad"].differs
+
+
+def test_the_sentence_names_only_what_differs_and_what_to_do_next_follows_the_verdict():
+    from types import SimpleNamespace
+
+    from jointrig.present.summary import steps_after, wrong_sentence
+
+    rows = list(_rows({"k_Nm_per_rad": (1600.0, 40.0), "c_Nms_per_rad": (100.0, 1.0)},
+                      [("k_Nm_per_rad", 2000.0), ("c_Nms_per_rad", 100.0)]).values())
+    text = wrong_sentence(rows)
+    assert text.startswith("As written, your model has k = 2000 N m/rad") and "20% lower" in text and "c =" not in text
+    assert wrong_sentence([r for r in rows if not r.differs]) == ""
+    both = SimpleNamespace(effects=("backlash at joint 1", "cogging at joint 1"), excitation="runs at two levels")
+    steps = steps_after("explained", [both], later_periods_only=True)
+    assert steps[0] == ("backlash at joint 1 and cogging at joint 1 explain the same part of the data; to tell them "
+                        "apart: runs at two levels")
+    assert "later periods" in steps[1] and steps[2].startswith("put the adopted cause into your model")
+    assert steps_after("no_misfit", [], later_periods_only=False) == ()

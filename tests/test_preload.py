@@ -57,7 +57,7 @@ def test_a_preloaded_coupling_is_the_nominal_model_with_its_preload_read(tmp_pat
     assert abs(q - PRELOAD_NM) <= 3 * se and se < 0.1 * PRELOAD_NM, (q, se)
     assert 1 not in loads and 3 not in loads, loads
     text = format_train_report(rep)
-    assert f"joint 2 carries a mean torque of" in text, text[:3000]
+    assert "joint 2 carries a mean torque of" in text, text[:3000]
     doc = train_report_json(rep)
     assert doc["preloads"][0]["joint"] == 2 and doc["preloads"][0]["mean"] == pytest.approx(q)
 
