@@ -12,6 +12,7 @@ offsets.
 from __future__ import annotations
 
 import json
+import math
 
 import numpy as np
 import pytest
@@ -165,3 +166,30 @@ def test_a_replay_that_reaches_no_steady_state_is_compared_over_the_records_own_
     assert "nominal model" in capped.spanned[0] and capped.note == ""
     for v in (settled, capped):
         assert v.nominal_error <= 3 * v.noise_floor, (v.nominal_error, v.noise_floor)
+
+
+def test_a_held_out_periods_noise_floor_is_the_same_from_its_spread_or_from_the_fits_noise():
+    # The held-out comparison's noise: over several periods from their period-to-period spread,
+    # over one period from the fit's noise per sample (each coefficient C_n = 2 X_n of white
+    # noise sigma over N samples: E|C_n|^2 = 4 sigma^2 / N, and the mean of P periods 1/P of it).
+    # Pure noise on three encoders (sigma 1e-3, 2e-3, 1.5e-3 rad), 64 periods of 128 samples:
+    # both estimates within 10% of the expected sum (the spread's estimate over 10 harmonics x 2
+    # twists x 63 degrees of freedom each scatters by about 2%); and the floor adds the rig's own
+    # fidelity in quadrature.
+    from jointrig.identify.chain import ChainRecord
+    from jointrig.identify.verdict import RIG_FIDELITY
+    from jointrig.studies.chain_validate import _floor, _noise
+
+    rng = np.random.default_rng(0)
+    P, N, band, sig = 64, 128, 10, (1e-3, 2e-3, 1.5e-3)
+    t = np.arange(P * N) * (2 * np.pi / 10.0) / N
+    angles = tuple(rng.normal(0.0, s, P * N) for s in sig)
+    rec = ChainRecord(10.0, t, (np.zeros(P * N), None, None), angles, None, P, 1.0, source="noise")
+    expected = 4 * band * ((sig[0] ** 2 + sig[1] ** 2) + (sig[1] ** 2 + sig[2] ** 2)) / N
+    assert _noise(rec, band) == pytest.approx(expected / P, rel=0.1)
+    one = ChainRecord(10.0, t[:N], (np.zeros(N), None, None), tuple(a[:N] for a in angles), None, 1, 1.0, source="one")
+    noise_std = {f"phi{i}": s for i, s in enumerate(sig, start=1)}
+    assert _noise(one, band, noise_std) == pytest.approx(expected, rel=1e-12)
+    assert _noise(one, band) == 0.0  # one period, no noise given: nothing to say
+    assert _floor(4e-6, 1.0) == pytest.approx(math.sqrt(4e-6 + RIG_FIDELITY ** 2), rel=1e-12)
+    assert _floor(-1.0, 1.0) == pytest.approx(RIG_FIDELITY, rel=1e-12)
