@@ -193,3 +193,14 @@ def test_a_held_out_periods_noise_floor_is_the_same_from_its_spread_or_from_the_
     assert _noise(one, band) == 0.0  # one period, no noise given: nothing to say
     assert _floor(4e-6, 1.0) == pytest.approx(math.sqrt(4e-6 + RIG_FIDELITY ** 2), rel=1e-12)
     assert _floor(-1.0, 1.0) == pytest.approx(RIG_FIDELITY, rel=1e-12)
+
+
+def test_the_gain_is_the_nominal_error_over_the_extended_one():
+    # relative errors are below 1: a gain of 10 is 0.1 over 0.01; infinite only where the extended
+    # model's error is 0, NaN where a model was not simulated
+    from jointrig.studies.chain_validate import ChainValidation
+
+    assert ChainValidation(0.1, 0.01, 0.001, ()).gain == pytest.approx(10.0, rel=1e-12)
+    assert ChainValidation(0.1, 0.0, 0.001, ()).gain == math.inf
+    assert math.isnan(ChainValidation(0.1, math.nan, 0.001, ()).gain)
+    assert math.isnan(ChainValidation(math.nan, 0.01, 0.001, ()).gain)
