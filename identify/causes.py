@@ -23,6 +23,7 @@ from jointrig.vocab.law import (Cogging, Coulomb, Iwan, Jenkins, Monomial, Power
 from jointrig.vocab.params import BEARING1, BEARING2, DRIVE_DELAY
 
 from .balance import spectral_rate
+from .defaults import DEFAULT_ALPHA
 
 __all__ = ["ModelSpec", "NOMINAL", "Cause", "Limits", "Place", "CauseScore", "Ambiguity", "CATALOGUE",
            "OSCILLATOR_CAUSES", "at", "by_name", "evidence", "chi2_survival", "detection_limit", "DETECTION_POWER",
@@ -385,7 +386,7 @@ def chi2_survival(x: float, dof: int) -> float:
     return float(chdtrc(dof, x)) if x > 0 else 1.0
 
 
-def evidence(delta_chi2: float, q: int, n_rows: int, alpha: float = 1e-3, n_causes: float = 1
+def evidence(delta_chi2: float, q: int, n_rows: int, alpha: float = DEFAULT_ALPHA, n_causes: float = 1
              ) -> tuple[float, float, bool]:
     """One evidence measure for every pipeline: a cause with ``q`` parameters lowers chi-square
     by ``delta_chi2`` over ``n_rows`` equations. Returns ``(score, p, significant)``: the BIC
@@ -405,7 +406,7 @@ def evidence(delta_chi2: float, q: int, n_rows: int, alpha: float = 1e-3, n_caus
 DETECTION_POWER = 0.95
 
 
-def detection_limit(score: "CauseScore", n_rows: int, alpha: float = 1e-3, n_causes: float = 1) -> float:
+def detection_limit(score: "CauseScore", n_rows: int, alpha: float = DEFAULT_ALPHA, n_causes: float = 1) -> float:
     """The smallest size of a cause that these data would have found significant with
     probability :data:`DETECTION_POWER` (pure): its drop in chi-square is about ``(m / SE)^2``
     (non-central chi-square), and :func:`evidence` asks it to pass both the chi-square(q)

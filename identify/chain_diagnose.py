@@ -58,7 +58,7 @@ from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpe
 from .causes import (CATALOGUE, Ambiguity, Cause, CauseScore, Limits, ModelSpec, Place, Profiled, at, by_name,
                      detection_limit, evidence, forward_select,
                      fundamental_quadrature, harmonic_shares, parsimonious, profile)
-from .defaults import DEFAULT_FIDELITY
+from .defaults import DEFAULT_ALPHA, DEFAULT_FIDELITY
 from .kink import FINE_SAMPLES, KINK_RTOL, kink_corrected_rate, kink_first_pass
 from .harmonics import max_harmonic
 from .periods import period_spectra, raw_noise_std
@@ -566,6 +566,26 @@ def balance_fidelity(replays: Sequence[Optional[ChainRun]], fit: ChainFit, n_har
                            tuple(i for i in range(len(replays)) if replays[i] is None))
 
 
+def refit_on_replay(replays: Sequence[Optional[ChainRun]], fit: ChainFit, n_harmonics: int, masked: tuple = (),
+                    merging: tuple = ()) -> ChainFit:
+    """``fit``'s structure fitted again on its own noise-free replay (``replays`` as
+    :func:`balance_fidelity`'s: one per fitted run, None where none settled), the same bodies
+    masked and joints' equations summed, its profiled parameters (a free play, a Stribeck rate)
+    held (pure). Where the truth is known, what this fit departs from ``fit`` is the method's
+    bias: the balance's misfit at kinks and above the band, the rig's integrator. Rows are weighed
+    by each run's size (a fixed floor relative to its largest balanced term): the replay holds no
+    noise to weigh them by. Returns ``fit`` with the refitted linear values (its own spec and
+    standard errors)."""
+    kept = [r for r in replays if r is not None]
+    if not kept:
+        raise ValueError("refit_on_replay: no run was replayed")
+    spec = replace(fit.spec, offsets_rad=(0.0,) * len(fit.spec.offsets_rad))
+    problem = _Problem(tuple(kept), n_harmonics, 2.0, DEFAULT_FIDELITY, masked, merging)
+    again, _ = problem.fit(spec)
+    by_name = again.as_dict()
+    return replace(fit, values=np.array([by_name.get(n, v) for n, v in zip(fit.names, fit.values)]))
+
+
 # --------------------------------------------------------------------------------------------
 # 3. Candidates: a cause at a place
 
@@ -967,7 +987,7 @@ class ChainDiagnosis:
     #: where the selection stopped at ``max_effects``): what the data rule out is read from it
     last_round: tuple = ()
     #: the false-alarm probability of every round (``--alpha``)
-    alpha: float = 1e-3
+    alpha: float = DEFAULT_ALPHA
 
     def ruled_out(self) -> tuple:
         """``(score, limit)`` for every catalogued cause not adopted, on the final model: the
@@ -1035,7 +1055,7 @@ def _joints_that_may_stick(problem: _Problem, structure: ChainSpec, pool: Sequen
     return tuple(out)
 
 
-def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: float = 1e-3, max_effects: int = 2,
+def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: float = DEFAULT_ALPHA, max_effects: int = 2,
                    fidelity: float = DEFAULT_FIDELITY, causes: Sequence[Cause] = JOINT_CAUSES,
                    nominal: Optional[ChainSpec] = None, progress=None, workers: Optional[int] = None
                    ) -> ChainDiagnosis:

@@ -20,3 +20,7 @@ REPLAY_MAX_STEP_S = 5e-5
 #: diagnosis weighs, so a longer period (most often a time column in ms read as s) is refused
 #: before any work (``jointrig diagnose``).
 MAX_REPLAY_STEPS_PER_PERIOD = 2e5
+
+#: The diagnosis's false-alarm rate: of a cause's evidence (identify.causes.evidence) and of the
+#: held-out comparison's bound (studies.chain_validate.RightModelError.bound).
+DEFAULT_ALPHA = 1e-3

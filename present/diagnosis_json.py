@@ -15,11 +15,11 @@ from typing import Callable, Mapping, Optional, Sequence
 from jointrig.identify.causes import Ambiguity, CauseScore
 from jointrig.identify.verdict import Verdict
 
-__all__ = ["SCHEMA", "KEYS", "FIDELITY_KEYS", "RULED_OUT_KEYS", "PRELOAD_KEYS", "FIT_KEYS", "VALIDATION_KEYS", "RUN_KEYS", "CAUSE_KEYS", "FitJson", "RunJson",
+__all__ = ["SCHEMA", "KEYS", "FIDELITY_KEYS", "RULED_OUT_KEYS", "PRELOAD_KEYS", "FIT_KEYS", "VALIDATION_KEYS", "RIGHT_KEYS", "RUN_KEYS", "CAUSE_KEYS", "FitJson", "RunJson",
            "ValidationJson", "DiagnosisJson", "finite", "schema_problems"]
 
 #: The document's name and version: a script checks it before it reads the keys.
-SCHEMA = "jointrig-diagnosis/4"
+SCHEMA = "jointrig-diagnosis/5"
 #: The top-level keys, in the order written (the demo ``jointrig diagnose-chain`` adds ``demo``
 #: last: its truth model and settings).
 KEYS = ("schema", "source", "input_sha256", "units", "bench", "verdict", "band_harmonics", "fidelity", "fit_runs",
@@ -32,9 +32,11 @@ PRELOAD_KEYS = ("joint", "mean", "std_error", "per_run", "unit")
 FIT_KEYS = ("chi2", "dof", "chi2_per_dof", "parameters", "std_errors")
 EXTENDED_KEYS = ("effects", "tried", "steps") + FIT_KEYS
 VALIDATION_KEYS = ("kind", "generalisation", "statement", "measure", "unit", "nominal_error", "extended_error",
-                   "noise_floor", "gain", "note", "per_run")
+                   "noise_floor", "right_model", "gain", "note", "per_run")
+RIGHT_KEYS = ("error", "bound", "noise", "propagated", "method", "rig", "dof", "estimate_dof", "alpha", "draws",
+              "method_unmeasured")
 RUN_KEYS = ("run", "held_out", "omega_rad_s", "drive_amplitude", "nominal_error", "extended_error", "noise_floor",
-            "no_steady_state")
+            "right_model_error", "no_steady_state")
 CAUSE_KEYS = ("label", "effect", "place", "score", "significant", "delta_chi2", "n_params", "p_value", "magnitude",
               "signature", "note", "parameters")
 
@@ -86,19 +88,22 @@ class RunJson:
     extended_error: float
     noise_floor: Optional[float] = None
     no_steady_state: tuple = ()
+    #: the error a right model has on this run alone (noise, propagated and method parts)
+    right_model_error: Optional[float] = None
 
     def as_json(self) -> dict:
         return {"run": self.run, "held_out": self.held_out, "omega_rad_s": self.omega_rad_s,
                 "drive_amplitude": self.drive_amplitude, "nominal_error": self.nominal_error,
                 "extended_error": self.extended_error, "noise_floor": self.noise_floor,
-                "no_steady_state": dict(self.no_steady_state)}
+                "right_model_error": self.right_model_error, "no_steady_state": dict(self.no_steady_state)}
 
 
 @dataclass(frozen=True)
 class ValidationJson:
     """The replay of the held-out data in the rig: what was held out (``kind``:
     ``held_out_runs`` or ``held_out_periods``) and what that tests, the error ``measure`` in
-    ``unit``, each model's error on the held-out data, the noise floor and the gain."""
+    ``unit``, each model's error on the held-out data, the noise floor, what a right model misses
+    and the bound on it (``right_model``) and the gain."""
 
     kind: str
     generalisation: str
@@ -111,11 +116,14 @@ class ValidationJson:
     gain: float
     per_run: tuple[RunJson, ...]
     note: str = ""
+    #: what a right model misses here (:data:`RIGHT_KEYS`; None where not measured)
+    right_model: Optional[dict] = None
 
     def as_json(self) -> dict:
         return {"kind": self.kind, "generalisation": self.generalisation, "statement": self.statement,
                 "measure": self.measure, "unit": self.unit, "nominal_error": self.nominal_error,
-                "extended_error": self.extended_error, "noise_floor": self.noise_floor, "gain": self.gain,
+                "extended_error": self.extended_error, "noise_floor": self.noise_floor,
+                "right_model": dict(self.right_model) if self.right_model is not None else None, "gain": self.gain,
                 "note": self.note, "per_run": [r.as_json() for r in self.per_run]}
 
 
@@ -214,6 +222,8 @@ def schema_problems(doc: dict) -> list[str]:
     keys("nominal", doc["nominal"], FIT_KEYS)
     keys("extended", doc["extended"], EXTENDED_KEYS)
     keys("validation", doc["validation"], VALIDATION_KEYS)
+    if isinstance(doc["validation"], dict) and doc["validation"].get("right_model") is not None:
+        keys("validation.right_model", doc["validation"]["right_model"], RIGHT_KEYS)
     for i, r in enumerate(doc["validation"]["per_run"] if isinstance(doc["validation"], dict) else []):
         keys(f"validation.per_run[{i}]", r, RUN_KEYS)
     for where in ("causes", "extended.steps"):

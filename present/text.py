@@ -113,19 +113,20 @@ class ValidationRow:
     held_out: bool
     nominal: str
     extended: str
-    floor: str
+    right: str
 
 
 def validation_lines(rows: Sequence[ValidationRow], *, measure: str, drive: str, summary: str,
                      statement: tuple[str, str], failures: Sequence[str] = ()) -> list[str]:
-    """The replay of the runs in the rig: one row per run, the held-out summary (errors, floor,
-    gain), models without a steady state, and what the held-out data test (label, words)."""
+    """The replay of the runs in the rig: one row per run (each model's error and a right model's),
+    the held-out summary (errors, what a right model misses, gain), models without a steady state,
+    and what the held-out data test (label, words)."""
     w = max([6] + [len(r.run) for r in rows])
     lines = [f"Validation in the MuJoCo rig under each run's measured drive ({measure}):",
              f"  {'run':>{w}s} {'omega':>8s} {drive:>8s} {'held out':>8s} {'nominal':>10s} {'extended':>10s} "
-             f"{'floor':>10s}"]
+             f"{'right':>10s}"]
     lines += [f"  {r.run:>{w}s} {r.omega_rad_s:8.4g} {r.drive:8.4g} {'yes' if r.held_out else '':>8s} "
-              f"{r.nominal:>10s} {r.extended:>10s} {r.floor:>10s}" for r in rows]
+              f"{r.nominal:>10s} {r.extended:>10s} {r.right:>10s}" for r in rows]
     lines.append(f"  held-out runs: {summary}")
     lines += [f"  {f}" for f in failures]
     lines.append(f"  {statement[0]}: {statement[1]}")

@@ -105,9 +105,24 @@ def plain_train_verdict(report: TrainReport) -> str:
         fits = (f"the model fits the runs to their noise (chi2/dof {c2:.2g}: about 1 when only noise is left)"
                 if c2 < 1.5 else f"the model fits the runs to chi2/dof {c2:.2g} (about 1 when only noise is left)")
         return (wrong + f"Your model misses {found}. With {them}, {fits}, and simulated in the rig it predicts the "
-                f"{held} {better} (at {val.extended_error / val.noise_floor:.2g} times the noise floor).")
+                f"{held} {better} (at {val.extended_error / val.expected_error:.2g} times what a right model misses "
+                f"there, at most {val.bound:.2g}).")
     return wrong + ("A significant misfit remains that no catalogued cause at any joint or body explains; the "
                     "candidates below are ranked by evidence, none is adopted.")
+
+
+def _right_parts(val) -> str:
+    """What a right model's held-out error is made of, and the bound on a right model's ratio, in
+    words ("" where it was not measured)."""
+    r = val.right
+    if r is None:
+        return ""
+    method = (f"the method's bias {sig(math.sqrt(r.method), 2)}" if not r.unmeasured else
+              f"the method's bias not measured: {r.unmeasured}")
+    return (f": the noise {sig(math.sqrt(r.noise), 2)}, the parameters' and the drive's uncertainty "
+            f"{sig(math.sqrt(r.propagated), 2)} ({r.draws} draws), {method}; a right model stays within "
+            f"{r.bound:.3g} times it but with probability {r.alpha:g} ({r.dof:.3g} components, estimated with "
+            f"{r.estimate_dof:.3g} degrees of freedom)")
 
 
 def _sought(report: TrainReport) -> str:
@@ -365,15 +380,15 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
         replayed = list(range(len(report.run_ids))) if report.held_out_periods else list(report.held_out)
         labels = ([f"{r} (later)" for r in report.run_ids] if report.held_out_periods else held_ids)
         rows = []
-        for label, k, (_, nom, ext, floor) in zip(labels, replayed, val.per_run):
+        for label, k, (_, nom, ext, _, right) in zip(labels, replayed, val.per_run):
             omega, amp = report.settings[k][:2] if report.settings else (math.nan, math.nan)
-            rows.append(ValidationRow(label, omega, amp, True, _cell(nom), _cell(ext), sig(floor, 2)))
+            rows.append(ValidationRow(label, omega, amp, True, _cell(nom), _cell(ext), _cell(right)))
         what = "position" if N == 1 else "every joint's twist"
         lines += validation_lines(
             rows, measure=f"relative RMS error of {what}, harmonics 1..{val.band} of the period average",
             drive="F0" if slide else "M0",
-            summary=f"nominal {_cell(val.nominal_error)}, extended {_cell(val.extended_error)}, noise floor "
-                    f"{sig(val.noise_floor, 2)} (relative); gain {sig_or(val.gain, NO_GAIN)}",
+            summary=f"nominal {_cell(val.nominal_error)}, extended {_cell(val.extended_error)}, a right model "
+                    f"{_cell(val.expected_error)} (relative){_right_parts(val)}; gain {sig_or(val.gain, NO_GAIN)}",
             statement=("validation" if report.held_out_periods else "generalisation", report.generalisation),
             failures=[_words(report, val.note)] if val.note else [])
     lines += notes_lines(all_notes)
@@ -397,15 +412,20 @@ def train_report_json(report: TrainReport, *, source: str = "", notes: Sequence[
         replayed = list(report.held_out)
     per_run = []
     if v is not None:
-        for label, k, (_, nom, ext, floor) in zip(held_ids, replayed, v.per_run):
+        for label, k, (_, nom, ext, floor, right) in zip(held_ids, replayed, v.per_run):
             omega, amp = report.settings[k][:2] if report.settings else (math.nan, math.nan)
-            per_run.append(RunJson(label, True, omega, amp, nom, ext, floor))
+            per_run.append(RunJson(label, True, omega, amp, nom, ext, floor, right_model_error=right))
+    r = v.right if v is not None else None
+    right = None if r is None else {
+        "error": r.relative, "bound": r.bound, "noise": r.noise, "propagated": r.propagated, "method": r.method,
+        "rig": r.rig, "dof": r.dof, "estimate_dof": r.estimate_dof, "alpha": r.alpha, "draws": r.draws,
+        "method_unmeasured": r.unmeasured}
     validation = ValidationJson(
         HELD_OUT_PERIODS if report.held_out_periods else HELD_OUT_RUNS, report.generalisation, report.generalisation,
         f"relative RMS error of every joint's twist (a single body: its position), harmonics 1..{v.band if v else 0} "
         f"of the period average, over the held-out data: sqrt(sum |sim - meas|^2 / sum |meas|^2)", "1",
         v.nominal_error if v else math.nan, v.extended_error if v else math.nan, v.noise_floor if v else math.nan,
-        v.gain if v else math.nan, tuple(per_run), v.note if v else "no held-out run")
+        v.gain if v else math.nan, tuple(per_run), v.note if v else "no held-out run", right)
     units = "SI; parameter names carry their units" + (" (bodies on slides: N, m, kg)" if report.kind == "slide" else "")
     return DiagnosisJson(
         source=source, input_sha256=input_sha256, units=units, kind=report.kind,

@@ -27,14 +27,14 @@ from jointrig.vocab.plant import drive_of_record
 
 from jointrig.rig.chain import ChainRig, simulate_chain
 
-from jointrig.identify.defaults import DEFAULT_FIDELITY, DEFAULT_MAX_CAUSES, REPLAY_MAX_STEP_S
+from jointrig.identify.defaults import DEFAULT_ALPHA, DEFAULT_FIDELITY, DEFAULT_MAX_CAUSES, REPLAY_MAX_STEP_S
 from jointrig.identify.verdict import CHI2_PER_DOF_OK, RIG_FIDELITY, Verdict, judge
 
 from .holdout import MIN_PERIODS_TO_SPLIT, MIN_RUNS_TO_HOLD_OUT, generalisation_kind, holdout_of_another_kind
 from jointrig.vocab.records import RecordError
 from jointrig.rig.simulate import SimulationConfig, SimulationError, SteadyStateNotReached
 
-__all__ = ["ChainValidation", "validate_chain", "twist_error", "found_motion", "departure", "TrainReport", "train_verdict", "run_train_diagnosis",
+__all__ = ["ChainValidation", "RightModelError", "validate_chain", "twist_error", "found_motion", "departure", "TrainReport", "train_verdict", "run_train_diagnosis",
            "written_of", "held_means"]
 
 
@@ -48,8 +48,12 @@ class ChainValidation:
         where the extended model's is not).
       noise_floor: the error an exact model would have: the noise's, and the rig's own fidelity
         (:data:`identify.verdict.RIG_FIDELITY`) in quadrature.
-      per_run: ``(label, nominal error, extended error, noise floor)`` per held-out run.
+      per_run: ``(label, nominal error, extended error, noise floor, a right model's error)`` per
+        held-out run (the last :attr:`RightModelError.relative` of that run alone; NaN unmeasured).
       note: what kept a model from being simulated, if anything.
+      right: what a right model would miss here (:class:`RightModelError`): the noise, its own
+        parameters' uncertainty and the method's bias; None where it was not measured (the
+        verdict then measures errors against ``noise_floor``).
     """
 
     nominal_error: float
@@ -57,6 +61,7 @@ class ChainValidation:
     noise_floor: float
     per_run: tuple
     note: str = ""
+    right: Optional["RightModelError"] = None
     #: the harmonics compared: 1..band
     band: int = 10
     #: per held-out run: (measured record, nominal simulation, extended simulation), for plots
@@ -72,6 +77,78 @@ class ChainValidation:
         if not math.isfinite(self.extended_error) or math.isnan(self.nominal_error):
             return math.nan
         return self.nominal_error / self.extended_error if self.extended_error > 0 else math.inf
+
+    @property
+    def expected_error(self) -> float:
+        """The relative error a right model has in this comparison (:attr:`RightModelError.relative`;
+        NaN where the judged model was not simulated)."""
+        return self.right.relative if self.right is not None else math.nan
+
+    @property
+    def bound(self) -> float:
+        """The most a right model's error exceeds :attr:`expected_error` (a ratio) at the verdict's
+        false-alarm rate (:attr:`RightModelError.bound`; NaN where not measured)."""
+        return self.right.bound if self.right is not None else math.nan
+
+
+@dataclass(frozen=True)
+class RightModelError:
+    """What a right model misses on the held-out twists (sums of ``|.|^2`` over every compared
+    joint, harmonic and run, relative to the measured twists' ``sum |meas|^2``) (pure data).
+
+    A model whose form is right still misses the held-out motion by (a) the held-out records'
+    own noise; (b) what its inputs' uncertainty carries into the replay, propagated through the
+    rig by draws: its parameters' (the fit's covariance as a right model has it, not inflated by
+    a misfit) and the noise of the measured drive it is replayed under; (c) the method's bias: the
+    model refitted on its own noise-free replay of the fitted runs, where the truth is known,
+    predicts the held-out runs this differently (the harmonic balance's misfit at kinks, the
+    band, the rig's integrator); (d) the rig's own fidelity (:data:`identify.verdict.RIG_FIDELITY`).
+    Under a right model the squared error is about a chi-square of ``dof`` components (the
+    Welch-Satterthwaite count of the parts' sizes) times ``total / dof``; ``total`` is itself
+    estimated (the noise from the records' period-to-period spread, the propagated part from a
+    few draws), with ``estimate_dof`` degrees of freedom (the same count over the estimates), so
+    the squared ratio is about Fisher's F(dof, estimate_dof), and the error over :attr:`relative`
+    stays below :attr:`bound` but with probability ``alpha``.
+
+    Attributes:
+      noise, propagated, method, rig: the parts (a), (b), (c), (d).
+      dof: the effective number of independent components.
+      estimate_dof: the effective degrees of freedom of ``total``'s estimate (inf: known).
+      alpha: the false-alarm rate of :attr:`bound`.
+      draws: how many draws (b) was estimated from.
+      unmeasured: why (c) is 0, in words ("" where it was measured).
+    """
+
+    noise: float
+    propagated: float
+    method: float
+    rig: float
+    dof: float
+    alpha: float
+    draws: int
+    unmeasured: str = ""
+    estimate_dof: float = math.inf
+
+    @property
+    def total(self) -> float:
+        return self.noise + self.propagated + self.method + self.rig
+
+    @property
+    def relative(self) -> float:
+        """A right model's RMS error relative to the measured twists."""
+        return math.sqrt(max(self.total, 0.0))
+
+    @property
+    def bound(self) -> float:
+        """``sqrt(F.ppf(1 - alpha, dof, estimate_dof))`` (with a known total, ``sqrt(chi2.ppf(1 -
+        alpha, dof) / dof)``): the error over :attr:`relative` that a right model exceeds with
+        probability ``alpha``."""
+        from scipy.stats import chi2, f
+
+        k = max(self.dof, 1.0)
+        if math.isfinite(self.estimate_dof):
+            return math.sqrt(float(f.ppf(1.0 - self.alpha, k, max(self.estimate_dof, 1.0))))
+        return math.sqrt(float(chi2.ppf(1.0 - self.alpha, k)) / k)
 
 
 def found_motion(rec: ChainRecord, step) -> tuple[str, np.ndarray]:
@@ -120,24 +197,30 @@ def twist_error(sim: ChainRecord, meas: ChainRecord, band: int) -> tuple[float, 
     return float(np.sum(np.abs(a - b) ** 2)), float(np.sum(np.abs(b) ** 2))
 
 
-def _noise(meas: ChainRecord, band: int, noise_std: Optional[dict] = None) -> float:
-    """Expected sum |noise|^2 of the averaged twist harmonics: from the period-to-period spread,
-    or for a record of one period from ``noise_std`` (channel "phi<i>" -> noise per sample, the
-    fit's: each coefficient C_n = 2 X_n of white noise sigma over N samples has E|C_n|^2 =
-    4 sigma^2 / N)."""
+def _noise_parts(meas: ChainRecord, band: int, noise_std: Optional[dict] = None) -> np.ndarray:
+    """The expected ``|noise|^2`` of each real component (cosine and sine of every joint's twist
+    harmonics 1..band, period-averaged): from the period-to-period spread, or for a record of one
+    period from ``noise_std`` (channel "phi<i>" -> noise per sample, the fit's: each coefficient
+    C_n = 2 X_n of white noise sigma over N samples has E|C_n|^2 = 4 sigma^2 / N, half in each
+    real part); empty without either."""
     P = meas.n_periods
     if P < 2:
         if not noise_std:
-            return 0.0
+            return np.zeros(0)
         N, N_bodies = meas.samples_per_period, meas.n_flywheels
         sig = [noise_std.get(f"phi{i}", 0.0) for i in range(1, N_bodies + 1)]
         per = [sig[0] ** 2] if N_bodies == 1 else [sig[j] ** 2 + sig[j + 1] ** 2 for j in range(N_bodies - 1)]
-        return 4.0 * band * sum(per) / N
-    total = 0.0
+        return np.repeat(2.0 * np.array(per) / N, 2 * band)
+    parts = []
     for x in _motions(meas):
         _, _, var = period_spectra(x, P)
-        total += 4.0 * float(np.sum(var[1:band + 1]))  # of the coefficients C_n = 2 X_n, n = 1..band
-    return total
+        parts.append(np.repeat(2.0 * var[1:band + 1], 2))  # of C_n = 2 X_n: 4 var, half in each part
+    return np.concatenate(parts)
+
+
+def _noise(meas: ChainRecord, band: int, noise_std: Optional[dict] = None) -> float:
+    """Expected sum |noise|^2 of the averaged twist harmonics (:func:`_noise_parts`)."""
+    return float(np.sum(_noise_parts(meas, band, noise_std)))
 
 
 def _floor(noise: float, den: float) -> float:
@@ -186,75 +269,206 @@ def held_means(fit, rec: ChainRecord) -> tuple[float, ...]:
     return tuple(loads)
 
 
+class _NoReplay(Exception):
+    """A model that could not be simulated under a held-out run's drive (the reason, in words)."""
+
+
+def _held_coefficients(meas: ChainRecord, n_harmonics: int) -> dict:
+    """A held-out run's drive torques' harmonics 0..the diagnosis's band (above them a record holds
+    only noise), by body (1-based)."""
+    lines = min(n_harmonics, max_harmonic(meas.samples_per_period))
+    return {i + 1: fourier_coefficients(t, meas.n_periods, lines) for i, t in enumerate(meas.torques_Nm)
+            if t is not None}
+
+
+def _drive_noise(meas: ChainRecord, coeffs: dict, noise_std: Optional[dict] = None) -> dict:
+    """E|noise|^2 of each drive coefficient C_n = 2 X_n of :func:`_held_coefficients` (its
+    constant part 0: the replay drops it), by body: from the period-to-period spread, or over one
+    period from ``noise_std`` ("torque<i>": the fit's noise per sample)."""
+    out = {}
+    for i, c in coeffs.items():
+        x = meas.torques_Nm[i - 1]
+        if meas.n_periods >= 2:
+            var = 4.0 * period_spectra(x, meas.n_periods)[2][:len(c)]
+        else:
+            sig = (noise_std or {}).get(f"torque{i}", 0.0)
+            var = np.full(len(c), 4.0 * sig ** 2 / meas.samples_per_period)
+        var = np.array(var, dtype=float)
+        var[0] = 0.0
+        out[i] = var
+    return out
+
+
+def _drives(meas: ChainRecord, coeffs: dict) -> dict:
+    return {i: drive_of_record(meas.omega_rad_s, c) for i, c in coeffs.items()}
+
+
+def _drawn_drives(meas: ChainRecord, coeffs: dict, noise: dict, rng: np.random.Generator) -> dict:
+    """The drives at a draw of the measured torques' noise (:func:`_drive_noise`)."""
+    out = {}
+    for i, c in coeffs.items():
+        sd = np.sqrt(noise[i] / 2.0)
+        out[i] = np.asarray(c) + sd * (rng.standard_normal(len(c)) + 1j * rng.standard_normal(len(c)))
+    return _drives(meas, out)
+
+
+def _replayed(rig: ChainRig, fit, read, meas: ChainRecord, drives: dict, cfg: SimulationConfig, top: int,
+              backend: str, name: str, span: Optional[bool] = None) -> tuple[ChainRecord, bool]:
+    """``fit``'s model under a held-out run's drives from the run's measured state and mean twists,
+    read through ``read``'s channels: its periodic steady state, or where it reaches none in the
+    rig, its course over the record's own periods (a right model may settle slowly, or never, and
+    still follow the record: "no steady state" is never the reason a model is refused). ``span``:
+    True or False forces one of the two. Returns (simulated record, whether spanned); raises
+    :class:`_NoReplay` with the reason."""
+    plant, J = plant_and_inertias(fit)
+    bad = [f"J{i} = {v:.3g}" for i, v in enumerate(J, start=1) if not (math.isfinite(v) and v > 0)]
+    if bad:  # no body's (a file read wrong): nothing to simulate
+        raise _NoReplay(f"the {name} model has no body's inertia ({', '.join(bad)} kg m^2): it cannot be simulated")
+    start, loads = start_of(meas, top, read.offsets_rad), held_means(fit, meas)
+    spanned_cfg = replace(cfg, settle=False, n_periods=meas.n_periods)
+
+    def run(c):
+        sim, _ = simulate_chain(rig.with_plant(plant), meas.omega_rad_s, drives, c, inertias_kgm2=J, backend=backend,
+                                start=start, loads_Nm=loads)
+        return channel_corrected(sim, read, read=True)
+
+    if span:
+        try:
+            return run(spanned_cfg), True
+        except SimulationError as err:
+            raise _NoReplay(f"the {name} model does not follow the measured drive of {meas.source}: {err}") from err
+    try:
+        return run(cfg), False
+    except SteadyStateNotReached:
+        if span is False:
+            raise _NoReplay(f"the {name} model reaches no periodic steady state under the measured drive of "
+                            f"{meas.source}") from None
+        try:
+            return run(spanned_cfg), True
+        except SimulationError as again:
+            raise _NoReplay(f"the {name} model reaches no periodic steady state under the measured drive of "
+                            f"{meas.source}, nor follows it over its {meas.n_periods} periods: {again}") from again
+    except SimulationError as err:  # a divergence: a reason, not a crash
+        raise _NoReplay(f"the {name} model reaches no periodic steady state under the measured drive of "
+                        f"{meas.source}: {err}") from err
+
+
+#: Draws of a fit's parameters (from its covariance) and of the held-out drive's noise whose
+#: replays estimate what their uncertainty costs a held-out prediction
+#: (:class:`RightModelError`'s ``propagated``): each draw's squared departure is at least a
+#: chi-square of one degree of freedom times its share, so the mean of 4 lies within 0.27-1.94
+#: of its expectation 90% of the time or closer; more draws cost a replay each per held-out run.
+#: Drawn with a fixed seed, so that a file's verdict does not change between runs.
+PARAMETER_DRAWS = 4
+DRAW_SEED = 0
+
+
+def right_covariance(fit) -> Optional[np.ndarray]:
+    """The covariance of ``fit``'s linear parameters that a right model has: the solver's, without
+    the factor a misfit puts on it (:func:`identify.estimates.weighted_chi2`: chi2/dof where above
+    1) (pure)."""
+    if fit.covariance is None:
+        return None
+    return np.asarray(fit.covariance) / max(1.0, fit.chi2 / max(fit.dof, 1))
+
+
+def _drawn(fit, cov: np.ndarray, rng: np.random.Generator):
+    """``fit`` at a draw of its linear parameters from ``cov`` (the eigenvalues clipped at 0)."""
+    w, V = np.linalg.eigh((cov + cov.T) / 2)
+    z = V @ (np.sqrt(np.clip(w, 0.0, None)) * rng.standard_normal(len(w)))
+    return replace(fit, values=np.asarray(fit.values) + z)
+
+
 def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[ChainRecord], *,
                    band: int = 10, config: SimulationConfig = SimulationConfig(samples_per_period=128,
                                                                                max_step_s=REPLAY_MAX_STEP_S),
                    max_wall_s: Optional[float] = 120.0, backend: str = "auto",
-                   noise_std: Optional[dict] = None) -> ChainValidation:
+                   noise_std: Optional[dict] = None, refit=None, alpha: float = DEFAULT_ALPHA,
+                   draws: int = PARAMETER_DRAWS) -> ChainValidation:
     """Replay every held-out run's drives on the nominal and the extended plant (module docstring);
     ``backend`` as :func:`rig.chain.simulate_chain`'s; ``noise_std``: the fit's noise per sample
-    by channel, the noise floor of a held-out record of one period (:func:`_noise`)."""
+    by channel, the noise floor of a held-out record of one period (:func:`_noise`).
+
+    What a right model misses here is measured for the model the verdict judges (the extended
+    one, or the nominal without a cause): :class:`RightModelError` at false-alarm rate ``alpha``,
+    from ``draws`` parameter draws and ``refit(fit)`` (the fit's structure refitted on its own
+    noise-free replay of the fitted runs, or a reason in words why not; None: no method bias
+    measured)."""
     cfg = replace(config, absolute_angles_periodic=False, max_wall_s=max_wall_s, n_periods=1)
-    models = {"nominal": plant_and_inertias(diagnosis.nominal)}
     # a sensor's skew or scale is not simulated: the simulated angles are read as its channel reads
-    reads = {"nominal": diagnosis.nominal.spec, "extended": diagnosis.final.spec}
-    fits = {"nominal": diagnosis.nominal, "extended": diagnosis.final}
+    fits = {"nominal": diagnosis.nominal}
     if diagnosis.steps:  # without a cause the extended model is the nominal one
-        models["extended"] = plant_and_inertias(diagnosis.final)
-    num = {k: 0.0 for k in models}
+        fits["extended"] = diagnosis.final
+    judged = "extended" if diagnosis.steps else "nominal"
+    num = {k: 0.0 for k in fits}
     failed: dict = {}
     spanned: list = []
     den = noise = 0.0
     per_run = []
     records = []
+    # what a right model misses: its parameters' draws and its refit on its own replay
+    cov = right_covariance(fits[judged])
+    rng = np.random.default_rng(DRAW_SEED)
+    drawn = [_drawn(fits[judged], cov, rng) if cov is not None else fits[judged] for _ in range(draws)]
+    got = refit(fits[judged]) if refit is not None else "no replay of the fitted runs was made"
+    refitted, why_not = (got, "") if not isinstance(got, str) else (None, got)
+    parts = {"propagated": 0.0, "method": 0.0}
+    components: list = []
+    estimates: list = []  # (size, degrees of freedom) of every estimated part
     for meas in held_out:
         top = min(band, max_harmonic(meas.samples_per_period))
-        # The drive's harmonics the diagnosis fitted (above them a record holds only noise)
-        lines = min(diagnosis.n_harmonics, max_harmonic(meas.samples_per_period))
-        coeffs = {i + 1: fourier_coefficients(t, meas.n_periods, lines)
-                  for i, t in enumerate(meas.torques_Nm) if t is not None}
-        drives = {i: drive_of_record(meas.omega_rad_s, c) for i, c in coeffs.items()}
-        errs, sims = {}, {}
-        for name, (plant, J) in models.items():
+        coeffs = _held_coefficients(meas, diagnosis.n_harmonics)
+        drives = _drives(meas, coeffs)
+        errs, sims, spans = {}, {}, {}
+        for name, fit in fits.items():
             if name in failed:
                 continue
-            bad = [f"J{i} = {v:.3g}" for i, v in enumerate(J, start=1) if not (math.isfinite(v) and v > 0)]
-            if bad:  # no body's (a file read wrong): nothing to simulate
-                failed[name] = f"the {name} model has no body's inertia ({', '.join(bad)} kg m^2): it cannot be simulated"
-                continue
-            start, loads = start_of(meas, top, reads[name].offsets_rad), held_means(fits[name], meas)
             try:
-                sim, _ = simulate_chain(rig.with_plant(plant), meas.omega_rad_s, drives, cfg, inertias_kgm2=J,
-                                        backend=backend, start=start, loads_Nm=loads)
-            except SteadyStateNotReached as err:
-                # no steady state in the rig: a right model may still follow the record over its own
-                # span from its measured state (item 4 of issue 50: never the reason a model is refused)
-                try:
-                    sim, _ = simulate_chain(rig.with_plant(plant), meas.omega_rad_s, drives,
-                                            replace(cfg, settle=False, n_periods=meas.n_periods), inertias_kgm2=J,
-                                            backend=backend, start=start, loads_Nm=loads)
-                except SimulationError as again:
-                    failed[name] = (f"the {name} model reaches no periodic steady state under the measured drive of "
-                                    f"{meas.source}, nor follows it over its {meas.n_periods} periods: {again}")
-                    continue
+                sim, spans[name] = _replayed(rig, fit, fit.spec, meas, drives, cfg, top, backend, name)
+            except _NoReplay as err:
+                failed[name] = str(err)
+                continue
+            if spans[name]:
                 spanned.append(f"the {name} model under the drive of {meas.source} (no periodic steady state in the rig "
                                f"within {cfg.max_periods} periods" + (f" or {cfg.max_wall_s:g} s" if cfg.max_wall_s else "")
                                + ")")
-            except SimulationError as err:  # a divergence: a reason, not a crash
-                failed[name] = (f"the {name} model reaches no periodic steady state under the measured drive of "
-                                f"{meas.source}: {err}")
-                continue
-            sim = channel_corrected(sim, reads[name], read=True)
             sims[name] = sim
             e, d = twist_error(sim, meas, top)
             num[name] += e
             errs[name] = math.sqrt(e / d)
         sims.setdefault("extended", sims.get("nominal"))
         errs.setdefault("extended", errs.get("nominal", math.nan))
-        d_run, n_run = twist_error(meas, meas, top)[1], _noise(meas, top, noise_std)
+        d_run, noise_run = twist_error(meas, meas, top)[1], _noise_parts(meas, top, noise_std)
+        n_run = float(np.sum(noise_run))
         den += d_run
         noise += n_run
-        per_run.append((meas.source, errs.get("nominal", math.nan), errs["extended"], _floor(n_run, d_run)))
+        right_run = math.nan
+        if judged in sims:  # the judged model's own: how far its draws and its refit depart from it
+            ref = _twists(sims[judged], top)
+            run_parts = []
+            noise_in = _drive_noise(meas, coeffs, noise_std)
+            others = [(f, _drawn_drives(meas, coeffs, noise_in, rng)) for f in drawn]
+            for other, with_drives in others + ([(refitted, drives)] if refitted is not None else []):
+                try:
+                    alt, _ = _replayed(rig, other, fits[judged].spec, meas, with_drives, cfg, top, backend, judged,
+                                       span=spans[judged])
+                    run_parts.append(float(np.sum(np.abs(_twists(alt, top) - ref) ** 2)))
+                except _NoReplay:
+                    run_parts.append(math.nan)
+            p_run = float(np.nanmean(run_parts[:len(drawn)])) if drawn and not all(
+                map(math.isnan, run_parts[:len(drawn)])) else 0.0
+            m_run = run_parts[-1] if refitted is not None and math.isfinite(run_parts[-1]) else 0.0
+            parts["propagated"] += p_run
+            parts["method"] += m_run
+            components += list(noise_run) + [p_run / max(len(fits[judged].values), 1)] * len(fits[judged].values)
+            components.append(m_run)
+            # each harmonic's noise estimated from the period spread (2 (P - 1) degrees of freedom;
+            # one period: the fit's noise per sample, of many); the draws' mean from as many draws
+            if meas.n_periods >= 2:
+                estimates += [(float(a + b), 2.0 * (meas.n_periods - 1)) for a, b in zip(noise_run[::2], noise_run[1::2])]
+            estimates.append((p_run, float(max(len(drawn), 1))))
+            right_run = math.sqrt((n_run + p_run + m_run) / d_run + RIG_FIDELITY ** 2)
+        per_run.append((meas.source, errs.get("nominal", math.nan), errs["extended"], _floor(n_run, d_run), right_run))
         if sims.get("nominal") is not None and sims["extended"] is not None:
             records.append((meas, sims["nominal"], sims["extended"]))
     num.setdefault("extended", num["nominal"])
@@ -263,8 +477,17 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
         error["nominal"] = math.inf  # the extension predicts the runs the nominal model cannot reach
     if not diagnosis.steps and "nominal" in failed:
         error["extended"] = math.nan
+    right = None
+    if judged not in failed and den > 0:
+        lam = np.asarray([c for c in components if c > 0] + [RIG_FIDELITY ** 2 * den])
+        dof = float(np.sum(lam) ** 2 / np.sum(lam ** 2)) if lam.size else 1.0
+        spread = sum(size ** 2 / m for size, m in estimates if size > 0)
+        m_eff = float(np.sum(lam) ** 2 / spread) if spread > 0 else math.inf
+        right = RightModelError(noise / den, parts["propagated"] / den, parts["method"] / den, RIG_FIDELITY ** 2, dof,
+                                alpha, len(drawn), why_not, m_eff)
     return ChainValidation(error["nominal"], error["extended"], _floor(noise, den), tuple(per_run),
-                           note="; ".join(failed.values()), band=band, records=tuple(records), spanned=tuple(spanned))
+                           note="; ".join(failed.values()), band=band, records=tuple(records), spanned=tuple(spanned),
+                           right=right)
 
 
 def rig_replay(rig: ChainRig, runs: Sequence, band: int, *, backend: str = "auto", max_wall_s: float = 5.0):
@@ -358,7 +581,7 @@ def measured_diagnosis(diagnosed, replay, say=lambda msg: None) -> tuple:
 def train_verdict(diagnosis: ChainDiagnosis, validation: Optional[ChainValidation], *,
                   held_out_periods: bool = False) -> Verdict:
     """The verdict of a train's diagnosis (:func:`identify.verdict.judge`, the two flywheels' too),
-    errors against the noise floor of the held-out twists (pure); ``held_out_periods``: the held
+    errors against what a right model misses on the held-out twists (pure); ``held_out_periods``: the held
     out data are each run's later periods."""
     d, v = diagnosis, validation
     f = d.final if d.steps else d.nominal
@@ -371,13 +594,14 @@ def train_verdict(diagnosis: ChainDiagnosis, validation: Optional[ChainValidatio
         return Verdict("unexplained", f"the best extension ({causes}) is not adopted: {why}")
     c2 = f.chi2 / max(f.dof, 1)
     err = v.extended_error if d.steps else v.nominal_error
-    ratio = err / v.noise_floor if v.noise_floor > 0 else math.inf
+    right = v.expected_error
+    ratio = err / right if right > 0 else math.inf
     lost = ""
     if math.isinf(v.nominal_error):  # the nominal model failed where the extension did not
         lost = ", ".join(lab for lab, nom, *_ in v.per_run if not math.isfinite(nom))
-    gain = v.gain if math.isfinite(v.gain) else math.nan
+    nominal = v.nominal_error / right if right > 0 and math.isfinite(v.nominal_error) else math.nan
     held = "error on the held-out later periods" if held_out_periods else "held-out error"
-    return judge([s.label for s in d.steps], c2, ratio, gain, held=held, nominal_lost=lost)
+    return judge([s.label for s in d.steps], c2, ratio, nominal, v.bound, held=held, nominal_lost=lost)
 
 
 #: The forms a bench's runs come in (:attr:`TrainReport.form`).
@@ -474,9 +698,20 @@ def train_setting(rec: ChainRecord) -> tuple[float, float, int]:
     return rec.omega_rad_s, amp[k], lines
 
 
+def _refitted(replay, fit, d: ChainDiagnosis):
+    """``fit``'s structure refitted on its own noise-free replay of the fitted runs
+    (:func:`identify.chain_diagnose.refit_on_replay`), or why not, in words."""
+    from jointrig.identify.chain_diagnose import refit_on_replay
+
+    got = replay(fit)
+    if isinstance(got, str):
+        return f"the model could not be replayed on the fitted runs ({got})"
+    return refit_on_replay(got, fit, d.n_harmonics, d.masked, d.merging)
+
+
 def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str], rig: ChainRig,
                         holdout: Optional[Sequence[int]] = None, written: Sequence[tuple] = (),
-                        band: int = 20, alpha: float = 1e-3, fidelity: Optional[float] = None,
+                        band: int = 20, alpha: float = DEFAULT_ALPHA, fidelity: Optional[float] = None,
                         progress=None, backend: str = "auto", form: str = "train",
                         max_causes: int = DEFAULT_MAX_CAUSES, zeroed: bool = False) -> TrainReport:
     """Diagnose a measured train on the runs not held out, and replay the held-out runs' drives on
@@ -533,10 +768,11 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
                               fidelity=fid, progress=lambda k, n, label: say(f"scored {k}/{n} candidates ({label})")
                               if k == n else None)
 
+    replay = rig_replay(rig, runs, band, backend=backend)
     if fidelity is not None:
         d = diagnosed(fidelity)
     else:
-        d, why = measured_diagnosis(diagnosed, rig_replay(rig, runs, band, backend=backend), say)
+        d, why = measured_diagnosis(diagnosed, replay, say)
         notes += list(why)
     fit_ids = run_ids if split else [run_ids[i] for i in range(len(records)) if i not in held]
     for k, body, rest, masked in d.rests:
@@ -552,7 +788,8 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
                      f"it, not its law's, so its two bodies' equations are balanced as their sum alone in this run "
                      f"(in every model compared)")
     say("replaying the held-out runs' drives on the nominal and the extended model in the rig")
-    v = validate_chain(rig, d, held_recs, backend=backend, noise_std=d.noise_std)
+    v = validate_chain(rig, d, held_recs, backend=backend, noise_std=d.noise_std, alpha=alpha,
+                       refit=lambda fit: _refitted(replay, fit, d))
     if split:
         general = (f"the later {', '.join(str(r.n_periods) for r in held_recs)} period(s) of the same run(s), fitted "
                    f"on their earlier periods: with {len(records)} run(s) no run of another level or frequency can be "

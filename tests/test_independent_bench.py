@@ -191,7 +191,9 @@ def _figures(case):
     name = name + (" (phi)" if relative else "")
     return (f"{ok:5s} {joint:6s} {name:24s} {r.verdict.verdict:12s} {'+'.join(s.label for s in d.steps) or '-':44s} "
             f"{d.reduced_chi2(d.nominal):8.3g} {d.reduced_chi2(d.final):8.3g} "
-            f"{v.nominal_error / v.noise_floor:8.3g} {v.extended_error / v.noise_floor:8.3g} {v.gain:8.3g}")
+            f"{v.nominal_error / v.noise_floor:8.3g} {v.extended_error / v.noise_floor:8.3g} {v.gain:8.3g} "
+            f"{v.nominal_error / v.expected_error:8.3g} {v.extended_error / v.expected_error:8.3g} {v.bound:6.3g} "
+            f"{v.right.propagated / v.right.noise:6.2g} {v.right.method / v.right.noise:6.2g}")
 
 
 if __name__ == "__main__":
@@ -204,7 +206,7 @@ if __name__ == "__main__":
 
     limit_threads()
     print(f"{'':5s} {'joint':6s} {'case':24s} {'verdict':12s} {'adopted':44s} {'chi2/dof':>8s} {'ext.':>8s} "
-          f"{'nom/flr':>8s} {'ext/flr':>8s} {'gain':>8s}")
+          f"{'nom/flr':>8s} {'ext/flr':>8s} {'gain':>8s} {'nom/rgt':>8s} {'ext/rgt':>8s} {'bound':>6s} {'prop/n':>6s} {'met/n':>6s}")
     with ProcessPoolExecutor(2) as pool:
         for row in pool.map(_figures, [(j, c) for j in CASES for c in CASES[j]] + [(j, c, "phi") for j, c in RELATIVE]):
             print(row, flush=True)
