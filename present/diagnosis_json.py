@@ -33,8 +33,8 @@ FIT_KEYS = ("chi2", "dof", "chi2_per_dof", "parameters", "std_errors")
 EXTENDED_KEYS = ("effects", "tried", "steps") + FIT_KEYS
 VALIDATION_KEYS = ("kind", "generalisation", "statement", "measure", "unit", "nominal_error", "extended_error",
                    "noise_floor", "right_model", "gain", "note", "per_run")
-RIGHT_KEYS = ("error", "bound", "noise", "propagated", "method", "rig", "dof", "estimate_dof", "alpha", "draws",
-              "method_unmeasured")
+RIGHT_KEYS = ("error", "bound", "noise", "propagated", "method", "rig", "dof", "estimate_dof", "alpha", "directions",
+              "draws", "method_unmeasured")
 RUN_KEYS = ("run", "held_out", "omega_rad_s", "drive_amplitude", "nominal_error", "extended_error", "noise_floor",
             "right_model_error", "no_steady_state")
 CAUSE_KEYS = ("label", "effect", "place", "score", "significant", "delta_chi2", "n_params", "p_value", "magnitude",

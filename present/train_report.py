@@ -120,7 +120,7 @@ def _right_parts(val) -> str:
     method = (f"the method's bias {sig(math.sqrt(r.method), 2)}" if not r.unmeasured else
               f"the method's bias not measured: {r.unmeasured}")
     return (f": the noise {sig(math.sqrt(r.noise), 2)}, the parameters' and the drive's uncertainty "
-            f"{sig(math.sqrt(r.propagated), 2)} ({r.draws} draws), {method}; a right model stays within "
+            f"{sig(math.sqrt(r.propagated), 2)} ({r.directions} directions, {r.draws} draws of the drive), {method}; a right model stays within "
             f"{r.bound:.3g} times it but with probability {r.alpha:g} ({r.dof:.3g} components, estimated with "
             f"{r.estimate_dof:.3g} degrees of freedom)")
 
@@ -418,7 +418,8 @@ def train_report_json(report: TrainReport, *, source: str = "", notes: Sequence[
     r = v.right if v is not None else None
     right = None if r is None else {
         "error": r.relative, "bound": r.bound, "noise": r.noise, "propagated": r.propagated, "method": r.method,
-        "rig": r.rig, "dof": r.dof, "estimate_dof": r.estimate_dof, "alpha": r.alpha, "draws": r.draws,
+        "rig": r.rig, "dof": r.dof, "estimate_dof": r.estimate_dof, "alpha": r.alpha, "directions": r.directions,
+        "draws": r.draws,
         "method_unmeasured": r.unmeasured}
     validation = ValidationJson(
         HELD_OUT_PERIODS if report.held_out_periods else HELD_OUT_RUNS, report.generalisation, report.generalisation,
