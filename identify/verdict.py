@@ -19,10 +19,10 @@ __all__ = ["CHI2_PER_DOF_OK", "RIG_FIDELITY", "Verdict", "judge"]
 CHI2_PER_DOF_OK = 2.0
 #: ... and its error on held-out data is within what a right model misses there: the held-out
 #: records' noise, its own parameters' uncertainty and the method's bias, measured for each
-#: comparison (:class:`studies.chain_validate.RightModelError`), times the chi-square bound of
-#: the verdict's false-alarm rate (the diagnosis's ``alpha``). An extension is confirmed when
-#: the nominal model's error is beyond that same bound: the held-out runs show the misfit the
-#: extension removes.
+#: comparison (:class:`studies.chain_validate.RightModelError`), times the F bound at the
+#: verdict's false-alarm rate (the diagnosis's ``alpha``). An extension is confirmed when the
+#: nominal model's error is beyond what the nominal model would miss were it right: the held-out
+#: runs show the misfit the extension removes.
 
 
 @dataclass(frozen=True)
@@ -46,14 +46,18 @@ RIG_FIDELITY = 1e-5
 
 
 def judge(causes: Sequence[str], chi2_per_dof: float, error_ratio: float, nominal_ratio: float, bound: float, *,
-          held: str = "held-out error", nominal_lost: str = "") -> Verdict:
+          held: str = "held-out error", nominal_lost: str = "", nominal_bound: float = math.nan,
+          gain: float = math.nan) -> Verdict:
     """The verdict of a model that reached a steady state (or followed the record) on every
     held-out run (a caller says otherwise itself, naming the runs): ``causes`` the extension's
     (none: the nominal model is judged), ``error_ratio`` the judged model's held-out error over
-    what a right model misses there, ``nominal_ratio`` the nominal model's over the same (NaN if
-    it has no steady state in held-out run(s) ``nominal_lost``), ``bound`` the most a right
-    model's ratio reaches at the false-alarm rate, ``held`` what the held-out data are, in
-    words."""
+    what a right model misses there, ``nominal_ratio`` the nominal model's over what it would
+    miss were it right (NaN if it has no steady state in held-out run(s) ``nominal_lost``),
+    ``bound`` and ``nominal_bound`` (default ``bound``) the most a right model's ratio reaches at
+    the false-alarm rate, ``gain`` the nominal's held-out error over the extended's (where both are
+    within their bounds, the extension stands on the fit's evidence if the held-out runs lean its
+    way), ``held`` what the held-out data are, in words."""
+    nominal_bound = bound if math.isnan(nominal_bound) else nominal_bound
     fits = chi2_per_dof <= CHI2_PER_DOF_OK and error_ratio <= bound
     figures = (f"chi2/dof {chi2_per_dof:.3g} (at most {CHI2_PER_DOF_OK:g}), {held} {error_ratio:.3g} times what a "
                f"right model misses (at most {bound:.3g})")
@@ -64,16 +68,25 @@ def judge(causes: Sequence[str], chi2_per_dof: float, error_ratio: float, nomina
                                       f"the data: {figures}")
     names = " + ".join(causes)
     verb = "explains" if len(causes) == 1 else "explain"
-    if fits and nominal_ratio > bound:
+    if fits and nominal_ratio > nominal_bound:
         return Verdict("explained", f"{names} {verb} the data: {figures}; the nominal model's {held} is "
-                                    f"{nominal_ratio:.3g} times it: the held-out runs confirm the extension")
+                                    f"{nominal_ratio:.3g} times what it would miss were it right (at most "
+                                    f"{nominal_bound:.3g}): the held-out runs confirm the extension")
     if fits and nominal_lost:
         # The nominal model has no steady state where the extension predicts the runs: an
         # infinite gain, stated in words.
         return Verdict("explained", f"{names} {verb} the data: {figures}; the nominal model reaches no periodic steady "
                                     f"state in held-out run(s) {nominal_lost}, the extended model does")
+    if fits and gain > 1:
+        # the held-out runs cannot tell the two apart (the nominal model's parameters leave it as
+        # uncertain there as its misfit): they do not contradict the fit's evidence, which decides
+        return Verdict("explained", f"{names} {verb} the data: {figures}; the held-out runs do not resolve it (the "
+                                    f"nominal model's {held} is {nominal_ratio:.3g} times what it would miss were it "
+                                    f"right, at most {nominal_bound:.3g}; gain {gain:.3g}): adopted on the fit's "
+                                    f"evidence")
     if fits:
         return Verdict("unexplained", f"the best extension ({names}) is not confirmed: {figures}, but the nominal "
-                                      f"model's {held} is within the bound too ({nominal_ratio:.3g} times): the "
-                                      f"held-out runs do not show the effect; nothing is adopted")
+                                      f"model predicts the held-out runs as well ({held} {nominal_ratio:.3g} times "
+                                      f"what it would miss were it right, at most {nominal_bound:.3g}; gain "
+                                      f"{gain:.3g}); nothing is adopted")
     return Verdict("unexplained", f"the best extension ({names}) fails validation: {figures}; nothing is adopted")

@@ -12,7 +12,7 @@ reported beside it as the floor.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, is_dataclass, replace
 from typing import Optional, Sequence
 
 import numpy as np
@@ -28,7 +28,7 @@ from jointrig.vocab.plant import drive_of_record
 from jointrig.rig.chain import ChainRig, simulate_chain
 
 from jointrig.identify.defaults import DEFAULT_ALPHA, DEFAULT_FIDELITY, DEFAULT_MAX_CAUSES, REPLAY_MAX_STEP_S
-from jointrig.identify.verdict import RIG_FIDELITY, Verdict, judge
+from jointrig.identify.verdict import CHI2_PER_DOF_OK, RIG_FIDELITY, Verdict, judge
 
 from .holdout import MIN_PERIODS_TO_SPLIT, MIN_RUNS_TO_HOLD_OUT, generalisation_kind, holdout_of_another_kind
 from jointrig.vocab.records import RecordError
@@ -62,6 +62,9 @@ class ChainValidation:
     per_run: tuple
     note: str = ""
     right: Optional["RightModelError"] = None
+    #: what the nominal model would miss here were it right (where a cause was adopted): the
+    #: yardstick of the test that the held-out runs show the nominal model wrong
+    nominal_right: Optional["RightModelError"] = None
     #: the harmonics compared: 1..band
     band: int = 10
     #: per held-out run: (measured record, nominal simulation, extended simulation), for plots
@@ -146,12 +149,12 @@ class RightModelError:
         """``sqrt(F.ppf(1 - alpha, dof, estimate_dof))`` (with a known total, ``sqrt(chi2.ppf(1 -
         alpha, dof) / dof)``): the error over :attr:`relative` that a right model exceeds with
         probability ``alpha``."""
-        from scipy.stats import chi2, f
+        from scipy.special import chdtri, fdtri  # the quantiles, without scipy.stats's 0.9 s import
 
         k = max(self.dof, 1.0)
         if math.isfinite(self.estimate_dof):
-            return math.sqrt(float(f.ppf(1.0 - self.alpha, k, max(self.estimate_dof, 1.0))))
-        return math.sqrt(float(chi2.ppf(1.0 - self.alpha, k)) / k)
+            return math.sqrt(float(fdtri(k, max(self.estimate_dof, 1.0), 1.0 - self.alpha)))
+        return math.sqrt(float(chdtri(k, self.alpha)) / k)
 
 
 def found_motion(rec: ChainRecord, step) -> tuple[str, np.ndarray]:
@@ -402,6 +405,33 @@ def _directions(fit, cov: np.ndarray) -> list:
     return [replace(fit, values=values + DRAW_STEP * sd * V[:, i] * math.sqrt(w[i])) for i in np.flatnonzero(keep)]
 
 
+def _with_value(obj, value: float, to: float):
+    """``obj`` (a spec, its terms, tuples of them) with every float field equal to ``value`` set to
+    ``to`` (pure): where a profiled parameter (a free play, a cogging's order, a lag, a twist's
+    zero) lives in a structure, whatever its type."""
+    if isinstance(obj, float):
+        return to if value != 0 and abs(obj - value) <= 1e-12 * abs(value) else obj
+    if isinstance(obj, tuple):
+        return tuple(_with_value(x, value, to) for x in obj)
+    if is_dataclass(obj) and not isinstance(obj, type):
+        changes = {f.name: _with_value(getattr(obj, f.name), value, to) for f in fields(obj)}
+        return replace(obj, **{k: v for k, v in changes.items() if v is not getattr(obj, k)})
+    return obj
+
+
+def _profiled_moves(fit) -> list:
+    """``fit`` with each profiled parameter moved :data:`DRAW_STEP` of its standard error (pure):
+    its part of the first-order propagation (the linear parameters' covariance carries it as well,
+    widened, so it is counted twice: a bound on the safe side)."""
+    out = []
+    for _, value, se in fit.profiled:
+        if math.isfinite(se) and se > 0 and math.isfinite(value) and value != 0:
+            spec = _with_value(fit.spec, float(value), float(value) + DRAW_STEP * float(se))
+            if spec != fit.spec:
+                out.append(replace(fit, spec=spec))
+    return out
+
+
 def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[ChainRecord], *,
                    band: int = 10, config: SimulationConfig = SimulationConfig(samples_per_period=128,
                                                                                max_step_s=REPLAY_MAX_STEP_S),
@@ -429,15 +459,17 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
     den = noise = 0.0
     per_run = []
     records = []
-    # what a right model misses: its parameters' draws and its refit on its own replay
-    cov = right_covariance(fits[judged])
+    # what a right model misses, for the judged model and (to test it) the nominal one: each one's
+    # parameters' directions, its drive's draws, and the judged one's refit on its own replay
+    rated = {"extended", "nominal"} if diagnosis.steps else {"nominal"}
     rng = np.random.default_rng(DRAW_SEED)
-    moved = _directions(fits[judged], cov) if cov is not None else []
+    moved = {}
+    for name in rated:
+        cov = right_covariance(fits[name])
+        moved[name] = (_directions(fits[name], cov) if cov is not None else []) + _profiled_moves(fits[name])
     got = refit(fits[judged]) if refit is not None else "no replay of the fitted runs was made"
     refitted, why_not = (got, "") if not isinstance(got, str) else (None, got)
-    parts = {"propagated": 0.0, "method": 0.0}
-    components: list = []
-    estimates: list = []  # (size, degrees of freedom) of every estimated part
+    tally = {name: {"propagated": 0.0, "method": 0.0, "components": [], "estimates": []} for name in rated}
     for meas in held_out:
         top = min(band, max_harmonic(meas.samples_per_period))
         coeffs = _held_coefficients(meas, diagnosis.n_harmonics)
@@ -466,34 +498,26 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
         den += d_run
         noise += n_run
         right_run = math.nan
-        if judged in sims:  # the judged model's own: how far its draws and its refit depart from it
-            ref = _twists(sims[judged], top)
-            run_parts = []
-            noise_in = _drive_noise(meas, coeffs, noise_std)
-            replays = ([(f, drives) for f in moved] + [(fits[judged], _drawn_drives(meas, coeffs, noise_in, rng))
-                                                        for _ in range(draws)]
-                       + ([(refitted, drives)] if refitted is not None else []))
-            for other, with_drives in replays:
-                try:
-                    alt, _ = _replayed(rig, other, fits[judged].spec, meas, with_drives, cfg, top, backend, judged,
-                                       span=spans[judged])
-                    run_parts.append(float(np.sum(np.abs(_twists(alt, top) - ref) ** 2)))
-                except _NoReplay:
-                    run_parts.append(math.nan)
-            by_direction = np.array(run_parts[:len(moved)]) / DRAW_STEP ** 2
-            by_draw = np.array(run_parts[len(moved):len(moved) + draws]) / DRAW_STEP ** 2
-            p_run = float(np.nansum(by_direction)) if by_direction.size else 0.0
-            d_part = float(np.nanmean(by_draw)) if by_draw.size and not np.all(np.isnan(by_draw)) else 0.0
-            m_run = run_parts[-1] if refitted is not None and math.isfinite(run_parts[-1]) else 0.0
-            parts["propagated"] += p_run + d_part
-            parts["method"] += m_run
-            components += list(noise_run) + [float(x) for x in by_direction if x > 0] + [d_part, m_run]
+        noise_in = _drive_noise(meas, coeffs, noise_std)
+        for name in sorted(rated):
+            if name not in spans:  # not simulated here
+                continue
+            p_run, d_part, m_run, by_direction = _departures(
+                rig, fits[name], sims[name], meas, drives, [_drawn_drives(meas, coeffs, noise_in, rng)
+                                                             for _ in range(draws)],
+                moved[name], refitted if name == judged else None, cfg, top, backend, name, spans[name])
+            t = tally[name]
+            t["propagated"] += p_run + d_part
+            t["method"] += m_run
+            t["components"] += list(noise_run) + [float(x) for x in by_direction if x > 0] + [d_part, m_run]
             # each harmonic's noise estimated from the period spread (2 (P - 1) degrees of freedom;
             # one period: the fit's noise per sample, of many); the drive's part from its draws
             if meas.n_periods >= 2:
-                estimates += [(float(a + b), 2.0 * (meas.n_periods - 1)) for a, b in zip(noise_run[::2], noise_run[1::2])]
-            estimates.append((d_part, float(max(draws, 1))))
-            right_run = math.sqrt((n_run + p_run + d_part + m_run) / d_run + RIG_FIDELITY ** 2)
+                t["estimates"] += [(float(a + b), 2.0 * (meas.n_periods - 1))
+                                   for a, b in zip(noise_run[::2], noise_run[1::2])]
+            t["estimates"].append((d_part, float(max(draws, 1))))
+            if name == judged:
+                right_run = math.sqrt((n_run + p_run + d_part + m_run) / d_run + RIG_FIDELITY ** 2)
         per_run.append((meas.source, errs.get("nominal", math.nan), errs["extended"], _floor(n_run, d_run), right_run))
         if sims.get("nominal") is not None and sims["extended"] is not None:
             records.append((meas, sims["nominal"], sims["extended"]))
@@ -503,17 +527,49 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
         error["nominal"] = math.inf  # the extension predicts the runs the nominal model cannot reach
     if not diagnosis.steps and "nominal" in failed:
         error["extended"] = math.nan
-    right = None
-    if judged not in failed and den > 0:
-        lam = np.asarray([c for c in components if c > 0] + [RIG_FIDELITY ** 2 * den])
+    right = {}
+    for name in rated:
+        if name in failed or den <= 0:
+            continue
+        t = tally[name]
+        lam = np.asarray([c for c in t["components"] if c > 0] + [RIG_FIDELITY ** 2 * den])
         dof = float(np.sum(lam) ** 2 / np.sum(lam ** 2)) if lam.size else 1.0
-        spread = sum(size ** 2 / m for size, m in estimates if size > 0)
+        spread = sum(size ** 2 / m for size, m in t["estimates"] if size > 0)
         m_eff = float(np.sum(lam) ** 2 / spread) if spread > 0 else math.inf
-        right = RightModelError(noise / den, parts["propagated"] / den, parts["method"] / den, RIG_FIDELITY ** 2, dof,
-                                alpha, draws, why_not, m_eff, len(moved))
+        right[name] = RightModelError(noise / den, t["propagated"] / den, t["method"] / den, RIG_FIDELITY ** 2, dof,
+                                      alpha, draws, why_not if name == judged else "the nominal law is smooth: not measured",
+                                      m_eff, len(moved[name]))
     return ChainValidation(error["nominal"], error["extended"], _floor(noise, den), tuple(per_run),
                            note="; ".join(failed.values()), band=band, records=tuple(records), spanned=tuple(spanned),
-                           right=right)
+                           right=right.get(judged), nominal_right=right.get("nominal") if diagnosis.steps else None)
+
+
+def _departures(rig, fit, sim, meas, drives, drawn_drives, moved, refitted, cfg, top, backend, name, span):
+    """How far ``fit``'s replay of a held-out run moves (sums of ``|.|^2`` over the compared twist
+    harmonics) along each of its parameters' directions (``moved``, over ``DRAW_STEP^2``: the
+    covariance's first-order part), under each of ``drawn_drives`` (their mean: the drive's noise)
+    and, given ``refitted``, under its refit on its own replay (the method's bias). Returns
+    (parameters' part, drive's part, method's part, each direction's)."""
+    ref = _twists(sim, top)
+    replays = [(f, drives) for f in moved] + [(fit, d) for d in drawn_drives] + (
+        [(refitted, drives)] if refitted is not None else [])
+    def departure(item) -> float:
+        other, with_drives = item
+        try:
+            alt, _ = _replayed(rig, other, fit.spec, meas, with_drives, cfg, top, backend, name, span=span)
+        except _NoReplay:
+            return math.nan
+        return float(np.sum(np.abs(_twists(alt, top) - ref) ** 2))
+
+    from jointrig.parallel import fork_map
+
+    parts = list(fork_map(departure, replays))  # independent replays: on every core
+    by_direction = np.array(parts[:len(moved)]) / DRAW_STEP ** 2
+    by_draw = np.array(parts[len(moved):len(moved) + len(drawn_drives)]) / DRAW_STEP ** 2
+    p_run = float(np.nansum(by_direction)) if by_direction.size else 0.0
+    d_part = float(np.nanmean(by_draw)) if by_draw.size and not np.all(np.isnan(by_draw)) else 0.0
+    m_run = parts[-1] if refitted is not None and math.isfinite(parts[-1]) else 0.0
+    return p_run, d_part, m_run, by_direction
 
 
 def rig_replay(rig: ChainRig, runs: Sequence, band: int, *, backend: str = "auto", max_wall_s: float = 5.0):
@@ -563,7 +619,21 @@ def rig_replay(rig: ChainRig, runs: Sequence, band: int, *, backend: str = "auto
 FIDELITY_PASSES = 2
 
 
-def measured_diagnosis(diagnosed, replay, say=lambda msg: None) -> tuple:
+def noise_free(runs: Sequence) -> bool:
+    """Whether every channel of every run has a noise per sample below :data:`RIG_FIDELITY` of its
+    swing (RMS about its mean) (pure): records a simulator wrote without noise."""
+    for run in runs:
+        a = run.average
+        channels = {f"phi{i}": x for i, x in enumerate(a.angles_rad, start=1) if x is not None}
+        channels.update({f"torque{i}": x for i, x in enumerate(a.torques_Nm, start=1) if x is not None})
+        for ch, x in channels.items():
+            rms = float(np.std(x))
+            if rms > 0 and run.noise_std.get(ch, 0.0) > RIG_FIDELITY * rms:
+                return False
+    return True
+
+
+def measured_diagnosis(diagnosed, replay, say=lambda msg: None, exact=False) -> tuple:
     """The diagnosis whose fidelity is its own model's: first with the fixed floor
     (:data:`identify.defaults.DEFAULT_FIDELITY`), then again with the balance's misfit measured on
     the noise-free replay of the model it adopted (:func:`identify.chain_diagnose.balance_fidelity`;
@@ -571,7 +641,10 @@ def measured_diagnosis(diagnosed, replay, say=lambda msg: None) -> tuple:
     model adopted repeats (at most :data:`FIDELITY_PASSES` more). Where the measured fidelity leaves
     even the best model above the verdict's chi2/dof bound, the records hold a misfit that neither
     the noise nor the method explains: that diagnosis stands, and its verdict says so (the fixed
-    floor would hide the misfit and inflate every standard error). ``diagnosed(fidelity)`` runs one
+    floor would hide the misfit and inflate every standard error), unless the records are
+    noise-free (``exact`` True, :func:`noise_free`: the rig's own, where the misfit is the
+    integrators' difference) or their chi-square cannot test a model (``exact`` a reason in words:
+    a noise estimate of two periods); the fixed floor's diagnosis stands then. ``diagnosed(fidelity)`` runs one
     diagnosis; ``replay(fit)`` is :func:`rig_replay`'s. Returns the diagnosis and notes (why the
     fidelity stayed fixed, if it did)."""
     from jointrig.identify.chain_diagnose import balance_fidelity, model_kind
@@ -586,6 +659,15 @@ def measured_diagnosis(diagnosed, replay, say=lambda msg: None) -> tuple:
                        f"{label} could not be replayed to measure it ({got})",)
         fid = balance_fidelity(got, d.final, d.n_harmonics, d.masked, d.merging, label)
         again = diagnosed(fid)
+        if exact and again.reduced_chi2(again.final) > CHI2_PER_DOF_OK:
+            # records without noise (the rig's own, written at another step): the measured fidelity
+            # reads the two integrators' difference as a misfit of every model; or a noise estimate
+            # of two periods (one degree of freedom per line and part), whose weights give a
+            # chi-square without a finite expectation: it cannot test a model
+            why = (f"the records are noise-free (below {RIG_FIDELITY:g} of every channel)" if exact is True else exact)
+            return d, (f"the model fidelity is fixed at {DEFAULT_FIDELITY:g} of each run's largest balanced torque: "
+                       f"{why}, and measured on the replay of {label} ({fid.relative:.2g} of the balanced torque) it "
+                       f"left the best model at chi2/dof {again.reduced_chi2(again.final):.3g}",)
         same = model_kind(again.final.spec) == model_kind(d.final.spec)
         d = again
         if same:
@@ -618,9 +700,12 @@ def train_verdict(diagnosis: ChainDiagnosis, validation: Optional[ChainValidatio
     lost = ""
     if math.isinf(v.nominal_error):  # the nominal model failed where the extension did not
         lost = ", ".join(lab for lab, nom, *_ in v.per_run if not math.isfinite(nom))
-    nominal = v.nominal_error / right if right > 0 and math.isfinite(v.nominal_error) else math.nan
+    own = v.nominal_right if d.steps and v.nominal_right is not None else v.right
+    nominal = (v.nominal_error / own.relative if own is not None and own.relative > 0 and math.isfinite(v.nominal_error)
+               else math.nan)
     held = "error on the held-out later periods" if held_out_periods else "held-out error"
-    return judge([s.label for s in d.steps], c2, ratio, nominal, v.bound, held=held, nominal_lost=lost)
+    return judge([s.label for s in d.steps], c2, ratio, nominal, v.bound, held=held, nominal_lost=lost,
+                 nominal_bound=own.bound if own is not None else v.bound, gain=v.gain)
 
 
 #: The forms a bench's runs come in (:attr:`TrainReport.form`).
@@ -791,7 +876,10 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
     if fidelity is not None:
         d = diagnosed(fidelity)
     else:
-        d, why = measured_diagnosis(diagnosed, replay, say)
+        few = min(r.n_periods for r in runs) <= 2
+        d, why = measured_diagnosis(diagnosed, replay, say, exact=noise_free(runs) or (
+            "a run's noise comes from two periods alone (one degree of freedom per line: its weights give a "
+            "chi-square without a finite expectation)" if few else False))
         notes += list(why)
     fit_ids = run_ids if split else [run_ids[i] for i in range(len(records)) if i not in held]
     for k, body, rest, masked in d.rests:

@@ -34,7 +34,7 @@ def test_the_check_names_what_departs_from_the_schema():
     swapped = dict(reversed(list(doc.items())))
     assert dj.schema_problems(swapped)  # the order is part of the schema: a diff of two files lines up
     assert dj.schema_problems(doc | {"schema": "jointrig-diagnosis/1"}) == [
-        "schema: 'jointrig-diagnosis/1', expected 'jointrig-diagnosis/4'"]
+        "schema: 'jointrig-diagnosis/1', expected 'jointrig-diagnosis/5'"]
     bad_run = _document()
     del bad_run["validation"]["per_run"][0]["noise_floor"]
     assert dj.schema_problems(bad_run)[0].startswith("validation.per_run[0]: keys")
@@ -47,7 +47,7 @@ def test_the_docs_page_describes_every_key():
     text = DOC.read_text()
     named = set(re.findall(r"`([a-z_0-9]+)`", text))
     keys = set(dj.KEYS + dj.BENCH_KEYS + dj.FIDELITY_KEYS + dj.RULED_OUT_KEYS + dj.FIT_KEYS + dj.EXTENDED_KEYS + dj.VALIDATION_KEYS + dj.RUN_KEYS
-               + dj.CAUSE_KEYS)
+               + dj.CAUSE_KEYS + dj.RIGHT_KEYS)
     assert keys - named == set()
     assert dj.SCHEMA in text
 

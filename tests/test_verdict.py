@@ -54,7 +54,7 @@ def _dynamic(report) -> list:
 
 
 #: Dry friction on both joints, each run held out in turn: the suite runs the light joint's
-#: 10 N m (the case whose held-out run barely shows it: identify.verdict.GAIN_AT_NOISE), the
+#: 10 N m (the case whose held-out run barely shows it: nominal 3.6 noise floors), the
 #: paper joint's 20 N m runs with ``.venv/bin/python tests/test_verdict.py`` (25 s).
 FRICTION_CASES = {"light": 10.0, "paper": 20.0}
 

@@ -36,7 +36,8 @@ def test_the_nominal_model_explains_the_data_only_within_both_bounds(c2, ratio, 
 @pytest.mark.parametrize("c2,ratio,nominal,lost,verdict", [
     (1.0, BOUND, BOUND * 1.001, "", "explained"),       # inclusive for the extension, strict for the nominal
     (1.0, BOUND * 1.001, 50.0, "", "unexplained"),      # beyond what a right model misses
-    (1.0, 1.0, BOUND, "", "unexplained"),               # the held-out runs do not show the effect
+    (1.0, 1.0, BOUND, "", "explained"),                 # not resolved there, but leaning its way: the fit decides
+    (1.0, 1.2, 1.1, "", "unexplained"),                 # not resolved, and the nominal predicts better
     (CHI2_PER_DOF_OK * 1.001, 1.0, 50.0, "", "unexplained"),
     (1.0, 1.0, math.nan, "3, 7", "explained"),          # the nominal has no steady state there
     (1.0, 1.0, math.nan, "", "unexplained"),
@@ -44,18 +45,29 @@ def test_the_nominal_model_explains_the_data_only_within_both_bounds(c2, ratio, 
 ])
 def test_an_extension_is_adopted_only_when_it_predicts_like_a_right_model_and_the_nominal_does_not(
         c2, ratio, nominal, lost, verdict):
-    v = judge(("coulomb_friction",), c2, ratio, nominal, BOUND, nominal_lost=lost)
+    gain = nominal / ratio if math.isfinite(nominal) else math.nan  # the errors' ratio, as the caller's
+    v = judge(("coulomb_friction",), c2, ratio, nominal, BOUND, nominal_lost=lost, gain=gain)
     assert v.verdict == verdict, v
     if verdict == "explained" and lost:
         assert f"no periodic steady state in held-out run(s) {lost}, the extended model does" in v.reason
+    elif verdict == "explained" and nominal > BOUND:
+        assert (f"the nominal model's held-out error is {nominal:.3g} times what it would miss were it right (at most "
+                f"{BOUND:.3g}): the held-out runs confirm") in v.reason
     elif verdict == "explained":
-        assert f"the nominal model's held-out error is {nominal:.3g} times it: the held-out runs confirm" in v.reason
+        assert "the held-out runs do not resolve it" in v.reason and v.reason.endswith("adopted on the fit's evidence")
     elif c2 <= CHI2_PER_DOF_OK and ratio <= BOUND:
         assert v.reason.startswith("the best extension (coulomb_friction) is not confirmed") and \
-            "the held-out runs do not show the effect; nothing is adopted" in v.reason
+            v.reason.endswith("nothing is adopted")
     else:
         assert v.reason.startswith("the best extension (coulomb_friction) fails validation") and \
             v.reason.endswith("nothing is adopted")
+
+
+def test_the_nominal_model_is_judged_against_its_own_bound_where_given():
+    # the nominal model's yardstick is what it would miss were it right (fewer parameters, its own
+    # covariance), not the extended model's
+    assert judge(("backlash",), 1.0, 1.0, 3.0, BOUND, nominal_bound=2.5).verdict == "explained"
+    assert judge(("backlash",), 1.0, 1.0, 3.0, BOUND, nominal_bound=3.5).verdict == "unexplained"
 
 
 def test_the_words_follow_the_causes_and_the_held_out_data():
