@@ -85,7 +85,8 @@ def add_data_options(p: argparse.ArgumentParser) -> None:
                    help="fix the model-fidelity floor relative to each run's largest torque (misfits below it are "
                         "not evidence), e.g. 1e-3; default: measured on each model's noise-free replay in the rig")
     p.add_argument("--max-causes", type=int, default=DEFAULT_MAX_CAUSES,
-                   help="the most causes adopted; the evidence decides below it (default: %(default)s)")
+                   help="the most causes adopted; the evidence decides below it; 0: none, the nominal model's misfit "
+                        "described (default: %(default)s)")
     add_quiet(p)
 
 
@@ -128,7 +129,7 @@ def _main(args: argparse.Namespace) -> int:
         check_range(args.alpha, "--alpha", lo=0, hi=1, lo_open=True, hi_open=True)
         if args.fidelity is not None:
             check_range(args.fidelity, "--fidelity", lo=0, hi=0.5)
-        check_range(args.max_causes, "--max-causes", lo=1, hi=20, integer=True)
+        check_range(args.max_causes, "--max-causes", lo=0, hi=20, integer=True)
         if args.validate is not None and args.holdout:
             raise BadArgument("--validate holds out every run of another record and --holdout some of this one's: "
                               "give one of them")
