@@ -52,8 +52,8 @@ class ChainValidation:
         held-out run (the last :attr:`RightModelError.relative` of that run alone; NaN unmeasured).
       note: what kept a model from being simulated, if anything.
       right: what a right model would miss here (:class:`RightModelError`): the noise, its own
-        parameters' uncertainty and the method's bias; None where it was not measured (the
-        verdict then measures errors against ``noise_floor``).
+        parameters' uncertainty and the method's bias; None where the judged model was not
+        simulated (the verdict is then "unexplained" for that reason).
     """
 
     nominal_error: float
@@ -222,11 +222,6 @@ def _noise_parts(meas: ChainRecord, band: int, noise_std: Optional[dict] = None)
         _, _, var = period_spectra(x, P)
         parts.append(np.repeat(2.0 * var[1:band + 1], 2))  # of C_n = 2 X_n: 4 var, half in each part
     return np.concatenate(parts)
-
-
-def _noise(meas: ChainRecord, band: int, noise_std: Optional[dict] = None) -> float:
-    """Expected sum |noise|^2 of the averaged twist harmonics (:func:`_noise_parts`)."""
-    return float(np.sum(_noise_parts(meas, band, noise_std)))
 
 
 def _floor(noise: float, den: float) -> float:
@@ -440,7 +435,7 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
                    draws: int = DRIVE_DRAWS) -> ChainValidation:
     """Replay every held-out run's drives on the nominal and the extended plant (module docstring);
     ``backend`` as :func:`rig.chain.simulate_chain`'s; ``noise_std``: the fit's noise per sample
-    by channel, the noise floor of a held-out record of one period (:func:`_noise`).
+    by channel, the noise floor of a held-out record of one period (:func:`_noise_parts`).
 
     What a right model misses here is measured for the model the verdict judges (the extended
     one, or the nominal without a cause): :class:`RightModelError` at false-alarm rate ``alpha``,
@@ -553,6 +548,7 @@ def _departures(rig, fit, sim, meas, drives, drawn_drives, moved, refitted, cfg,
     ref = _twists(sim, top)
     replays = [(f, drives) for f in moved] + [(fit, d) for d in drawn_drives] + (
         [(refitted, drives)] if refitted is not None else [])
+
     def departure(item) -> float:
         other, with_drives = item
         try:
@@ -561,9 +557,7 @@ def _departures(rig, fit, sim, meas, drives, drawn_drives, moved, refitted, cfg,
             return math.nan
         return float(np.sum(np.abs(_twists(alt, top) - ref) ** 2))
 
-    from jointrig.parallel import fork_map
-
-    parts = list(fork_map(departure, replays))  # independent replays: on every core
+    parts = [departure(item) for item in replays]
     by_direction = np.array(parts[:len(moved)]) / DRAW_STEP ** 2
     by_draw = np.array(parts[len(moved):len(moved) + len(drawn_drives)]) / DRAW_STEP ** 2
     p_run = float(np.nansum(by_direction)) if by_direction.size else 0.0
