@@ -68,8 +68,11 @@ MODULES = {
     "jointrig.present.diagnosis_json": ("present/diagnosis_json.py", ["tests/test_diagnosis_json.py"]),
     # the user's model as written beside the data
     "jointrig.present.summary": ("present/summary.py", ["tests/test_formatting.py"]),
-    # the replay of held-out runs: its start, its constant loads, its span, its noise floor
-    "jointrig.studies.chain_validate": ("studies/chain_validate.py", ["tests/test_validate_record.py",
+    # the replay of held-out runs: what a right model misses there (fast tests first), its start,
+    # its constant loads, its span, its noise floor
+    "jointrig.studies.chain_validate": ("studies/chain_validate.py", ["tests/test_right_model.py",
+                                                                       "tests/test_verdict_judge.py",
+                                                                       "tests/test_validate_record.py",
                                                                        "tests/test_preload.py"]),
     # the joint card, of two flywheels and of every joint of a train
     "jointrig.identify.card": ("identify/card.py", ["tests/test_card.py"]),

@@ -38,6 +38,7 @@ def test_the_nominal_model_explains_the_data_only_within_both_bounds(c2, ratio, 
     (1.0, BOUND * 1.001, 50.0, "", "unexplained"),      # beyond what a right model misses
     (1.0, 1.0, BOUND, "", "explained"),                 # not resolved there, but leaning its way: the fit decides
     (1.0, 1.2, 1.1, "", "unexplained"),                 # not resolved, and the nominal predicts better
+    (1.0, 1.0, 1.0, "", "unexplained"),                 # not resolved, and the nominal predicts as well (gain 1)
     (CHI2_PER_DOF_OK * 1.001, 1.0, 50.0, "", "unexplained"),
     (1.0, 1.0, math.nan, "3, 7", "explained"),          # the nominal has no steady state there
     (1.0, 1.0, math.nan, "", "unexplained"),
