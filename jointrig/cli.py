@@ -1,16 +1,16 @@
 """The ``jointrig`` command (also ``python -m jointrig``): one subcommand per job.
 
-    jointrig sweep ...        frequency x amplitude sweep of a rig model and its identification
     jointrig diagnose DATA    what the simulation gets wrong about measured runs
     jointrig card DATA        the joint card (backbone, damping, dissipation) of measured runs
-    jointrig card-check       the identified card against a virtual phase-resonance test
+    jointrig sweep ...        frequency x amplitude sweep of a rig model and its identification
     jointrig make-data OUT    simulate measured runs of a model (CSV/Parquet)
     jointrig design           D-optimal excitation on a test-time budget
+    jointrig card-check       the identified card against a virtual phase-resonance test
     jointrig unknown-law      a joint law of unknown form on hat functions
-    jointrig silverbox        the Silverbox benchmark on the real files
-    jointrig paper            the paper's example, eq. (12)
+    jointrig diagnose-chain   which joint of a drive train is worn, and how (a demo)
     jointrig cases            every hidden-effect case of the diagnosis
-    jointrig diagnose-chain   which joint of a drive train is worn, and how
+    jointrig paper            the paper's example, eq. (12)
+    jointrig silverbox        the Silverbox benchmark on the real files
 
 ``jointrig SUBCOMMAND --help`` lists the subcommand's options with units and defaults;
 ``jointrig -V`` prints the version, and ``-q`` before a subcommand is its own ``-q``.
@@ -24,28 +24,40 @@ import sys
 
 from jointrig import __version__
 
-#: subcommand -> (module in jointrig.commands, one-line summary)
+#: subcommand -> (module in jointrig.commands, one-line summary): the commands for the user's
+#: measured runs first (:data:`ON_YOUR_DATA`), then the rig's jobs and demos
 SUBCOMMANDS = {
-    "sweep": ("run_sweep", "frequency x amplitude sweep of a rig model and its identification"),
     "diagnose": ("diagnose", "what the simulation gets wrong about measured runs (a file or a folder)"),
     "card": ("card", "the joint card: amplitude-dependent stiffness, damping and dissipation of measured runs"),
-    "card-check": ("card_check", "the identified joint card against a virtual phase-resonance test in the rig"),
+    "sweep": ("run_sweep", "frequency x amplitude sweep of a rig model and its identification"),
     "make-data": ("make_data", "simulate measured runs of a model and write them (CSV/Parquet)"),
     "design": ("design_excitation", "D-optimal excitation on a test-time budget"),
+    "card-check": ("card_check", "the identified joint card against a virtual phase-resonance test in the rig"),
     "unknown-law": ("unknown_law", "a joint law of unknown form on hat functions, with its band"),
-    "silverbox": ("silverbox", "the Silverbox benchmark on the real files"),
-    "paper": ("paper_example", "the paper's example, eq. (12)"),
+    "diagnose-chain": ("diagnose_chain", "which joint of a drive train is worn, and how (a demo on a chain model)"),
     "cases": ("diagnose_cases", "how the diagnosis does on every hidden-effect case"),
-    "diagnose-chain": ("diagnose_chain", "which joint of a drive train is worn, and how (a chain model)"),
+    "paper": ("paper_example", "the paper's example, eq. (12)"),
+    "silverbox": ("silverbox", "the Silverbox benchmark on the real files"),
 }
+#: the subcommands that take the user's measured runs
+ON_YOUR_DATA = ("diagnose", "card")
 
 
 def _usage() -> str:
+    from jointrig.commands import epilog
+
     width = max(map(len, SUBCOMMANDS))
+
+    def listed(names):
+        return [f"  {name:{width}s}  {SUBCOMMANDS[name][1]}" for name in names]
+
     lines = [f"usage: jointrig [-V | --version] [-q | --quiet] SUBCOMMAND [options]   (jointrig {__version__})", "",
-             "subcommands:"]
-    lines += [f"  {name:{width}s}  {summary}" for name, (_, summary) in SUBCOMMANDS.items()]
-    lines += ["", "jointrig SUBCOMMAND --help lists its options with units and defaults."]
+             "on your measured runs:"]
+    lines += listed(ON_YOUR_DATA)
+    lines += ["", "the virtual rig, its demos and benchmarks:"]
+    lines += listed([n for n in SUBCOMMANDS if n not in ON_YOUR_DATA])
+    lines += ["", "jointrig SUBCOMMAND --help lists its options with units and defaults.", "",
+              epilog("jointrig diagnose examples/bench_dry_friction.csv")]
     return "\n".join(lines)
 
 

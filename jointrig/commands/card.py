@@ -12,7 +12,7 @@ body: at its guide). It prints the cards; ``--json`` holds them as ``cards``, ea
 ``damping_ratio``, ``dissipation_J_per_cycle``, ``secant_stiffness_Nm_per_rad``, each with
 ``_std``, and ``source``: runs, model_at_runs, model) and the dissipation slopes with their
 standard errors; ``--png OUT.png`` writes the figure (a train of more joints: ``OUT-joint<j>.png``
-per joint). Exit status as ``jointrig diagnose``.
+per joint).
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from jointrig.commands import command_parser, diagnose
 
 
 def main(argv=None) -> int:
-    p = command_parser(__doc__)
+    p = command_parser(__doc__, 'jointrig card examples/bench_dry_friction.csv --png runs/card.png')
     diagnose.add_data_options(p)
     p.add_argument("--json", type=Path, help="write the card as JSON")
     p.add_argument("--png", type=Path, help="write the card's figure (PNG)")

@@ -26,7 +26,7 @@ log = logging.getLogger("jointrig.card-check")
 
 
 def main(argv=None) -> int:
-    p = command_parser(__doc__, prog="jointrig card-check")
+    p = command_parser(__doc__, 'jointrig card-check paper', prog="jointrig card-check")
     p.add_argument("cases", nargs="*", choices=[[], *CARD_CASES], default=[], metavar="CASE",
                    help=f"joints to check, of {', '.join(CARD_CASES)} (default: all)")
     p.add_argument("--snr-db", type=float, default=40.0, help="SNR per channel in dB (default: %(default)s)")

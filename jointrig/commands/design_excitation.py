@@ -44,7 +44,7 @@ DEFAULT_PERIODS = 8
 
 
 def main(argv=None) -> int:
-    p = command_parser(__doc__)
+    p = command_parser(__doc__, 'jointrig design --snr-db 40')
     p.add_argument("--snr-db", type=float, default=40.0, help="expected signal-to-noise ratio per channel, dB (default: %(default)s)")
     p.add_argument("--setup-s", type=float, default=1.0, help="test time a run costs before measuring, s (default: %(default)s)")
     p.add_argument("--budget-s", type=float, default=None, help="test-time budget (s); default: the default sweep's")

@@ -18,9 +18,6 @@ running both models in the MuJoCo rig under the measured drive of runs held out 
 (default: runs of another kind than the fit where the data allow: multisines against stepped
 sines, else an inner drive level, else an inner frequency, else every third run;
 studies.holdout.holdout_of_another_kind).
-
-Exit status: 0 on success, 2 on bad input (the message names the file, run, column or
-option), 1 when the identification itself fails.
 """
 
 from __future__ import annotations
@@ -91,7 +88,7 @@ def add_data_options(p: argparse.ArgumentParser) -> None:
 
 
 def parse_args(argv=None) -> argparse.Namespace:
-    p = command_parser(__doc__)
+    p = command_parser(__doc__, 'jointrig diagnose examples/bench_dry_friction.csv --report runs/bench.html')
     add_data_options(p)
     p.add_argument("--json", type=Path, help="write the diagnosis as JSON")
     p.add_argument("--rrd", type=Path, help="write a rerun recording")

@@ -24,7 +24,7 @@ from jointrig.vocab.params import train_name
 
 
 def main(argv=None) -> int:
-    p = command_parser(__doc__)
+    p = command_parser(__doc__, 'jointrig cases --snr-db 40 --json runs/cases.json')
     add_quiet(p)
     p.add_argument("--snr-db", type=float, default=40.0, help="SNR per channel in dB (default: %(default)s)")
     p.add_argument("--seed", type=int, default=None, help="noise seed (default: one per case, from its name)")

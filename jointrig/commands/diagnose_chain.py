@@ -12,8 +12,7 @@ hands the records to studies.chain_validate.run_train_diagnosis with the nominal
 (``--model``) as the user's: every catalogued cause scored at every joint and bearing drag at
 every flywheel, the place and cause named, the model extended there, the held-out runs' drives
 replayed on the nominal and the extended model in the rig, the verdict. Frequencies in rad/s,
-torques in N m. Exit status as ``jointrig diagnose``: 0 whatever the verdict (it is in the text and
-the JSON), 2 on bad input, 1 when the identification itself fails.
+torques in N m.
 """
 
 from __future__ import annotations
@@ -50,7 +49,7 @@ def _point(text: str) -> tuple[float, float, int]:
 
 
 def parse_args(argv=None) -> argparse.Namespace:
-    p = command_parser(__doc__)
+    p = command_parser(__doc__, 'jointrig diagnose-chain --truth models/pump_train_worn.xml')
     p.add_argument("--truth", type=Path, default=MODELS / "pump_train_worn.xml",
                    help=f"chain model that plays the measured train (default: {shipped(MODELS / 'pump_train_worn.xml')})")
     p.add_argument("--model", type=Path, default=MODELS / "pump_train.xml",

@@ -38,7 +38,7 @@ AMPLITUDES = (1500.0, 2500.0, 3500.0)
 
 
 def parse_args(argv=None) -> argparse.Namespace:
-    p = command_parser(__doc__)
+    p = command_parser(__doc__, 'jointrig make-data runs/worn.csv --model models/two_flywheels_worn.xml')
     p.add_argument("out", type=Path, help="output file (.csv or .parquet)")
     p.add_argument("--model", type=Path, default=DEFAULT_MODEL, help=f"rig MJCF (default: {shipped(DEFAULT_MODEL)})")
     p.add_argument("--omegas", type=float, nargs="+", metavar="RAD_S",

@@ -61,7 +61,7 @@ def with_torque_noise(record: SteadyStateRecord, snr_db: float, rng: np.random.G
 
 
 def main(argv=None) -> int:
-    p = command_parser(__doc__)
+    p = command_parser(__doc__, 'jointrig paper --json runs/paper.json')
     add_quiet(p)
     p.add_argument("--json", type=Path, default=None, help="write the figures as JSON")
     p.add_argument("--snr-db", type=float, default=60.0, help="noise level of part 3 (default: %(default)s)")

@@ -38,7 +38,7 @@ log = logging.getLogger("run_sweep")
 
 
 def parse_args(argv=None) -> argparse.Namespace:
-    p = command_parser(__doc__)
+    p = command_parser(__doc__, 'jointrig sweep')
     p.add_argument("--model", type=Path, default=DEFAULT_MODEL, help=f"rig MJCF (default: {shipped(DEFAULT_MODEL)})")
     p.add_argument("--omegas", type=float, nargs="+", default=None,
                    metavar="RAD_S", help=f"drive frequencies in rad/s (default: {list(DEFAULT_PLAN.omegas_rad_s)}; "

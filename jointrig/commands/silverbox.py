@@ -71,7 +71,8 @@ def _params(names, values, stds):
 
 
 def main(argv=None) -> int:
-    p = command_parser(__doc__)
+    p = command_parser(__doc__, 'jointrig silverbox --json runs/silverbox.json',
+                       where="Example (runs as printed where the Silverbox files are: --data, $JOINTRIG_SILVERBOX or the default):")
     p.add_argument("--data", type=Path, default=None, help="Silverbox directory (default: $JOINTRIG_SILVERBOX, else shared/data/silverbox beside the "
                                                                    "jointrig source tree)")
     p.add_argument("--json", type=Path, default=None, help="write the figures (parameters, RMS errors in mV) as JSON")

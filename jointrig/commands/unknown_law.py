@@ -34,7 +34,7 @@ log = logging.getLogger("jointrig.unknown-law")
 
 
 def main(argv=None) -> int:
-    p = command_parser(__doc__)
+    p = command_parser(__doc__, 'jointrig unknown-law --model models/two_flywheels_kink.xml --png runs/kink.png')
     p.add_argument("--model", type=Path, default=MODEL, help=f"rig MJCF whose joint is to be recovered (default: {shipped(MODEL)})")
     p.add_argument("--knots", type=int, default=41, help="hat functions over the measured range (default: %(default)s)")
     p.add_argument("--snr-db", "--noise-db", dest="noise_db", type=float, default=40.0,
