@@ -299,7 +299,11 @@ class BalanceFidelity:
       model: the replayed model's causes in words ("the nominal model" without any).
       unmeasured: the runs (indices among the fitted ones) whose replay reached no steady state
         (a joint stuck at a high frequency creeps under the rig's friction constraint): their
-        rows keep the fixed floor ``floor`` (relative to each run's largest balanced term).
+        rows take the measured runs' misfit relative to their size (:meth:`borrowed`), or where
+        no measured run has that row, the fixed floor ``floor`` (relative to each run's largest
+        balanced term).
+      shares: ``(harmonic, equation) -> the largest mean square misfit of a measured run over
+        its largest balanced term squared``: what :meth:`borrowed` lends an unmeasured run.
     """
 
     variance: dict = field(repr=False)
@@ -307,9 +311,17 @@ class BalanceFidelity:
     model: str
     unmeasured: tuple = ()
     floor: float = DEFAULT_FIDELITY
+    shares: dict = field(default_factory=dict, repr=False)
 
     def at(self, run: int, harmonic: int, equation: int) -> float:
         return self.variance.get((run, harmonic, equation), 0.0)
+
+    def borrowed(self, harmonic: int, equation: int, size2: float) -> float:
+        """An unmeasured run's misfit at a row: the largest a measured run shows there relative to
+        its size, times this run's size squared ``size2``; the fixed floor where none was measured
+        there (the same model's balance, measured where it settled, rather than a constant)."""
+        share = self.shares.get((harmonic, equation))
+        return (share if share is not None else self.floor ** 2) * size2
 
 
 def model_kind(spec: ChainSpec) -> tuple:
@@ -488,7 +500,7 @@ class _Problem:
             for key in set(zip(h.tolist(), e.tolist())):
                 sel = (h == key[0]) & (e == key[1])
                 if isinstance(self.fidelity, BalanceFidelity) and i in self.fidelity.unmeasured:
-                    floor = self.fidelity.floor ** 2 * size2
+                    floor = max(self.fidelity.borrowed(key[0], key[1], size2), (RIG_BALANCE_FLOOR**2) * size2)
                 elif isinstance(self.fidelity, BalanceFidelity):
                     floor = max(self.fidelity.at(i, key[0], key[1]), (RIG_BALANCE_FLOOR**2) * size2)
                 else:
@@ -556,14 +568,20 @@ def balance_fidelity(replays: Sequence[Optional[ChainRun]], fit: ChainFit, n_har
     values = fit.as_dict()
     banded = problem.system(spec, problem.jumps(spec, values))
     s = banded.system
-    r = s.F - s.A @ np.array([values[n] for n in s.names])
-    out = {}
+    theta = np.array([values[n] for n in s.names])
+    r = s.F - s.A @ theta
+    # each replay's size as row_variance measures a run's: its largest balanced term
+    size2 = {k: float(np.max(np.abs(np.column_stack([s.A[s.row_record == k] * theta, s.F[s.row_record == k]])))) ** 2
+             for k in range(len(kept))}
+    out, shares = {}, {}
     for key in set(zip(s.row_record.tolist(), s.row_harmonic.tolist(), s.row_equation.tolist())):
         sel = (s.row_record == key[0]) & (s.row_harmonic == key[1]) & (s.row_equation == key[2])
         out[(kept[key[0]],) + key[1:]] = float(np.mean(r[sel] ** 2))
+        if size2[key[0]] > 0:
+            shares[key[1:]] = max(shares.get(key[1:], 0.0), out[(kept[key[0]],) + key[1:]] / size2[key[0]])
     size = float(np.sqrt(np.mean(s.F ** 2))) if s.F.size else 1.0
     return BalanceFidelity(out, float(np.sqrt(np.mean(r ** 2))) / size if size > 0 else 0.0, model,
-                           tuple(i for i in range(len(replays)) if replays[i] is None))
+                           tuple(i for i in range(len(replays)) if replays[i] is None), shares=shares)
 
 
 def refit_on_replay(replays: Sequence[Optional[ChainRun]], fit: ChainFit, n_harmonics: int, masked: tuple = (),

@@ -3,6 +3,7 @@
 
     python scripts/bench_zeros.py [--suite] [--joint paper light] [--case none coulomb_friction/1 ...]
                                   [--seed S] [--json OUT]
+    python scripts/bench_zeros.py --chains [--case none backlash/2 ...]   # trains and the carriage
 
 Why: encoders mounted by hand each have their own zero, a torque cell reads an offset. The
 diagnosis takes every angle channel about its mean over the fitted runs (identify/zeros.py) and
@@ -16,6 +17,10 @@ uniform in +-pi and the torque cell's offset uniform in +-2% of the largest driv
 Both are diagnosed in-process (``studies.chain_validate.run_train_diagnosis``, runs 2 and 3 held
 out, as the test does). ``--suite``: only the 11 cases the test suite runs (no effect on both
 joints, every effect at its smaller size on one).
+
+``--chains``: the chain benches instead (:func:`_chain_benches`: a 3-body train, the 4-body test
+train, the pump train, the carriage on a slide in 9 runs), each encoder's zero uniform in +-pi
+(the carriage's position zero too) and every torque or force cell's offset uniform in +-2%.
 
 One row per case: whether the verdicts and the adopted causes agree, the largest
 |unzeroed - zeroed| / SE over the parameters (the twist's zero left out), and the twist's zero
@@ -81,12 +86,92 @@ def _case(tmp: Path, joint: str, case: str, seed: int) -> dict:
             "torque_offset_true_Nm": offset + bench_offsets[0], "torque_mean_Nm": t_mean, "torque_se_Nm": t_se}
 
 
+#: The chain benches (tests/bench_chain_sim.py, tests/bench_slide_sim.py): name -> (bench, points,
+#: held-out run indices). A 3-body train (the test train's first three bodies: modes 81 and 196
+#: rad/s), the 4-body test train of tests/chain_cases.py, the pump train (motor side, no pump
+#: cell), and the 12 kg carriage in 9 runs. Points are (omega rad/s, amplitude N m, driven body).
+TRAIN3_POINTS = ((45.0, 100.0, 1), (80.0, 100.0, 1), (130.0, 100.0, 1), (196.0, 100.0, 1), (80.0, 100.0, 3),
+                 (196.0, 100.0, 3), (100.0, 150.0, 1), (160.0, 150.0, 3))
+
+
+def _chain_benches():
+    from bench_chain_sim import PUMP_POINTS, PUMP_TRAIN, TRAIN, Train, with_effect
+    from bench_slide_sim import Carriage
+    from chain_cases import ESTIMATION, HELD_OUT
+
+    train3 = Train(J=TRAIN.J[:3], joints=TRAIN.joints[:2], b=(0.0, 0.0, 0.0))
+    t3 = (TRAIN3_POINTS, (6, 7))
+    t4 = (ESTIMATION + HELD_OUT, (len(ESTIMATION), len(ESTIMATION) + 1))
+    pump = ([p for p in PUMP_POINTS if p[2] == 1], None)
+    slide = ([(w, F) for w in (6.283, 12.566, 25.13) for F in (80.0, 150.0, 300.0)], None)
+    return {
+        "train3 none": (train3, *t3),
+        "train3 coulomb_friction/1": (with_effect(train3, 1, Fc=4.0), *t3),
+        "train4 none": (TRAIN, *t4),
+        "train4 backlash/2": (with_effect(TRAIN, 2, gap=0.003), *t4),
+        "train4 coulomb_friction/3": (with_effect(TRAIN, 3, Fc=4.0), *t4),
+        "pump none": (PUMP_TRAIN, *pump),
+        "pump backlash/2": (with_effect(PUMP_TRAIN, 2, gap=1e-3), *pump),
+        "slide none": (Carriage(Fc=0.0), *slide),
+        "slide coulomb_friction": (Carriage(), *slide),
+    }
+
+
+def _chain_case(tmp: Path, name: str, seed: int) -> dict:
+    """One chain bench written zeroed and as a lab has it (every encoder's zero uniform in +-pi,
+    every torque or force cell's offset uniform in +-2% of the largest amplitude), both diagnosed."""
+    from bench_chain_sim import daq_file
+    from bench_slide_sim import daq_runs
+
+    from jointrig.measured.runs import as_train, read_runs
+    from jointrig.present.train_report import _values
+    from jointrig.rig.chain import rig_of_bodies
+    from jointrig.studies.chain_validate import run_train_diagnosis
+
+    bench, points, holdout = _chain_benches()[name]
+    slide = name.startswith("slide")
+    rng = np.random.default_rng([seed, sum(map(ord, name))])
+    n = 1 if slide else bench.N
+    zeros = rng.uniform(-math.pi, math.pi, n)
+    offset = rng.uniform(-0.02, 0.02) * max(p[1] for p in points)
+
+    def diagnosed(file, lab: bool):
+        if slide:
+            path = daq_runs(bench, points, tmp / file, seed=seed, at_rest_m=float(zeros[0]) if lab else 0.0,
+                            force_offset_N=offset if lab else 0.0)
+            loaded, rig = read_runs(path), rig_of_bodies(1, [1], "slide")
+        else:
+            path = daq_file(bench, points, tmp / file, seed=seed, offsets_rad=tuple(zeros) if lab else (0.0,) * n,
+                            cell_offset_Nm=offset if lab else 0.0)
+            loaded = as_train(read_runs(path, columns={"time": "t"}))
+            rig = rig_of_bodies(n, sorted({p[2] for p in points}))
+        return run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig, holdout=holdout)
+
+    zeroed, lab = diagnosed("zeroed.csv", False), diagnosed("lab.csv", True)
+    want, got = _values(zeroed.diagnosis.final, zeroed), _values(lab.diagnosis.final, lab)
+    worst = max((abs(v - want[k][0]) / want[k][1] for k, (v, _) in got.items()
+                 if not k.endswith("angle_offset_rad") and k in want and math.isfinite(want[k][1])
+                 and want[k][1] > 0), default=math.nan)
+    # each profiled twist's zero against the encoders' (their difference), the cells' means against the offset
+    zero_z = [(v - (zeros[j - 1] - zeros[j])) / se for k, (v, se) in got.items() if k.endswith("angle_offset_rad")
+              and k.startswith("joint") and (j := int(k[5:k.index("_")])) and se > 0]
+    cells = [(m - offset) / se for m, se in zip(lab.zeros.torques, lab.zeros.torque_se) if math.isfinite(m) and se > 0]
+    return {"joint": name.split()[0], "case": name.split()[1], "verdict": lab.verdict.verdict,
+            "zeroed_verdict": zeroed.verdict.verdict, "causes": [s.label for s in lab.diagnosis.steps],
+            "zeroed_causes": [s.label for s in zeroed.diagnosis.steps], "worst_parameter_z": worst,
+            "zero_z": max(zero_z, key=abs) if zero_z else math.nan,
+            "torque_z": max(cells, key=abs) if cells else math.nan, "encoder_zeros_rad": zeros.tolist(),
+            "cell_offset": offset}
+
+
 def main(argv=None) -> int:
     from test_independent_bench import CASES, SUITE
 
     from jointrig.rig.runtime import limit_threads
 
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--chains", action="store_true",
+                   help="the chain benches instead (3- and 4-body trains, the pump train, the carriage)")
     p.add_argument("--joint", nargs="+", choices=sorted(CASES), default=sorted(CASES))
     p.add_argument("--case", nargs="+", help="cases of tests/test_independent_bench.py (default: all)")
     p.add_argument("--suite", action="store_true", help="only the cases the test suite runs")
@@ -95,8 +180,11 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     limit_threads()
     rows = []
-    todo = [(j, c) for j in args.joint for c in (args.case or CASES[j]) if c in CASES[j]
-            and (not args.suite or (j, c) in SUITE)]
+    if args.chains:
+        todo = [tuple(name.split()) for name in _chain_benches() if not args.case or name.split()[1] in args.case]
+    else:
+        todo = [(j, c) for j in args.joint for c in (args.case or CASES[j]) if c in CASES[j]
+                and (not args.suite or (j, c) in SUITE)]
     if not todo:
         print("bench_zeros: no such case (see tests/test_independent_bench.py CASES)", file=sys.stderr)
         return 2
@@ -105,17 +193,18 @@ def main(argv=None) -> int:
     for k, (joint, case) in enumerate(todo, start=1):
         t0 = time.perf_counter()
         with tempfile.TemporaryDirectory() as tmp:
-            r = _case(Path(tmp), joint, case, args.seed)
+            r = _chain_case(Path(tmp), f"{joint} {case}", args.seed) if args.chains else \
+                _case(Path(tmp), joint, case, args.seed)
         rows.append(r)
         same = r["verdict"] == r["zeroed_verdict"] and r["causes"] == r["zeroed_causes"]
-        tz = (r["torque_mean_Nm"] - r["torque_offset_true_Nm"]) / r["torque_se_Nm"]
+        tz = r["torque_z"] if args.chains else (r["torque_mean_Nm"] - r["torque_offset_true_Nm"]) / r["torque_se_Nm"]
         print(f"{joint:6s} {case:26s} {r['verdict']:11s} {str(same):5s} {r['worst_parameter_z']:8.2g} "
               f"{r['zero_z']:7.2g} {tz:8.2g}  {', '.join(r['causes']) or '-'}", flush=True)
         print(f"[{k}/{len(todo)}] {joint} {case}: {time.perf_counter() - t0:.1f} s", file=sys.stderr)
     same = sum(r["verdict"] == r["zeroed_verdict"] and r["causes"] == r["zeroed_causes"] for r in rows)
     print(f"\nsame verdict and causes: {same} of {len(rows)}; parameters within 3 SE of the zeroed: "
           f"{sum(r['worst_parameter_z'] <= 3 for r in rows)} of {len(rows)}; zero within 3 SE: "
-          f"{sum(abs(r['zero_z']) <= 3 for r in rows)} of {len(rows)}")
+          f"{sum(abs(r['zero_z']) <= 3 for r in rows)} of {sum(math.isfinite(r['zero_z']) for r in rows)} read")
     if args.json:
         write_json_atomic(args.json, {"seed": args.seed, "rows": rows})
     return 0

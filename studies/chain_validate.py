@@ -574,7 +574,8 @@ def rig_replay(rig: ChainRig, runs: Sequence, band: int, *, backend: str = "auto
     fixed floor then stands in). The diagnosis measures the balance's fidelity on them
     (:class:`identify.chain_diagnose.BalanceFidelity`). A replay that has not settled in
     ``max_wall_s`` seconds of a run is given up: a fidelity is not worth a long wait (that run's
-    replay is None, its rows keep the fixed floor; every run's: why, in words). Settled to 1e-7 of
+    replay is None, its rows borrow the replayed runs' misfit, :meth:`BalanceFidelity.borrowed`;
+    every run's: why, in words). Settled to 1e-7 of
     each channel's swing: a variance estimate, at most 80 dB below the signal, needs no more."""
     from jointrig.identify.chain_diagnose import prepare_chain_runs
 

@@ -128,14 +128,14 @@ def daq_file(car: Carriage, w: float, F0: float, path, *, fs_Hz: float = 10000.0
 
 
 def daq_runs(car: Carriage, points, path, *, fs_Hz: float = 10000.0, n_periods: float = 6.3, snr_db: float = 40.0,
-             at_rest_m: float = 0.3512, seed: int = 0):
+             at_rest_m: float = 0.3512, seed: int = 0, force_offset_N: float = 0.0):
     """Several runs, one per ``(omega rad/s, force amplitude N)``, in one file with a ``run`` column
-    (the same trace as :func:`daq_file`; the carriage is not moved between runs, so every run's
-    positions are about where its steady state settled)."""
+    (the same trace as :func:`daq_file`, ``force_offset_N`` too; the carriage is not moved between
+    runs, so every run's positions are about where its steady state settled)."""
     rng = np.random.default_rng(seed)
     lines = ["run,time [s],force [N],x [mm]"]
     for r, (w, F0) in enumerate(points):
-        t, F, x = _trace(car, w, F0, rng, fs_Hz, n_periods, snr_db, at_rest_m)
+        t, F, x = _trace(car, w, F0, rng, fs_Hz, n_periods, snr_db, at_rest_m, force_offset_N)
         lines += [f"{r},{tt:.5f},{f:.5f},{xx * 1e3:.6f}" for tt, f, xx in zip(t, F, x)]
     path.write_text("\n".join(lines) + "\n")
     return path

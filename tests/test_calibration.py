@@ -96,11 +96,12 @@ def test_what_the_runs_rule_out_is_the_size_at_which_an_effect_is_found(tmp_path
 
 
 @pytest.mark.slow
-def test_a_run_whose_replay_does_not_settle_keeps_the_fixed_floor_alone(tmp_path, monkeypatch):
+def test_a_run_whose_replay_does_not_settle_borrows_the_measured_runs_misfit(tmp_path, monkeypatch):
     # A replay that reaches no steady state in one fitted run (a joint stuck most of the period
     # creeps under the rig's friction constraint: the pump train's 8 N m coupling at 1200 rad/s)
-    # no longer sends every run back to the fixed floor: that run's rows keep it, the others'
-    # fidelity is measured, and the report names the runs. Here the replays of runs 4 and 5 (the
+    # no longer sends every run back to the fixed floor: that run's rows take the largest misfit
+    # the replayed runs show at each harmonic relative to their size (not a constant: at 80 dB the
+    # fixed floor held the sticking train's chi2/dof at 0.66), and the report names the runs. Here the replays of runs 4 and 5 (the
     # two at 55 rad/s) are made to fail; the right model still reads chi2/dof within 0.7-1.5 at 2%
     # noise.
     from jointrig.identify.chain_diagnose import BalanceFidelity
@@ -120,5 +121,20 @@ def test_a_run_whose_replay_does_not_settle_keeps_the_fixed_floor_alone(tmp_path
     d = r.diagnosis
     assert isinstance(d.fidelity, BalanceFidelity) and d.fidelity.unmeasured == (2, 3), d.fidelity.unmeasured
     assert r.verdict.verdict == "no_misfit" and 0.7 <= d.reduced_chi2(d.final) <= 1.5, r.verdict
-    assert "the replay of run(s) 4, 5 reached no periodic steady state" in format_train_report(r)
+    text = format_train_report(r)
+    assert "the replay of run(s) 4, 5 reached no periodic steady state" in text
+    assert "their rows take the largest misfit a replayed run shows at that harmonic" in text
     assert train_report_json(r)["fidelity"]["fixed_runs"] == ["4", "5"]
+
+
+def test_an_unmeasured_run_borrows_the_largest_relative_misfit_of_the_measured_ones():
+    # BalanceFidelity.borrowed: the share a measured run showed at that harmonic and equation,
+    # times the unmeasured run's own size squared; the fixed floor where none was measured there
+    from jointrig.identify.chain_diagnose import BalanceFidelity
+
+    fid = BalanceFidelity({(0, 1, 0): 4.0}, 1e-4, "the nominal model", unmeasured=(1,), floor=1e-3,
+                          shares={(1, 0): 1e-8, (2, 0): 3e-9})
+    assert fid.borrowed(1, 0, 100.0 ** 2) == pytest.approx(1e-4)
+    assert fid.borrowed(2, 0, 10.0 ** 2) == pytest.approx(3e-7)
+    assert fid.borrowed(3, 0, 10.0 ** 2) == pytest.approx(1e-6 * 100.0)  # (1e-3 * 10)^2
+    assert fid.at(0, 1, 0) == 4.0 and fid.at(1, 1, 0) == 0.0
