@@ -536,10 +536,60 @@ class _Problem:
     def _fit_of(self, spec: ChainSpec, weights: np.ndarray, banded, res, jumps) -> ChainFit:
         s = banded.system
         row, chi2, scale = weighted_chi2(s.F - s.A @ res.values, weights, self.nu, res.dof)
-        return ChainFit(spec, res.names, np.array(res.values), np.array(res.std_errors) * math.sqrt(scale), chi2,
+        cov = np.array(res.covariance) * scale
+        extra = self.cross_covariance(s, spec, dict(zip(res.names, res.values)), weights)
+        if extra is not None and np.all(np.isfinite(cov)):
+            cov = cov + cov @ extra @ cov / max(1.0, chi2 / max(res.dof, 1))  # cov = B max(1, chi2/dof)
+        std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+        return ChainFit(spec, res.names, np.array(res.values), std, chi2,
                         s.F.size, row, condition_number=res.condition_number, success=res.success,
-                        message=res.message, row_harmonic=s.row_harmonic,
-                        covariance=np.array(res.covariance) * scale)
+                        message=res.message, row_harmonic=s.row_harmonic, covariance=cov)
+
+    def cross_covariance(self, s, spec: ChainSpec, values: dict, weights: np.ndarray) -> Optional[np.ndarray]:
+        """``A' W C W A`` for the covariances between rows that the weights leave out (or None
+        where there are none): the noise of one encoder enters the equations of both bodies beside
+        it, so at one harmonic of one run the residuals of neighbouring equations are correlated
+        (at low frequency a joint's stiffness term makes them nearly opposite), and a diagonal
+        weighting counts their evidence twice. ``C`` holds only the off-diagonal covariances of
+        each run's and harmonic's rows (:func:`noise_cross_covariance`: each channel's measured
+        noise propagated through the model's linear part), each correlation held within the rows'
+        own variances (``1 / weights``); the fit's covariance is then the sandwich
+        ``B (A'WA + A'WCWA) B`` with ``B = (A'WA)^-1`` (:meth:`_fit_of`). A run with a masked
+        body is left out (its equations are weighted in time)."""
+        N = spec.n_flywheels
+        if N < 2 or s.F.size == 0:
+            return None
+        masks, merged = self.masks(), self.merged()
+        Q = np.zeros((s.A.shape[1],) * 2)
+        any_block = False
+        for k, run in enumerate(self.runs):
+            if masks is not None and any(m is not None for m in masks[k]):
+                continue
+            sa = np.array([run.noise_std.get(f"phi{i}", 0.0) for i in range(1, N + 1)])
+            st = np.array([run.noise_std.get(f"torque{i}", 0.0) for i in range(1, N + 1)])
+            P, Nraw = run.n_periods, run.samples_per_period
+            joined = merged[k] if merged is not None else ()
+            for n in range(1, self.n_harmonics + 1):
+                rows = np.flatnonzero((s.row_record == k) & (s.row_harmonic == n))
+                if rows.size < 2:
+                    continue
+                C = noise_cross_covariance(spec, values, n * run.average.omega_rad_s, sa, st, joined) * (2.0 / (Nraw * P))
+                Nk = C.shape[0] // 2
+                kept = sorted(set(range(N)) - {j + 1 for j in joined})
+                pos = s.row_part[rows] * Nk + np.searchsorted(kept, s.row_equation[rows])
+                block = C[np.ix_(pos, pos)]
+                d = np.sqrt(np.diag(block))
+                v = 1.0 / np.sqrt(weights[rows])
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    corr = np.where(np.outer(d, d) > 0, block / np.outer(d, d), 0.0)
+                off = corr * np.minimum(np.outer(d, d), np.outer(v, v))
+                np.fill_diagonal(off, 0.0)
+                if not np.any(off):
+                    continue
+                Aw = s.A[rows] * weights[rows, None]
+                Q += Aw.T @ off @ Aw
+                any_block = True
+        return Q if any_block else None
 
     def fit(self, spec: ChainSpec, iterations: int = 2) -> tuple[ChainFit, np.ndarray]:
         banded = self.system(spec)
@@ -549,6 +599,37 @@ class _Problem:
             w = 1.0 / self.row_variance(spec, f.values, banded, self.jumps(spec, f.as_dict()))
             f = self.solve(spec, w)
         return f, w
+
+
+def noise_cross_covariance(spec: ChainSpec, values: dict, w_rad_s: float, sigma_angle, sigma_torque,
+                           merged: Sequence[int] = ()) -> np.ndarray:
+    """The covariance of the balance residuals of every equation at one frequency ``w_rad_s``
+    (pure): ``[Re e_1..e_K, Im e_1..e_K]`` per unit coefficient variance, the residual of body i
+    moving by ``sum_l Z_il dPhi_l - dT_i`` with ``Z`` the dynamic stiffness of the inertias, the
+    bearings' drags and every joint's ``c`` and ``k`` (the nonlinear terms' share left out, as
+    in :func:`identify.chain.fisher_per_period`), white noise of ``sigma_angle`` on each encoder
+    and ``sigma_torque`` on each torque cell (one per body; 0 where none). ``merged``: joints
+    (0-based) whose two bodies' equations are balanced as their sum (their second body's rows
+    dropped; K = N minus their number)."""
+    N = spec.n_flywheels
+    J = np.array([values.get(inertia_name(i), 0.0) for i in range(1, N + 1)])
+    b = np.array([values.get(bearing_name(i), 0.0) for i in range(1, N + 1)])
+    Z = np.diag(-J * w_rad_s ** 2 + 1j * w_rad_s * b).astype(complex)
+    for j in range(N - 1):
+        kc = values.get(joint_prefix(j + 1) + "k_Nm_per_rad", 0.0) + 1j * w_rad_s * values.get(
+            joint_prefix(j + 1) + "c_Nms_per_rad", 0.0)
+        Z[j:j + 2, j:j + 2] += kc * np.array([[1, -1], [-1, 1]])
+    S = np.eye(N)
+    for j in sorted(merged, reverse=True):  # from the far end: a run of merged joints sums into one
+        S[j] += S[j + 1]
+    S = np.delete(S, sorted(j + 1 for j in merged), axis=0)
+    R, I = Z.real, Z.imag
+    M = np.block([[R, -I], [I, R]])
+    sa2 = np.tile(np.asarray(sigma_angle, dtype=float) ** 2, 2)
+    st2 = np.tile(np.asarray(sigma_torque, dtype=float) ** 2, 2)
+    full = (M * sa2) @ M.T + np.diag(st2)
+    S2 = np.block([[S, np.zeros_like(S)], [np.zeros_like(S), S]])
+    return S2 @ full @ S2.T
 
 
 def balance_fidelity(replays: Sequence[Optional[ChainRun]], fit: ChainFit, n_harmonics: int, masked: tuple = (),
