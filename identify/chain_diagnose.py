@@ -14,7 +14,9 @@ elastic law), bearing drag at every flywheel:
    of its residual at the current parameters, over P (cosine and sine rows of one harmonic of
    one flywheel's equation pooled), plus the model-fidelity floor ``(fidelity * size)^2`` with
    ``size`` the run's largest balanced term; chi-square is corrected for the estimated weights
-   as in the two-flywheel case (``E[chi2] = dof nu / (nu - 2)``, ``nu = 2 (P - 1)``).
+   as in the two-flywheel case (``E[chi2] = dof nu / (nu - 2)``, ``nu = 2 (P - 1)``). The
+   standard errors also carry the covariances between neighbouring equations' rows that the
+   diagonal weights leave out (:meth:`_Problem.cross_covariance`).
 3. **Nominal fit**: all inertias and every joint's ``c phi' + k phi + gamma phi^3`` (paper eq.
    11) by weighted least squares on the banded system (:func:`identify.chain.solve_banded`);
    the mean (harmonic 0) is not balanced (a sensor's zero is arbitrary).
