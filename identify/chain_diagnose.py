@@ -562,35 +562,36 @@ class _Problem:
         if N < 2 or s.F.size == 0:
             return None
         masks, merged = self.masks(), self.merged()
+        H = self.n_harmonics
         Q = np.zeros((s.A.shape[1],) * 2)
         any_block = False
         for k, run in enumerate(self.runs):
             if masks is not None and any(m is not None for m in masks[k]):
                 continue
+            joined = merged[k] if merged is not None else ()
+            kept = sorted(set(range(N)) - {j + 1 for j in joined})
+            rows = np.flatnonzero((s.row_record == k) & (s.row_harmonic >= 1) & (s.row_harmonic <= H))
+            if rows.size != H * 2 * len(kept):  # not every equation at every harmonic: left as it is
+                continue
+            # the run's rows as (harmonic, place in [Re e_1..e_K, Im e_1..e_K])
+            pos = s.row_part[rows] * len(kept) + np.searchsorted(kept, s.row_equation[rows])
+            idx = np.empty((H, 2 * len(kept)), dtype=int)
+            idx[s.row_harmonic[rows] - 1, pos] = rows
             sa = np.array([run.noise_std.get(f"phi{i}", 0.0) for i in range(1, N + 1)])
             st = np.array([run.noise_std.get(f"torque{i}", 0.0) for i in range(1, N + 1)])
-            P, Nraw = run.n_periods, run.samples_per_period
-            joined = merged[k] if merged is not None else ()
-            for n in range(1, self.n_harmonics + 1):
-                rows = np.flatnonzero((s.row_record == k) & (s.row_harmonic == n))
-                if rows.size < 2:
-                    continue
-                C = noise_cross_covariance(spec, values, n * run.average.omega_rad_s, sa, st, joined) * (2.0 / (Nraw * P))
-                Nk = C.shape[0] // 2
-                kept = sorted(set(range(N)) - {j + 1 for j in joined})
-                pos = s.row_part[rows] * Nk + np.searchsorted(kept, s.row_equation[rows])
-                block = C[np.ix_(pos, pos)]
-                d = np.sqrt(np.diag(block))
-                v = 1.0 / np.sqrt(weights[rows])
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    corr = np.where(np.outer(d, d) > 0, block / np.outer(d, d), 0.0)
-                off = corr * np.minimum(np.outer(d, d), np.outer(v, v))
-                np.fill_diagonal(off, 0.0)
-                if not np.any(off):
-                    continue
-                Aw = s.A[rows] * weights[rows, None]
-                Q += Aw.T @ off @ Aw
-                any_block = True
+            w = np.arange(1, H + 1) * run.average.omega_rad_s
+            C = noise_cross_covariance(spec, values, w, sa, st, joined) * (2.0 / (run.samples_per_period * run.n_periods))
+            d = np.sqrt(np.einsum("hii->hi", C))
+            v = 1.0 / np.sqrt(weights[idx])
+            dd, vv = d[:, :, None] * d[:, None, :], v[:, :, None] * v[:, None, :]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                off = np.where(dd > 0, C / dd, 0.0) * np.minimum(dd, vv)
+            off[:, np.arange(off.shape[1]), np.arange(off.shape[1])] = 0.0
+            if not np.any(off):
+                continue
+            Aw = s.A[idx] * weights[idx][:, :, None]
+            Q += np.einsum("hip,hij,hjq->pq", Aw, off, Aw)
+            any_block = True
         return Q if any_block else None
 
     def fit(self, spec: ChainSpec, iterations: int = 2) -> tuple[ChainFit, np.ndarray]:
@@ -603,35 +604,39 @@ class _Problem:
         return f, w
 
 
-def noise_cross_covariance(spec: ChainSpec, values: dict, w_rad_s: float, sigma_angle, sigma_torque,
+def noise_cross_covariance(spec: ChainSpec, values: dict, w_rad_s, sigma_angle, sigma_torque,
                            merged: Sequence[int] = ()) -> np.ndarray:
-    """The covariance of the balance residuals of every equation at one frequency ``w_rad_s``
-    (pure): ``[Re e_1..e_K, Im e_1..e_K]`` per unit coefficient variance, the residual of body i
-    moving by ``sum_l Z_il dPhi_l - dT_i`` with ``Z`` the dynamic stiffness of the inertias, the
-    bearings' drags and every joint's ``c`` and ``k`` (the nonlinear terms' share left out, as
-    in :func:`identify.chain.fisher_per_period`), white noise of ``sigma_angle`` on each encoder
-    and ``sigma_torque`` on each torque cell (one per body; 0 where none). ``merged``: joints
-    (0-based) whose two bodies' equations are balanced as their sum (their second body's rows
-    dropped; K = N minus their number)."""
+    """The covariance of the balance residuals of every equation at frequency ``w_rad_s`` (a
+    number, or an array of them: one matrix each) (pure): ``[Re e_1..e_K, Im e_1..e_K]`` per unit
+    coefficient variance, the residual of body i moving by ``sum_l Z_il dPhi_l - dT_i`` with ``Z``
+    the dynamic stiffness of the inertias, the bearings' drags and every joint's ``c`` and ``k``
+    (the nonlinear terms' share left out, as in :func:`identify.chain.fisher_per_period`), white
+    noise of ``sigma_angle`` on each encoder and ``sigma_torque`` on each torque cell (one per
+    body; 0 where none). ``merged``: joints (0-based) whose two bodies' equations are balanced as
+    their sum (their second body's rows dropped; K = N minus their number)."""
     N = spec.n_flywheels
+    w = np.atleast_1d(np.asarray(w_rad_s, dtype=float))
     J = np.array([values.get(inertia_name(i), 0.0) for i in range(1, N + 1)])
     b = np.array([values.get(bearing_name(i), 0.0) for i in range(1, N + 1)])
-    Z = np.diag(-J * w_rad_s ** 2 + 1j * w_rad_s * b).astype(complex)
+    Z = np.zeros((w.size, N, N), dtype=complex)
+    Z[:, np.arange(N), np.arange(N)] = -J * w[:, None] ** 2 + 1j * w[:, None] * b
+    pair = np.array([[1, -1], [-1, 1]])
     for j in range(N - 1):
-        kc = values.get(joint_prefix(j + 1) + "k_Nm_per_rad", 0.0) + 1j * w_rad_s * values.get(
+        kc = values.get(joint_prefix(j + 1) + "k_Nm_per_rad", 0.0) + 1j * w * values.get(
             joint_prefix(j + 1) + "c_Nms_per_rad", 0.0)
-        Z[j:j + 2, j:j + 2] += kc * np.array([[1, -1], [-1, 1]])
+        Z[:, j:j + 2, j:j + 2] += kc[:, None, None] * pair
     S = np.eye(N)
     for j in sorted(merged, reverse=True):  # from the far end: a run of merged joints sums into one
         S[j] += S[j + 1]
     S = np.delete(S, sorted(j + 1 for j in merged), axis=0)
-    R, I = Z.real, Z.imag
-    M = np.block([[R, -I], [I, R]])
+    SZ = S @ Z  # (F, K, N)
+    R, I = SZ.real, SZ.imag
+    M = np.concatenate([np.concatenate([R, -I], axis=2), np.concatenate([I, R], axis=2)], axis=1)
     sa2 = np.tile(np.asarray(sigma_angle, dtype=float) ** 2, 2)
-    st2 = np.tile(np.asarray(sigma_torque, dtype=float) ** 2, 2)
-    full = (M * sa2) @ M.T + np.diag(st2)
     S2 = np.block([[S, np.zeros_like(S)], [np.zeros_like(S), S]])
-    return S2 @ full @ S2.T
+    st = S2 @ np.diag(np.tile(np.asarray(sigma_torque, dtype=float) ** 2, 2)) @ S2.T
+    out = np.einsum("fik,k,fjk->fij", M, sa2, M) + st
+    return out if np.ndim(w_rad_s) else out[0]
 
 
 def balance_fidelity(replays: Sequence[Optional[ChainRun]], fit: ChainFit, n_harmonics: int, masked: tuple = (),
