@@ -481,9 +481,9 @@ def test_a_maxwell_element_in_a_measured_train_is_unexplained_and_located_at_its
     # (a spring as stiff as the coupling, 2.5e4 N m/rad, in series with a dashpot, relaxation
     # 2 ms: its corner at 500 rad/s, inside the sweep), recorded by the DAQ. No cause is adopted
     # (the best extension fails on the held-out runs), and the description puts the misfit at
-    # joint 2 (measured: 0.073 of the torque there, joints 1 and 3 0.023 and 0.042; seed 1 and a
+    # joint 2 (measured: 0.3 of the torque there, joints 1 and 3 0.12 and 0.19; seed 1 and a
     # softer, slower element alike; at joint 3 it is found at joint 3), names the turning phase
-    # of a frequency-dependent stiffness (87 deg; the open world's bound is 30) and asks for the
+    # of a frequency-dependent stiffness (88 deg; the open world's bound is 30) and asks for the
     # measurement that would show it.
     from jointrig.identify.misfit import PHASE_SPAN_RESONANT_DEG
 
