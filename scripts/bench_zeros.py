@@ -153,8 +153,11 @@ def _chain_case(tmp: Path, name: str, seed: int) -> dict:
                  if not k.endswith("angle_offset_rad") and k in want and math.isfinite(want[k][1])
                  and want[k][1] > 0), default=math.nan)
     # each profiled twist's zero against the encoders' (their difference), the cells' means against the offset
-    zero_z = [(v - (zeros[j - 1] - zeros[j])) / se for k, (v, se) in got.items() if k.endswith("angle_offset_rad")
-              and k.startswith("joint") and (j := int(k[5:k.index("_")])) and se > 0]
+    zero_z = []
+    for k, (v, se) in got.items():
+        if k.startswith("joint") and k.endswith("angle_offset_rad") and se > 0:
+            j = int(k[len("joint"):k.index("_")])  # joint j between encoders j and j + 1
+            zero_z.append((v - (zeros[j - 1] - zeros[j])) / se)
     cells = [(m - offset) / se for m, se in zip(lab.zeros.torques, lab.zeros.torque_se) if math.isfinite(m) and se > 0]
     return {"joint": name.split()[0], "case": name.split()[1], "verdict": lab.verdict.verdict,
             "zeroed_verdict": zeroed.verdict.verdict, "causes": [s.label for s in lab.diagnosis.steps],
