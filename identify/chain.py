@@ -48,7 +48,7 @@ from .solve import COND_WARN, IdentificationResult
 
 __all__ = ["ChainRecord", "ChainSpec", "ChainIdentifiabilityError", "identifiability", "chain_system",
            "solve_banded", "identify_chain", "joint_law", "ChainPlant", "plant_of_values", "BandedSystem",
-           "fisher_per_period", "row_covariance", "average_chain", "ml_identify_chain", "inertia_name", "bearing_name", "joint_prefix",
+           "fisher_per_period", "row_covariance", "noise_cross_covariance", "average_chain", "ml_identify_chain", "inertia_name", "bearing_name", "joint_prefix",
            "ground_prefix", "channel_corrected", "stick_mask", "rest_share", "rests", "sticks_to_ground", "jumps_at_rest", "STICK_RATE_FRACTION",
            "REST_RATE_FRACTION", "REST_DWELL"]
 
@@ -706,32 +706,54 @@ def ground_laws(values: dict, spec: ChainSpec) -> tuple:
                  for i, g in enumerate(spec.grounds, start=1))
 
 
+def noise_cross_covariance(spec: ChainSpec, values: dict, w_rad_s, sigma_angle, sigma_torque,
+                           merged: Sequence[int] = ()) -> np.ndarray:
+    """The covariance of the balance residuals of every equation at frequency ``w_rad_s`` (a
+    number, or an array of them: one matrix each) (pure): ``[Re e_1..e_K, Im e_1..e_K]`` per unit
+    coefficient variance, the residual of body i moving by ``sum_l Z_il dPhi_l - dT_i`` with ``Z``
+    the dynamic stiffness of the inertias, the bearings' drags and every joint's ``c`` and ``k``
+    (the nonlinear terms' share left out, as in :func:`fisher_per_period`), white
+    noise of ``sigma_angle`` on each encoder and ``sigma_torque`` on each torque cell (a number, or
+    one per body; 0 where none). ``merged``: joints (0-based) whose two bodies' equations are balanced as
+    their sum (their second body's rows dropped; K = N minus their number)."""
+    N = spec.n_flywheels
+    w = np.atleast_1d(np.asarray(w_rad_s, dtype=float))
+    J = np.array([values.get(inertia_name(i), 0.0) for i in range(1, N + 1)])
+    b = np.array([values.get(bearing_name(i), 0.0) for i in range(1, N + 1)])
+    Z = np.zeros((w.size, N, N), dtype=complex)
+    Z[:, np.arange(N), np.arange(N)] = -J * w[:, None] ** 2 + 1j * w[:, None] * b
+    pair = np.array([[1, -1], [-1, 1]])
+    for j in range(N - 1):
+        kc = values.get(joint_prefix(j + 1) + "k_Nm_per_rad", 0.0) + 1j * w * values.get(
+            joint_prefix(j + 1) + "c_Nms_per_rad", 0.0)
+        Z[:, j:j + 2, j:j + 2] += kc[:, None, None] * pair
+    S = np.eye(N)
+    for j in sorted(merged, reverse=True):  # from the far end: a run of merged joints sums into one
+        S[j] += S[j + 1]
+    S = np.delete(S, sorted(j + 1 for j in merged), axis=0)
+    SZ = S @ Z  # (F, K, N)
+    R, I = SZ.real, SZ.imag
+    M = np.concatenate([np.concatenate([R, -I], axis=2), np.concatenate([I, R], axis=2)], axis=1)
+    sa2 = np.tile(np.broadcast_to(np.asarray(sigma_angle, dtype=float) ** 2, (N,)), 2)
+    S2 = np.block([[S, np.zeros_like(S)], [np.zeros_like(S), S]])
+    st = S2 @ np.diag(np.tile(np.broadcast_to(np.asarray(sigma_torque, dtype=float) ** 2, (N,)), 2)) @ S2.T
+    out = np.einsum("fik,k,fjk->fij", M, sa2, M) + st
+    return out if np.ndim(w_rad_s) else out[0]
+
+
 def _row_covariance(s: LinearSystem, spec: ChainSpec, vals: dict, omega_rad_s: float, n_samples: int,
                     driven: Sequence[bool], sigma_angle_rad, sigma_torque_Nm, n_harmonics: int) -> np.ndarray:
     """The covariance of the residuals of one record's rows ``s`` (harmonics 1..H), see
     :func:`row_covariance`; ``sigma_*`` a number or one per flywheel."""
     N = spec.n_flywheels
-    J = np.array([vals[inertia_name(i)] for i in range(1, N + 1)])
-    b = np.array([vals.get(bearing_name(i), 0.0) for i in range(1, N + 1)])
-    c = [vals.get(joint_prefix(j) + "c_Nms_per_rad", 0.0) for j in range(1, N)]
-    k = [vals.get(joint_prefix(j) + "k_Nm_per_rad", 0.0) for j in range(1, N)]
-    sa2 = np.broadcast_to(np.asarray(sigma_angle_rad, dtype=float) ** 2, (N,))
-    st2 = np.broadcast_to(np.asarray(sigma_torque_Nm, dtype=float) ** 2, (N,)) * np.asarray(driven, dtype=float)
+    st = np.broadcast_to(np.asarray(sigma_torque_Nm, dtype=float), (N,)) * np.asarray(driven, dtype=float)
     per = 2.0 / n_samples  # variance of a coefficient's cosine (or sine) part per unit sigma^2
+    blocks = per * noise_cross_covariance(spec, vals, np.arange(1, n_harmonics + 1) * omega_rad_s, sigma_angle_rad, st)
     C = np.zeros((s.F.size, s.F.size))
     for n in range(1, n_harmonics + 1):
-        w = n * omega_rad_s
-        Z = np.diag(-J * w * w + 1j * w * b).astype(complex)
-        for j in range(N - 1):
-            Z[j:j + 2, j:j + 2] += (k[j] + 1j * w * c[j]) * np.array([[1, -1], [-1, 1]])
-        # e = Z dPhi - dT with dPhi, dT of independent cosine and sine parts:
-        # [Re e; Im e] = [[R, -I], [I, R]] [Re dPhi; Im dPhi] - [Re dT; Im dT]
-        R, I = Z.real, Z.imag
-        M = np.block([[R, -I], [I, R]])
-        cov = per * ((M * np.tile(sa2, 2)) @ M.T + np.diag(np.tile(st2, 2)))
         rows = np.flatnonzero(s.row_harmonic == n)
         pos = s.row_part[rows] * N + s.row_equation[rows]  # place in [Re e_1..e_N, Im e_1..e_N]
-        C[np.ix_(rows, rows)] = cov[np.ix_(pos, pos)]
+        C[np.ix_(rows, rows)] = blocks[n - 1][np.ix_(pos, pos)]
     return C
 
 

@@ -55,6 +55,7 @@ import numpy as np
 from jointrig.vocab.law import JointLaw, Power, Viscous, law_parameters
 from jointrig.vocab.params import ANGLE2_DELAY, ANGLE2_GAIN, DRIVE_DELAY, channel_name
 from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpec, bearing_name, chain_system, channel_corrected,
+                    noise_cross_covariance,
                     ground_laws, ground_prefix, identifiability, inertia_name, joint_prefix, solve_banded, rest_share,
                     rests, stick_mask, sticks_to_ground, jumps_at_rest)
 from .causes import (CATALOGUE, Ambiguity, Cause, CauseScore, Limits, ModelSpec, Place, Profiled, at, by_name,
@@ -553,7 +554,7 @@ class _Problem:
         it, so at one harmonic of one run the residuals of neighbouring equations are correlated
         (at low frequency a joint's stiffness term makes them nearly opposite), and a diagonal
         weighting counts their evidence twice. ``C`` holds only the off-diagonal covariances of
-        each run's and harmonic's rows (:func:`noise_cross_covariance`: each channel's measured
+        each run's and harmonic's rows (:func:`identify.chain.noise_cross_covariance`: each channel's measured
         noise propagated through the model's linear part), each correlation held within the rows'
         own variances (``1 / weights``); the fit's covariance is then the sandwich
         ``B (A'WA + A'WCWA) B`` with ``B = (A'WA)^-1`` (:meth:`_fit_of`). A run with a masked
@@ -602,41 +603,6 @@ class _Problem:
             w = 1.0 / self.row_variance(spec, f.values, banded, self.jumps(spec, f.as_dict()))
             f = self.solve(spec, w)
         return f, w
-
-
-def noise_cross_covariance(spec: ChainSpec, values: dict, w_rad_s, sigma_angle, sigma_torque,
-                           merged: Sequence[int] = ()) -> np.ndarray:
-    """The covariance of the balance residuals of every equation at frequency ``w_rad_s`` (a
-    number, or an array of them: one matrix each) (pure): ``[Re e_1..e_K, Im e_1..e_K]`` per unit
-    coefficient variance, the residual of body i moving by ``sum_l Z_il dPhi_l - dT_i`` with ``Z``
-    the dynamic stiffness of the inertias, the bearings' drags and every joint's ``c`` and ``k``
-    (the nonlinear terms' share left out, as in :func:`identify.chain.fisher_per_period`), white
-    noise of ``sigma_angle`` on each encoder and ``sigma_torque`` on each torque cell (one per
-    body; 0 where none). ``merged``: joints (0-based) whose two bodies' equations are balanced as
-    their sum (their second body's rows dropped; K = N minus their number)."""
-    N = spec.n_flywheels
-    w = np.atleast_1d(np.asarray(w_rad_s, dtype=float))
-    J = np.array([values.get(inertia_name(i), 0.0) for i in range(1, N + 1)])
-    b = np.array([values.get(bearing_name(i), 0.0) for i in range(1, N + 1)])
-    Z = np.zeros((w.size, N, N), dtype=complex)
-    Z[:, np.arange(N), np.arange(N)] = -J * w[:, None] ** 2 + 1j * w[:, None] * b
-    pair = np.array([[1, -1], [-1, 1]])
-    for j in range(N - 1):
-        kc = values.get(joint_prefix(j + 1) + "k_Nm_per_rad", 0.0) + 1j * w * values.get(
-            joint_prefix(j + 1) + "c_Nms_per_rad", 0.0)
-        Z[:, j:j + 2, j:j + 2] += kc[:, None, None] * pair
-    S = np.eye(N)
-    for j in sorted(merged, reverse=True):  # from the far end: a run of merged joints sums into one
-        S[j] += S[j + 1]
-    S = np.delete(S, sorted(j + 1 for j in merged), axis=0)
-    SZ = S @ Z  # (F, K, N)
-    R, I = SZ.real, SZ.imag
-    M = np.concatenate([np.concatenate([R, -I], axis=2), np.concatenate([I, R], axis=2)], axis=1)
-    sa2 = np.tile(np.asarray(sigma_angle, dtype=float) ** 2, 2)
-    S2 = np.block([[S, np.zeros_like(S)], [np.zeros_like(S), S]])
-    st = S2 @ np.diag(np.tile(np.asarray(sigma_torque, dtype=float) ** 2, 2)) @ S2.T
-    out = np.einsum("fik,k,fjk->fij", M, sa2, M) + st
-    return out if np.ndim(w_rad_s) else out[0]
 
 
 def balance_fidelity(replays: Sequence[Optional[ChainRun]], fit: ChainFit, n_harmonics: int, masked: tuple = (),

@@ -142,13 +142,14 @@ def test_an_unmeasured_run_borrows_the_largest_relative_misfit_of_the_measured_o
 
 
 def test_the_noise_cross_covariance_of_the_balance_rows_is_what_noise_through_the_chain_gives():
-    # identify.chain_diagnose.noise_cross_covariance: one encoder's noise enters the equations of
+    # identify.chain.noise_cross_covariance: one encoder's noise enters the equations of
     # both bodies beside it, so neighbouring equations' residuals are correlated (at low frequency
     # nearly opposite). Checked against 200000 draws of white noise's cosine and sine parts pushed
     # through e = Z dPhi - dT (a 3-body chain, body 1 driven, joints 1 and 2 summed as when joint 2
     # may stick): every entry within 5 of its Monte Carlo standard errors (about 0.3% of the scale).
     from jointrig.identify.chain import ChainSpec
-    from jointrig.identify.chain_diagnose import nominal_spec, noise_cross_covariance
+    from jointrig.identify.chain import noise_cross_covariance
+    from jointrig.identify.chain_diagnose import nominal_spec
 
     spec: ChainSpec = nominal_spec(3)
     values = {"J1_kgm2": 1.0, "J2_kgm2": 0.5, "J3_kgm2": 0.8, "joint1_c_Nms_per_rad": 30.0,
