@@ -77,9 +77,13 @@ MODULES = {
     # the joint card, of two flywheels and of every joint of a train
     "jointrig.identify.card": ("identify/card.py", ["tests/test_card.py"]),
     # a train's harmonic balance (stick masks, the drives' lag) and its diagnosis
-    "jointrig.identify.chain": ("identify/chain.py", ["tests/test_chain.py"]),
-    "jointrig.identify.chain_diagnose": ("identify/chain_diagnose.py", ["tests/test_chain_diagnose.py",
+    "jointrig.identify.chain": ("identify/chain.py", ["tests/test_calibration.py", "tests/test_chain.py"]),
+    "jointrig.identify.chain_diagnose": ("identify/chain_diagnose.py", ["tests/test_calibration.py",
+                                                                       "tests/test_chain_diagnose.py",
                                                                        "tests/test_train_misfit.py"]),
+    # every help's end (the exit status, a runnable example) and the usage
+    "jointrig.commands": ("jointrig/commands/__init__.py", ["tests/test_cli_convention.py"]),
+    "jointrig.cli": ("jointrig/cli.py", ["tests/test_cli_convention.py", "tests/test_cli.py"]),
 }
 #: tests that exercise other parts of the project and only cost time here
 DESELECT = "not killed_sweep_resumes and not truncated_store_point and not dask"
@@ -248,6 +252,7 @@ def main(argv=None) -> int:
                    help="seconds before a mutant's tests count as hung, i.e. killed (default: %(default)s)")
     p.add_argument("--module", action="append", choices=sorted(MODULES),
                    help="only this module (repeatable; default: all)")
+    p.add_argument("--lines", metavar="A-B", help="only mutants on lines A to B of the module (a change's lines)")
     p.add_argument("--retest", action="store_true",
                    help="run the survivors of an earlier run again (after the tests were improved)")
     p.add_argument("--out", type=Path, default=Path("runs/mutation.json"),
@@ -276,6 +281,9 @@ def main(argv=None) -> int:
     counts = {}
     for mod in modules:
         every = enumerate_mutants(mod)
+        if args.lines:
+            lo, hi = (int(x) for x in args.lines.split("-"))
+            every = [m for m in every if lo <= m["line"] <= hi]
         counts[mod] = len(every)
         rng = random.Random(f"{args.seed}:{mod}")
         plan += every if args.sample == 0 or args.sample >= len(every) else rng.sample(every, args.sample)
