@@ -153,13 +153,14 @@ def test_the_noise_cross_covariance_of_the_balance_rows_is_what_noise_through_th
 
     spec: ChainSpec = nominal_spec(3)
     values = {"J1_kgm2": 1.0, "J2_kgm2": 0.5, "J3_kgm2": 0.8, "joint1_c_Nms_per_rad": 30.0,
-              "joint1_k_Nm_per_rad": 1e4, "joint2_c_Nms_per_rad": 20.0, "joint2_k_Nm_per_rad": 5e3}
+              "joint1_k_Nm_per_rad": 1e4, "joint2_c_Nms_per_rad": 20.0, "joint2_k_Nm_per_rad": 5e3,
+              "bearing2_damping_Nms_per_rad": 40.0}
     sa, st, w = np.array([1e-3, 2e-3, 1.5e-3]), np.array([3.0, 0.0, 0.0]), 40.0
     rng = np.random.default_rng(3)
     n = 200_000
     dphi = (rng.standard_normal((n, 3)) + 1j * rng.standard_normal((n, 3))) * sa
     dT = (rng.standard_normal((n, 3)) + 1j * rng.standard_normal((n, 3))) * st
-    Z = np.diag(-np.array([1.0, 0.5, 0.8]) * w ** 2).astype(complex)
+    Z = np.diag(-np.array([1.0, 0.5, 0.8]) * w ** 2 + 1j * w * np.array([0.0, 40.0, 0.0]))
     for j, (k, c) in enumerate(((1e4, 30.0), (5e3, 20.0))):
         Z[j:j + 2, j:j + 2] += (k + 1j * w * c) * np.array([[1, -1], [-1, 1]])
     e = dphi @ Z.T - dT
@@ -171,6 +172,10 @@ def test_the_noise_cross_covariance_of_the_balance_rows_is_what_noise_through_th
         se = np.sqrt((scale ** 2 + mc ** 2) / n)  # of a product moment of two Gaussians
         assert C.shape == mc.shape
         assert np.all(np.abs(C - mc) <= 5 * se), np.max(np.abs(C - mc) / se)
+    # a joint law without a spring (a user's model) propagates as one with k = 0
+    springless = {n: v for n, v in values.items() if n != "joint2_k_Nm_per_rad"}
+    np.testing.assert_array_equal(noise_cross_covariance(spec, springless, w, sa, st),
+                                  noise_cross_covariance(spec, dict(values, joint2_k_Nm_per_rad=0.0), w, sa, st))
     # the first two equations' cosine rows nearly opposite: the joint's stiffness dominates both
     C = noise_cross_covariance(spec, values, 5.0, sa, st)
     assert C[0, 1] / np.sqrt(C[0, 0] * C[1, 1]) < -0.5
