@@ -179,3 +179,42 @@ def test_the_noise_cross_covariance_of_the_balance_rows_is_what_noise_through_th
     # the first two equations' cosine rows nearly opposite: the joint's stiffness dominates both
     C = noise_cross_covariance(spec, values, 5.0, sa, st)
     assert C[0, 1] / np.sqrt(C[0, 0] * C[1, 1]) < -0.5
+
+
+def test_a_fits_covariance_is_the_sandwich_over_its_rows_cross_covariances(tmp_path):
+    # _Problem.cross_covariance feeds the fit's covariance: B (A'WA + A'WCWA) B max(1, chi2/dof),
+    # built here densely from identify.chain.row_covariance (the ML fit's row mapping, not the
+    # diagnosis's), C the off-diagonal part of each run's and harmonic's block, each correlation
+    # held within the rows' own variances. The two flywheels of the independent bench at 1%
+    # noise; agreement to 1e-6 (round-off of two orders of summation and an inverse).
+    from jointrig.identify.chain import row_covariance
+    from jointrig.identify.chain_diagnose import _Problem, nominal_spec, prepare_chain_runs
+
+    pts = [p for i, p in enumerate(POINTS["paper"]) if i % 3 != 1][:3]
+    path = measure(JOINTS["paper"], pts, tmp_path / "b.csv", seed=2, fs_Hz=2000.0, n_periods=6.5, noise=1e-2)
+    runs = prepare_chain_runs(as_train(read_runs(path)).records, band=21)
+    H = 20
+    prob = _Problem(tuple(runs), H, 2.0 * (min(r.n_periods for r in runs) - 1), 1e-9, (False, False), ())
+    spec = nominal_spec(2)
+    fit, w = prob.fit(spec)
+    s = prob.system(spec).system
+    A = s.A
+    D = 1.0 / np.linalg.norm(A * np.sqrt(w)[:, None], axis=0)
+    B = D[:, None] * np.linalg.inv((A * D).T @ ((A * D) * w[:, None])) * D[None, :]
+    Q = np.zeros_like(B)
+    for k, run in enumerate(runs):
+        rec = run.average
+        sa = [run.noise_std["phi1"], run.noise_std["phi2"]]
+        _, C = row_covariance(rec, spec, fit.values, sigma_angle_rad=sa, sigma_torque_Nm=run.noise_std["torque1"],
+                              n_harmonics=H)
+        C = C * rec.n_samples / (run.samples_per_period * run.n_periods)  # per raw sample over P periods
+        rows = np.flatnonzero(s.row_record == k)
+        d, v = np.sqrt(np.diag(C)), 1.0 / np.sqrt(w[rows])
+        off = C / np.outer(d, d) * np.minimum(np.outer(d, d), np.outer(v, v))
+        np.fill_diagonal(off, 0.0)
+        Aw = A[rows] * w[rows, None]
+        Q += Aw.T @ off @ Aw
+    factor = max(1.0, fit.chi2 / fit.dof)
+    want = (B + B @ Q @ B) * factor
+    np.testing.assert_allclose(fit.std_errors, np.sqrt(np.diag(want)), rtol=1e-6)
+    assert np.max(np.abs(np.sqrt(np.diag(want)) / np.sqrt(np.diag(B * factor)) - 1)) > 0.02  # it does move them
