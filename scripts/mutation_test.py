@@ -81,9 +81,6 @@ MODULES = {
     "jointrig.identify.chain_diagnose": ("identify/chain_diagnose.py", ["tests/test_calibration.py",
                                                                        "tests/test_chain_diagnose.py",
                                                                        "tests/test_train_misfit.py"]),
-    # every help's end (the exit status, a runnable example) and the usage
-    "jointrig.commands": ("jointrig/commands/__init__.py", ["tests/test_cli_convention.py"]),
-    "jointrig.cli": ("jointrig/cli.py", ["tests/test_cli_convention.py", "tests/test_cli.py"]),
 }
 #: tests that exercise other parts of the project and only cost time here
 DESELECT = "not killed_sweep_resumes and not truncated_store_point and not dask"
