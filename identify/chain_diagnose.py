@@ -516,10 +516,13 @@ class _Problem:
         scale = np.max(np.abs(sysl.F)) if sysl.F.size else 1.0
         return np.maximum(var, (1e-12 * scale) ** 2)
 
-    def solve(self, spec: ChainSpec, weights: np.ndarray) -> ChainFit:
+    def solve(self, spec: ChainSpec, weights: np.ndarray, covariance: bool = True) -> ChainFit:
         """Weighted fit of ``spec``; with dry friction to ground on a body, or in a joint, that
         slides through rest, its rate's (twist rate's) kinks restored at the fitted friction and
-        refitted until the jumps settle (to ``KINK_RTOL``, at most two refits; :mod:`identify.kink`)."""
+        refitted until the jumps settle (to ``KINK_RTOL``, at most two refits; :mod:`identify.kink`).
+        ``covariance`` False leaves the rows' cross-covariances out of the fit's covariance
+        (:meth:`cross_covariance`): a profile's trial or a reweighting pass reads only chi-square
+        and the values, and the sandwich was a fifth of a diagnosis's time."""
         jumps = None
         banded, res = self._solve_once(spec, weights, jumps)
         for _ in range(2):
@@ -528,7 +531,7 @@ class _Problem:
                 break
             jumps = new
             banded, res = self._solve_once(spec, weights, jumps)
-        return self._fit_of(spec, weights, banded, res, jumps)
+        return self._fit_of(spec, weights, banded, res, jumps, covariance)
 
     def _solve_once(self, spec: ChainSpec, weights: np.ndarray, jumps: Optional[Jumps]):
         banded = self.system(spec, jumps)
@@ -536,11 +539,11 @@ class _Problem:
             warnings.simplefilter("ignore", IllConditionedWarning)
             return banded, solve_banded(banded, row_weights=weights)
 
-    def _fit_of(self, spec: ChainSpec, weights: np.ndarray, banded, res, jumps) -> ChainFit:
+    def _fit_of(self, spec: ChainSpec, weights: np.ndarray, banded, res, jumps, covariance: bool = True) -> ChainFit:
         s = banded.system
         row, chi2, scale = weighted_chi2(s.F - s.A @ res.values, weights, self.nu, res.dof)
         cov = np.array(res.covariance) * scale
-        extra = self.cross_covariance(s, spec, dict(zip(res.names, res.values)), weights)
+        extra = self.cross_covariance(s, spec, dict(zip(res.names, res.values)), weights) if covariance else None
         if extra is not None and np.all(np.isfinite(cov)):
             cov = cov + cov @ extra @ cov / max(1.0, chi2 / max(res.dof, 1))  # cov = B max(1, chi2/dof)
         std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
@@ -598,10 +601,10 @@ class _Problem:
     def fit(self, spec: ChainSpec, iterations: int = 2) -> tuple[ChainFit, np.ndarray]:
         banded = self.system(spec)
         w = np.ones(banded.system.F.size)
-        f = self.solve(spec, w)
-        for _ in range(iterations):
+        f = self.solve(spec, w, covariance=iterations == 0)
+        for k in range(iterations):
             w = 1.0 / self.row_variance(spec, f.values, banded, self.jumps(spec, f.as_dict()))
-            f = self.solve(spec, w)
+            f = self.solve(spec, w, covariance=k == iterations - 1)
         return f, w
 
 
@@ -861,9 +864,10 @@ def _profile(problem: _Problem, cand: Candidate, base: ChainSpec, weights) -> Ch
         v = f.as_dict().get(mag, 0.0)
         return f.chi2 if not (cand.cause.nonnegative and v < 0) else f.chi2 + 1e6 * (1.0 + abs(f.chi2))
 
-    found = profile(lambda h: problem.solve(cand.extend(base, h), weights), cand.cause, lo, hi, objective=penalised,
-                    points=cand.cause.grid_points(here, lo, hi))
-    return replace(found.fit, profiled=((cand.profiled_name(), found.value, found.std_error),))
+    found = profile(lambda h: problem.solve(cand.extend(base, h), weights, covariance=False), cand.cause, lo, hi,
+                    objective=penalised, points=cand.cause.grid_points(here, lo, hi))
+    fit = problem.solve(cand.extend(base, found.value), weights)  # the trials' fits carry no sandwich
+    return replace(fit, profiled=((cand.profiled_name(), found.value, found.std_error),))
 
 
 #: Passes of the joint refinement of adopted causes' nonlinear parameters (:func:`_refine`).
@@ -907,7 +911,7 @@ def _widened(problem: _Problem, cands: Sequence[Candidate], fit: ChainFit, weigh
         h, se = found[cand.profiled_name()]
         lo, hi = cand.cause.bounds(_twist_runs(problem, cand))
         step = max(1e-3 * abs(h), 1e-6 * (hi - lo))
-        below, above = (problem.solve(cand.extend(fit.spec, x), weights) for x in (h - step, h + step))
+        below, above = (problem.solve(cand.extend(fit.spec, x), weights, covariance=False) for x in (h - step, h + step))
         if np.shape(below.values) != np.shape(fit.values):
             continue
         slope = (np.asarray(above.values) - np.asarray(below.values)) / (2 * step)

@@ -26,6 +26,7 @@ from jointrig.identify.periods import RESOLVED_SIGMA, period_spectra, pooled_per
 from jointrig.vocab.plant import drive_of_record
 
 from jointrig.rig.chain import ChainRig, simulate_chain
+from jointrig.parallel import fork_map
 
 from jointrig.identify.defaults import DEFAULT_ALPHA, DEFAULT_FIDELITY, DEFAULT_MAX_CAUSES, REPLAY_MAX_STEP_S
 from jointrig.identify.verdict import CHI2_PER_DOF_OK, RIG_FIDELITY, Verdict, judge
@@ -557,7 +558,7 @@ def _departures(rig, fit, sim, meas, drives, drawn_drives, moved, refitted, cfg,
             return math.nan
         return float(np.sum(np.abs(_twists(alt, top) - ref) ** 2))
 
-    parts = [departure(item) for item in replays]
+    parts = list(fork_map(departure, replays))  # independent replays, one per core (2x on the worn example)
     by_direction = np.array(parts[:len(moved)]) / DRAW_STEP ** 2
     by_draw = np.array(parts[len(moved):len(moved) + len(drawn_drives)]) / DRAW_STEP ** 2
     p_run = float(np.nansum(by_direction)) if by_direction.size else 0.0
