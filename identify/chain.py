@@ -39,7 +39,7 @@ import numpy as np
 
 from .estimates import equilibrated_condition
 from .balance import LinearSystem, harmonic_rows, law_rows, memo_arrays, spectral_rate, upsample
-from jointrig.vocab.law import JointLaw, Term
+from jointrig.vocab.law import Constant, JointLaw, Term
 from jointrig.vocab.params import DRIVE_DELAY
 from .harmonics import fourier_coefficients, max_harmonic, shift_periodic
 from .periods import period_spectra, white_variance
@@ -48,7 +48,7 @@ from .solve import COND_WARN, IdentificationResult
 
 __all__ = ["ChainRecord", "ChainSpec", "ChainIdentifiabilityError", "identifiability", "chain_system",
            "solve_banded", "identify_chain", "joint_law", "ChainPlant", "plant_of_values", "BandedSystem",
-           "fisher_per_period", "row_covariance", "noise_cross_covariance", "average_chain", "ml_identify_chain", "inertia_name", "bearing_name", "joint_prefix",
+           "fisher_per_period", "row_covariance", "noise_cross_covariance", "constant_loads", "average_chain", "ml_identify_chain", "inertia_name", "bearing_name", "joint_prefix",
            "ground_prefix", "channel_corrected", "stick_mask", "rest_share", "rests", "sticks_to_ground", "jumps_at_rest", "STICK_RATE_FRACTION",
            "REST_RATE_FRACTION", "REST_DWELL"]
 
@@ -701,8 +701,20 @@ def plant_of_values(values: dict, spec: ChainSpec) -> ChainPlant:
 
 
 def ground_laws(values: dict, spec: ChainSpec) -> tuple:
-    """Every body's law to ground (None where it has none) from identified values by name."""
-    return tuple(JointLaw(g, tuple(values[ground_prefix(i) + t.name] for t in g)) if g else None
+    """Every body's law to ground for the rig (None where it has none) from identified values by
+    name; a constant (:class:`vocab.law.Constant`) is not a law there but a load
+    (:func:`constant_loads`)."""
+    laws = []
+    for i, g in enumerate(spec.grounds, start=1):
+        terms = tuple(t for t in g if not isinstance(t, Constant))
+        laws.append(JointLaw(terms, tuple(values[ground_prefix(i) + t.name] for t in terms)) if terms else None)
+    return tuple(laws)
+
+
+def constant_loads(values: dict, spec: ChainSpec) -> tuple:
+    """Per body, its fitted constant torque to ground (:class:`vocab.law.Constant`; 0 where it has
+    none): what the balance reads as the drive cell's offset plus a constant load."""
+    return tuple(sum(values[ground_prefix(i) + t.name] for t in g if isinstance(t, Constant))
                  for i, g in enumerate(spec.grounds, start=1))
 
 

@@ -52,7 +52,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from jointrig.vocab.law import JointLaw, Power, Viscous, law_parameters
+from jointrig.vocab.law import Constant, JointLaw, Power, Viscous, law_parameters
 from jointrig.vocab.params import ANGLE2_DELAY, ANGLE2_GAIN, DRIVE_DELAY, channel_name
 from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpec, bearing_name, chain_system, channel_corrected,
                     noise_cross_covariance,
@@ -656,7 +656,7 @@ def refit_on_replay(replays: Sequence[Optional[ChainRun]], fit: ChainFit, n_harm
         raise ValueError("refit_on_replay: no run was replayed")
     spec = replace(fit.spec, offsets_rad=(0.0,) * len(fit.spec.offsets_rad))
     problem = _Problem(tuple(kept), n_harmonics, 2.0, DEFAULT_FIDELITY, masked, merging)
-    again, _ = problem.fit(spec)
+    again, _ = problem.fit(with_constants(spec, problem.masks()))
     by_name = again.as_dict()
     return replace(fit, values=np.array([by_name.get(n, v) for n, v in zip(fit.names, fit.values)]))
 
@@ -1175,6 +1175,7 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
                                                          for c in pool) for i in range(N))
     merging = _joints_that_may_stick(_Problem(runs, H, nu, fidelity, masked), structure, pool, alpha)
     problem = _Problem(runs, H, nu, fidelity, masked, merging)
+    structure = with_constants(structure, problem.masks())
     nominal, w = problem.fit(structure)
     # Every twist's zero is unknown (each encoder has its own): under a nonlinear elastic law it
     # is part of the nominal model, profiled at every such joint, not a cause to be found.
@@ -1246,7 +1247,7 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
     stuck = tuple((k, j + 1, rest_share(runs[k].average.rate(j) - runs[k].average.rate(j + 1)),
                    twist_resolved(runs[k], j)) for k, js in enumerate(problem.merged() or ()) for j in js)
     return ChainDiagnosis(nominal, first, tuple(steps), current, tuple(ambiguous), H, noise, nu,
-                          implausible_train_fit(nominal), rests, stuck, fidelity, masked, merging, max_effects,
+                          implausible_train_fit(nominal, current), rests, stuck, fidelity, masked, merging, max_effects,
                           chosen.rounds[-1] if len(chosen.rounds) > len(chosen.adopted) else (), alpha)
 
 
@@ -1286,14 +1287,16 @@ def _reduced(problem: _Problem, structure: ChainSpec, adopted: list, steps: list
 IMPLAUSIBLE_SE = 2.0
 
 
-def implausible_train_fit(f: ChainFit) -> tuple[str, ...]:
+def implausible_train_fit(f: ChainFit, kept: Optional[ChainFit] = None) -> tuple[str, ...]:
     """What a train's fitted model says about how the data were read (pure): an inertia
     significantly below zero is no body's, and a joint whose fitted stiffness or damping is
     significantly negative would feed energy in. Their likely cause is named: position columns out
     of the bodies' order along the line (two swapped give both), a drive column on another body
     than its number says, or other units than the file says. An inertia within its errors of zero,
     with nothing else read wrong, is not determined by the runs: at too few frequencies an inertia
-    and a stiffness act alike on a sine. Parameter names in the hinge's units (a slide's are named
+    and a stiffness act alike on a sine; ``kept`` (default ``f``): the model whose inertias that is
+    judged on (the extended one: a dry friction the nominal model lacks can hide a carriage's
+    mass, 25 kg read as -2 +- 15). Parameter names in the hinge's units (a slide's are named
     at the edges)."""
     p = f.as_dict()
     N = f.spec.n_flywheels
@@ -1311,6 +1314,9 @@ def implausible_train_fit(f: ChainFit) -> tuple[str, ...]:
                 joints.append(j)
                 break
     # beside something read wrong, an undetermined inertia is part of it (swapped columns give both)
+    if kept is not None and not (negative or joints):
+        f, p = kept, kept.as_dict()
+        lows = [i for i in range(1, N + 1) if not p[inertia_name(i)] > IMPLAUSIBLE_SE * f.std_error(inertia_name(i))]
     bodies, unknown = (lows, []) if negative or joints else ([], lows)
     out = []
     if bodies or joints:
@@ -1442,6 +1448,21 @@ def _effect_law(cand: Candidate, sc: CauseScore) -> _OwnTorque:
     law = JointLaw(joint, tuple(vals[pre + t.name] for t in joint))
     nominal = tuple(t for t in nominal_spec(2).joints[0] if pre + t.name in vals)
     return _OwnTorque(law, JointLaw(nominal, tuple(vals[pre + t.name] for t in nominal)))
+
+
+def with_constants(spec: ChainSpec, masks: Optional[Sequence]) -> ChainSpec:
+    """``spec`` with a constant torque (force) to ground (:class:`vocab.law.Constant`) on every
+    body whose equation is masked where it rests in some run (pure): its drive cell's offset and
+    a constant load (gravity on an axis, a cable's drag) then enter every harmonic of the mask.
+    Left out, on a servo-driven carriage that stands still 4% of its period with 16 N of gravity
+    and 30 N of friction, they bent the mass to 26.3 and the drag to 120 instead of 25 and 150
+    (the exact states, balanced by hand); with it, 25.04 and 150.6. A body masked in no run loses
+    its constant (a replay that never rests: its column would be all zero)."""
+    grounds = []
+    for i, g in enumerate(spec.grounds):
+        rest = tuple(t for t in g if not isinstance(t, Constant))
+        grounds.append(rest + (Constant(),) if masks is not None and any(ms[i] is not None for ms in masks) else rest)
+    return replace(spec, grounds=tuple(grounds))
 
 
 def plant_and_inertias(f: ChainFit) -> tuple[ChainPlant, tuple[float, ...]]:

@@ -170,6 +170,17 @@ def _torque_means(report: TrainReport) -> list[str]:
             continue
         what, unit = ("force", "N") if slide else ("torque", "N m")
         err = f" +- {se:.2g}" if math.isfinite(se) else ""
+        fit = report.diagnosis.final if report.verdict.verdict == "explained" else report.diagnosis.nominal
+        name = f"ground{i}_constant_torque_Nm"
+        if name in fit.names:
+            k = fit.names.index(name)
+            what_k = "force" if slide else "torque"
+            out.append(f"the drive {what} on body {i} averages {m:.4g}{err} {unit} over the fitted runs; the fit reads "
+                       f"a constant {what_k} against it of {with_se(float(fit.values[k]), float(fit.std_errors[k]))} "
+                       f"{unit} (ground{i}_constant_{what_k}): the sensor's offset plus a constant load where the drive "
+                       f"acts (gravity on the axis, a cable's drag; the data cannot tell the two apart), balanced "
+                       f"where body {i} slides (it may stick) and held as a load in every replay")
+            continue
         if tied:
             why = ("a load on the body or the sensor's offset (a spring to the frame can carry either): the fit leaves it "
                    "out, and the replays hold each run's mean position with the constant the model reads")

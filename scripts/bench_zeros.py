@@ -20,7 +20,11 @@ joints, every effect at its smaller size on one).
 
 ``--chains``: the chain benches instead (:func:`_chain_benches`: a 3-body train, the 4-body test
 train, the pump train, the carriage on a slide in 9 runs), each encoder's zero uniform in +-pi
-(the carriage's position zero too) and every torque or force cell's offset uniform in +-2%.
+(the carriage's position zero too) and every torque or force cell's offset uniform in +-2%. Every
+other run of a train (both files) carries a mean drive torque of :data:`MEAN_LOAD_SHARE` of its
+amplitude, held by an unmeasured load of the opposite sense at the train's far end (a pump's): it
+preloads every joint between them (:func:`_mean_loads`). The carriage has none: a free axis
+cannot hold a mean force without a spring to ground.
 
 One row per case: whether the verdicts and the adopted causes agree, the largest
 |unzeroed - zeroed| / SE over the parameters (the twist's zero left out), and the twist's zero
@@ -117,9 +121,27 @@ def _chain_benches():
     }
 
 
+#: A train run's mean drive torque, as a share of its amplitude (every other run).
+MEAN_LOAD_SHARE = 0.15
+
+
+def _mean_loads(points, N: int) -> list:
+    """Per run, each body's constant torque (N m): in every other run a mean drive torque on the
+    driven body and the opposite load at the far end of the train (they sum to 0: a train free
+    to turn), none in the others."""
+    out = []
+    for r, (_, M0, i) in enumerate(points):
+        loads = [0.0] * N
+        if r % 2:
+            loads[i - 1], loads[(N if i == 1 else 1) - 1] = MEAN_LOAD_SHARE * M0, -MEAN_LOAD_SHARE * M0
+        out.append(tuple(loads))
+    return out
+
+
 def _chain_case(tmp: Path, name: str, seed: int) -> dict:
     """One chain bench written zeroed and as a lab has it (every encoder's zero uniform in +-pi,
-    every torque or force cell's offset uniform in +-2% of the largest amplitude), both diagnosed."""
+    every torque or force cell's offset uniform in +-2% of the largest amplitude; a train's runs with
+    :func:`_mean_loads` in both), both diagnosed."""
     from bench_chain_sim import daq_file
     from bench_slide_sim import daq_runs
 
@@ -134,6 +156,7 @@ def _chain_case(tmp: Path, name: str, seed: int) -> dict:
     n = 1 if slide else bench.N
     zeros = rng.uniform(-math.pi, math.pi, n)
     offset = rng.uniform(-0.02, 0.02) * max(p[1] for p in points)
+    loads = None if slide else _mean_loads(points, n)
 
     def diagnosed(file, lab: bool):
         if slide:
@@ -142,7 +165,7 @@ def _chain_case(tmp: Path, name: str, seed: int) -> dict:
             loaded, rig = read_runs(path), rig_of_bodies(1, [1], "slide")
         else:
             path = daq_file(bench, points, tmp / file, seed=seed, offsets_rad=tuple(zeros) if lab else (0.0,) * n,
-                            cell_offset_Nm=offset if lab else 0.0)
+                            cell_offset_Nm=offset if lab else 0.0, loads_by_run=loads)
             loaded = as_train(read_runs(path, columns={"time": "t"}))
             rig = rig_of_bodies(n, sorted({p[2] for p in points}))
         return run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig, holdout=holdout)
@@ -158,7 +181,11 @@ def _chain_case(tmp: Path, name: str, seed: int) -> dict:
         if k.startswith("joint") and k.endswith("angle_offset_rad") and se > 0:
             j = int(k[len("joint"):k.index("_")])  # joint j between encoders j and j + 1
             zero_z.append((v - (zeros[j - 1] - zeros[j])) / se)
-    cells = [(m - offset) / se for m, se in zip(lab.zeros.torques, lab.zeros.torque_se) if math.isfinite(m) and se > 0]
+    # a driven cell's mean over the fitted runs: its offset plus the mean drive torque those runs held
+    fitted = [r for r in range(len(points)) if r not in lab.held_out]
+    held = [float(np.mean([loads[r][b] for r in fitted])) if loads else 0.0 for b in range(n)]
+    cells = [(m - offset - held[b]) / se for b, (m, se) in enumerate(zip(lab.zeros.torques, lab.zeros.torque_se))
+             if math.isfinite(m) and se > 0]
     return {"joint": name.split()[0], "case": name.split()[1], "verdict": lab.verdict.verdict,
             "zeroed_verdict": zeroed.verdict.verdict, "causes": [s.label for s in lab.diagnosis.steps],
             "zeroed_causes": [s.label for s in zeroed.diagnosis.steps], "worst_parameter_z": worst,

@@ -17,12 +17,13 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from jointrig.identify.chain import (REST_RATE_FRACTION, STICK_RATE_FRACTION, ChainRecord, channel_corrected,
+from jointrig.identify.chain import (REST_RATE_FRACTION, STICK_RATE_FRACTION, ChainRecord, channel_corrected, constant_loads,
                                     inertia_name)
 from jointrig.identify.chain_diagnose import ChainDiagnosis, plant_and_inertias
 from jointrig.identify.harmonics import fourier_coefficients, max_harmonic, synthesize
 from jointrig.identify.zeros import SensorZeros, rezeroed, sensor_zeros
 from jointrig.identify.periods import RESOLVED_SIGMA, period_spectra, pooled_period_spectra
+from jointrig.vocab.law import Constant
 from jointrig.vocab.plant import drive_of_record
 
 from jointrig.rig.chain import ChainRig, simulate_chain
@@ -258,10 +259,15 @@ def held_means(fit, rec: ChainRecord) -> tuple[float, ...]:
     even stiffness or a progressive coupling is another spring. The measured drive's mean cannot
     stand in: a torque cell reads its own offset, and a load may act where no cell is. Elsewhere
     the laws do not show where their zero is, and no constant is needed: a linear law's swing is
-    the same about any twist."""
+    the same about any twist. A body whose constant the fit read (:class:`vocab.law.Constant`,
+    where it may stick) carries its drive's measured mean less that constant: the net constant
+    force that moves it, the cell's offset taken out."""
     from jointrig.identify.chain_diagnose import mean_joint_torque, zero_resolved
 
-    loads = [0.0] * fit.spec.n_flywheels
+    # a body's fitted constant (its cell's offset plus a constant load): the replay's drive drops
+    # the measured mean, so the body carries that mean less the constant
+    loads = [(float(np.mean(rec.torques_Nm[i])) if rec.torques_Nm[i] is not None else 0.0) - k if k else 0.0
+             for i, k in enumerate(constant_loads(fit.as_dict(), fit.spec))]
     for j in range(1, fit.spec.n_flywheels):
         if zero_resolved(fit, j):
             q = mean_joint_torque(fit, [rec], j, with_error=False)[0]
@@ -269,6 +275,56 @@ def held_means(fit, rec: ChainRecord) -> tuple[float, ...]:
                 loads[j - 1] += q
                 loads[j] -= q
     return tuple(loads)
+
+
+#: A free body's drift per period that :func:`without_drift` leaves in a replay, relative to its
+#: swing (RMS of its position): a sawtooth of that size in a record is far below any noise floor.
+DRIFT_TOL = 1e-7
+#: Secant steps :func:`without_drift` takes at most.
+DRIFT_STEPS = 8
+
+
+def drifting_bodies(fit) -> tuple[int, ...]:
+    """The bodies (0-based) whose replay under a measured drive would drift: those with a fitted
+    constant (:class:`vocab.law.Constant`: where they may stick, balanced while they slide) in a
+    train with no elastic law to ground. Nothing holds their mean position but what held it on
+    the bench, a position controller (or an operator): a replay under the measured force alone
+    walks off by whatever mean force the fit misses, a fraction of a newton per period."""
+    spec = fit.spec
+    if any(t.elastic for g in spec.grounds for t in g):
+        return ()
+    return tuple(i for i, g in enumerate(spec.grounds) if any(isinstance(t, Constant) for t in g))
+
+
+def without_drift(simulate, loads: tuple, bodies: Sequence[int], scale: Sequence[float]):
+    """``simulate(loads)`` (a settled replay) with each of ``bodies`` given the constant load that
+    leaves its mean rate 0, as the bench's position controller held it: secant steps on each
+    body's load (from ``scale``, N m or N, a first probe of 1e-3 of it) until its drift per
+    period is below :data:`DRIFT_TOL` of its swing. Returns (the replay, the loads used)."""
+    loads = list(loads)
+    sim = simulate(tuple(loads))
+    if not bodies:
+        return sim, tuple(loads)
+    T = 2 * math.pi / sim.omega_rad_s
+
+    def drift(rec) -> np.ndarray:
+        return np.array([float(np.mean(rec.rate(i))) * T / max(float(np.std(rec.angles_rad[i])), 1e-300)
+                         for i in bodies])
+
+    d_prev, l_prev = drift(sim), np.array([loads[i] for i in bodies])
+    step = np.array([1e-3 * max(abs(x), 1e-12) for x in scale]) * -np.sign(d_prev)
+    for _ in range(DRIFT_STEPS):
+        if np.all(np.abs(d_prev) < DRIFT_TOL):
+            break
+        now = l_prev + step
+        for i, v in zip(bodies, now):
+            loads[i] = float(v)
+        sim = simulate(tuple(loads))
+        d = drift(sim)
+        slope = (d - d_prev) / np.where(step != 0, step, 1.0)
+        step = np.where(slope != 0, -d / np.where(slope != 0, slope, 1.0), step)
+        d_prev, l_prev = d, now
+    return sim, tuple(loads)
 
 
 class _NoReplay(Exception):
@@ -301,6 +357,12 @@ def _drive_noise(meas: ChainRecord, coeffs: dict, noise_std: Optional[dict] = No
     return out
 
 
+def _drive_scale(rec: ChainRecord) -> tuple:
+    """Per body, the size of its measured drive (RMS about its mean; 1 where it has none): the
+    scale of :func:`without_drift`'s first probe."""
+    return tuple(float(np.std(t)) if t is not None else 1.0 for t in rec.torques_Nm)
+
+
 def _drives(meas: ChainRecord, coeffs: dict) -> dict:
     return {i: drive_of_record(meas.omega_rad_s, c) for i, c in coeffs.items()}
 
@@ -330,8 +392,10 @@ def _replayed(rig: ChainRig, fit, read, meas: ChainRecord, drives: dict, cfg: Si
     spanned_cfg = replace(cfg, settle=False, n_periods=meas.n_periods)
 
     def run(c):
-        sim, _ = simulate_chain(rig.with_plant(plant), meas.omega_rad_s, drives, c, inertias_kgm2=J, backend=backend,
-                                start=start, loads_Nm=loads)
+        def once(held):
+            return simulate_chain(rig.with_plant(plant), meas.omega_rad_s, drives, c, inertias_kgm2=J,
+                                  backend=backend, start=start, loads_Nm=held)[0]
+        sim, _ = without_drift(once, loads, drifting_bodies(fit) if c.settle else (), _drive_scale(meas))
         return channel_corrected(sim, read, read=True)
 
     if span:
@@ -584,6 +648,7 @@ def rig_replay(rig: ChainRig, runs: Sequence, band: int, *, backend: str = "auto
         plant, J = plant_and_inertias(fit)
         if not all(math.isfinite(v) and v > 0 for v in J):
             return "a fitted inertia is no body's"
+        constants = constant_loads(fit.as_dict(), fit.spec)
         out, why = [], []
         for run in runs:
             rec = run.average
@@ -593,14 +658,19 @@ def rig_replay(rig: ChainRig, runs: Sequence, band: int, *, backend: str = "auto
                                    max_step_s=REPLAY_MAX_STEP_S, n_periods=2, absolute_angles_periodic=False,
                                    max_wall_s=max_wall_s,
                                    settle_tol=1e-7)
+            def once(held, rec=rec, drives=drives, cfg=cfg):
+                return simulate_chain(rig.with_plant(plant), rec.omega_rad_s, drives, cfg, inertias_kgm2=J,
+                                      backend=backend, start=start_of(rec, band, fit.spec.offsets_rad),
+                                      loads_Nm=held)[0]
             try:
-                sim, _ = simulate_chain(rig.with_plant(plant), rec.omega_rad_s, drives, cfg, inertias_kgm2=J,
-                                        backend=backend, start=start_of(rec, band, fit.spec.offsets_rad),
-                                        loads_Nm=held_means(fit, rec))
+                sim, used = without_drift(once, held_means(fit, rec), drifting_bodies(fit), _drive_scale(rec))
             except SimulationError as err:
                 out.append(None)
                 why.append(f"no periodic steady state under the drive of {rec.source}: {err}")
                 continue
+            if any(constants):  # the cell's mean, which the drive dropped: the load held plus the constant
+                sim = replace(sim, torques_Nm=tuple(t + u + k if t is not None and k else t
+                                                    for t, u, k in zip(sim.torques_Nm, used, constants)))
             out.append(prepare_chain_runs([channel_corrected(sim, fit.spec, read=True)], band=band)[0])
         if all(r is None for r in out):
             return "; ".join(why)

@@ -49,6 +49,7 @@ __all__ = [
     "Viscous",
     "Power",
     "Coulomb",
+    "Constant",
     "QuadraticDamping",
     "Jenkins",
     "Iwan",
@@ -510,6 +511,31 @@ class QuadraticDamping(_OneField, Term):
             return rate * abs(rate)
         r = np.asarray(rate, dtype=float)
         return r * np.abs(r)
+
+
+@dataclass(frozen=True)
+class Constant(Term):
+    """A constant torque (force) on a body, the same in every run: ``1`` -> ``constant_torque_Nm``,
+    the drive cell's offset plus a constant load where the drive acts (gravity on an axis, a
+    cable's drag, a pump's mean load). Harmonic balance leaves every record's mean out, so it
+    is fitted only where a body's equation is balanced while it slides alone (a stick mask
+    multiplies it: ``identify.chain.chain_system``); there the constant has every harmonic of
+    the mask, and left out it would bend the friction and the mass it is fitted beside. No
+    model-file field: the rig holds it as a constant load (``rig.chain.simulate_chain``'s
+    ``loads_Nm``), not in a law."""
+
+    @property
+    def name(self) -> str:
+        return "constant_torque_Nm"
+
+    @property
+    def elastic(self) -> bool:
+        return False
+
+    def __call__(self, phi, rate):
+        if isinstance(rate, float):
+            return 1.0
+        return np.ones_like(np.asarray(phi, dtype=float))
 
 
 def play(phi: float, state_rad: float, slip_rad: float) -> float:
