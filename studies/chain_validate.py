@@ -74,6 +74,10 @@ class ChainValidation:
     #: the replays compared over the record's own span from its measured state, no steady state
     #: reached in the rig (which model, which run, why), in words
     spanned: tuple = ()
+    #: the method's bias on the judged model's parameters: ``(name, refitted - fitted, standard
+    #: error)`` for each, its structure refitted on its own noise-free replay of the fitted runs
+    #: (empty where none was made)
+    method_bias: tuple = ()
 
     @property
     def gain(self) -> float:
@@ -306,10 +310,11 @@ def without_drift(simulate, loads: tuple, bodies: Sequence[int], scale: Sequence
     if not bodies:
         return sim, tuple(loads)
     T = 2 * math.pi / sim.omega_rad_s
+    swing = np.array([max(float(np.std(sim.angles_rad[i] - np.mean(sim.rate(i)) * sim.time_s)), 1e-300)
+                      for i in bodies])
 
-    def drift(rec) -> np.ndarray:
-        return np.array([float(np.mean(rec.rate(i))) * T / max(float(np.std(rec.angles_rad[i])), 1e-300)
-                         for i in bodies])
+    def drift(rec) -> np.ndarray:  # per period, relative to the first replay's swing about its trend
+        return np.array([float(np.mean(rec.rate(i))) * T for i in bodies]) / swing
 
     d_prev, l_prev = drift(sim), np.array([loads[i] for i in bodies])
     step = np.array([1e-3 * max(abs(x), 1e-12) for x in scale]) * -np.sign(d_prev)
@@ -529,6 +534,9 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
         moved[name] = (_directions(fits[name], cov) if cov is not None else []) + _profiled_moves(fits[name])
     got = refit(fits[judged]) if refit is not None else "no replay of the fitted runs was made"
     refitted, why_not = (got, "") if not isinstance(got, str) else (None, got)
+    bias = () if refitted is None else tuple(
+        (n, float(a - b), float(e)) for n, a, b, e in zip(fits[judged].names, refitted.values, fits[judged].values,
+                                                          fits[judged].std_errors))
     tally = {name: {"propagated": 0.0, "method": 0.0, "components": [], "estimates": []} for name in rated}
     for meas in held_out:
         top = min(band, max_harmonic(meas.samples_per_period))
@@ -601,7 +609,8 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
                                       m_eff, len(moved[name]))
     return ChainValidation(error["nominal"], error["extended"], _floor(noise, den), tuple(per_run),
                            note="; ".join(failed.values()), band=band, records=tuple(records), spanned=tuple(spanned),
-                           right=right.get(judged), nominal_right=right.get("nominal") if diagnosis.steps else None)
+                           right=right.get(judged), nominal_right=right.get("nominal") if diagnosis.steps else None,
+                           method_bias=bias)
 
 
 def _departures(rig, fit, sim, meas, drives, drawn_drives, moved, refitted, cfg, top, backend, name, span):
@@ -973,6 +982,14 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
         if rig.kind == "slide":  # its drive levels are forces
             general = general.replace(" N m", " N")
     verdict = train_verdict(d, v, held_out_periods=split)
+    free = drifting_bodies(d.final if d.steps else d.nominal)
+    if free:
+        what = "carriage" if rig.kind == "slide" else "body"
+        notes.append(f"{what} {', '.join(str(i + 1) for i in free)} has no spring to the frame: under the measured "
+                     f"{'force' if rig.kind == 'slide' else 'torque'} alone a replay would walk off by whatever mean "
+                     f"{'force' if rig.kind == 'slide' else 'torque'} the fit misses, so every replay in the rig adds "
+                     f"the constant load that leaves it without drift, as its position controller (or the bench) held "
+                     f"it, and compares the motion about its mean")
     for what in v.spanned:
         notes.append(f"{what}: compared over the record's own periods from its measured state instead of a steady "
                      f"state (a model that settles slowly, or never, in the rig may still follow the record)")

@@ -493,6 +493,60 @@ def test_a_body_that_sticks_is_balanced_exactly_once_its_rests_are_masked():
     assert identify_from(rec, spec, None).relative_residual > 0.1
 
 
+def test_a_constant_force_on_a_masked_body_is_read_and_left_out_it_bends_the_rest():
+    # Gravity on an inclined axis (F0 = 16 N against the drive) acts while the body slides; the
+    # cell reads it in its mean, which the balance leaves out. A stick mask multiplies it, so it
+    # enters every harmonic of the mask: without a constant it is a residual no parameter takes
+    # up here (the mask of these two equal rests has only even harmonics, the rest only odd
+    # ones; on the servo carriage, whose rests differ, it bent the mass by 5%), with one
+    # (identify.chain_diagnose.with_constants) the fit and F0 are exact to 1e-7 (the masked
+    # balance's own exactness, the test above).
+    from jointrig.identify.chain import stick_mask
+    from jointrig.identify.chain_diagnose import with_constants
+    from jointrig.vocab.law import Constant, Coulomb
+
+    t, x, v, a, omega = _resting_motion()
+    m, c, Fc, F0 = 12.0, 40.0, 25.0, 16.0
+    F = np.where(v != 0, m * a + c * v + Fc * np.sign(v) + F0, F0 + 0.5 * Fc * np.cos(omega * t))
+    rec = ChainRecord(omega, t, [F], [x], [v])
+    plain = ChainSpec((), bearings=(1,), grounds=((Coulomb(),),))
+    masks = [(stick_mask(v),)]
+    spec = with_constants(plain, masks)
+    assert spec.grounds == ((Coulomb(), Constant()),) and with_constants(spec, [(None,)]) == plain
+    fit = identify_from(rec, spec, masks)
+    got = dict(zip(spec.names, fit.values))
+    truth = {"J1_kgm2": m, "bearing1_damping_Nms_per_rad": c, "ground1_coulomb_torque_Nm": Fc,
+             "ground1_constant_torque_Nm": F0}
+    for name, value in truth.items():
+        assert got[name] == pytest.approx(value, rel=1e-7), (name, got)
+    assert fit.relative_residual < 1e-7
+    assert identify_from(rec, plain, masks).relative_residual > 0.1
+
+
+def test_a_free_bodys_replay_takes_the_constant_load_that_leaves_it_no_drift():
+    # A carriage under a measured force walks off by whatever mean force the fit misses; its
+    # position controller held it on the bench. without_drift finds the load by secant steps:
+    # on a drift linear in the load (a free body sliding against viscous drag alone, mean rate
+    # = (load - 3.7 N) / c) it lands on 3.7 N in two, with a drift below DRIFT_TOL of the swing.
+    from jointrig.studies.chain_validate import DRIFT_TOL, without_drift
+
+    omega, c = 2.0, 150.0
+    t = np.linspace(0.0, 2 * np.pi / omega, 256, endpoint=False)
+    calls = []
+
+    def simulate(loads):
+        calls.append(loads)
+        v = 0.05 * np.cos(omega * t) + (loads[0] - 3.7) / c
+        x = np.cumsum(v) * (t[1] - t[0])
+        return ChainRecord(omega, t, [0.5 * np.cos(omega * t)], [x], [v])
+
+    sim, used = without_drift(simulate, (0.0,), (0,), (30.0,))
+    assert used[0] == pytest.approx(3.7, rel=1e-9) and len(calls) == 3
+    assert abs(np.mean(sim.rate(0))) * 2 * np.pi / omega < DRIFT_TOL * np.std(sim.angles_rad[0])
+    _, unchanged = without_drift(simulate, (1.0,), (), (30.0,))
+    assert unchanged == (1.0,) and len(calls) == 4
+
+
 def identify_from(rec, spec, masks):
     from jointrig.identify.chain import solve_banded
 
