@@ -223,7 +223,8 @@ def method_bias_steps(report: TrainReport) -> tuple[str, ...]:
                        for n, b, e in off)
     return (f"on the noise-free replay of this model the balance itself moves {listed}: harmonics 1..{band} miss "
             f"what the motion's kinks put above them, and the fit above carries that bias; fit more harmonics "
-            f"(--band {2 * band}) where the records hold them (the notes give each run's harmonics)",)
+            f"(--band {2 * band}) where the records hold them (the notes give each run's harmonics) and compare the "
+            f"two",)
 
 
 def _held_load(report: TrainReport, i: int):
