@@ -104,6 +104,12 @@ def test_sliding_span_matches_fine_fixed_step_integration(records):
     assert tol_x < 2e-9 and tol_v < 2e-9
 
 
+def _stop_time(axis, v0: float, F: float) -> float:
+    """When a carriage sliding forwards at v0 under a held force F comes to rest (closed form)."""
+    a = (F - axis.F0 - axis.Fc) / axis.c
+    return axis.m / axis.c * math.log((v0 - a) / (-a))
+
+
 def _closed_form(axis, v0, F, s, tau):
     """x - x0 and v after tau of sliding in sign s from v0 under the constant force F."""
     a = (F - axis.F0 - axis.Fc * s) / axis.c          # the rate it tends to
@@ -122,8 +128,7 @@ def test_stick_and_reversal_inside_one_interval_match_closed_form():
     dt = 1e-3
     # stick: v0 = 2 mm/s forwards, F - F0 = -20 N (|.| <= Fc): stops after about 0.8 ms
     v0, F = 0.002, -10.0
-    a = (F - axis.F0 - axis.Fc) / axis.c
-    t_star = axis.m / axis.c * math.log((v0 - a) / (-a))
+    t_star = _stop_time(axis, v0, F)
     assert 0 < t_star < dt
     res = bench.hold_interval(axis, 0.0, dt, 0.01, v0, F)
     assert [e[1] for e in res.events] == ["stick"]
@@ -133,8 +138,7 @@ def test_stick_and_reversal_inside_one_interval_match_closed_form():
     assert abs(res.stuck_time - (dt - t_star)) < 1e-9
     # reversal: F - F0 = -90 N < -Fc: stops at t1 and slides backwards to dt
     v0, F = 0.002, -80.0
-    a = (F - axis.F0 - axis.Fc) / axis.c
-    t1 = axis.m / axis.c * math.log((v0 - a) / (-a))
+    t1 = _stop_time(axis, v0, F)
     assert 0 < t1 < dt
     res = bench.hold_interval(axis, 0.0, dt, 0.0, v0, F)
     assert [e[1] for e in res.events] == ["reverse"]
