@@ -984,12 +984,10 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
     verdict = train_verdict(d, v, held_out_periods=split)
     free = drifting_bodies(d.final if d.steps else d.nominal)
     if free:
-        what = "carriage" if rig.kind == "slide" else "body"
-        notes.append(f"{what} {', '.join(str(i + 1) for i in free)} has no spring to the frame: under the measured "
-                     f"{'force' if rig.kind == 'slide' else 'torque'} alone a replay would walk off by whatever mean "
-                     f"{'force' if rig.kind == 'slide' else 'torque'} the fit misses, so every replay in the rig adds "
-                     f"the constant load that leaves it without drift, as its position controller (or the bench) held "
-                     f"it, and compares the motion about its mean")
+        notes.append(f"body {', '.join(str(i + 1) for i in free)} has no spring to the frame: under the measured "
+                     f"drive alone a replay would walk off by whatever mean drive the fit misses, so every replay in "
+                     f"the rig adds the constant load that leaves it without drift, as its position controller (or the "
+                     f"bench) held it, and compares the motion about its mean")
     for what in v.spanned:
         notes.append(f"{what}: compared over the record's own periods from its measured state instead of a steady "
                      f"state (a model that settles slowly, or never, in the rig may still follow the record)")
