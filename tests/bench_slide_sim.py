@@ -3,12 +3,13 @@ dry friction, integrated by scipy. Nothing here uses jointrig.
 
 The carriage (mass m, kg) obeys, while it slides (rate v != 0),
 
-    m x'' = F(t) - c v - k x - A sin(2 pi x / p) - Fc sign(v)
+    m x'' = F(t) - c v - k x - A sin(2 pi x / p) - (Fc + (Fs - Fc) exp(-(v / vs)^2)) sign(v)
 
 (c: the guide's viscous drag, N s/m; k: a spring to ground, N/m, 0 for a free axis; A, p: a
 linear motor's cogging force and its pole pitch, N and m, A = 0 for none; Fc: the guide's dry
-friction, N) and stands still while the force on it, ``|F(t) - k x - A sin(2 pi x / p)|``, is at
-most Fc. The switches are events of the integrator (DOP853, rtol 1e-10): sliding ends where v
+friction, N; Fs, vs: a Stribeck peak, the static friction above Fc and the speed over which it
+falls to Fc, Fs <= Fc for none) and stands still while the force on it,
+``|F(t) - k x - A sin(2 pi x / p)|``, is at most max(Fs, Fc). The switches are events of the integrator (DOP853, rtol 1e-10): sliding ends where v
 crosses zero and the force there cannot overcome the friction; sticking ends where it can.
 :func:`daq_file` writes one long run the way a motion controller's trace does: a fixed sample
 rate, an absolute linear encoder (positions about its reading at rest), the motor's force.
@@ -31,6 +32,17 @@ class Carriage:
     Fc: float = 25.0     # N
     cog: float = 0.0     # N, the cogging force's amplitude
     pitch: float = 0.01  # m, its period in x
+    Fs: float = 0.0      # N, the static friction (a Stribeck peak above Fc; at most Fc: none)
+    vs: float = 0.01     # m/s, the Stribeck speed: sliding friction Fc + (Fs - Fc) exp(-(v / vs)^2)
+
+    @property
+    def static(self) -> float:
+        """The force that holds the carriage at rest (N): the Stribeck peak, or Fc."""
+        return max(self.Fs, self.Fc)
+
+    def sliding(self, v: float) -> float:
+        """The guide's friction while it slides at rate v (N, its size)."""
+        return self.Fc + (self.static - self.Fc) * math.exp(-(v / self.vs) ** 2)
 
 
 def _simulate(car: Carriage, w: float, F0: float, t_eval: np.ndarray, y0, mode: int, t0: float):
@@ -44,21 +56,21 @@ def _simulate(car: Carriage, w: float, F0: float, t_eval: np.ndarray, y0, mode: 
 
     while True:
         sel = t_eval[(t_eval >= t) & (np.arange(t_eval.size) >= i)]
-        if mode == 0 and abs(force(t, y[0])) > car.Fc:  # a force that already exceeds the friction
+        if mode == 0 and abs(force(t, y[0])) > car.static:  # a force that already exceeds the friction
             mode = 1 if force(t, y[0]) > 0 else -1
         if mode == 0:
             def rhs(tt, yy):
                 return [0.0, 0.0]
 
             def unsticks(tt, yy):
-                return abs(force(tt, yy[0])) - car.Fc
+                return abs(force(tt, yy[0])) - car.static
             unsticks.terminal, unsticks.direction = True, 1
             events = [unsticks]
         else:
             s = mode
 
             def rhs(tt, yy, s=s):
-                return [yy[1], (force(tt, yy[0]) - car.c * yy[1] - s * car.Fc) / car.m]
+                return [yy[1], (force(tt, yy[0]) - car.c * yy[1] - s * car.sliding(yy[1])) / car.m]
 
             def stops(tt, yy):
                 return yy[1]
@@ -79,7 +91,7 @@ def _simulate(car: Carriage, w: float, F0: float, t_eval: np.ndarray, y0, mode: 
             mode = 1 if force(t, y[0]) > 0 else -1
         else:
             y[1] = 0.0
-            mode = 0 if abs(force(t, y[0])) <= car.Fc else -mode
+            mode = 0 if abs(force(t, y[0])) <= car.static else -mode
         t = math.nextafter(t, math.inf)
 
 

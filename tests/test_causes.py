@@ -471,3 +471,18 @@ def test_only_an_even_stiffness_reads_as_a_zero_offset():
     # a = -3 gamma delta holds for an even stiffness beside a cubic; no other cause is what an
     # angle's zero offset makes of the law, so no other is read as one.
     assert [c.name for c in CATALOGUE if c.reads_as_offset] == ["asymmetric_stiffness"]
+
+
+def test_a_profile_whose_valley_is_flat_takes_its_error_from_where_chi_square_rises_by_one():
+    # identify.causes._half_width: on a parabola tried on a grid, the interpolated crossings of
+    # min + 1 give its exact half width where the trials bracket it (a linear interpolation
+    # between grid points: within the chord's error, 2% here); a valley that never rises above
+    # the level on one side reaches that side's end of the range.
+    from jointrig.identify.causes import _half_width
+
+    xs = np.linspace(0.0, 2.0, 201)
+    para = {float(x): 4.0 * (x - 1.0) ** 2 for x in xs}  # rises by 1 at 1 +- 0.5
+    assert _half_width(para, 1.0, 1.0, 0.0, 2.0) == pytest.approx(0.5, rel=0.02)
+    flat = {float(x): (0.0 if x < 1.0 else 4.0 * (x - 1.0) ** 2) for x in xs}
+    assert _half_width(flat, 1.0, 1.0, 0.0, 2.0) == pytest.approx((1.5 - 0.0) / 2, rel=0.02)
+    assert math.isnan(_half_width({float(x): 0.0 for x in xs}, 1.0, 1.0, 0.0, 2.0))  # not determined
