@@ -1455,7 +1455,7 @@ def with_constants(spec: ChainSpec, masks: Optional[Sequence]) -> ChainSpec:
     body whose equation is masked where it rests in some run (pure): its drive cell's offset and
     a constant load (gravity on an axis, a cable's drag) then enter every harmonic of the mask.
     Left out, on a servo-driven carriage that stands still 4% of its period with 16 N of gravity
-    and 30 N of friction, they bent the mass to 26.3 and the drag to 120 instead of 25 and 150
+    and 30 N of friction, they bent the mass to 25.8 and the drag to 120 instead of 25 and 150
     (the exact states, balanced by hand); with it, 25.04 and 150.6. A body masked in no run loses
     its constant (a replay that never rests: its column would be all zero)."""
     grounds = []
