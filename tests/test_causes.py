@@ -486,3 +486,18 @@ def test_a_profile_whose_valley_is_flat_takes_its_error_from_where_chi_square_ri
     flat = {float(x): (0.0 if x < 1.0 else 4.0 * (x - 1.0) ** 2) for x in xs}
     assert _half_width(flat, 1.0, 1.0, 0.0, 2.0) == pytest.approx((1.5 - 0.0) / 2, rel=0.02)
     assert math.isnan(_half_width({float(x): 0.0 for x in xs}, 1.0, 1.0, 0.0, 2.0))  # not determined
+
+
+def test_a_profiles_slope_is_the_fits_values_per_unit_of_the_profiled_parameter():
+    # Profiled.slope: d(values)/d(h) by a difference of the fits either side of the best value,
+    # what Profiled.widened carries into the linear parameters' errors; values linear in h
+    # (3 h and -h) give it to round-off (1e-9 relative: a difference over a step of 1e-3 h).
+    from jointrig.identify.causes import profile
+
+    class _Valued(_Fit):
+        def __init__(self, h):
+            super().__init__(50.0 + ((h - 0.3) / 0.01) ** 2)
+            self.values = np.array([3.0 * h, -h])
+
+    found = profile(_Valued, by_name("backlash"), 0.0, 1.0)
+    assert found.slope == pytest.approx([3.0, -1.0], rel=1e-9)
