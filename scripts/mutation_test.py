@@ -70,7 +70,7 @@ MODULES = {
     "jointrig.present.summary": ("present/summary.py", ["tests/test_formatting.py"]),
     # the replay of held-out runs: what a right model misses there (fast tests first), its start,
     # its constant loads, its span, its noise floor
-    "jointrig.studies.chain_validate": ("studies/chain_validate.py", ["tests/test_right_model.py",
+    "jointrig.studies.chain_validate": ("studies/chain_validate.py", ["tests/test_chain.py", "tests/test_right_model.py",
                                                                        "tests/test_verdict_judge.py",
                                                                        "tests/test_validate_record.py",
                                                                        "tests/test_preload.py"]),

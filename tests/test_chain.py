@@ -547,6 +547,22 @@ def test_a_free_bodys_replay_takes_the_constant_load_that_leaves_it_no_drift():
     assert unchanged == (1.0,) and len(calls) == 4
 
 
+def test_only_a_body_with_a_constant_and_no_spring_to_the_frame_is_held_against_drift():
+    # studies.chain_validate.drifting_bodies: a fitted constant marks a body that may stick; a
+    # spring to the frame anywhere in the line holds it (no search), none lets it walk off.
+    from types import SimpleNamespace
+
+    from jointrig.studies.chain_validate import drifting_bodies
+    from jointrig.vocab.law import Constant, Coulomb
+
+    free = ChainSpec((), grounds=((Coulomb(), Constant()),))
+    sprung = ChainSpec((), grounds=((Coulomb(), Constant(), Power(1)),))
+    plain = ChainSpec((), grounds=((Coulomb(),),))
+    assert drifting_bodies(SimpleNamespace(spec=free)) == (0,)
+    assert drifting_bodies(SimpleNamespace(spec=sprung)) == ()
+    assert drifting_bodies(SimpleNamespace(spec=plain)) == ()
+
+
 def identify_from(rec, spec, masks):
     from jointrig.identify.chain import solve_banded
 
