@@ -349,7 +349,7 @@ class BandedSystem:
 
 def chain_system(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics: int, first_harmonic: int = 0,
                  oversample: int = 1, masks: Optional[Sequence] = None,
-                 merged: Optional[Sequence] = None) -> BandedSystem:
+                 merged: Optional[Sequence] = None, slipping: Optional[Sequence] = None) -> BandedSystem:
     """The harmonic-balance rows of every flywheel of every record (harmonics
     ``first_harmonic..n_harmonics``), ordered for :func:`solve_banded`.
 
@@ -364,6 +364,14 @@ def chain_system(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics
     bodies' equations holds no joint torque of its own and is exact in every harmonic (a mask
     would mix the stiff neighbours' harmonics above the band into it). The sum's rows sit with
     the first body's, whose column band then reaches the last merged body's.
+
+    ``slipping``: per record, one entry per joint, None or samples (0..1) that are 1 where that
+    merged joint's twist slides. Every body of bodies summed into one but one (the driven one,
+    else the first: the sum holds it) then also keeps its own equation, weighted by the product
+    of the slip masks of the merged joints beside it (and its own stick mask): where they slide
+    their torques are their laws', so a joint that sticks most of the cycle is still fitted on
+    the rest. These rows are equation ``N + body`` (0-based), apart from the sum's. A body beside
+    a merged joint without a slip mask (stuck the whole period) keeps no equation of its own.
 
     Raises:
       ChainIdentifiabilityError: a record lacks an angle a joint needs, or has no drive torque.
@@ -396,28 +404,28 @@ def chain_system(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics
         jw = 1j * np.arange(H + 1) * rec.omega_rad_s
         laws = [_law_coeffs(rec, j, spec.joints[j], H, oversample, spec.offsets_rad[j]) for j in range(N - 1)]
         rec_masks = masks[ri] if masks is not None else (None,) * N
-        for i in range(N):
-            m = rec_masks[i]
+
+        def rows(i, m, rec=rec, P=P, H=H, jw=jw, laws=laws):
+            """Body i's rows, its equation weighted by the samples ``m`` (or whole with None)."""
             if m is not None and oversample != 1:
                 raise ValueError("chain_system: masks need oversample 1")
             cols = np.zeros((p, H + 1), dtype=complex)
             keys = (rec.angles_rad[i],) + ((rec.rates_rad_s[i],) if rec.rates_rad_s[i] is not None else ())
             if m is None:
-                rate_c = memo_arrays(keys, ("chain_rate", P, H),
-                                     lambda: fourier_coefficients(rec.rate(i), P, H))  # noqa: B023 - called at once
+                rate_c = memo_arrays(keys, ("chain_rate", P, H), lambda: fourier_coefficients(rec.rate(i), P, H))
                 acc_c = jw * rate_c
             else:  # the masked rate and acceleration as samples (a product's harmonics mix)
-                rate_c, acc_c = memo_arrays(keys + (m,), ("chain_masked_motion", P, H), lambda: tuple(  # noqa: B023
-                    fourier_coefficients(x * m, P, H) for x in (rec.rate(i), spectral_rate(  # noqa: B023
-                        rec.rate(i), rec.omega_rad_s, P))))  # noqa: B023
+                rate_c, acc_c = memo_arrays(keys + (m,), ("chain_masked_motion", P, H), lambda: tuple(
+                    fourier_coefficients(x * m, P, H) for x in (rec.rate(i), spectral_rate(
+                        rec.rate(i), rec.omega_rad_s, P))))
             cols[col[inertia_name(i + 1)]] = acc_c
             if i + 1 in spec.bearings:
                 cols[col[bearing_name(i + 1)]] = rate_c
             if spec.grounds[i]:  # body i+1's law to ground acts with +G on it
                 a, r = rec.angles_rad[i], rec.rates_rad_s[i]
-                rows = law_rows(spec.grounds[i], (a,), (r,), lambda: upsample(a, oversample),  # noqa: B023
-                                lambda: upsample(rec.rate(i), oversample), P, H, oversample, weight=m)  # noqa: B023
-                for t, c in zip(spec.grounds[i], rows):
+                got = law_rows(spec.grounds[i], (a,), (r,), lambda: upsample(a, oversample),
+                               lambda: upsample(rec.rate(i), oversample), P, H, oversample, weight=m)
+                for t, c in zip(spec.grounds[i], got):
                     cols[col[ground_prefix(i + 1) + t.name]] += c
             if i < N - 1:  # joint i+1 (between i+1 and i+2) acts with +M on flywheel i+1
                 own = laws[i] if m is None else _law_coeffs(rec, i, spec.joints[i], H, 1, spec.offsets_rad[i], m)
@@ -434,19 +442,35 @@ def chain_system(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics
             else:
                 held = (torque,) if m is None else (torque, m)
                 tau = spec.drive_delay_s
-                rhs = memo_arrays(held, ("chain_torque", P, H, tau), lambda: fourier_coefficients(  # noqa: B023
-                    (shift_periodic(torque, P, rec.omega_rad_s, tau) if tau else torque)  # noqa: B023
-                    * (1.0 if m is None else m), P, H))  # noqa: B023
+                rhs = memo_arrays(held, ("chain_torque", P, H, tau), lambda: fourier_coefficients(
+                    (shift_periodic(torque, P, rec.omega_rad_s, tau) if tau else torque)
+                    * (1.0 if m is None else m), P, H))
             A, F, harm, part = harmonic_rows(cols, rhs, H)
             keep = harm >= first_harmonic
-            rows_by_fw[i].append((A[keep], F[keep], harm[keep], part[keep], ri))
+            return A[keep], F[keep], harm[keep], part[keep], ri, i
+
+        for i in range(N):
+            rows_by_fw[i].append(rows(i, rec_masks[i]))
         # Bodies joined by a merged joint: their equations summed, in the first one's rows.
         joined = set(merged[ri]) if merged is not None else set()
         for j in sorted(joined, reverse=True):  # from the far end: a run of merged joints sums into one
-            A2, F2, _, _, _ = rows_by_fw[j + 1].pop()
-            A1, F1, harm, part, _ = rows_by_fw[j].pop()
-            rows_by_fw[j].append((A1 + A2, F1 + F2, harm, part, ri))
+            A2, F2, _, _, _, _ = rows_by_fw[j + 1].pop()
+            A1, F1, harm, part, _, _ = rows_by_fw[j].pop()
+            rows_by_fw[j].append((A1 + A2, F1 + F2, harm, part, ri, j))
             reach[j] = max(reach[j], reach[j + 1], j + 1)
+        # Each summed body's own equation where its merged joints slide, but one (the driven one,
+        # else the first): the sum holds it. Its rows are equation N + body (not the sum's).
+        slips = slipping[ri] if slipping is not None else (None,) * (N - 1)
+        for a, b in _merged_blocks(joined):
+            driven = [i for i in range(a, b + 1) if rec.torques_Nm[i] is not None]
+            for i in range(a, b + 1):
+                beside = [j for j in (i - 1, i) if j in joined]
+                if i == (driven[0] if driven else a) or any(slips[j] is None for j in beside):
+                    continue
+                factors = [slips[j] for j in beside] + ([rec_masks[i]] if rec_masks[i] is not None else [])
+                m = factors[0] if len(factors) == 1 else np.prod(factors, axis=0)
+                m.setflags(write=False)
+                rows_by_fw[i].append(rows(i, m)[:5] + (N + i,))
     # Column band of each flywheel: its own block, and the joints on either side.
     blocks = spec.blocks()
     start = {}
@@ -460,19 +484,30 @@ def chain_system(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics
         lo = start[("joint", i)][0] if i > 0 else start[("flywheel", 1)][0]
         last = reach[i]
         hi = start[("joint", last + 1)][1] if last < N - 1 else start[("flywheel", N)][1]
-        for A, F, harm, part, ri in rows_by_fw[i]:
+        for A, F, harm, part, ri, eq in rows_by_fw[i]:
             As.append(A)
             Fs.append(F)
             harms.append(harm)
             parts.append(part)
             rec_idx.append(np.full(F.size, ri))
-            eqs.append(np.full(F.size, i))
-        r1 = r0 + sum(F.size for _, F, _, _, _ in rows_by_fw[i])
+            eqs.append(np.full(F.size, eq))
+        r1 = r0 + sum(F.size for _, F, *_ in rows_by_fw[i])
         spans.append((r0, r1, lo, hi))
         r0 = r1
     system = LinearSystem(np.vstack(As), np.concatenate(Fs), names, np.concatenate(rec_idx),
                           np.concatenate(harms), np.concatenate(parts), np.concatenate(eqs))
     return BandedSystem(system, tuple(spans))
+
+
+def _merged_blocks(joined) -> list[tuple[int, int]]:
+    """The bodies (first, last; 0-based) that merged joints (0-based) join into one block each."""
+    out = []
+    for j in sorted(joined):
+        if out and out[-1][1] == j:
+            out[-1] = (out[-1][0], j + 1)
+        else:
+            out.append((j, j + 1))
+    return out
 
 
 def solve_banded(banded: BandedSystem, *, row_weights: Optional[np.ndarray] = None) -> IdentificationResult:
@@ -568,6 +603,10 @@ def solve_banded(banded: BandedSystem, *, row_weights: Optional[np.ndarray] = No
 #: that truly sticks 6% of its cycle stays below 3% of its peak over 12% of it (the band's ripple
 #: about rest), and its acceleration's jump rings past that.
 STICK_RATE_FRACTION = 0.1
+#: ... unless a stretch above it never reaches this share of the peak: then it is the band's
+#: ripple about rest while the body or joint sticks (the independent bench's joint that sticks
+#: 62% of its cycle rings to 12-15% of its peak twist rate there, its slides reach 100%).
+SLIP_PEAK_FRACTION = 0.3
 #: A run's body rests (it may stick) when its rate stays below ``REST_RATE_FRACTION`` of its peak
 #: for more than ``REST_DWELL`` times as long as a sinusoid's would ((2 / pi) asin 0.03 = 1.9% of
 #: the period). The independent carriage: 12.1% where it sticks 6% of the cycle, 1.8-2.6% at the
@@ -611,7 +650,18 @@ def stick_mask(rate: np.ndarray, fraction: float = STICK_RATE_FRACTION) -> Optio
     rate = np.asarray(rate, dtype=float)
     if not rests(rate):
         return None
-    out = (np.abs(rate) >= fraction * float(np.max(np.abs(rate)))).astype(float)
+    speed = np.abs(rate)
+    top = float(np.max(speed))
+    out = (speed >= fraction * top).astype(float)
+    # A stretch above the threshold whose speed never reaches SLIP_PEAK_FRACTION of the peak is
+    # the band's ripple about rest, not a slide (the period is a circle: it is cut where it rests).
+    cut = int(np.argmin(out))
+    ring, fast = np.roll(out, -cut), np.roll(speed, -cut)
+    edges = np.flatnonzero(np.diff(np.concatenate(([0.0], ring, [0.0]))))
+    for a, b in zip(edges[::2], edges[1::2]):
+        if np.max(fast[a:b]) < SLIP_PEAK_FRACTION * top:
+            ring[a:b] = 0.0
+    out = np.roll(ring, cut)
     out.setflags(write=False)
     return out
 

@@ -37,7 +37,8 @@ Dry friction balanced over a whole period is wrong where it sticks, and its kink
 band where it slides through rest. A body that may stick to ground has its equation masked where
 it rests (:func:`identify.chain.stick_mask`); the joint that may stick
 (:func:`_joints_that_may_stick`) has its two bodies' equations summed in the runs where it may be
-stuck (its torque cancels there); elsewhere a friction's kinks are restored at the fitted size
+stuck (its torque cancels there), and one of them balanced on its own where the joint slides (a
+joint that sticks most of the cycle is fitted there); elsewhere a friction's kinks are restored at the fitted size
 (:meth:`_Problem.solve`). Which rows are masked or summed is fixed for the whole diagnosis, so
 every chi-square compared is of the same rows.
 """
@@ -355,12 +356,14 @@ class _Problem:
     #: the same rows and their difference is evidence (:func:`identify.chain.stick_mask`)
     masked: tuple = ()
     #: per joint: True where it may stick (:func:`_joints_that_may_stick`): in every run where
-    #: it may be stuck, its two bodies' equations are balanced as their sum alone, in every fit,
+    #: it may be stuck, its two bodies' equations are balanced as their sum (and one of them where
+    #: it slides: :meth:`slipping`), in every fit,
     #: so that chi-squares stay of the same rows (:meth:`merged`;
     #: :func:`identify.chain.chain_system`'s ``merged``)
     merging: tuple = ()
     _masks: dict = field(default_factory=dict, compare=False, repr=False)
     _merged: list = field(default_factory=list, compare=False, repr=False)
+    _slips: dict = field(default_factory=dict, compare=False, repr=False)
     #: (run, body i or N + joint j, periods) -> its angles or twist (the average's, or each
     #: period's) and the kink correction's first pass over them
     _first_pass: dict = field(default_factory=dict, compare=False, repr=False)
@@ -386,11 +389,28 @@ class _Problem:
             out = [tuple(j for j, on in enumerate(self.merging)
                          if on and (rests(run.average.rate(j) - run.average.rate(j + 1)) or not twist_resolved(run, j)))
                    for run in self.runs]
-            # a joint stuck in every run leaves its law nothing to be fitted on: balanced as it is
-            everywhere = set.intersection(*(set(m) for m in out))
+            # a joint stuck the whole period in every run leaves its law nothing to be fitted on
+            # (no run where it slides: :meth:`slipping`): balanced as it is
+            everywhere = {j for j in set.intersection(*(set(m) for m in out))
+                          if not any(twist_resolved(run, j) for run in self.runs)}
             self._merged.append([tuple(j for j in m if j not in everywhere) for m in out])
         out = self._merged[0]
         return out if any(out) else None
+
+    def slipping(self) -> Optional[list]:
+        """Per run, per joint: where a merged joint (:meth:`merged`) slides, the stick mask of
+        its period-average twist rate (:func:`identify.chain.stick_mask`; its second body's own
+        equation is balanced there too, so that a joint that sticks most of the cycle is fitted
+        on the rest); None for a joint not merged in that run, or stuck the whole period."""
+        merged = self.merged()
+        if merged is None:
+            return None
+        if not self._slips:
+            for k, (run, js) in enumerate(zip(self.runs, merged)):
+                rate = [run.average.rate(j) - run.average.rate(j + 1) for j in range(len(self.merging))]
+                self._slips[k] = tuple(stick_mask(rate[j]) if j in js and twist_resolved(run, j) else None
+                                       for j in range(len(self.merging)))
+        return [self._slips[k] for k in range(len(self.runs))]
 
     def balanced_runs(self, cand: "Candidate") -> list:
         """The runs that balance the candidate's place on its own: for a joint, those where its
@@ -398,7 +418,7 @@ class _Problem:
         merged = self.merged()
         if merged is None or not cand.at_joint:
             return list(self.runs)
-        return [r for r, m in zip(self.runs, merged) if cand.place - 1 not in m]
+        return [r for r, m in zip(self.runs, merged) if cand.place - 1 not in m] or list(self.runs)
 
     def jumps(self, spec: ChainSpec, values: Optional[dict]) -> "Jumps":
         """Where dry friction makes an acceleration jump at a reversal, per body then per joint
@@ -476,7 +496,7 @@ class _Problem:
 
     def system(self, spec: ChainSpec, jumps: Optional[Jumps] = None):
         return chain_system([r[0] for r in self.records(jumps, periods=False)], spec, n_harmonics=self.n_harmonics,
-                            first_harmonic=1, masks=self.masks(), merged=self.merged())
+                            first_harmonic=1, masks=self.masks(), merged=self.merged(), slipping=self.slipping())
 
     def row_variance(self, spec: ChainSpec, theta: np.ndarray, like, jumps: Optional[Jumps] = None,
                      ) -> np.ndarray:
@@ -486,14 +506,15 @@ class _Problem:
         fixed floor ``(f * size)^2`` (``size`` the run's largest balanced term)."""
         sysl = like.system
         var = np.empty(sysl.F.size)
-        masks, merged = self.masks(), self.merged()
+        masks, merged, slips = self.masks(), self.merged(), self.slipping()
         recs = self.records(jumps, periods=True)
         for i, run in enumerate(self.runs):
             res = []
             for per in recs[i]:
                 s = chain_system([per], spec, n_harmonics=self.n_harmonics, first_harmonic=1,
                                  masks=None if masks is None else [masks[i]],
-                                 merged=None if merged is None else [merged[i]]).system
+                                 merged=None if merged is None else [merged[i]],
+                                 slipping=None if slips is None else [slips[i]]).system
                 res.append(s.F - s.A @ theta)
             v = np.array(res).var(axis=0, ddof=1) / run.n_periods
             rows = np.flatnonzero(sysl.row_record == i)
@@ -919,14 +940,19 @@ def _widened(problem: _Problem, cands: Sequence[Candidate], fit: ChainFit, weigh
     return fit
 
 
-def zeroed_joints(spec: ChainSpec) -> list[int]:
+def zeroed_joints(spec: ChainSpec, slipping: Optional[Sequence] = None) -> list[int]:
     """The joints (1-based) whose twist's zero the data determine: those whose law has a
-    nonlinear elastic term (a power above 1, or free play). A linear law only shifts the mean
-    twist, which the balance leaves out."""
+    nonlinear elastic term (a power above 1, or free play), and those with an elastic law whose
+    body's equation is balanced only where the joint slides (``slipping``, per run and joint a
+    mask or None: :meth:`_Problem.slipping`): the mask turns the spring's constant part into
+    every even harmonic. Elsewhere a linear law only shifts the mean twist, which the balance
+    leaves out."""
     def nonlinear(t) -> bool:
         return t.elastic and not (isinstance(t, Power) and t.power <= 1 and not t.gap_rad)
 
-    return [j for j, terms in enumerate(spec.joints, start=1) if any(nonlinear(t) for t in terms)]
+    masked = {j + 1 for run in (slipping or ()) for j, m in enumerate(run) if m is not None}
+    return [j for j, terms in enumerate(spec.joints, start=1)
+            if any(nonlinear(t) for t in terms) or (j in masked and any(t.elastic for t in terms))]
 
 
 def _twist_zeros(problem: _Problem, zeros: Sequence[Candidate], spec: ChainSpec, weights) -> tuple[ChainSpec, tuple]:
@@ -1047,8 +1073,10 @@ class ChainDiagnosis:
     #: (:func:`identify.chain.stick_mask`)
     rests: tuple = ()
     #: ``(run index among the fitted runs, joint number, share of the period its twist rests,
-    #: whether its twist is resolved above the noise)`` for every run where a joint that may
-    #: stick may be stuck: its two bodies' equations are balanced as their sum alone there
+    #: whether its twist is resolved above the noise, share of the period a body's own equation
+    #: leaves out as stuck)`` for every run where a joint that may stick may be stuck: its two
+    #: bodies' equations are balanced as their sum there, and one of them on its own where the
+    #: joint slides (:meth:`_Problem.slipping`; 1.0: stuck the whole period, the sum alone)
     stuck_joints: tuple = ()
     #: the balance's own misfit every model's row variances carried: measured on a model's replay
     #: (:class:`BalanceFidelity`) or a fixed floor (relative to each run's largest balanced term)
@@ -1179,7 +1207,7 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
     nominal, w = problem.fit(structure)
     # Every twist's zero is unknown (each encoder has its own): under a nonlinear elastic law it
     # is part of the nominal model, profiled at every such joint, not a cause to be found.
-    zeros = [Candidate(TWIST_ZERO, Place("joint", j)) for j in zeroed_joints(structure)
+    zeros = [Candidate(TWIST_ZERO, Place("joint", j)) for j in zeroed_joints(structure, problem.slipping())
              if any(p.cause.name == TWIST_ZERO.name and p.where == Place("joint", j) for p in pool)]
     if zeros:
         structure, profiled = _twist_zeros(problem, zeros, structure, w)
@@ -1214,7 +1242,9 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
         profiled = base[0].profiled + best.fit.profiled
         current, wcur = problem.fit(best.fit.spec)
         current = replace(current, profiled=profiled)
-        if sum(c.cause.bounds is not None for c in zeros + adopted) > 1:
+        # (a twist's zero beside a joint balanced where it slides is profiled again too: there it
+        # weighs the spring's whole torque, which the nominal fit had wrong without the friction)
+        if sum(c.cause.bounds is not None for c in zeros + adopted) > 1 or (zeros and problem.slipping()):
             current, wcur = _refine(problem, zeros + adopted, current, wcur)
         return best, (current, wcur)
 
@@ -1244,8 +1274,10 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
     masks = problem.masks() or ()
     rests = tuple((k, i + 1, rest_share(runs[k].average.rate(i)), 1.0 - float(np.mean(m)))
                   for k, ms in enumerate(masks) for i, m in enumerate(ms) if m is not None)
+    slips = problem.slipping()
     stuck = tuple((k, j + 1, rest_share(runs[k].average.rate(j) - runs[k].average.rate(j + 1)),
-                   twist_resolved(runs[k], j)) for k, js in enumerate(problem.merged() or ()) for j in js)
+                   twist_resolved(runs[k], j), 1.0 - float(np.mean(slips[k][j])) if slips[k][j] is not None else 1.0)
+                  for k, js in enumerate(problem.merged() or ()) for j in js)
     return ChainDiagnosis(nominal, first, tuple(steps), current, tuple(ambiguous), H, noise, nu,
                           implausible_train_fit(nominal, current), rests, stuck, fidelity, masked, merging, max_effects,
                           chosen.rounds[-1] if len(chosen.rounds) > len(chosen.adopted) else (), alpha)

@@ -963,11 +963,13 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
                      f"supplies there, not the law's): its equation is balanced only where its rate exceeds "
                      f"{STICK_RATE_FRACTION:.0%} of its peak ({masked:.0%} of the period left out, in every model "
                      f"compared)")
-    for k, joint, rest, resolved in d.stuck_joints:
+    for k, joint, rest, resolved, left_out in d.stuck_joints:
         how = (f"its twist rests {rest:.0%} of its period (its twist rate below {REST_RATE_FRACTION:.0%} of its peak)"
                if resolved else "its twist is not resolved above the noise (stuck the whole period, or nearly)")
+        own = (f", and one of them on its own where the joint slides (its twist rate above {STICK_RATE_FRACTION:.0%} "
+               f"of its peak; {left_out:.0%} of the period left out)" if left_out < 1.0 else " alone")
         notes.append(f"run {fit_ids[k]}: joint {joint} may stick: {how}; while it sticks its torque is whatever holds "
-                     f"it, not its law's, so its two bodies' equations are balanced as their sum alone in this run "
+                     f"it, not its law's, so its two bodies' equations are balanced as their sum{own} in this run "
                      f"(in every model compared)")
     say("replaying the held-out runs' drives on the nominal and the extended model in the rig")
     v = validate_chain(rig, d, held_recs, backend=backend, noise_std=d.noise_std, alpha=alpha,

@@ -65,6 +65,8 @@ CASES = {
         # a continuum Iwan element in the bench (closed-form backbone, Masing's rule), chi = -0.5, beta = 0.1
         "micro_slip/1": ({"Fi": 60.0, "smax": 0.15}, {"iwan_slip_torque_Nm": 60.0, "iwan_slip_angle_rad": 0.15}),
         "micro_slip/2": ({"Fi": 120.0, "smax": 0.3}, {"iwan_slip_torque_Nm": 120.0, "iwan_slip_angle_rad": 0.3}),
+        # a joint that sticks most of its cycle: 57-61% at the lower level, 10-19% at the higher
+        "coulomb_friction/sticks": ({"Fc": 650.0}, {"coulomb_torque_Nm": 650.0}),
     },
     "light": {
         "none": ({}, {}),
@@ -141,6 +143,25 @@ RELATIVE = [("paper", "hysteresis/1"), ("light", "micro_slip/1"), ("paper", "non
 @pytest.mark.parametrize("joint, case", RELATIVE[:3])
 def test_the_relative_angle_alone_is_diagnosed_as_one_body(tmp_path, joint, case):
     _accept(_diagnose(tmp_path, joint, case, relative=True), joint, case, relative=True)
+
+
+@pytest.mark.slow
+def test_a_joint_that_sticks_most_of_its_cycle_is_explained_with_every_parameter_within_3_se(tmp_path):
+    # Issue 50: where the joint sticks, its two flywheels' equations are balanced as their sum and
+    # the undriven one's on its own where it slides. Every parameter of the law, not only the
+    # friction, within 3 standard errors. Over seeds 0-9 of this file (a script's figures, the
+    # note's command) all 10 were explained with dry friction alone, chi2/dof 0.75-1.06, and 9
+    # of 10 had every parameter within 3 SE (seed 7: k at -3.1, gamma at +4.2).
+    report = _diagnose(tmp_path, "paper", "coulomb_friction/sticks")
+    _accept(report, "paper", "coulomb_friction/sticks")
+    d = report.diagnosis
+    assert [s.label for s in d.steps] == ["coulomb_friction at joint 1"]
+    assert any(left < 1.0 for *_, left in d.stuck_joints)  # balanced where it slides
+    params = d.final.parameters()
+    truth = {"J1_kgm2": 2.0, "J2_kgm2": 2.0, "joint1_c_Nms_per_rad": 100.0, "joint1_k_Nm_per_rad": 2000.0,
+             "joint1_gamma_Nm_per_rad3": 200.0}
+    for name, true in truth.items():
+        assert abs(params[name] - true) <= 3 * d.final.std_error(name), (name, params[name], true)
 
 
 def _accept(report, joint: str, case: str, relative: bool = False) -> None:
