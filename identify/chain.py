@@ -338,6 +338,10 @@ class BandedSystem:
 
     system: LinearSystem
     spans: tuple
+    #: ``(record, equation) -> ((body, mask or None), ...)``: the bodies (0-based) whose equations
+    #: a row of that record and equation label sums, each weighted in time by its mask
+    #: (:func:`masked_noise_covariance` propagates the noise through them)
+    bodies: dict = field(default_factory=dict, compare=False, repr=False)
 
     @property
     def density(self) -> float:
@@ -399,6 +403,7 @@ def chain_system(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics
     p = len(names)
     rows_by_fw: list[list] = [[] for _ in range(N)]
     reach = list(range(N))  # per body: the last body whose equation its rows hold
+    bodies: dict = {}
     for ri, rec in enumerate(records):
         P, H = rec.n_periods, n_harmonics
         jw = 1j * np.arange(H + 1) * rec.omega_rad_s
@@ -451,6 +456,7 @@ def chain_system(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics
 
         for i in range(N):
             rows_by_fw[i].append(rows(i, rec_masks[i]))
+            bodies[(ri, i)] = ((i, rec_masks[i]),)
         # Bodies joined by a merged joint: their equations summed, in the first one's rows.
         joined = set(merged[ri]) if merged is not None else set()
         for j in sorted(joined, reverse=True):  # from the far end: a run of merged joints sums into one
@@ -458,6 +464,7 @@ def chain_system(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics
             A1, F1, harm, part, _, _ = rows_by_fw[j].pop()
             rows_by_fw[j].append((A1 + A2, F1 + F2, harm, part, ri, j))
             reach[j] = max(reach[j], reach[j + 1], j + 1)
+            bodies[(ri, j)] = bodies[(ri, j)] + bodies.pop((ri, j + 1))
         # Each summed body's own equation where its merged joints slide, but one (the driven one,
         # else the first): the sum holds it. Its rows are equation N + body (not the sum's).
         slips = slipping[ri] if slipping is not None else (None,) * (N - 1)
@@ -471,6 +478,7 @@ def chain_system(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics
                 m = factors[0] if len(factors) == 1 else np.prod(factors, axis=0)
                 m.setflags(write=False)
                 rows_by_fw[i].append(rows(i, m)[:5] + (N + i,))
+                bodies[(ri, N + i)] = ((i, m),)
     # Column band of each flywheel: its own block, and the joints on either side.
     blocks = spec.blocks()
     start = {}
@@ -496,7 +504,7 @@ def chain_system(records: Sequence[ChainRecord], spec: ChainSpec, *, n_harmonics
         r0 = r1
     system = LinearSystem(np.vstack(As), np.concatenate(Fs), names, np.concatenate(rec_idx),
                           np.concatenate(harms), np.concatenate(parts), np.concatenate(eqs))
-    return BandedSystem(system, tuple(spans))
+    return BandedSystem(system, tuple(spans), bodies)
 
 
 def _merged_blocks(joined) -> list[tuple[int, int]]:
@@ -768,16 +776,10 @@ def constant_loads(values: dict, spec: ChainSpec) -> tuple:
                  for i, g in enumerate(spec.grounds, start=1))
 
 
-def noise_cross_covariance(spec: ChainSpec, values: dict, w_rad_s, sigma_angle, sigma_torque,
-                           merged: Sequence[int] = ()) -> np.ndarray:
-    """The covariance of the balance residuals of every equation at frequency ``w_rad_s`` (a
-    number, or an array of them: one matrix each) (pure): ``[Re e_1..e_K, Im e_1..e_K]`` per unit
-    coefficient variance, the residual of body i moving by ``sum_l Z_il dPhi_l - dT_i`` with ``Z``
-    the dynamic stiffness of the inertias, the bearings' drags and every joint's ``c`` and ``k``
-    (the nonlinear terms' share left out, as in :func:`fisher_per_period`), white
-    noise of ``sigma_angle`` on each encoder and ``sigma_torque`` on each torque cell (a number, or
-    one per body; 0 where none). ``merged``: joints (0-based) whose two bodies' equations are balanced as
-    their sum (their second body's rows dropped; K = N minus their number)."""
+def dynamic_stiffness(spec: ChainSpec, values: dict, w_rad_s) -> np.ndarray:
+    """``Z (F, N, N)`` at each frequency of ``w_rad_s``: body i's balance residual moves by
+    ``sum_l Z_il dPhi_l`` when the angles move by ``dPhi e^{i w t}`` (the inertias, the bearings'
+    drags and every joint's ``c`` and ``k`` at ``values``; the nonlinear terms' share left out)."""
     N = spec.n_flywheels
     w = np.atleast_1d(np.asarray(w_rad_s, dtype=float))
     J = np.array([values.get(inertia_name(i), 0.0) for i in range(1, N + 1)])
@@ -789,6 +791,71 @@ def noise_cross_covariance(spec: ChainSpec, values: dict, w_rad_s, sigma_angle, 
         kc = values.get(joint_prefix(j + 1) + "k_Nm_per_rad", 0.0) + 1j * w * values.get(
             joint_prefix(j + 1) + "c_Nms_per_rad", 0.0)
         Z[:, j:j + 2, j:j + 2] += kc[:, None, None] * pair
+    return Z
+
+
+def masked_noise_covariance(harmonic: np.ndarray, part: np.ndarray, equation: np.ndarray, bodies: dict,
+                            spec: ChainSpec, values: dict, omega_rad_s: float, band: int, n_fine: int,
+                            sigma_angle, sigma_torque, per_coefficient: float) -> np.ndarray:
+    """The covariance ``(m, m)`` of one record's balance residuals (rows given by their
+    ``harmonic`` >= 1, ``part`` and ``equation`` label; ``bodies``: label -> ``((body, mask or
+    None), ...)``, :attr:`BandedSystem.bodies`) under white noise on its channels (pure).
+
+    A mask multiplies an equation in time, so its rows mix every harmonic of the equation's noise
+    and are correlated across harmonics, which a weighting by each row's own variance leaves out.
+    Each body's residual noise is written in the real trigonometric basis of harmonics
+    ``0..band`` (the band-limited average, ``n_fine`` samples a period): the encoders' and torque
+    cells' coefficients are independent with variance ``sigma^2 per_coefficient`` (half that at
+    harmonic 0; ``per_coefficient`` = 2 / samples averaged), moved by the dynamic stiffness
+    (:func:`dynamic_stiffness`, ``a' = Re Z a + Im Z b``, ``b' = -Im Z a + Re Z b`` for
+    ``a cos + b sin``); each row is the balance (:func:`identify.balance.harmonic_rows`) of the
+    masked sum of its bodies' residuals, so the covariance is exact to the linearisation."""
+    N = spec.n_flywheels
+    H = int(np.max(harmonic))
+    K = 2 * band + 1  # coefficients: a_0, then (a_h, b_h) for h = 1..band
+    theta = 2.0 * np.pi * np.arange(n_fine) / n_fine
+    h = np.arange(1, band + 1)
+    basis = np.vstack([np.ones(n_fine)] + [f(k * theta) for k in h for f in (np.cos, np.sin)])
+    # channel coefficients -> each body's residual coefficients: (N K) x (2 N K): angles, torques
+    Z = dynamic_stiffness(spec, values, np.arange(band + 1) * omega_rad_s)
+    E = np.zeros((N * K, 2 * N * K))
+    for i in range(N):
+        for l in range(N):
+            E[i * K, l * K] = Z[0, i, l].real
+            for k in h:
+                z = Z[k, i, l]
+                r, c = i * K + 2 * k - 1, l * K + 2 * k - 1
+                E[r:r + 2, c:c + 2] = [[z.real, z.imag], [-z.imag, z.real]]
+        E[i * K:(i + 1) * K, (N + i) * K:(N + i + 1) * K] = -np.eye(K)
+    scale = np.r_[0.5, np.ones(2 * band)] * per_coefficient
+    sa = np.broadcast_to(np.asarray(sigma_angle, dtype=float) ** 2, (N,))
+    st = np.broadcast_to(np.asarray(sigma_torque, dtype=float) ** 2, (N,))
+    var = np.concatenate([np.repeat(sa, K) * np.tile(scale, N), np.repeat(st, K) * np.tile(scale, N)])
+    cov_e = (E * var) @ E.T
+    # rows <- the bodies' residual coefficients, through each body's mask
+    T = np.zeros((harmonic.size, N * K))
+    for label in np.unique(equation):
+        sel = np.flatnonzero(equation == label)
+        for body, mask in bodies[(int(label))]:
+            weighted = basis if mask is None else basis * mask
+            W, _, harm, prt = harmonic_rows(fourier_coefficients(weighted, 1, H), np.zeros(H + 1), H)
+            at = {(int(a), int(b)): n for n, (a, b) in enumerate(zip(harm, prt))}
+            T[sel, body * K:(body + 1) * K] += W[[at[(int(harmonic[r]), int(part[r]))] for r in sel]]
+    return T @ cov_e @ T.T
+
+
+def noise_cross_covariance(spec: ChainSpec, values: dict, w_rad_s, sigma_angle, sigma_torque,
+                           merged: Sequence[int] = ()) -> np.ndarray:
+    """The covariance of the balance residuals of every equation at frequency ``w_rad_s`` (a
+    number, or an array of them: one matrix each) (pure): ``[Re e_1..e_K, Im e_1..e_K]`` per unit
+    coefficient variance, the residual of body i moving by ``sum_l Z_il dPhi_l - dT_i`` with ``Z``
+    the dynamic stiffness of the inertias, the bearings' drags and every joint's ``c`` and ``k``
+    (the nonlinear terms' share left out, as in :func:`fisher_per_period`), white
+    noise of ``sigma_angle`` on each encoder and ``sigma_torque`` on each torque cell (a number, or
+    one per body; 0 where none). ``merged``: joints (0-based) whose two bodies' equations are balanced as
+    their sum (their second body's rows dropped; K = N minus their number)."""
+    N = spec.n_flywheels
+    Z = dynamic_stiffness(spec, values, w_rad_s)
     S = np.eye(N)
     for j in sorted(merged, reverse=True):  # from the far end: a run of merged joints sums into one
         S[j] += S[j + 1]

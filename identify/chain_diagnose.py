@@ -56,7 +56,7 @@ import numpy as np
 from jointrig.vocab.law import Constant, JointLaw, Power, Viscous, law_parameters
 from jointrig.vocab.params import ANGLE2_DELAY, ANGLE2_GAIN, DRIVE_DELAY, channel_name
 from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpec, bearing_name, chain_system, channel_corrected,
-                    noise_cross_covariance,
+                    masked_noise_covariance, noise_cross_covariance,
                     ground_laws, ground_prefix, identifiability, inertia_name, joint_prefix, solve_banded, rest_share,
                     rests, stick_mask, sticks_to_ground, jumps_at_rest)
 from .causes import (CATALOGUE, Ambiguity, Cause, CauseScore, Limits, ModelSpec, Place, Profiled, at, by_name,
@@ -564,7 +564,7 @@ class _Problem:
         s = banded.system
         row, chi2, scale = weighted_chi2(s.F - s.A @ res.values, weights, self.nu, res.dof)
         cov = np.array(res.covariance) * scale
-        extra = self.cross_covariance(s, spec, dict(zip(res.names, res.values)), weights) if covariance else None
+        extra = self.cross_covariance(banded, spec, dict(zip(res.names, res.values)), weights) if covariance else None
         if extra is not None and np.all(np.isfinite(cov)):
             cov = cov + cov @ extra @ cov / max(1.0, chi2 / max(res.dof, 1))  # cov = B max(1, chi2/dof)
         std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
@@ -572,7 +572,7 @@ class _Problem:
                         s.F.size, row, condition_number=res.condition_number, success=res.success,
                         message=res.message, row_harmonic=s.row_harmonic, covariance=cov)
 
-    def cross_covariance(self, s, spec: ChainSpec, values: dict, weights: np.ndarray) -> Optional[np.ndarray]:
+    def cross_covariance(self, banded, spec: ChainSpec, values: dict, weights: np.ndarray) -> Optional[np.ndarray]:
         """``A' W C W A`` for the covariances between rows that the weights leave out (or None
         where there are none): the noise of one encoder enters the equations of both bodies beside
         it, so at one harmonic of one run the residuals of neighbouring equations are correlated
@@ -581,17 +581,42 @@ class _Problem:
         each run's and harmonic's rows (:func:`identify.chain.noise_cross_covariance`: each channel's measured
         noise propagated through the model's linear part), each correlation held within the rows'
         own variances (``1 / weights``); the fit's covariance is then the sandwich
-        ``B (A'WA + A'WCWA) B`` with ``B = (A'WA)^-1`` (:meth:`_fit_of`). A run with a masked
-        body is left out (its equations are weighted in time)."""
+        ``B (A'WA + A'WCWA) B`` with ``B = (A'WA)^-1`` (:meth:`_fit_of`). In a run with an
+        equation weighted in time (a body masked where it rests, a body's own equation where a
+        joint slides) the mask mixes the harmonics: ``C`` is then the whole run's, across
+        harmonics (:func:`identify.chain.masked_noise_covariance`)."""
+        s = banded.system
         N = spec.n_flywheels
-        if N < 2 or s.F.size == 0:
+        if s.F.size == 0:
             return None
-        masks, merged = self.masks(), self.merged()
+        masks, merged, slips = self.masks(), self.merged(), self.slipping()
         H = self.n_harmonics
         Q = np.zeros((s.A.shape[1],) * 2)
         any_block = False
         for k, run in enumerate(self.runs):
-            if masks is not None and any(m is not None for m in masks[k]):
+            sa = np.array([run.noise_std.get(f"phi{i}", 0.0) for i in range(1, N + 1)])
+            st = np.array([run.noise_std.get(f"torque{i}", 0.0) for i in range(1, N + 1)])
+            per = 2.0 / (run.samples_per_period * run.n_periods)
+            if (masks is not None and any(m is not None for m in masks[k])) or \
+                    (slips is not None and any(m is not None for m in slips[k])):
+                rows = np.flatnonzero(s.row_record == k)
+                labels = {int(e) for e in s.row_equation[rows]}
+                C = masked_noise_covariance(s.row_harmonic[rows], s.row_part[rows], s.row_equation[rows],
+                                            {e: banded.bodies[(k, e)] for e in labels}, spec, values,
+                                            run.average.omega_rad_s, run.band, run.average.samples_per_period,
+                                            sa, st, per)
+                d = np.sqrt(np.clip(np.diag(C), 0.0, None))
+                v = 1.0 / np.sqrt(weights[rows])
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    off = np.where(np.outer(d, d) > 0, C / np.outer(d, d), 0.0) * np.minimum(np.outer(d, d),
+                                                                                             np.outer(v, v))
+                np.fill_diagonal(off, 0.0)
+                if np.any(off):
+                    Aw = s.A[rows] * weights[rows][:, None]
+                    Q += Aw.T @ off @ Aw
+                    any_block = True
+                continue
+            if N < 2:
                 continue
             joined = merged[k] if merged is not None else ()
             kept = sorted(set(range(N)) - {j + 1 for j in joined})
@@ -602,10 +627,8 @@ class _Problem:
             pos = s.row_part[rows] * len(kept) + np.searchsorted(kept, s.row_equation[rows])
             idx = np.empty((H, 2 * len(kept)), dtype=int)
             idx[s.row_harmonic[rows] - 1, pos] = rows
-            sa = np.array([run.noise_std.get(f"phi{i}", 0.0) for i in range(1, N + 1)])
-            st = np.array([run.noise_std.get(f"torque{i}", 0.0) for i in range(1, N + 1)])
             w = np.arange(1, H + 1) * run.average.omega_rad_s
-            C = noise_cross_covariance(spec, values, w, sa, st, joined) * (2.0 / (run.samples_per_period * run.n_periods))
+            C = noise_cross_covariance(spec, values, w, sa, st, joined) * per
             d = np.sqrt(np.einsum("hii->hi", C))
             v = 1.0 / np.sqrt(weights[idx])
             dd, vv = d[:, :, None] * d[:, None, :], v[:, :, None] * v[:, None, :]

@@ -181,6 +181,64 @@ def test_the_noise_cross_covariance_of_the_balance_rows_is_what_noise_through_th
     assert C[0, 1] / np.sqrt(C[0, 0] * C[1, 1]) < -0.5
 
 
+def test_the_covariance_of_masked_rows_is_what_noise_through_the_balance_gives():
+    # identify.chain.masked_noise_covariance: a body's equation weighted in time (here a joint
+    # that sticks 60% of its period: the bodies' sum, and body 2's own equation where it slides)
+    # mixes the harmonics of its noise, so its rows are correlated across harmonics. Checked
+    # against 3000 draws of band-limited white noise on the two encoders and the torque cell,
+    # balanced by chain_system itself at the model's values (a linear law, so the propagation is
+    # exact): every entry within 5 of its Monte Carlo standard errors. Unmasked, it is the
+    # per-harmonic noise_cross_covariance (to rounding) with nothing across harmonics.
+    from dataclasses import replace as _replace
+
+    from jointrig.identify.chain import ChainRecord, chain_system, masked_noise_covariance, noise_cross_covariance
+    from jointrig.identify.chain_diagnose import nominal_spec
+    from jointrig.vocab.law import Power
+
+    spec = nominal_spec(2)
+    spec = _replace(spec, joints=(tuple(t for t in spec.joints[0] if not (isinstance(t, Power) and t.power > 1)),))
+    values = {"J1_kgm2": 2.0, "J2_kgm2": 1.5, "joint1_c_Nms_per_rad": 100.0, "joint1_k_Nm_per_rad": 2000.0}
+    theta = np.array([values[n] for n in spec.names])
+    w, band, n, H = 30.0, 6, 128, 6
+    sa, st, per = np.array([1e-3, 2e-3]), np.array([0.5, 0.0]), 0.01
+    theta_t = 2 * np.pi * np.arange(n) / n
+    mask = (np.sin(theta_t) > 0.6).astype(float)  # slides 40% of the period
+    mask.setflags(write=False)
+    basis = np.vstack([np.ones(n)] + [f(h * theta_t) for h in range(1, band + 1) for f in (np.cos, np.sin)])
+    scale = np.sqrt(np.r_[0.5, np.ones(2 * band)] * per)
+    rng = np.random.default_rng(11)
+    t = np.arange(n) * (2 * np.pi / w) / n
+
+    def rows(noise, merged, slipping):
+        a1, a2, T = ((rng.standard_normal(2 * band + 1) * scale * sd) @ basis for sd in noise)
+        rec = ChainRecord(w, t, (T, None), (a1, a2), None, 1, 1.0, source="noise")
+        b = chain_system([rec], spec, n_harmonics=H, first_harmonic=1, merged=merged, slipping=slipping)
+        return b, b.system.F - b.system.A @ theta
+
+    for merged, slipping in (([(0,)], [(mask,)]), (None, None)):
+        b, _ = rows((sa[0], sa[1], st[0]), merged, slipping)
+        s = b.system
+        C = masked_noise_covariance(s.row_harmonic, s.row_part, s.row_equation,
+                                    {e: b.bodies[(0, e)] for e in set(s.row_equation.tolist())}, spec, values, w,
+                                    band, n, sa, st, per)
+        draws = np.array([rows((sa[0], sa[1], st[0]), merged, slipping)[1] for _ in range(3000)])
+        mc = draws.T @ draws / len(draws)
+        sd = np.sqrt(np.outer(np.diag(mc), np.diag(mc)))
+        se = np.sqrt((sd ** 2 + mc ** 2) / len(draws))
+        assert np.all(np.abs(C - mc) <= 5 * se), np.max(np.abs(C - mc) / se)
+        if merged is None:
+            for h in range(1, H + 1):
+                r = np.flatnonzero(s.row_harmonic == h)
+                ref = per * noise_cross_covariance(spec, values, h * w, sa, st)
+                pos = s.row_part[r] * 2 + s.row_equation[r]
+                np.testing.assert_allclose(C[np.ix_(r, r)], ref[np.ix_(pos, pos)], rtol=1e-10, atol=1e-12 * ref.max())
+                assert np.max(np.abs(C[np.ix_(r, np.flatnonzero(s.row_harmonic != h))])) < 1e-12 * np.max(C)
+        else:  # the slides' rows are correlated across harmonics
+            own = np.flatnonzero(s.row_equation == 3)
+            corr = C[np.ix_(own, own)] / np.sqrt(np.outer(np.diag(C)[own], np.diag(C)[own]))
+            assert np.max(np.abs(corr - np.eye(own.size))) > 0.3
+
+
 def test_a_fits_covariance_is_the_sandwich_over_its_rows_cross_covariances(tmp_path):
     # _Problem.cross_covariance feeds the fit's covariance: B (A'WA + A'WCWA) B max(1, chi2/dof),
     # built here densely from identify.chain.row_covariance (the ML fit's row mapping, not the
