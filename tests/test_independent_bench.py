@@ -149,9 +149,10 @@ def test_the_relative_angle_alone_is_diagnosed_as_one_body(tmp_path, joint, case
 def test_a_joint_that_sticks_most_of_its_cycle_is_explained_with_every_parameter_within_3_se(tmp_path):
     # Issue 50: where the joint sticks, its two flywheels' equations are balanced as their sum and
     # the undriven one's on its own where it slides. Every parameter of the law, not only the
-    # friction, within 3 standard errors. Over seeds 0-9 of this file (a script's figures, the
-    # note's command) all 10 were explained with dry friction alone, chi2/dof 0.75-1.06, and 9
-    # of 10 had every parameter within 3 SE (seed 7: k at -3.1, gamma at +4.2).
+    # friction, within 3 standard errors. Over seeds 0-9 of this file
+    # (``.venv/bin/python scripts/bench_sticking.py --seeds 0-9``) all 10 are explained with dry
+    # friction alone, chi2/dof 0.75-1.06, and 9 of 10 have every parameter within 3 SE (seed 7:
+    # k at -2.96, gamma at +3.44); RMS z 0.7-1.36 per parameter.
     report = _diagnose(tmp_path, "paper", "coulomb_friction/sticks")
     _accept(report, "paper", "coulomb_friction/sticks")
     d = report.diagnosis
