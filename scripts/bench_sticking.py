@@ -19,13 +19,14 @@ stderr; ``--json OUT`` writes the rows atomically.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
+
+from jointrig.files import write_json_atomic
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))
@@ -69,12 +70,12 @@ def seeds_of(text: str) -> list[int]:
             return list(range(a, b + 1))
         return [int(x) for x in text.split(",")]
     except ValueError:
-        raise SystemExit(f"--seeds: expected a range like 0-9 or a list like 1,4,7, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"expected a range like 0-9 or a list like 1,4,7, got {text!r}") from None
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[1])
-    ap.add_argument("--seeds", default="0-9", help="seeds of the bench's noise and phases (default 0-9)")
+    ap.add_argument("--seeds", type=seeds_of, default="0-9", help="seeds of the bench's noise and phases (default 0-9)")
     ap.add_argument("--friction", type=float, default=650.0, help="the joint's dry friction (N m; default 650)")
     ap.add_argument("--noise", type=float, default=0.002, help="each channel's noise over its RMS (default 0.002)")
     ap.add_argument("--workers", type=int, default=2)
@@ -83,7 +84,7 @@ def main(argv=None) -> int:
     if not (args.friction > 0 and args.noise >= 0 and args.workers >= 1):
         print("bench_sticking: --friction must be > 0, --noise >= 0, --workers >= 1", file=sys.stderr)
         return 2
-    seeds = seeds_of(args.seeds)
+    seeds = args.seeds
     from jointrig.rig.runtime import limit_threads
 
     limit_threads()
@@ -104,12 +105,7 @@ def main(argv=None) -> int:
     print("RMS z: " + ", ".join(f"{s} {math.sqrt(sum(r['z'][n] ** 2 for r in rows) / len(rows)):.2f}"
                                 for s, n in zip(short, names)))
     if args.json:
-        tmp = args.json.with_name(args.json.name + ".tmp")
-        try:
-            tmp.write_text(json.dumps(rows, indent=1))
-            tmp.replace(args.json)
-        finally:
-            tmp.unlink(missing_ok=True)
+        write_json_atomic(args.json, rows)  # strict JSON: a z that is not a number is null
     return 0
 
 

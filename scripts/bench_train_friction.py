@@ -27,6 +27,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from jointrig.files import write_json_atomic
+
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))
 
@@ -98,12 +100,7 @@ def main(argv=None) -> int:
                   f"may stick in {row['runs_may_stick']} runs ({row['whole_period']} the whole period); z: {zs}",
                   flush=True)
     if args.json:
-        tmp = args.json.with_name(args.json.name + ".tmp")
-        try:
-            tmp.write_text(json.dumps(rows, indent=1))
-            tmp.replace(args.json)
-        finally:
-            tmp.unlink(missing_ok=True)
+        write_json_atomic(args.json, rows)  # strict JSON: a z that is not a number is null
     return 0
 
 
