@@ -836,7 +836,7 @@ def masked_noise_covariance(harmonic: np.ndarray, part: np.ndarray, equation: np
     T = np.zeros((harmonic.size, N * K))
     for label in np.unique(equation):
         sel = np.flatnonzero(equation == label)
-        for body, mask in bodies[(int(label))]:
+        for body, mask in bodies[int(label)]:
             weighted = basis if mask is None else basis * mask
             W, _, harm, prt = harmonic_rows(fourier_coefficients(weighted, 1, H), np.zeros(H + 1), H)
             at = {(int(a), int(b)): n for n, (a, b) in enumerate(zip(harm, prt))}

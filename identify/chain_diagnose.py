@@ -399,16 +399,17 @@ class _Problem:
 
     def slipping(self) -> Optional[list]:
         """Per run, per joint: where a merged joint (:meth:`merged`) slides, the stick mask of
-        its period-average twist rate (:func:`identify.chain.stick_mask`; its second body's own
-        equation is balanced there too, so that a joint that sticks most of the cycle is fitted
-        on the rest); None for a joint not merged in that run, or stuck the whole period."""
+        its period-average twist rate (:func:`identify.chain.stick_mask`; one of its bodies' own
+        equations is balanced there too, so that a joint that sticks most of the cycle is fitted
+        on the rest: :func:`identify.chain.chain_system`'s ``slipping``); None for a joint not
+        merged in that run, or stuck the whole period."""
         merged = self.merged()
         if merged is None:
             return None
         if not self._slips:
             for k, (run, js) in enumerate(zip(self.runs, merged)):
-                rate = [run.average.rate(j) - run.average.rate(j + 1) for j in range(len(self.merging))]
-                self._slips[k] = tuple(stick_mask(rate[j]) if j in js and twist_resolved(run, j) else None
+                self._slips[k] = tuple(stick_mask(run.average.rate(j) - run.average.rate(j + 1))
+                                       if j in js and twist_resolved(run, j) else None
                                        for j in range(len(self.merging)))
         return [self._slips[k] for k in range(len(self.runs))]
 
@@ -605,12 +606,7 @@ class _Problem:
                                             {e: banded.bodies[(k, e)] for e in labels}, spec, values,
                                             run.average.omega_rad_s, run.band, run.average.samples_per_period,
                                             sa, st, per)
-                d = np.sqrt(np.clip(np.diag(C), 0.0, None))
-                v = 1.0 / np.sqrt(weights[rows])
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    off = np.where(np.outer(d, d) > 0, C / np.outer(d, d), 0.0) * np.minimum(np.outer(d, d),
-                                                                                             np.outer(v, v))
-                np.fill_diagonal(off, 0.0)
+                off = _off_diagonal_within(C, 1.0 / np.sqrt(weights[rows]))
                 if np.any(off):
                     Aw = s.A[rows] * weights[rows][:, None]
                     Q += Aw.T @ off @ Aw
@@ -629,12 +625,7 @@ class _Problem:
             idx[s.row_harmonic[rows] - 1, pos] = rows
             w = np.arange(1, H + 1) * run.average.omega_rad_s
             C = noise_cross_covariance(spec, values, w, sa, st, joined) * per
-            d = np.sqrt(np.einsum("hii->hi", C))
-            v = 1.0 / np.sqrt(weights[idx])
-            dd, vv = d[:, :, None] * d[:, None, :], v[:, :, None] * v[:, None, :]
-            with np.errstate(divide="ignore", invalid="ignore"):
-                off = np.where(dd > 0, C / dd, 0.0) * np.minimum(dd, vv)
-            off[:, np.arange(off.shape[1]), np.arange(off.shape[1])] = 0.0
+            off = _off_diagonal_within(C, 1.0 / np.sqrt(weights[idx]))
             if not np.any(off):
                 continue
             Aw = s.A[idx] * weights[idx][:, :, None]
@@ -650,6 +641,19 @@ class _Problem:
             w = 1.0 / self.row_variance(spec, f.values, banded, self.jumps(spec, f.as_dict()))
             f = self.solve(spec, w, covariance=k == iterations - 1)
         return f, w
+
+
+def _off_diagonal_within(C: np.ndarray, sd: np.ndarray) -> np.ndarray:
+    """The off-diagonal covariances of ``C (..., n, n)``, each correlation held within the rows'
+    own standard deviations ``sd (..., n)`` (the weights'), the diagonal 0: what the sandwich adds
+    to a diagonal weighting (:meth:`_Problem.cross_covariance`)."""
+    d = np.sqrt(np.clip(np.einsum("...ii->...i", C), 0.0, None))
+    dd, vv = d[..., :, None] * d[..., None, :], sd[..., :, None] * sd[..., None, :]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        off = np.where(dd > 0, C / dd, 0.0) * np.minimum(dd, vv)
+    n = off.shape[-1]
+    off[..., np.arange(n), np.arange(n)] = 0.0
+    return off
 
 
 def balance_fidelity(replays: Sequence[Optional[ChainRun]], fit: ChainFit, n_harmonics: int, masked: tuple = (),
