@@ -421,6 +421,11 @@ def white_variance(var_of_mean: np.ndarray, samples_per_period: int) -> float:
 def raw_noise_std(var_of_mean: np.ndarray, n_periods: int, samples_per_period: int) -> float:
     """Standard deviation of the noise per raw sample from :func:`period_spectra`'s (or a pooled)
     per-harmonic variance of the mean: the median over the harmonics 1 .. N/2 - 1, so a few lines
-    the signal leaks into (a drive's jitter) do not raise it."""
-    N = samples_per_period
-    return float(np.sqrt(np.median(np.asarray(var_of_mean)[1:N // 2]) * n_periods * N))
+    the signal leaks into (a drive's jitter) do not raise it. Each harmonic's variance is a
+    chi-square of ``d = 2 (P - 1)`` degrees of freedom over d, whose median lies below its mean
+    (0.69 of it at P = 2, 0.93 at P = 6): the median is divided by that ratio, so the variance is
+    not read low."""
+    from scipy.stats import chi2
+
+    N, d = samples_per_period, 2 * (n_periods - 1)
+    return float(np.sqrt(np.median(np.asarray(var_of_mean)[1:N // 2]) / (chi2.median(d) / d) * n_periods * N))
