@@ -1518,7 +1518,6 @@ def separating_drive(problem: _Problem, a: Candidate, b: Candidate, sa: CauseSco
     torque = float(np.median([max(float(np.ptp(t)) / 2 for t in r.average.torques_Nm if t is not None) for r in runs]))
     sigma = float(np.median([max(v for kk, v in r.noise_std.items() if kk.startswith("torque")) for r in runs])) or 1.0
 
-
     def effect(cand, sc):
         if cand.at_joint:
             return ("joint", cand.place, _effect_law(cand, sc))

@@ -602,11 +602,23 @@ def test_a_joint_whose_twist_rests_is_summed_there_and_reported():
     assert [k for k, j, *_ in d.stuck_joints if j == 2] == [0]  # the coupling's twist moves in the others
 
 
-def test_the_separating_drive_takes_a_joints_law_and_a_bodys_drag_as_each_is():
+def test_the_separating_drive_takes_a_joints_law_and_a_bodys_drag_as_each_is(monkeypatch):
     # A joint cause and a body's drag, both scored on the linear train: the drive that tells them
-    # apart is named with the information of every drive (each effect evaluated as its kind).
+    # apart is named with the information of every drive (each effect evaluated as its kind), at
+    # the runs' drive amplitude (60 N m; its band-limited average's half peak-to-peak, to the
+    # 60 dB noise) and torque noise.
+    import jointrig.identify.chain_diagnose as cd
     from jointrig.identify.causes import Place, by_name
     from jointrig.identify.chain_diagnose import Candidate, score, separating_drive
+
+    seen = []
+
+    def spy(*args, **kw):
+        seen.append(args)
+        return information(*args, **kw)
+
+    information = cd.drive_information
+    monkeypatch.setattr(cd, "drive_information", spy)
 
     problem, (nominal, w) = _linear_problem(bearings=(0.0, 0.0, 4.0, 0.0))
     joint = Candidate(by_name("quadratic_damping"), Place("joint", 2))
@@ -615,6 +627,9 @@ def test_the_separating_drive_takes_a_joints_law_and_a_bodys_drag_as_each_is():
     drive, why = separating_drive(problem, joint, drag, sj, sd)
     assert drive in (1, 2, 3, 4) and f"driving flywheel {drive} separates" in why
     assert all(f"flywheel {i}:" in why for i in range(1, 5))
+    (_, _, _, omegas, torque, sigma, *_), = seen
+    assert torque == pytest.approx(60.0, rel=1e-2) and omegas == pytest.approx([150.0, 300.0, 600.0, 1200.0, 2000.0])
+    assert sigma == pytest.approx(1e-3 * 60.0 / 2 ** 0.5, rel=0.2)  # 1e-3 of the torque's std, per sample
 
 
 @pytest.mark.parametrize("delay_s, gain", [(2e-5, 0.0), (-2e-5, 0.0), (0.0, 0.02)])
@@ -842,3 +857,57 @@ def test_a_single_bodys_card_covariance_sums_what_its_law_value_sums():
     T[1, damped.names.index("ground1_c_Nms_per_rad")] = T[1, damped.names.index("bearing1_damping_Nms_per_rad")] = 1.0
     T[2, damped.names.index("ground1_k_Nm_per_rad")] = 1.0
     np.testing.assert_allclose(place_covariance(damped, 0), T @ damped.covariance @ T.T, rtol=1e-12)
+
+
+def test_the_balance_fidelity_keeps_each_replayed_runs_own_index():
+    # identify.chain_diagnose.balance_fidelity: the balance's misfit on each fitted run's
+    # noise-free replay, at the fit's own values. A run whose replay reached no steady state is
+    # None: it is unmeasured, and every other run keeps its own index (the row variances look
+    # the misfit up by it). On exact steady states of the 4-body linear train the misfit is the
+    # fit's parameter error through the balance: a run's entries are the same whether or not
+    # the run before it was replayed (to round-off), and nonzero (the noisy fit is not exact).
+    import numpy as np
+
+    from jointrig.identify.chain import ChainRecord
+    from jointrig.identify.chain_diagnose import balance_fidelity, prepare_chain_runs
+    from test_chain import _linear_chain_records
+
+    _, (fit, _) = _linear_problem()
+    J, c, k = [0.45, 0.06, 0.12, 0.35], [15.0, 20.0, 10.0], [4e5, 2.5e4, 1.2e5]
+    exact = []
+    for r in _linear_chain_records(J, c, k, [0.0] * 4, {1: 60.0}, [150.0, 300.0, 600.0, 1200.0, 2000.0]):
+        t = np.arange(r.time_s.size * 2) * (r.time_s[1] - r.time_s[0])
+        exact.append(ChainRecord(r.omega_rad_s, t, [None if x is None else np.tile(x, 2) for x in r.torques_Nm],
+                                 [np.tile(x, 2) for x in r.angles_rad], None, 2))
+    replays = prepare_chain_runs(exact, band=20)
+    every = balance_fidelity(replays, fit, 20)
+    some = balance_fidelity([None, None] + replays[2:], fit, 20)
+    assert every.unmeasured == () and some.unmeasured == (0, 1)
+    assert {key[0] for key in some.variance} == {2, 3, 4} and {key[0] for key in every.variance} == set(range(5))
+    for key, v in some.variance.items():
+        assert v == pytest.approx(every.variance[key], rel=1e-9, abs=1e-30), key
+    assert max(some.variance.values()) > 0
+    with pytest.raises(ValueError, match="no run was replayed"):
+        balance_fidelity([None] * 5, fit, 20)
+
+
+@pytest.mark.parametrize("ratio, resolved", [(4.5, False), (5.5, True)])
+def test_a_twist_is_resolved_when_it_stands_five_times_above_its_noise_in_the_band(ratio, resolved):
+    # identify.chain_diagnose.twist_resolved: the RMS of a twist's band-limited period average
+    # against the RMS its two encoders' noise leaves in the band's 2 band real coefficients,
+    # sqrt(s1^2 + s2^2) sqrt(2 band / (N P)); RESOLVED_SNR = 5 (the pump train's coupling stuck the
+    # whole period reads 0.9-1.3, a twist that moves 20 or more).
+    import math
+
+    import numpy as np
+
+    from jointrig.identify.chain import ChainRecord
+    from jointrig.identify.chain_diagnose import ChainRun, twist_resolved
+
+    N, P, band, s1, s2 = 256, 4, 20, 3e-4, 4e-4
+    floor = math.hypot(s1, s2) * math.sqrt(2 * band / (N * P))
+    t = np.arange(N) / N * 2 * math.pi
+    amplitude = ratio * floor * math.sqrt(2)  # a sine's RMS is its amplitude over sqrt 2
+    avg = ChainRecord(1.0, t, (np.ones(N), None), (amplitude * np.sin(t), 0 * t), None, 1)
+    run = ChainRun(avg, (avg,) * P, {"phi1": s1, "phi2": s2, "torque1": 0.0}, N, band)
+    assert twist_resolved(run, 0) is resolved
