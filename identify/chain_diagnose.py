@@ -282,7 +282,7 @@ def slip_fraction(rate: np.ndarray, noise_std: float) -> float:
     :data:`SLIP_NOISE_SD` of its noise where that is more (at 2% noise the twist rate of a joint
     that sticks most of its cycle slides at its noise's size, and noise flipped the friction's
     sign at each slide's ends)."""
-    top = float(np.max(np.abs(rate))) if np.size(rate) else 0.0
+    top = float(np.max(np.abs(rate)))
     return max(STICK_RATE_FRACTION, SLIP_NOISE_SD * noise_std / top) if top > 0 else STICK_RATE_FRACTION
 
 
