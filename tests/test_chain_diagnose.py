@@ -913,3 +913,43 @@ def test_a_twist_is_resolved_when_it_stands_five_times_above_its_noise_in_the_ba
     avg = ChainRecord(1.0, t, (np.ones(N), None), (amplitude * np.sin(t), 0 * t), None, 1)
     run = ChainRun(avg, (avg,) * P, {"phi1": s1, "phi2": s2, "torque1": 0.0}, N, band)
     assert twist_resolved(run, 0) is resolved
+
+
+def test_a_rates_sign_is_trusted_from_a_tenth_of_its_peak_or_three_noise_sds_whichever_is_more():
+    # identify.chain_diagnose.slip_fraction: the share of the peak below which a stick mask takes
+    # a rate to rest. A rate whose peak is 2 rad/s: 10% of it where its noise is 0.01 rad/s
+    # (3 SD = 1.5% of the peak), 15% where its noise is 0.1 (3 SD); a rate that never moves keeps
+    # the 10% (no division by its zero peak).
+    import numpy as np
+
+    from jointrig.identify.chain_diagnose import slip_fraction
+
+    rate = 2.0 * np.sin(np.linspace(0, 2 * np.pi, 64, endpoint=False))
+    assert slip_fraction(rate, 0.01) == pytest.approx(0.1)
+    assert slip_fraction(rate, 0.1) == pytest.approx(0.15)
+    assert slip_fraction(-rate, 0.1) == pytest.approx(0.15)
+    assert slip_fraction(rate / 4, 0.025) == pytest.approx(0.15)  # a slow rate: the same share
+    assert slip_fraction(0 * rate, 0.1) == pytest.approx(0.1)
+
+
+def test_a_twists_rate_noise_is_both_its_encoders():
+    # identify.chain_diagnose.twist_slip_fraction: a joint's twist rate carries the noise of the
+    # angles on either side of it (phi_j and phi_j+1), summed in variance; a body's rate its own.
+    import math
+
+    import numpy as np
+
+    from jointrig.identify.chain import ChainRecord
+    from jointrig.identify.chain_diagnose import (ChainRun, band_rate_noise_std, body_slip_fraction, slip_fraction,
+                                                  twist_slip_fraction)
+
+    N, P, band = 256, 4, 20
+    t = np.arange(N) / N * 2 * math.pi
+    avg = ChainRecord(1.0, t, (np.ones(N), None, None), (0.02 * np.sin(t), 0 * t, 0.01 * np.cos(t)), None, 1)
+    run = ChainRun(avg, (avg,) * P, {"phi1": 3e-3, "phi2": 4e-3, "phi3": 1e-3, "torque1": 0.0}, N, band)
+    one = band_rate_noise_std(run, ("phi1",))
+    assert band_rate_noise_std(run, ("phi1", "phi2")) == pytest.approx(one * 5 / 3)  # sqrt(3^2 + 4^2) / 3
+    assert twist_slip_fraction(run, 0) == pytest.approx(slip_fraction(0.02 * np.cos(t), one * 5 / 3), rel=1e-6)
+    assert twist_slip_fraction(run, 0) > 0.1 and body_slip_fraction(run, 0) < twist_slip_fraction(run, 0)
+    assert twist_slip_fraction(run, 1) == pytest.approx(
+        slip_fraction(0.01 * np.sin(t), one * math.hypot(4, 1) / 3), rel=1e-6)
