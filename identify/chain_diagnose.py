@@ -1225,7 +1225,9 @@ def _joints_that_may_stick(problem: _Problem, structure: ChainSpec, pool: Sequen
     if dry:
         base, w = problem.fit(structure)
         scored = [(score(problem, c, base, w, len(pool), alpha), c) for c in dry]
-        best, c = max(scored, key=lambda sc: sc[0].delta_chi2)
+        # a friction a rule rejects (a negative size, an extended model that feeds energy in) is
+        # no explanation of the misfit however much it takes up
+        best, c = max(scored, key=lambda sc: (not sc[0].note, sc[0].delta_chi2))
         out[c.place - 1] = best.significant and best.magnitude[1] > 0
     return tuple(out)
 
