@@ -409,6 +409,12 @@ def test_estimate_fundamental_to_round_off_and_its_standard_error_is_the_crlb():
     x = np.cos(w * t + 0.4) + 0.3 * np.sin(2 * w * t)
     f = estimate_fundamental(t, x)
     assert f.omega_rad_s == pytest.approx(w, rel=1e-13)
+    # A short record, 45 samples at 5.3 per period: the periodogram's first guess must use the
+    # record's own sample spacing, or the search's bracket (+-2 padded bins, 3% here) misses the
+    # tone (a spacing of span / (n + 1) put it 1.6% off); to round-off as above.
+    fs_short = w / (2 * math.pi) * 5.3
+    t = 1.0 + np.arange(45) / fs_short
+    assert estimate_fundamental(t, np.cos(w * t + 0.4)).omega_rad_s == pytest.approx(w, rel=1e-13)
     # A noisy sinusoid: the reported standard error is the Cramer-Rao bound of a real tone's
     # frequency, var = 24 s^2 / (A^2 dt^2 N (N^2 - 1)) (Kay 1993, eq. 3.41 with SNR A^2 / 2s^2;
     # 12 is a complex exponential's), within 15% (0.9% measured);
