@@ -605,11 +605,11 @@ class _Problem:
 
     def _fit_of(self, spec: ChainSpec, weights: np.ndarray, banded, res, jumps, covariance: bool = True) -> ChainFit:
         s = banded.system
-        row, chi2, scale = weighted_chi2(s.F - s.A @ res.values, weights, self.nu, res.dof)
+        row, chi2, scale, factor = weighted_chi2(s.F - s.A @ res.values, weights, self.nu, res.dof)
         cov = np.array(res.covariance) * scale
         extra = self.cross_covariance(banded, spec, dict(zip(res.names, res.values)), weights) if covariance else None
         if extra is not None and np.all(np.isfinite(cov)):
-            cov = cov + cov @ extra @ cov / max(1.0, chi2 / max(res.dof, 1))  # cov = B max(1, chi2/dof)
+            cov = cov + cov @ extra @ cov / factor  # cov = B factor: the sandwich (B + B Q B) factor
         std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
         return ChainFit(spec, res.names, np.array(res.values), std, chi2,
                         s.F.size, row, condition_number=res.condition_number, success=res.success,

@@ -271,7 +271,8 @@ def test_the_rate_noise_of_a_band_limited_average_is_what_white_noise_through_th
 
 
 def test_a_fits_covariance_is_the_sandwich_over_its_rows_cross_covariances(tmp_path):
-    # _Problem.cross_covariance feeds the fit's covariance: B (A'WA + A'WCWA) B max(1, chi2/dof),
+    # _Problem.cross_covariance feeds the fit's covariance: B (A'WA + A'WCWA) B max(1, chi2/dof)
+    # nu / (nu - 2) (the weights' own estimate, identify.estimates.weighted_chi2),
     # built here densely from identify.chain.row_covariance (the ML fit's row mapping, not the
     # diagnosis's), C the off-diagonal part of each run's and harmonic's block, each correlation
     # held within the rows' own variances. The two flywheels of the independent bench at 1%
@@ -303,7 +304,7 @@ def test_a_fits_covariance_is_the_sandwich_over_its_rows_cross_covariances(tmp_p
         np.fill_diagonal(off, 0.0)
         Aw = A[rows] * w[rows, None]
         Q += Aw.T @ off @ Aw
-    factor = max(1.0, fit.chi2 / fit.dof)
+    factor = max(1.0, fit.chi2 / fit.dof) * prob.nu / (prob.nu - 2)
     want = (B + B @ Q @ B) * factor
     np.testing.assert_allclose(fit.std_errors, np.sqrt(np.diag(want)), rtol=1e-6)
     assert np.max(np.abs(np.sqrt(np.diag(want)) / np.sqrt(np.diag(B * factor)) - 1)) > 0.02  # it does move them
