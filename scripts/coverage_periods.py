@@ -6,8 +6,8 @@
 Why: every row of the harmonic balance is weighted by its own variance, estimated from the
 spread of its residual over the record's P periods (a harmonic's cosine and sine rows pooled:
 2 (P - 1) degrees of freedom; ``identify.chain_diagnose._Problem.row_variance``). The chi-square
-is corrected for that estimate (``identify.estimates.weighted_chi2``); the covariance is not.
-This measures what that leaves: the linear 4-body train of the tests (J 0.45, 0.06, 0.12,
+and the covariance are corrected for that estimate (``identify.estimates.weighted_chi2``:
+``nu / (nu - 2)``, nu those degrees of freedom). This measures what is left: the linear 4-body train of the tests (J 0.45, 0.06, 0.12,
 0.35 kg m^2; c 15, 20, 10 N m s/rad; k 4e5, 2.5e4, 1.2e5 N m/rad; body 1 driven at 60 N m, five
 frequencies 150-2000 rad/s; exact steady states, ``tests/test_chain.py``) with white noise of
 1e-3 of each channel's RMS on every channel (torque and angles), P periods per run, fitted as the
