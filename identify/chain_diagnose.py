@@ -58,7 +58,7 @@ from jointrig.vocab.params import ANGLE2_DELAY, ANGLE2_GAIN, DRIVE_DELAY, channe
 from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpec, bearing_name, chain_system, channel_corrected,
                     masked_noise_covariance, noise_cross_covariance,
                     ground_laws, ground_prefix, identifiability, inertia_name, joint_prefix, solve_banded, rest_share,
-                    rests, stick_mask, sticks_to_ground, jumps_at_rest, STICK_RATE_FRACTION)
+                    rests, stick_mask, sticks_to_ground, jumps_at_rest)
 from .causes import (CATALOGUE, Ambiguity, Cause, CauseScore, Limits, ModelSpec, Place, Profiled, at, by_name,
                      detection_limit, evidence, forward_select,
                      fundamental_quadrature, harmonic_shares, parsimonious, profile)
@@ -259,48 +259,6 @@ def twist_resolved(run: ChainRun, j: int) -> bool:
     return bool(np.std(twist) > RESOLVED_SNR * in_band)
 
 
-#: A rate whose sign decides a dry friction's column is taken to slide only where it stands this
-#: many of its noise's standard deviations from zero (:func:`slip_fraction`): nearer, noise flips
-#: the friction's sign in the rows (a normal variable crosses 3 SD with chance 0.3%).
-SLIP_NOISE_SD = 3.0
-
-
-def band_rate_noise_std(run: ChainRun, channels: Sequence[str]) -> float:
-    """The standard deviation that white noise on ``channels`` (their sum, e.g. a twist's two
-    angles) leaves in the rate of ``run``'s band-limited period average: harmonic k's complex
-    coefficient has variance ``s^2 / (N P)`` and the rate weighs it by ``(k w)^2``, so the
-    variance is ``2 s^2 w^2 / (N P) * sum_k k^2`` over harmonics 1..band."""
-    s2 = sum(run.noise_std[c] ** 2 for c in channels)
-    B = run.band
-    k2 = B * (B + 1) * (2 * B + 1) / 6.0
-    return math.sqrt(2.0 * s2 * run.average.omega_rad_s ** 2 * k2 / (run.samples_per_period * run.n_periods))
-
-
-def slip_fraction(rate: np.ndarray, noise_std: float) -> float:
-    """The share of its peak below which a rest's stick mask takes ``rate`` to rest
-    (:func:`identify.chain.stick_mask`): :data:`identify.chain.STICK_RATE_FRACTION`, or
-    :data:`SLIP_NOISE_SD` of its noise where that is more (at 2% noise the twist rate of a joint
-    that sticks most of its cycle slides at its noise's size, and noise flipped the friction's
-    sign at each slide's ends)."""
-    top = float(np.max(np.abs(rate)))
-    return max(STICK_RATE_FRACTION, SLIP_NOISE_SD * noise_std / top) if top > 0 else STICK_RATE_FRACTION
-
-
-def twist_rate(run: ChainRun, j: int) -> np.ndarray:
-    """Joint j's (0-based) twist rate over ``run``'s band-limited period average."""
-    return run.average.rate(j) - run.average.rate(j + 1)
-
-
-def body_slip_fraction(run: ChainRun, i: int) -> float:
-    """:func:`slip_fraction` of body i's (0-based) rate in ``run``."""
-    return slip_fraction(run.average.rate(i), band_rate_noise_std(run, (f"phi{i + 1}",)))
-
-
-def twist_slip_fraction(run: ChainRun, j: int) -> float:
-    """:func:`slip_fraction` of joint j's (0-based) twist rate in ``run`` (both angles' noise)."""
-    return slip_fraction(twist_rate(run, j), band_rate_noise_std(run, (f"phi{j + 1}", f"phi{j + 2}")))
-
-
 @dataclass(frozen=True)
 class Jumps:
     """Where dry friction makes an acceleration jump at a reversal (:meth:`_Problem.jumps`):
@@ -416,7 +374,7 @@ class _Problem:
         if not any(self.masked):
             return None
         if not self._masks:
-            self._masks.update({k: tuple(stick_mask(run.average.rate(i), body_slip_fraction(run, i)) if on else None
+            self._masks.update({k: tuple(stick_mask(run.average.rate(i)) if on else None
                                          for i, on in enumerate(self.masked)) for k, run in enumerate(self.runs)})
         out = [self._masks[k] for k in range(len(self.runs))]
         return out if any(m is not None for ms in out for m in ms) else None
@@ -450,7 +408,7 @@ class _Problem:
             return None
         if not self._slips:
             for k, (run, js) in enumerate(zip(self.runs, merged)):
-                self._slips[k] = tuple(stick_mask(twist_rate(run, j), twist_slip_fraction(run, j))
+                self._slips[k] = tuple(stick_mask(run.average.rate(j) - run.average.rate(j + 1))
                                        if j in js and twist_resolved(run, j) else None
                                        for j in range(len(self.merging)))
         return [self._slips[k] for k in range(len(self.runs))]
@@ -1137,14 +1095,12 @@ class ChainDiagnosis:
     nu: float
     #: what in the nominal fit says the file may be read wrong (:func:`implausible_train_fit`)
     plausibility: tuple = ()
-    #: ``(run index among the fitted runs, body number, share of the period it rests, share of
-    #: its peak rate below which it is masked (:func:`slip_fraction`), share masked out of its
-    #: equation)`` for every run where a body that may stick rests
+    #: ``(run index among the fitted runs, body number, share of the period it rests, share
+    #: masked out of its equation)`` for every run where a body that may stick rests
     #: (:func:`identify.chain.stick_mask`)
     rests: tuple = ()
     #: ``(run index among the fitted runs, joint number, share of the period its twist rests,
-    #: whether its twist is resolved above the noise, share of its peak twist rate below which it
-    #: is taken as stuck (:func:`slip_fraction`), share of the period a body's own equation
+    #: whether its twist is resolved above the noise, share of the period a body's own equation
     #: leaves out as stuck)`` for every run where a joint that may stick may be stuck: its two
     #: bodies' equations are balanced as their sum there, and one of them on its own where the
     #: joint slides (:meth:`_Problem.slipping`; 1.0: stuck the whole period, the sum alone)
@@ -1225,9 +1181,7 @@ def _joints_that_may_stick(problem: _Problem, structure: ChainSpec, pool: Sequen
     if dry:
         base, w = problem.fit(structure)
         scored = [(score(problem, c, base, w, len(pool), alpha), c) for c in dry]
-        # a friction a rule rejects (a negative size, an extended model that feeds energy in) is
-        # no explanation of the misfit however much it takes up
-        best, c = max(scored, key=lambda sc: (not sc[0].note, sc[0].delta_chi2))
+        best, c = max(scored, key=lambda sc: sc[0].delta_chi2)
         out[c.place - 1] = best.significant and best.magnitude[1] > 0
     return tuple(out)
 
@@ -1345,13 +1299,11 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
     channels = sorted({ch for r in runs for ch in r.noise_std})
     noise = {ch: float(np.median([r.noise_std[ch] for r in runs if ch in r.noise_std])) for ch in channels}
     masks = problem.masks() or ()
-    rests = tuple((k, i + 1, rest_share(runs[k].average.rate(i)), body_slip_fraction(runs[k], i),
-                   1.0 - float(np.mean(m)))
+    rests = tuple((k, i + 1, rest_share(runs[k].average.rate(i)), 1.0 - float(np.mean(m)))
                   for k, ms in enumerate(masks) for i, m in enumerate(ms) if m is not None)
     slips = problem.slipping()
-    stuck = tuple((k, j + 1, rest_share(twist_rate(runs[k], j)), twist_resolved(runs[k], j),
-                   twist_slip_fraction(runs[k], j),
-                   1.0 - float(np.mean(slips[k][j])) if slips[k][j] is not None else 1.0)
+    stuck = tuple((k, j + 1, rest_share(runs[k].average.rate(j) - runs[k].average.rate(j + 1)),
+                   twist_resolved(runs[k], j), 1.0 - float(np.mean(slips[k][j])) if slips[k][j] is not None else 1.0)
                   for k, js in enumerate(problem.merged() or ()) for j in js)
     return ChainDiagnosis(nominal, first, tuple(steps), current, tuple(ambiguous), H, noise, nu,
                           implausible_train_fit(nominal, current), rests, stuck, fidelity, masked, merging, max_effects,

@@ -19,7 +19,7 @@ import numpy as np
 
 from jointrig.identify.chain import (REST_RATE_FRACTION, STICK_RATE_FRACTION, ChainRecord, channel_corrected, constant_loads,
                                     inertia_name)
-from jointrig.identify.chain_diagnose import SLIP_NOISE_SD, ChainDiagnosis, plant_and_inertias
+from jointrig.identify.chain_diagnose import ChainDiagnosis, plant_and_inertias
 from jointrig.identify.harmonics import fourier_coefficients, max_harmonic, synthesize
 from jointrig.identify.zeros import SensorZeros, rezeroed, sensor_zeros
 from jointrig.identify.periods import RESOLVED_SIGMA, period_spectra, pooled_period_spectra
@@ -888,12 +888,6 @@ def _refitted(replay, fit, d: ChainDiagnosis):
     return refit_on_replay(got, fit, d.n_harmonics, d.masked, d.merging)
 
 
-def _by_noise(fraction: float) -> str:
-    """What set a stick mask's threshold, where its rate's noise did (:func:`slip_fraction`)."""
-    return (f": {SLIP_NOISE_SD:g} standard deviations of its noise, more than {STICK_RATE_FRACTION:.0%}"
-            if fraction > STICK_RATE_FRACTION else "")
-
-
 def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str], rig: ChainRig,
                         holdout: Optional[Sequence[int]] = None, written: Sequence[tuple] = (),
                         band: int = 20, alpha: float = DEFAULT_ALPHA, fidelity: Optional[float] = None,
@@ -963,17 +957,17 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
             "chi-square without a finite expectation)" if few else False))
         notes += list(why)
     fit_ids = run_ids if split else [run_ids[i] for i in range(len(records)) if i not in held]
-    for k, body, rest, fraction, masked in d.rests:
+    for k, body, rest, masked in d.rests:
         notes.append(f"run {fit_ids[k]}: body {body} rests {rest:.0%} of its period (its rate below "
                      f"{REST_RATE_FRACTION:.0%} of its peak; it may stick, held by whatever force its dry friction "
                      f"supplies there, not the law's): its equation is balanced only where its rate exceeds "
-                     f"{fraction:.0%} of its peak{_by_noise(fraction)} ({masked:.0%} of the period left out, in every "
-                     f"model compared)")
-    for k, joint, rest, resolved, fraction, left_out in d.stuck_joints:
+                     f"{STICK_RATE_FRACTION:.0%} of its peak ({masked:.0%} of the period left out, in every model "
+                     f"compared)")
+    for k, joint, rest, resolved, left_out in d.stuck_joints:
         how = (f"its twist rests {rest:.0%} of its period (its twist rate below {REST_RATE_FRACTION:.0%} of its peak)"
                if resolved else "its twist is not resolved above the noise (stuck the whole period, or nearly)")
-        own = (f", and one of them on its own where the joint slides (its twist rate above {fraction:.0%} "
-               f"of its peak{_by_noise(fraction)}; {left_out:.0%} of the period left out)" if left_out < 1.0 else " alone")
+        own = (f", and one of them on its own where the joint slides (its twist rate above {STICK_RATE_FRACTION:.0%} "
+               f"of its peak; {left_out:.0%} of the period left out)" if left_out < 1.0 else " alone")
         notes.append(f"run {fit_ids[k]}: joint {joint} may stick: {how}; while it sticks its torque is whatever holds "
                      f"it, not its law's, so its two bodies' equations are balanced as their sum{own} in this run "
                      f"(in every model compared)")

@@ -239,37 +239,6 @@ def test_the_covariance_of_masked_rows_is_what_noise_through_the_balance_gives()
             assert np.max(np.abs(corr - np.eye(own.size))) > 0.3
 
 
-def test_the_rate_noise_of_a_band_limited_average_is_what_white_noise_through_the_band_gives():
-    # identify.chain_diagnose.band_rate_noise_std, which sets where a rate's sign is trusted
-    # (slip_fraction): records of white noise alone (std 1e-3 rad on one encoder, 2e-3 on the
-    # other; 4 periods of 200 samples), prepared as the diagnosis prepares them (harmonics
-    # 1..12). Over 1500 draws the body's rate and the twist's rate scatter as the formula says,
-    # within 4 Monte Carlo standard errors (a draw's rate variance has 2 (sum k^2)^2 / sum k^4 =
-    # 14 effective degrees of freedom: 0.98% relative over 1500 draws; measured 1.010 and 0.996).
-    # Before the noise estimate's median was debiased (identify.periods.raw_noise_std), 1.15.
-    from jointrig.identify.chain import ChainRecord
-    from jointrig.identify.chain_diagnose import band_rate_noise_std, prepare_chain_runs
-
-    rng = np.random.default_rng(5)
-    DRAWS = 1500
-    w, n, P, band, sd = 20.0, 200, 4, 12, (1e-3, 2e-3)
-    t = np.arange(n * P) * (2 * np.pi / w) / n
-    body, twist, said_body, said_twist = [], [], [], []
-    for _ in range(DRAWS):
-        a = [rng.standard_normal(n * P) * s for s in sd]
-        rec = ChainRecord(w, t, (np.ones(n * P), None), a, None, P, 1.0, source="noise")
-        run = prepare_chain_runs([rec], band=band)[0]
-        body.append(np.var(run.average.rate(0)))
-        twist.append(np.var(run.average.rate(0) - run.average.rate(1)))
-        said_body.append(band_rate_noise_std(run, ("phi1",)) ** 2)
-        said_twist.append(band_rate_noise_std(run, ("phi1", "phi2")) ** 2)
-    for got, said in ((body, said_body), (twist, said_twist)):
-        # the formula at each draw's own noise estimate, against the rate's scatter over draws
-        k = np.arange(1, band + 1) ** 2
-        se = math.sqrt(2 / (2 * k.sum() ** 2 / np.sum(k ** 2)) / DRAWS)
-        assert abs(np.mean(got) / np.mean(said) - 1) < 4 * se, np.mean(got) / np.mean(said)
-
-
 def test_a_fits_covariance_is_the_sandwich_over_its_rows_cross_covariances(tmp_path):
     # _Problem.cross_covariance feeds the fit's covariance: B (A'WA + A'WCWA) B max(1, chi2/dof)
     # nu / (nu - 2) (the weights' own estimate, identify.estimates.weighted_chi2),

@@ -446,33 +446,6 @@ def test_a_joint_may_stick_where_the_nominal_law_or_significant_evidence_gives_i
     assert _joints_that_may_stick(problem, replace(spec, joints=tuple(joints)), pool, 1e-3) == (False, True, False)
 
 
-def test_the_joint_that_may_stick_is_never_one_whose_friction_a_rule_rejects(monkeypatch):
-    # The pump train with 12 N m at joint 3 (scripts/bench_train_friction.py --case 3:12): on the
-    # measured fidelity's second pass joint 2's Coulomb candidate took up more chi-square
-    # (3.5e5 against 1.0e5) but its extended model held a negative drag, and it was picked and
-    # then found not significant, so no joint might stick and the verdict was UNEXPLAINED. The
-    # admissible one with the largest drop is the joint that may stick; none when all are
-    # rejected.
-    from types import SimpleNamespace
-
-    from jointrig.identify import chain_diagnose
-    from jointrig.identify.chain_diagnose import _joints_that_may_stick, candidates, nominal_spec
-
-    problem, _ = _linear_problem()
-    pool = candidates(4)
-    made = {1: (5e4, False, -0.1, "negative size: rejected"), 2: (3.5e5, False, 0.13, "feeds energy in"),
-            3: (1.0e5, True, 1.7, "")}
-
-    def spy(problem, cand, base, w, n, alpha):
-        delta, significant, size, note = made[cand.place]
-        return SimpleNamespace(delta_chi2=delta, significant=significant, magnitude=("c", size, 0.1), note=note)
-
-    monkeypatch.setattr(chain_diagnose, "score", spy)
-    assert _joints_that_may_stick(problem, nominal_spec(4), pool, 1e-3) == (False, False, True)
-    made[3] = (1.0e5, False, 1.7, "feeds energy in")
-    assert _joints_that_may_stick(problem, nominal_spec(4), pool, 1e-3) == (False, False, False)
-
-
 def test_a_clean_train_gets_no_cause_and_a_bodys_drag_is_named_at_its_body():
     # The whole diagnosis on exact steady states of the linear train (60 dB): without any effect,
     # no candidate of the 35 (8 causes at 3 joints, drag at 4 bodies, the drives' lag, the skew
@@ -969,43 +942,3 @@ def test_a_twist_is_resolved_when_it_stands_five_times_above_its_noise_in_the_ba
     avg = ChainRecord(1.0, t, (np.ones(N), None), (amplitude * np.sin(t), 0 * t), None, 1)
     run = ChainRun(avg, (avg,) * P, {"phi1": s1, "phi2": s2, "torque1": 0.0}, N, band)
     assert twist_resolved(run, 0) is resolved
-
-
-def test_a_rates_sign_is_trusted_from_a_tenth_of_its_peak_or_three_noise_sds_whichever_is_more():
-    # identify.chain_diagnose.slip_fraction: the share of the peak below which a stick mask takes
-    # a rate to rest. A rate whose peak is 2 rad/s: 10% of it where its noise is 0.01 rad/s
-    # (3 SD = 1.5% of the peak), 15% where its noise is 0.1 (3 SD); a rate that never moves keeps
-    # the 10% (no division by its zero peak).
-    import numpy as np
-
-    from jointrig.identify.chain_diagnose import slip_fraction
-
-    rate = 2.0 * np.sin(np.linspace(0, 2 * np.pi, 64, endpoint=False))
-    assert slip_fraction(rate, 0.01) == pytest.approx(0.1)
-    assert slip_fraction(rate, 0.1) == pytest.approx(0.15)
-    assert slip_fraction(-rate, 0.1) == pytest.approx(0.15)
-    assert slip_fraction(rate / 4, 0.025) == pytest.approx(0.15)  # a slow rate: the same share
-    assert slip_fraction(0 * rate, 0.1) == pytest.approx(0.1)
-
-
-def test_a_twists_rate_noise_is_both_its_encoders():
-    # identify.chain_diagnose.twist_slip_fraction: a joint's twist rate carries the noise of the
-    # angles on either side of it (phi_j and phi_j+1), summed in variance; a body's rate its own.
-    import math
-
-    import numpy as np
-
-    from jointrig.identify.chain import ChainRecord
-    from jointrig.identify.chain_diagnose import (ChainRun, band_rate_noise_std, body_slip_fraction, slip_fraction,
-                                                  twist_slip_fraction)
-
-    N, P, band = 256, 4, 20
-    t = np.arange(N) / N * 2 * math.pi
-    avg = ChainRecord(1.0, t, (np.ones(N), None, None), (0.02 * np.sin(t), 0 * t, 0.01 * np.cos(t)), None, 1)
-    run = ChainRun(avg, (avg,) * P, {"phi1": 3e-3, "phi2": 4e-3, "phi3": 1e-3, "torque1": 0.0}, N, band)
-    one = band_rate_noise_std(run, ("phi1",))
-    assert band_rate_noise_std(run, ("phi1", "phi2")) == pytest.approx(one * 5 / 3)  # sqrt(3^2 + 4^2) / 3
-    assert twist_slip_fraction(run, 0) == pytest.approx(slip_fraction(0.02 * np.cos(t), one * 5 / 3), rel=1e-6)
-    assert twist_slip_fraction(run, 0) > 0.1 and body_slip_fraction(run, 0) < twist_slip_fraction(run, 0)
-    assert twist_slip_fraction(run, 1) == pytest.approx(
-        slip_fraction(0.01 * np.sin(t), one * math.hypot(4, 1) / 3), rel=1e-6)
