@@ -19,7 +19,7 @@ only the noise weighs). For every parameter: the share of seeds whose |value - t
 noise (the variances nearly known): what is left there is not the weights' estimate.
 
 No jointrig simulation is involved (the records are the linear chain's exact response), so a
-seed takes about 0.1 s (1 s with ``--oracle``). Progress goes to stderr; ``--json OUT`` writes
+seed takes about 0.2 s (1 s with ``--oracle``). Progress goes to stderr; ``--json OUT`` writes
 the table atomically.
 """
 
@@ -37,37 +37,18 @@ from jointrig.files import write_json_atomic
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))
 
-J_KGM2 = (0.45, 0.06, 0.12, 0.35)
-C_NMS_PER_RAD = (15.0, 20.0, 10.0)
-K_NM_PER_RAD = (4e5, 2.5e4, 1.2e5)
-DRIVE_NM = 60.0
-OMEGAS_RAD_S = (150.0, 300.0, 600.0, 1200.0, 2000.0)
-NOISE = 1e-3  # of each channel's RMS
 ORACLE_PERIODS = 64
 
 
-def truth() -> dict:
-    out = {f"J{i}_kgm2": v for i, v in enumerate(J_KGM2, start=1)}
-    out.update({f"joint{j}_c_Nms_per_rad": v for j, v in enumerate(C_NMS_PER_RAD, start=1)})
-    out.update({f"joint{j}_k_Nm_per_rad": v for j, v in enumerate(K_NM_PER_RAD, start=1)})
-    return out
+def problem(seed: int, periods: int, harmonics: int):
+    """The diagnosis's problem on the linear train (``tests/test_chain_diagnose._linear_problem``:
+    its steady states repeated ``periods`` times, 1e-3 of each channel's RMS as noise), balanced at
+    harmonics 1..``harmonics`` with the fidelity floor at 1e-9."""
+    from jointrig.identify.chain_diagnose import _Problem
+    from test_chain_diagnose import _linear_problem
 
-
-def problem(base, rng: np.random.Generator, periods: int, harmonics: int = 20):
-    """The diagnosis's problem on ``base``'s steady states repeated ``periods`` times with noise,
-    balanced at harmonics 1..``harmonics``."""
-    from jointrig.identify.chain import ChainRecord
-    from jointrig.identify.chain_diagnose import _Problem, prepare_chain_runs
-
-    recs = []
-    for r in base:
-        def noisy(x):
-            return None if x is None else np.tile(x, periods) + rng.normal(0, NOISE * np.std(x), x.size * periods)
-
-        t = np.arange(r.time_s.size * periods) * (r.time_s[1] - r.time_s[0])
-        recs.append(ChainRecord(r.omega_rad_s, t, [noisy(x) for x in r.torques_Nm], [noisy(x) for x in r.angles_rad],
-                                None, periods))
-    return _Problem(tuple(prepare_chain_runs(recs, band=20)), harmonics, 2.0 * (periods - 1), 1e-9)
+    p, _ = _linear_problem(seed, fidelity=1e-9, periods=periods)
+    return _Problem(p.runs, harmonics, p.nu, 1e-9)
 
 
 def summary(z: dict) -> dict:
@@ -94,22 +75,19 @@ def main(argv=None) -> int:
 
     from jointrig.identify.chain import ChainSpec
     from jointrig.vocab.law import Power, Viscous
-    from test_chain import _linear_chain_records
+    from test_chain_diagnose import LINEAR_K, LINEAR_TRUTH as true
 
-    base = _linear_chain_records(list(J_KGM2), list(C_NMS_PER_RAD), list(K_NM_PER_RAD), [0.0] * 4, {1: DRIVE_NM},
-                                 list(OMEGAS_RAD_S))
-    spec = ChainSpec(tuple((Viscous(), Power(1)) for _ in K_NM_PER_RAD))
-    true = truth()
+    spec = ChainSpec(tuple((Viscous(), Power(1)) for _ in LINEAR_K))
     table = {}
     for P in args.periods:
         kinds = ["own weights"] + (["oracle weights"] if args.oracle else [])
         z = {kind: {n: [] for n in true} for kind in kinds}
         t0 = time.perf_counter()
         for seed in range(args.seeds):
-            pr = problem(base, np.random.default_rng(seed), P, args.harmonics)
+            pr = problem(seed, P, args.harmonics)
             fits = {"own weights": pr.fit(spec)[0]}
             if args.oracle:
-                _, w = problem(base, np.random.default_rng(1_000_000 + seed), ORACLE_PERIODS, args.harmonics).fit(spec)
+                _, w = problem(1_000_000 + seed, ORACLE_PERIODS, args.harmonics).fit(spec)
                 fits["oracle weights"] = pr.solve(spec, w)
             for kind, f in fits.items():
                 values = f.parameters()

@@ -105,9 +105,17 @@ def test_a_candidates_own_torque_is_its_joint_law_less_the_nominal_terms():
     np.testing.assert_allclose(own.torque(phi, np.sign(phi) + 0.5), 20.0 * np.sign(np.sign(phi) + 0.5), atol=1e-9)
 
 
-def _linear_problem(seed: int = 0, fidelity: float = 1e-3, bearings=(0.0, 0.0, 0.0, 0.0), read=None):
+#: The linear 4-body train of :func:`_linear_problem`: inertias (kg m^2), joint damping (N m s/rad)
+#: and stiffness (N m/rad), by parameter name (also scripts/coverage_periods.py's truth).
+LINEAR_J, LINEAR_C, LINEAR_K = (0.45, 0.06, 0.12, 0.35), (15.0, 20.0, 10.0), (4e5, 2.5e4, 1.2e5)
+LINEAR_TRUTH = {**{f"J{i}_kgm2": v for i, v in enumerate(LINEAR_J, start=1)},
+                **{f"joint{j}_c_Nms_per_rad": v for j, v in enumerate(LINEAR_C, start=1)},
+                **{f"joint{j}_k_Nm_per_rad": v for j, v in enumerate(LINEAR_K, start=1)}}
+
+
+def _linear_problem(seed: int = 0, fidelity: float = 1e-3, bearings=(0.0, 0.0, 0.0, 0.0), read=None, periods: int = 4):
     """A 4-body linear train's runs at five frequencies (exact steady states from its dynamic
-    stiffness, tests/test_chain.py), 4 periods each with 60 dB of noise on every channel, and the
+    stiffness, tests/test_chain.py), ``periods`` periods each with 60 dB of noise on every channel, and the
     chain diagnosis's problem on them with the nominal fit. ``read``: a spec whose channel skews
     and scales the angles are read with."""
     from dataclasses import replace
@@ -119,10 +127,10 @@ def _linear_problem(seed: int = 0, fidelity: float = 1e-3, bearings=(0.0, 0.0, 0
     from test_chain import _linear_chain_records
 
     rng = np.random.default_rng(seed)
-    J, c, k = [0.45, 0.06, 0.12, 0.35], [15.0, 20.0, 10.0], [4e5, 2.5e4, 1.2e5]
+    J, c, k = list(LINEAR_J), list(LINEAR_C), list(LINEAR_K)
     recs = []
     for r in _linear_chain_records(J, c, k, list(bearings), {1: 60.0}, [150.0, 300.0, 600.0, 1200.0, 2000.0]):
-        P = 4
+        P = periods
         if read is not None:
             r = channel_corrected(replace(r, rates_rad_s=None), read, read=True)
 
@@ -133,7 +141,7 @@ def _linear_problem(seed: int = 0, fidelity: float = 1e-3, bearings=(0.0, 0.0, 0
         recs.append(ChainRecord(r.omega_rad_s, t, [noisy(x) for x in r.torques_Nm], [noisy(x) for x in r.angles_rad],
                                 None, P))
     runs = prepare_chain_runs(recs, band=20)
-    problem = _Problem(tuple(runs), 20, 2.0 * (4 - 1), fidelity)
+    problem = _Problem(tuple(runs), 20, 2.0 * (periods - 1), fidelity)
     return problem, problem.fit(nominal_spec(4))
 
 
@@ -413,17 +421,13 @@ def test_the_standard_errors_cover_although_each_rows_variance_comes_from_four_p
     from jointrig.identify.chain_diagnose import _Problem
     from jointrig.vocab.law import Power, Viscous
 
-    spec = ChainSpec(tuple((Viscous(), Power(1)) for _ in range(3)))
-    J, c, k = [0.45, 0.06, 0.12, 0.35], [15.0, 20.0, 10.0], [4e5, 2.5e4, 1.2e5]
-    truth = {f"J{i + 1}_kgm2": v for i, v in enumerate(J)}
-    truth.update({f"joint{j + 1}_c_Nms_per_rad": v for j, v in enumerate(c)})
-    truth.update({f"joint{j + 1}_k_Nm_per_rad": v for j, v in enumerate(k)})
+    spec = ChainSpec(tuple((Viscous(), Power(1)) for _ in LINEAR_K))
     z = []
     for seed in range(100):
         problem, _ = _linear_problem(seed)
         fit, _ = _Problem(problem.runs, 1, problem.nu, 1e-9).fit(spec)
         values = fit.parameters()
-        z += [(values[n] - t) / fit.std_error(n) for n, t in truth.items()]
+        z += [(values[n] - t) / fit.std_error(n) for n, t in LINEAR_TRUTH.items()]
     assert 0.88 <= float(np.sqrt(np.mean(np.square(z)))) <= 1.12
 
 
