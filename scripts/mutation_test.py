@@ -62,6 +62,9 @@ MODULES = {
     # the diagnosis package's shared pieces: the verdict, the catalogue's evidence, profile
     # search, parsimony and forward selection
     "jointrig.identify.verdict": ("identify/verdict.py", ["tests/test_verdict_judge.py"]),
+    # the weighted chi-square and covariance of every diagnosis fit
+    "jointrig.identify.estimates": ("identify/estimates.py", ["tests/test_calibration.py",
+                                                             "tests/test_chain_diagnose.py"]),
     "jointrig.identify.causes": ("identify/causes.py", ["tests/test_causes.py", "tests/test_verdict_judge.py"]),
     # what an unexplained misfit looks like, on every bench, and the one JSON document
     "jointrig.identify.misfit": ("identify/misfit.py", ["tests/test_misfit.py", "tests/test_train_misfit.py"]),
