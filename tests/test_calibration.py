@@ -277,3 +277,22 @@ def test_a_fits_covariance_is_the_sandwich_over_its_rows_cross_covariances(tmp_p
     want = (B + B @ Q @ B) * factor
     np.testing.assert_allclose(fit.std_errors, np.sqrt(np.diag(want)), rtol=1e-6)
     assert np.max(np.abs(np.sqrt(np.diag(want)) / np.sqrt(np.diag(B * factor)) - 1)) > 0.02  # it does move them
+
+
+def test_the_weighted_chi_square_and_its_covariance_factor_on_exact_rows():
+    # Ten rows of residual 1 and weight 2: raw chi-square 20. With weights estimated from nu
+    # degrees of freedom it is scaled by (nu - 2) / nu and the covariance by nu / (nu - 2)
+    # (times chi2 / dof where that is above 1); at nu <= 2 (two periods) no scale is defined and
+    # none is applied. Exact arithmetic on small numbers: to round-off.
+    from jointrig.identify.estimates import weighted_chi2
+
+    r, w = np.ones(10), np.full(10, 2.0)
+    row, chi2, on_solver, on_inverse = weighted_chi2(r, w, 4.0, 5)
+    assert chi2 == pytest.approx(10.0) and row == pytest.approx(np.ones(10))
+    assert on_inverse == pytest.approx(2.0 * 2.0)  # chi2 / dof = 2, times nu / (nu - 2) = 2
+    assert on_solver == pytest.approx(on_inverse / 4.0)  # the raw chi2 / dof, 20 / 5
+    assert weighted_chi2(r, w, 3.0, 100)[1:] == pytest.approx((20.0 / 3.0, 3.0 / 0.2, 3.0))
+    for nu in (2.0, 1.0):
+        assert weighted_chi2(r, w, nu, 100)[1:] == pytest.approx((20.0, 1.0 / 0.2, 1.0))
+    # no degrees of freedom left: taken as one
+    assert weighted_chi2(r, w, 4.0, 0)[1:] == pytest.approx((10.0, 20.0 / 20.0, 20.0))
