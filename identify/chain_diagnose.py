@@ -499,6 +499,30 @@ class _Problem:
         return chain_system([r[0] for r in self.records(jumps, periods=False)], spec, n_harmonics=self.n_harmonics,
                             first_harmonic=1, masks=self.masks(), merged=self.merged(), slipping=self.slipping())
 
+    def period_systems(self, spec: ChainSpec, like, jumps: Optional[Jumps] = None):
+        """Per run: ``(rows, A, F, h, e)``, each period's balance of that run in the stacked
+        system's row order (``rows``, its rows in ``like.system``): ``A (P, m, p)``, ``F (P, m)``,
+        each row's harmonic ``h`` and equation ``e``."""
+        sysl = like.system
+        masks, merged, slips = self.masks(), self.merged(), self.slipping()
+        recs = self.records(jumps, periods=True)
+        for i in range(len(self.runs)):
+            As, Fs = [], []
+            for per in recs[i]:
+                s = chain_system([per], spec, n_harmonics=self.n_harmonics, first_harmonic=1,
+                                 masks=None if masks is None else [masks[i]],
+                                 merged=None if merged is None else [merged[i]],
+                                 slipping=None if slips is None else [slips[i]]).system
+                As.append(s.A)
+                Fs.append(s.F)
+            rows = np.flatnonzero(sysl.row_record == i)
+            # The single-run system lists the rows of each equation in the same order as the
+            # stacked one lists this run's rows of that equation.
+            order = np.empty(rows.size, dtype=int)
+            for eq in np.unique(s.row_equation):
+                order[np.flatnonzero(s.row_equation == eq)] = rows[sysl.row_equation[rows] == eq]
+            yield order, np.array(As), np.array(Fs), s.row_harmonic, s.row_equation
+
     def row_variance(self, spec: ChainSpec, theta: np.ndarray, like, jumps: Optional[Jumps] = None,
                      ) -> np.ndarray:
         """Every row's variance: its residual's period-to-period variance over P (a harmonic's
@@ -507,20 +531,9 @@ class _Problem:
         fixed floor ``(f * size)^2`` (``size`` the run's largest balanced term)."""
         sysl = like.system
         var = np.empty(sysl.F.size)
-        masks, merged, slips = self.masks(), self.merged(), self.slipping()
-        recs = self.records(jumps, periods=True)
-        for i, run in enumerate(self.runs):
-            res = []
-            for per in recs[i]:
-                s = chain_system([per], spec, n_harmonics=self.n_harmonics, first_harmonic=1,
-                                 masks=None if masks is None else [masks[i]],
-                                 merged=None if merged is None else [merged[i]],
-                                 slipping=None if slips is None else [slips[i]]).system
-                res.append(s.F - s.A @ theta)
-            v = np.array(res).var(axis=0, ddof=1) / run.n_periods
-            rows = np.flatnonzero(sysl.row_record == i)
+        for i, (rows, As, Fs, h, e) in enumerate(self.period_systems(spec, like, jumps)):
+            v = (Fs - As @ theta).var(axis=0, ddof=1) / self.runs[i].n_periods
             size2 = float(np.max(np.abs(np.column_stack([sysl.A[rows] * theta, sysl.F[rows]])))) ** 2
-            h, e = s.row_harmonic, s.row_equation
             pooled = v.copy()
             for key in set(zip(h.tolist(), e.tolist())):
                 sel = (h == key[0]) & (e == key[1])
@@ -531,12 +544,56 @@ class _Problem:
                 else:
                     floor = self.fidelity ** 2 * size2
                 pooled[sel] = v[sel].mean() + floor
-            # The single-run system lists the rows of each equation in the same order as the
-            # stacked one lists this run's rows of that equation.
-            for eq in np.unique(e):
-                var[rows[sysl.row_equation[rows] == eq]] = pooled[e == eq]
+            var[rows] = pooled
         scale = np.max(np.abs(sysl.F)) if sysl.F.size else 1.0
         return np.maximum(var, (1e-12 * scale) ** 2)
+
+    def compensated(self, fit: ChainFit, weights: np.ndarray) -> ChainFit:
+        """``fit`` with the bias its regressors' own noise gives it taken out (compensated least
+        squares). The balance's matrix holds measured angles: in ``A'WA`` each row adds its
+        noise's covariance ``C``, and where a harmonic carries noise alone that pulls every
+        parameter towards zero (the linear train at four periods: -0.42 standard errors at
+        bodies 3-4, ``scripts/coverage_periods.py``). ``C`` (and the covariance with the torque
+        ``c``) is estimated from the spread of each period's own balance, times ``nu / (nu - 2)``:
+        the weights come from that spread too, and where a row's residual is its regressors'
+        noise the two move together: ``E[w C_est]`` is about ``w C``, while the mean's noise,
+        independent of the spread, adds ``E[w] C = nu / (nu - 2) w C`` to ``A'WA`` (without the
+        factor a third of the bias stayed at four periods). The values solve
+        ``(A'WA - C) theta = A'WF - c``, and the covariance is carried through that map. The
+        chi-square stays the least-squares fit's (the test of the model). Left as it is when the
+        noise holds half the information of some direction or more (the correction is then no
+        small one) or the fit is not finite."""
+        spec, theta = fit.spec, np.asarray(fit.values, dtype=float)
+        if fit.covariance is None or not np.all(np.isfinite(theta)):
+            return fit
+        jumps = self.jumps(spec, fit.as_dict())
+        banded = self.system(spec, jumps)
+        A = banded.system.A
+        p = A.shape[1]
+        C, c = np.zeros((p, p)), np.zeros(p)
+        for rows, As, Fs, _, _ in self.period_systems(spec, banded, jumps):
+            P = As.shape[0]
+            dA, dF = As - As.mean(axis=0), Fs - Fs.mean(axis=0)
+            wr = weights[rows] / (P * (P - 1)) * (self.nu / (self.nu - 2) if self.nu > 2 else 1.0)
+            C += np.einsum("kmi,m,kmj->ij", dA, wr, dA)
+            c += np.einsum("kmi,m,km->i", dA, wr, dF)
+        n = np.sqrt(np.einsum("mi,m,mi->i", A, weights, A))
+        if np.any(n == 0):
+            return fit
+        G = (A / n).T @ ((A / n) * weights[:, None])
+        Cn, cn = C / np.outer(n, n), c / n
+        try:
+            share = np.linalg.eigvals(np.linalg.solve(G, Cn)).real.max()
+            if not share < 0.5:
+                return fit
+            T = np.linalg.solve(G - Cn, G)  # theta_c (scaled) = T theta (scaled) - (G - C)^-1 c
+            values = (T @ (theta * n) - np.linalg.solve(G - Cn, cn)) / n
+        except np.linalg.LinAlgError:
+            return fit
+        Tu = T * n[None, :] / n[:, None]  # in the parameters' own units
+        cov = Tu @ fit.covariance @ Tu.T
+        std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+        return replace(fit, values=values, std_errors=std, covariance=cov)
 
     def solve(self, spec: ChainSpec, weights: np.ndarray, covariance: bool = True) -> ChainFit:
         """Weighted fit of ``spec``; with dry friction to ground on a body, or in a joint, that
@@ -1293,8 +1350,8 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
                             max_effects=max_effects, name_of=lambda s: s.label)
     steps, (current, wfinal) = _reduced(problem, structure, adopted, list(chosen.adopted), chosen.rounds, chosen.base,
                                         alpha, by_label)
-    nominal = _widened(problem, zeros, nominal, w)
-    current = _widened(problem, zeros + adopted, current, wfinal) if steps else nominal
+    nominal = _widened(problem, zeros, problem.compensated(nominal, w), w)
+    current = _widened(problem, zeros + adopted, problem.compensated(current, wfinal), wfinal) if steps else nominal
     first = chosen.rounds[0] if chosen.rounds else ()
     channels = sorted({ch for r in runs for ch in r.noise_std})
     noise = {ch: float(np.median([r.noise_std[ch] for r in runs if ch in r.noise_std])) for ch in channels}

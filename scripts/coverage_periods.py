@@ -80,12 +80,13 @@ def main(argv=None) -> int:
     spec = ChainSpec(tuple((Viscous(), Power(1)) for _ in LINEAR_K))
     table = {}
     for P in args.periods:
-        kinds = ["own weights"] + (["oracle weights"] if args.oracle else [])
+        kinds = ["least squares", "compensated (reported)"] + (["oracle weights"] if args.oracle else [])
         z = {kind: {n: [] for n in true} for kind in kinds}
         t0 = time.perf_counter()
         for seed in range(args.seeds):
             pr = problem(seed, P, args.harmonics)
-            fits = {"own weights": pr.fit(spec)[0]}
+            f0, w0 = pr.fit(spec)
+            fits = {"least squares": f0, "compensated (reported)": pr.compensated(f0, w0)}
             if args.oracle:
                 _, w = problem(1_000_000 + seed, ORACLE_PERIODS, args.harmonics).fit(spec)
                 fits["oracle weights"] = pr.solve(spec, w)
