@@ -7,13 +7,19 @@ The distribution installs one namespace; the folders of the repository map onto 
     jointrig.measured  <- measured/   readers of measured data
     jointrig.models    <- models/     MJCF model files (package data)
     jointrig.commands  <- jointrig/commands/  the ``jointrig`` command's subcommands
+
+From Python, ``jointrig.diagnose(path)`` runs the diagnosis of measured runs and returns a
+:class:`jointrig.diagnosis.Diagnosis` (imported on first use: ``import jointrig`` stays light).
 """
 
-from importlib.metadata import PackageNotFoundError, version as _version
+from jointrig.version import __version__
 
-try:
-    __version__ = _version("jointrig")
-except PackageNotFoundError:  # running from a source tree that is not installed
-    __version__ = "0+unknown"
+__all__ = ["__version__", "diagnose", "Diagnosis"]
 
-__all__ = ["__version__"]
+
+def __getattr__(name):
+    if name in ("diagnose", "Diagnosis", "DiagnosisInputError"):
+        from jointrig import diagnosis
+
+        return getattr(diagnosis, name)
+    raise AttributeError(f"module 'jointrig' has no attribute {name!r}")

@@ -128,7 +128,7 @@ def page_top(title: str, verdict, words: str, input_sha256: str = "") -> list[st
     in words, its reason in figures under it)."""
     import datetime
 
-    from jointrig import __version__
+    from jointrig.version import __version__
 
     colour = {"no_misfit": "#2e7d32", "explained": "#1565c0", "unexplained": "#c62828"}[verdict.verdict]
     stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")

@@ -30,7 +30,7 @@ import time
 from pathlib import Path
 
 from jointrig.commands import add_quiet, command_parser
-from jointrig.identify.defaults import DEFAULT_MAX_CAUSES, MAX_REPLAY_STEPS_PER_PERIOD, REPLAY_MAX_STEP_S
+from jointrig.identify.defaults import DEFAULT_MAX_CAUSES
 from jointrig.commands.options import BadArgument, check_output, check_range, progress_level
 
 # The numerical stack (MuJoCo; rerun for --rrd; matplotlib for a joint card's figure) is
@@ -114,12 +114,26 @@ def _main(args: argparse.Namespace) -> int:
 
     quiet_mujoco()
 
+    import numpy as np
+
+    from jointrig.diagnosis import DiagnosisInputError, diagnose
+    from jointrig.files import OutputError, write_atomic, write_json_atomic
+    from jointrig.measured.runs import RunsFileError
+    from jointrig.rig.simulate import SimulationError
     from jointrig.vocab.records import RecordError
-    from jointrig.measured.runs import RunsFileError, as_train, read_runs
-    from jointrig.files import OutputError
 
     logging.basicConfig(level=progress_level(args.quiet), format="%(message)s",
                         stream=sys.stderr)
+    t0 = time.perf_counter()
+
+    def card_figures(runs) -> None:
+        # a card figure per joint beside --card-png (write_train_cards), checked before the long work
+        N = runs.records[0].n_flywheels if runs.is_train else 2
+        if args.card_png and N > 2:
+            for j in range(1, N):
+                check_output(args.card_png.with_name(f"{args.card_png.stem}-joint{j}{args.card_png.suffix}"),
+                             "--card-png")
+
     try:
         check_range(args.band, "--band", lo=1, hi=100, integer=True)
         check_range(args.torque_share, "--torque-share", lo=0, hi=1, lo_open=True, hi_open=True)
@@ -127,177 +141,19 @@ def _main(args: argparse.Namespace) -> int:
         if args.fidelity is not None:
             check_range(args.fidelity, "--fidelity", lo=0, hi=0.5)
         check_range(args.max_causes, "--max-causes", lo=0, hi=20, integer=True)
-        if args.validate is not None and args.holdout:
-            raise BadArgument("--validate holds out every run of another record and --holdout some of this one's: "
-                              "give one of them")
         for option, path in (("--json", args.json), ("--rrd", args.rrd), ("--report", args.report),
                              ("--card", args.card), ("--card-png", args.card_png), ("--mjcf", args.mjcf)):
             check_output(path, option)
-        model = None
-        if args.model is not None:
-            from jointrig.rig.model import RigModelError, is_chain_model, load_rig
-            from jointrig.rig.chain import load_chain
-
-            try:
-                model = load_chain(args.model) if is_chain_model(args.model) else load_rig(args.model)
-            except RigModelError as err:
-                raise BadArgument(f"--model: {err}") from None
-        loaded = read_runs(args.data, columns=args.columns, units=args.units, zero_per_run=args.zero_per_run)
-        if args.validate is not None:
-            other = read_runs(args.validate, columns=args.columns, units=args.units, zero_per_run=args.zero_per_run)
-            if (other.is_train, other.has_both_angles, other.kind) != (loaded.is_train, loaded.has_both_angles,
-                                                                        loaded.kind):
-                raise BadArgument(f"--validate {args.validate}: its columns are another bench's than {args.data}'s "
-                                  f"(expected the same angles and drives)")
-            loaded = _with_validation(loaded, other, args.validate)
-        if loaded.is_train:
-            return _train(args, loaded, model)
-        share = args.torque_share
-        if not loaded.has_both_angles and model is not None and not hasattr(model, "n_flywheels"):
-            from jointrig.rig.chain import relative_chain_of_two_flywheels
-
-            try:  # the model's relative-angle form, and its share of the drive
-                model, share = relative_chain_of_two_flywheels(model, args.torque_on)
-            except RigModelError as err:
-                raise BadArgument(f"--model: {err}") from None
-        return _train(args, as_train(loaded, args.torque_on, share), model, two_flywheels=True)
-    except (RunsFileError, RecordError, BadArgument, OutputError) as err:
-        return _said(err, 2)
-
-
-def _said(err: Exception, status: int) -> int:
-    """The message of a diagnosis that stops: bad input (exit 2) or a failed identification (1)."""
-    print(f"diagnose: {'error' if status == 2 else 'the identification failed'}: {err}", file=sys.stderr)
-    return status
-
-
-#: Before a run label of the --validate record: which record it came from.
-VALIDATE_PREFIX = "validate:"
-
-
-def _with_validation(loaded, other, path: Path):
-    """``loaded``'s runs then ``other``'s, labelled ``validate:<run>`` (:func:`held_out_runs`
-    holds those out), with ``other``'s notes said of it."""
-    from dataclasses import replace
-
-    ids = tuple(VALIDATE_PREFIX + r for r in other.run_ids)
-    notes = tuple(f"{path} (--validate): {n}" for n in other.notes)
-    return replace(loaded, run_ids=loaded.run_ids + ids, records=loaded.records + other.records,
-                   notes=loaded.notes + notes)
-
-
-def held_out_runs(args: argparse.Namespace, ids: list) -> "list[int] | None":
-    """The indices of the runs ``--holdout`` names (with ``--validate``: every run of that record;
-    None without either), refusing a label not in the file."""
-    from jointrig.measured.runs import RunsFileError
-
-    if args.validate is not None:
-        return [i for i, r in enumerate(ids) if r.startswith(VALIDATE_PREFIX)]
-    if not args.holdout:
-        return None
-    unknown = [h for h in args.holdout if h not in ids]
-    if unknown:
-        raise RunsFileError(f"{args.data}: --holdout names run(s) {unknown} not in the file; runs are {ids}")
-    return sorted({ids.index(h) for h in args.holdout})
-
-
-def _train(args: argparse.Namespace, loaded, model, two_flywheels: bool = False) -> int:
-    """A drive train's file (``phi1..phiN``, ``torque<i>``; two flywheels' ``torque, phi1, phi2``
-    as a train of two bodies, ``two_flywheels``): the chain diagnosis, validated on held-out runs
-    in a rig of the user's model (``--model``) or of the file's bodies and drives."""
-    from dataclasses import replace
-
-    import numpy as np
-
-    from jointrig.files import write_atomic, write_json_atomic
-    from jointrig.identify.chain import ChainIdentifiabilityError
-    from jointrig.measured.runs import RunsFileError
-    from jointrig.present.train_report import format_train_report, train_report_json
-    from jointrig.rig.chain import chain_model_xml, load_chain, rig_of_bodies, two_flywheels_of_relative
-    from jointrig.rig.simulate import SimulationError
-    from jointrig.studies.chain_validate import MIN_PERIODS_TO_SPLIT, MIN_RUNS_TO_HOLD_OUT, run_train_diagnosis, written_of
-    from jointrig.vocab.records import RecordError
-
-    t0 = time.perf_counter()
-    try:
-        if not loaded.is_train:
-            raise BadArgument(f"--model {args.model} is a drive train of {model.n_flywheels} bodies, but {args.data} "
-                              f"holds a two-flywheel bench's columns (torque, phi1, phi2); give a train's file "
-                              f"(phi1..phiN, torque<i>) or a two-flywheel model")
-        N = loaded.records[0].n_flywheels
-        driven = sorted({i for r in loaded.records for i, t in enumerate(r.torques_Nm, start=1) if t is not None})
-        relative = loaded.torque_share is not None  # the relative angle alone: one body
-        if model is not None and not hasattr(model, "n_flywheels") and two_flywheels:
-            from jointrig.rig.chain import chain_of_two_flywheels
-            from jointrig.rig.model import RigModelError
-
-            try:
-                model = chain_of_two_flywheels(model, driven)
-            except RigModelError as err:
-                raise BadArgument(f"--model: {err}") from None
-        if model is not None and not hasattr(model, "n_flywheels"):
-            raise BadArgument(f"--model {args.model} is a two-flywheel model, but {args.data} holds a train of {N} "
-                              f"bodies (phi1..phi{N}); give a chain model (models/pump_train.xml shows one)")
-        if model is not None and (model.n_flywheels, model.kind) != (N, loaded.kind):
-            raise BadArgument(f"--model {args.model} has {model.n_flywheels} bodies on {model.kind}s, {args.data} "
-                              f"{N} on {loaded.kind}s")
-        if args.torque_on != "flywheel1" and not two_flywheels:
-            raise BadArgument("--torque-on: a drive train's file names the driven bodies by its torque<i> columns; "
-                              "leave it out")
-        if model is not None:
-            missing = sorted(set(driven) - set(model.driven))
-            if missing:
-                raise BadArgument(f"--model {args.model} has no drive on body(ies) {missing}, which {args.data} "
-                                  f"drives (torque{missing[0]}); add <motor name=\"drive{missing[0]}\" ...>")
-        ids = list(loaded.run_ids)
-        _refuse_long_periods(args, ids, loaded.records)
-        holdout = held_out_runs(args, ids)
-        if holdout is not None and args.validate is None and len(ids) - len(holdout) < 3:
-            raise BadArgument(f"--holdout leaves {len(ids) - len(holdout)} run(s) to fit; expected at least 3")
-        if args.validate is not None:
-            fit = [r for i, r in enumerate(loaded.records) if i not in holdout]
-            held = [r for i, r in enumerate(loaded.records) if i in holdout]
-
-            def drives(rs) -> set:
-                return {i for r in rs for i, t in enumerate(r.torques_Nm, start=1) if t is not None}
-            if {r.n_flywheels for r in held} != {N} or not drives(held) <= drives(fit):
-                raise BadArgument(f"--validate {args.validate}: {held[0].n_flywheels} bodies driven at "
-                                  f"{sorted(drives(held))}, {args.data} {N} driven at {sorted(drives(fit))}: expected "
-                                  f"the same bench")
-        if holdout is None and len(ids) < MIN_RUNS_TO_HOLD_OUT + 1:  # each run's later periods are held out
-            short = [f"{rid} ({r.n_periods})" for rid, r in zip(ids, loaded.records) if r.n_periods < MIN_PERIODS_TO_SPLIT]
-            if short:
-                raise RunsFileError(f"{args.data}: {len(ids)} run(s), and run(s) {', '.join(short)} hold fewer than "
-                                    f"{MIN_PERIODS_TO_SPLIT} whole periods: the diagnosis needs {MIN_RUNS_TO_HOLD_OUT + 1} "
-                                    f"runs (some held out for validation), runs of at least {MIN_PERIODS_TO_SPLIT} "
-                                    f"steady periods (the later half held out), or a separate validation record "
-                                    f"(--validate OTHER)")
-        if relative:
-            s = loaded.torque_share
-            loaded = replace(loaded, notes=loaded.notes + (
-                f"the relative angle alone ('phi'): the joint's twist moves as one body of inertia J1 J2/(J1 + J2) "
-                f"(J1 below) tied to the frame by the joint's law (ground1_* below are the joint's), driven by "
-                f"{s:g} of the torque (--torque-share: the undriven flywheel's J over J1 + J2"
-                + (", from your model" if model is not None else "") + "); bearing drag and the angle sensors' "
-                "zero offset are not sought: they need both angles",))
-        if args.card_png and N > 2:  # a card figure per joint, beside --card-png (write_train_cards)
-            for j in range(1, N):
-                check_output(args.card_png.with_name(f"{args.card_png.stem}-joint{j}{args.card_png.suffix}"),
-                             "--card-png")
-        for n in loaded.notes:
-            log.info("note: %s", n)
-        rig = model if model is not None else rig_of_bodies(N, driven, loaded.kind)
-        written = written_of(model) if model is not None else ()
-        report = run_train_diagnosis(loaded.records, run_ids=ids, rig=rig, holdout=holdout, written=written,
-                                     band=args.band, alpha=args.alpha, fidelity=args.fidelity,
-                                     max_causes=args.max_causes, zeroed=args.zeroed,
-                                     progress=lambda msg: log.info("%s", msg),
-                                     form="relative" if relative else "train")
-    except (RunsFileError, RecordError, BadArgument, ChainIdentifiabilityError) as err:
+        d = diagnose(args.data, model=args.model, holdout=args.holdout, validate=args.validate, columns=args.columns,
+                     units=args.units, zero_per_run=args.zero_per_run, zeroed=args.zeroed, torque_on=args.torque_on,
+                     torque_share=args.torque_share, band=args.band, alpha=args.alpha, fidelity=args.fidelity,
+                     max_causes=args.max_causes, progress=lambda msg: log.info("%s", msg), before=card_figures)
+    except (RunsFileError, RecordError, BadArgument, OutputError, DiagnosisInputError) as err:
         return _said(err, 2)
     except (SimulationError, ValueError, np.linalg.LinAlgError) as err:
         return _said(err, 1)
-    text = format_train_report(report, source=str(args.data), notes=loaded.notes)
+    report, loaded = d.report, d.runs
+    text = d.text()
     if not args.card_only:
         print(text)
     cards = ()
@@ -310,8 +166,7 @@ def _train(args: argparse.Namespace, loaded, model, two_flywheels: bool = False)
                          source=str(args.data), notes=loaded.notes, input_sha256=loaded.sha256, cards=cards)
         log.info("wrote %s", args.report)
     if args.json:
-        write_json_atomic(args.json, train_report_json(report, source=str(args.data), notes=loaded.notes,
-                                                       input_sha256=loaded.sha256))
+        write_json_atomic(args.json, d.json())
         log.info("wrote %s", args.json)
     if args.rrd:
         from jointrig.present.recording import log_chain_diagnosis, open_recording
@@ -321,20 +176,15 @@ def _train(args: argparse.Namespace, loaded, model, two_flywheels: bool = False)
                                 report.misfit, text=text)
         log.info("wrote %s", args.rrd)
     if args.mjcf:
-        from jointrig.identify.chain_diagnose import plant_and_inertias
         from jointrig import __version__
+        from jointrig.rig.chain import load_chain
 
-        plant, J = plant_and_inertias(report.adopted_fit)
         what = "extended" if report.adopted else "nominal"
         header = (f"jointrig {__version__}: the {what} train identified from {args.data} (SHA-256 {loaded.sha256}).\n"
                   f"Verdict: {report.verdict.verdict}: {report.verdict.reason}")
-        if relative:  # the one body back as the two flywheels it stands for
-            plant, J, driven = two_flywheels_of_relative(plant, J[0], loaded.torque_share, args.torque_on)
-            header += (f"\nFrom the relative angle alone: J1, J2 from the identified J1 J2/(J1 + J2) = {J[0] * J[1] / sum(J)!r} "
-                       f"kg m^2 and the torque share {loaded.torque_share:g}")
 
         def write(tmp):
-            tmp.write_text(chain_model_xml(plant, J, driven, header=header, kind=loaded.kind), encoding="utf-8")
+            tmp.write_text(d.model_xml(header), encoding="utf-8")
             load_chain(tmp)  # it must compile and read back before it replaces anything
 
         write_atomic(args.mjcf, write)
@@ -343,24 +193,10 @@ def _train(args: argparse.Namespace, loaded, model, two_flywheels: bool = False)
     return 0
 
 
-def _refuse_long_periods(args: argparse.Namespace, ids: list, records) -> None:
-    """Refuse, before the diagnosis, runs whose period the rig would replay in more than
-    :data:`MAX_REPLAY_STEPS_PER_PERIOD` steps (a time column in ms read as s, most often)."""
-    import math
-
-    from jointrig.measured.runs import RunsFileError
-
-    slow = [(rid, r.omega_rad_s) for rid, r in zip(ids, records)
-            if 2 * math.pi / r.omega_rad_s / REPLAY_MAX_STEP_S > MAX_REPLAY_STEPS_PER_PERIOD]
-    if slow:
-        longest = max(2 * math.pi / w for _, w in slow)
-        runs = ", ".join(f"{rid} ({w:.4g} rad/s)" for rid, w in slow[:5]) + (", ..." if len(slow) > 5 else "")
-        raise RunsFileError(
-            f"{args.data}: run(s) {runs} have periods of up to {longest:.3g} s: the diagnosis replays every run in the "
-            f"rig many times at steps of {REPLAY_MAX_STEP_S:g} s, {longest / REPLAY_MAX_STEP_S:.3g} steps a period, and would "
-            f"take many minutes; expected periods of at most {MAX_REPLAY_STEPS_PER_PERIOD * REPLAY_MAX_STEP_S:g} s (omega >= "
-            f"{2 * math.pi / (MAX_REPLAY_STEPS_PER_PERIOD * REPLAY_MAX_STEP_S):.3g} rad/s). If the time column is not in "
-            f"seconds, give its unit (--units time=ms, or a header 'time [ms]')")
+def _said(err: Exception, status: int) -> int:
+    """The message of a diagnosis that stops: bad input (exit 2) or a failed identification (1)."""
+    print(f"diagnose: {'error' if status == 2 else 'the identification failed'}: {err}", file=sys.stderr)
+    return status
 
 
 def write_train_cards(args, loaded, report) -> tuple:
