@@ -526,8 +526,8 @@ class CauseScore:
     Attributes:
       effect: the cause's name; delta_chi2: the drop in (corrected) chi-square it brings;
       n_params: parameters it adds (its nonlinear one included); score: ``delta_chi2 - n_params
-      ln(n_rows)``, the ranking (BIC); p_value: of ``delta_chi2`` under chi-square(n_params) if
-      the cause were absent; significant: by :func:`evidence` and no rule rejected it (``note``
+      ln(n_rows)``, the ranking (BIC); p_value: of ``delta_chi2`` if the cause were absent
+      (:func:`evidence`: chi-square(n_params), or the scaled F of estimated weights); significant: by :func:`evidence` and no rule rejected it (``note``
       says why one did); fit: the extended fit; magnitude: ``(name, value, standard error)`` of
       the size parameter; signature: where the drop lies (the two-flywheel diagnosis: share by
       harmonic class and the dissipative share), {} where not measured.
