@@ -587,7 +587,7 @@ class _Problem:
         for rows, As, Fs, _, _ in self.period_systems(spec, banded, jumps):
             P = As.shape[0]
             dA, dF = As - As.mean(axis=0), Fs - Fs.mean(axis=0)
-            wr = weights[rows] / (P * (P - 1)) * (self.nu / (self.nu - 2) if self.nu > 2 else 1.0)
+            wr = weights[rows] / (P * (P - 1)) * self.nu / (self.nu - 2)
             C += np.einsum("kmi,m,kmj->ij", dA, wr, dA)
             c += np.einsum("kmi,m,km->i", dA, wr, dF)
         n = np.sqrt(np.einsum("mi,m,mi->i", A, weights, A))
