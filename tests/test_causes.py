@@ -544,3 +544,19 @@ def test_a_drop_with_estimated_weights_is_tested_near_its_level():
         assert 0.85 * alpha <= with_dof <= 1.15 * alpha, (np.count_nonzero(x), with_dof / alpha)
     known = sum(evidence(d, 1, 10_000, alpha)[1] < alpha for d in drop) / n
     assert known >= 1.3 * alpha, known / alpha
+
+
+def test_the_detection_threshold_is_the_drop_the_evidence_test_calls_significant_at_its_level():
+    # detection_limit's threshold and evidence's p are one distribution: the drop at the
+    # threshold has p equal to the level (to the F quantile's round-off, 1e-9 relative), with
+    # the weights' degrees of freedom and without; a drop's p uses them from nu_eff > 2 on; no
+    # finite nu or none above 0 leaves the degrees of freedom undefined (inf).
+    import math
+
+    from jointrig.identify.causes import _drop_threshold, effective_dof, evidence
+
+    for q, nu, nu_eff in ((1, 10.0, 10.0), (3, 10.0, 37.0), (2, 6.0, 2.5), (1, math.inf, math.inf)):
+        t = _drop_threshold(q, 1e-4, nu, nu_eff)
+        assert evidence(t, q, 10, 1.0, 1, nu, nu_eff)[1] == pytest.approx(1e-4, rel=1e-9), (q, nu, nu_eff)
+    assert evidence(9.0, 1, 10, 1.0, 1, 10.0, 2.5)[1] > 2 * evidence(9.0, 1, 10)[1]  # 0.0059 against 0.0027
+    assert effective_dof([1.0], 0.0) == math.inf
