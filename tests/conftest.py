@@ -49,6 +49,19 @@ def _children() -> set[int]:
     return out
 
 
+#: The README's example file (two flywheels, 60 N m of dry friction at the joint, 0.1% noise).
+EXAMPLE = Path(__file__).resolve().parent.parent / "examples" / "bench_dry_friction.csv"
+
+
+@pytest.fixture(scope="session")
+def example_diagnosis():
+    """``jointrig.diagnose`` of the README's example, once per worker: the tests that read it
+    carry ``pytest.mark.xdist_group("example")``, so one worker computes it (about 15 s)."""
+    import jointrig
+
+    return jointrig.diagnose(EXAMPLE)
+
+
 @pytest.fixture
 def no_children_left():
     """Whatever children the test process had before (pytest-xdist's own), fork_map leaves none

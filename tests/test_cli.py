@@ -5,6 +5,7 @@ import importlib
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -80,13 +81,8 @@ def test_the_diagnosis_imports_neither_a_gl_backend_nor_matplotlib(tmp_path):
     # with --report. (scipy's optimize and special, 0.2 s of the start, are taken as they are:
     # a port of the one and a closed form of the other bought 8% of the worn example's command,
     # 2.45 s, and went.) A whole diagnosis of a small file with its report, in one process, then
-    # what it loaded.
-    from jointrig.commands import make_data
-    from jointrig.rig import DEFAULT_MODEL
-
-    data = tmp_path / "worn.csv"
-    worn = DEFAULT_MODEL.parent / "two_flywheels_worn.xml"
-    assert make_data.main([str(data), "--model", str(worn), "-q", "--periods", "4"]) == 0
+    # what it loaded. The README's example file.
+    data = Path(__file__).resolve().parent.parent / "examples" / "bench_dry_friction.csv"
     code = ("import sys\nfrom jointrig.cli import main\nassert main(['diagnose', %r, '-q', '--report', %r]) == 0\n"
             "print('loaded:' + ','.join(m for m in ('glfw', 'matplotlib') "
             "if m in sys.modules))" % (str(data), str(tmp_path / "r.html")))

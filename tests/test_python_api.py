@@ -11,14 +11,14 @@ ROOT = Path(__file__).resolve().parent.parent
 EXAMPLE = ROOT / "examples" / "bench_dry_friction.csv"
 
 
-def test_the_shipped_example_diagnosed_from_python_names_its_dry_friction(tmp_path):
+@pytest.mark.xdist_group("example")
+def test_the_shipped_example_diagnosed_from_python_names_its_dry_friction(tmp_path, example_diagnosis):
     # The README's file: two flywheels (J 2 kg m^2 each) whose joint has 60 N m of dry friction,
     # 0.1% noise. What the command prints and writes comes from the same result object.
-    import jointrig
     from jointrig.present.diagnosis_json import schema_problems
     from jointrig.rig.chain import load_chain
 
-    d = jointrig.diagnose(EXAMPLE)
+    d = example_diagnosis  # jointrig.diagnose(EXAMPLE)
     assert d.verdict == "explained" and [s.label for s in d.report.diagnosis.steps] == ["coulomb_friction at joint 1"]
     p, se = d.parameters(), d.std_errors()
     # within 4 of its standard errors of the truth (the file's noise; 4 leaves room for the
