@@ -18,7 +18,7 @@ from typing import Callable, Generic, Optional, Sequence, TypeVar
 
 import numpy as np
 
-from jointrig.vocab.law import (Cogging, Coulomb, Iwan, Jenkins, Monomial, Power, QuadraticDamping, Stribeck, Term,
+from jointrig.vocab.law import (Cogging, ContactDamping, Coulomb, Iwan, Jenkins, Monomial, Power, QuadraticDamping, Stribeck, Term,
                                 Viscous)
 from jointrig.vocab.params import BEARING1, BEARING2, DRIVE_DELAY
 
@@ -198,8 +198,19 @@ def _with_terms(spec: ModelSpec, extra: tuple[Term, ...]) -> ModelSpec:
 
 
 def _with_gap(spec: ModelSpec, gap: float) -> ModelSpec:
-    terms = tuple(Power(t.power, gap) if isinstance(t, Power) and t.power >= 1 else t for t in spec.terms)
+    """The elastic terms (and a damping in contact) beyond a free play of +-``gap`` rad."""
+    terms = tuple(Power(t.power, gap) if isinstance(t, Power) and t.power >= 1
+                  else ContactDamping(gap) if isinstance(t, ContactDamping) else t for t in spec.terms)
     return replace(spec, terms=terms)
+
+
+def _with_contact_damping(spec: ModelSpec, gap: float) -> ModelSpec:
+    """A free play of +-``gap`` rad whose damping acts only beyond it: the law's viscous damping
+    becomes :class:`ContactDamping` (a law without damping is left as it is)."""
+    if not any(isinstance(t, (Viscous, ContactDamping)) for t in spec.terms):
+        return spec
+    spec = _with_gap(spec, gap)
+    return replace(spec, terms=tuple(ContactDamping(gap) if isinstance(t, Viscous) else t for t in spec.terms))
 
 
 def _with_jenkins(spec: ModelSpec, slip: float) -> ModelSpec:
@@ -235,6 +246,11 @@ def rate_amplitudes(runs) -> list[float]:
 
 def _largest_amplitude(runs) -> float:
     return max(float(np.max(np.abs(r.average.phi_rad - r.average.phi_rad.mean()))) for r in runs)
+
+
+def _gap_bounds(runs) -> tuple[float, float]:
+    """A free play's half gap is sought from 1e-4 of the smallest swing to 0.8 of the largest (rad)."""
+    return 1e-4 * _amplitude(runs), 0.8 * _largest_amplitude(runs)
 
 
 _JOINT_GROUND = frozenset({"joint", "ground"})
@@ -285,9 +301,14 @@ CATALOGUE: tuple[Cause, ...] = (
           lambda s, h: _with_terms(s, (Coulomb(),)), "coulomb_torque_Nm", 1, places=_JOINT_GROUND,
           plain="dry friction"),
     Cause("backlash", "free play in the elastic element: no stiffness within +-half gap",
-          _with_gap, "backlash_half_gap_rad", 0, bounds=lambda runs: (1e-4 * _amplitude(runs), 0.8 * _largest_amplitude(runs)),
+          _with_gap, "backlash_half_gap_rad", 0, bounds=_gap_bounds,
           profiled="backlash_half_gap_rad", degenerate=_below_resolution("half gap", "no free play is resolved"),
           plain="free play"),
+    Cause("contact_damping", "free play whose element damps only in contact: no stiffness and no damping within "
+          "+-half gap (a rubber insert with play; a lubricated play, which damps within it too, is backlash)",
+          _with_contact_damping, "backlash_half_gap_rad", 0, bounds=_gap_bounds, profiled="backlash_half_gap_rad",
+          degenerate=_below_resolution("half gap", "no free play is resolved"),
+          plain="free play with damping only in contact"),
     Cause("asymmetric_stiffness", "an even stiffness term a phi^2 (an asymmetric restoring force): even harmonics",
           lambda s, h: _with_terms(s, (Power(2),)), "a_Nm_per_rad2", 1, nonnegative=False,
           places=frozenset({"joint", "oscillator"}), plain="an asymmetric stiffness (a phi^2)", reads_as_offset=True),

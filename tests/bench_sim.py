@@ -5,10 +5,12 @@ writer). The two-flywheel equations are written out again:
 
     J1 phi1'' = T(t - delay) - M - b1 phi1'
     J2 phi2'' = M - b2 phi2'
-    M = c v + k d(phi) + a d(phi)^2 + gamma d(phi)^3 + (Fc + Fx exp(-(v/vs)^2)) sgn(v) + q v |v| + f_J + f_I
+    M = c v + cc v [|phi| > gap] + k d(phi) + a d(phi)^2 + gamma d(phi)^3 + (Fc + Fx exp(-(v/vs)^2)) sgn(v)
+        + q v |v| + f_J + f_I
 
 with ``phi = phi1 - phi2``, ``v = phi'``, ``d`` the dead zone of half width ``gap`` (free play),
-``f_J`` a Jenkins element (spring ``Fs / r`` in series with a slider that slips at ``Fs``) and
+``cc`` a damping that acts only while the free play is taken up (in contact), ``f_J`` a
+Jenkins element (spring ``Fs / r`` in series with a slider that slips at ``Fs``) and
 ``f_I`` Segalman's Iwan element as a continuum (its backbone in closed form, Masing's rule after
 every rate reversal; not the project's 32-element discretisation).
 Dry friction (sliding either way, with a Stribeck peak Fx falling off over the rate vs, or
@@ -43,6 +45,7 @@ class Joint:
     gamma: float = 200.0
     a: float = 0.0
     gap: float = 0.0
+    cc: float = 0.0  # damping in contact only (N m s/rad): beyond the free play, none within it
     Fc: float = 0.0
     Fx: float = 0.0  # Stribeck excess of the static friction over the sliding one (N m)
     vs: float = 1.0  # Stribeck rate (rad/s): sliding friction Fc + Fx exp(-(v/vs)^2)
@@ -96,6 +99,8 @@ class Joint:
     def smooth_torque(self, phi: float, v: float) -> float:
         d = math.copysign(max(abs(phi) - self.gap, 0.0), phi)
         m = self.c * v + self.k * d + self.a * d * d + self.gamma * d ** 3 + self.q * v * abs(v)
+        if self.cc and abs(phi) > self.gap:
+            m += self.cc * v
         if self.extra is not None:
             m += self.extra(phi, v)
         return m

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from jointrig.vocab.law import (AngleHat, Cogging, Coulomb, Iwan, Jenkins, Stribeck, TanhFriction, JointLaw, Monomial, Power,
+from jointrig.vocab.law import (AngleHat, Cogging, ContactDamping, Coulomb, Iwan, Jenkins, Stribeck, TanhFriction, JointLaw, Monomial, Power,
                                 QuadraticDamping, Viscous, angle_hats, hat_law, hat_matrix, play, polynomial_law,
                                 rate_hats)
 
@@ -45,7 +45,7 @@ def test_scalar_path_equals_array_path(term):
 
 STATELESS = [Viscous(), Power(0), Power(1), Power(3), Monomial(0, 3), Monomial(2, 1), Power(1, 0.2), Power(3, 0.2),
              Coulomb(), QuadraticDamping(), Stribeck(2.0), TanhFriction(0.5), Cogging(20.0), Cogging(20.0, True),
-             *angle_hats(KNOTS),
+             ContactDamping(0.2), *angle_hats(KNOTS),
              *rate_hats((-2.0, 0.0, 2.0))]
 
 
@@ -306,3 +306,36 @@ def test_a_cogging_torque_is_a_sine_of_the_angle_and_reads_back_from_a_model_fil
         law_terms_from_fields({"cogging_cos_Nm": [3.0], "cogging_order_rad_per_rad": [0.0]})
     with pytest.raises(ValueError, match="order_per_rad"):
         Cogging(-1.0)
+
+
+def test_damping_in_contact_acts_beyond_the_free_play_and_its_samples_carry_their_share(tmp_path):
+    # The rig's callback (scalar path) applies c phi' where |phi| > gap, nothing within. The
+    # balance's samples (array path) carry the share of each sample's interval in contact, so a
+    # column moves smoothly with the gap: its mean over a period of a sine is the exact share
+    # 1 - (2/pi) asin(gap/A) to second order in the step (here 64 samples: within 1e-3), and
+    # moving the gap by a tenth of a sample's step moves it (the bare indicator would not).
+    from jointrig.rig.model import DEFAULT_MODEL, identified_model_xml, load_rig
+    from jointrig.vocab.law import FieldError, contact_share, law_terms_from_fields
+    from jointrig.vocab.plant import Plant
+
+    t = ContactDamping(0.3)
+    assert [t(x, 2.0) for x in (-0.5, -0.3, 0.0, 0.29, 0.31)] == [2.0, 0.0, 0.0, 0.0, 2.0]
+    assert t.dissipative and not t.elastic and t.name == "contact_c_Nms_per_rad"
+    phi = np.sin(2 * np.pi * (np.arange(64) + 0.37) / 64)
+    exact = 1 - 2 / np.pi * math.asin(0.3)
+    assert abs(contact_share(phi, 0.3).mean() - exact) < 1e-3
+    assert abs(np.mean(phi > 0.3) * 2 - exact) > 4 * abs(contact_share(phi, 0.3).mean() - exact)  # the bare one: worse
+    step = 2 * np.pi / 64 * math.sqrt(1 - 0.3**2)
+    assert contact_share(phi, 0.3 + 0.1 * step).mean() < contact_share(phi, 0.3).mean()
+    np.testing.assert_array_equal(contact_share(np.array([0.5, 0.6, 0.7]), 0.3), 1.0)
+    np.testing.assert_array_equal(contact_share(np.array([0.0, 0.1, -0.1]), 0.3), 0.0)
+    law = JointLaw((ContactDamping(0.02), Power(1, 0.02), Power(3, 0.02)), (100.0, 2000.0, 200.0))
+    path = tmp_path / "contact.xml"
+    path.write_text(identified_model_xml(Plant(law), (2.0, 2.0), template=DEFAULT_MODEL))
+    assert load_rig(path).law == law
+    with pytest.raises(FieldError, match="needs jointrig_backlash_half_gap_rad > 0"):
+        law_terms_from_fields({"contact_c_Nms_per_rad": [3.0]})
+    with pytest.raises(FieldError, match="must be >= 0"):
+        law_terms_from_fields({"contact_c_Nms_per_rad": [-3.0], "backlash_half_gap_rad": [0.1]})
+    with pytest.raises(ValueError, match="gap_rad"):
+        ContactDamping(0.0)

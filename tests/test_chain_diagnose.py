@@ -501,7 +501,7 @@ def test_a_joint_may_stick_where_the_nominal_law_or_significant_evidence_gives_i
 
 def test_a_clean_train_gets_no_cause_and_a_bodys_drag_is_named_at_its_body():
     # The whole diagnosis on exact steady states of the linear train (60 dB): without any effect,
-    # no candidate of the 35 (8 causes at 3 joints, drag at 4 bodies, the drives' lag, the skew
+    # no candidate of the 38 (9 causes at 3 joints, drag at 4 bodies, the drives' lag, the skew
     # and scale of bodies 2-4's angle channels; each twist's zero is part of the nominal model
     # under its cubic term, not a cause) is significant and nothing is adopted, nothing
     # rests or is summed, and the noise per channel is the runs' median. With 4 N m s/rad of drag at body 3 it is ranked first, adopted alone
@@ -512,7 +512,7 @@ def test_a_clean_train_gets_no_cause_and_a_bodys_drag_is_named_at_its_body():
 
     problem, _ = _linear_problem()
     d = diagnose_chain(problem.runs, n_harmonics=20, workers=1)
-    assert d.steps == () and len(d.first_round) == 35 and not any(s.significant for s in d.first_round)
+    assert d.steps == () and len(d.first_round) == 38 and not any(s.significant for s in d.first_round)
     assert d.rests == () and d.stuck_joints == () and d.plausibility == () and d.ambiguities == ()
     assert d.final is d.nominal and d.found is None
     assert d.noise_std["phi1"] == float(np.median([r.noise_std["phi1"] for r in problem.runs]))
@@ -545,7 +545,7 @@ def test_the_drives_lag_is_a_candidate_from_two_frequencies_on():
     problem, _ = _linear_problem()
     two = problem.runs[:2]  # 150 and 300 rad/s
     labels = [s.label for s in diagnose_chain(two, n_harmonics=20, workers=1).first_round]
-    assert len(labels) == 35 and "drive_delay at the drives" in labels
+    assert len(labels) == 38 and "drive_delay at the drives" in labels
 
     def at(run, w):  # the same samples, read at another frequency
         def rec(r):
@@ -554,7 +554,7 @@ def test_the_drives_lag_is_a_candidate_from_two_frequencies_on():
 
     same = (two[0], at(two[1], 150.0 * (1 + 5e-4)))
     labels = [s.label for s in diagnose_chain(same, n_harmonics=20, workers=1).first_round]
-    assert len(labels) == 34 and "drive_delay at the drives" not in labels
+    assert len(labels) == 37 and "drive_delay at the drives" not in labels
 
 
 def test_a_trains_misfit_is_described_at_every_joint_and_a_places_law_is_its_own():

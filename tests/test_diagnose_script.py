@@ -58,7 +58,8 @@ def test_json_has_ranked_causes_extended_model_and_gain(outputs):
     # under the cubic it is part of the nominal model, with its standard error.
     d = json.loads((outputs / "d.json").read_text())
     causes = d["causes"]
-    assert {c["effect"] for c in causes} == {"coulomb_friction", "backlash", "asymmetric_stiffness", "hysteresis",
+    assert {c["effect"] for c in causes} == {"coulomb_friction", "backlash", "contact_damping", "asymmetric_stiffness",
+                                             "hysteresis",
                                              "micro_slip", "stribeck_friction", "quadratic_damping", "drive_delay",
                                              "bearing_friction", "angle_skew", "angle_gain", "cogging"}
     assert "joint1_angle_offset_rad" in d["nominal"]["parameters"]

@@ -65,6 +65,11 @@ CASES = {
         # a continuum Iwan element in the bench (closed-form backbone, Masing's rule), chi = -0.5, beta = 0.1
         "micro_slip/1": ({"Fi": 60.0, "smax": 0.15}, {"iwan_slip_torque_Nm": 60.0, "iwan_slip_angle_rad": 0.15}),
         "micro_slip/2": ({"Fi": 120.0, "smax": 0.3}, {"iwan_slip_torque_Nm": 120.0, "iwan_slip_angle_rad": 0.3}),
+        # the free play's damping only in contact (a rubber insert with play), none within the gap
+        "contact_damping/1": ({"gap": 0.01, "c": 0.0, "cc": 100.0},
+                              {"backlash_half_gap_rad": 0.01, "contact_c_Nms_per_rad": 100.0}),
+        "contact_damping/2": ({"gap": 0.03, "c": 0.0, "cc": 100.0},
+                              {"backlash_half_gap_rad": 0.03, "contact_c_Nms_per_rad": 100.0}),
         # a joint that sticks most of its cycle: 57-61% at the lower level, 10-19% at the higher
         "coulomb_friction/sticks": ({"Fc": 650.0}, {"coulomb_torque_Nm": 650.0}),
     },
@@ -92,6 +97,11 @@ CASES = {
                                 {"stribeck_torque_Nm": 40.0, "coulomb_torque_Nm": 30.0, "stribeck_velocity_rad_s": 2.0}),
         "micro_slip/1": ({"Fi": 25.0, "smax": 0.02}, {"iwan_slip_torque_Nm": 25.0, "iwan_slip_angle_rad": 0.02}),
         "micro_slip/2": ({"Fi": 40.0, "smax": 0.05}, {"iwan_slip_torque_Nm": 40.0, "iwan_slip_angle_rad": 0.05}),
+        # the free play's damping only in contact, none within the gap
+        "contact_damping/1": ({"gap": 0.003, "c": 0.0, "cc": 5.0},
+                              {"backlash_half_gap_rad": 0.003, "contact_c_Nms_per_rad": 5.0}),
+        "contact_damping/2": ({"gap": 0.008, "c": 0.0, "cc": 5.0},
+                              {"backlash_half_gap_rad": 0.008, "contact_c_Nms_per_rad": 5.0}),
     },
 }
 

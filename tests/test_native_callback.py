@@ -65,6 +65,15 @@ def test_a_cogging_torque_gives_identical_trajectories(rig):
                simulate_steady_state(rig, 25.0, 400.0, cfg, law=law, backend="native")[0])
 
 
+def test_a_damping_in_contact_gives_identical_trajectories(rig):
+    from jointrig.vocab.law import ContactDamping, JointLaw, Power
+
+    law = JointLaw((ContactDamping(0.02), Power(1, 0.02), Power(3, 0.02)), (100.0, 2000.0, 200.0))
+    cfg = SimulationConfig(n_periods=2)
+    _agree(simulate_steady_state(rig, 25.0, 1500.0, cfg, law=law, backend="python")[0],
+           simulate_steady_state(rig, 25.0, 1500.0, cfg, law=law, backend="native")[0])
+
+
 def test_hat_law_and_a_replayed_multiharmonic_drive(rig):
     drive = PeriodicDrive(30.0, (0, 1000.0, 50 - 20j, 0, 10j))
     _agree(simulate_steady_state(rig, 30.0, 1000.0, SimulationConfig(), drive=drive, backend="python")[0],

@@ -18,7 +18,7 @@
 
 enum { JR_VISCOUS = 0, JR_POWER = 1, JR_MONOMIAL = 2, JR_ANGLE_HAT = 3, JR_RATE_HAT = 4,
        JR_COULOMB = 5, JR_QUADRATIC = 6, JR_JENKINS = 7, JR_IWAN = 8, JR_STRIBECK = 9,
-       JR_TANH = 10, JR_COGGING = 11 };
+       JR_TANH = 10, JR_COGGING = 11, JR_CONTACT_VISCOUS = 12 };
 
 typedef struct {
   int n_terms;
@@ -27,7 +27,7 @@ typedef struct {
   int ipar2[JR_MAX_TERMS];   /* rate power / knot offset */
   int ipar3[JR_MAX_TERMS];   /* number of knots / number of sliders (Iwan) */
   double value[JR_MAX_TERMS];
-  double dpar[JR_MAX_TERMS]; /* gap (power) or slip angle (Jenkins) */
+  double dpar[JR_MAX_TERMS]; /* gap (power, contact damping) or slip angle (Jenkins) */
   double knots[JR_MAX_KNOTS];
   int n_sliders;
   double slider[JR_MAX_SLIDERS];      /* slider positions (rad) */
@@ -126,6 +126,7 @@ static double term(jointrig_params* P, int t, double phi, double rate) {
     }
     case JR_TANH: return tanh(rate / P->dpar[t]);
     case JR_COGGING: return P->ipar1[t] ? cos(P->dpar[t] * phi) : sin(P->dpar[t] * phi);
+    case JR_CONTACT_VISCOUS: return fabs(phi) > P->dpar[t] ? rate : 0.0;
     default: P->error = 1; return 0.0;
   }
 }
