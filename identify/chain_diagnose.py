@@ -307,7 +307,8 @@ class BalanceFidelity:
       relative: RMS misfit over RMS balanced torque, every row.
       model: the replayed model's causes in words ("the nominal model" without any).
       unmeasured: the runs (indices among the fitted ones) whose replay reached no steady state
-        (a joint stuck at a high frequency creeps under the rig's friction constraint): their
+        (a joint stuck at a high frequency creeps under the rig's friction constraint; a damping
+        that jumps at contact may keep the rig's fixed step from settling): their
         rows take the measured runs' misfit relative to their size (:meth:`borrowed`), or where
         no measured run has that row, the fixed floor ``floor`` (relative to each run's largest
         balanced term).

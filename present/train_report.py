@@ -517,9 +517,10 @@ def fidelity_statement(fid, fit_ids: Sequence[str] = ()) -> str:
         fixed = ""
         if fid.unmeasured:
             runs = ", ".join(_run_label(k, fit_ids) for k in fid.unmeasured)
-            fixed = (f"; the replay of run(s) {runs} reached no periodic steady state (a joint stuck most of the "
-                     f"period creeps under the rig's friction constraint): their rows take the largest misfit a replayed run "
-                     f"shows at that harmonic relative to its largest balanced torque")
+            fixed = (f"; the replay of run(s) {runs} reached no periodic steady state (the rig steps at a fixed step: a "
+                     f"joint stuck most of the period creeps under its friction constraint, a damping that jumps at "
+                     f"contact may never settle): their rows take the largest misfit a replayed run shows at that "
+                     f"harmonic relative to its largest balanced torque")
         return (f"measured: {fid.model} replayed in the rig under each fitted run's drive, noise-free, and balanced "
                 f"as the runs are, misses {fid.relative:.2g} of the balanced torque (RMS); each row's variance adds "
                 f"that run's and harmonic's share, for every model compared{fixed}")
