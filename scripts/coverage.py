@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Coverage of the diagnosis's 95% intervals over seeds, on files of the independent bench.
 
-    python scripts/coverage.py [--seeds N] [--first-seed S] [--db 20 40 70] [--out DIR]
+    python scripts/coverage.py [--seeds N] [--first-seed S] [--db 20 40 70] [--friction NM] [--out DIR]
                                [--workers W] [--json OUT]
 
 Why: a standard error is only worth printing if value +- 1.96 SE holds the truth 95% of the
@@ -14,7 +14,9 @@ parameter with a known truth (J1, J2 = 2 kg m^2; c = 100 N m s/rad, k = 2000 N m
 200 N m/rad^3, Coulomb 20 N m; the twist's zero: the DAQ's drawn offsets phi1 - phi2) it
 records whether |value - truth| <= 1.96 SE, and prints per parameter and level the share
 covered with its binomial standard error and the median z = (value - truth) / SE (median |z|
-is 0.674 for a calibrated Gaussian estimate).
+is 0.674 for a calibrated Gaussian estimate). ``--friction 0`` measures the same joint without
+its friction (a right model then adopts nothing), to tell what the friction's own handling (the
+stick masks, the kinks restored) costs the intervals.
 
 A noise level L dB is white noise of standard deviation 10^(-L/20) times each channel's RMS
 (tests/bench_sim.py ``noise``): 20 dB is 10%, 40 dB 1%, 70 dB 0.032%.
@@ -58,8 +60,10 @@ def noise_fraction(db: float) -> float:
     return 10.0 ** (-db / 20.0)
 
 
-def case_path(out: Path, db: float, seed: int) -> Path:
-    return out / f"db{db:g}_seed{seed:04d}.json"
+def case_path(out: Path, db: float, seed: int, friction_Nm: float = FRICTION_Nm) -> Path:
+    """One case's record (the friction in the name where it is not the default's)."""
+    fc = "" if friction_Nm == FRICTION_Nm else f"_fc{friction_Nm:g}"
+    return out / f"db{db:g}{fc}_seed{seed:04d}.json"
 
 
 
@@ -73,7 +77,13 @@ def _twist_zero_rad(seed: int) -> float:
     return float(offsets[1] - offsets[2])
 
 
-def run_case(db: float, seed: int, out: str) -> dict:
+def truth_of(friction_Nm: float) -> dict:
+    """The parameters with a known truth for a bench with ``friction_Nm`` of dry friction."""
+    return {k: v for k, v in TRUTH.items() if friction_Nm > 0 or k != "joint1_coulomb_torque_Nm"} | (
+        {"joint1_coulomb_torque_Nm": friction_Nm} if friction_Nm > 0 else {})
+
+
+def run_case(db: float, seed: int, out: str, friction_Nm: float = FRICTION_Nm) -> dict:
     """One diagnosis (in a worker process); its record is written to ``out`` and returned."""
     os.environ["JOINTRIG_WORKERS"] = "1"  # one process per case: no forked scoring inside
     sys.path.insert(0, str(ROOT / "tests"))
@@ -86,13 +96,13 @@ def run_case(db: float, seed: int, out: str) -> dict:
     from jointrig.studies.chain_validate import run_train_diagnosis
 
     t0 = time.perf_counter()
-    rec = {"db": db, "seed": seed, "noise_fraction": noise_fraction(db)}
-    truth = dict(TRUTH, **{OFFSET: _twist_zero_rad(seed)})
+    rec = {"db": db, "seed": seed, "noise_fraction": noise_fraction(db), "friction_Nm": friction_Nm}
+    truth = dict(truth_of(friction_Nm), **{OFFSET: _twist_zero_rad(seed)})
     rec["truth"] = truth
     try:
         with tempfile.TemporaryDirectory() as tmp:
             points = [p for i, p in enumerate(POINTS["paper"]) if i % 3 != 1]
-            path = measure(with_effect(JOINTS["paper"], Fc=FRICTION_Nm), points, Path(tmp) / "b.csv", seed=seed,
+            path = measure(with_effect(JOINTS["paper"], Fc=friction_Nm), points, Path(tmp) / "b.csv", seed=seed,
                            fs_Hz=FS_HZ, n_periods=N_PERIODS, noise=noise_fraction(db))
             loaded = as_train(read_runs(path))
             r = run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(2, [1]),
@@ -107,13 +117,14 @@ def run_case(db: float, seed: int, out: str) -> dict:
     except Exception as err:  # a failed case is recorded, counted and reported, not retried
         rec["error"] = f"{type(err).__name__}: {err}"
     rec["wall_s"] = time.perf_counter() - t0
-    write_json_atomic(case_path(Path(out), db, seed), rec)
+    write_json_atomic(case_path(Path(out), db, seed, friction_Nm), rec)
     return rec
 
 
 def right_structure(r: dict) -> bool:
-    """The final model is the bench's: dry friction at the joint adopted, nothing else."""
-    return r.get("steps") == [RIGHT_STEP]
+    """The final model is the bench's: dry friction at the joint adopted (where it has one),
+    nothing else."""
+    return r.get("steps") == ([RIGHT_STEP] if r.get("friction_Nm", FRICTION_Nm) > 0 else [])
 
 
 def summarise(records: list[dict], levels: list[float], right_only: bool = False) -> dict:
@@ -131,7 +142,7 @@ def summarise(records: list[dict], levels: list[float], right_only: bool = False
         for name in list(TRUTH) + [OFFSET]:
             zs, no_se = [], 0
             for r in ok:
-                if name not in r["parameters"]:
+                if name not in r["parameters"] or name not in r["truth"]:  # (a friction adopted where none is)
                     continue
                 se = r["std_errors"].get(name)
                 if se is None or not math.isfinite(se) or se <= 0:  # no interval stated: counted apart
@@ -172,6 +183,8 @@ def parse(argv) -> argparse.Namespace:
     p.add_argument("--first-seed", type=int, default=0, help="the first seed (default 0)")
     p.add_argument("--db", type=float, nargs="+", default=[20.0, 40.0, 70.0],
                    help="noise levels, SNR in dB per channel (default 20 40 70)")
+    p.add_argument("--friction", type=float, default=FRICTION_Nm, metavar="NM",
+                   help=f"the joint's dry friction in N m (default {FRICTION_Nm:g}; 0: none)")
     p.add_argument("--out", type=Path, default=ROOT / "runs" / "coverage",
                    help="folder of the per-case JSON files (default runs/coverage)")
     p.add_argument("--workers", type=int, default=2, help="processes (default 2)")
@@ -183,6 +196,8 @@ def parse(argv) -> argparse.Namespace:
         p.exit(2, f"{p.prog}: error: --first-seed must be >= 0, got {args.first_seed}\n")
     if args.workers < 1:
         p.exit(2, f"{p.prog}: error: --workers must be at least 1, got {args.workers}\n")
+    if not (math.isfinite(args.friction) and args.friction >= 0):
+        p.exit(2, f"{p.prog}: error: --friction must be a number >= 0 (N m), got {args.friction}\n")
     try:
         args.out.mkdir(parents=True, exist_ok=True)
     except OSError as err:
@@ -200,7 +215,7 @@ def main(argv=None) -> int:
     records, todo = [], []
     for seed in seeds:  # seed by seed across the levels: a run stopped early leaves every level alike
         for db in levels:
-            path = case_path(args.out, db, seed)
+            path = case_path(args.out, db, seed, args.friction)
             if path.exists():
                 records.append(json.loads(path.read_text()))
             else:
@@ -210,7 +225,7 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     if todo:
         with ProcessPoolExecutor(args.workers) as pool:
-            futures = {pool.submit(run_case, db, seed, str(args.out)): (db, seed) for db, seed in todo}
+            futures = {pool.submit(run_case, db, seed, str(args.out), args.friction): (db, seed) for db, seed in todo}
             for k, fut in enumerate(as_completed(futures), 1):
                 db, seed = futures[fut]
                 r = fut.result()
@@ -223,9 +238,10 @@ def main(argv=None) -> int:
     table = summarise(records, levels)
     right = summarise(records, levels, right_only=True)
     print(f"Coverage of value +- {Z95} SE over seeds {seeds.start}-{seeds.stop - 1}: two flywheels, paper joint, "
-          f"{FRICTION_Nm:g} N m dry friction (tests/bench_sim.py), 6 runs, runs {HOLDOUT} held out")
+          f"{args.friction:g} N m dry friction (tests/bench_sim.py), 6 runs, runs {HOLDOUT} held out")
     print_table(table)
-    print(f"\nOnly the seeds whose final model has the bench's structure ({RIGHT_STEP} adopted, nothing else):")
+    print(f"\nOnly the seeds whose final model has the bench's structure "
+          f"({RIGHT_STEP if args.friction > 0 else 'no cause'} adopted, nothing else):")
     print_table(right)
     if args.json is not None:
         write_json_atomic(args.json, {"seeds": [seeds.start, seeds.stop - 1], "levels_db": levels,
