@@ -157,3 +157,47 @@ def test_what_is_not_asked_for():
     c = misfit_character(odd, 10)
     steps = next_measurements(c, residual_surface(odd), odd)
     assert not any("preload" in s for s in steps) and any("static calibration" in s for s in steps)
+
+
+def test_a_small_ripple_is_still_a_ripple_and_no_residual_reads_as_none():
+    # The shares are of the residual's own power, whatever its size against the torque: a ripple
+    # of 1% of the torque on harmonics 5, 6, 7 and 1 is 3/4 on harmonics 4 and up, and the three
+    # largest harmonics are named (the residual's relative power is far below 1 here). A model
+    # that leaves nothing has no share anywhere (0, not NaN: the JSON stays strict).
+    ripple = lambda th, p, v: 0.01 * (np.cos(5 * th) + 0.9 * np.cos(6 * th) + 0.8 * np.cos(7 * th)) + 0.02 * np.cos(th)  # noqa: E731
+    runs = [_run(i, w, 1.0, ripple) for i, w in enumerate((20.0, 30.0))]
+    c = misfit_character(runs, 10)
+    high = (1 + 0.81 + 0.64) / (1 + 0.81 + 0.64 + 4)
+    assert c.high_share == pytest.approx(high, rel=1e-9)
+    assert c.top_harmonics == (1, 5, 6)
+    none = [_run(i, w, 1.0, lambda th, p, v: 0.0 * th) for i, w in enumerate((20.0, 30.0))]
+    c = misfit_character(none, 10)
+    assert (c.even_share, c.high_share, c.dissipative_share) == (0.0, 0.0, 0.0)
+
+
+def test_how_the_misfit_scales_with_the_drive_is_put_in_words():
+    # the amplitude slope's words: above 1.5 faster than the drive, above 0.5 with it
+    runs = [_run(i, 30.0, a, lambda th, p, v: 100.0 * p) for i, a in enumerate((1.0, 2.0, 4.0))]
+    c = misfit_character(runs, 10)
+    assert c.amplitude_slope == pytest.approx(1.0, abs=1e-9) and "grows with the drive (slope 1)" in c.describe()
+    from dataclasses import replace
+
+    assert "grows faster than the drive" in replace(c, amplitude_slope=2.0).describe()
+    assert "about independent of the drive level" in replace(c, amplitude_slope=0.4).describe()
+
+
+def test_a_misfit_partly_elastic_that_grows_with_frequency_asks_for_a_stepped_sine():
+    # the residual c(omega) v + k(omega) phi at one level, its two parts equal at every frequency
+    # (its axis does not turn: 45 deg throughout): both parts (the surface's elastic share between
+    # 0.3 and 0.7) and a size growing with the frequency; the same growth from a stiffness alone
+    # (elastic share near 1) does not ask for it
+    mixed = [_run(i, w, 1.0, lambda th, p, v, w=w: 0.05 * w * (v + w * p)) for i, w in enumerate((20.0, 40.0, 80.0))]
+    c = misfit_character(mixed, 10)
+    surface = residual_surface(mixed)
+    assert 0.3 <= surface.elastic_share <= 0.7 and c.frequency_slope > 0.5 and c.phase_span_deg < 30.0
+    assert any(s.startswith("a stepped sine at one drive level") for s in next_measurements(c, surface, mixed))
+    stiff = [_run(i, w, 1.0, lambda th, p, v, w=w: 0.05 * w * w * p) for i, w in enumerate((20.0, 40.0, 80.0))]
+    c = misfit_character(stiff, 10)
+    surface = residual_surface(stiff)
+    assert surface.elastic_share > 0.7 and c.frequency_slope > 0.5
+    assert not any(s.startswith("a stepped sine") for s in next_measurements(c, surface, stiff))
