@@ -201,3 +201,22 @@ def test_a_misfit_partly_elastic_that_grows_with_frequency_asks_for_a_stepped_si
     surface = residual_surface(stiff)
     assert surface.elastic_share > 0.7 and c.frequency_slope > 0.5
     assert not any(s.startswith("a stepped sine") for s in next_measurements(c, surface, stiff))
+
+
+def test_each_runs_residual_counts_against_its_own_torque_and_harmonic_4_is_a_ripple():
+    # Runs of very different torque (0.01 and 0.1 N m, a slide's small forces alike): a ripple of
+    # 10% of the first run's torque on harmonic 5 outweighs one of 5% of the second's on harmonic 6,
+    # although the second is the larger in N m. Harmonic 4 already counts as a ripple.
+    small = _run("a", 20.0, 1.0, lambda th, p, v: 1e-3 * np.cos(5 * th), K=10.0)
+    large = _run("b", 30.0, 1.0, lambda th, p, v: 5e-3 * np.cos(6 * th), K=100.0)
+    assert misfit_character([small, large], 10).top_harmonics[:2] == (5, 6)
+    four = [_run(i, w, 1.0, lambda th, p, v: 5.0 * np.cos(4 * th)) for i, w in enumerate((20.0, 30.0))]
+    assert misfit_character(four, 10).high_share == pytest.approx(1.0, rel=1e-12)
+
+
+def test_a_run_without_residual_does_not_turn_the_axis():
+    # only runs whose residual sits on the fundamental take part in the axis's turn: a run the
+    # model fits exactly has no axis
+    a = _run("a", 20.0, 1.0, lambda th, p, v: 0.0 * th)
+    b = _run("b", 40.0, 1.0, lambda th, p, v: 50.0 * np.cos(th - math.radians(60)))
+    assert misfit_character([a, b], 10).phase_span_deg == 0.0
