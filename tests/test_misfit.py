@@ -201,6 +201,12 @@ def test_a_misfit_partly_elastic_that_grows_with_frequency_asks_for_a_stepped_si
     surface = residual_surface(stiff)
     assert surface.elastic_share > 0.7 and c.frequency_slope > 0.5
     assert not any(s.startswith("a stepped sine") for s in next_measurements(c, surface, stiff))
+    # nor do both parts at a size that does not change with the frequency
+    flat = [_run(i, w, 1.0, lambda th, p, v, w=w: 50.0 * (v / w + p)) for i, w in enumerate((20.0, 40.0, 80.0))]
+    c = misfit_character(flat, 10)
+    surface = residual_surface(flat)
+    assert 0.3 <= surface.elastic_share <= 0.7 and abs(c.frequency_slope) < 1e-9
+    assert not any(s.startswith("a stepped sine") for s in next_measurements(c, surface, flat))
 
 
 def test_each_runs_residual_counts_against_its_own_torque_and_harmonic_4_is_a_ripple():
