@@ -357,3 +357,31 @@ def test_the_ml_residual_is_whitened_by_the_full_row_covariance(default_sweep, r
     assert float(w @ w) == pytest.approx(direct, rel=1e-9)  # round-off
     A, F = linearised(runs, theta)
     assert float(np.sum((A @ theta - F) ** 2)) == pytest.approx(direct, rel=1e-9)
+
+
+def test_the_ml_estimate_is_the_likelihoods_minimum_and_a_torque_share_of_0_is_refused(default_sweep, rig):
+    # The search runs to the optimum, not a step past its start: there the cost's gradient
+    # vanishes (within 1e-3 per standard error: the search's tolerances are 1e-12), and moving
+    # any parameter alone by a tenth of its standard error raises the cost by what the bowl's
+    # curvature, the inverse covariance, says (0.01 SE^2 (cov^-1)_ii, within 30%: the cubic and
+    # the rows' covariance change with the parameters).
+    from jointrig.identify.eiv import _whitened, prepare_eiv_runs
+
+    rng = np.random.default_rng(12)
+    recs = [add_noise(repeat_periods(r, 4), 40.0, rng) for r in default_sweep[3:6]]
+    res = ml_identify(recs, rig.law.terms, n_harmonics=9, torque_share=rig.torque_share)
+    runs = prepare_eiv_runs(recs, rig.law.terms, n_harmonics=9, torque_share=rig.torque_share)
+    theta = np.asarray(res.values)
+    cost = lambda t: float(np.sum(_whitened(runs, t) ** 2))  # noqa: E731
+    assert cost(theta) == pytest.approx(res.cost, rel=1e-9)
+    h = 1e-6 * np.abs(theta)
+    grad = np.array([(cost(theta + e) - cost(theta - e)) / (2 * e[i]) for i, e in enumerate(np.diag(h))])
+    assert np.all(np.abs(grad * np.asarray(res.std_errors)) < 1e-3), grad * np.asarray(res.std_errors)
+    curvature = np.diag(np.linalg.inv(np.asarray(res.covariance)))
+    for i, se in enumerate(res.std_errors):
+        step = np.zeros_like(theta)
+        step[i] = 0.1 * se
+        expected = 0.01 * se**2 * curvature[i]
+        assert cost(theta + step) - cost(theta) == pytest.approx(expected, rel=0.3), i
+    with pytest.raises(ValueError, match=r"torque_share must be in \(0, 1\]"):
+        ml_identify(recs, rig.law.terms, n_harmonics=9, torque_share=0.0)
