@@ -392,10 +392,13 @@ def pooled(var: np.ndarray, half_width: int = 4) -> np.ndarray:
     noise estimate than one harmonic's ``P - 1`` degrees of freedom give."""
     out = var.copy()
     v = var[1:]
-    if v.size:
-        kernel = np.ones(2 * half_width + 1)
-        num = np.convolve(v, kernel, mode="same")
-        den = np.convolve(np.ones_like(v), kernel, mode="same")
+    if v.size:  # the window's sum, shifted slices of the zero-padded harmonics: no long running
+        # sum whose differences would lose a small line beside a large one, and a window wider
+        # than the harmonics there are takes them all
+        n, w = v.size, 2 * half_width + 1
+        pad = np.zeros(half_width)
+        num = sum(np.concatenate([pad, v, pad])[j:j + n] for j in range(w))
+        den = sum(np.concatenate([pad, np.ones(n), pad])[j:j + n] for j in range(w))
         out[1:] = num / den
     return out
 

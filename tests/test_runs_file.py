@@ -812,3 +812,17 @@ def test_a_matlab_files_settings_beside_the_channels_are_no_columns(tmp_path):
     scipy.io.savemat(tmp_path / "d.mat", {**sig, "omega": W, "fs_Hz": 1.0 / dt, "gain": 2.0})
     loaded = read_runs(tmp_path / "d.mat")
     assert loaded.run_ids == ("0",) and loaded.records[0].omega_rad_s == W
+
+
+def test_pooled_noise_is_a_moving_average_over_the_harmonics_and_leaves_the_mean():
+    # A steadier noise estimate than one harmonic's: each harmonic's variance averaged with its
+    # neighbours within the half width (fewer at the ends), the mean's (harmonic 0) left alone.
+    from jointrig.identify.periods import pooled
+
+    out = pooled(np.array([100.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0]), half_width=1)
+    np.testing.assert_allclose(out, [100.0, 1.5, 2.0, 3.0, 4.0, 5.0, 5.5], rtol=1e-15)
+    assert pooled(np.array([7.0, 3.0])).tolist() == [7.0, 3.0]
+    assert pooled(np.array([7.0])).tolist() == [7.0]
+    # fewer harmonics than the window is wide: each takes them all (a convolution's "same" output
+    # took the window's length there, and the assignment failed)
+    np.testing.assert_allclose(pooled(np.array([9.0, 1.0, 2.0, 6.0])), [9.0, 3.0, 3.0, 3.0], rtol=1e-15)
