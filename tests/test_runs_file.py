@@ -826,3 +826,27 @@ def test_pooled_noise_is_a_moving_average_over_the_harmonics_and_leaves_the_mean
     # fewer harmonics than the window is wide: each takes them all (a convolution's "same" output
     # took the window's length there, and the assignment failed)
     np.testing.assert_allclose(pooled(np.array([9.0, 1.0, 2.0, 6.0])), [9.0, 3.0, 3.0, 3.0], rtol=1e-15)
+
+
+def test_a_fixed_sample_rate_record_names_its_unused_tail_and_keeps_every_harmonic(tmp_path):
+    # 100.5 samples per period (1 kHz, not commensurate with the drive), 432 samples: 4 whole
+    # periods use 402 of them and the last 30 are named. The periods are synthesised on 2 (H + 1)
+    # samples, enough to hold harmonics 0..H.
+    dt = 1e-3
+    w = 2 * math.pi / (100.5 * dt)
+    rng = np.random.default_rng(0)
+
+    def write(n, name):
+        t = np.arange(n) * dt  # (1 kHz)
+        rows = ["run,time,torque,phi1,phi2"] + [
+            f"0,{float(ti)!r},{1000 * math.cos(w * ti) + 0.5 * rng.normal()!r},"
+            f"{0.01 * math.cos(w * ti - 0.3) + 1e-6 * rng.normal()!r},{0.005 * math.cos(w * ti - 0.5) + 1e-6 * rng.normal()!r}"
+            for ti in t]
+        (tmp_path / name).write_text("\n".join(rows) + "\n")
+        return read_runs(tmp_path / name)
+
+    loaded = write(432, "tail.csv")
+    note = next(n for n in loaded.notes if "is not a whole number" in n)
+    H = int(note.split("harmonics 0..")[1].split()[0])
+    assert loaded.records[0].n_periods == 4 and f"synthesised at {2 * (H + 1)} samples per period" in note
+    assert note.endswith("; the last 30 samples (an incomplete period) are not used"), note
