@@ -278,8 +278,21 @@ class Viscous(_OneField, Term):
         return rate if isinstance(rate, float) else np.asarray(rate, dtype=float)
 
 
+class _DampingNamedByItsField:
+    """A damping or a friction (a term of the motion, not of the angle alone) whose parameter is
+    named by its first model-file field."""
+
+    @property
+    def name(self) -> str:
+        return self.MJCF_FIELDS[0]
+
+    @property
+    def elastic(self) -> bool:
+        return False
+
+
 @dataclass(frozen=True)
-class ContactDamping(Term):
+class ContactDamping(_DampingNamedByItsField, Term):
     """Damping that acts only in contact: ``phi'`` where the free play is taken up
     (``|phi| > gap_rad``), 0 within it -> ``contact_c_Nms_per_rad``.
 
@@ -317,14 +330,6 @@ class ContactDamping(Term):
 
     def fields(self, value):
         return {self.MJCF_FIELDS[0]: [value], "backlash_half_gap_rad": [self.gap_rad]}
-
-    @property
-    def name(self) -> str:
-        return self.MJCF_FIELDS[0]
-
-    @property
-    def elastic(self) -> bool:
-        return False
 
     def __call__(self, phi, rate):
         if isinstance(phi, float):
@@ -481,7 +486,7 @@ class Coulomb(_OneField, Term):
 
 
 @dataclass(frozen=True)
-class _RateFriction(Term):
+class _RateFriction(_DampingNamedByItsField, Term):
     """A friction term of the rate alone, shaped by one transition rate ``velocity_rad_s``
     (> 0), declared in a model file by the pair ``MJCF_FIELDS = (torque field, rate field)``;
     the torque field names its parameter (dissipative: refused negative). Its C case
@@ -518,14 +523,6 @@ class _RateFriction(Term):
 
     def derived_parameters(self, value):
         return {self.MJCF_FIELDS[1]: self.velocity_rad_s}
-
-    @property
-    def name(self) -> str:
-        return self.MJCF_FIELDS[0]
-
-    @property
-    def elastic(self) -> bool:
-        return False
 
 
 @dataclass(frozen=True)
