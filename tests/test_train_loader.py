@@ -33,6 +33,7 @@ def _rows(n=400, runs=1, torque_cols=1, angles=3, scale=1.0, zero=None):
 
 @pytest.mark.parametrize("header,match", [
     (["run", "time", "torque1", "phi1", "phi3", "phi4"], "missing phi2"),
+    (["run", "time", "torque1", "phi2", "phi3"], r"missing phi1 \("),  # the first body too
     (["run", "time", "torque5", "phi1", "phi2", "phi3"], r"\['torque5'\] act on bodies with no position column"),
     (["run", "time", "torque", "torque1", "phi1", "phi2", "phi3"], "both 'torque' and 'torque1'"),
     (["run", "t", "torque1", "phi1", "phi2", "phi3"], "missing column.*time.*a drive train's file"),
