@@ -206,3 +206,19 @@ def test_a_drive_on_flywheel_2_flips_a_relative_angle(tmp_path):
     loaded = read_runs(_train_csv(tmp_path / "rel.csv", ["run", "time", "torque", "phi"], rows))
     flipped = driven_first(loaded, "flywheel2")
     assert np.array_equal(flipped.records[0].phi1_rad, -loaded.records[0].phi1_rad)
+
+
+def test_the_relative_angle_alone_is_one_body_driven_by_the_share_of_the_torque_with_its_sign(tmp_path):
+    # The joint's twist as one body tied to the frame: J1 J2/(J1 + J2) phi'' + M = s T with s the
+    # undriven flywheel's share, and -s T when the torque drives flywheel 2 (phi = phi1 - phi2).
+    from jointrig.measured.runs import as_train
+
+    path = _train_csv(tmp_path / "phi.csv", ["run", "time", "torque", "phi"], _rows(torque_cols=1, angles=1))
+    loaded = read_runs(path)
+    on1, on2 = as_train(loaded, "flywheel1", 0.25), as_train(loaded, "flywheel2", 0.25)
+    raw = loaded.records[0].torque_Nm
+    assert np.array_equal(on1.records[0].torques_Nm[0], 0.25 * raw)
+    assert np.array_equal(on2.records[0].torques_Nm[0], -0.25 * raw)
+    assert on1.torque_share == 0.25
+    with pytest.raises(RunsFileError, match="strictly between 0 and 1"):
+        as_train(loaded, "flywheel1", 1.0)
