@@ -671,6 +671,7 @@ def test_stale_temporary_files_of_a_killed_run_are_removed(tmp_path):
     assert not stale.exists() and other.exists() and (tmp_path / "out.json").read_text() == "{}"
 
 
+@pytest.mark.slow  # slow: a whole diagnosis before the recording meets the full disk (20-30 s on 2 cores)
 def test_a_diagnosis_on_a_full_disk_is_a_clear_error(tmp_path):
     # A real full disk where this machine allows a small tmpfs (root); the recording's writer
     # said only "File-writer thread shut down prematurely" and left its temporary file.

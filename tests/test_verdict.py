@@ -219,6 +219,7 @@ def _issue_case(name: str) -> str:
     return f"{name:46s} {v:12s} {found:40s} {'right' if ok else 'WRONG':6s} {r.verdict.reason}"
 
 
+@pytest.mark.slow  # slow: a whole diagnosis of a file in a command of its own (about 30 s on 2 cores)
 def test_a_file_read_wrong_is_named_before_any_cause(tmp_path):
     # issue 37: a file whose model comes out as no flywheel pair (here the two angle columns
     # swapped, the independent bench's example file) got a hint that pointed the wrong way. The
