@@ -18,8 +18,8 @@ from typing import Callable, Generic, Optional, Sequence, TypeVar
 
 import numpy as np
 
-from jointrig.vocab.law import (Cogging, ContactDamping, Coulomb, Iwan, Jenkins, Monomial, Power, QuadraticDamping, Stribeck, Term,
-                                Viscous)
+from jointrig.vocab.law import (Cogging, ContactDamping, Coulomb, Iwan, Jenkins, Monomial, Power, QuadraticDamping,
+                                Stribeck, Term, Viscous)
 from jointrig.vocab.params import BEARING1, BEARING2, DRIVE_DELAY
 
 from .balance import spectral_rate

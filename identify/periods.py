@@ -395,10 +395,10 @@ def pooled(var: np.ndarray, half_width: int = 4) -> np.ndarray:
     if v.size:  # the window's sum, shifted slices of the zero-padded harmonics: no long running
         # sum whose differences would lose a small line beside a large one, and a window wider
         # than the harmonics there are takes them all
-        n, w = v.size, 2 * half_width + 1
-        pad = np.zeros(half_width)
-        num = sum(np.concatenate([pad, v, pad])[j:j + n] for j in range(w))
-        den = sum(np.concatenate([pad, np.ones(n), pad])[j:j + n] for j in range(w))
+        n, pad = v.size, np.zeros(half_width)
+        padded, ones = np.concatenate([pad, v, pad]), np.concatenate([pad, np.ones(n), pad])
+        num = sum(padded[j:j + n] for j in range(2 * half_width + 1))
+        den = sum(ones[j:j + n] for j in range(2 * half_width + 1))
         out[1:] = num / den
     return out
 

@@ -12,14 +12,15 @@ Nothing here imports another part of jointrig: ``identify`` (the mathematics), `
 (the readers) and ``rig`` (the simulator) import it.
 """
 
-from .law import (TERM_CLASSES, AngleHat, ContactDamping, Coulomb, FieldError, Iwan, Jenkins, JointLaw, Monomial, NativeTerm, Power,
-                  QuadraticDamping, RateHat, Stribeck, Term, Viscous, angle_hats, dead_zone, hat_law, hat_matrix,
+from .law import (TERM_CLASSES, AngleHat, ContactDamping, Coulomb, FieldError, Iwan, Jenkins, JointLaw, Monomial,
+                  NativeTerm, Power, QuadraticDamping, RateHat, Stribeck, Term, Viscous, angle_hats, dead_zone, hat_law, hat_matrix,
                   law_terms_from_fields, play, polynomial_law, rate_hats)
 from .plant import PeriodicDrive, Plant, drive_of_record, effect_parameters
 from .records import RecordError, SteadyStateRecord
 
 __all__ = [
-    "TERM_CLASSES", "AngleHat", "ContactDamping", "Coulomb", "FieldError", "Iwan", "Jenkins", "JointLaw", "Monomial", "NativeTerm",
+    "TERM_CLASSES", "AngleHat", "ContactDamping", "Coulomb", "FieldError", "Iwan", "Jenkins", "JointLaw", "Monomial",
+    "NativeTerm",
     "Power", "QuadraticDamping", "RateHat", "Stribeck", "Term", "Viscous", "angle_hats", "dead_zone", "hat_law",
     "hat_matrix", "law_terms_from_fields", "play", "polynomial_law", "rate_hats",
     "PeriodicDrive", "Plant", "drive_of_record", "effect_parameters", "RecordError", "SteadyStateRecord",
