@@ -560,3 +560,18 @@ def test_the_detection_threshold_is_the_drop_the_evidence_test_calls_significant
         assert evidence(t, q, 10, 1.0, 1, nu, nu_eff)[1] == pytest.approx(1e-4, rel=1e-9), (q, nu, nu_eff)
     assert evidence(9.0, 1, 10, 1.0, 1, 10.0, 2.5)[1] > 2 * evidence(9.0, 1, 10)[1]  # 0.0059 against 0.0027
     assert effective_dof([1.0], 0.0) == math.inf
+
+
+def test_damping_in_contact_turns_the_laws_damping_into_one_beyond_the_free_play():
+    # contact_damping: the nominal c phi' becomes contact_c phi' beyond the gap, the elastic terms
+    # engage beyond it; re-profiling a free play moves the contact damping's gap with the
+    # springs'; a law without damping is left as it is (no cause to add)
+    from jointrig.identify.causes import NOMINAL, ModelSpec
+    from jointrig.vocab.law import ContactDamping
+
+    contact = by_name("contact_damping")
+    assert contact.extend(NOMINAL, 0.01).terms == (ContactDamping(0.01), Power(1, 0.01), Power(3, 0.01))
+    assert by_name("backlash").extend(contact.extend(NOMINAL, 0.01), 0.02).terms == (
+        ContactDamping(0.02), Power(1, 0.02), Power(3, 0.02))
+    springs = ModelSpec((Power(1), Power(3)))
+    assert contact.extend(springs, 0.01) == springs
