@@ -98,6 +98,18 @@ def assert_identical_records(a, b):
 CALLBACK_RTOL = 1e-8
 
 
+#: A record simulated in another process that the test did not fork (a dask worker: started
+#: afresh, its thread and allocator settings the nanny's, the model recompiled from its text)
+#: against the same record simulated here: each channel within this fraction of its peak. The
+#: same code on the same inputs gives the same bits within one process image (threads, forks, a
+#: store read back: :func:`assert_identical_records`), but a fresh interpreter need not take the
+#: same path through numpy's and the C library's elementary functions: with this test process on
+#: one x86-64 CPU (emulated, ``qemu-x86_64 -cpu Haswell``) and the workers on another, a dask
+#: sweep's records differed by 3.3e-16 rad, 2.3e-12 of the signal. A worker simulating the wrong
+#: law or the wrong point (what these tests guard) moves a record by more than 1e-3 of its peak.
+PROCESS_RTOL = CALLBACK_RTOL
+
+
 def assert_records_agree(a, b, fields=RECORD_FIELDS, rtol=CALLBACK_RTOL):
     """The Python and the C callback's records: every channel within ``rtol`` of its peak
     (:data:`CALLBACK_RTOL` says why not bit for bit)."""

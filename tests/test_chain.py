@@ -14,7 +14,7 @@ from jointrig.identify.solve import solve
 from jointrig.rig.chain import chain_model_xml, is_chain_model, load_chain
 from jointrig.rig.model import RigModelError
 
-from conftest import CALLBACK_RTOL, MODELS_DIR, needs_cc
+from conftest import CALLBACK_RTOL, MODELS_DIR, PROCESS_RTOL, needs_cc
 
 PUMP_TRAIN = MODELS_DIR / "pump_train.xml"
 
@@ -399,7 +399,8 @@ def test_chain_maximum_likelihood_standard_errors_hold_at_40_db():
 
 def test_chain_sweep_on_a_dask_cluster_gives_the_local_records(tmp_path):
     # Two worker processes rebuild the chain from the model text; the records come back in the
-    # order given, bit for bit those of a local sweep, and the store then serves them.
+    # order given, those of a local sweep (to conftest.PROCESS_RTOL: another process), and the
+    # store then serves them bit for bit.
     pytest.importorskip("dask.distributed")
     from jointrig.studies.chain_sweep import CHAIN_CONFIG, run_chain_sweep
 
@@ -413,8 +414,8 @@ def test_chain_sweep_on_a_dask_cluster_gives_the_local_records(tmp_path):
     for a, b, c in zip(local, remote, again):
         assert (a.omega_rad_s, a.flywheel) == (b.omega_rad_s, b.flywheel) == (c.omega_rad_s, c.flywheel)
         for x, y, z in zip(a.record.angles_rad, b.record.angles_rad, c.record.angles_rad):
-            np.testing.assert_array_equal(x, y)
-            np.testing.assert_array_equal(x, z)
+            np.testing.assert_allclose(y, x, rtol=0, atol=PROCESS_RTOL * np.abs(x).max())
+            np.testing.assert_array_equal(y, z)
 
 
 def test_a_law_to_ground_with_memory_moves_a_body_as_the_same_joint_moves_two_flywheels(tmp_path):
