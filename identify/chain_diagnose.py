@@ -54,7 +54,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from jointrig.vocab.law import Constant, JointLaw, Power, Viscous, law_parameters
-from jointrig.vocab.params import ANGLE2_DELAY, ANGLE2_GAIN, DRIVE_DELAY, channel_name
+from jointrig.vocab.params import ANGLE2_DELAY, ANGLE2_GAIN, DRIVE_DELAY, HINGE, Coordinate, channel_name
 from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpec, bearing_name, chain_system, channel_corrected,
                     masked_noise_covariance, noise_cross_covariance,
                     ground_laws, ground_prefix, identifiability, inertia_name, joint_prefix, solve_banded, rest_share,
@@ -1724,15 +1724,16 @@ class TrainMisfit:
 
 
 def train_misfit(runs: Sequence[ChainRun], run_ids: Sequence[str], amplitudes: Sequence[float],
-                 fit: ChainFit, band: int, kind: str = "hinge") -> TrainMisfit:
+                 fit: ChainFit, band: int, kind: str = HINGE) -> TrainMisfit:
     """``fit``'s residual torque at every joint (a single body: at its law to ground) along each
     run's measured motion, its resolved harmonics (pure): the torque a joint carries
     (:func:`carried_torques`, with the fit's values) minus the joint's law at the measured twist; then the place where it is largest,
     described by :func:`identify.misfit.misfit_character` (harmonics 1..``band``) and its
-    restoring-force surface; ``kind``: the bodies' ("hinge" or "slide"), for the words and units."""
+    restoring-force surface; ``kind``: how the bodies move (a :class:`vocab.params.Coordinate`), for the words and units."""
     from .balance import spectral_rate
     from .harmonics import synthesize
-    from .misfit import ResidualRun, Words, misfit_character, next_measurements, residual_samples, residual_surface
+    from .misfit import ResidualRun, misfit_character, next_measurements, residual_samples, residual_surface
+    from .surface import PLACE_WORDS
 
     plant, J = plant_and_inertias(fit)
     N = len(J)
@@ -1754,14 +1755,7 @@ def train_misfit(runs: Sequence[ChainRun], run_ids: Sequence[str], amplitudes: S
                 model = np.asarray(plant.laws[k].torque(motion, v[k] - v[k + 1]), float)
             per_place[k].append(ResidualRun(rid, w, amp, motion, measured, _same_mean(model, measured)))
     names = ["body 1 to ground"] if N == 1 else [f"joint {j}" for j in range(1, N)]
-    slide = kind == "slide"
-    if N == 1:
-        words = (Words("force to ground", "x", "position", "N", "m", "force", "position encoder's",
-                       "position encoder") if slide else
-                 Words("torque to ground", "phi", "angle", "N m", "rad", "torque", "angle encoder's", "angle encoder"))
-    else:
-        words = Words("joint force", "x", "joint's stretch", "N", "m", "force", "position encoders'",
-                       "position encoders") if slide else Words()
+    words = PLACE_WORDS[(Coordinate(kind), N == 1)]
     chars = [misfit_character(rs, band) for rs in per_place]
     by_place = tuple((n, _overall(c)) for n, c in zip(names, chars))
     k = int(np.argmax([r for _, r in by_place]))

@@ -24,6 +24,7 @@ from typing import Sequence
 import numpy as np
 
 from jointrig.vocab.law import hat_matrix
+from jointrig.vocab.params import HINGE, SLIDE
 
 __all__ = ["RestoringSurface", "restoring_surface"]
 
@@ -55,6 +56,17 @@ class Words:
 
 #: A joint between two bodies on hinges (two flywheels, a train's joint).
 JOINT_WORDS = Words()
+
+#: ``(coordinate, single body) -> Words``: a joint between two bodies, or what holds a single
+#: body to the frame, on hinges and on slides.
+PLACE_WORDS = {
+    (HINGE, False): JOINT_WORDS,
+    (HINGE, True): Words("torque to ground", "phi", "angle", "N m", "rad", "torque", "angle encoder's", "angle encoder"),
+    (SLIDE, False): Words("joint force", "x", "joint's stretch", "N", "m", "force", "position encoders'",
+                          "position encoders"),
+    (SLIDE, True): Words("force to ground", "x", "position", "N", "m", "force", "position encoder's",
+                         "position encoder"),
+}
 
 
 @dataclass(frozen=True)

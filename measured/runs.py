@@ -50,6 +50,7 @@ from jointrig.identify.periods import (MAX_CLOCK_DEVIATION, TRANSIENT_FACTOR, es
                                       linear_drift, ls_harmonics, periods_by_least_squares, repeat_statistic,
                                       transient_periods, uniform_clock)
 from jointrig.identify.chain import ChainRecord
+from jointrig.vocab.params import HINGE, SLIDE, Coordinate
 from jointrig.vocab.records import MAX_SI_VALUE, RecordError, SteadyStateRecord
 
 from .formats import SUFFIXES, FormatError, RawTable, read_tables
@@ -125,7 +126,7 @@ class LoadedRuns:
     sha256: str = ""
     #: a train's bodies: "hinge" (rad, N m, kg m^2) or "slide" (m, N, kg; held in the records'
     #: angle and torque fields, which are the project's generic coordinate and drive)
-    kind: str = "hinge"
+    kind: Coordinate = HINGE
     #: the relative-angle form as one body (:func:`as_train`): the share ``s`` of the drive that
     #: twists the joint (J of the undriven flywheel over J1 + J2), None for any other runs
     torque_share: Optional[float] = None
@@ -577,8 +578,8 @@ def _to_train_record(where: str, run: str, t: np.ndarray, torques: dict, angles:
                      samples_per_period: Optional[int], notes: list, layout: "_Train") -> ChainRecord:
     """One run of a drive train: the drives on the driven bodies, the positions of bodies 1..N
     (N >= 1; a slide's in m and N, held as the record's angles and torques)."""
-    pos, drv = ("x", "force") if layout.kind == "slide" else ("phi", "torque")
-    unit, drive_unit = ("m", "N") if layout.kind == "slide" else ("rad", "N m")
+    kind = layout.kind
+    pos, drv, unit, drive_unit = kind.position, kind.drive, kind.unit, kind.drive_unit
     for i, a in enumerate(angles, start=1):
         _check_varies(where, run, layout.positions[i - 1], a)
     for j in range(1, len(angles)):
@@ -603,7 +604,7 @@ def _to_train_record(where: str, run: str, t: np.ndarray, torques: dict, angles:
         slope = float(np.mean([d.slope for d in ds]))
         for i in range(1, N + 1):
             data[f"{pos}{i}"] = data[f"{pos}{i}"] - slope * (t_rec - t_rec[0])
-        notes.append(f"run {run}: the whole {'line' if layout.kind == 'slide' else 'train'} moves steadily at "
+        notes.append(f"run {run}: the whole {kind.line} moves steadily at "
                      f"{slope:.4g} {unit}/s on top of the vibration; that common motion is removed")
     for i in torques:
         d = drift(data[f"{drv}{i}"])
@@ -848,11 +849,11 @@ def chain_record_of(rec: SteadyStateRecord, driven: int = 1) -> ChainRecord:
 @dataclass(frozen=True)
 class _Train:
     """A drive train's layout: the position column of each body, ``drives`` as (body number,
-    column), ``kind`` "hinge" (phi, torque: rad, N m) or "slide" (x, force: m, N)."""
+    column), ``kind`` how the bodies move (hinges: phi, torque in rad, N m; slides: x, force in m, N)."""
 
     positions: tuple
     drives: tuple
-    kind: str
+    kind: Coordinate
 
     @property
     def n_bodies(self) -> int:
@@ -874,9 +875,10 @@ def _train_layout(where: str, cols: dict) -> Optional[_Train]:
         raise RunsFileError(f"{where}: columns {sorted(hinge)} (bodies on hinges: rad, N m) and {sorted(slide)} "
                             f"(bodies on slides: m, N) in one file; expected the bodies of one line, all on hinges or "
                             f"all on slides")
-    kind, pos, drv = ("slide", "x", "force") if slide else ("hinge", "phi", "torque")
+    kind = SLIDE if slide else HINGE
+    pos, drv = kind.position, kind.drive
     numbered = sorted(int(c[len(pos):]) for c in cols if re.fullmatch(rf"{pos}\d", c))
-    if pos in cols and kind == "slide":
+    if pos in cols and kind.bare_position_is_one_body:
         if numbered:
             raise RunsFileError(f"{where}: both 'x' and numbered positions {[f'x{i}' for i in numbered]}; 'x' is "
                                 f"the position of a single body: give one of them")
@@ -900,8 +902,7 @@ def _train_layout(where: str, cols: dict) -> Optional[_Train]:
         raise RunsFileError(f"{where}: drive column(s) {beyond} act on bodies with no position column (the train has "
                             f"{pos}1..{pos}{N}); expected {drv}<i> with i from 1 to {N}")
     if not drives:
-        unit = "N" if kind == "slide" else "N m"
-        raise RunsFileError(f"{where}: no drive: expected a column {drv}<i> ({unit}) for each driven body (or "
+        raise RunsFileError(f"{where}: no drive: expected a column {drv}<i> ({kind.drive_unit}) for each driven body (or "
                             f"'{drv}', the drive on body 1); without a known drive nothing fixes the scale")
     positions = (pos,) if single else tuple(f"{pos}{i}" for i in range(1, N + 1))
     return _Train(positions, drives, kind)
@@ -1040,7 +1041,7 @@ def read_runs(path: Union[str, os.PathLike], *, samples_per_period: Optional[int
                         "omega rad/s); state others with --units, e.g. phi1=deg,time=ms")
     records = _plausible_angles(path, run_ids, records, angles_stated, zero_per_run, notes,
                                 unstated if angles_stated else set())
-    kind = layouts[0].kind if layouts and layouts[0] else "hinge"
+    kind = layouts[0].kind if layouts and layouts[0] else HINGE
     return LoadedRuns(path, tuple(run_ids), tuple(records), tuple(notes), _digest(files), kind)
 
 

@@ -15,7 +15,6 @@ from typing import Sequence
 from jointrig.identify.chain_diagnose import zero_resolved
 from jointrig.studies.chain_validate import TrainReport
 
-from jointrig.vocab.params import linear_name
 
 from .diagnosis_json import DiagnosisJson, FitJson, RunJson, ValidationJson
 from .formatting import quantity_of, sig, sig_or, unit_of, with_se
@@ -23,23 +22,6 @@ from .summary import NO_GAIN, compare_written, steps_after, wrong_sentence
 from .text import (ValidationRow, ambiguity_lines, causes_lines, head_lines, notes_lines, parameter_lines,
                    ruled_out_lines, validation_lines)
 
-
-def _namer(report: TrainReport):
-    """Parameter names as the user's bench has them: a slide's in N and m (vocab.params.linear_name)."""
-    return linear_name if report.kind == "slide" else (lambda n: n)
-
-
-def _words(report: TrainReport, text: str) -> str:
-    """A note's parameter names as the user's bench has them."""
-    if report.kind != "slide":
-        return text
-    return re.sub(r"\b\w+_\w+\b", lambda m: linear_name(m.group()), text)
-
-
-def _channel(report: TrainReport, ch: str) -> str:
-    if report.kind == "slide":
-        return ch.replace("torque", "force").replace("phi", "x")
-    return ch
 
 __all__ = ["format_train_report", "plain_train_verdict", "train_report_json", "train_figure",
            "write_train_html"]
@@ -85,7 +67,7 @@ def plain_label(step, form: str = "train") -> str:
 def plain_train_verdict(report: TrainReport) -> str:
     """The verdict in words, after the parameters of the user's model the data contradict."""
     v, d, val = report.verdict, report.diagnosis, report.validation
-    nm = _namer(report)
+    nm = report.kind.name
     wrong = wrong_sentence(_written(report), nm)
     held = "later periods of the runs" if report.held_out_periods else "runs it was not fitted on"
     if v.verdict == "no_misfit":
@@ -161,20 +143,20 @@ def _torque_means(report: TrainReport) -> list[str]:
     zs = report.zeros
     if zs is None:
         return []
-    slide = report.kind == "slide"
+    kind = report.kind
     amp = max((s[1] for s in report.settings), default=math.nan)
     tied = report.form != "relative" and any(any(t.elastic for t in g) for g in report.diagnosis.nominal.spec.grounds)
     out = []
     for i, (m, se) in enumerate(zip(zs.torques, zs.torque_se), start=1):
         if not math.isfinite(m) or not abs(m) > max(3 * se if math.isfinite(se) else 0.0, TORQUE_MEAN_SHARE * amp):
             continue
-        what, unit = ("force", "N") if slide else ("torque", "N m")
+        what, unit = kind.drive, kind.drive_unit
         err = f" +- {se:.2g}" if math.isfinite(se) else ""
         fit = report.diagnosis.final if report.verdict.verdict == "explained" else report.diagnosis.nominal
         name = f"ground{i}_constant_torque_Nm"
         if name in fit.names:
             k = fit.names.index(name)
-            what_k = "force" if slide else "torque"
+            what_k = kind.drive
             out.append(f"the drive {what} on body {i} averages {m:.4g}{err} {unit} over the fitted runs; the fit reads "
                        f"a constant {what_k} against it of {with_se(float(fit.values[k]), float(fit.std_errors[k]))} "
                        f"{unit} (ground{i}_constant_{what_k}): the sensor's offset plus a constant load where the drive "
@@ -185,10 +167,10 @@ def _torque_means(report: TrainReport) -> list[str]:
             why = ("a load on the body or the sensor's offset (a spring to the frame can carry either): the fit leaves it "
                    "out, and the replays hold each run's mean position with the constant the model reads")
         else:
-            why = (f"a {'carriage free to move' if slide else 'train free to turn'} carries no net mean {what} in a "
+            why = (f"a {kind.free_line} carries no net mean {what} in a "
                    f"steady state, so that is the sensor's offset or a constant load where the drive acts (gravity on "
                    f"the axis, a cable's drag); the fit leaves it out, and the replays hold each run's mean "
-                   f"{'positions' if slide else 'twists'} with the constants the model reads")
+                   f"{kind.relative_motion} with the constants the model reads")
         out.append(f"the drive {what} on body {i} averages {m:.4g}{err} {unit} over the fitted runs: {why}")
         held = _held_load(report, i)
         if held is not None and not tied:
@@ -214,7 +196,7 @@ def method_bias_steps(report: TrainReport) -> tuple[str, ...]:
     val = report.validation
     if val is None or not val.method_bias:
         return ()
-    nm = _namer(report)
+    nm = report.kind.name
     off = [(n, b, e) for n, b, e in val.method_bias if e > 0 and math.isfinite(b) and abs(b) > METHOD_BIAS_SE * e]
     if not off:
         return ()
@@ -253,12 +235,12 @@ def offset_readings(report: TrainReport) -> tuple[str, ...]:
     d = report.diagnosis
     p = d.final.as_dict()
     out = []
-    slide = report.kind == "slide"
-    nm = _namer(report)
+    kind = report.kind
+    nm = kind.name
     cubic = Power(3).name
-    x = "x" if slide else "phi"
+    x = kind.position
     length = unit_of(nm("joint1_backlash_half_gap_rad"))
-    sensors = "position sensors" if slide else "angle sensors"
+    sensors = f"{kind.sensor} sensors"
     zs = report.zeros
     taken = {}  # per joint number: the constant taken out of its twist before the diagnosis
     if zs is not None and not zs.kept:
@@ -281,7 +263,7 @@ def offset_readings(report: TrainReport) -> tuple[str, ...]:
             continue
         if not (abs(value) > 3 * se if math.isfinite(se) else abs(value) > 0):
             continue
-        degrees = "" if slide else f" ({math.degrees(value):.3g} deg)"
+        degrees = kind.in_degrees(value)
         err = f" +- {se:.2g}" if math.isfinite(se) else ""
         if name in zeros and zero_resolved(d.final, i):
             out.append(f"the twist of joint {i} ({x}{i} - {x}{i + 1}) reads {value:.4g}{err} {length}{degrees} at "
@@ -304,7 +286,7 @@ def offset_readings(report: TrainReport) -> tuple[str, ...]:
             out.append(f"the relative angle (phi) averages {value:.4g}{err} {length} ({math.degrees(value):.3g} deg) "
                        f"over the fitted runs: its zero, taken out before the fit (a symmetric joint twists about its "
                        f"rest)")
-    what, unit = ("force", "N") if slide else ("torque", "N m")
+    what, unit = kind.drive, kind.drive_unit
     for j, q, se, by_run in report.preloads:
         spread = max(by_run) - min(by_run) if by_run else 0.0
         varies = math.isfinite(se) and spread > 3 * se * math.sqrt(len(by_run))
@@ -332,7 +314,6 @@ def offset_readings(report: TrainReport) -> tuple[str, ...]:
             delta += zs.angles[int(prefix[6:-1]) - 1]
         if abs(delta) > MAX_ZERO_OFFSET_RAD:
             continue
-        x = "x" if slide else "phi"
         place = re.fullmatch(r"(joint|ground)(\d+)_", prefix)
         i = int(place.group(2))
         if place.group(1) == "joint":
@@ -340,15 +321,15 @@ def offset_readings(report: TrainReport) -> tuple[str, ...]:
         elif report.form == "relative":
             what = "the relative angle (phi)"
         else:
-            what = f"body {i}'s {'position' if slide else 'angle'} ({x}{i})"
+            what = f"body {i}'s {kind.sensor} ({x}{i})"
         unit = lambda n: unit_of(nm(prefix + n))  # noqa: E731
         length = unit("backlash_half_gap_rad")
-        degrees = "" if slide else f" ({math.degrees(delta):.2g} deg)"
+        degrees = kind.in_degrees(delta, 2)
         out.append(f"the even stiffness a = {a:.4g} {unit(cause.magnitude)} is exactly what a zero offset of {what} of "
                    f"-a / (3 gamma) = {delta:.3g} {length}{degrees} makes of the cubic gamma = {gamma:.4g} "
                    f"{unit(cubic)}: the data cannot tell the two apart. If the joint is symmetric, {what} reads "
                    f"{delta:.3g} {length} at rest and there is no even stiffness; to tell, read {what} at rest "
-                   f"without torque, zero the {'position' if slide else 'angle'} sensors there and run the "
+                   f"without torque, zero the {kind.sensor} sensors there and run the "
                    f"diagnosis again with --zeroed")
     return tuple(out)
 
@@ -362,7 +343,7 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
     (:mod:`present.text`); the causes table shows the significant ones and the best ``shown``."""
     d, v, val = report.diagnosis, report.verdict, report.validation
     N = d.nominal.spec.n_flywheels
-    nm = _namer(report)
+    nm = report.kind.name
     fit_ids = [r for i, r in enumerate(report.run_ids) if i not in report.held_out]
     held_ids = [report.run_ids[i] for i in report.held_out]
     m = report.misfit
@@ -376,20 +357,17 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
                f"Its restoring-force surface: {m.describe()[1]}"] if m is not None else [])
     lines = head_lines(v, plain_train_verdict(report), steps, name=nm, model=report.model_path or "",
                        written=_written(report), misfit=misfit)
-    slide = report.kind == "slide"
-    if N == 1:
-        what = f"a single body on a {'slide' if slide else 'hinge'}"
-    else:
-        what = f"{N} bodies on slides" if slide else f"a train of {N} bodies"
+    kind = report.kind
+    what = f"a single body on a {kind}" if N == 1 else kind.bodies(N)
     lines += ["", f"Diagnosis of {source or 'the runs'}: {what}, {len(report.run_ids)} run(s), harmonics "
                   f"1..{d.n_harmonics}"]
     if report.held_out_periods:
         lines.append(f"  fit on the earlier periods of run(s) {', '.join(report.run_ids)}; held out: their later periods")
     else:
         lines.append(f"  fit on runs {', '.join(fit_ids)}; held out for validation: {', '.join(held_ids)}")
-    units = ("N", "m") if slide else ("N m", "rad")
+    units = (kind.drive_unit, kind.unit)
     lines.append("  noise per sample (from period-to-period variation): "
-                 + ", ".join(f"{_channel(report, k)} {sig(x, 2)} {units[0] if k.startswith('torque') else units[1]}"
+                 + ", ".join(f"{report.kind.channel(k)} {sig(x, 2)} {units[0] if k.startswith('torque') else units[1]}"
                              for k, x in d.noise_std.items()))
     lines.append(f"  model fidelity (added to each row's noise variance): "
                  f"{fidelity_statement(d.fidelity, report.run_ids if report.held_out_periods else fit_ids)}")
@@ -399,7 +377,7 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
     lines += ["", f"Nominal model: chi2/dof = {d.reduced_chi2(d.nominal):.3g} (about 1 when only noise is left)"]
     lines += parameter_lines(_values(d.nominal, report), nm)
     lines.append("")
-    lines += causes_lines(d.first_round, name=nm, note=lambda t: _words(report, t), shown=shown, sought=_sought(report))
+    lines += causes_lines(d.first_round, name=nm, note=report.kind.words, shown=shown, sought=_sought(report))
     lines.append("")
     if d.steps:
         lines.append(f"Extended model: {' + '.join(s.label for s in d.steps)}; chi2/dof = {d.reduced_chi2(d.final):.3g}")
@@ -424,11 +402,11 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
         what = "position" if N == 1 else "every joint's twist"
         lines += validation_lines(
             rows, measure=f"relative RMS error of {what}, harmonics 1..{val.band} of the period average",
-            drive="F0" if slide else "M0",
+            drive=kind.drive_symbol,
             summary=f"nominal {_cell(val.nominal_error)}, extended {_cell(val.extended_error)}, a right model "
                     f"{_cell(val.expected_error)} (relative){_right_parts(val)}; gain {sig_or(val.gain, NO_GAIN)}",
             statement=("validation" if report.held_out_periods else "generalisation", report.generalisation),
-            failures=[_words(report, val.note)] if val.note else [])
+            failures=[report.kind.words(val.note)] if val.note else [])
     lines += notes_lines(all_notes)
     return "\n".join(lines)
 
@@ -440,7 +418,7 @@ def train_report_json(report: TrainReport, *, source: str = "", notes: Sequence[
     from jointrig.studies.holdout import HELD_OUT_PERIODS, HELD_OUT_RUNS
 
     d, v = report.diagnosis, report.validation
-    nm = _namer(report)
+    nm = report.kind.name
     ids = report.run_ids
     if report.held_out_periods:  # each run's later periods
         held_ids, fit_ids = [f"{r} (later periods)" for r in ids], [f"{r} (earlier periods)" for r in ids]
@@ -465,18 +443,18 @@ def train_report_json(report: TrainReport, *, source: str = "", notes: Sequence[
         f"of the period average, over the held-out data: sqrt(sum |sim - meas|^2 / sum |meas|^2)", "1",
         v.nominal_error if v else math.nan, v.extended_error if v else math.nan, v.noise_floor if v else math.nan,
         v.gain if v else math.nan, tuple(per_run), v.note if v else "no held-out run", right)
-    units = "SI; parameter names carry their units" + (" (bodies on slides: N, m, kg)" if report.kind == "slide" else "")
+    units = "SI; parameter names carry their units" + report.kind.units_note
     return DiagnosisJson(
         source=source, input_sha256=input_sha256, units=units, kind=report.kind,
         n_bodies=d.nominal.spec.n_flywheels, form=report.form, model=report.model_path, verdict=report.verdict,
         band_harmonics=d.n_harmonics, fit_runs=tuple(fit_ids), held_out_runs=tuple(held_ids),
-        noise_std_per_sample={_channel(report, k): x for k, x in d.noise_std.items()},
+        noise_std_per_sample={report.kind.channel(k): x for k, x in d.noise_std.items()},
         nominal=FitJson.of(d.nominal, nm, _taken(report)), causes=tuple(d.first_round), steps=tuple(d.steps),
         adopted=tuple(s.label for s in d.steps) if report.adopted else (), extended=FitJson.of(d.final, nm, _taken(report)),
         ambiguities=tuple(d.ambiguities),
         as_written={nm(w.name): w.as_json() for w in _written(report)},
         validation=validation, notes=tuple(notes) + tuple(report.notes), name=nm,
-        plausibility=tuple(_words(report, t) for t in d.plausibility),
+        plausibility=tuple(report.kind.words(t) for t in d.plausibility),
         misfit_character=report.misfit.as_json() if report.misfit is not None else None,
         misfit_surface=report.misfit.surface.as_json() if report.misfit is not None else None,
         next_measurements=tuple(report.misfit.next_measurements) if report.misfit is not None else (),
@@ -485,7 +463,7 @@ def train_report_json(report: TrainReport, *, source: str = "", notes: Sequence[
                          "magnitude_name": nm(s.magnitude[0]), "limit": lim, "std_error": s.magnitude[2],
                          "detection_probability": DETECTION_POWER} for s, lim in d.ruled_out()),
         preloads=tuple({"joint": j, "mean": q, "std_error": se, "per_run": list(by_run),
-                        "unit": "N" if report.kind == "slide" else "N m"}
+                        "unit": report.kind.drive_unit}
                        for j, q, se, by_run in report.preloads)).as_json()
 
 
@@ -542,13 +520,13 @@ def train_figure(report: TrainReport) -> str:
     if not d.steps or v is None or not v.records:
         return ""
     step = d.steps[0]
-    unit = "m" if report.kind == "slide" else "rad"
+    unit = report.kind.unit
     panels, departures = [], []
     for meas, nom, ext in v.records:
         P, N = meas.n_periods, meas.samples_per_period
         what, x = found_motion(meas, step)
         _, amp, _ = train_setting(meas)
-        run = f"{meas.omega_rad_s:.4g} rad/s, {amp:.4g} {'N' if report.kind == 'slide' else 'N m'}"
+        run = f"{meas.omega_rad_s:.4g} rad/s, {amp:.4g} {report.kind.drive_unit}"
         p = svg.Panel(f"{run}: {what}", "t [s]", f"about its mean [{unit}]")
         q = svg.Panel(f"{run}: model minus measurement", "t [s]", f"departure [m{unit}]")
         t = meas.time_s[:N] - meas.time_s[0]
@@ -583,7 +561,7 @@ def write_train_html(path, report: TrainReport, text: str, *, title: str, source
     from .page import card_section, page_top, row, surface_figure, svg_figure_html, table
 
     d = report.diagnosis
-    nm = _namer(report)
+    nm = report.kind.name
     fit = report.adopted_fit
     written = _written(report)
     parts = page_top(title, report.verdict, plain_train_verdict(report), input_sha256)
@@ -634,7 +612,7 @@ def write_train_html(path, report: TrainReport, text: str, *, title: str, source
     parts.append(table(["candidate", "BIC score", "p", "size", "note"], [
         row([s.label, (f"{s.score:.1f}", "num"), (f"{s.p_value:.2g}", "num"),
               f"{quantity_of(nm(s.magnitude[0]))} = {with_se(s.magnitude[1], s.magnitude[2])} {unit_of(nm(s.magnitude[0]))}",
-              _words(report, s.note)]) for s in d.first_round]))
+              report.kind.words(s.note)]) for s in d.first_round]))
     parts.append("</details>")
     all_notes = list(notes) + list(report.notes)
     if all_notes:

@@ -41,7 +41,7 @@ import mujoco
 import numpy as np
 
 from jointrig.vocab.law import FieldError, JointLaw, law_terms_from_fields
-from jointrig.vocab.params import DRIVE_DELAY, linear_name, rotational_name
+from jointrig.vocab.params import DRIVE_DELAY, HINGE, SLIDE, Coordinate
 from jointrig.identify.chain import ChainPlant, ChainRecord
 
 from .model import JOINT_FIELD as _JOINT_FIELD
@@ -56,6 +56,13 @@ __all__ = ["ChainRig", "load_chain", "is_chain_model", "simulate_chain", "chain_
 
 MAX_FLYWHEELS = 8
 _GROUND_FIELD = re.compile(r"ground(\d+)_(.+)")
+#: MuJoCo's joint of each coordinate, and a body's inertial element for its inertia (a hinge's, kg
+#: m^2 about the axis) or mass (a slide's, kg)
+_MJ_JOINT = {HINGE: mujoco.mjtJoint.mjJNT_HINGE, SLIDE: mujoco.mjtJoint.mjJNT_SLIDE}
+_INERTIAL = {
+    HINGE: lambda J: f'<inertial pos="0 0 0" mass="1" diaginertia="{0.5 * J * (1 + 1e-9)!r} {0.5 * J * (1 + 1e-9)!r} {J!r}"/>',
+    SLIDE: lambda m: f'<inertial pos="0 0 0" mass="{m!r}" diaginertia="1 1 1"/>',
+}
 
 
 @dataclass(frozen=True, eq=False)
@@ -83,8 +90,8 @@ class ChainRig:
     angle_adr: tuple
     rate_adr: tuple
     digest: str
-    #: "hinge" (angles in rad, torques in N m, inertias in kg m^2) or "slide" (m, N, kg)
-    kind: str = "hinge"
+    #: how the bodies move: on hinges (angles in rad, torques in N m, inertias in kg m^2) or slides (m, N, kg)
+    kind: Coordinate = HINGE
     twist_tendons: tuple = ()
 
     @property
@@ -101,7 +108,7 @@ class ChainRig:
         return replace(self, plant=plant)
 
 
-def _law(fields: dict, where: str, field_prefix: str, src: str, kind: str) -> Optional[JointLaw]:
+def _law(fields: dict, where: str, field_prefix: str, src: str, kind: Coordinate) -> Optional[JointLaw]:
     """A law from its fields (the project's hinge names; ``field_prefix`` for messages)."""
     try:
         pairs = law_terms_from_fields(fields)
@@ -110,20 +117,19 @@ def _law(fields: dict, where: str, field_prefix: str, src: str, kind: str) -> Op
     known = {f for t, _ in pairs for f in type(t).MJCF_FIELDS}
     unknown = sorted(set(fields) - known)
     if unknown:
-        name = linear_name if kind == "slide" else str
-        raise RigModelError(f"{src}: {where}: unknown law field(s) {[PREFIX + field_prefix + name(u) for u in unknown]}")
+        raise RigModelError(f"{src}: {where}: unknown law field(s) {[PREFIX + field_prefix + kind.name(u) for u in unknown]}")
     if not pairs:
         return None
     return JointLaw(tuple(t for t, _ in pairs), tuple(v for _, v in pairs))
 
 
-def _plant(model: mujoco.MjModel, N: int, src: str, kind: str) -> ChainPlant:
+def _plant(model: mujoco.MjModel, N: int, src: str, kind: Coordinate) -> ChainPlant:
     per_joint: dict[int, dict] = {j: {} for j in range(1, N)}
     per_ground: dict[int, dict] = {i: {} for i in range(1, N + 1)}
     bearings = [0.0] * N
     delay = 0.0
-    drag = "guide" if kind == "slide" else "bearing"
-    field = rotational_name if kind == "slide" else (lambda f: f)  # a slide's fields in N and m
+    drag = kind.drag
+    drag_unit = kind.name("bearing1_damping_Nms_per_rad").rsplit("_damping_", 1)[1]
     for i in range(model.nnumeric):
         name = model.numeric(i).name
         if not name.startswith(PREFIX):
@@ -132,11 +138,11 @@ def _plant(model: mujoco.MjModel, N: int, src: str, kind: str) -> ChainPlant:
         data = np.array(model.numeric(i).data, dtype=float)
         m = _JOINT_FIELD.fullmatch(rest)
         g = _GROUND_FIELD.fullmatch(rest)
-        b = re.fullmatch(rf"{drag}(\d+)_damping_" + ("Ns_per_m" if kind == "slide" else "Nms_per_rad"), rest)
-        if m and 1 <= int(m.group(1)) < N:
-            per_joint[int(m.group(1))][field(m.group(2))] = data
+        b = re.fullmatch(rf"{drag}(\d+)_damping_{drag_unit}", rest)
+        if m and 1 <= int(m.group(1)) < N:  # a slide's fields are in N and m
+            per_joint[int(m.group(1))][kind.project_name(m.group(2))] = data
         elif g and 1 <= int(g.group(1)) <= N:
-            per_ground[int(g.group(1))][field(g.group(2))] = data
+            per_ground[int(g.group(1))][kind.project_name(g.group(2))] = data
         elif b and 1 <= int(b.group(1)) <= N:
             if data.size != 1 or not np.isfinite(data[0]) or data[0] < 0:
                 raise RigModelError(f"{src}: {name} must hold one finite number >= 0, got {data}")
@@ -146,18 +152,16 @@ def _plant(model: mujoco.MjModel, N: int, src: str, kind: str) -> ChainPlant:
                 raise RigModelError(f"{src}: {name} must hold one finite number (s), got {data}")
             delay = float(data[0])
         else:
-            unit = "Ns_per_m" if kind == "slide" else "Nms_per_rad"
             raise RigModelError(f"{src}: unknown field {name}; a chain of {N} bodies on {kind}s takes "
                                 + (f"{PREFIX}joint<j>_<law field> (j = 1..{N - 1}), " if N > 1 else "")
-                                + f"{PREFIX}ground<i>_<law field> and {PREFIX}{drag}<i>_damping_{unit} (i = 1..{N}), "
+                                + f"{PREFIX}ground<i>_<law field> and {PREFIX}{drag}<i>_damping_{drag_unit} (i = 1..{N}), "
                                 f"and {PREFIX}{DRIVE_DELAY}")
     laws = []
     for j in range(1, N):
         law = _law(per_joint[j], f"joint {j}", f"joint{j}_", src, kind)
         if law is None:
-            k = "k_N_per_m" if kind == "slide" else "k_Nm_per_rad"
             raise RigModelError(f"{src}: joint {j} (bodies {j}-{j + 1}) has no law: add fields "
-                                f"{PREFIX}joint{j}_{k} etc.")
+                                f"{PREFIX}joint{j}_{kind.name('k_Nm_per_rad')} etc.")
         laws.append(law)
     grounds = tuple(_law(per_ground[i], f"body {i}'s law to ground", f"ground{i}_", src, kind)
                     for i in range(1, N + 1))
@@ -175,8 +179,8 @@ def load_chain(path: Union[str, os.PathLike]) -> ChainRig:
     path, text, model = compile_model(path)
     src = str(path)
     J_ = mujoco.mjtObj.mjOBJ_JOINT
-    kind = "slide" if mujoco.mj_name2id(model, J_, "x1") >= 0 else "hinge"
-    coord = "x" if kind == "slide" else "phi"
+    kind = SLIDE if mujoco.mj_name2id(model, J_, SLIDE.position + "1") >= 0 else HINGE
+    coord = kind.position
     ids = []
     while True:
         jid = mujoco.mj_name2id(model, J_, f"{coord}{len(ids) + 1}")
@@ -190,11 +194,11 @@ def load_chain(path: Union[str, os.PathLike]) -> ChainRig:
     if model.njnt != N:
         extra = [mujoco.mj_id2name(model, J_, j) for j in range(model.njnt) if j not in ids]
         raise RigModelError(f"{src}: joints {extra} are not part of the chain {coord}1..{coord}{N}")
-    want = mujoco.mjtJoint.mjJNT_SLIDE if kind == "slide" else mujoco.mjtJoint.mjJNT_HINGE
+    want = _MJ_JOINT[kind]
     for k, jid in enumerate(ids, start=1):
         if model.jnt_type[jid] != want:
             raise RigModelError(f"{src}: joint '{coord}{k}' must be a {kind} (bodies on one line are all "
-                                f"{'slides x1..xN' if kind == 'slide' else 'hinges phi1..phiN'})")
+                                f"{kind}s {coord}1..{coord}N)")
         if not np.allclose(model.jnt_axis[jid], model.jnt_axis[ids[0]]):
             raise RigModelError(f"{src}: joint '{coord}{k}' must share {coord}1's axis (bodies on one line)")
     S_ = mujoco.mjtObj.mjOBJ_SENSOR
@@ -251,7 +255,7 @@ def load_chain(path: Union[str, os.PathLike]) -> ChainRig:
 
 
 def _compiled(plant: ChainPlant, inertias_kgm2: Sequence[float], driven: Sequence[int], name: str,
-              kind: str = "hinge", source=None) -> ChainRig:
+              kind: str = HINGE, source=None) -> ChainRig:
     """The chain rig of ``plant`` (:func:`chain_model_xml`, compiled from a temporary file),
     named ``name``; ``source``: the model file it was made from (its path and digest are kept,
     and a law the chain's fields cannot write is refused naming it)."""
@@ -269,7 +273,7 @@ def _compiled(plant: ChainPlant, inertias_kgm2: Sequence[float], driven: Sequenc
     return replace(out, path=Path(name)) if source is None else replace(out, path=source.path, digest=source.digest)
 
 
-def rig_of_bodies(n_bodies: int, driven: Sequence[int], kind: str = "hinge") -> ChainRig:
+def rig_of_bodies(n_bodies: int, driven: Sequence[int], kind: str = HINGE) -> ChainRig:
     """The rig of a measured file's bodies and drives, without the user's model: the paper's law
     at every joint (a single body: its drag to ground) and unit inertias, hinges or slides; a
     diagnosis replaces the plant and the inertias by each fit's. Named ``train.xml``."""
@@ -318,7 +322,7 @@ def two_flywheels_of_relative(plant: ChainPlant, J_kgm2: float, share: float, to
 
 
 def chain_model_xml(plant: ChainPlant, inertias_kgm2: Sequence[float], driven: Sequence[int], *,
-                    timestep_s: float = 1e-4, header: str = "", kind: str = "hinge") -> str:
+                    timestep_s: float = 1e-4, header: str = "", kind: str = HINGE) -> str:
     """The MJCF text of a chain that :func:`load_chain` reads back to ``plant`` with these
     inertias (kg m^2; a slide's masses, kg): coaxial hinges ``phi1..phiN`` (``kind="slide"``:
     slides ``x1..xN`` on one axis) with position and rate sensors, a motor ``drive<i>`` with its
@@ -326,10 +330,11 @@ def chain_model_xml(plant: ChainPlant, inertias_kgm2: Sequence[float], driven: S
     ``jointrig_ground<i>_*`` fields and nonzero drags as ``jointrig_bearing<i>_*`` (a slide's
     ``guide<i>_*``), a slide's names in N and m (:func:`vocab.params.linear_name`). For a
     measured train without the user's model file, and to write an identified train back."""
-    if kind not in ("hinge", "slide"):
-        raise ValueError(f"chain_model_xml: kind must be 'hinge' or 'slide', got {kind!r}")
-    name = linear_name if kind == "slide" else (lambda n: n)
-    coord = "x" if kind == "slide" else "phi"
+    try:
+        kind = Coordinate(kind)
+    except ValueError as err:
+        raise ValueError(f"chain_model_xml: kind: {err}") from None
+    name, coord = kind.name, kind.position
     N = plant.n_flywheels
     if len(inertias_kgm2) != N:
         raise ValueError(f"chain_model_xml: {len(inertias_kgm2)} inertias for {N} flywheels")
@@ -357,15 +362,10 @@ def chain_model_xml(plant: ChainPlant, inertias_kgm2: Sequence[float], driven: S
         fields[DRIVE_DELAY] = [plant.drive_delay_s]
     numerics = "\n".join(f'    <numeric name="{PREFIX}{k}" data="{" ".join(repr(float(x)) for x in v)}"/>'
                          for k, v in fields.items())
-    def inertial(J):
-        if kind == "slide":
-            return f'<inertial pos="0 0 0" mass="{J!r}" diaginertia="1 1 1"/>'
-        return f'<inertial pos="0 0 0" mass="1" diaginertia="{0.5 * J * (1 + 1e-9)!r} {0.5 * J * (1 + 1e-9)!r} {J!r}"/>'
-
     bodies = "\n".join(
         f'    <body name="body{i}" pos="0 {0.3 * (i - 1):g} 0">\n'
         f'      <joint name="{coord}{i}" type="{kind}" axis="0 0 1" damping="0" armature="0"/>\n'
-        f'      {inertial(J)}\n'
+        f'      {_INERTIAL[kind](J)}\n'
         f'    </body>' for i, J in enumerate(inertias_kgm2, start=1))
     motors = "\n".join(f'    <motor name="drive{i}" joint="{coord}{i}" gear="1" ctrllimited="false"/>' for i in driven)
     sensors = "\n".join([f'    <jointpos name="{coord}{i}" joint="{coord}{i}"/>' for i in range(1, N + 1)]

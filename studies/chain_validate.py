@@ -24,6 +24,7 @@ from jointrig.identify.harmonics import fourier_coefficients, max_harmonic, synt
 from jointrig.identify.zeros import SensorZeros, rezeroed, sensor_zeros
 from jointrig.identify.periods import RESOLVED_SIGMA, period_spectra, pooled_period_spectra
 from jointrig.vocab.law import Constant
+from jointrig.vocab.params import HINGE, Coordinate
 from jointrig.vocab.plant import drive_of_record
 
 from jointrig.rig.chain import ChainRig, simulate_chain
@@ -804,8 +805,8 @@ class TrainReport:
     notes: tuple = ()
     #: the held-out data are each run's later periods (fewer than 4 runs), not whole runs
     held_out_periods: bool = False
-    #: the bodies' joints: "hinge" (rad, N m, kg m^2) or "slide" (m, N, kg)
-    kind: str = "hinge"
+    #: how the bodies move: on hinges (rad, N m, kg m^2) or slides (m, N, kg)
+    kind: Coordinate = HINGE
     #: per run, its setting (:func:`train_setting`: omega rad/s, the largest drive's amplitude)
     settings: tuple = ()
     #: where an unexplained misfit is and what it looks like, the nominal model's
@@ -981,8 +982,7 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
     else:
         general = generalisation_kind([settings[i] for i in range(len(records)) if i not in held],
                                       [settings[i] for i in held])
-        if rig.kind == "slide":  # its drive levels are forces
-            general = general.replace(" N m", " N")
+        general = general.replace(" N m", " " + rig.kind.drive_unit)  # a slide's drive levels are forces
     verdict = train_verdict(d, v, held_out_periods=split)
     free = drifting_bodies(d.final if d.steps else d.nominal)
     if free:

@@ -16,6 +16,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from jointrig.identify.card import JointCard, MasingCheck, law_card
+from jointrig.vocab.law import Power
+from jointrig.vocab.params import unit_of
 
 __all__ = ["CardReport", "cards_of_train"]
 
@@ -79,10 +81,9 @@ def cards_of_train(report, records) -> tuple[CardReport, ...]:
         at_runs = law_card(law, je, amps, covariance=cov, inertia_index=0,
                            omegas_rad_s=[q.omega_rad_s for q in card.points])
         place = "body 1 to ground" if N == 1 else f"joint {k + 1}"
-        one = "its mass" if report.kind == "slide" else "its inertia"
-        mode = (f"mode of the body on what holds it to the frame, {one}" if N == 1 else
+        mode = (f"mode of the body on what holds it to the frame, its {report.kind.inertia}" if N == 1 else
                 f"mode of bodies {k + 1} and {k + 2} on joint {k + 1} alone, J{k + 1} J{k + 2} / (J{k + 1} + J{k + 2})")
-        units = ("m", "N/m") if report.kind == "slide" else ("rad", "N m/rad")
+        units = (report.kind.unit, unit_of(report.kind.name(Power(1).name)))
         out.append(CardReport(model, card, name, at_runs, joint_masing_check(mruns), warning,
                               "the adopted model's", place, mode, units))
     return tuple(out)

@@ -130,3 +130,24 @@ def test_the_layer_check_sees_an_upward_import():
              "jointrig.vocab.law": {"jointrig.present.recording"}, "jointrig.present.recording": {"jointrig.rig.model"}}
     assert _upward(graph) == {"jointrig.rig.simulate": ["jointrig.studies.sweep"],
                               "jointrig.vocab.law": ["jointrig.present.recording"]}
+
+
+def _coordinate_branches(source: str) -> list[int]:
+    """Lines of ``source`` that compare something with the word "hinge" or "slide" (== / !=)."""
+    out = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Compare) and any(isinstance(op, (ast.Eq, ast.NotEq)) for op in node.ops):
+            words = [c.value for c in [node.left, *node.comparators] if isinstance(c, ast.Constant)]
+            if any(w in ("hinge", "slide") for w in words):
+                out.append(node.lineno)
+    return out
+
+
+def test_no_module_branches_on_how_the_bodies_move():
+    # issue 53: a body on a hinge or a slide is a vocab.params.Coordinate that knows its names,
+    # units and words; a comparison with the word elsewhere is a ladder that the next kind of
+    # coordinate would have to find in every file.
+    found = {name: lines for name, f in _modules().items()
+             if (lines := _coordinate_branches(f.read_text(encoding="utf-8")))}
+    assert found == {}, found
+    assert _coordinate_branches('if kind == "slide":\n    pass\nx = "hinge" != k') == [1, 3]

@@ -10,10 +10,12 @@ its own (``Term.name``).
 
 from __future__ import annotations
 
+import math
 import re
 
 __all__ = ["Param", "unit_of", "quantity_of", "J1", "J2", "JE", "BEARING1", "BEARING2", "DRIVE_DELAY", "ANGLE2_DELAY",
-           "ANGLE2_GAIN", "channel_name", "train_name", "linear_name", "rotational_name"]
+           "ANGLE2_GAIN", "channel_name", "train_name", "linear_name", "rotational_name", "Coordinate", "HINGE",
+           "SLIDE"]
 
 # Unit atoms as they appear in names, longest first, and how a person writes them.
 _ATOMS = (("kgm2", "kg m^2"), ("kg", "kg"), ("Nms2", "N m s^2"), ("Nms", "N m s"), ("Nm", "N m"), ("Ns", "N s"),
@@ -132,3 +134,71 @@ def linear_name(name: str) -> str:
 def rotational_name(name: str) -> str:
     """The project's (a hinge's) name of a slide's parameter (:func:`linear_name`'s inverse)."""
     return _translate(name, _TO_ROTATIONAL)
+
+
+class Coordinate(str):
+    """How the bodies of a bench move, and the words and units that go with it: ``"hinge"`` (each
+    body turns) or ``"slide"`` (each moves along a line). A ``str`` (it compares with, and is
+    written as, the word files, JSON and MuJoCo use) that knows the rest, so no caller branches on
+    the word. The project computes in the hinge's names; :meth:`name` gives a parameter's name as
+    this bench's user reads it (a slide's in N and m), :meth:`project_name` takes it back.
+
+    Attributes (hinge, slide): ``position`` a position column's stem (phi, x); ``unit`` its unit
+    (rad, m); ``drive`` a drive column's stem (torque, force); ``drive_unit`` (N m, N);
+    ``drive_symbol`` an amplitude's (M0, F0); ``inertia`` (inertia, mass); ``drag`` a drag's model
+    fields (bearing, guide); ``sensor`` (angle, position); ``line`` the bodies together (train,
+    line); ``free_line``: such bodies with no tie to the frame; ``relative_motion`` what their
+    positions hold between them (twists, positions); ``units_note`` what a statement of units adds
+    (nothing for the project's own); ``bare_position_is_one_body``: the unnumbered position column
+    is one body's (a slide's ``x``), not a two-flywheel joint's relative angle (a hinge's ``phi``).
+
+    >>> Coordinate("slide").unit, Coordinate("slide").name("J1_kgm2")
+    ('m', 'm1_kg')
+    """
+
+    def __new__(cls, kind: str) -> "Coordinate":
+        if kind not in _COORDINATES:
+            raise ValueError(f"a body moves on a 'hinge' or a 'slide', got {kind!r}")
+        out = super().__new__(cls, kind)
+        out.__dict__.update(_COORDINATES[kind])
+        return out
+
+    def name(self, project_name: str) -> str:
+        """A parameter's name as this bench's user reads it."""
+        return _translate(project_name, self._to_user)
+
+    def project_name(self, name: str) -> str:
+        """The project's (a hinge's) name of a parameter named as this bench's user reads it."""
+        return _translate(name, self._to_project)
+
+    def words(self, text: str) -> str:
+        """Every parameter name in a sentence as this bench's user reads it."""
+        return re.sub(r"\b\w+_\w+\b", lambda m: self.name(m.group()), text) if self._to_user else text
+
+    def channel(self, project_channel: str) -> str:
+        """A channel's name on this bench (``torque1`` -> ``force1``, ``phi2`` -> ``x2`` on a slide)."""
+        return project_channel.replace("torque", self.drive).replace("phi", self.position)
+
+    def bodies(self, n: int) -> str:
+        """``n`` bodies in words ("a train of 4 bodies", "3 bodies on slides")."""
+        return self._bodies.format(n=n)
+
+    def in_degrees(self, value: float, digits: int = 3) -> str:
+        """`` (x deg)`` after an angle in rad, nothing after a length."""
+        return f" ({math.degrees(value):.{digits}g} deg)" if self.unit == "rad" else ""
+
+
+_COORDINATES = {
+    "hinge": dict(position="phi", unit="rad", drive="torque", drive_unit="N m", drive_symbol="M0", inertia="inertia",
+                  drag="bearing", sensor="angle", line="train", free_line="train free to turn",
+                  relative_motion="twists", units_note="", bare_position_is_one_body=False,
+                  _bodies="a train of {n} bodies", _to_user=(), _to_project=()),
+    "slide": dict(position="x", unit="m", drive="force", drive_unit="N", drive_symbol="F0", inertia="mass",
+                  drag="guide", sensor="position", line="line", free_line="carriage free to move",
+                  relative_motion="positions", units_note=" (bodies on slides: N, m, kg)",
+                  bare_position_is_one_body=True, _bodies="{n} bodies on slides", _to_user=_TO_LINEAR,
+                  _to_project=_TO_ROTATIONAL),
+}
+
+#: The two ways a bench's bodies move.
+HINGE, SLIDE = Coordinate("hinge"), Coordinate("slide")
