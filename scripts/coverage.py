@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """Coverage of the diagnosis's 95% intervals over seeds, on files of the independent bench.
 
-    python scripts/coverage.py [--seeds N] [--first-seed S] [--db 20 40 70] [--friction NM] [--out DIR]
-                               [--workers W] [--json OUT]
+    python scripts/coverage.py [--bench flywheels|slide] [--seeds N] [--first-seed S] [--db 20 40 70]
+                               [--friction NM] [--out DIR] [--workers W] [--json OUT]
 
 Why: a standard error is only worth printing if value +- 1.96 SE holds the truth 95% of the
 time. The two-flywheel paper joint with 20 N m of dry friction (tests/bench_sim.py: scipy,
@@ -17,6 +17,11 @@ covered with its binomial standard error and the median z = (value - truth) / SE
 is 0.674 for a calibrated Gaussian estimate). ``--friction 0`` measures the same joint without
 its friction (a right model then adopts nothing), to tell what the friction's own handling (the
 stick masks, the kinks restored) costs the intervals.
+
+``--bench slide``: the carriage on a guide instead (tests/bench_slide_sim.py: 12 kg, 40 N s/m,
+25 N of dry friction by default, scipy with exact stick-slip events, positions in mm with the
+sensor's own zero), 9 runs (3 frequencies x 80, 150, 300 N, scripts/bench_calibration.py's), the
+default hold-out; the truths are the mass, the guide's drag and the friction.
 
 A noise level L dB is white noise of standard deviation 10^(-L/20) times each channel's RMS
 (tests/bench_sim.py ``noise``): 20 dB is 10%, 40 dB 1%, 70 dB 0.032%.
@@ -60,8 +65,18 @@ def noise_fraction(db: float) -> float:
     return 10.0 ** (-db / 20.0)
 
 
-def case_path(out: Path, db: float, seed: int, friction_Nm: float = FRICTION_Nm) -> Path:
-    """One case's record (the friction in the name where it is not the default's)."""
+#: The carriage (tests/bench_slide_sim.py Carriage) as the diagnosis names it (the project's
+#: names: the mass as J1, the guide's drag as bearing 1's, the friction to ground at body 1).
+SLIDE_FRICTION_N = 25.0
+SLIDE_TRUTH = {"J1_kgm2": 12.0, "bearing1_damping_Nms_per_rad": 40.0, "ground1_coulomb_torque_Nm": SLIDE_FRICTION_N}
+SLIDE_STEP = "coulomb_friction to ground at body 1"
+
+
+def case_path(out: Path, db: float, seed: int, friction_Nm: float = FRICTION_Nm, bench: str = "flywheels") -> Path:
+    """One case's record (the friction in the name where it is not the bench's default)."""
+    if bench == "slide":
+        fc = "" if friction_Nm == SLIDE_FRICTION_N else f"_fc{friction_Nm:g}"
+        return out / f"slide_db{db:g}{fc}_seed{seed:04d}.json"
     fc = "" if friction_Nm == FRICTION_Nm else f"_fc{friction_Nm:g}"
     return out / f"db{db:g}{fc}_seed{seed:04d}.json"
 
@@ -77,36 +92,53 @@ def _twist_zero_rad(seed: int) -> float:
     return float(offsets[1] - offsets[2])
 
 
-def truth_of(friction_Nm: float) -> dict:
+def truth_of(friction_Nm: float, bench: str = "flywheels") -> dict:
     """The parameters with a known truth for a bench with ``friction_Nm`` of dry friction."""
-    return {k: v for k, v in TRUTH.items() if friction_Nm > 0 or k != "joint1_coulomb_torque_Nm"} | (
-        {"joint1_coulomb_torque_Nm": friction_Nm} if friction_Nm > 0 else {})
+    base, name = (SLIDE_TRUTH, "ground1_coulomb_torque_Nm") if bench == "slide" else (TRUTH, "joint1_coulomb_torque_Nm")
+    return {k: v for k, v in base.items() if k != name} | ({name: friction_Nm} if friction_Nm > 0 else {})
 
 
-def run_case(db: float, seed: int, out: str, friction_Nm: float = FRICTION_Nm) -> dict:
-    """One diagnosis (in a worker process); its record is written to ``out`` and returned."""
-    os.environ["JOINTRIG_WORKERS"] = "1"  # one process per case: no forked scoring inside
-    sys.path.insert(0, str(ROOT / "tests"))
-    from jointrig.rig.runtime import limit_threads
-
-    limit_threads()
+def _flywheel_diagnosis(db: float, seed: int, friction_Nm: float, tmp: Path):
+    """The two flywheels' runs written as a DAQ does, and their diagnosis."""
     from bench_sim import JOINTS, POINTS, measure, with_effect
     from jointrig.measured.runs import as_train, read_runs
     from jointrig.rig.chain import rig_of_bodies
     from jointrig.studies.chain_validate import run_train_diagnosis
 
+    points = [p for i, p in enumerate(POINTS["paper"]) if i % 3 != 1]
+    path = measure(with_effect(JOINTS["paper"], Fc=friction_Nm), points, tmp / "b.csv", seed=seed, fs_Hz=FS_HZ,
+                   n_periods=N_PERIODS, noise=noise_fraction(db))
+    loaded = as_train(read_runs(path))
+    return run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(2, [1]), holdout=HOLDOUT)
+
+
+def _slide_diagnosis(db: float, seed: int, friction_N: float, tmp: Path):
+    """The carriage's runs written as a DAQ does, and their diagnosis."""
+    from bench_calibration import SLIDE_POINTS
+    from bench_slide_sim import Carriage, daq_runs
+    from jointrig.measured.runs import read_runs
+    from jointrig.rig.chain import rig_of_bodies
+    from jointrig.studies.chain_validate import run_train_diagnosis
+
+    path = daq_runs(Carriage(Fc=friction_N), SLIDE_POINTS, tmp / "axis.csv", snr_db=db, seed=seed)
+    loaded = read_runs(path)
+    return run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(1, [1], "slide"))
+
+
+def run_case(db: float, seed: int, out: str, friction_Nm: float = FRICTION_Nm, bench: str = "flywheels") -> dict:
+    """One diagnosis (in a worker process); its record is written to ``out`` and returned."""
+    os.environ["JOINTRIG_WORKERS"] = "1"  # one process per case: no forked scoring inside
+    sys.path[:0] = [str(ROOT / "tests"), str(ROOT / "scripts")]
+    from jointrig.rig.runtime import limit_threads
+
+    limit_threads()
     t0 = time.perf_counter()
-    rec = {"db": db, "seed": seed, "noise_fraction": noise_fraction(db), "friction_Nm": friction_Nm}
-    truth = dict(truth_of(friction_Nm), **{OFFSET: _twist_zero_rad(seed)})
+    rec = {"bench": bench, "db": db, "seed": seed, "noise_fraction": noise_fraction(db), "friction_Nm": friction_Nm}
+    truth = truth_of(friction_Nm, bench) if bench == "slide" else dict(truth_of(friction_Nm), **{OFFSET: _twist_zero_rad(seed)})
     rec["truth"] = truth
     try:
         with tempfile.TemporaryDirectory() as tmp:
-            points = [p for i, p in enumerate(POINTS["paper"]) if i % 3 != 1]
-            path = measure(with_effect(JOINTS["paper"], Fc=friction_Nm), points, Path(tmp) / "b.csv", seed=seed,
-                           fs_Hz=FS_HZ, n_periods=N_PERIODS, noise=noise_fraction(db))
-            loaded = as_train(read_runs(path))
-            r = run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(2, [1]),
-                                    holdout=HOLDOUT)
+            r = (_slide_diagnosis if bench == "slide" else _flywheel_diagnosis)(db, seed, friction_Nm, Path(tmp))
         d = r.diagnosis
         params = d.final.parameters()
         rec.update(verdict=r.verdict.verdict, steps=[s.label for s in d.steps],
@@ -117,14 +149,15 @@ def run_case(db: float, seed: int, out: str, friction_Nm: float = FRICTION_Nm) -
     except Exception as err:  # a failed case is recorded, counted and reported, not retried
         rec["error"] = f"{type(err).__name__}: {err}"
     rec["wall_s"] = time.perf_counter() - t0
-    write_json_atomic(case_path(Path(out), db, seed, friction_Nm), rec)
+    write_json_atomic(case_path(Path(out), db, seed, friction_Nm, bench), rec)
     return rec
 
 
 def right_structure(r: dict) -> bool:
-    """The final model is the bench's: dry friction at the joint adopted (where it has one),
-    nothing else."""
-    return r.get("steps") == ([RIGHT_STEP] if r.get("friction_Nm", FRICTION_Nm) > 0 else [])
+    """The final model is the bench's: dry friction at the joint (the carriage's guide) adopted
+    where it has one, nothing else."""
+    step = SLIDE_STEP if r.get("bench") == "slide" else RIGHT_STEP
+    return r.get("steps") == ([step] if r.get("friction_Nm", FRICTION_Nm) > 0 else [])
 
 
 def summarise(records: list[dict], levels: list[float], right_only: bool = False) -> dict:
@@ -135,11 +168,11 @@ def summarise(records: list[dict], levels: list[float], right_only: bool = False
         recs = [r for r in records if r["db"] == db and (not right_only or right_structure(r))]
         ok = [r for r in recs if "error" not in r]
         level = {"n_cases": len(recs), "n_failed": len(recs) - len(ok),
-                 "n_friction_adopted": sum("joint1_coulomb_torque_Nm" in r["parameters"] for r in ok),
+                 "n_friction_adopted": sum(any(n.endswith("coulomb_torque_Nm") for n in r["parameters"]) for r in ok),
                  "verdicts": {v: sum(r["verdict"] == v for r in ok) for v in sorted({r["verdict"] for r in ok})},
                  "median_chi2_per_dof": statistics.median(r["chi2_per_dof"] for r in ok) if ok else math.nan,
                  "parameters": {}}
-        for name in list(TRUTH) + [OFFSET]:
+        for name in dict.fromkeys(n for r in recs for n in r["truth"]):
             zs, no_se = [], 0
             for r in ok:
                 if name not in r["parameters"] or name not in r["truth"]:  # (a friction adopted where none is)
@@ -183,8 +216,11 @@ def parse(argv) -> argparse.Namespace:
     p.add_argument("--first-seed", type=int, default=0, help="the first seed (default 0)")
     p.add_argument("--db", type=float, nargs="+", default=[20.0, 40.0, 70.0],
                    help="noise levels, SNR in dB per channel (default 20 40 70)")
-    p.add_argument("--friction", type=float, default=FRICTION_Nm, metavar="NM",
-                   help=f"the joint's dry friction in N m (default {FRICTION_Nm:g}; 0: none)")
+    p.add_argument("--bench", choices=("flywheels", "slide"), default="flywheels",
+                   help="two flywheels (default) or the carriage on a guide")
+    p.add_argument("--friction", type=float, default=None, metavar="NM",
+                   help=f"the dry friction in N m, N on the guide (default {FRICTION_Nm:g}, the guide's "
+                        f"{SLIDE_FRICTION_N:g}; 0: none)")
     p.add_argument("--out", type=Path, default=ROOT / "runs" / "coverage",
                    help="folder of the per-case JSON files (default runs/coverage)")
     p.add_argument("--workers", type=int, default=2, help="processes (default 2)")
@@ -196,6 +232,8 @@ def parse(argv) -> argparse.Namespace:
         p.exit(2, f"{p.prog}: error: --first-seed must be >= 0, got {args.first_seed}\n")
     if args.workers < 1:
         p.exit(2, f"{p.prog}: error: --workers must be at least 1, got {args.workers}\n")
+    if args.friction is None:
+        args.friction = SLIDE_FRICTION_N if args.bench == "slide" else FRICTION_Nm
     if not (math.isfinite(args.friction) and args.friction >= 0):
         p.exit(2, f"{p.prog}: error: --friction must be a number >= 0 (N m), got {args.friction}\n")
     try:
@@ -215,7 +253,7 @@ def main(argv=None) -> int:
     records, todo = [], []
     for seed in seeds:  # seed by seed across the levels: a run stopped early leaves every level alike
         for db in levels:
-            path = case_path(args.out, db, seed, args.friction)
+            path = case_path(args.out, db, seed, args.friction, args.bench)
             if path.exists():
                 records.append(json.loads(path.read_text()))
             else:
@@ -225,7 +263,8 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     if todo:
         with ProcessPoolExecutor(args.workers) as pool:
-            futures = {pool.submit(run_case, db, seed, str(args.out), args.friction): (db, seed) for db, seed in todo}
+            futures = {pool.submit(run_case, db, seed, str(args.out), args.friction, args.bench): (db, seed)
+                       for db, seed in todo}
             for k, fut in enumerate(as_completed(futures), 1):
                 db, seed = futures[fut]
                 r = fut.result()
@@ -237,15 +276,19 @@ def main(argv=None) -> int:
                       f"{eta / 60:.0f} min left)", file=sys.stderr, flush=True)
     table = summarise(records, levels)
     right = summarise(records, levels, right_only=True)
-    print(f"Coverage of value +- {Z95} SE over seeds {seeds.start}-{seeds.stop - 1}: two flywheels, paper joint, "
-          f"{args.friction:g} N m dry friction (tests/bench_sim.py), 6 runs, runs {HOLDOUT} held out")
+    what = (f"the carriage on a guide, 12 kg, 40 N s/m, {args.friction:g} N dry friction (tests/bench_slide_sim.py), "
+            f"9 runs, the default hold-out" if args.bench == "slide" else
+            f"two flywheels, paper joint, {args.friction:g} N m dry friction (tests/bench_sim.py), 6 runs, runs "
+            f"{HOLDOUT} held out")
+    print(f"Coverage of value +- {Z95} SE over seeds {seeds.start}-{seeds.stop - 1}: {what}")
     print_table(table)
+    step = SLIDE_STEP if args.bench == "slide" else RIGHT_STEP
     print(f"\nOnly the seeds whose final model has the bench's structure "
-          f"({RIGHT_STEP if args.friction > 0 else 'no cause'} adopted, nothing else):")
+          f"({step if args.friction > 0 else 'no cause'} adopted, nothing else):")
     print_table(right)
     if args.json is not None:
         write_json_atomic(args.json, {"seeds": [seeds.start, seeds.stop - 1], "levels_db": levels,
-                                      "truth": TRUTH, "table": table,
+                                      "bench": args.bench, "truth": truth_of(args.friction, args.bench), "table": table,
                                       "right_structure_only": right})
         print(f"wrote {args.json}")
     return 0

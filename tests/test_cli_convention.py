@@ -124,8 +124,10 @@ def test_the_commands_on_your_data_come_first_in_the_usage(capsys):
     assert usage.rstrip().endswith("jointrig diagnose examples/bench_dry_friction.csv")
 
 
-#: the examples that take minutes (a diagnosis, or every hidden-effect case): run by ``-m slow``
-SLOW_EXAMPLES = ("diagnose", "card", "diagnose-chain", "cases")
+#: the examples that take minutes (a diagnosis, or every hidden-effect case), and those whose whole
+#: job the fast suite runs already (the Silverbox path, tests/test_silverbox.py, 25 s; the card
+#: against phase resonance, tests/test_card.py, 15 s): run by ``-m slow``
+SLOW_EXAMPLES = ("diagnose", "card", "diagnose-chain", "cases", "silverbox", "card-check")
 
 
 def _needs(name):
