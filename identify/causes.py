@@ -529,14 +529,40 @@ class Place:
     kind: str
     number: Optional[int]
 
+    def __post_init__(self):
+        if self.kind not in PLACE_WORDS:
+            raise ValueError(f"a place is one of {sorted(PLACE_WORDS)}, got {self.kind!r}")
+
     def describe(self) -> str:
-        if self.kind == "ground":
-            return f"to ground at body {self.number}"
-        if self.kind == "drive":
-            return "at the drives"
-        if self.kind == "channel":
-            return f"at body {self.number}'s angle channel"
-        return f"at {self.kind} {self.number}"
+        """Where, in a label's words: "at joint 2", "to ground at body 1", "at the drives"."""
+        return PLACE_WORDS[self.kind].format(n=self.number)
+
+    @property
+    def at_joint(self) -> bool:
+        return self.kind == "joint"
+
+    @property
+    def to_ground(self) -> bool:
+        """Body i's own law to the frame."""
+        return self.kind == "ground"
+
+    @property
+    def at_bearing(self) -> bool:
+        """A flywheel's viscous drag to ground."""
+        return self.kind == "flywheel"
+
+    @property
+    def at_drive(self) -> bool:
+        return self.kind == "drive"
+
+    @property
+    def at_channel(self) -> bool:
+        return self.kind == "channel"
+
+
+#: How each kind of place reads in a cause's label (``{n}``: its number).
+PLACE_WORDS = {"joint": "at joint {n}", "flywheel": "at flywheel {n}", "ground": "to ground at body {n}",
+               "channel": "at body {n}'s angle channel", "drive": "at the drives"}
 
 
 @dataclass(frozen=True)
@@ -581,11 +607,11 @@ class CauseScore:
 
     @property
     def at_joint(self) -> bool:
-        return self.where is None or self.where.kind == "joint"
+        return self.where is None or self.where.at_joint
 
     @property
     def ground(self) -> bool:
-        return self.where is not None and self.where.kind == "ground"
+        return self.where is not None and self.where.to_ground
 
     def as_json(self) -> dict:
         """The score in a diagnosis's JSON (``present.diagnosis_json.CAUSE_KEYS``): ``place`` is

@@ -788,14 +788,126 @@ def refit_on_replay(replays: Sequence[Optional[ChainRun]], fit: ChainFit, n_harm
 # 3. Candidates: a cause at a place
 
 
+class _AtPlace:
+    """What a cause does at one kind of place (:class:`identify.causes.Place`): how it extends
+    the chain, how its parameters are named, which motion its law sees and which angle channels
+    that motion is read from. One subclass per kind of place, one instance of each in
+    :data:`AT_PLACE`: a cause at a new kind of place is a subclass there and the catalogue's
+    entry, no branch elsewhere."""
+
+    def extend(self, cause: Cause, spec: ChainSpec, number: int, h: float) -> ChainSpec:
+        raise NotImplementedError
+
+    def prefix(self, number: Optional[int]) -> str:
+        return ""
+
+    def magnitude_name(self, cause: Cause, number: Optional[int]) -> str:
+        return self.prefix(number) + cause.magnitude
+
+    def profiled_name(self, cause: Cause, number: Optional[int]) -> str:
+        return self.prefix(number) + cause.profiled
+
+    def motion(self, rec: ChainRecord, number: int) -> tuple[np.ndarray, np.ndarray]:
+        """A body's own angle and rate (its law to ground, its angle channel)."""
+        return rec.angles_rad[number - 1], rec.rate(number - 1)
+
+    def channels(self, number: int) -> tuple[str, ...]:
+        return (f"phi{number}",)
+
+
+class _AtJoint(_AtPlace):
+    """Joint j's law, between bodies j and j+1: it extends that joint as a cause extends the
+    two-flywheel joint (its terms and its twist's zero offset, :class:`identify.causes.ModelSpec`)."""
+
+    def extend(self, cause, spec, number, h):
+        joints, offsets = list(spec.joints), list(spec.offsets_rad)
+        ext = cause.extend(ModelSpec(joints[number - 1], angle_offset_rad=offsets[number - 1]), h)
+        joints[number - 1], offsets[number - 1] = ext.terms, ext.angle_offset_rad
+        return replace(spec, joints=tuple(joints), offsets_rad=tuple(offsets))
+
+    def prefix(self, number):
+        return joint_prefix(number)
+
+    def motion(self, rec, number):
+        """The joint's twist and twist rate."""
+        return rec.relative(number - 1)
+
+    def channels(self, number):
+        return (f"phi{number}", f"phi{number + 1}")
+
+
+class _AtBearing(_AtJoint):
+    """A flywheel's viscous drag to ground (its bearing): a bearing added to the chain, its
+    parameter the bearing's drag; read as the joint of the same number otherwise."""
+
+    def extend(self, cause, spec, number, h):
+        return replace(spec, bearings=spec.bearings + (number,))
+
+    def magnitude_name(self, cause, number):
+        return bearing_name(number)
+
+
+class _AtGround(_AtPlace):
+    """Body i's own law to the frame (a guide's or a seal's friction, a motor's cogging)."""
+
+    def extend(self, cause, spec, number, h):
+        grounds = list(spec.grounds)
+        grounds[number - 1] = cause.extend(ModelSpec(grounds[number - 1]), h).terms
+        return replace(spec, grounds=tuple(grounds))
+
+    def prefix(self, number):
+        return ground_prefix(number)
+
+
+class _AtChannel(_AtPlace):
+    """Body i's angle channel: its skew and scale against the drive's and body 1's, as flywheel
+    2's of two flywheels."""
+
+    def extend(self, cause, spec, number, h):
+        delays, gains = list(spec.channel_delays_s), list(spec.channel_gains)
+        ext = cause.extend(ModelSpec((), angle2_delay_s=delays[number - 1], angle2_gain_error=gains[number - 1]), h)
+        delays[number - 1], gains[number - 1] = ext.angle2_delay_s, ext.angle2_gain_error
+        return replace(spec, channel_delays_s=tuple(delays), channel_gains=tuple(gains))
+
+    def magnitude_name(self, cause, number):
+        return channel_name(number, cause.magnitude)
+
+    def profiled_name(self, cause, number):
+        return channel_name(number, cause.profiled)
+
+
+class _AtDrive(_AtPlace):
+    """The drives' channels (their lag behind the record), not a place on the line."""
+
+    def extend(self, cause, spec, number, h):
+        return replace(spec, drive_delay_s=cause.extend(ModelSpec((), drive_delay_s=spec.drive_delay_s),
+                                                        h).drive_delay_s)
+
+    def motion(self, rec, number):
+        raise ValueError("a cause at the drives acts on no body's motion")
+
+    def channels(self, number):
+        return ()
+
+
+#: What a cause does at each kind of place (:attr:`identify.causes.Place.kind`).
+AT_PLACE = {"joint": _AtJoint(), "flywheel": _AtBearing(), "ground": _AtGround(), "channel": _AtChannel(),
+            "drive": _AtDrive()}
+
+
 @dataclass(frozen=True)
 class Candidate:
     """A catalogued cause at one place (:class:`identify.causes.Place`): a joint (1..N-1), a
-    flywheel's viscous drag to ground (1..N, bearing drag) or a body's law to ground (1..N: a
-    guide's or a seal's friction, a motor's cogging)."""
+    flywheel's viscous drag to ground (1..N, bearing drag), a body's law to ground (1..N: a
+    guide's or a seal's friction, a motor's cogging), a body's angle channel or the drives; what
+    it does there is its place's (:data:`AT_PLACE`)."""
 
     cause: Cause
     where: Place
+
+    @property
+    def _at(self) -> _AtPlace:
+        return AT_PLACE[self.where.kind]
 
     @property
     def place(self) -> int:
@@ -803,21 +915,21 @@ class Candidate:
 
     @property
     def at_joint(self) -> bool:
-        return self.where.kind == "joint"
+        return self.where.at_joint
 
     @property
     def ground(self) -> bool:
-        return self.where.kind == "ground"
+        return self.where.to_ground
 
     @property
     def at_drive(self) -> bool:
         """The drives' channels (their lag behind the record), not a place on the line."""
-        return self.where.kind == "drive"
+        return self.where.at_drive
 
     @property
     def at_channel(self) -> bool:
         """A body's angle channel (its skew and scale against the drive's and body 1's)."""
-        return self.where.kind == "channel"
+        return self.where.at_channel
 
     @property
     def label(self) -> str:
@@ -834,60 +946,27 @@ class Candidate:
         return self.cause.first_only
 
     def extend(self, spec: ChainSpec, h: float) -> ChainSpec:
-        """The chain with this cause at its place: a joint's cause extends that joint as it extends
-        the two-flywheel joint (its terms and its twist's zero offset, :class:`identify.causes.ModelSpec`)."""
-        if self.at_drive:
-            return replace(spec, drive_delay_s=self.cause.extend(ModelSpec((), drive_delay_s=spec.drive_delay_s),
-                                                                 h).drive_delay_s)
-        k = self.place - 1
-        if self.at_channel:  # a channel's skew and scale, as flywheel 2's of two flywheels
-            delays, gains = list(spec.channel_delays_s), list(spec.channel_gains)
-            ext = self.cause.extend(ModelSpec((), angle2_delay_s=delays[k], angle2_gain_error=gains[k]), h)
-            delays[k], gains[k] = ext.angle2_delay_s, ext.angle2_gain_error
-            return replace(spec, channel_delays_s=tuple(delays), channel_gains=tuple(gains))
-        if self.ground:
-            grounds = list(spec.grounds)
-            grounds[k] = self.cause.extend(ModelSpec(grounds[k]), h).terms
-            return replace(spec, grounds=tuple(grounds))
-        if not self.at_joint:
-            return replace(spec, bearings=spec.bearings + (self.place,))
-        joints, offsets = list(spec.joints), list(spec.offsets_rad)
-        ext = self.cause.extend(ModelSpec(joints[k], angle_offset_rad=offsets[k]), h)
-        joints[k], offsets[k] = ext.terms, ext.angle_offset_rad
-        return replace(spec, joints=tuple(joints), offsets_rad=tuple(offsets))
+        """The chain with this cause at its place."""
+        return self._at.extend(self.cause, spec, self.place, h)
 
     @property
     def prefix(self) -> str:
-        if self.at_drive or self.at_channel:
-            return ""
-        return ground_prefix(self.place) if self.ground else joint_prefix(self.place)
+        return self._at.prefix(self.place)
 
     def magnitude_name(self) -> str:
-        if self.at_drive:
-            return self.cause.magnitude
-        if self.at_channel:
-            return channel_name(self.place, self.cause.magnitude)
-        if not self.at_joint and not self.ground:
-            return bearing_name(self.place)
-        return self.prefix + self.cause.magnitude
+        return self._at.magnitude_name(self.cause, self.place)
 
     def profiled_name(self) -> Optional[str]:
-        if self.cause.profiled is None:
-            return None
-        return channel_name(self.place, self.cause.profiled) if self.at_channel else self.prefix + self.cause.profiled
+        return None if self.cause.profiled is None else self._at.profiled_name(self.cause, self.place)
 
     def motion(self, rec: ChainRecord) -> tuple[np.ndarray, np.ndarray]:
         """The motion this candidate's law sees in a record: its joint's twist and twist rate, or
         its body's own angle and rate (ground, an angle channel)."""
-        if self.ground or self.at_channel:
-            return rec.angles_rad[self.place - 1], rec.rate(self.place - 1)
-        return rec.relative(self.place - 1)
+        return self._at.motion(rec, self.place)
 
     def channels(self) -> tuple[str, ...]:
         """The angle channels this candidate's motion is read from."""
-        if self.at_channel:
-            return (f"phi{self.place}",)
-        return (f"phi{self.place}",) if self.ground else (f"phi{self.place}", f"phi{self.place + 1}")
+        return self._at.channels(self.place)
 
 
 #: The smallest swing a cause's search bounds read (``Cause.bounds_read_smallest``), as a share
@@ -1314,7 +1393,7 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
     # (nor a drag at a body whose law to ground has one: the relative-angle form's joint)
     pool = [c for c in candidates(N, causes, drives=DRIVE_CAUSES if several else (), elastic_grounds=elastic)
             if (c.extend(structure, 1e-3) != structure or c.cause.bounds is not None)
-            and not (c.where.kind == "flywheel" and any(isinstance(t, Viscous) for t in structure.grounds[c.place - 1]))]
+            and not (c.where.at_bearing and any(isinstance(t, Viscous) for t in structure.grounds[c.place - 1]))]
     masked = tuple(sticks_to_ground(structure, i) or any(c.ground and c.place == i + 1
                                                          and sticks_to_ground(c.extend(structure, 1e-3), i)
                                                          for c in pool) for i in range(N))

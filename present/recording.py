@@ -435,11 +435,11 @@ def log_chain_diagnosis(rec: rr.RecordingStream, diagnosis, validation, n_flywhe
     import rerun.blueprint as rrb
 
     places = [f"joint {j}" for j in range(1, n_flywheels)] + [f"flywheel {i}" for i in range(1, n_flywheels + 1)]
-    if any(s.where is not None and s.where.kind == "drive" for s in diagnosis.first_round):
+    if any(s.where is not None and s.where.at_drive for s in diagnosis.first_round):
         places.append("drives")
     best = {p: 0.0 for p in places}
     for s in diagnosis.first_round:
-        key = ("drives" if s.where is not None and s.where.kind == "drive"
+        key = ("drives" if s.where is not None and s.where.at_drive
                else f"{'joint' if s.at_joint else 'flywheel'} {s.place}")
         if not s.note:
             best[key] = max(best[key], s.score)

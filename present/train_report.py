@@ -59,7 +59,7 @@ def plain_label(step, form: str = "train") -> str:
     plain = by_name(step.effect).plain or step.effect
     if step.where is None:
         return plain
-    if form == "relative" and step.where.kind == "ground":
+    if form == "relative" and step.where.to_ground:
         return f"{plain} in the joint"
     return f"{plain} {step.where.describe()}"
 
@@ -113,8 +113,8 @@ def _sought(report: TrainReport) -> str:
     N = d.nominal.spec.n_flywheels
     n_joint = sum(1 for s in d.first_round if s.at_joint)
     n_ground = sum(1 for s in d.first_round if s.ground)
-    n_drive = sum(1 for s in d.first_round if s.where is not None and s.where.kind == "drive")
-    n_channel = sum(1 for s in d.first_round if s.where is not None and s.where.kind == "channel")
+    n_drive = sum(1 for s in d.first_round if s.where is not None and s.where.at_drive)
+    n_channel = sum(1 for s in d.first_round if s.where is not None and s.where.at_channel)
     n_drag = len(d.first_round) - n_joint - n_ground - n_drive - n_channel
     places = ([f"{n_joint} at {N - 1} joint(s)"] if N > 1 else []) + (
         [f"viscous drag at {n_drag} {'bodies' if n_drag > 1 else 'body'}"] if n_drag else []) + (

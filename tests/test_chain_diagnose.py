@@ -995,3 +995,20 @@ def test_a_twist_is_resolved_when_it_stands_five_times_above_its_noise_in_the_ba
     avg = ChainRecord(1.0, t, (np.ones(N), None), (amplitude * np.sin(t), 0 * t), None, 1)
     run = ChainRun(avg, (avg,) * P, {"phi1": s1, "phi2": s2, "torque1": 0.0}, N, band)
     assert twist_resolved(run, 0) is resolved
+
+
+def test_every_kind_of_place_has_its_words_and_its_rules():
+    # issue 53: what a cause does at a place is the place's (identify.chain_diagnose.AT_PLACE), how
+    # it reads is identify.causes.PLACE_WORDS; a kind with one and not the other, or a kind that
+    # is neither, is refused
+    import pytest
+
+    from jointrig.identify.causes import PLACE_WORDS, Place
+    from jointrig.identify.chain_diagnose import AT_PLACE
+
+    assert AT_PLACE.keys() == PLACE_WORDS.keys()
+    with pytest.raises(ValueError, match="a place is one of .*got 'shaft'"):
+        Place("shaft", 1)
+    assert [Place(k, 2).describe() for k in ("joint", "flywheel", "ground", "channel")] == [
+        "at joint 2", "at flywheel 2", "to ground at body 2", "at body 2's angle channel"]
+    assert Place("drive", None).describe() == "at the drives"
