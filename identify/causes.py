@@ -99,9 +99,9 @@ class Cause:
     #: finer than the oscillation, whatever the range
     grid_step: Optional[Callable[[Sequence], float]] = None
     #: ``degenerate(value, limits)``: why a fitted nonlinear parameter means the cause is another
-    #: or nothing (a slip angle below the angle resolution is dry friction), "" if it stands
+    #: or nothing (a slip angle below the angle resolution is dry friction), None if it stands
     #: (:class:`Limits` says what the data resolve)
-    degenerate: Optional[Callable[[float, "Limits"], str]] = None
+    degenerate: Optional[Callable[[float, "Limits"], Optional[str]]] = None
     #: ``trials(runs)``: independent values the profile search in effect tries (None: 1, a
     #: parameter whose chi-square has one basin or a few): a free frequency tries one per
     #: oscillation of chi-square over its range, and its best drop is the largest of that many;
@@ -170,19 +170,19 @@ class Limits:
     friction: str = "coulomb_friction"
 
 
-def _below_resolution(what: str, then: str) -> Callable[[float, Limits], str]:
+def _below_resolution(what: str, then: str) -> Callable[[float, Limits], Optional[str]]:
     """A rule for a slip angle or a free play: below the resolution it is ``then``."""
-    def rule(h: float, lim: Limits) -> str:
+    def rule(h: float, lim: Limits) -> Optional[str]:
         if not h < lim.resolution_rad:
-            return ""
+            return None
         return f"its {what} {h:.3g} rad is below the angle resolution {lim.resolution_rad:.2g} rad: " + \
             then.format(friction=lim.friction)
     return rule
 
 
-def _stribeck_degenerate(v: float, lim: Limits) -> str:
+def _stribeck_degenerate(v: float, lim: Limits) -> Optional[str]:
     if not v > lim.rate_top_rad_s:
-        return ""
+        return None
     return (f"its Stribeck rate {v:.3g} rad/s is above every run's rate amplitude (at most {lim.rate_top_rad_s:.3g} "
             f"rad/s): the friction does not fall off within the data; it is dry friction (see {lim.friction})")
 

@@ -1156,7 +1156,9 @@ def _dissipative(fit: ChainFit) -> list[str]:
     return names + [bearing_name(i) for i in fit.spec.bearings]
 
 
-def _rejection(problem: _Problem, cand: Candidate, ext: ChainFit, mag: tuple) -> str:
+def _rejection(problem: _Problem, cand: Candidate, ext: ChainFit, mag: tuple) -> Optional[str]:
+    """Why a candidate the evidence calls significant is rejected all the same, in words (its
+    score's ``note``), or None where nothing rejects it."""
     if cand.cause.nonnegative and mag[1] < 0:
         return f"fitted with an unphysical negative {mag[0]} = {mag[1]:.4g}: rejected"
     for name in _dissipative(ext):
@@ -1168,7 +1170,7 @@ def _rejection(problem: _Problem, cand: Candidate, ext: ChainFit, mag: tuple) ->
         at_place = f"joint {cand.place}" if cand.at_joint else f"body {cand.place}"
         return cand.cause.degenerate(h, Limits(angle_resolution(problem, cand), _rate_amplitude(problem, cand),
                                                f"coulomb_friction at {at_place}"))
-    return ""
+    return None
 
 
 def score(problem: _Problem, cand: Candidate, base: ChainFit, weights: np.ndarray, n_tests: int,
@@ -1191,11 +1193,11 @@ def score(problem: _Problem, cand: Candidate, base: ChainFit, weights: np.ndarra
         mag = cand.cause.magnitude_of(ext.parameters(), ext.std_error, cand.prefix)
     else:
         mag = (name, ext.parameters().get(name, math.nan), ext.std_error(name))
-    note = _rejection(problem, cand, ext, mag) if significant or (cand.cause.nonnegative and mag[1] < 0) else ""
-    if note:
+    rejected = _rejection(problem, cand, ext, mag) if significant or (cand.cause.nonnegative and mag[1] < 0) else None
+    if rejected is not None:
         significant = False
     return CauseScore(cand.cause.name, float(delta), q, float(bic), p, significant, ext, mag,
-                      _signature(problem, cand, base, ext), note=note, where=cand.where, nu=nu, nu_eff=nu_eff)
+                      _signature(problem, cand, base, ext), note=rejected or "", where=cand.where, nu=nu, nu_eff=nu_eff)
 
 
 def _drop_dof(problem: _Problem, base: ChainFit, ext: ChainFit, weights: np.ndarray) -> float:
