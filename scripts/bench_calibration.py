@@ -3,7 +3,8 @@
 the independent simulators?
 
     python scripts/bench_calibration.py [--quick] [--db 20 40 60 80] [--bench flywheels train slide]
-                                        [--seed S] [--train-friction-Nm F] [--json OUT]
+                                        [--seed S] [--train-friction-Nm F] [--flywheel-friction-Nm F]
+                                        [--encoder-zeros] [--json OUT]
 
 Why: the diagnosis weighs the harmonic balance's rows by the noise plus a *measured* model
 fidelity (the balance's misfit on the fitted model's noise-free replay in the rig). If that is
@@ -13,7 +14,9 @@ of tests/ (nothing of jointrig simulates the data) and diagnoses their DAQ-style
 
 - ``flywheels``: two flywheels with the paper's joint (tests/bench_sim.py), 6 runs (3
   frequencies x 1500 and 3500 N m, the middle frequency held out), without an effect and with
-  20 N m of dry friction; diagnosed in-process (``studies.chain_validate.run_train_diagnosis``).
+  dry friction (``--flywheel-friction-Nm``, default 20 N m); diagnosed in-process
+  (``studies.chain_validate.run_train_diagnosis``). ``--encoder-zeros``: each encoder on its own
+  zero, uniform in +-pi (drawn from the seed), as two encoders mounted by hand read.
 - ``train``: the 4-body pump train (tests/bench_chain_sim.py, its 12 PUMP_POINTS, 20 kHz, time
   in ms, encoders not zeroed), without an effect and with dry friction at joint 2
   (``--train-friction-Nm``, default 8 N m: it sticks in most runs); ``jointrig diagnose FILE
@@ -27,7 +30,7 @@ A noise level L dB is white noise of standard deviation 10^(-L/20) times each ch
 is 10%, 40 dB 1%, 60 dB 0.1%, 80 dB 0.01%. ``--quick`` runs 40 and 80 dB only.
 
 One row per case: bench, effect, level, verdict, the causes the extension adopted, the final
-(extended) model's chi2/dof, and the effect's size: fitted, and (fitted - true) / SE. "worst"
+(extended) model's chi2/dof, and the effect's size: fitted, and (fitted - true) / SE, and the held-out gain. "worst"
 is the largest |z| over the other parameters with a known truth (inertias or mass, damping,
 stiffness). Progress goes to stderr; ``--json OUT`` writes the table atomically.
 """
@@ -42,6 +45,8 @@ import subprocess
 import sys
 import tempfile
 import time
+
+import numpy as np
 
 from jointrig.files import write_json_atomic
 from pathlib import Path
@@ -93,20 +98,22 @@ def _diagnose_cli(path: Path, out: Path, *extra: str) -> dict:
     return {"verdict": j["verdict"]["verdict"], "steps": [s["label"] for s in ext.get("steps", [])],
             "chi2_per_dof": ext["chi2_per_dof"], "nominal_chi2_per_dof": j["nominal"]["chi2_per_dof"],
             "parameters": ext["parameters"], "std_errors": ext["std_errors"],
-            "fidelity": fid.get("relative_misfit"), "fidelity_how": fid.get("how"),
+            "gain": (j.get("validation") or {}).get("gain"), "fidelity": fid.get("relative_misfit"), "fidelity_how": fid.get("how"),
             "fidelity_statement": fid.get("statement"),
             "fidelity_notes": [n for n in j.get("notes", []) if "fidelity" in n]}
 
 
-def _flywheels(db: float, friction: bool, seed: int, tmp: Path) -> dict:
+def _flywheels(db: float, friction_Nm: float, seed: int, tmp: Path, encoder_zeros: bool = False) -> dict:
     from bench_sim import JOINTS, POINTS, measure, with_effect
     from jointrig.measured.runs import as_train, read_runs
     from jointrig.rig.chain import rig_of_bodies
     from jointrig.studies.chain_validate import run_train_diagnosis
 
     points = [p for i, p in enumerate(POINTS["paper"]) if i % 3 != 1]
-    joint = with_effect(JOINTS["paper"], Fc=FLYWHEEL_FRICTION_Nm if friction else 0.0)
-    path = measure(joint, points, tmp / "b.csv", seed=seed, fs_Hz=2000.0, n_periods=6.5, noise=noise_fraction(db))
+    joint = with_effect(JOINTS["paper"], Fc=friction_Nm)
+    zero1, zero2 = np.random.default_rng([seed, 2]).uniform(-math.pi, math.pi, 2) if encoder_zeros else (0.0, 0.0)
+    path = measure(joint, points, tmp / "b.csv", seed=seed, fs_Hz=2000.0, n_periods=6.5, noise=noise_fraction(db),
+                   transform=lambda t, T, p1, p2: (t, T, p1 + zero1, p2 + zero2))
     loaded = as_train(read_runs(path))
     r = run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(2, [1]), holdout=(2, 3))
     d = r.diagnosis
@@ -115,6 +122,7 @@ def _flywheels(db: float, friction: bool, seed: int, tmp: Path) -> dict:
             "chi2_per_dof": float(d.reduced_chi2(d.final)), "nominal_chi2_per_dof": float(d.reduced_chi2(d.nominal)),
             "parameters": {k: float(v) for k, v in params.items()},
             "std_errors": {k: float(d.final.std_error(k)) for k in params},
+            "gain": r.validation.gain if r.validation is not None else None,
             "fidelity": getattr(d.fidelity, "relative", None),
             "fidelity_how": "measured" if hasattr(d.fidelity, "relative") else "fixed"}
 
@@ -135,15 +143,15 @@ def _slide(db: float, friction: bool, seed: int, tmp: Path) -> dict:
     return _diagnose_cli(path, tmp / "d.json")
 
 
-def cases(benches, levels, train_friction_Nm: float):
+def cases(benches, levels, train_friction_Nm: float, flywheel_friction_Nm: float = FLYWHEEL_FRICTION_Nm,
+          encoder_zeros: bool = False):
     """(bench, effect label, level dB, effect parameter, its truth, other truths, runner)."""
     for bench in benches:
         for db in levels:
             if bench == "flywheels":
-                for fr in (False, True):
-                    yield (bench, f"Fc {FLYWHEEL_FRICTION_Nm:g} N m" if fr else "none", db,
-                           "joint1_coulomb_torque_Nm", FLYWHEEL_FRICTION_Nm if fr else 0.0, FLYWHEEL_TRUTH,
-                           lambda s, t, db=db, fr=fr: _flywheels(db, fr, s, t))
+                for f in (0.0, flywheel_friction_Nm):
+                    yield (bench, f"Fc {f:g} N m" if f else "none", db, "joint1_coulomb_torque_Nm", f, FLYWHEEL_TRUTH,
+                           lambda s, t, db=db, f=f: _flywheels(db, f, s, t, encoder_zeros))
             elif bench == "train":
                 for f in (0.0, train_friction_Nm):
                     yield (bench, f"Fc {f:g} N m at joint 2" if f else "none", db, "joint2_coulomb_torque_Nm", f,
@@ -186,7 +194,8 @@ def print_row(r: dict) -> None:
         size = f"{r['effect_fitted']:.4g} +- {r['effect_std_error']:.2g} (z {r['effect_z']:+.1f})"
     worst = f"{r['worst']['name']} {r['worst']['z']:+.1f}" if r["worst"] else "-"
     causes = "; ".join(r["steps"]) or "-"
-    print(f"{head}  {r['verdict']:11s} {causes:42s} {chi:7.3f}{flag:2s} {size:34s} {worst}")
+    gain = f"{r['gain']:.3g}" if r.get("gain") is not None and math.isfinite(r["gain"]) else "-"
+    print(f"{head}  {r['verdict']:11s} {causes:42s} {chi:7.3f}{flag:2s} {size:34s} {gain:>6s}  {worst}")
 
 
 def parse(argv) -> argparse.Namespace:
@@ -197,6 +206,10 @@ def parse(argv) -> argparse.Namespace:
     p.add_argument("--seed", type=int, default=1, help="the benches' seed (noise, offsets, start phases; default 1)")
     p.add_argument("--train-friction-Nm", type=float, default=8.0,
                    help="dry friction at the pump train's joint 2 (N m, default 8)")
+    p.add_argument("--flywheel-friction-Nm", type=float, default=FLYWHEEL_FRICTION_Nm,
+                   help=f"dry friction at the two flywheels' joint (N m, default {FLYWHEEL_FRICTION_Nm:g})")
+    p.add_argument("--encoder-zeros", action="store_true",
+                   help="each flywheel's encoder on its own zero (uniform in +-pi), not zeroed together")
     p.add_argument("--json", type=Path, help="write the table here (atomically)")
     args = p.parse_args(argv)
     if args.quick and args.db:
@@ -205,6 +218,8 @@ def parse(argv) -> argparse.Namespace:
     unknown = [b for b in args.bench if b not in BENCHES]
     if unknown:
         p.exit(2, f"{p.prog}: error: unknown bench(es) {unknown}: choose from {', '.join(BENCHES)}\n")
+    if not (math.isfinite(args.flywheel_friction_Nm) and args.flywheel_friction_Nm > 0):
+        p.exit(2, f"{p.prog}: error: --flywheel-friction-Nm must be > 0, got {args.flywheel_friction_Nm}\n")
     if not (math.isfinite(args.train_friction_Nm) and args.train_friction_Nm > 0):
         p.exit(2, f"{p.prog}: error: --train-friction-Nm must be > 0, got {args.train_friction_Nm}\n")
     if args.seed < 0:
@@ -221,11 +236,12 @@ def main(argv=None) -> int:
     from jointrig.rig.runtime import limit_threads
 
     limit_threads()
-    todo = list(cases(list(dict.fromkeys(args.bench)), list(dict.fromkeys(args.levels)), args.train_friction_Nm))
+    todo = list(cases(list(dict.fromkeys(args.bench)), list(dict.fromkeys(args.levels)), args.train_friction_Nm,
+                      args.flywheel_friction_Nm, args.encoder_zeros))
     print(f"Right models at every noise level (seed {args.seed}); level L dB = noise 10^(-L/20) of each "
           "channel's RMS; '!' marks chi2/dof outside 0.7-1.5")
     print(f"{'bench':9s} {'effect':20s} {'dB':>4s}  {'verdict':11s} {'adopted causes':42s} {'chi2/dof':>7s}   "
-          f"{'effect fitted +- SE (z = (fit - true)/SE)':34s} worst other z")
+          f"{'effect fitted +- SE (z = (fit - true)/SE)':34s} {'gain':>6s}  worst other z")
     rows = []
     t_all = time.perf_counter()
     for k, (bench, effect, db, name, truth, others, run) in enumerate(todo, 1):
@@ -244,7 +260,9 @@ def main(argv=None) -> int:
         print(f"[{k}/{len(todo)}] done in {res['wall_s']:.0f} s", file=sys.stderr, flush=True)
         if args.json is not None:  # rewritten after every case: a stopped run keeps what finished
             write_json_atomic(args.json, {"seed": args.seed, "levels_db": args.levels,
-                                          "train_friction_Nm": args.train_friction_Nm, "rows": rows})
+                                          "train_friction_Nm": args.train_friction_Nm,
+                                          "flywheel_friction_Nm": args.flywheel_friction_Nm,
+                                          "encoder_zeros": args.encoder_zeros, "rows": rows})
     bad = [r for r in rows if "error" in r or not (0.7 <= r["chi2_per_dof"] <= 1.5)]
     print(f"{len(rows) - len(bad)} of {len(rows)} cases read chi2/dof within 0.7-1.5 "
           f"({time.perf_counter() - t_all:.0f} s)")
