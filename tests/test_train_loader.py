@@ -222,3 +222,31 @@ def test_the_relative_angle_alone_is_one_body_driven_by_the_share_of_the_torque_
     assert on1.torque_share == 0.25
     with pytest.raises(RunsFileError, match="strictly between 0 and 1"):
         as_train(loaded, "flywheel1", 1.0)
+
+
+def test_how_the_bodies_move_knows_its_names_units_and_words():
+    # vocab.params.Coordinate: a str (files, JSON and MuJoCo's word) that knows the rest; a slide's
+    # names are the hinge's in N and m, and back
+    import json
+    import pickle
+
+    from jointrig.vocab.params import HINGE, SLIDE, Coordinate
+
+    assert (SLIDE == "slide", HINGE == "hinge", json.dumps([SLIDE]), Coordinate("slide") is not SLIDE) == \
+        (True, True, '["slide"]', True)
+    with pytest.raises(ValueError, match="a body moves on a 'hinge' or a 'slide', got 'shaft'"):
+        Coordinate("shaft")
+    for name in ("J1_kgm2", "joint2_k_Nm_per_rad", "ground1_coulomb_torque_Nm", "bearing3_damping_Nms_per_rad"):
+        assert HINGE.name(name) == name == HINGE.project_name(name)
+        assert SLIDE.project_name(SLIDE.name(name)) == name
+    assert [SLIDE.name(n) for n in ("J1_kgm2", "joint2_k_Nm_per_rad", "bearing3_damping_Nms_per_rad")] == \
+        ["m1_kg", "joint2_k_N_per_m", "guide3_damping_Ns_per_m"]
+    said = "set ground1_coulomb_torque_Nm to 3 (J1_kgm2 is 2)"
+    assert HINGE.words(said) == said and SLIDE.words(said) == "set ground1_coulomb_force_N to 3 (m1_kg is 2)"
+    assert (SLIDE.channel("torque1"), SLIDE.channel("phi2"), HINGE.channel("phi2")) == ("force1", "x2", "phi2")
+    assert (HINGE.in_degrees(0.5), SLIDE.in_degrees(0.5)) == (" (28.6 deg)", "")
+    assert (HINGE.bodies(4), SLIDE.bodies(3)) == ("a train of 4 bodies", "3 bodies on slides")
+    assert (SLIDE.unit, SLIDE.drive_unit, SLIDE.position, HINGE.position, SLIDE.bare_position_is_one_body,
+            HINGE.bare_position_is_one_body) == ("m", "N", "x", "phi", True, False)
+    back = pickle.loads(pickle.dumps(SLIDE))
+    assert back == SLIDE and back.unit == "m" and back.name("J1_kgm2") == "m1_kg"
