@@ -1012,3 +1012,25 @@ def test_every_kind_of_place_has_its_words_and_its_rules():
     assert [Place(k, 2).describe() for k in ("joint", "flywheel", "ground", "channel")] == [
         "at joint 2", "at flywheel 2", "to ground at body 2", "at body 2's angle channel"]
     assert Place("drive", None).describe() == "at the drives"
+
+
+def test_a_cause_extends_its_own_place_and_leaves_every_other_one_as_it_was():
+    # A joint's cause reads and writes its own joint's twist zero, a channel's its own channel's
+    # skew and scale: on a train whose joints and channels all differ, every other entry stays
+    # (survivors of mutation seed 20261202 on the places' lines read a neighbour's entry)
+    from dataclasses import replace
+
+    from jointrig.identify.causes import Place, by_name
+    from jointrig.identify.chain_diagnose import Candidate, nominal_spec
+
+    spec = replace(nominal_spec(4), offsets_rad=(0.01, 0.02, 0.03), channel_delays_s=(0.0, 1e-4, 2e-4, 3e-4),
+                   channel_gains=(0.0, 0.01, 0.02, 0.03))
+    gap = Candidate(by_name("backlash"), Place("joint", 2)).extend(spec, 0.005)
+    assert gap.offsets_rad == spec.offsets_rad and gap.joints[0] == spec.joints[0] == gap.joints[2]
+    assert gap.joints[1] != spec.joints[1]
+    zero = Candidate(by_name("angle_offset"), Place("joint", 3)).extend(spec, 0.05)
+    assert zero.offsets_rad == (0.01, 0.02, 0.05)
+    skew = Candidate(by_name("angle_skew"), Place("channel", 3)).extend(spec, 5e-4)
+    assert skew.channel_delays_s == (0.0, 1e-4, 5e-4, 3e-4) and skew.channel_gains == spec.channel_gains
+    scale = Candidate(by_name("angle_gain"), Place("channel", 3)).extend(spec, 0.04)
+    assert scale.channel_gains == (0.0, 0.01, 0.04, 0.03) and scale.channel_delays_s == spec.channel_delays_s
