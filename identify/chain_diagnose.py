@@ -836,9 +836,9 @@ class _AtJoint(_AtPlace):
         return (f"phi{number}", f"phi{number + 1}")
 
 
-class _AtBearing(_AtJoint):
+class _AtBearing(_AtPlace):
     """A flywheel's viscous drag to ground (its bearing): a bearing added to the chain, its
-    parameter the bearing's drag; read as the joint of the same number otherwise."""
+    parameter the bearing's drag, the motion it sees the body's own."""
 
     def extend(self, cause, spec, number, h):
         return replace(spec, bearings=spec.bearings + (number,))
