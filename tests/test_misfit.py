@@ -226,3 +226,51 @@ def test_a_run_without_residual_does_not_turn_the_axis():
     a = _run("a", 20.0, 1.0, lambda th, p, v: 0.0 * th)
     b = _run("b", 40.0, 1.0, lambda th, p, v: 50.0 * np.cos(th - math.radians(60)))
     assert misfit_character([a, b], 10).phase_span_deg == 0.0
+
+
+def test_the_measurements_asked_for_start_above_their_thresholds():
+    # next_measurements' thresholds are "more than": a misfit exactly at one asks for nothing, one
+    # just above it asks; two drive levels ask for more levels (three are the fewest that tell a
+    # slope from a line with a check), three do not. The base misfit (odd, elastic, three levels at
+    # one frequency) asks for neither a stepped sine nor preload runs.
+    from dataclasses import replace
+
+    from jointrig.identify.misfit import PHASE_SPAN_RESONANT_DEG
+
+    runs = [_run(i, 30.0, a, lambda th, p, v: 5e9 * p**3) for i, a in enumerate((1.0, 2.0, 4.0))]
+    c, s = misfit_character(runs, 10), residual_surface(runs)
+
+    def asks(text, character=c, surface=s, rs=runs):
+        return any(text in m for m in next_measurements(character, surface, rs))
+
+    assert not asks("stepped sine") and not asks("preload") and not asks("more drive levels")
+    assert not asks("stepped sine", replace(c, phase_span_deg=PHASE_SPAN_RESONANT_DEG))
+    assert asks("stepped sine", replace(c, phase_span_deg=PHASE_SPAN_RESONANT_DEG + 1e-9))
+    assert not asks("preload", replace(c, even_share=0.6))
+    assert asks("preload", replace(c, even_share=0.6 + 1e-9))
+    two = runs[:2]
+    assert asks("runs at more drive levels (the runs hold 2)", misfit_character(two, 10), residual_surface(two), two)
+
+
+def test_a_misfit_counts_against_the_torques_harmonics_not_its_mean_and_a_run_at_rest_stays_finite():
+    # The relative misfit is its RMS over the measured torque's RMS on harmonics 1..band: a mean
+    # torque (a preload, a cell's offset) does not shrink it (10 N m on the fundamental against a
+    # measured 11 N m there: 10/11, whatever the 1000 N m mean). A run whose drive level reads zero
+    # (a record at rest beside driven ones) keeps every figure finite, with no warning (the suite
+    # turns warnings into errors).
+    runs = [_run(i, w, 1.0, lambda th, p, v: 10.0 * np.cos(th) + 1000.0) for i, w in enumerate((20.0, 30.0, 40.0))]
+    assert misfit_character(runs, 10).relative == pytest.approx((10.0 / 11.0,) * 3, rel=1e-9)
+    rest = _run("rest", 25.0, 0.0, lambda th, p, v: 2.0 * np.cos(2 * th))
+    c = misfit_character(runs + [rest], 10)
+    assert all(math.isfinite(x) for x in (c.amplitude_slope, c.frequency_slope, c.even_share, c.high_share)), c
+
+
+def test_of_equal_changes_between_repeated_runs_the_first_pair_is_named():
+    # Three runs of one setting whose residuals' magnitudes change by exactly as much between the
+    # first and each of the others (sqrt 2 of their size) and not at all between those two: the
+    # first pair found is the one named, not a later one of the same change.
+    a = _run("a", 25.0, 1.0, lambda th, p, v: 10.0 * np.cos(2 * th))
+    b = _run("b", 25.0, 1.0, lambda th, p, v: 10.0 * np.cos(3 * th))
+    c = _run("c", 25.0, 1.0, lambda th, p, v: 10.0 * np.cos(3 * th))
+    ch = misfit_character([a, b, c], 10)
+    assert ch.repeat_change == pytest.approx(math.sqrt(2), rel=1e-9) and ch.repeat_runs == ("a", "b")
