@@ -248,6 +248,12 @@ def test_the_measurements_asked_for_start_above_their_thresholds():
     assert asks("stepped sine", replace(c, phase_span_deg=PHASE_SPAN_RESONANT_DEG + 1e-9))
     assert not asks("preload", replace(c, even_share=0.6))
     assert asks("preload", replace(c, even_share=0.6 + 1e-9))
+    # the description's words share the threshold: at 0.6 a residual is "both odd and even"
+    assert "both odd and even" in replace(c, even_share=0.6).describe()
+    assert "(an asymmetry)" in replace(c, even_share=0.6 + 1e-9).describe()
+    # every even harmonic counts as even: a residual on harmonic 4 alone is even through and through
+    four = [_run(i, w, 1.0, lambda th, p, v: 10.0 * np.cos(4 * th)) for i, w in enumerate((20.0, 30.0))]
+    assert misfit_character(four, 10).even_share == pytest.approx(1.0, rel=1e-12)
     two = runs[:2]
     assert asks("runs at more drive levels (the runs hold 2)", misfit_character(two, 10), residual_surface(two), two)
 
