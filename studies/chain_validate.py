@@ -30,7 +30,8 @@ from jointrig.vocab.plant import drive_of_record
 from jointrig.rig.chain import ChainRig, simulate_chain
 from jointrig.parallel import fork_map
 
-from jointrig.identify.defaults import DEFAULT_ALPHA, DEFAULT_FIDELITY, DEFAULT_MAX_CAUSES, REPLAY_MAX_STEP_S
+from jointrig.identify.defaults import (DEFAULT_ALPHA, DEFAULT_FIDELITY, DEFAULT_MAX_CAUSES, FIDELITY_STEP_SHARE,
+                                       MAX_REPLAY_STEPS_PER_PERIOD, REPLAY_MAX_STEP_S)
 from jointrig.identify.verdict import CHI2_PER_DOF_OK, RIG_FIDELITY, Verdict, judge
 
 from .holdout import MIN_PERIODS_TO_SPLIT, MIN_RUNS_TO_HOLD_OUT, generalisation_kind, holdout_of_another_kind
@@ -641,7 +642,7 @@ def _departures(rig, fit, sim, meas, drives, drawn_drives, moved, refitted, cfg,
     return p_run, d_part, m_run, by_direction
 
 
-def rig_replay(rig: ChainRig, runs: Sequence, band: int, *, backend: str = "auto", max_wall_s: float = 5.0):
+def rig_replay(rig: ChainRig, runs: Sequence, band: int, *, backend: str = "auto", max_wall_s: float = 20.0):
     """``replay(fit)``: the fitted model's noise-free records in ``rig`` under each prepared run's
     measured drive (harmonics 1..band of its period average), at the run's own samples per
     period, read through the model's channels and prepared as the runs were
@@ -651,7 +652,10 @@ def rig_replay(rig: ChainRig, runs: Sequence, band: int, *, backend: str = "auto
     ``max_wall_s`` seconds of a run is given up: a fidelity is not worth a long wait (that run's
     replay is None, its rows borrow the replayed runs' misfit, :meth:`BalanceFidelity.borrowed`;
     every run's: why, in words). Settled to 1e-7 of
-    each channel's swing: a variance estimate, at most 80 dB below the signal, needs no more."""
+    each channel's swing: a variance estimate, at most 80 dB below the signal, needs no more. The
+    rig steps at :data:`identify.defaults.FIDELITY_STEP_SHARE` of the replay step (where a period
+    allows it within :data:`identify.defaults.MAX_REPLAY_STEPS_PER_PERIOD` steps): at the replay
+    step its own error at a stick-slip kink outweighs the balance's misfit."""
     from jointrig.identify.chain_diagnose import prepare_chain_runs
 
     def replay(fit):
@@ -664,8 +668,10 @@ def rig_replay(rig: ChainRig, runs: Sequence, band: int, *, backend: str = "auto
             rec = run.average
             drives = {i + 1: drive_of_record(rec.omega_rad_s, fourier_coefficients(t, 1, band))
                       for i, t in enumerate(rec.torques_Nm) if t is not None}
+            step = max(FIDELITY_STEP_SHARE * REPLAY_MAX_STEP_S,
+                       min(REPLAY_MAX_STEP_S, 2 * math.pi / rec.omega_rad_s / MAX_REPLAY_STEPS_PER_PERIOD))
             cfg = SimulationConfig(samples_per_period=int(min(max(run.samples_per_period, 8 * band), 2048)),
-                                   max_step_s=REPLAY_MAX_STEP_S, n_periods=2, absolute_angles_periodic=False,
+                                   max_step_s=step, n_periods=2, absolute_angles_periodic=False,
                                    max_wall_s=max_wall_s,
                                    settle_tol=1e-7)
             def once(held, rec=rec, drives=drives, cfg=cfg):
