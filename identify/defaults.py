@@ -11,8 +11,8 @@ DEFAULT_FIDELITY = 1e-3
 DEFAULT_MAX_CAUSES = 4
 
 #: The rig's largest integrator step when a diagnosis replays a run (s): the held-out validation
-#: (studies.chain_validate; the fidelity replays step finer, :data:`FIDELITY_STEP_SHARE`); fine enough for the stiffest joints of the
-#: benches (k 20000 N m/rad on 2 kg m^2: omega_n dt = 0.007).
+#: (studies.chain_validate; the fidelity's replays step finer, :data:`FIDELITY_STEP_SHARE`); fine
+#: enough for the stiffest joints of the benches (k 20000 N m/rad on 2 kg m^2: omega_n dt = 0.007).
 REPLAY_MAX_STEP_S = 5e-5
 
 #: The share of :data:`REPLAY_MAX_STEP_S` the rig steps at when it replays a fitted model to
@@ -22,7 +22,8 @@ REPLAY_MAX_STEP_S = 5e-5
 #: paper's joint with 20 N m of dry friction (tests/bench_sim.py, 4 runs) the balance misses
 #: 1.3e-6..2.0e-5 of each run's balanced torque; the rig's replay at 5e-5 s reads 4.2e-5..1.1e-4
 #: (4 to 30 times that), at a quarter of it 4.1e-6..4.0e-5, at a sixteenth 3.8e-6..2.5e-5, for
-#: 1.6, 6.3 and 25 s of replays. A quarter: the misfit no longer the rig's, for 5 s more a pass.
+#: 1.6, 6.3 and 25 s of replays (7.2 and 2.5 times the records' misfit over all rows at the first two).
+#: A quarter: most of the rig's error gone, for about 5 s more a pass on the README's example.
 FIDELITY_STEP_SHARE = 0.25
 
 #: The most replay steps one period may take (periods up to 10 s at REPLAY_MAX_STEP_S; a slow
