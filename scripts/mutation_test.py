@@ -76,7 +76,8 @@ MODULES = {
     "jointrig.studies.chain_validate": ("studies/chain_validate.py", ["tests/test_chain.py", "tests/test_right_model.py",
                                                                        "tests/test_verdict_judge.py",
                                                                        "tests/test_validate_record.py",
-                                                                       "tests/test_preload.py"]),
+                                                                       "tests/test_preload.py",
+                                                                       "tests/test_calibration.py"]),
     # the joint card, of two flywheels and of every joint of a train
     "jointrig.identify.card": ("identify/card.py", ["tests/test_card.py"]),
     # a train's harmonic balance (stick masks, the drives' lag) and its diagnosis

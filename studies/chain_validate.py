@@ -642,6 +642,15 @@ def _departures(rig, fit, sim, meas, drives, drawn_drives, moved, refitted, cfg,
     return p_run, d_part, m_run, by_direction
 
 
+def fidelity_step_s(omega_rad_s: float) -> float:
+    """The rig's largest step (s) when it replays a run of ``omega_rad_s`` to measure the fidelity
+    (pure): :data:`identify.defaults.FIDELITY_STEP_SHARE` of the replay step, or as fine as
+    :data:`identify.defaults.MAX_REPLAY_STEPS_PER_PERIOD` steps a period allow, never coarser
+    than the replay step (a slow axis's period of seconds keeps it)."""
+    period_s = 2 * math.pi / omega_rad_s
+    return max(FIDELITY_STEP_SHARE * REPLAY_MAX_STEP_S, min(REPLAY_MAX_STEP_S, period_s / MAX_REPLAY_STEPS_PER_PERIOD))
+
+
 def rig_replay(rig: ChainRig, runs: Sequence, band: int, *, backend: str = "auto", max_wall_s: float = 20.0):
     """``replay(fit)``: the fitted model's noise-free records in ``rig`` under each prepared run's
     measured drive (harmonics 1..band of its period average), at the run's own samples per
@@ -653,9 +662,8 @@ def rig_replay(rig: ChainRig, runs: Sequence, band: int, *, backend: str = "auto
     replay is None, its rows borrow the replayed runs' misfit, :meth:`BalanceFidelity.borrowed`;
     every run's: why, in words). Settled to 1e-7 of
     each channel's swing: a variance estimate, at most 80 dB below the signal, needs no more. The
-    rig steps at :data:`identify.defaults.FIDELITY_STEP_SHARE` of the replay step (where a period
-    allows it within :data:`identify.defaults.MAX_REPLAY_STEPS_PER_PERIOD` steps): at the replay
-    step its own error at a stick-slip kink outweighs the balance's misfit."""
+    rig steps at :func:`fidelity_step_s`: at the replay step its own error at a stick-slip kink
+    outweighs the balance's misfit."""
     from jointrig.identify.chain_diagnose import prepare_chain_runs
 
     def replay(fit):
@@ -668,10 +676,9 @@ def rig_replay(rig: ChainRig, runs: Sequence, band: int, *, backend: str = "auto
             rec = run.average
             drives = {i + 1: drive_of_record(rec.omega_rad_s, fourier_coefficients(t, 1, band))
                       for i, t in enumerate(rec.torques_Nm) if t is not None}
-            step = max(FIDELITY_STEP_SHARE * REPLAY_MAX_STEP_S,
-                       min(REPLAY_MAX_STEP_S, 2 * math.pi / rec.omega_rad_s / MAX_REPLAY_STEPS_PER_PERIOD))
             cfg = SimulationConfig(samples_per_period=int(min(max(run.samples_per_period, 8 * band), 2048)),
-                                   max_step_s=step, n_periods=2, absolute_angles_periodic=False,
+                                   max_step_s=fidelity_step_s(rec.omega_rad_s), n_periods=2,
+                                   absolute_angles_periodic=False,
                                    max_wall_s=max_wall_s,
                                    settle_tol=1e-7)
             def once(held, rec=rec, drives=drives, cfg=cfg):

@@ -334,3 +334,16 @@ def test_the_measured_fidelity_is_the_balances_misfit_not_the_rigs(tmp_path, mon
     coarse = on_replay()
     assert 0 < on_records and fine < 3 * on_records < coarse, (on_records, fine, coarse)
     assert defaults.FIDELITY_STEP_SHARE < 1
+
+
+def test_the_fidelitys_replay_step_is_a_share_of_the_replay_step_unless_a_period_is_long():
+    # A quarter of 5e-5 s where the period is short (40 rad/s: 0.157 s, 12,600 steps); where a
+    # quarter would take more than MAX_REPLAY_STEPS_PER_PERIOD (2e5) steps a period, as fine as
+    # those allow (2 rad/s: 3.14 s / 2e5 = 1.57e-5 s); never coarser than the replay step (0.5
+    # rad/s: 12.6 s / 2e5 = 6.3e-5 s would be coarser: 5e-5 s). Exact: one division and a choice.
+    from jointrig.identify.defaults import FIDELITY_STEP_SHARE, MAX_REPLAY_STEPS_PER_PERIOD, REPLAY_MAX_STEP_S
+    from jointrig.studies.chain_validate import fidelity_step_s
+
+    assert fidelity_step_s(40.0) == FIDELITY_STEP_SHARE * REPLAY_MAX_STEP_S
+    assert fidelity_step_s(2.0) == pytest.approx(math.pi / MAX_REPLAY_STEPS_PER_PERIOD, rel=1e-12)
+    assert fidelity_step_s(0.5) == REPLAY_MAX_STEP_S
