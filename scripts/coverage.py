@@ -2,7 +2,7 @@
 """Coverage of the diagnosis's 95% intervals over seeds, on files of the independent bench.
 
     python scripts/coverage.py [--bench flywheels|slide] [--seeds N] [--first-seed S] [--db 20 40 70]
-                               [--friction NM] [--out DIR] [--workers W] [--json OUT]
+                               [--friction NM | --effect CASE] [--out DIR] [--workers W] [--json OUT]
 
 Why: a standard error is only worth printing if value +- 1.96 SE holds the truth 95% of the
 time. The two-flywheel paper joint with 20 N m of dry friction (tests/bench_sim.py: scipy,
@@ -17,6 +17,12 @@ covered with its binomial standard error and the median z = (value - truth) / SE
 is 0.674 for a calibrated Gaussian estimate). ``--friction 0`` measures the same joint without
 its friction (a right model then adopts nothing), to tell what the friction's own handling (the
 stick masks, the kinks restored) costs the intervals.
+
+``--effect CASE``: the same two flywheels with one effect of tests/test_independent_bench.py's
+paper joint instead of the friction (``backlash/1``, ``stribeck_friction/1``, ``micro_slip/1``,
+``drive_delay/1``, ...; its magnitudes are truths too): the coverage of the causes' profiled
+parameters (a free play's half gap, a Stribeck speed, an Iwan slip angle, a delay), whose
+standard error comes from the profile's curvature, not from the linear fit's covariance.
 
 ``--bench slide``: the carriage on a guide instead (tests/bench_slide_sim.py: 12 kg, 40 N s/m,
 25 N of dry friction by default, scipy with exact stick-slip events, positions in mm with the
@@ -72,8 +78,12 @@ SLIDE_TRUTH = {"J1_kgm2": 12.0, "bearing1_damping_Nms_per_rad": 40.0, "ground1_c
 SLIDE_STEP = "coulomb_friction to ground at body 1"
 
 
-def case_path(out: Path, db: float, seed: int, friction_Nm: float = FRICTION_Nm, bench: str = "flywheels") -> Path:
-    """One case's record (the friction in the name where it is not the bench's default)."""
+def case_path(out: Path, db: float, seed: int, friction_Nm: float = FRICTION_Nm, bench: str = "flywheels",
+              effect: str | None = None) -> Path:
+    """One case's record (the friction in the name where it is not the bench's default, the
+    effect where there is one)."""
+    if effect is not None:
+        return out / f"db{db:g}_{effect.replace('/', '-')}_seed{seed:04d}.json"
     if bench == "slide":
         fc = "" if friction_Nm == SLIDE_FRICTION_N else f"_fc{friction_Nm:g}"
         return out / f"slide_db{db:g}{fc}_seed{seed:04d}.json"
@@ -98,7 +108,29 @@ def truth_of(friction_Nm: float, bench: str = "flywheels") -> dict:
     return {k: v for k, v in base.items() if k != name} | ({name: friction_Nm} if friction_Nm > 0 else {})
 
 
-def _flywheel_diagnosis(db: float, seed: int, friction_Nm: float, tmp: Path):
+def effect_case(effect: str) -> tuple[dict, dict]:
+    """The bench parameters of tests/test_independent_bench.py's paper-joint case ``effect`` and
+    its truths as the diagnosis names them (joint 1's)."""
+    sys.path[:0] = [str(ROOT / "tests")]
+    from test_independent_bench import CASES
+    from jointrig.vocab.params import train_name
+
+    bench, magnitudes = CASES["paper"][effect]
+    truth = {k: v for k, v in TRUTH.items() if k != "joint1_coulomb_torque_Nm"}
+    if "c" in bench:  # damping only in contact: none within the gap
+        truth["joint1_c_Nms_per_rad"] = bench["c"]
+    return bench, truth | {train_name(k): v for k, v in magnitudes.items()}
+
+
+def effect_names() -> list[str]:
+    """The paper joint's cases with one effect (``--effect``)."""
+    sys.path[:0] = [str(ROOT / "tests")]
+    from test_independent_bench import CASES
+
+    return [c for c in CASES["paper"] if c != "none"]
+
+
+def _flywheel_diagnosis(db: float, seed: int, friction_Nm: float, tmp: Path, effect: str | None = None):
     """The two flywheels' runs written as a DAQ does, and their diagnosis."""
     from bench_sim import JOINTS, POINTS, measure, with_effect
     from jointrig.measured.runs import as_train, read_runs
@@ -106,7 +138,8 @@ def _flywheel_diagnosis(db: float, seed: int, friction_Nm: float, tmp: Path):
     from jointrig.studies.chain_validate import run_train_diagnosis
 
     points = [p for i, p in enumerate(POINTS["paper"]) if i % 3 != 1]
-    path = measure(with_effect(JOINTS["paper"], Fc=friction_Nm), points, tmp / "b.csv", seed=seed, fs_Hz=FS_HZ,
+    bench = effect_case(effect)[0] if effect is not None else {"Fc": friction_Nm}
+    path = measure(with_effect(JOINTS["paper"], **bench), points, tmp / "b.csv", seed=seed, fs_Hz=FS_HZ,
                    n_periods=N_PERIODS, noise=noise_fraction(db))
     loaded = as_train(read_runs(path))
     return run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(2, [1]), holdout=HOLDOUT)
@@ -125,7 +158,8 @@ def _slide_diagnosis(db: float, seed: int, friction_N: float, tmp: Path):
     return run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(1, [1], "slide"))
 
 
-def run_case(db: float, seed: int, out: str, friction_Nm: float = FRICTION_Nm, bench: str = "flywheels") -> dict:
+def run_case(db: float, seed: int, out: str, friction_Nm: float = FRICTION_Nm, bench: str = "flywheels",
+             effect: str | None = None) -> dict:
     """One diagnosis (in a worker process); its record is written to ``out`` and returned."""
     os.environ["JOINTRIG_WORKERS"] = "1"  # one process per case: no forked scoring inside
     sys.path[:0] = [str(ROOT / "tests"), str(ROOT / "scripts")]
@@ -134,14 +168,21 @@ def run_case(db: float, seed: int, out: str, friction_Nm: float = FRICTION_Nm, b
     limit_threads()
     t0 = time.perf_counter()
     rec = {"bench": bench, "db": db, "seed": seed, "noise_fraction": noise_fraction(db), "friction_Nm": friction_Nm}
-    truth = truth_of(friction_Nm, bench) if bench == "slide" else dict(truth_of(friction_Nm), **{OFFSET: _twist_zero_rad(seed)})
+    if effect is not None:
+        rec.update(effect=effect, friction_Nm=0.0)
+        truth = dict(effect_case(effect)[1], **{OFFSET: _twist_zero_rad(seed)})
+    elif bench == "slide":
+        truth = truth_of(friction_Nm, bench)
+    else:
+        truth = dict(truth_of(friction_Nm), **{OFFSET: _twist_zero_rad(seed)})
     rec["truth"] = truth
     try:
         with tempfile.TemporaryDirectory() as tmp:
-            r = (_slide_diagnosis if bench == "slide" else _flywheel_diagnosis)(db, seed, friction_Nm, Path(tmp))
+            r = (_slide_diagnosis(db, seed, friction_Nm, Path(tmp)) if bench == "slide" else
+                 _flywheel_diagnosis(db, seed, friction_Nm, Path(tmp), effect))
         d = r.diagnosis
         params = d.final.parameters()
-        rec.update(verdict=r.verdict.verdict, steps=[s.label for s in d.steps],
+        rec.update(verdict=r.verdict.verdict, steps=[s.label for s in d.steps], effects=[s.effect for s in d.steps],
                    chi2_per_dof=float(d.reduced_chi2(d.final)),
                    parameters={k: float(v) for k, v in params.items()},
                    std_errors={k: float(d.final.std_error(k)) for k in params},
@@ -149,13 +190,15 @@ def run_case(db: float, seed: int, out: str, friction_Nm: float = FRICTION_Nm, b
     except Exception as err:  # a failed case is recorded, counted and reported, not retried
         rec["error"] = f"{type(err).__name__}: {err}"
     rec["wall_s"] = time.perf_counter() - t0
-    write_json_atomic(case_path(Path(out), db, seed, friction_Nm, bench), rec)
+    write_json_atomic(case_path(Path(out), db, seed, friction_Nm, bench, effect), rec)
     return rec
 
 
 def right_structure(r: dict) -> bool:
     """The final model is the bench's: dry friction at the joint (the carriage's guide) adopted
-    where it has one, nothing else."""
+    where it has one, the effect alone where the bench has one (``--effect``), nothing else."""
+    if r.get("effect") is not None:
+        return r.get("effects") == [r["effect"].split("/")[0]]
     step = SLIDE_STEP if r.get("bench") == "slide" else RIGHT_STEP
     return r.get("steps") == ([step] if r.get("friction_Nm", FRICTION_Nm) > 0 else [])
 
@@ -169,6 +212,7 @@ def summarise(records: list[dict], levels: list[float], right_only: bool = False
         ok = [r for r in recs if "error" not in r]
         level = {"n_cases": len(recs), "n_failed": len(recs) - len(ok),
                  "n_friction_adopted": sum(any(n.endswith("coulomb_torque_Nm") for n in r["parameters"]) for r in ok),
+                 "n_right_structure": sum(right_structure(r) for r in ok),
                  "verdicts": {v: sum(r["verdict"] == v for r in ok) for v in sorted({r["verdict"] for r in ok})},
                  "median_chi2_per_dof": statistics.median(r["chi2_per_dof"] for r in ok) if ok else math.nan,
                  "parameters": {}}
@@ -198,7 +242,8 @@ def print_table(table: dict) -> None:
     for db, level in table.items():
         print(f"\n{db} dB (noise {noise_fraction(float(db)):.3%} of each channel's RMS): {level['n_cases']} seeds, "
               f"{level['n_failed']} failed; verdicts {level['verdicts']}; coulomb_friction adopted in "
-              f"{level['n_friction_adopted']}; median chi2/dof {level['median_chi2_per_dof']:.3f}")
+              f"{level['n_friction_adopted']}; the bench's structure in {level.get('n_right_structure', '-')}; "
+              f"median chi2/dof {level['median_chi2_per_dof']:.3f}")
         print(f"  {'parameter':28s} {'n':>4s} {'covered':>8s} {'+-':>6s} {'median z':>9s} {'median |z|':>10s}")
         for name, s in level["parameters"].items():
             apart = f"  ({s['n_without_std_error']} without a standard error)" if s["n_without_std_error"] else ""
@@ -221,6 +266,9 @@ def parse(argv) -> argparse.Namespace:
     p.add_argument("--friction", type=float, default=None, metavar="NM",
                    help=f"the dry friction in N m, N on the guide (default {FRICTION_Nm:g}, the guide's "
                         f"{SLIDE_FRICTION_N:g}; 0: none)")
+    p.add_argument("--effect", metavar="CASE",
+                   help="two flywheels with this effect of tests/test_independent_bench.py's paper joint instead of "
+                        "the friction (backlash/1, stribeck_friction/1, micro_slip/1, drive_delay/1, ...)")
     p.add_argument("--out", type=Path, default=ROOT / "runs" / "coverage",
                    help="folder of the per-case JSON files (default runs/coverage)")
     p.add_argument("--workers", type=int, default=2, help="processes (default 2)")
@@ -232,6 +280,14 @@ def parse(argv) -> argparse.Namespace:
         p.exit(2, f"{p.prog}: error: --first-seed must be >= 0, got {args.first_seed}\n")
     if args.workers < 1:
         p.exit(2, f"{p.prog}: error: --workers must be at least 1, got {args.workers}\n")
+    if args.effect is not None:
+        if args.bench != "flywheels" or args.friction is not None:
+            p.exit(2, f"{p.prog}: error: --effect is a case of the two flywheels' bench, without --friction "
+                      f"(a Stribeck case holds its own)\n")
+        if args.effect not in effect_names():
+            p.exit(2, f"{p.prog}: error: --effect {args.effect!r} is none of the paper joint's cases: "
+                      f"{', '.join(effect_names())}\n")
+        args.friction = 0.0
     if args.friction is None:
         args.friction = SLIDE_FRICTION_N if args.bench == "slide" else FRICTION_Nm
     if not (math.isfinite(args.friction) and args.friction >= 0):
@@ -253,7 +309,7 @@ def main(argv=None) -> int:
     records, todo = [], []
     for seed in seeds:  # seed by seed across the levels: a run stopped early leaves every level alike
         for db in levels:
-            path = case_path(args.out, db, seed, args.friction, args.bench)
+            path = case_path(args.out, db, seed, args.friction, args.bench, args.effect)
             if path.exists():
                 records.append(json.loads(path.read_text()))
             else:
@@ -263,7 +319,7 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     if todo:
         with ProcessPoolExecutor(args.workers) as pool:
-            futures = {pool.submit(run_case, db, seed, str(args.out), args.friction, args.bench): (db, seed)
+            futures = {pool.submit(run_case, db, seed, str(args.out), args.friction, args.bench, args.effect): (db, seed)
                        for db, seed in todo}
             for k, fut in enumerate(as_completed(futures), 1):
                 db, seed = futures[fut]
@@ -278,17 +334,21 @@ def main(argv=None) -> int:
     right = summarise(records, levels, right_only=True)
     what = (f"the carriage on a guide, 12 kg, 40 N s/m, {args.friction:g} N dry friction (tests/bench_slide_sim.py), "
             f"9 runs, the default hold-out" if args.bench == "slide" else
+            f"two flywheels, paper joint with {args.effect} (tests/test_independent_bench.py), 6 runs, runs {HOLDOUT} "
+            f"held out" if args.effect is not None else
             f"two flywheels, paper joint, {args.friction:g} N m dry friction (tests/bench_sim.py), 6 runs, runs "
             f"{HOLDOUT} held out")
     print(f"Coverage of value +- {Z95} SE over seeds {seeds.start}-{seeds.stop - 1}: {what}")
     print_table(table)
-    step = SLIDE_STEP if args.bench == "slide" else RIGHT_STEP
-    print(f"\nOnly the seeds whose final model has the bench's structure "
-          f"({step if args.friction > 0 else 'no cause'} adopted, nothing else):")
+    step = (f"{args.effect.split('/')[0]} at joint 1" if args.effect is not None else
+            SLIDE_STEP if args.bench == "slide" else RIGHT_STEP if args.friction > 0 else "no cause")
+    print(f"\nOnly the seeds whose final model has the bench's structure ({step} adopted, nothing else):")
     print_table(right)
     if args.json is not None:
         write_json_atomic(args.json, {"seeds": [seeds.start, seeds.stop - 1], "levels_db": levels,
-                                      "bench": args.bench, "truth": truth_of(args.friction, args.bench), "table": table,
+                                      "bench": args.bench, "effect": args.effect,
+                                      "truth": (effect_case(args.effect)[1] if args.effect is not None else
+                                                truth_of(args.friction, args.bench)), "table": table,
                                       "right_structure_only": right})
         print(f"wrote {args.json}")
     return 0

@@ -1,0 +1,71 @@
+"""The coverage studies' own arithmetic (scripts/coverage.py, scripts/coverage_card.py): the
+truths a case is held to, which final models have the bench's structure, the shares counted.
+The studies themselves are slow scripts (docs/noisy-measurements.md); a wrong truth or a share
+counted wrongly would make their tables say the opposite of what the intervals do."""
+
+import importlib.util
+import math
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _script(name: str):
+    spec = importlib.util.spec_from_file_location(name, ROOT / "scripts" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_an_effects_truths_are_its_magnitudes_at_joint_1_and_the_joint_without_its_friction():
+    cov = _script("coverage")
+    bench, truth = cov.effect_case("backlash/1")
+    assert bench == {"gap": 0.01}
+    assert truth["joint1_backlash_half_gap_rad"] == 0.01 and "joint1_coulomb_torque_Nm" not in truth
+    assert truth["joint1_k_Nm_per_rad"] == 2000.0 and truth["J1_kgm2"] == 2.0
+    _, truth = cov.effect_case("stribeck_friction/1")  # a Stribeck case holds its own Coulomb level
+    assert truth["joint1_coulomb_torque_Nm"] == 40.0 and truth["joint1_stribeck_velocity_rad_s"] == 2.0
+    _, truth = cov.effect_case("contact_damping/1")  # damping only in contact: none within the gap
+    assert truth["joint1_c_Nms_per_rad"] == 0.0 and truth["joint1_contact_c_Nms_per_rad"] == 100.0
+    assert "none" not in cov.effect_names() and "drive_delay/1" in cov.effect_names()
+
+
+def test_the_benchs_structure_is_its_effect_alone():
+    cov = _script("coverage")
+    assert cov.right_structure({"effect": "backlash/1", "effects": ["backlash"]})
+    assert not cov.right_structure({"effect": "backlash/1", "effects": ["backlash", "cogging"]})
+    assert not cov.right_structure({"effect": "backlash/1", "effects": []})
+    assert cov.right_structure({"bench": "flywheels", "friction_Nm": 20.0, "steps": ["coulomb_friction at joint 1"]})
+    assert cov.right_structure({"bench": "flywheels", "friction_Nm": 0.0, "steps": []})
+
+
+@pytest.mark.parametrize("argv, what", [(["--effect", "backlash/1", "--friction", "5"], "--friction"),
+                                        (["--effect", "backlash/9"], "none of the paper joint's cases"),
+                                        (["--effect", "backlash/1", "--bench", "slide"], "--effect")])
+def test_an_effect_the_bench_has_not_is_refused_before_the_work(tmp_path, capsys, argv, what):
+    cov = _script("coverage")
+    with pytest.raises(SystemExit) as ex:
+        cov.parse([*argv, "--out", str(tmp_path)])
+    assert ex.value.code == 2 and what in capsys.readouterr().err
+
+
+def _card_record(seed: int, zs: list[float], verdict: str = "no_misfit") -> dict:
+    comps = [{"quantity": q, "identified_z": z, "runs_z": -z} for z in zs for q in ("damping_ratio",)]
+    return {"case": "paper", "db": 40.0, "seed": seed, "verdict": verdict, "comparisons": comps}
+
+
+def test_the_cards_coverage_counts_each_amplitude_apart_and_failed_seeds_aside():
+    card = _script("coverage_card")
+    # 20 seeds, two amplitudes: at A1 one |z| above 1.96 (19 of 20), at A2 four (16 of 20)
+    records = [_card_record(s, [3.0 if s == 0 else 0.5, 2.5 if s < 4 else -1.0]) for s in range(20)]
+    records.append({"case": "paper", "db": 40.0, "seed": 20, "error": "SimulationError: no steady state"})
+    records.append(_card_record(21, [math.nan, 0.0]))  # a row without a standard error is not counted
+    table = card.summarise(records)["paper 40 dB"]
+    assert table["failed"] == [20] and table["verdicts"] == {"no_misfit": 21}
+    a1, a2 = table["identified damping_ratio at A1"], table["identified damping_ratio at A2"]
+    assert (a1["n"], a1["covered"]) == (20, 19 / 20) and (a2["n"], a2["covered"]) == (21, 17 / 21)
+    assert math.isclose(a1["binomial_se"], math.sqrt(0.95 * 0.05 / 20))
+    assert a1["median_abs_z"] == 0.5 and table["runs damping_ratio at A1"]["median_z"] == -0.5
+    assert math.isclose(a2["rms_z"], math.sqrt((4 * 2.5**2 + 16 * 1.0) / 21))
