@@ -42,7 +42,7 @@ def _taken(report: TrainReport) -> dict:
     return {f"joint{j}_angle_offset_rad": zs.angles[j - 1] - zs.angles[j] for j in range(1, len(zs.angles))}
 
 
-def _values(fit, report: TrainReport) -> dict:
+def reported_values(fit, report: TrainReport) -> dict:
     """Every parameter of a chain fit with its standard error, as the JSON lists them
     (:meth:`ChainFit.parameters`: the linear ones, then what the terms imply and the profiled),
     each twist's zero as it reads on the user's sensors (:func:`_taken`)."""
@@ -73,7 +73,7 @@ def plain_train_verdict(report: TrainReport) -> str:
     if v.verdict == "no_misfit":
         return wrong + "The model's structure explains the data: no cause at any joint or body is missing."
     if v.verdict == "explained":
-        final = _values(d.final, report)
+        final = reported_values(d.final, report)
 
         def size(s) -> tuple:  # in the final fit; a magnitude made of parts (an amplitude) as scored
             v, se = final.get(s.magnitude[0], (math.nan, math.nan))
@@ -375,7 +375,7 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
     if all_notes:
         lines.append(f"  {len(all_notes)} note(s) on the data: at the end")
     lines += ["", f"Nominal model: chi2/dof = {d.reduced_chi2(d.nominal):.3g} (about 1 when only noise is left)"]
-    lines += parameter_lines(_values(d.nominal, report), nm)
+    lines += parameter_lines(reported_values(d.nominal, report), nm)
     lines.append("")
     lines += causes_lines(d.first_round, name=nm, note=report.kind.words, shown=shown, sought=_sought(report))
     lines.append("")
@@ -384,7 +384,7 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
     else:
         lines.append("Extended model: none needed (no cause is significant at any joint or body; the nominal model "
                      "explains the data to the noise)")
-    lines += parameter_lines(_values(d.final, report), nm)
+    lines += parameter_lines(reported_values(d.final, report), nm)
     ruled = ruled_out_lines(d.ruled_out(), name=nm)
     if ruled:
         lines += [""] + ruled
@@ -565,7 +565,7 @@ def write_train_html(path, report: TrainReport, text: str, *, title: str, source
     fit = report.adopted_fit
     written = _written(report)
     parts = page_top(title, report.verdict, plain_train_verdict(report), input_sha256)
-    final = _values(d.final, report)
+    final = reported_values(d.final, report)
     readings = offset_readings(report)
     if readings:  # what the sensors read at rest, on the first screen as in the text's first lines
         parts.append("<h2>What your sensors read at rest</h2><ul>"
@@ -603,7 +603,7 @@ def write_train_html(path, report: TrainReport, text: str, *, title: str, source
                                      f"with the nominal and the extended model", image))
     parts.append(f"<h2>{'Extended' if report.adopted else 'Nominal'} model</h2>")
     parts.append(table(["parameter", "value ± standard error", "unit"], [
-        row([nm(n), (with_se(x, se), "num"), unit_of(nm(n))]) for n, (x, se) in _values(fit, report).items()]))
+        row([nm(n), (with_se(x, se), "num"), unit_of(nm(n))]) for n, (x, se) in reported_values(fit, report).items()]))
     for card, png in cards:  # (card, its PNG) per place, with --card: folded, one per joint
         section = card_section(card, png)
         parts.append(f"<details class='section'><summary>Joint card of {html.escape(card.place)}</summary>"

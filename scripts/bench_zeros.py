@@ -56,7 +56,7 @@ def _case(tmp: Path, joint: str, case: str, seed: int) -> dict:
     from test_independent_bench import CASES, HOLDOUT, _points
 
     from jointrig.measured.runs import as_train, read_runs
-    from jointrig.present.train_report import _values
+    from jointrig.present.train_report import reported_values
     from jointrig.rig.chain import rig_of_bodies
     from jointrig.studies.chain_validate import run_train_diagnosis
 
@@ -75,7 +75,7 @@ def _case(tmp: Path, joint: str, case: str, seed: int) -> dict:
 
     zeroed = diagnosed("zeroed.csv")
     lab = diagnosed("lab.csv", lambda t, T, p1, p2: (t, T + offset, p1 + zeros[0], p2 + zeros[1]))
-    want, got = _values(zeroed.diagnosis.final, zeroed), _values(lab.diagnosis.final, lab)
+    want, got = reported_values(zeroed.diagnosis.final, zeroed), reported_values(lab.diagnosis.final, lab)
     worst = max((abs(v - want[n][0]) / want[n][1] for n, (v, _) in got.items()
                  if n != ZERO and n in want and math.isfinite(want[n][1]) and want[n][1] > 0), default=math.nan)
     bench_offsets = np.random.default_rng(file_seed).uniform(-1, 1, 3) * np.array([0.5, 2e-3, 2e-3])
@@ -146,7 +146,7 @@ def _chain_case(tmp: Path, name: str, seed: int) -> dict:
     from bench_slide_sim import daq_runs
 
     from jointrig.measured.runs import as_train, read_runs
-    from jointrig.present.train_report import _values
+    from jointrig.present.train_report import reported_values
     from jointrig.rig.chain import rig_of_bodies
     from jointrig.studies.chain_validate import run_train_diagnosis
 
@@ -171,7 +171,7 @@ def _chain_case(tmp: Path, name: str, seed: int) -> dict:
         return run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig, holdout=holdout)
 
     zeroed, lab = diagnosed("zeroed.csv", False), diagnosed("lab.csv", True)
-    want, got = _values(zeroed.diagnosis.final, zeroed), _values(lab.diagnosis.final, lab)
+    want, got = reported_values(zeroed.diagnosis.final, zeroed), reported_values(lab.diagnosis.final, lab)
     worst = max((abs(v - want[k][0]) / want[k][1] for k, (v, _) in got.items()
                  if not k.endswith("angle_offset_rad") and k in want and math.isfinite(want[k][1])
                  and want[k][1] > 0), default=math.nan)

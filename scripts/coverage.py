@@ -11,7 +11,8 @@ N seeds (a seed draws the white noise, the sensor offsets and the start phases),
 frequencies x 1500 and 3500 N m, the middle frequency held out), and diagnosed as
 ``jointrig diagnose`` does (``studies.chain_validate.run_train_diagnosis``). For every reported
 parameter with a known truth (J1, J2 = 2 kg m^2; c = 100 N m s/rad, k = 2000 N m/rad, gamma =
-200 N m/rad^3, Coulomb 20 N m; the twist's zero: the DAQ's drawn offsets phi1 - phi2) it
+200 N m/rad^3, Coulomb 20 N m; the twist's zero: the DAQ's drawn offsets phi1 - phi2), read
+as the report and the JSON print it (for the zero: the mean taken out first plus the fit's), it
 records whether |value - truth| <= 1.96 SE, and prints per parameter and level the share
 covered with its binomial standard error and the median z = (value - truth) / SE (median |z|
 is 0.674 for a calibrated Gaussian estimate). ``--friction 0`` measures the same joint without
@@ -163,6 +164,7 @@ def run_case(db: float, seed: int, out: str, friction_Nm: float = FRICTION_Nm, b
     """One diagnosis (in a worker process); its record is written to ``out`` and returned."""
     os.environ["JOINTRIG_WORKERS"] = "1"  # one process per case: no forked scoring inside
     sys.path[:0] = [str(ROOT / "tests"), str(ROOT / "scripts")]
+    from jointrig.present.train_report import reported_values
     from jointrig.rig.runtime import limit_threads
 
     limit_threads()
@@ -181,11 +183,11 @@ def run_case(db: float, seed: int, out: str, friction_Nm: float = FRICTION_Nm, b
             r = (_slide_diagnosis(db, seed, friction_Nm, Path(tmp)) if bench == "slide" else
                  _flywheel_diagnosis(db, seed, friction_Nm, Path(tmp), effect))
         d = r.diagnosis
-        params = d.final.parameters()
+        values = reported_values(d.final, r)  # as the JSON prints them: a twist's zero on the user's sensors
         rec.update(verdict=r.verdict.verdict, steps=[s.label for s in d.steps], effects=[s.effect for s in d.steps],
                    chi2_per_dof=float(d.reduced_chi2(d.final)),
-                   parameters={k: float(v) for k, v in params.items()},
-                   std_errors={k: float(d.final.std_error(k)) for k in params},
+                   parameters={k: float(v) for k, (v, _) in values.items()},
+                   std_errors={k: float(e) for k, (_, e) in values.items()},
                    fidelity=getattr(d.fidelity, "relative", None))
     except Exception as err:  # a failed case is recorded, counted and reported, not retried
         rec["error"] = f"{type(err).__name__}: {err}"

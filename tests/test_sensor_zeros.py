@@ -20,7 +20,7 @@ import pytest
 from bench_sim import JOINTS, POINTS, measure, with_effect
 from jointrig.identify.zeros import rezeroed, sensor_zeros
 from jointrig.measured.runs import as_train, read_runs
-from jointrig.present.train_report import _values, format_train_report, offset_readings, train_report_json
+from jointrig.present.train_report import reported_values, format_train_report, offset_readings, train_report_json
 from jointrig.rig.chain import rig_of_bodies
 from jointrig.studies.chain_validate import run_train_diagnosis
 
@@ -63,8 +63,8 @@ def test_encoders_with_their_own_zeros_give_the_zeroed_diagnosis_and_read_the_ze
     lab = _diagnose(_file(tmp_path, joint, effect, tuple(zeros), offset))
     assert lab.verdict.verdict == zeroed.verdict.verdict, (lab.verdict, zeroed.verdict)
     assert [s.label for s in lab.diagnosis.steps] == [s.label for s in zeroed.diagnosis.steps]
-    want = _values(zeroed.diagnosis.final, zeroed)
-    got = _values(lab.diagnosis.final, lab)
+    want = reported_values(zeroed.diagnosis.final, zeroed)
+    got = reported_values(lab.diagnosis.final, lab)
     assert got.keys() == want.keys()
     bench = _bench_offsets(7)
     for name, (value, se) in got.items():
@@ -131,7 +131,7 @@ def test_a_constant_force_on_a_free_carriage_is_reported_and_changes_nothing(tmp
     loaded = diagnosed(slide_file(Carriage(), 12.566, 150.0, tmp_path / "b.csv", force_offset_N=6.0))
     assert loaded.verdict.verdict == zeroed.verdict.verdict == "explained"
     assert [s.label for s in loaded.diagnosis.steps] == [s.label for s in zeroed.diagnosis.steps]
-    want, got = _values(zeroed.diagnosis.final, zeroed), _values(loaded.diagnosis.final, loaded)
+    want, got = reported_values(zeroed.diagnosis.final, zeroed), reported_values(loaded.diagnosis.final, loaded)
     for name, (value, se) in got.items():
         assert abs(value - want[name][0]) <= 3 * want[name][1], (name, value, want[name])
     mean, se = loaded.zeros.torques[0], loaded.zeros.torque_se[0]
