@@ -140,9 +140,37 @@ def test_a_constant_force_on_a_free_carriage_is_reported_and_changes_nothing(tmp
     assert line and "a carriage free to move" in line[0] and "gravity on the axis" in line[0], line
 
 
+def test_a_channels_mean_over_few_runs_has_a_standard_error_that_covers():
+    # identify.zeros.channel_mean over 4000 draws of 4 runs x 6 periods of white noise about a
+    # known mean. The runs' spread alone (3 degrees of freedom) covered 85.6% at 1.96 and passed
+    # 3 standard errors in 5.6% (a t with 3 degrees of freedom); the larger of the spread's and
+    # the noise's (20 degrees of freedom, each period's mean about its run's) covers 95.4% and
+    # passes 3 in 0.4% (the Gaussian's 0.27%). Bounds: 4000 draws give +-0.35% on 95% and
+    # +-0.1% on 0.27% (binomial SE); a spread-only error fails both.
+    from jointrig.identify.zeros import channel_mean
+
+    rng = np.random.default_rng(0)
+    z = []
+    for _ in range(4000):
+        m, se = channel_mean([0.3 + rng.standard_normal(6 * 50) for _ in range(4)], [6] * 4)
+        z.append(abs(m - 0.3) / se)
+    z = np.array(z)
+    assert 0.94 <= np.mean(z <= 1.96) <= 0.975 and np.mean(z > 3) <= 0.008
+    # runs that differ by a load beyond their noise keep their spread: the means 0, 1, 2, 3
+    runs = [k + 0.01 * rng.standard_normal(6 * 50) for k in range(4)]
+    m, se = channel_mean(runs, [6] * 4)
+    assert m == pytest.approx(1.5, abs=0.01) and se == pytest.approx(np.std([0, 1, 2, 3], ddof=1) / 2, rel=0.01)
+    # one run of 5 periods: the noise's error (the periods' means' spread over sqrt(5)), not NaN
+    one = 0.3 + rng.standard_normal(5 * 40)
+    m, se = channel_mean([one], [5])
+    assert se == pytest.approx(np.std(one.reshape(5, -1).mean(axis=1), ddof=1) / math.sqrt(5))
+    assert math.isnan(channel_mean([one], [1])[1])  # one run of one period: nothing to go on
+
+
 def test_sensor_zeros_are_the_channels_means_with_their_spread_across_runs():
-    # identify.zeros.sensor_zeros on records made by hand: each channel's mean per run, their mean
-    # and its standard error across runs (std / sqrt(runs), ddof 1; NaN with one run); an angle
+    # identify.zeros.sensor_zeros on records made by hand, one noise-free period each: each
+    # channel's mean per run, their mean and its standard error across runs (std / sqrt(runs),
+    # ddof 1; NaN with one run: no period's spread either); an angle
     # not measured takes nothing out and has no twist; the user's zeros kept with keep=True.
     from jointrig.identify.chain import ChainRecord
 
