@@ -4,6 +4,7 @@
     python scripts/bench_zeros.py [--suite] [--joint paper light] [--case none coulomb_friction/1 ...]
                                   [--seed S] [--json OUT]
     python scripts/bench_zeros.py --chains [--case none backlash/2 ...]   # trains and the carriage
+    python scripts/bench_zeros.py --means [--seed S]     # the cell's offset alone, every case, no diagnosis
 
 Why: encoders mounted by hand each have their own zero, a torque cell reads an offset. The
 diagnosis takes every angle channel about its mean over the fitted runs (identify/zeros.py) and
@@ -51,6 +52,43 @@ sys.path.insert(0, str(ROOT / "tests"))
 ZERO = "joint1_angle_offset_rad"
 
 
+def _draws(joint: str, case: str, seed: int) -> tuple:
+    """A case's bench, its file's seed, the encoders' zeros (rad) and the cell's offset (N m)."""
+    from bench_sim import JOINTS, with_effect
+    from test_independent_bench import CASES, _points
+
+    params, _ = CASES[joint][case]
+    file_seed = sum(map(ord, joint + case))
+    rng = np.random.default_rng([seed, file_seed])
+    zeros = rng.uniform(-math.pi, math.pi, 2)
+    offset = rng.uniform(-0.02, 0.02) * max(m for _, m in _points(joint))
+    return with_effect(JOINTS[joint], **params), file_seed, zeros, offset
+
+
+def _cell_truth(file_seed: int, offset: float) -> float:
+    """The cell's offset in the lab file: the drawn one plus the bench's own (bench_sim.measure's
+    first draw: torque, phi1, phi2)."""
+    return offset + float(np.random.default_rng(file_seed).uniform(-1, 1, 3)[0] * 0.5)
+
+
+def _means_case(tmp: Path, joint: str, case: str, seed: int) -> dict:
+    """The lab file's drive mean over the fitted runs against the cell's offset (no diagnosis:
+    :func:`identify.zeros.sensor_zeros` on the runs the diagnosis fits)."""
+    from bench_sim import measure
+    from test_independent_bench import HOLDOUT, _points
+
+    from jointrig.identify.zeros import sensor_zeros
+    from jointrig.measured.runs import as_train, read_runs
+
+    bench, file_seed, zeros, offset = _draws(joint, case, seed)
+    path = measure(bench, _points(joint), tmp / "lab.csv", seed=file_seed, fs_Hz=2000.0, n_periods=6.5,
+                   transform=lambda t, T, p1, p2: (t, T + offset, p1 + zeros[0], p2 + zeros[1]))
+    fitted = [r for i, r in enumerate(as_train(read_runs(path)).records) if i not in HOLDOUT]
+    zs = sensor_zeros(fitted)
+    return {"joint": joint, "case": case, "torque_offset_true_Nm": _cell_truth(file_seed, offset),
+            "torque_mean_Nm": zs.torques[0], "torque_se_Nm": zs.torque_se[0]}
+
+
 def _case(tmp: Path, joint: str, case: str, seed: int) -> dict:
     from bench_sim import JOINTS, measure, with_effect
     from test_independent_bench import CASES, HOLDOUT, _points
@@ -60,12 +98,7 @@ def _case(tmp: Path, joint: str, case: str, seed: int) -> dict:
     from jointrig.rig.chain import rig_of_bodies
     from jointrig.studies.chain_validate import run_train_diagnosis
 
-    params, _ = CASES[joint][case]
-    bench = with_effect(JOINTS[joint], **params)
-    file_seed = sum(map(ord, joint + case))
-    rng = np.random.default_rng([seed, file_seed])
-    zeros = rng.uniform(-math.pi, math.pi, 2)
-    offset = rng.uniform(-0.02, 0.02) * max(m for _, m in _points(joint))
+    bench, file_seed, zeros, offset = _draws(joint, case, seed)
 
     def diagnosed(name, transform=None):
         path = measure(bench, _points(joint), tmp / name, seed=file_seed, fs_Hz=2000.0, n_periods=6.5,
@@ -87,7 +120,7 @@ def _case(tmp: Path, joint: str, case: str, seed: int) -> dict:
             "zeroed_causes": [s.label for s in zeroed.diagnosis.steps],
             "worst_parameter_z": worst, "zero_true_rad": z_true, "zero_read_rad": z_read, "zero_se_rad": z_se,
             "zero_z": (z_read - z_true) / z_se if z_se > 0 else math.nan,
-            "torque_offset_true_Nm": offset + bench_offsets[0], "torque_mean_Nm": t_mean, "torque_se_Nm": t_se}
+            "torque_offset_true_Nm": _cell_truth(file_seed, offset), "torque_mean_Nm": t_mean, "torque_se_Nm": t_se}
 
 
 #: The chain benches (tests/bench_chain_sim.py, tests/bench_slide_sim.py): name -> (bench, points,
@@ -194,6 +227,22 @@ def _chain_case(tmp: Path, name: str, seed: int) -> dict:
             "cell_offset": offset}
 
 
+def _print_means(rows: list, json_path, seed: int) -> int:
+    """The cell's offset read against the truth, case by case, and how often within 1.96 and 3 SE."""
+    zs = []
+    for r in rows:
+        z = (r["torque_mean_Nm"] - r["torque_offset_true_Nm"]) / r["torque_se_Nm"]
+        zs.append(z)
+        print(f"{r['joint']:6s} {r['case']:26s} read {r['torque_mean_Nm']:+10.4f} +- {r['torque_se_Nm']:.3g} N m, "
+              f"true {r['torque_offset_true_Nm']:+10.4f}: z {z:+6.2f}")
+    a = np.abs(zs)
+    print(f"\nthe cell's offset within 1.96 SE in {np.sum(a <= 1.96)} of {a.size}, within 3 in {np.sum(a <= 3)}; "
+          f"median |z| {np.median(a):.2f} (0.67 calibrated)")
+    if json_path:
+        write_json_atomic(json_path, {"seed": seed, "rows": rows})
+    return 0
+
+
 def main(argv=None) -> int:
     from test_independent_bench import CASES, SUITE
 
@@ -205,6 +254,8 @@ def main(argv=None) -> int:
     p.add_argument("--joint", nargs="+", choices=sorted(CASES), default=sorted(CASES))
     p.add_argument("--case", nargs="+", help="cases of tests/test_independent_bench.py (default: all)")
     p.add_argument("--suite", action="store_true", help="only the cases the test suite runs")
+    p.add_argument("--means", action="store_true",
+                   help="the torque cell's offset alone, read from the fitted runs' means (no diagnosis: seconds a case)")
     p.add_argument("--seed", type=int, default=49, help="seed of the zeros and offsets (default: %(default)s)")
     p.add_argument("--json", type=Path, help="write the table (JSON, atomically)")
     args = p.parse_args(argv)
@@ -218,6 +269,11 @@ def main(argv=None) -> int:
     if not todo:
         print("bench_zeros: no such case (see tests/test_independent_bench.py CASES)", file=sys.stderr)
         return 2
+    if args.means and not args.chains:
+        for j, c in todo:
+            with tempfile.TemporaryDirectory() as tmp:
+                rows.append(_means_case(Path(tmp), j, c, args.seed))
+        return _print_means(rows, args.json, args.seed)
     print(f"{'joint':6s} {'case':26s} {'verdict':11s} {'same':5s} {'worst z':>8s} {'zero z':>7s} "
           f"{'torque z':>8s}  causes")
     for k, (joint, case) in enumerate(todo, start=1):

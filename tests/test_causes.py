@@ -164,8 +164,29 @@ def test_the_profile_search_steps_in_the_log_of_a_log_scale_parameter_and_minimi
     grid = np.array(seen[:PROFILE_GRID_POINTS])
     assert np.allclose(np.diff(np.log(grid)), math.log(1e4) / (PROFILE_GRID_POINTS - 1))
     # chi2 = 20 + (ln(h/0.01)/0.1)^2: d2chi2/dh2 at 0.01 is 2/(0.1 * 0.01)^2 (the log's own
-    # curvature vanishes at the minimum): a standard error of 0.1 * 0.01 = 1e-3
-    assert found.std_error == pytest.approx(1e-3, rel=1e-3)
+    # curvature vanishes at the minimum): a standard error of 0.1 * 0.01 = 1e-3 at the small
+    # step; over +-1e-3 chi-square rises by `rise` (not quadratic in h there), which the second
+    # pass takes: 1e-3 sqrt(2 / rise), 0.46% below (within PROFILE_SE_AGREE: no third pass)
+    rise = (math.log(1.1) / 0.1) ** 2 + (math.log(0.9) / 0.1) ** 2
+    assert found.std_error == pytest.approx(1e-3 * math.sqrt(2.0 / rise), rel=1e-4)
+
+
+def test_a_profiles_standard_error_is_where_chi_square_rises_by_one_not_its_ripple_at_a_small_step():
+    # chi2 = 50 + ((h - 0.3) / 0.01)^2 plus a ripple of 0.05 on the scale of 1e-5 (a law's kink, as
+    # a free play's contact makes a twist zero's profile rough): the curvature at the small step
+    # (1e-3 of the value, 3e-4) is mostly the ripple's and read a standard error of 1.35e-3, 7
+    # times short; over +-1 standard error, again until two passes agree, chi-square rises by
+    # one at 0.01. Within 10%: PROFILE_SE_AGREE, and the ripple's 0.1 on a rise of 2.
+    from jointrig.identify.causes import profile
+
+    def chi2(h):
+        return 50.0 + ((h - 0.3) / 0.01) ** 2 + 0.05 * math.sin((h - 0.3) / 1e-5) ** 2
+
+    found = profile(lambda h: _Fit(chi2(h)), by_name("backlash"), 0.2, 0.4)
+    assert found.value == pytest.approx(0.3, abs=1e-4)
+    small = math.sqrt(2.0 / ((chi2(0.3 + 3e-4) - 2 * chi2(0.3) + chi2(0.3 - 3e-4)) / 9e-8))
+    assert small < 0.2 * 0.01  # what the small step alone gave
+    assert found.std_error == pytest.approx(0.01, rel=0.1)
 
 
 def test_the_profile_search_at_its_lower_bound_takes_the_one_sided_curvature():
