@@ -294,13 +294,9 @@ def parse(argv) -> argparse.Namespace:
         args.friction = SLIDE_FRICTION_N if args.bench == "slide" else FRICTION_Nm
     if not (math.isfinite(args.friction) and args.friction >= 0):
         p.exit(2, f"{p.prog}: error: --friction must be a number >= 0 (N m), got {args.friction}\n")
-    try:
-        args.out.mkdir(parents=True, exist_ok=True)
-    except OSError as err:
-        p.exit(2, f"{p.prog}: error: cannot use --out {args.out}: {err.strerror}\n")
-    from jointrig.commands.options import check_levels_db, check_output, refused
+    from jointrig.commands.options import study_outputs
 
-    refused(p, lambda: check_levels_db(args.db), lambda: check_output(args.json, "--json"))
+    study_outputs(p, args.out, args.db, args.json)
     return args
 
 

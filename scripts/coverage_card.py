@@ -131,13 +131,9 @@ def parse(argv) -> argparse.Namespace:
     args.cases = args.cases or list(CARD_CASES)
     if args.seeds < 1 or args.first_seed < 0 or args.workers < 1:
         p.exit(2, f"{p.prog}: error: --seeds and --workers must be at least 1 and --first-seed at least 0\n")
-    try:
-        args.out.mkdir(parents=True, exist_ok=True)
-    except OSError as err:
-        p.exit(2, f"{p.prog}: error: cannot use --out {args.out}: {err.strerror}\n")
-    from jointrig.commands.options import check_levels_db, check_output, refused
+    from jointrig.commands.options import study_outputs
 
-    refused(p, lambda: check_levels_db(args.db), lambda: check_output(args.json, "--json"))
+    study_outputs(p, args.out, args.db, args.json)
     return args
 
 

@@ -152,6 +152,16 @@ def refused(parser, *checks) -> None:
         parser.exit(2, f"{parser.prog}: error: {err}\n")
 
 
+def study_outputs(parser, out, levels_db, json_path) -> None:
+    """A coverage study's options checked before its work (exit 2 through ``parser``): its
+    folder of per-case files ``out`` (created), its noise levels, its summary file."""
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        parser.exit(2, f"{parser.prog}: error: cannot use --out {out}: {err.strerror}\n")
+    refused(parser, lambda: check_levels_db(levels_db), lambda: check_output(json_path, "--json"))
+
+
 def check_levels_db(levels, option: str = "--db") -> None:
     """Refuse a noise level (SNR in dB per channel) outside (0, 200]."""
     for d in levels:
