@@ -750,7 +750,7 @@ def profile(solve: Callable[[float], T], cause: "Cause", lo: float, hi: float, *
     log-scale cause), Brent's bounded search between the neighbours of each of its best
     :data:`PROFILE_BASINS` local minima to :data:`PROFILE_XATOL` of the range; the standard error from chi-square's curvature (it rises
     by 1 at one standard error; scaled like the linear ones when the fit is worse than the noise),
-    by a central difference in the parameter itself (one-sided at the lower bound), first at
+    by a central difference in the parameter itself (one-sided at a bound), first at
     1e-3 of the value, then over +-1 standard error until two passes agree
     (:data:`PROFILE_SE_PASSES`), solved by
     ``solve_aside`` (default ``solve``: a caller that warm-starts each trial from the nearest one
@@ -784,16 +784,23 @@ def profile(solve: Callable[[float], T], cause: "Cause", lo: float, hi: float, *
         return (solve_aside or solve)(x).chi2
 
     aside = solve_aside or solve
-    if h - step >= lo:
+    if h - step >= lo and h + step <= hi:
         below, above = aside(h - step), aside(h + step)
         curv = (below.chi2 - 2 * best.chi2 + above.chi2) / step**2
         ends = (below, above, 2 * step)
-    else:
+    elif h - step < lo:
         one, two = aside(h + step), aside(h + 2 * step)
         curv = (two.chi2 - 2 * one.chi2 + best.chi2) / step**2
         ends = (best, one, step)
+    else:  # on the upper bound: backward, as forward on the lower (a twist's zero at 0.01 rad
+        # read 1.6e-5 rad from a central difference across its bound)
+        one, two = aside(h - step), aside(h - 2 * step)
+        curv = (two.chi2 - 2 * one.chi2 + best.chi2) / step**2
+        ends = (one, best, step)
     scale = max(1.0, best.chi2 / max(best.dof, 1))
     se = math.sqrt(2.0 / curv * scale) if curv > 0 else math.nan
+    if not math.isfinite(se):  # a flat or noisy valley: where chi-square rises by one, from the trials
+        se = _half_width({x: objective(f) for x, f in cache.items()}, h, objective(best) + scale, lo, hi)
     # Again over +-1 standard error, until two passes agree: chi-square is quadratic on the scale
     # of its rise by one, not always at 1e-3 of the value, where a kink of the law (a free play's
     # contact) makes it rough (a free play's twist zero: 0.63 mrad at the small step, 2.1 mrad
@@ -803,9 +810,12 @@ def profile(solve: Callable[[float], T], cause: "Cause", lo: float, hi: float, *
         if h - se >= lo and h + se <= hi:
             below, above = aside(h - se), aside(h + se)
             wide, pair = below.chi2 - 2 * best.chi2 + above.chi2, (below, above, 2 * se)
-        elif h + 2 * se <= hi:
+        elif h - se < lo and h + 2 * se <= hi:
             one, two = aside(h + se), aside(h + 2 * se)
             wide, pair = two.chi2 - 2 * one.chi2 + best.chi2, (best, one, se)
+        elif h + se > hi and h - 2 * se >= lo:
+            one, two = aside(h - se), aside(h - 2 * se)
+            wide, pair = two.chi2 - 2 * one.chi2 + best.chi2, (one, best, se)
         else:
             break
         if wide <= 0:
@@ -815,8 +825,6 @@ def profile(solve: Callable[[float], T], cause: "Cause", lo: float, hi: float, *
         se, ends = again, pair
         if settled:
             break
-    if not math.isfinite(se):  # a flat or noisy valley: where chi-square rises by one, from the trials
-        se = _half_width({x: objective(f) for x, f in cache.items()}, h, objective(best) + scale, lo, hi)
     slope = None
     if getattr(best, "values", None) is not None and np.shape(ends[0].values) == np.shape(ends[1].values):
         slope = (np.asarray(ends[1].values, dtype=float) - np.asarray(ends[0].values, dtype=float)) / ends[2]

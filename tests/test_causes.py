@@ -199,6 +199,21 @@ def test_the_profile_search_at_its_lower_bound_takes_the_one_sided_curvature():
     assert found.value == pytest.approx(0.3, abs=1e-6) and found.std_error == pytest.approx(0.01, rel=1e-3)
 
 
+def test_the_profile_search_at_its_upper_bound_takes_the_one_sided_curvature_too():
+    # The mirror of the lower bound, on the rough profile of the test above: chi2 = 50 + ((h -
+    # 0.3) / 0.01)^2 + the ripple, searched on [0.1, 0.3]. The passes over +-1 standard error
+    # stopped at the upper bound and kept the small step's ripple (a twist's zero on its 0.01 rad
+    # bound read 1.6e-5 rad: the independent bench's Stribeck joint, seed 6, 652 of those off the
+    # truth); backward, as forward at the lower bound, they reach 0.01 (within 10% as above).
+    from jointrig.identify.causes import profile
+
+    def chi2(h):
+        return 50.0 + ((h - 0.3) / 0.01) ** 2 + 0.05 * math.sin((h - 0.3) / 1e-5) ** 2
+
+    found = profile(lambda h: _Fit(chi2(h)), by_name("backlash"), 0.1, 0.3)
+    assert found.value == pytest.approx(0.3, abs=1e-4) and found.std_error == pytest.approx(0.01, rel=0.1)
+
+
 def test_the_catalogue_says_what_each_cause_adds():
     # n_linear: the linear parameters a cause adds to the nominal model (its law terms, or the
     # two bearings), what a cause's score counts when it cannot be fitted; the model
