@@ -780,49 +780,42 @@ def profile(solve: Callable[[float], T], cause: "Cause", lo: float, hi: float, *
     best = cache[h]
     step = max(1e-3 * abs(h), 1e-6 * (hi - lo))
 
-    def chi2_at(x):
-        return (solve_aside or solve)(x).chi2
-
     aside = solve_aside or solve
-    if h - step >= lo and h + step <= hi:
-        below, above = aside(h - step), aside(h + step)
-        curv = (below.chi2 - 2 * best.chi2 + above.chi2) / step**2
-        ends = (below, above, 2 * step)
-    elif h - step < lo:
-        one, two = aside(h + step), aside(h + 2 * step)
-        curv = (two.chi2 - 2 * one.chi2 + best.chi2) / step**2
-        ends = (best, one, step)
-    else:  # on the upper bound: backward, as forward on the lower (a twist's zero at 0.01 rad
-        # read 1.6e-5 rad from a central difference across its bound)
-        one, two = aside(h - step), aside(h - 2 * step)
-        curv = (two.chi2 - 2 * one.chi2 + best.chi2) / step**2
-        ends = (one, best, step)
+
+    def second_difference(s: float):
+        """chi-square's second difference over ``s`` about ``h`` (central; one-sided at a bound),
+        and the two fits a slope is taken between with their distance; None where neither fits
+        in [lo, hi]."""
+        if h - s >= lo and h + s <= hi:
+            below, above = aside(h - s), aside(h + s)
+            return below.chi2 - 2 * best.chi2 + above.chi2, (below, above, 2 * s)
+        if h - s < lo and h + 2 * s <= hi:
+            one, two = aside(h + s), aside(h + 2 * s)
+            return two.chi2 - 2 * one.chi2 + best.chi2, (best, one, s)
+        if h + s > hi and h - 2 * s >= lo:  # on the upper bound: backward (a twist's zero on its
+            # 0.01 rad bound read 1.6e-5 rad from a central difference across it)
+            one, two = aside(h - s), aside(h - 2 * s)
+            return two.chi2 - 2 * one.chi2 + best.chi2, (one, best, s)
+        return None
+
     scale = max(1.0, best.chi2 / max(best.dof, 1))
-    se = math.sqrt(2.0 / curv * scale) if curv > 0 else math.nan
+    first = second_difference(step)
+    ends = first[1] if first else (best, best, step)
+    se = math.sqrt(2.0 / (first[0] / step**2) * scale) if first and first[0] > 0 else math.nan
     if not math.isfinite(se):  # a flat or noisy valley: where chi-square rises by one, from the trials
         se = _half_width({x: objective(f) for x, f in cache.items()}, h, objective(best) + scale, lo, hi)
     # Again over +-1 standard error, until two passes agree: chi-square is quadratic on the scale
     # of its rise by one, not always at 1e-3 of the value, where a kink of the law (a free play's
-    # contact) makes it rough (a free play's twist zero: 0.63 mrad at the small step, 2.1 mrad
+    # contact) makes it rough (a free play's twist zero: 0.63 mrad at the small step, 2.4 mrad
     # over +-1 SE, and 16 seeds of the independent bench put the truth up to 6.2 of the former
     # off)
     for _ in range(PROFILE_SE_PASSES if math.isfinite(se) else 0):
-        if h - se >= lo and h + se <= hi:
-            below, above = aside(h - se), aside(h + se)
-            wide, pair = below.chi2 - 2 * best.chi2 + above.chi2, (below, above, 2 * se)
-        elif h - se < lo and h + 2 * se <= hi:
-            one, two = aside(h + se), aside(h + 2 * se)
-            wide, pair = two.chi2 - 2 * one.chi2 + best.chi2, (best, one, se)
-        elif h + se > hi and h - 2 * se >= lo:
-            one, two = aside(h - se), aside(h - 2 * se)
-            wide, pair = two.chi2 - 2 * one.chi2 + best.chi2, (one, best, se)
-        else:
+        again = second_difference(se)
+        if again is None or again[0] <= 0:
             break
-        if wide <= 0:
-            break
-        again = math.sqrt(2.0 / (wide / se**2) * scale)
-        settled = abs(again / se - 1.0) < PROFILE_SE_AGREE
-        se, ends = again, pair
+        wider = math.sqrt(2.0 / (again[0] / se**2) * scale)
+        settled = abs(wider / se - 1.0) < PROFILE_SE_AGREE
+        se, ends = wider, again[1]
         if settled:
             break
     slope = None
