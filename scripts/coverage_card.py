@@ -19,7 +19,8 @@ phase-resonance test reached:
 Per joint, row kind, quantity and phase-resonance amplitude (A1 the lowest level's; the
 noise-free test reaches the same amplitudes in every seed) it prints the share of seeds where
 |z| <= 1.96 with its binomial standard error, the median |z| (0.674 for a calibrated Gaussian
-estimate) and the RMS z (1). The
+estimate) and the RMS z (1); then every row of a kind pooled ("(all rows)": the rows of one seed
+are not independent, so its binomial error is too small). The
 runs are the rig's (the card's truth is the rig's own law, which only the rig simulates exactly).
 
 Resumable: ``--out DIR`` keeps one JSON per (case, level, seed), written atomically; cases whose
@@ -90,7 +91,10 @@ def summarise(records: list[dict]) -> dict:
         row = {"failed": level.get("failed", []),
                "verdicts": {v: level.get("verdicts", []).count(v) for v in sorted(set(level.get("verdicts", [])))}}
         for kind in ("identified", "runs"):
-            for q, zs in level.get(kind, {}).items():
+            by_row = dict(level.get(kind, {}))
+            if by_row:  # every row of the kind pooled (rows of one seed are not independent)
+                by_row["(all rows)"] = [z for zs in by_row.values() for z in zs]
+            for q, zs in by_row.items():
                 p = sum(abs(z) <= Z95 for z in zs) / len(zs)
                 row[f"{kind} {q}"] = {"n": len(zs), "covered": p, "binomial_se": math.sqrt(p * (1 - p) / len(zs)),
                                       "median_z": statistics.median(zs),

@@ -69,3 +69,5 @@ def test_the_cards_coverage_counts_each_amplitude_apart_and_failed_seeds_aside()
     assert math.isclose(a1["binomial_se"], math.sqrt(0.95 * 0.05 / 20))
     assert a1["median_abs_z"] == 0.5 and table["runs damping_ratio at A1"]["median_z"] == -0.5
     assert math.isclose(a2["rms_z"], math.sqrt((4 * 2.5**2 + 16 * 1.0) / 21))
+    pooled = table["identified (all rows)"]
+    assert (pooled["n"], pooled["covered"]) == (41, 36 / 41)
