@@ -165,6 +165,8 @@ def test_a_channels_mean_over_few_runs_has_a_standard_error_that_covers():
     m, se = channel_mean([one], [5])
     assert se == pytest.approx(np.std(one.reshape(5, -1).mean(axis=1), ddof=1) / math.sqrt(5))
     assert math.isnan(channel_mean([one], [1])[1])  # one run of one period: nothing to go on
+    two = one[:80]  # one run of 2 periods: one degree of freedom is enough for the noise's error
+    assert channel_mean([two], [2])[1] == pytest.approx(abs(two[:40].mean() - two[40:].mean()) / 2)
 
 
 def test_sensor_zeros_are_the_channels_means_with_their_spread_across_runs():
