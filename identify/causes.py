@@ -715,6 +715,26 @@ PROFILE_SE_PASSES = 3
 PROFILE_SE_AGREE = 0.1
 
 
+#: A profile's best value within this share of its search range (in the search's coordinate:
+#: log for a log-scale parameter) of an end lies on that end; Brent's search stops within
+#: PROFILE_XATOL of it, a hundredth of this.
+ON_BOUND_SHARE = 1e-4
+
+
+def on_search_bound(value: float, lo: float, hi: float, log_scale: bool = False) -> str:
+    """``"lower"`` or ``"upper"`` where a profile's best ``value`` lies on that end of its search
+    range [lo, hi] (:data:`ON_BOUND_SHARE`), else ``""`` (pure). On a bound the runs do not
+    rule out a value beyond it, and the standard error is chi-square's curvature on one side:
+    a carriage's Stribeck speed read 0.0676 +- 0.0003 m/s on the lower end of its search, the
+    truth 0.01 (``scripts/bench_stribeck.py``)."""
+    if not (math.isfinite(value) and math.isfinite(lo) and math.isfinite(hi) and hi > lo):
+        return ""
+    if log_scale and lo > 0 and value > 0:
+        value, lo, hi = math.log(value), math.log(lo), math.log(hi)
+    tol = ON_BOUND_SHARE * (hi - lo)
+    return "lower" if value <= lo + tol else "upper" if value >= hi - tol else ""
+
+
 @dataclass(frozen=True)
 class Profiled(Generic[T]):
     """A profile search's result: the best value of the nonlinear parameter, the fit there, and

@@ -61,7 +61,7 @@ from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpe
                     rests, stick_mask, sticks_to_ground, jumps_at_rest)
 from .causes import (CATALOGUE, Ambiguity, Cause, CauseScore, effective_dof, Limits, ModelSpec, Place, Profiled, at, by_name,
                      detection_limit, evidence, forward_select,
-                     fundamental_quadrature, harmonic_shares, parsimonious, profile)
+                     fundamental_quadrature, harmonic_shares, on_search_bound, parsimonious, profile)
 from .defaults import DEFAULT_ALPHA, DEFAULT_FIDELITY
 from .kink import FINE_SAMPLES, KINK_RTOL, kink_corrected_rate, kink_first_pass
 from .harmonics import max_harmonic
@@ -1290,6 +1290,9 @@ class ChainDiagnosis:
     last_round: tuple = ()
     #: the false-alarm probability of every round (``--alpha``)
     alpha: float = DEFAULT_ALPHA
+    #: ``(parameter, "lower" or "upper", the bound)`` for every adopted cause's profiled parameter
+    #: whose best value lies on an end of its search (:func:`identify.causes.on_search_bound`)
+    on_bounds: tuple = ()
 
     def ruled_out(self) -> tuple:
         """``(score, limit)`` for every catalogued cause not adopted, on the final model: the
@@ -1478,7 +1481,24 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
                   for k, js in enumerate(problem.merged() or ()) for j in js)
     return ChainDiagnosis(nominal, first, tuple(steps), current, tuple(ambiguous), H, noise, nu,
                           implausible_train_fit(nominal, current), rests, stuck, fidelity, masked, merging, max_effects,
-                          chosen.rounds[-1] if len(chosen.rounds) > len(chosen.adopted) else (), alpha)
+                          chosen.rounds[-1] if len(chosen.rounds) > len(chosen.adopted) else (), alpha,
+                          _on_bounds(problem, adopted, current) if steps else ())
+
+
+def _on_bounds(problem: _Problem, adopted: Sequence[Candidate], fit: ChainFit) -> tuple:
+    """:attr:`ChainDiagnosis.on_bounds` of the adopted causes' profiled parameters in ``fit``,
+    each against the search range :func:`_profile` gave it."""
+    values = {n: v for n, v, _ in fit.profiled}
+    out = []
+    for cand in adopted:
+        name = cand.profiled_name()
+        if cand.cause.bounds is None or name not in values:
+            continue
+        lo, hi = cand.cause.bounds(_twist_runs(problem, cand))
+        side = on_search_bound(values[name], lo, hi, cand.cause.log_scale)
+        if side:
+            out.append((name, side, lo if side == "lower" else hi))
+    return tuple(out)
 
 
 def _reduced(problem: _Problem, structure: ChainSpec, adopted: list, steps: list, rounds: Sequence, base: tuple,

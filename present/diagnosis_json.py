@@ -19,7 +19,7 @@ __all__ = ["SCHEMA", "KEYS", "FIDELITY_KEYS", "RULED_OUT_KEYS", "PRELOAD_KEYS", 
            "ValidationJson", "DiagnosisJson", "finite", "schema_problems"]
 
 #: The document's name and version: a script checks it before it reads the keys.
-SCHEMA = "jointrig-diagnosis/5"
+SCHEMA = "jointrig-diagnosis/6"
 #: The top-level keys, in the order written (the demo ``jointrig diagnose-chain`` adds ``demo``
 #: last: its truth model and settings).
 KEYS = ("schema", "source", "input_sha256", "units", "bench", "verdict", "band_harmonics", "fidelity", "fit_runs",
@@ -30,7 +30,7 @@ FIDELITY_KEYS = ("how", "relative_misfit", "replayed_model", "fixed_runs", "stat
 RULED_OUT_KEYS = ("label", "effect", "place", "magnitude_name", "limit", "std_error", "detection_probability")
 PRELOAD_KEYS = ("joint", "mean", "std_error", "per_run", "unit")
 FIT_KEYS = ("chi2", "dof", "chi2_per_dof", "parameters", "std_errors")
-EXTENDED_KEYS = ("effects", "tried", "steps") + FIT_KEYS
+EXTENDED_KEYS = ("effects", "tried", "steps") + FIT_KEYS + ("on_search_bound",)
 VALIDATION_KEYS = ("kind", "generalisation", "statement", "measure", "unit", "nominal_error", "extended_error",
                    "noise_floor", "right_model", "gain", "note", "per_run")
 RIGHT_KEYS = ("error", "bound", "noise", "propagated", "method", "rig", "dof", "estimate_dof", "alpha", "directions",
@@ -176,6 +176,8 @@ class DiagnosisJson:
     ruled_out: tuple = ()
     #: the mean torque (force) each joint whose zero the data determine carries (:data:`PRELOAD_KEYS`)
     preloads: tuple = ()
+    #: ``(parameter, side, bound)`` of each adopted cause's profiled parameter on an end of its search
+    on_bounds: tuple = ()
 
     def as_json(self) -> dict:
         out = {"schema": SCHEMA, "source": self.source, "input_sha256": self.input_sha256, "units": self.units,
@@ -188,7 +190,9 @@ class DiagnosisJson:
                "held_out_runs": list(self.held_out_runs), "noise_std_per_sample": dict(self.noise_std_per_sample),
                "nominal": self.nominal.as_json(), "causes": [_cause(s, self.name) for s in self.causes],
                "extended": {"effects": list(self.adopted), "tried": [s.label for s in self.steps],
-                            "steps": [_cause(s, self.name) for s in self.steps], **self.extended.as_json()},
+                            "steps": [_cause(s, self.name) for s in self.steps], **self.extended.as_json(),
+                            "on_search_bound": [{"parameter": self.name(p), "side": side, "bound": bound}
+                                                for p, side, bound in self.on_bounds]},
                "ruled_out": [dict(r) for r in self.ruled_out], "preloads": [dict(r) for r in self.preloads],
                "ambiguities": [a.as_json() for a in self.ambiguities], "as_written": dict(self.as_written),
                "validation": self.validation.as_json(), "plausibility": list(self.plausibility),

@@ -17,7 +17,7 @@ from .formatting import quantity_of, unit_of, with_se
 from .summary import WRITTEN_SE, WRITTEN_SHARE
 
 __all__ = ["ValidationRow", "head_lines", "parameter_lines", "causes_lines", "ambiguity_lines", "validation_lines",
-           "notes_lines"]
+           "on_bound_lines", "notes_lines"]
 
 
 def head_lines(verdict, words: str, steps: Sequence[str], *, written: Sequence = (), model: str = "",
@@ -78,6 +78,19 @@ def causes_lines(scores: Sequence[CauseScore], *, name: Callable[[str], str] = s
     if len(keep) < len(scores):
         lines.append(f"  ... and {len(scores) - len(keep)} more, none significant (every one is in --json)")
     return lines
+
+
+def on_bound_lines(on_bounds: Sequence[tuple], *, name: Callable[[str], str] = str) -> list[str]:
+    """A line for each profiled parameter that ended on an end of its search
+    (:attr:`identify.chain_diagnose.ChainDiagnosis.on_bounds`): the value beyond it is not ruled
+    out, and its standard error is one-sided."""
+    out = []
+    for param, side, bound in on_bounds:
+        q = name(param)
+        beyond = "smaller" if side == "lower" else "larger"
+        out.append(f"  {quantity_of(q)} lies on the {side} end of its search ({bound:.3g} {unit_of(q)}): these runs "
+                   f"do not rule out a {beyond} value, and its standard error is one-sided".replace(" )", ")"))
+    return out
 
 
 def ruled_out_lines(limits: Sequence[tuple], *, name: Callable[[str], str] = str, shown: int = 8) -> list[str]:

@@ -19,7 +19,7 @@ from jointrig.studies.chain_validate import TrainReport
 from .diagnosis_json import DiagnosisJson, FitJson, RunJson, ValidationJson
 from .formatting import quantity_of, sig, sig_or, unit_of, with_se
 from .summary import NO_GAIN, compare_written, steps_after, wrong_sentence
-from .text import (ValidationRow, ambiguity_lines, causes_lines, head_lines, notes_lines, parameter_lines,
+from .text import (ValidationRow, ambiguity_lines, causes_lines, head_lines, notes_lines, on_bound_lines, parameter_lines,
                    ruled_out_lines, validation_lines)
 
 
@@ -385,6 +385,7 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
         lines.append("Extended model: none needed (no cause is significant at any joint or body; the nominal model "
                      "explains the data to the noise)")
     lines += parameter_lines(reported_values(d.final, report), nm)
+    lines += on_bound_lines(d.on_bounds, name=nm)
     ruled = ruled_out_lines(d.ruled_out(), name=nm)
     if ruled:
         lines += [""] + ruled
@@ -464,7 +465,8 @@ def train_report_json(report: TrainReport, *, source: str = "", notes: Sequence[
                          "detection_probability": DETECTION_POWER} for s, lim in d.ruled_out()),
         preloads=tuple({"joint": j, "mean": q, "std_error": se, "per_run": list(by_run),
                         "unit": report.kind.drive_unit}
-                       for j, q, se, by_run in report.preloads)).as_json()
+                       for j, q, se, by_run in report.preloads),
+        on_bounds=tuple(d.on_bounds)).as_json()
 
 
 from jointrig.identify.causes import DETECTION_POWER  # noqa: E402  (light: no rig)

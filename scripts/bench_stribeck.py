@@ -56,8 +56,10 @@ def diagnosis(db: float, seed: int) -> int:
         print("diagnosing ...", file=sys.stderr, flush=True)
         t0 = time.time()
         d = diagnose(path)
-    effects = (d.json().get("extended") or {}).get("effects") or ["nothing"]
-    print(f"verdict {d.verdict}; adopted: {', '.join(effects)} ({time.time() - t0:.0f} s)")
+    extended = d.json().get("extended") or {}
+    print(f"verdict {d.verdict}; adopted: {', '.join(extended.get('effects') or ['nothing'])} ({time.time() - t0:.0f} s)")
+    for b in extended.get("on_search_bound", []):
+        print(f"{b['parameter']} lies on the {b['side']} end of its search ({b['bound']:.4g})")
     values, errors = d.parameters(), d.std_errors()
     print(f"{'parameter':36s} {'fitted':>12s} {'SE':>10s} {'truth':>8s} {'z':>7s}")
     for name, v in values.items():

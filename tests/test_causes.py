@@ -611,3 +611,24 @@ def test_damping_in_contact_turns_the_laws_damping_into_one_beyond_the_free_play
         ContactDamping(0.02), Power(1, 0.02), Power(3, 0.02))
     springs = ModelSpec((Power(1), Power(3)))
     assert contact.extend(springs, 0.01) == springs
+
+
+def test_a_profile_on_an_end_of_its_search_is_told_and_said():
+    # A best value within 1e-4 of the search range (log for a log-scale parameter) lies on that
+    # end: there the runs do not rule out a value beyond it and the standard error is one-sided
+    # (the Stribeck carriage of scripts/bench_stribeck.py: 0.0676 m/s on the lower end of its search).
+    import math
+
+    from jointrig.identify.causes import ON_BOUND_SHARE, on_search_bound
+    from jointrig.present.text import on_bound_lines
+
+    lo, hi = 0.0674, 6.74
+    assert on_search_bound(lo * (1 + 1e-6), lo, hi, True) == "lower"
+    assert on_search_bound(hi * (1 - 1e-6), lo, hi, True) == "upper"
+    inside = lo * math.exp(2 * ON_BOUND_SHARE * math.log(hi / lo))
+    assert on_search_bound(inside, lo, hi, True) == "" and on_search_bound(0.5, 0.0, 1.0) == ""
+    assert on_search_bound(2 * ON_BOUND_SHARE, 0.0, 1.0) == "" and on_search_bound(0.5 * ON_BOUND_SHARE, 0.0, 1.0) == "lower"
+    assert on_search_bound(math.nan, lo, hi) == "" and on_search_bound(1.0, 1.0, 1.0) == ""
+    (line,) = on_bound_lines((("ground1_stribeck_velocity_rad_s", "lower", lo),))
+    assert "lies on the lower end of its search (0.0674 rad/s)" in line and "a smaller value" in line, line
+    assert "one-sided" in line and on_bound_lines(()) == []

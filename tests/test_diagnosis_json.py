@@ -34,7 +34,7 @@ def test_the_check_names_what_departs_from_the_schema():
     swapped = dict(reversed(list(doc.items())))
     assert dj.schema_problems(swapped)  # the order is part of the schema: a diff of two files lines up
     assert dj.schema_problems(doc | {"schema": "jointrig-diagnosis/1"}) == [
-        "schema: 'jointrig-diagnosis/1', expected 'jointrig-diagnosis/5'"]
+        "schema: 'jointrig-diagnosis/1', expected 'jointrig-diagnosis/6'"]
     bad_run = _document()
     del bad_run["validation"]["per_run"][0]["noise_floor"]
     assert dj.schema_problems(bad_run)[0].startswith("validation.per_run[0]: keys")
