@@ -1034,3 +1034,24 @@ def test_a_cause_extends_its_own_place_and_leaves_every_other_one_as_it_was():
     assert skew.channel_delays_s == (0.0, 1e-4, 5e-4, 3e-4) and skew.channel_gains == spec.channel_gains
     scale = Candidate(by_name("angle_gain"), Place("channel", 3)).extend(spec, 0.04)
     assert scale.channel_gains == (0.0, 0.01, 0.04, 0.03) and scale.channel_delays_s == spec.channel_delays_s
+
+
+def test_an_adopted_causes_parameter_on_an_end_of_its_search_is_listed_with_that_end():
+    # ChainDiagnosis.on_bounds: each adopted cause's profiled parameter against the search range
+    # its profile had (a Stribeck rate: from the fastest run's rate amplitude). At the lower end
+    # it is listed with that end; inside the range, or for a cause without a profile, not.
+    import math
+    from dataclasses import replace
+
+    from jointrig.identify.causes import Place, by_name
+    from jointrig.identify.chain_diagnose import Candidate, _on_bounds, _twist_runs
+
+    problem, fit = _one_body_problem()
+    peak, dry = (Candidate(by_name(n), Place("ground", 1)) for n in ("stribeck_friction", "coulomb_friction"))
+    lo, hi = peak.cause.bounds(_twist_runs(problem, peak))
+    name = peak.profiled_name()
+    assert name == "ground1_stribeck_velocity_rad_s" and 0 < lo < hi
+    assert _on_bounds(problem, [dry, peak], replace(fit, profiled=((name, lo, 0.1 * lo),))) == ((name, "lower", lo),)
+    middle = math.sqrt(lo * hi)
+    assert _on_bounds(problem, [dry, peak], replace(fit, profiled=((name, middle, 0.1 * lo),))) == ()
+    assert _on_bounds(problem, [dry, peak], replace(fit, profiled=((name, hi, 0.1 * lo),))) == ((name, "upper", hi),)
