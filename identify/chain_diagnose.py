@@ -1047,10 +1047,16 @@ PRELOAD_SHARE = 0.1
 PRELOAD_MARGIN = 2.0
 
 
+def _search_range(problem: _Problem, cand: Candidate) -> tuple[list, float, float]:
+    """The runs the candidate's bounds read at its place (:func:`_twist_runs`) and its profile
+    search range there (a twist's zero is widened further in :func:`_profile`)."""
+    here = _twist_runs(problem, cand)
+    return (here, *cand.cause.bounds(here))
+
+
 def _profile(problem: _Problem, cand: Candidate, base: ChainSpec, weights) -> ChainFit:
     """:func:`identify.causes.profile` over the candidate's bounds at its place."""
-    here = _twist_runs(problem, cand)
-    lo, hi = cand.cause.bounds(here)
+    here, lo, hi = _search_range(problem, cand)
     if cand.cause.name == TWIST_ZERO.name and cand.at_joint:
         # a free play's rest is anywhere in its play: the twist's mean (what identify.zeros takes
         # out) may sit off it by up to the half gap, beyond a sensor's zero error
@@ -1487,14 +1493,15 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
 
 def _on_bounds(problem: _Problem, adopted: Sequence[Candidate], fit: ChainFit) -> tuple:
     """:attr:`ChainDiagnosis.on_bounds` of the adopted causes' profiled parameters in ``fit``,
-    each against the search range :func:`_profile` gave it."""
+    each against the search range :func:`_profile` gave it (:func:`_search_range`; the twists'
+    zeros are no adopted cause)."""
     values = {n: v for n, v, _ in fit.profiled}
     out = []
     for cand in adopted:
         name = cand.profiled_name()
         if cand.cause.bounds is None or name not in values:
             continue
-        lo, hi = cand.cause.bounds(_twist_runs(problem, cand))
+        _, lo, hi = _search_range(problem, cand)
         side = on_search_bound(values[name], lo, hi, cand.cause.log_scale)
         if side:
             out.append((name, side, lo if side == "lower" else hi))

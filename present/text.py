@@ -13,7 +13,7 @@ from typing import Callable, Mapping, Sequence
 
 from jointrig.identify.causes import Ambiguity, CauseScore
 
-from .formatting import quantity_of, unit_of, with_se
+from .formatting import quantity_of, sig, unit_of, with_se
 from .summary import WRITTEN_SE, WRITTEN_SHARE
 
 __all__ = ["ValidationRow", "head_lines", "parameter_lines", "causes_lines", "ambiguity_lines", "validation_lines",
@@ -87,9 +87,10 @@ def on_bound_lines(on_bounds: Sequence[tuple], *, name: Callable[[str], str] = s
     out = []
     for param, side, bound in on_bounds:
         q = name(param)
+        at = " ".join(x for x in (sig(bound), unit_of(q)) if x)
         beyond = "smaller" if side == "lower" else "larger"
-        out.append(f"  {quantity_of(q)} lies on the {side} end of its search ({bound:.3g} {unit_of(q)}): these runs "
-                   f"do not rule out a {beyond} value, and its standard error is one-sided".replace(" )", ")"))
+        out.append(f"  {quantity_of(q)} lies on the {side} end of its search ({at}): these runs do not rule out a "
+                   f"{beyond} value, and its standard error is one-sided")
     return out
 
 

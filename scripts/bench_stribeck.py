@@ -70,8 +70,9 @@ def diagnosis(db: float, seed: int) -> int:
 
 
 def reference() -> int:
-    from jointrig.identify.harmonics import fourier_coefficients
+    from jointrig.identify.harmonics import fourier_coefficients, synthesize
     from jointrig.identify.kink import FINE_SAMPLES, kink_corrected_rate
+    from jointrig.vocab.law import Coulomb, Stribeck
 
     exact_samples = 16 * FINE_SAMPLES
     runs = []
@@ -82,10 +83,8 @@ def reference() -> int:
         t, y, mode = steady_state(CARRIAGE, w, F0)
         te = t + (2 * math.pi / w) * np.arange(exact_samples) / exact_samples
         states, _, _ = _simulate(CARRIAGE, w, F0, te, y, mode, t)
-        X = np.fft.rfft(states[:, 0]) / exact_samples  # the position, band-limited as the diagnosis keeps it
-        band = np.zeros(FINE_SAMPLES // 2 + 1, complex)
-        band[:H + 1] = X[:H + 1]
-        runs.append((w, states[:, 1], F0 * np.cos(w * te), np.fft.irfft(band * FINE_SAMPLES, FINE_SAMPLES)))
+        x = synthesize(fourier_coefficients(states[:, 0], 1, H), FINE_SAMPLES)  # band-limited, as the diagnosis keeps it
+        runs.append((w, states[:, 1], F0 * np.cos(w * te), x))
     jump = 2.0 * CARRIAGE.Fs / CARRIAGE.m  # the acceleration's jump at a reversal, as the diagnosis restores it
 
     rates = {"exact rate, fine grid": lambda w, v, x: v,
@@ -96,7 +95,7 @@ def reference() -> int:
         rows, rhs = [], []
         for w, v, force, x in runs:
             r = rate_of(w, v, x)
-            c = [fourier_coefficients(q, 1, H)[1:] for q in (np.sign(r), np.sign(r) * np.exp(-(r / vs) ** 2))]
+            c = [fourier_coefficients(law(None, r), 1, H)[1:] for law in (Coulomb(), Stribeck(vs))]
             acc, rate, drive = (fourier_coefficients(q, 1, H)[1:] for q in (v, v, force))
             A = np.column_stack([1j * w * np.arange(1, H + 1) * acc, rate, c[0], c[1]])
             rows.append(np.vstack([A.real, A.imag]))
