@@ -606,6 +606,8 @@ def write_train_html(path, report: TrainReport, text: str, *, title: str, source
     parts.append(f"<h2>{'Extended' if report.adopted else 'Nominal'} model</h2>")
     parts.append(table(["parameter", "value ± standard error", "unit"], [
         row([nm(n), (with_se(x, se), "num"), unit_of(nm(n))]) for n, (x, se) in reported_values(fit, report).items()]))
+    if report.adopted:  # a value on an end of its search, under the table that shows it
+        parts += [f"<p class='note'>{html.escape(line.strip())}.</p>" for line in on_bound_lines(d.on_bounds, name=nm)]
     for card, png in cards:  # (card, its PNG) per place, with --card: folded, one per joint
         section = card_section(card, png)
         parts.append(f"<details class='section'><summary>Joint card of {html.escape(card.place)}</summary>"

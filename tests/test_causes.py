@@ -629,6 +629,11 @@ def test_a_profile_on_an_end_of_its_search_is_told_and_said():
     assert on_search_bound(inside, lo, hi, True) == "" and on_search_bound(0.5, 0.0, 1.0) == ""
     assert on_search_bound(2 * ON_BOUND_SHARE, 0.0, 1.0) == "" and on_search_bound(0.5 * ON_BOUND_SHARE, 0.0, 1.0) == "lower"
     assert on_search_bound(math.nan, lo, hi) == "" and on_search_bound(1.0, 1.0, 1.0) == ""
+    # "within" the share includes its edge, on either end, and the share is of the range's width
+    assert on_search_bound(ON_BOUND_SHARE, 0.0, 1.0) == "lower" and on_search_bound(1.0 - ON_BOUND_SHARE, 0.0, 1.0) == "upper"
+    assert on_search_bound(5.0 * ON_BOUND_SHARE, 0.0, 10.0) == "lower"
+    # a log-scale range that reaches 0 (or a value at 0) is judged on the linear scale, not refused
+    assert on_search_bound(0.5 * ON_BOUND_SHARE, 0.0, 1.0, True) == "lower" and on_search_bound(0.0, 1e-3, 1.0, True) == "lower"
     (line,) = on_bound_lines((("ground1_stribeck_velocity_rad_s", "lower", lo),))
     assert "lies on the lower end of its search (0.0674 rad/s)" in line and "a smaller value" in line, line
     assert "one-sided" in line and on_bound_lines(()) == []
