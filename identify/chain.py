@@ -151,6 +151,16 @@ class ChainRecord(WholePeriods):
         object.__setattr__(self, "omega_rad_s", float(self.omega_rad_s))
         object.__setattr__(self, "n_periods", int(self.n_periods))
 
+    @classmethod
+    def of_two_flywheels(cls, rec: SteadyStateRecord, driven: int = 1) -> "ChainRecord":
+        """A run of the two-flywheel rig (:mod:`rig.simulate`, both angles) as a run of the line
+        of its two bodies, the torque on body ``driven`` (pure)."""
+        if rec.phi2_rad is None:
+            raise RecordError(f"{rec.source}: the relative angle only ('phi'); a train needs each body's angle")
+        rates = None if rec.rate1_rad_s is None and rec.rate2_rad_s is None else (rec.rate1_rad_s, rec.rate2_rad_s)
+        return cls(rec.omega_rad_s, rec.time_s, (rec.torque_Nm, None) if driven == 1 else (None, rec.torque_Nm),
+                   (rec.phi1_rad, rec.phi2_rad), rates, rec.n_periods, rec.drive_amplitude_Nm, source=rec.source)
+
     @property
     def n_flywheels(self) -> int:
         return len(self.angles_rad)

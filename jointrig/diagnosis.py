@@ -105,16 +105,19 @@ class Diagnosis:
 
 
 def read_data(data: PathLike, *, validate: Optional[PathLike] = None, columns: Optional[str] = None,
-              units: Optional[str] = None, zero_per_run: bool = False):
+              units: Optional[str] = None, zero_per_run: bool = False, torque_on: str = "flywheel1",
+              torque_share: float = 0.5):
     """The runs of ``data`` (a file or a folder), then, labelled ``validate:<run>``, those of
     ``validate`` (the same bench's), as :class:`measured.runs.LoadedRuns`."""
     from jointrig.measured.runs import read_runs
 
-    loaded = read_runs(Path(data), columns=columns, units=units, zero_per_run=zero_per_run)
+    kw = dict(columns=columns, units=units, zero_per_run=zero_per_run, torque_on=torque_on, torque_share=torque_share)
+    loaded = read_runs(Path(data), **kw)
     if validate is None:
         return loaded
-    other = read_runs(Path(validate), columns=columns, units=units, zero_per_run=zero_per_run)
-    if (other.is_train, other.has_both_angles, other.kind) != (loaded.is_train, loaded.has_both_angles, loaded.kind):
+    other = read_runs(Path(validate), **kw)
+    if (other.records[0].n_flywheels, other.torque_share, other.kind) != \
+            (loaded.records[0].n_flywheels, loaded.torque_share, loaded.kind):
         raise DiagnosisInputError(f"--validate {validate}: its columns are another bench's than {data}'s "
                                   f"(expected the same angles and drives)")
     ids = tuple(VALIDATE_PREFIX + r for r in other.run_ids)
@@ -123,13 +126,14 @@ def read_data(data: PathLike, *, validate: Optional[PathLike] = None, columns: O
                    notes=loaded.notes + notes)
 
 
-def load_model(path: PathLike):
-    """The user's model file: a drive train's (``load_chain``) or two flywheels' (``load_rig``)."""
-    from jointrig.rig.chain import load_chain
-    from jointrig.rig.model import RigModelError, is_chain_model, load_rig
+def load_model(path: PathLike, torque_on: str = "flywheel1"):
+    """The user's model file as the line of its bodies (:func:`rig.chain.load_model`; two
+    flywheels' driven where ``torque_on`` says)."""
+    from jointrig.rig.chain import load_model as load_line
+    from jointrig.rig.model import RigModelError
 
     try:
-        return load_chain(Path(path)) if is_chain_model(Path(path)) else load_rig(Path(path))
+        return load_line(Path(path), (2,) if torque_on == "flywheel2" else (1,))
     except RigModelError as err:
         raise DiagnosisInputError(f"--model: {err}") from None
 
@@ -167,8 +171,7 @@ def diagnose(data: PathLike, *, model: Optional[PathLike] = None, holdout: Optio
     Raises :class:`DiagnosisInputError` or :class:`measured.runs.RunsFileError` (bad input) and
     ``rig.simulate.SimulationError`` (a simulation that failed)."""
     from jointrig.identify.chain import ChainIdentifiabilityError
-    from jointrig.measured.runs import as_train
-    from jointrig.rig.chain import relative_chain_of_two_flywheels
+    from jointrig.rig.chain import relative_chain
     from jointrig.rig.model import RigModelError
 
     if validate is not None and holdout:
@@ -176,54 +179,41 @@ def diagnose(data: PathLike, *, model: Optional[PathLike] = None, holdout: Optio
                                   "give one of them")
     if torque_on not in ("flywheel1", "flywheel2", "shaft"):
         raise DiagnosisInputError(f"--torque-on must be flywheel1, flywheel2 or shaft, got {torque_on!r}")
-    rig_model = load_model(model) if model is not None else None
-    loaded = read_data(data, validate=validate, columns=columns, units=units, zero_per_run=zero_per_run)
+    rig_model = load_model(model, torque_on) if model is not None else None
+    if rig_model is not None and rig_model.n_flywheels == 2:  # the relative angle's share, from the model
+        J1, J2 = rig_model.inertias_kgm2
+        torque_share = (J1 if torque_on == "flywheel2" else J2) / (J1 + J2)
+    loaded = read_data(data, validate=validate, columns=columns, units=units, zero_per_run=zero_per_run,
+                       torque_on=torque_on, torque_share=torque_share)
     if before is not None:
         before(loaded)
-    two_flywheels = not loaded.is_train
-    if two_flywheels:
-        share = torque_share
-        if not loaded.has_both_angles and rig_model is not None and not hasattr(rig_model, "n_flywheels"):
-            try:  # the model's relative-angle form, and its share of the drive
-                rig_model, share = relative_chain_of_two_flywheels(rig_model, torque_on)
-            except RigModelError as err:
-                raise DiagnosisInputError(f"--model: {err}") from None
-        loaded = as_train(loaded, torque_on, share)
+    if loaded.torque_share is not None and rig_model is not None:
+        try:  # the model's relative-angle form
+            rig_model, _ = relative_chain(rig_model, torque_on)
+        except RigModelError as err:
+            raise DiagnosisInputError(f"--model: {err}") from None
     try:
         return _diagnosed(loaded, rig_model, data=data, model_path=model, holdout=holdout, validate=validate,
                           zeroed=zeroed, torque_on=torque_on, band=band, alpha=alpha, fidelity=fidelity,
-                          max_causes=max_causes, progress=progress, two_flywheels=two_flywheels)
+                          max_causes=max_causes, progress=progress)
     except ChainIdentifiabilityError as err:
         raise DiagnosisInputError(str(err)) from None
 
 
 def _diagnosed(loaded, model, *, data, model_path, holdout, validate, zeroed, torque_on, band, alpha, fidelity,
-               max_causes, progress, two_flywheels) -> Diagnosis:
-    """:func:`diagnose` on the runs as a train (two flywheels as a line of two bodies, the
-    relative angle alone as one body tied to the frame), validated in a rig of the user's model
-    or of the file's bodies and drives."""
+               max_causes, progress) -> Diagnosis:
+    """:func:`diagnose` on the runs as read (a line of bodies), validated in a rig of the user's
+    model or of the file's bodies and drives."""
     from jointrig.measured.runs import RunsFileError
-    from jointrig.rig.chain import chain_of_two_flywheels, rig_of_bodies
-    from jointrig.rig.model import RigModelError
+    from jointrig.rig.chain import rig_of_bodies
     from jointrig.studies.chain_validate import MIN_PERIODS_TO_SPLIT, MIN_RUNS_TO_HOLD_OUT, run_train_diagnosis, written_of
 
     N = loaded.records[0].n_flywheels
     driven = sorted({i for r in loaded.records for i, t in enumerate(r.torques_Nm, start=1) if t is not None})
     relative = loaded.torque_share is not None  # the relative angle alone: one body
-    if model is not None and not hasattr(model, "n_flywheels") and two_flywheels:
-        try:
-            model = chain_of_two_flywheels(model, driven)
-        except RigModelError as err:
-            raise DiagnosisInputError(f"--model: {err}") from None
-    if model is not None and not hasattr(model, "n_flywheels"):
-        raise DiagnosisInputError(f"--model {model_path} is a two-flywheel model, but {data} holds a train of {N} "
-                                  f"bodies (phi1..phi{N}); give a chain model (models/pump_train.xml shows one)")
     if model is not None and (model.n_flywheels, model.kind) != (N, loaded.kind):
         raise DiagnosisInputError(f"--model {model_path} has {model.n_flywheels} bodies on {model.kind}s, {data} "
                                   f"{N} on {loaded.kind}s")
-    if torque_on != "flywheel1" and not two_flywheels:
-        raise DiagnosisInputError("--torque-on: a drive train's file names the driven bodies by its torque<i> columns; "
-                                  "leave it out")
     if model is not None:
         missing = sorted(set(driven) - set(model.driven))
         if missing:

@@ -6,7 +6,7 @@ the rig writes.
     run     label of the run (one steady-state record at one drive setting); optional: without
             it a file (or a TDMS/HDF5 group, a UFF load case) is one run
     time    s      sample times (a bench's clock: uniform, from any phase of the drive)
-    torque  N m    drive torque on flywheel 1 as recorded
+    torque  N m    drive torque on flywheel 1 as recorded (on flywheel 2: ``torque_on``)
     phi1    rad    flywheel 1 angle     } or ``phi`` (rad, the relative angle phi1 - phi2)
     phi2    rad    flywheel 2 angle     }
     omega   rad/s  optional: the drive's fundamental (checked against the data)
@@ -30,6 +30,12 @@ every sample: each period's harmonics are estimated by least squares and synthes
 uniform grid. An angle that drifts (a slipping encoder, an unsettled transient) is refused; a
 rotation common to both flywheels is removed. Every change is said in
 :attr:`LoadedRuns.notes`.
+
+**One shape of record.** Every bench reads as a line of bodies
+(:class:`identify.chain.ChainRecord`): a drive train's phi1..phiN; two flywheels as the line of
+their two bodies, the torque on body 1 (or 2, ``torque_on``); the relative angle alone as one
+body, the joint's twist, tied to the frame by the joint's law and driven by the share of the
+torque that twists it (``torque_share``).
 """
 
 from __future__ import annotations
@@ -51,12 +57,12 @@ from jointrig.identify.periods import (MAX_CLOCK_DEVIATION, TRANSIENT_FACTOR, es
                                       transient_periods, uniform_clock)
 from jointrig.identify.chain import ChainRecord
 from jointrig.vocab.params import HINGE, SLIDE, Coordinate
-from jointrig.vocab.records import MAX_SI_VALUE, RecordError, SteadyStateRecord
+from jointrig.vocab.records import MAX_SI_VALUE, RecordError
 
 from .formats import SUFFIXES, FormatError, RawTable, read_tables
 
 __all__ = ["RunsFileError", "LoadedRuns", "read_runs", "write_runs", "estimate_omega", "COLUMNS", "UNITS",
-           "parse_mapping", "REPEAT_THRESHOLD", "as_train", "chain_record_of"]
+           "parse_mapping", "REPEAT_THRESHOLD", "TORQUE_ON"]
 
 #: Canonical columns and their SI units.
 #: Most bodies of a drive train (``phi1..phi8``, ``torque1..torque8``).
@@ -121,24 +127,15 @@ class LoadedRuns:
 
     path: Path
     run_ids: tuple[str, ...]
-    records: tuple[SteadyStateRecord, ...]
+    records: tuple[ChainRecord, ...]
     notes: tuple[str, ...]
     sha256: str = ""
-    #: a train's bodies: "hinge" (rad, N m, kg m^2) or "slide" (m, N, kg; held in the records'
+    #: how the bodies move: "hinge" (rad, N m, kg m^2) or "slide" (m, N, kg; held in the records'
     #: angle and torque fields, which are the project's generic coordinate and drive)
     kind: Coordinate = HINGE
-    #: the relative-angle form as one body (:func:`as_train`): the share ``s`` of the drive that
+    #: the relative angle alone as one body (module docstring): the share ``s`` of the drive that
     #: twists the joint (J of the undriven flywheel over J1 + J2), None for any other runs
     torque_share: Optional[float] = None
-
-    @property
-    def has_both_angles(self) -> bool:
-        return self.is_train or all(r.phi2_rad is not None for r in self.records)
-
-    @property
-    def is_train(self) -> bool:
-        """A drive train's runs (:class:`identify.chain.ChainRecord`), not two flywheels'."""
-        return bool(self.records) and isinstance(self.records[0], ChainRecord)
 
 
 def _norm_unit(u: str) -> str:
@@ -509,8 +506,10 @@ def _whole_periods(where: str, run: str, t: np.ndarray, chans: dict, drive: str,
 
 
 def _to_record(where: str, run: str, t: np.ndarray, chans: dict, omega: Optional[float],
-               samples_per_period: Optional[int], notes: list) -> SteadyStateRecord:
-    """One run of a two-flywheel bench (``torque``, ``phi1`` and ``phi2``, or ``phi``)."""
+               samples_per_period: Optional[int], notes: list, driven: int, share: Optional[float]) -> ChainRecord:
+    """One run of a two-flywheel bench (``torque``, ``phi1`` and ``phi2``, or ``phi``) as a line of
+    bodies: both angles, two bodies with the torque on body ``driven``; the relative angle alone,
+    one body driven by ``share`` times the torque (signed: negative on flywheel 2)."""
     phi = chans["phi1"] - chans["phi2"] if "phi2" in chans else chans["phi1"]
     for name in ("phi1", "phi2"):
         if name in chans:
@@ -518,10 +517,13 @@ def _to_record(where: str, run: str, t: np.ndarray, chans: dict, omega: Optional
     _check_varies(where, run, "phi1 - phi2" if "phi2" in chans else "phi", phi)
     w_rec, t_rec, P, data = _whole_periods(where, run, t, chans, "torque", phi, omega, samples_per_period, notes)
     _check_drift(where, run, t_rec, data, w_rec, notes)
+    T = data["torque"]
+    if share is not None:
+        torques, angles = (share * T,), (data["phi1"],)
+    else:
+        torques, angles = ((T, None) if driven == 1 else (None, T)), (data["phi1"], data["phi2"])
     try:
-        return SteadyStateRecord(
-            omega_rad_s=float(w_rec), time_s=t_rec, torque_Nm=data["torque"], phi1_rad=data["phi1"],
-            phi2_rad=data.get("phi2"), n_periods=P, source=f"{where} run {run}")
+        return ChainRecord(float(w_rec), t_rec, torques, angles, None, P, source=f"{where} run {run}")
     except RecordError as err:
         raise RunsFileError(f"{where}: run {run}: {err}") from None
 
@@ -654,44 +656,32 @@ MAX_TWIST_RAD = math.pi
 ZERO_SPREAD = 0.2
 
 
-def _twists(r) -> list[np.ndarray]:
-    """Each joint's relative angle of a record (two flywheels: one; a train: N - 1)."""
-    if isinstance(r, ChainRecord):
-        return [r.angles_rad[j] - r.angles_rad[j + 1] for j in range(r.n_flywheels - 1)]
-    return [r.phi_rad]
+def _twists(r, relative: bool = False) -> list[np.ndarray]:
+    """Each joint's twist over a record (N - 1 of N bodies; the relative angle alone: its one
+    body's angle, which is the joint's twist)."""
+    if relative:
+        return [r.angles_rad[0]]
+    return [r.angles_rad[j] - r.angles_rad[j + 1] for j in range(r.n_flywheels - 1)]
 
 
 def _centred(r):
-    if isinstance(r, ChainRecord):
-        return replace(r, angles_rad=tuple(a - a.mean() for a in r.angles_rad))
-    return replace(r, phi1_rad=r.phi1_rad - r.phi1_rad.mean(),
-                   phi2_rad=None if r.phi2_rad is None else r.phi2_rad - r.phi2_rad.mean())
+    return replace(r, angles_rad=tuple(a - a.mean() for a in r.angles_rad))
 
 
 def _drive_means(r) -> list[float]:
     """Each drive channel's mean over a record (N m; N on a slide; NaN where the run has none)."""
-    if isinstance(r, ChainRecord):
-        return [float(np.mean(t)) if t is not None else math.nan for t in r.torques_Nm]
-    return [float(np.mean(r.torque_Nm))]
+    return [float(np.mean(t)) if t is not None else math.nan for t in r.torques_Nm]
 
 
 def _drive_swing(r) -> float:
     """The largest drive channel's half peak-to-peak over a record."""
-    if isinstance(r, ChainRecord):
-        return max((float(np.ptp(t)) / 2 for t in r.torques_Nm if t is not None), default=0.0)
-    return float(np.ptp(r.torque_Nm)) / 2
+    return max((float(np.ptp(t)) / 2 for t in r.torques_Nm if t is not None), default=0.0)
 
 
 #: The drives' mean differs between runs by more than this share of their largest swing: the runs
 #: hold different mean loads, and a joint's mean twist may differ between them as its preload
 #: does (a pump's load that grows with its speed), not because its encoders were re-zeroed.
 LOAD_SPREAD = 0.1
-
-
-def _body_angles(r) -> list:
-    if isinstance(r, ChainRecord):
-        return list(r.angles_rad)
-    return [r.phi1_rad] + ([] if r.phi2_rad is None else [r.phi2_rad])
 
 
 def _in_degrees(path: Path, records: Sequence, unstated: set, what: str) -> None:
@@ -702,7 +692,7 @@ def _in_degrees(path: Path, records: Sequence, unstated: set, what: str) -> None
     index = {c: (int(c.lstrip("phix")) - 1 if c.lstrip("phix") else 0) for c in bodies}
     alt = []
     for r in records:
-        a = [x * (math.pi / 180.0) if i in index.values() else x for i, x in enumerate(_body_angles(r))]
+        a = [x * (math.pi / 180.0) if i in index.values() else x for i, x in enumerate(r.angles_rad)]
         if len(a) < 2:
             return
         alt.append([a[j] - a[j + 1] for j in range(len(a) - 1)])
@@ -720,12 +710,14 @@ def _in_degrees(path: Path, records: Sequence, unstated: set, what: str) -> None
 
 
 def _plausible_angles(path: Path, run_ids: Sequence[str], records: Sequence,
-                      angles_stated: bool, zero_per_run: bool, notes: list, unstated: set = frozenset()) -> list:
+                      angles_stated: bool, zero_per_run: bool, notes: list, unstated: set = frozenset(),
+                      relative: bool = False) -> list:
     """Refuse angles that are probably not in rad (no unit stated, a twist of several rad; or one
     angle's unit forgotten beside the others'), and runs whose angle sensors were zeroed one by
     one, or centre each run's angles when asked. ``unstated``: the angle columns read as rad for
-    want of a unit while others' are stated."""
-    twists = [_twists(r) for r in records]
+    want of a unit while others' are stated; ``relative``: the records are the relative angle
+    alone (one body whose angle is the joint's twist)."""
+    twists = [_twists(r, relative) for r in records]
     if not twists[0]:  # a single body: its position's zero is its own affair
         if zero_per_run:
             notes.append("each run's position taken about its own mean (--zero-per-run)")
@@ -779,71 +771,18 @@ def _plausible_angles(path: Path, run_ids: Sequence[str], records: Sequence,
 TORQUE_ON = ("flywheel1", "flywheel2", "shaft")
 
 
-def driven_first(loaded: "LoadedRuns", torque_on: str) -> "LoadedRuns":
-    """The runs with the driven flywheel as flywheel 1, the diagnosis's convention (pure). A
-    drive on flywheel 2 swaps the two angles (the relative angle becomes phi2 - phi1 of the file;
-    with only the relative angle, its sign flips), with a note that says so. A torque measured in
-    the shaft is refused: it is the joint's own torque, not a drive."""
+def _where_driven(path: Path, torque_on: str) -> int:
+    """The body a two-flywheel file's torque drives (1 or 2), refusing a torque measured in the
+    shaft: it is the joint's own torque, not a drive."""
     if torque_on not in TORQUE_ON:
         raise RunsFileError(f"--torque-on {torque_on!r}: expected one of {', '.join(TORQUE_ON)}")
     if torque_on == "shaft":
         raise RunsFileError(
-            f"{loaded.path}: --torque-on shaft: a torque measured in the shaft between the flywheels is the joint's "
+            f"{path}: --torque-on shaft: a torque measured in the shaft between the flywheels is the joint's "
             f"own torque, not a drive; the diagnosis identifies the joint from the drive torque on a flywheel and "
             f"replays the runs in the rig under it. Record the motor's torque on the driven flywheel (a torque cell "
             f"between motor and flywheel) and give that column as 'torque'")
-    if torque_on == "flywheel1":
-        return loaded
-    records = tuple(replace(r, phi1_rad=r.phi2_rad, phi2_rad=r.phi1_rad, rate1_rad_s=r.rate2_rad_s,
-                            rate2_rad_s=r.rate1_rad_s) if r.phi2_rad is not None
-                    else replace(r, phi1_rad=-r.phi1_rad, rate1_rad_s=None if r.rate1_rad_s is None else -r.rate1_rad_s)
-                    for r in loaded.records)
-    note = ("--torque-on flywheel2: the drive acts on your flywheel 2, so in this diagnosis flywheel 1 (J1, phi1) is "
-            "your flywheel 2 and flywheel 2 (J2, phi2) your flywheel 1; the relative angle is your phi2 - phi1 (an "
-            "even term or an angle offset comes out with the opposite sign of yours)")
-    return replace(loaded, records=records, notes=loaded.notes + (note,))
-
-
-def as_train(loaded: "LoadedRuns", torque_on: str = "flywheel1", torque_share: float = 0.5) -> "LoadedRuns":
-    """Two flywheels' runs as a train, the one model of every bench (pure).
-
-    Both angles (``torque, phi1, phi2``): the train of two bodies, the torque driving body 1, or
-    body 2 with ``torque_on="flywheel2"`` (the bodies keep your numbering); the rates, where the
-    file gives them, go with their angles. The relative angle alone (``phi``): one body, the
-    joint's twist, tied to the frame by the joint's law and driven by ``s T`` (``-s T`` on
-    flywheel 2): ``J1 J2/(J1 + J2) phi'' + M(phi, phi') = s T`` with ``s = torque_share``, the
-    undriven flywheel's inertia over both (exact without bearing drag). A torque measured in the
-    shaft is refused (:func:`driven_first`'s reason). A train's runs are returned as they are."""
-    if loaded.is_train:
-        return loaded
-    if torque_on not in TORQUE_ON or torque_on == "shaft":
-        driven_first(loaded, torque_on)  # raises with the reason
-    if not loaded.has_both_angles:
-        if not 0 < torque_share < 1:
-            raise RunsFileError(f"--torque-share {torque_share}: expected J2/(J1 + J2), strictly between 0 and 1")
-        share = torque_share if torque_on == "flywheel1" else -torque_share
-        return replace(loaded, torque_share=torque_share,
-                       records=tuple(relative_record_of(r, share) for r in loaded.records))
-    body = 2 if torque_on == "flywheel2" else 1
-    return replace(loaded, records=tuple(chain_record_of(r, body) for r in loaded.records))
-
-
-def relative_record_of(rec: SteadyStateRecord, share: float) -> ChainRecord:
-    """One run of the relative angle alone as one body's run driven by ``share`` times the
-    torque (pure; see :func:`as_train`)."""
-    rates = None if rec.rate1_rad_s is None else (rec.rate1_rad_s,)
-    return ChainRecord(rec.omega_rad_s, rec.time_s, (share * rec.torque_Nm,), (rec.phi1_rad,), rates, rec.n_periods,
-                       abs(share) * rec.drive_amplitude_Nm, source=rec.source)
-
-
-def chain_record_of(rec: SteadyStateRecord, driven: int = 1) -> ChainRecord:
-    """One run of two flywheels (both angles) as a run of the train of two bodies, the torque on
-    body ``driven`` (pure)."""
-    if rec.phi2_rad is None:
-        raise RecordError(f"{rec.source}: the relative angle only ('phi'); a train needs each body's angle")
-    rates = None if rec.rate1_rad_s is None and rec.rate2_rad_s is None else (rec.rate1_rad_s, rec.rate2_rad_s)
-    return ChainRecord(rec.omega_rad_s, rec.time_s, (rec.torque_Nm, None) if driven == 1 else (None, rec.torque_Nm),
-                       (rec.phi1_rad, rec.phi2_rad), rates, rec.n_periods, rec.drive_amplitude_Nm, source=rec.source)
+    return 2 if torque_on == "flywheel2" else 1
 
 
 @dataclass(frozen=True)
@@ -910,8 +849,10 @@ def _train_layout(where: str, cols: dict) -> Optional[_Train]:
 
 def read_runs(path: Union[str, os.PathLike], *, samples_per_period: Optional[int] = None,
               columns: Optional[Union[str, Mapping[str, str]]] = None,
-              units: Optional[Union[str, Mapping[str, str]]] = None, zero_per_run: bool = False) -> LoadedRuns:
-    """Read measured runs from a file or a folder of files into whole-period records (module docstring).
+              units: Optional[Union[str, Mapping[str, str]]] = None, zero_per_run: bool = False,
+              torque_on: str = "flywheel1", torque_share: float = 0.5) -> LoadedRuns:
+    """Read measured runs from a file or a folder of files into whole-period records of a line of
+    bodies (module docstring).
 
     Args:
       samples_per_period: resample every run to this many samples per period (default: keep
@@ -921,12 +862,19 @@ def read_runs(path: Union[str, os.PathLike], *, samples_per_period: Optional[int
       units: canonical name -> unit of the file's column (``"phi1=deg,time=ms"``); see :data:`UNITS`.
       zero_per_run: take each run's mean angles as their zero (encoders zeroed at the start of
         each recording); without it such a file is refused (:data:`ZERO_SPREAD`).
+      torque_on: where a two-flywheel file's ``torque`` acts: ``flywheel1`` or ``flywheel2`` (the
+        bodies keep the file's numbering); ``shaft`` is refused with the reason. A drive train's
+        file names its driven bodies by its ``torque<i>`` columns.
+      torque_share: the relative angle alone (``phi``): the share of the torque that twists the
+        joint, the undriven flywheel's inertia over both (``J1 J2/(J1 + J2) phi'' + M(phi, phi') =
+        s T``, ``-s T`` on flywheel 2; exact without bearing drag).
 
     Raises:
       RunsFileError: any file that cannot be used, naming the file, run, column and row and
         what was expected.
     """
     path = Path(path)
+    driven = _where_driven(path, torque_on)
     if samples_per_period is not None and (not isinstance(samples_per_period, (int, np.integer))
                                            or samples_per_period < 16):
         raise RunsFileError(f"samples_per_period must be an integer >= 16, got {samples_per_period!r}")
@@ -951,7 +899,7 @@ def read_runs(path: Union[str, os.PathLike], *, samples_per_period: Optional[int
     multi = len(files) > 1
     # A folder's files are runs named by their stems, however many it holds (one included).
     named_by_file = multi or Path(path).is_dir()
-    run_ids, records, seen, any_units, angles_stated, layouts = [], [], set(), False, False, []
+    run_ids, records, seen, any_units, angles_stated, layouts, relatives = [], [], set(), False, False, [], []
     unstated: set = set()  # angle columns read as rad for want of a unit
     for f, table in tables:
         cols, stated = _resolve(table, columns, units, notes)
@@ -972,6 +920,16 @@ def read_runs(path: Union[str, os.PathLike], *, samples_per_period: Optional[int
         layouts.append(train)
         if "phi" in cols and ("phi1" in cols or "phi2" in cols):
             raise RunsFileError(f"{where}: give either 'phi' or 'phi1' and 'phi2', not both")
+        if train and torque_on != "flywheel1":
+            raise RunsFileError(f"--torque-on {torque_on}: {where} is a drive train's file, which names the driven "
+                                f"bodies by its torque<i> columns; leave it out")
+        if not train and "phi" in cols and not 0 < torque_share < 1:
+            raise RunsFileError(f"--torque-share {torque_share}: expected J2/(J1 + J2), strictly between 0 and 1")
+        rel = not train and "phi" in cols
+        if relatives and rel != relatives[-1]:
+            raise RunsFileError(f"{where}: this file has the column {'phi' if rel else 'phi1, phi2'}, the files before "
+                                f"it {'phi1, phi2' if rel else 'phi'}; expected one bench per file or folder")
+        relatives.append(rel)
         missing = sorted({"time"} - set(cols)) + ([] if train else sorted({"torque"} - set(cols)))
         if train:
             pass
@@ -1034,15 +992,19 @@ def read_runs(path: Union[str, os.PathLike], *, samples_per_period: Optional[int
                 chans["phi1"] = cols["phi"][sel]
             else:
                 chans["phi1"], chans["phi2"] = cols["phi1"][sel], cols["phi2"][sel]
-            records.append(_to_record(where, rid, cols["time"][sel], chans, omega, samples_per_period, notes))
+            share = None if "phi2" in chans else (torque_share if driven == 1 else -torque_share)
+            records.append(_to_record(where, rid, cols["time"][sel], chans, omega, samples_per_period, notes, driven,
+                                      share))
             run_ids.append(rid)
     if not any_units:
         notes.insert(0, "no units stated in the file or the options: SI assumed (time s, torque N m, angles rad, "
                         "omega rad/s); state others with --units, e.g. phi1=deg,time=ms")
+    relative = relatives[0]
     records = _plausible_angles(path, run_ids, records, angles_stated, zero_per_run, notes,
-                                unstated if angles_stated else set())
+                                unstated if angles_stated else set(), relative)
     kind = layouts[0].kind if layouts and layouts[0] else HINGE
-    return LoadedRuns(path, tuple(run_ids), tuple(records), tuple(notes), _digest(files), kind)
+    return LoadedRuns(path, tuple(run_ids), tuple(records), tuple(notes), _digest(files), kind,
+                      torque_share if relative else None)
 
 
 def _column_order(name: str) -> tuple:

@@ -293,25 +293,39 @@ def chain_of_two_flywheels(rig, driven: Sequence[int]) -> ChainRig:
     return _compiled(plant, (rig.J1_kgm2, rig.J2_kgm2), driven, rig.path.name, source=rig)
 
 
-def relative_chain_of_two_flywheels(rig, torque_on: str = "flywheel1") -> tuple[ChainRig, float]:
-    """A two-flywheel model as its relative-angle form (:func:`measured.runs.as_train`): one body
-    of inertia ``J1 J2/(J1 + J2)`` tied to the frame by the joint's law, driven on body 1, and the
-    share of the drive that twists the joint (the undriven flywheel's inertia over both, for
+def load_model(path: Union[str, os.PathLike], driven: Sequence[int] = (1,)) -> ChainRig:
+    """Any model file as the line of its bodies, the one rig of every bench: a chain model as
+    :func:`load_chain` reads it; a two-flywheel model (:func:`rig.model.load_rig`'s) as the train of
+    its two bodies with motors on ``driven`` (the bodies the data drive).
+
+    Raises :class:`rig.model.RigModelError` naming the file and the item."""
+    from .model import load_rig
+
+    return load_chain(path) if is_chain_model(path) else chain_of_two_flywheels(load_rig(path), driven)
+
+
+def relative_chain(rig: ChainRig, torque_on: str = "flywheel1") -> tuple[ChainRig, float]:
+    """Two flywheels' model as its relative-angle form (:mod:`measured.runs`): one body of inertia
+    ``J1 J2/(J1 + J2)`` tied to the frame by the joint's law, driven on body 1, and the share of
+    the drive that twists the joint (the undriven flywheel's inertia over both, for
     ``torque_on``); exact without bearing drag, which the relative angle alone cannot hold."""
     p = rig.plant
-    if p.bearing1_damping_Nms_per_rad or p.bearing2_damping_Nms_per_rad:
+    if rig.n_flywheels != 2:
+        raise RigModelError(f"{rig.path}: {rig.n_flywheels} bodies; the relative angle alone ('phi') is the twist of "
+                            f"two flywheels' joint: give each body's angle (phi1..phi{rig.n_flywheels})")
+    if any(p.bearings_Nms_per_rad) or any(g is not None for g in p.grounds):
         raise RigModelError(f"{rig.path}: bearing drag to ground (jointrig_bearing*): the relative angle alone ('phi') "
                             f"moves as one body only without it; give both angles (phi1, phi2) to diagnose this model")
-    J1, J2 = rig.J1_kgm2, rig.J2_kgm2
+    J1, J2 = rig.inertias_kgm2
     share = (J1 if torque_on == "flywheel2" else J2) / (J1 + J2)
-    one = _compiled(ChainPlant((), (0.0,), (p.law,), p.drive_delay_s), (J1 * J2 / (J1 + J2),), (1,), rig.path.name,
-                    source=rig)
+    one = _compiled(ChainPlant((), (0.0,), (p.laws[0],), p.drive_delay_s), (J1 * J2 / (J1 + J2),), (1,),
+                    rig.path.name, source=rig)
     return one, share
 
 
 def two_flywheels_of_relative(plant: ChainPlant, J_kgm2: float, share: float, torque_on: str) -> tuple:
     """The relative-angle form's one body (its law to ground, inertia ``J1 J2/(J1 + J2)``) as the
-    two flywheels it stands for, the inverse of :func:`relative_chain_of_two_flywheels`:
+    two flywheels it stands for, the inverse of :func:`relative_chain`:
     ``(plant, (J1, J2), driven)``, the law at joint 1, the undriven flywheel's inertia
     ``J/(1 - share)`` and the driven one's ``J/share`` (pure)."""
     driven_J, other_J = J_kgm2 / share, J_kgm2 / (1.0 - share)

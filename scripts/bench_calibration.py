@@ -105,7 +105,7 @@ def _diagnose_cli(path: Path, out: Path, *extra: str) -> dict:
 
 def _flywheels(db: float, friction_Nm: float, seed: int, tmp: Path, encoder_zeros: bool = False) -> dict:
     from bench_sim import JOINTS, POINTS, measure, with_effect
-    from jointrig.measured.runs import as_train, read_runs
+    from jointrig.measured.runs import read_runs
     from jointrig.rig.chain import rig_of_bodies
     from jointrig.studies.chain_validate import run_train_diagnosis
 
@@ -114,7 +114,7 @@ def _flywheels(db: float, friction_Nm: float, seed: int, tmp: Path, encoder_zero
     zero1, zero2 = np.random.default_rng([seed, 2]).uniform(-math.pi, math.pi, 2) if encoder_zeros else (0.0, 0.0)
     path = measure(joint, points, tmp / "b.csv", seed=seed, fs_Hz=2000.0, n_periods=6.5, noise=noise_fraction(db),
                    transform=lambda t, T, p1, p2: (t, T, p1 + zero1, p2 + zero2))
-    loaded = as_train(read_runs(path))
+    loaded = read_runs(path)
     r = run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(2, [1]), holdout=(2, 3))
     d = r.diagnosis
     params = d.final.parameters()

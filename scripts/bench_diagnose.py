@@ -33,7 +33,7 @@ from jointrig.commands import make_data as make_data_cmd
 from jointrig.files import write_json_atomic
 from jointrig.identify import causes
 from jointrig.identify.chain_diagnose import diagnose_chain, prepare_chain_runs
-from jointrig.measured.runs import as_train, read_runs
+from jointrig.measured.runs import read_runs
 from jointrig.parallel import default_workers
 from jointrig.rig import DEFAULT_MODEL
 from jointrig.rig.runtime import limit_threads
@@ -93,7 +93,7 @@ def main(argv=None) -> int:
             return 1
         t_worn, worn = command_time(data, tmp, args.repeat)
         t_example, example = command_time(EXAMPLE, tmp, args.repeat)
-        loaded = as_train(read_runs(data))
+        loaded = read_runs(data)
         held = set(holdout_of_another_kind([train_setting(r) for r in loaded.records]))
         runs = prepare_chain_runs([r for i, r in enumerate(loaded.records) if i not in held], band=20)
         t_one = best_of(args.repeat, lambda: diagnose_chain(runs, workers=1))

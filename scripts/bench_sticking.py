@@ -41,7 +41,7 @@ def diagnosed(seed: int, friction_Nm: float, noise: float) -> dict:
     from bench_sim import JOINTS, measure, with_effect
     from test_independent_bench import HOLDOUT, _points
 
-    from jointrig.measured.runs import as_train, read_runs
+    from jointrig.measured.runs import read_runs
     from jointrig.rig.chain import rig_of_bodies
     from jointrig.studies.chain_validate import run_train_diagnosis
 
@@ -49,7 +49,7 @@ def diagnosed(seed: int, friction_Nm: float, noise: float) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         path = measure(with_effect(JOINTS["paper"], Fc=friction_Nm), _points("paper"), Path(tmp) / "bench.csv",
                        seed=seed, fs_Hz=2000.0, n_periods=6.5, noise=noise)
-        loaded = as_train(read_runs(path))
+        loaded = read_runs(path)
     t0 = time.perf_counter()
     r = run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(2, [1]), holdout=HOLDOUT,
                             form="train")

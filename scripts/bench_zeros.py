@@ -78,12 +78,12 @@ def _means_case(tmp: Path, joint: str, case: str, seed: int) -> dict:
     from test_independent_bench import HOLDOUT, _points
 
     from jointrig.identify.zeros import sensor_zeros
-    from jointrig.measured.runs import as_train, read_runs
+    from jointrig.measured.runs import read_runs
 
     bench, file_seed, zeros, offset = _draws(joint, case, seed)
     path = measure(bench, _points(joint), tmp / "lab.csv", seed=file_seed, fs_Hz=2000.0, n_periods=6.5,
                    transform=lambda t, T, p1, p2: (t, T + offset, p1 + zeros[0], p2 + zeros[1]))
-    fitted = [r for i, r in enumerate(as_train(read_runs(path)).records) if i not in HOLDOUT]
+    fitted = [r for i, r in enumerate(read_runs(path).records) if i not in HOLDOUT]
     zs = sensor_zeros(fitted)
     return {"joint": joint, "case": case, "torque_offset_true_Nm": _cell_truth(file_seed, offset),
             "torque_mean_Nm": zs.torques[0], "torque_se_Nm": zs.torque_se[0]}
@@ -93,7 +93,7 @@ def _case(tmp: Path, joint: str, case: str, seed: int) -> dict:
     from bench_sim import JOINTS, measure, with_effect
     from test_independent_bench import CASES, HOLDOUT, _points
 
-    from jointrig.measured.runs import as_train, read_runs
+    from jointrig.measured.runs import read_runs
     from jointrig.present.train_report import reported_values
     from jointrig.rig.chain import rig_of_bodies
     from jointrig.studies.chain_validate import run_train_diagnosis
@@ -103,7 +103,7 @@ def _case(tmp: Path, joint: str, case: str, seed: int) -> dict:
     def diagnosed(name, transform=None):
         path = measure(bench, _points(joint), tmp / name, seed=file_seed, fs_Hz=2000.0, n_periods=6.5,
                        transform=transform)
-        loaded = as_train(read_runs(path))
+        loaded = read_runs(path)
         return run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(2, [1]), holdout=HOLDOUT)
 
     zeroed = diagnosed("zeroed.csv")
@@ -178,7 +178,7 @@ def _chain_case(tmp: Path, name: str, seed: int) -> dict:
     from bench_chain_sim import daq_file
     from bench_slide_sim import daq_runs
 
-    from jointrig.measured.runs import as_train, read_runs
+    from jointrig.measured.runs import read_runs
     from jointrig.present.train_report import reported_values
     from jointrig.rig.chain import rig_of_bodies
     from jointrig.studies.chain_validate import run_train_diagnosis
@@ -199,7 +199,7 @@ def _chain_case(tmp: Path, name: str, seed: int) -> dict:
         else:
             path = daq_file(bench, points, tmp / file, seed=seed, offsets_rad=tuple(zeros) if lab else (0.0,) * n,
                             cell_offset_Nm=offset if lab else 0.0, loads_by_run=loads)
-            loaded = as_train(read_runs(path, columns={"time": "t"}))
+            loaded = read_runs(path, columns={"time": "t"})
             rig = rig_of_bodies(n, sorted({p[2] for p in points}))
         return run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig, holdout=holdout)
 

@@ -134,7 +134,7 @@ def effect_names() -> list[str]:
 def _flywheel_diagnosis(db: float, seed: int, friction_Nm: float, tmp: Path, effect: str | None = None):
     """The two flywheels' runs written as a DAQ does, and their diagnosis."""
     from bench_sim import JOINTS, POINTS, measure, with_effect
-    from jointrig.measured.runs import as_train, read_runs
+    from jointrig.measured.runs import read_runs
     from jointrig.rig.chain import rig_of_bodies
     from jointrig.studies.chain_validate import run_train_diagnosis
 
@@ -142,7 +142,7 @@ def _flywheel_diagnosis(db: float, seed: int, friction_Nm: float, tmp: Path, eff
     bench = effect_case(effect)[0] if effect is not None else {"Fc": friction_Nm}
     path = measure(with_effect(JOINTS["paper"], **bench), points, tmp / "b.csv", seed=seed, fs_Hz=FS_HZ,
                    n_periods=N_PERIODS, noise=noise_fraction(db))
-    loaded = as_train(read_runs(path))
+    loaded = read_runs(path)
     return run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(2, [1]), holdout=HOLDOUT)
 
 

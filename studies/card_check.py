@@ -32,8 +32,7 @@ from jointrig.vocab.law import Iwan, Jenkins, JointLaw, Power, Viscous
 from jointrig.identify.card import JointCard, law_card, runs_card
 
 from jointrig.identify.chain_diagnose import place_covariance, place_law, plant_and_inertias
-from jointrig.identify.chain import inertia_name
-from jointrig.measured.runs import chain_record_of
+from jointrig.identify.chain import ChainRecord, inertia_name
 from jointrig.rig.chain import chain_of_two_flywheels
 from jointrig.rig.measurement import add_noise
 from jointrig.rig.model import RigModel
@@ -143,7 +142,7 @@ def check_card(rig: RigModel, case: str, *, snr_db: float = 40.0, seed: int = 1,
         say(f"{case}:   {msg.strip()}")
 
     say(f"{case}: diagnosing")
-    report = run_train_diagnosis([chain_record_of(r) for r in records], run_ids=[str(i) for i in range(len(records))],
+    report = run_train_diagnosis([ChainRecord.of_two_flywheels(r) for r in records], run_ids=[str(i) for i in range(len(records))],
                                  rig=chain_of_two_flywheels(rig, (1,)), progress=step)
     fit = report.adopted_fit
     id_law, je = place_law(fit, 0)

@@ -484,7 +484,7 @@ def test_encoders_zeroed_per_recording_are_refused_or_centred(tmp_path, capsys):
     loaded = read_runs(path, zero_per_run=True)
     assert any("--zero-per-run" in n for n in loaded.notes)
     for r in loaded.records:
-        assert abs(float(np.mean(r.phi1_rad - r.phi2_rad))) < 1e-9
+        assert abs(float(np.mean(r.angles_rad[0] - r.angles_rad[1]))) < 1e-9
 
 
 def _layout_rows(fmt_time, t0=0.0):

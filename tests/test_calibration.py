@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from bench_sim import JOINTS, POINTS, measure, with_effect
-from jointrig.measured.runs import as_train, read_runs
+from jointrig.measured.runs import read_runs
 from jointrig.rig.chain import rig_of_bodies
 from jointrig.studies.chain_validate import run_train_diagnosis
 
@@ -31,7 +31,7 @@ def _diagnose(tmp_path, noise: float, seed: int = 1, **effect):
     points = [p for i, p in enumerate(POINTS["paper"]) if i % 3 != 1]
     path = measure(with_effect(JOINTS["paper"], **effect), points, tmp_path / f"b{noise:g}-{seed}.csv", seed=seed,
                    fs_Hz=2000.0, n_periods=6.5, noise=noise)
-    loaded = as_train(read_runs(path))
+    loaded = read_runs(path)
     return run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(2, [1]), holdout=HOLDOUT)
 
 
@@ -251,7 +251,7 @@ def test_a_fits_covariance_is_the_sandwich_over_its_rows_cross_covariances(tmp_p
 
     pts = [p for i, p in enumerate(POINTS["paper"]) if i % 3 != 1][:3]
     path = measure(JOINTS["paper"], pts, tmp_path / "b.csv", seed=2, fs_Hz=2000.0, n_periods=6.5, noise=1e-2)
-    runs = prepare_chain_runs(as_train(read_runs(path)).records, band=21)
+    runs = prepare_chain_runs(read_runs(path).records, band=21)
     H = 20
     prob = _Problem(tuple(runs), H, 2.0 * (min(r.n_periods for r in runs) - 1), 1e-9, (False, False), ())
     spec = nominal_spec(2)
@@ -316,7 +316,7 @@ def test_the_measured_fidelity_is_the_balances_misfit_not_the_rigs(tmp_path, mon
     points = [p for i, p in enumerate(POINTS["paper"]) if i % 3 != 1][:4]
     path = measure(with_effect(JOINTS["paper"], Fc=20.0), points, tmp_path / "exact.csv", seed=1, fs_Hz=2000.0,
                    n_periods=6.5, noise=0.0)
-    records = as_train(read_runs(path)).records
+    records = read_runs(path).records
     zeros = sensor_zeros(records)
     runs = prepare_chain_runs([rezeroed(r, zeros) for r in records], band=20)
     d = diagnose_chain(runs, n_harmonics=20, fidelity=1e-3)

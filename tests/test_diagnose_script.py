@@ -163,7 +163,7 @@ def test_identified_model_written_as_mjcf_simulates_the_runs(outputs):
     # counting its free play's profile error, gamma 248 +- 29 N m/rad^3, truth 2000 and 200), the
     # nominal model more than 10 times; asked at most 2 times.
     from jointrig.identify.harmonics import fourier_coefficients
-    from jointrig.measured.runs import as_train, read_runs
+    from jointrig.measured.runs import read_runs
     from jointrig.rig import SimulationConfig, load_rig
     from jointrig.rig.chain import chain_of_two_flywheels, load_chain, simulate_chain
     from jointrig.vocab.plant import drive_of_record
@@ -191,7 +191,7 @@ def test_identified_model_written_as_mjcf_simulates_the_runs(outputs):
         band = lambda x: np.fft.irfft(np.fft.rfft(x)[:21] * (np.arange(21) > 0), n=n)  # noqa: E731
         return float(np.sqrt(np.mean((band(sim.angles_rad[0] - sim.angles_rad[1]) - band(avg)) ** 2)))
 
-    for i, run in enumerate(as_train(read_runs(outputs / "worn.parquet")).records):
+    for i, run in enumerate(read_runs(outputs / "worn.parquet").records):
         identified, true, nominal = (replay_error(m, run) for m in (rig, true_rig, nominal_rig))
         assert identified < 2.0 * true, (i, identified, true)
         assert nominal > 10 * true, (i, nominal, true)  # the comparison can tell a wrong model

@@ -58,8 +58,8 @@ def test_the_diagnosis_holds_out_multisines_and_says_so(rig):
     # stand out of the noise (studies.chain_validate.train_setting: 0 for a sine, several for these
     # multisines); the fit sees only the sines, the multisines are predicted, and the
     # nominal model, which is right, predicts them to the noise.
+    from jointrig.identify.chain import ChainRecord
     from jointrig.identify.multisine import odd_multisine
-    from jointrig.measured.runs import chain_record_of
     from jointrig.rig import SimulationConfig, simulate_steady_state
     from jointrig.rig.chain import chain_of_two_flywheels
     from jointrig.rig.measurement import add_noise
@@ -72,7 +72,7 @@ def test_the_diagnosis_holds_out_multisines_and_says_so(rig):
     for seed, rms in ((0, 1500.0), (1, 2500.0)):
         ms = odd_multisine(8.0, 11, rms, seed=seed)
         records.append(simulate_steady_state(rig, 8.0, rms, cfg, drive=ms.drive, backend="native")[0])
-    train = [chain_record_of(add_noise(r, 40.0, rng)) for r in records]
+    train = [ChainRecord.of_two_flywheels(add_noise(r, 40.0, rng)) for r in records]
     lines = [train_setting(r)[2] for r in train]
     assert lines[:5] == [0] * 5 and min(lines[5:]) >= 3, lines
     report = run_train_diagnosis(train, run_ids=[str(i) for i in range(7)], rig=chain_of_two_flywheels(rig, (1,)))

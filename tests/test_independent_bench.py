@@ -17,7 +17,7 @@ identify.verdict); for no effect nothing dynamic is adopted. A measurement cause
 sensors' zero) may be adopted beside: the bench does offset its sensors.
 
 The diagnosis is the one of every bench (``jointrig diagnose``): two flywheels are the train of
-two bodies (:func:`measured.runs.as_train`), the held-out runs replayed in the rig of the file's
+two bodies (:mod:`measured.runs`), the held-out runs replayed in the rig of the file's
 bodies. Measured (``.venv/bin/python tests/test_independent_bench.py``, which prints each
 case's held-out errors over the noise floor and over what a right model misses, the bound, the
 gain, and the propagated and method parts over the noise).
@@ -32,7 +32,7 @@ import pytest
 from bench_sim import JOINTS, POINTS, measure, with_effect
 from jointrig.identify.causes import CATALOGUE
 from jointrig.identify.chain_diagnose import plant_and_inertias
-from jointrig.measured.runs import as_train, read_runs
+from jointrig.measured.runs import read_runs
 from jointrig.rig.chain import rig_of_bodies
 from jointrig.studies.chain_validate import run_train_diagnosis
 from jointrig.vocab.params import train_name
@@ -121,7 +121,7 @@ def _diagnose(tmp_path, joint: str, case: str, relative: bool = False):
     seed = sum(map(ord, joint + case))
     path = measure(bench, _points(joint), tmp_path / "bench.csv", seed=seed, fs_Hz=2000.0, n_periods=6.5,
                    relative=relative)
-    loaded = as_train(read_runs(path))  # the relative angle: the share of two equal flywheels, 0.5
+    loaded = read_runs(path)  # the relative angle: the share of two equal flywheels, 0.5
     return run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(1 if relative else 2, [1]),
                                holdout=HOLDOUT, form="relative" if relative else "train")
 
@@ -142,7 +142,7 @@ def test_independent_bench_effect_is_found_sized_and_pays_off(tmp_path, joint, c
 
 
 #: The relative angle alone (one twist sensor): the joint's twist as one body tied to the frame
-#: by the joint's law (``measured.runs.as_train``), its causes sought there; a cause of each
+#: by the joint's law (:mod:`measured.runs`), its causes sought there; a cause of each
 #: kind the form can hold (the sliders' memory replayed at a body's law to ground).
 #: The suite runs the sliders' (hysteresis, micro-slip) and no effect; the script all of them.
 RELATIVE = [("paper", "hysteresis/1"), ("light", "micro_slip/1"), ("paper", "none"), ("paper", "backlash/1"),

@@ -151,3 +151,42 @@ def test_no_module_branches_on_how_the_bodies_move():
              if (lines := _coordinate_branches(f.read_text(encoding="utf-8")))}
     assert found == {}, found
     assert _coordinate_branches('if kind == "slide":\n    pass\nx = "hinge" != k') == [1, 3]
+
+
+#: Where a bench's shape (two flywheels, their relative angle, a train, a model file's format) may
+#: be told apart: the reader of measured runs and the model loader. Everything after them sees one
+#: record (identify.chain.ChainRecord) and one rig (rig.chain.ChainRig).
+SHAPE_READERS = {"jointrig.measured.runs", "jointrig.rig.chain", "jointrig.rig.model"}
+#: the types a branch on the bench's shape would test for
+SHAPE_TYPES = {"SteadyStateRecord", "ChainRecord", "RigModel", "ChainRig"}
+
+
+def _shape_branches(source: str) -> list[int]:
+    """Lines that branch on a bench's shape: ``.is_train``/``.has_both_angles``, ``hasattr(x,
+    "n_flywheels")``, or an ``if`` on ``isinstance(x, <a record or rig type>)`` that does more than
+    refuse the wrong type."""
+    out = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Attribute) and node.attr in ("is_train", "has_both_angles"):
+            out.append(node.lineno)
+        elif (isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "hasattr"
+              and len(node.args) == 2 and isinstance(node.args[1], ast.Constant) and node.args[1].value == "n_flywheels"):
+            out.append(node.lineno)
+        elif isinstance(node, (ast.If, ast.IfExp)):
+            tested = {n.id for c in ast.walk(node.test) if isinstance(c, ast.Call) and isinstance(c.func, ast.Name)
+                      and c.func.id == "isinstance" for a in c.args[1:] for n in ast.walk(a) if isinstance(n, ast.Name)}
+            refuses = isinstance(node, ast.If) and len(node.body) == 1 and isinstance(node.body[0], ast.Raise)
+            if tested & SHAPE_TYPES and not refuses:
+                out.append(node.lineno)
+    return out
+
+
+def test_only_the_reader_and_the_model_loader_tell_benches_apart():
+    # issue 53: two flywheels are a line of two bodies, their relative angle alone one body tied
+    # to the frame, from the reader up; no module after it converts or branches on the shape.
+    found = {name: lines for name, f in _modules().items()
+             if name not in SHAPE_READERS and (lines := _shape_branches(f.read_text(encoding="utf-8")))}
+    assert found == {}, found
+    assert _shape_branches("if runs.is_train:\n    pass\nx = hasattr(m, 'n_flywheels')\n"
+                           "y = a if isinstance(r, ChainRecord) else b\n"
+                           "if not isinstance(r, ChainRecord):\n    raise TypeError(r)\n") == [1, 3, 4]

@@ -26,7 +26,7 @@ import pytest
 
 from bench_sim import (JOINTS, POINTS, cogging, late_channel, maxwell, measure, scaled_channel, torque_calibration,
                        with_effect)
-from jointrig.measured.runs import as_train, read_runs
+from jointrig.measured.runs import read_runs
 from jointrig.rig.chain import rig_of_bodies
 from jointrig.studies.chain_validate import run_train_diagnosis
 
@@ -66,7 +66,7 @@ def _report(tmp_path, joint, case):
     bench, transform = {**CASES, **MEASUREMENT}[case](joint)
     path = measure(bench, _points(joint), tmp_path / "bench.csv", seed=sum(map(ord, joint + case)), fs_Hz=2000.0,
                    n_periods=6.5, transform=transform)
-    loaded = as_train(read_runs(path))
+    loaded = read_runs(path)
     holdout = LEVEL_HOLDOUT if case == "torque_calibration" else HOLDOUT
     return run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(2, [1]), holdout=holdout)
 

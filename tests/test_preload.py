@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from bench_chain_sim import PUMP_POINTS, PUMP_TRAIN, daq_file, with_effect
-from jointrig.measured.runs import as_train, read_runs
+from jointrig.measured.runs import read_runs
 from jointrig.present.train_report import format_train_report, train_report_json
 from jointrig.rig.chain import rig_of_bodies
 from jointrig.studies.chain_validate import run_train_diagnosis
@@ -37,7 +37,7 @@ def _diagnosed(tmp_path, a: float = 0.0, seed: int = 5):
     cell = rng.uniform(-0.02, 0.02) * 60.0
     train = replace(with_effect(PUMP_TRAIN, 2, a=a), loads=(PRELOAD_NM, 0.0, 0.0, -PRELOAD_NM))
     path = daq_file(train, POINTS, tmp_path / "preload.csv", offsets_rad=zeros, seed=seed, cell_offset_Nm=cell)
-    loaded = as_train(read_runs(path, columns={"time": "t"}))
+    loaded = read_runs(path, columns={"time": "t"})
     return run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(4, [1]))
 
 
@@ -89,7 +89,7 @@ def test_a_preload_that_changes_between_runs_is_held_run_by_run(tmp_path):
     on = [k % 2 == 0 for k in range(len(POINTS))]
     loads = [(PRELOAD_NM, 0.0, 0.0, -PRELOAD_NM) if o else (0.0, 0.0, 0.0, 0.0) for o in on]
     path = daq_file(PUMP_TRAIN, POINTS, tmp_path / "changing.csv", offsets_rad=zeros, seed=11, loads_by_run=loads)
-    loaded = as_train(read_runs(path, columns={"time": "t"}))
+    loaded = read_runs(path, columns={"time": "t"})
     assert any("a preload that changes between runs" in n for n in loaded.notes), loaded.notes
     rep = run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(4, [1]))
     assert rep.verdict.verdict == "no_misfit", rep.verdict

@@ -43,9 +43,9 @@ def csv_text(t, *, head="run,time,torque,phi1,phi2", fmt="{:.9f}", run="0", scal
 
 def check_columns(rec, atol):
     t = rec.time_s
-    np.testing.assert_allclose(rec.torque_Nm, torque(t), atol=atol * 1000)
-    np.testing.assert_allclose(rec.phi1_rad, phi1(t), atol=atol * 0.3)
-    np.testing.assert_allclose(rec.phi2_rad, phi2(t), atol=atol * 0.3)
+    np.testing.assert_allclose(rec.torques_Nm[0], torque(t), atol=atol * 1000)
+    np.testing.assert_allclose(rec.angles_rad[0], phi1(t), atol=atol * 0.3)
+    np.testing.assert_allclose(rec.angles_rad[1], phi2(t), atol=atol * 0.3)
 
 
 def test_whole_periods_without_omega_define_their_fundamental(tmp_path):
@@ -100,7 +100,7 @@ def test_fixed_rate_with_noise_is_unbiased_and_keeps_the_noise(tmp_path):
     assert rec.omega_rad_s == pytest.approx(W, abs=2e-3)
     # the period average of phi2 against the analytic one: 0.2% noise over 19 periods
     N, P = rec.samples_per_period, rec.n_periods
-    avg = rec.phi2_rad.reshape(P, N).mean(axis=0)
+    avg = rec.angles_rad[1].reshape(P, N).mean(axis=0)
     err = avg - phi2(rec.time_s[:N])
     assert np.sqrt(np.mean(err**2)) < 3 * noise * 0.1  # noise of the average is ~noise/sqrt(P) per sample
 
@@ -161,10 +161,12 @@ def test_relative_angle_only(tmp_path):
     (tmp_path / "rel.csv").write_text("\n".join(lines) + "\n")
     loaded = read_runs(tmp_path / "rel.csv")
     rec = loaded.records[0]
-    assert not loaded.has_both_angles and loaded.run_ids == ("0",)
+    # one body, the joint's twist, driven by the default share of the torque (two equal flywheels)
+    assert rec.n_flywheels == 1 and loaded.torque_share == 0.5 and loaded.run_ids == ("0",)
     # The input's SHA-256 (in every report and JSON) is the file's own: `sha256sum rel.csv` checks it.
     assert loaded.sha256 == hashlib.sha256((tmp_path / "rel.csv").read_bytes()).hexdigest()
-    np.testing.assert_allclose(rec.phi_rad, phi1(rec.time_s) - phi2(rec.time_s), atol=1e-12)
+    np.testing.assert_allclose(rec.angles_rad[0], phi1(rec.time_s) - phi2(rec.time_s), atol=1e-12)
+    np.testing.assert_allclose(rec.torques_Nm[0], 0.5 * torque(rec.time_s), atol=1e-9)
 
 
 def test_folder_of_runs_one_file_each(tmp_path):
@@ -261,8 +263,8 @@ def test_round_trip_of_the_projects_writer(tmp_path):
         assert loaded.run_ids == ("a", "b")
         back = loaded.records[1]
         assert back.omega_rad_s == W and back.n_periods == 3
-        np.testing.assert_array_equal(back.phi2_rad, rec.phi2_rad)
-        np.testing.assert_array_equal(back.torque_Nm, rec.torque_Nm)
+        np.testing.assert_array_equal(back.angles_rad[1], rec.phi2_rad)
+        np.testing.assert_array_equal(back.torques_Nm[0], rec.torque_Nm)
         umask = os.umask(0)
         os.umask(umask)
         assert path.stat().st_mode & 0o777 == 0o666 & ~umask  # as open() makes files, not mkstemp's 0600
@@ -563,7 +565,7 @@ def test_a_tiny_drift_that_is_significant_is_not_refused(tmp_path):
                                          f"{float(phi2(ti))!r}" for ti in t]
     (tmp_path / "creep.csv").write_text("\n".join(lines) + "\n")
     rec = read_runs(tmp_path / "creep.csv").records[0]
-    np.testing.assert_allclose(rec.phi1_rad, phi1(rec.time_s) + creep * rec.time_s, atol=1e-12)
+    np.testing.assert_allclose(rec.angles_rad[0], phi1(rec.time_s) + creep * rec.time_s, atol=1e-12)
 
 
 def _mat_v73(path, datasets: dict):
@@ -753,7 +755,7 @@ def test_a_common_rotation_is_removed_when_only_the_quieter_angle_shows_it(tmp_p
     loaded = read_runs(tmp_path / "spin.csv")
     assert any("rotate steadily at 0.0005 rad/s" in n for n in loaded.notes), loaded.notes
     rec = loaded.records[0]
-    np.testing.assert_allclose(rec.phi1_rad, 0.01 * np.cos(W * rec.time_s - 0.5) + 0.005 * np.cos(3 * W * rec.time_s),
+    np.testing.assert_allclose(rec.angles_rad[0], 0.01 * np.cos(W * rec.time_s - 0.5) + 0.005 * np.cos(3 * W * rec.time_s),
                                atol=1e-12)
 
 

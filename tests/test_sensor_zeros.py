@@ -19,7 +19,7 @@ import pytest
 
 from bench_sim import JOINTS, POINTS, measure, with_effect
 from jointrig.identify.zeros import rezeroed, sensor_zeros
-from jointrig.measured.runs import as_train, read_runs
+from jointrig.measured.runs import read_runs
 from jointrig.present.train_report import reported_values, format_train_report, offset_readings, train_report_json
 from jointrig.rig.chain import rig_of_bodies
 from jointrig.studies.chain_validate import run_train_diagnosis
@@ -47,7 +47,7 @@ def _bench_offsets(seed: int) -> np.ndarray:
 
 
 def _diagnose(path, zeroed: bool = False):
-    loaded = as_train(read_runs(path))
+    loaded = read_runs(path)
     return run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(2, [1]), holdout=HOLDOUT,
                                zeroed=zeroed)
 
@@ -106,7 +106,7 @@ def test_zeroed_sensors_are_kept_and_checked_against_the_data(tmp_path):
     # --zeroed keeps the encoders' zeros: nothing is taken out of the records, and where the data's
     # mean twist says the encoders were not zeroed together, the report says so.
     path = _file(tmp_path, "paper", "none", (2.0, 0.5))
-    loaded = as_train(read_runs(path))
+    loaded = read_runs(path)
     kept = sensor_zeros(loaded.records, keep=True)
     assert kept.angles == (0.0, 0.0) and all(rezeroed(r, kept) is r for r in loaded.records)
     report = _diagnose(path, zeroed=True)

@@ -70,7 +70,7 @@ def test_a_trains_encoders_zeroed_per_run_are_refused_or_centred(tmp_path):
     with pytest.raises(RunsFileError, match=r"joint 1's mean twist differs between runs by 0\.09 rad \(run 1: -0\.05 rad, run 2: 0\.04"):
         read_runs(path)
     loaded = read_runs(path, zero_per_run=True)
-    assert loaded.is_train and all(abs(a.mean()) < 1e-12 for r in loaded.records for a in r.angles_rad)
+    assert all(abs(a.mean()) < 1e-12 for r in loaded.records for a in r.angles_rad)
 
 
 def test_a_folder_that_mixes_a_train_and_two_flywheels_is_refused(tmp_path):
@@ -125,7 +125,7 @@ def test_a_slides_file_is_read_in_m_and_N(tmp_path):
             for k in range(400)]
     path = _train_csv(tmp_path / "axis.csv", ["time [ms]", "force [kN]", "x [mm]"], rows)
     loaded = read_runs(path)
-    assert loaded.is_train and loaded.kind == "slide" and loaded.records[0].n_flywheels == 1
+    assert loaded.kind == "slide" and loaded.records[0].n_flywheels == 1
     r = loaded.records[0]
     # (tolerances as in the test above: 9 digits written; a sampled peak 1e-3)
     assert np.max(np.abs(r.torques_Nm[0])) == pytest.approx(50.0, rel=1e-6)
@@ -196,32 +196,38 @@ def test_the_loaders_edges(tmp_path):
     assert parse_mapping("torque=M=drive, phi1 = enc1", "columns") == {"torque": "M=drive", "phi1": "enc1"}
 
 
-def test_a_drive_on_flywheel_2_flips_a_relative_angle(tmp_path):
-    # A two-flywheel file with the relative angle only, driven on flywheel 2: the relative angle
-    # seen from the driven flywheel is the file's with its sign flipped (--torque-on flywheel2).
-    from jointrig.measured.runs import driven_first
-
-    rows = [[0, k * 1e-3, 50 * math.cos(2 * math.pi * 10 * k * 1e-3), 0.01 * math.cos(2 * math.pi * 10 * k * 1e-3 + 0.2)]
-            for k in range(400)]
-    loaded = read_runs(_train_csv(tmp_path / "rel.csv", ["run", "time", "torque", "phi"], rows))
-    flipped = driven_first(loaded, "flywheel2")
-    assert np.array_equal(flipped.records[0].phi1_rad, -loaded.records[0].phi1_rad)
-
-
 def test_the_relative_angle_alone_is_one_body_driven_by_the_share_of_the_torque_with_its_sign(tmp_path):
     # The joint's twist as one body tied to the frame: J1 J2/(J1 + J2) phi'' + M = s T with s the
     # undriven flywheel's share, and -s T when the torque drives flywheel 2 (phi = phi1 - phi2).
-    from jointrig.measured.runs import as_train
-
     path = _train_csv(tmp_path / "phi.csv", ["run", "time", "torque", "phi"], _rows(torque_cols=1, angles=1))
-    loaded = read_runs(path)
-    on1, on2 = as_train(loaded, "flywheel1", 0.25), as_train(loaded, "flywheel2", 0.25)
-    raw = loaded.records[0].torque_Nm
-    assert np.array_equal(on1.records[0].torques_Nm[0], 0.25 * raw)
-    assert np.array_equal(on2.records[0].torques_Nm[0], -0.25 * raw)
-    assert on1.torque_share == 0.25
+    on1 = read_runs(path, torque_on="flywheel1", torque_share=0.25)
+    on2 = read_runs(path, torque_on="flywheel2", torque_share=0.25)
+    assert on1.records[0].n_flywheels == on2.records[0].n_flywheels == 1
+    assert np.array_equal(on2.records[0].torques_Nm[0], -on1.records[0].torques_Nm[0])
+    assert np.array_equal(on2.records[0].angles_rad[0], on1.records[0].angles_rad[0])
+    t = on1.records[0].time_s  # the file's torque is 50 cos(2 pi 10 t), written to 9 digits
+    np.testing.assert_allclose(on1.records[0].torques_Nm[0], 0.25 * 50 * np.cos(2 * np.pi * 10 * t), atol=1e-6)
+    assert on1.torque_share == on2.torque_share == 0.25
     with pytest.raises(RunsFileError, match="strictly between 0 and 1"):
-        as_train(loaded, "flywheel1", 1.0)
+        read_runs(path, torque_share=1.0)
+
+
+def test_two_flywheels_are_the_line_of_two_bodies_driven_where_the_torque_acts(tmp_path):
+    # Both angles: two bodies, the bodies keep the file's numbering and the torque drives body 1,
+    # or body 2 with torque_on="flywheel2"; a shaft's torque is refused with the reason, and a
+    # drive train's file names its driven bodies itself.
+    path = _train_csv(tmp_path / "two.csv", ["run", "time", "torque", "phi1", "phi2"], _rows(torque_cols=1, angles=2))
+    on1, on2 = read_runs(path), read_runs(path, torque_on="flywheel2")
+    r1, r2 = on1.records[0], on2.records[0]
+    assert r1.n_flywheels == 2 and on1.torque_share is None
+    assert r1.torques_Nm[1] is None and r2.torques_Nm[0] is None
+    assert np.array_equal(r1.torques_Nm[0], r2.torques_Nm[1])
+    assert all(np.array_equal(a, b) for a, b in zip(r1.angles_rad, r2.angles_rad))
+    with pytest.raises(RunsFileError, match="the joint's own torque, not a drive"):
+        read_runs(path, torque_on="shaft")
+    train = _train_csv(tmp_path / "three.csv", ["run", "time", "torque1", "phi1", "phi2", "phi3"], _rows())
+    with pytest.raises(RunsFileError, match="names the driven bodies by its torque<i> columns; leave it out"):
+        read_runs(train, torque_on="flywheel2")
 
 
 def test_how_the_bodies_move_knows_its_names_units_and_words():

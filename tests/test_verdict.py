@@ -24,7 +24,7 @@ import pytest
 
 from bench_sim import JOINTS, POINTS, measure, with_effect
 from jointrig.identify.causes import CATALOGUE, CauseScore, parsimonious
-from jointrig.measured.runs import as_train, read_runs
+from jointrig.measured.runs import read_runs
 from jointrig.rig.chain import rig_of_bodies
 from jointrig.studies.chain_validate import run_train_diagnosis
 from jointrig.present.diagnosis_json import schema_problems
@@ -45,7 +45,7 @@ def _loaded(tmp_path, joint: str, seed: int = 7, **effect):
 
 def _train(loaded, holdout=None):
     """The diagnosis of every bench (``jointrig diagnose``): two flywheels as the train of two bodies."""
-    return run_train_diagnosis(as_train(loaded).records, run_ids=loaded.run_ids, rig=rig_of_bodies(2, [1]),
+    return run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(2, [1]),
                                holdout=holdout)
 
 
@@ -107,7 +107,7 @@ def test_a_diverging_candidate_is_rejected_with_its_reason(tmp_path, monkeypatch
     from jointrig.present.card import card_json
     from jointrig.studies.joint_card import cards_of_train
 
-    (card,) = cards_of_train(report, as_train(loaded).records)
+    (card,) = cards_of_train(report, loaded.records)
     assert "did NOT adopt" in card.warning and "unexplained" in card.warning
     cj = card_json(card)
     assert cj["model_adopted"] is False and cj["warning"] == card.warning

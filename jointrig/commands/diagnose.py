@@ -128,7 +128,7 @@ def _main(args: argparse.Namespace) -> int:
 
     def card_figures(runs) -> None:
         # a card figure per joint beside --card-png (write_train_cards), checked before the long work
-        N = runs.records[0].n_flywheels if runs.is_train else 2
+        N = runs.records[0].n_flywheels
         if args.card_png and N > 2:
             for j in range(1, N):
                 check_output(args.card_png.with_name(f"{args.card_png.stem}-joint{j}{args.card_png.suffix}"),

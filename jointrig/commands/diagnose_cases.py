@@ -17,7 +17,7 @@ from jointrig.commands import add_quiet, command_parser
 from jointrig.rig import load_rig
 from jointrig.studies.hidden_effects import HIDDEN_EFFECTS, simulate_case
 from jointrig.files import write_json_atomic
-from jointrig.measured.runs import chain_record_of
+from jointrig.identify.chain import ChainRecord
 from jointrig.rig.chain import chain_of_two_flywheels
 from jointrig.studies.chain_validate import run_train_diagnosis
 from jointrig.vocab.params import train_name
@@ -44,7 +44,7 @@ def main(argv=None) -> int:
     for case, (_, truth) in HIDDEN_EFFECTS.items():
         t0 = time.perf_counter()
         records, peak = simulate_case(rig, case, snr_db=args.snr_db, seed=args.seed)
-        report = run_train_diagnosis([chain_record_of(r) for r in records], run_ids=[str(i) for i in range(len(records))],
+        report = run_train_diagnosis([ChainRecord.of_two_flywheels(r) for r in records], run_ids=[str(i) for i in range(len(records))],
                                      rig=chain)
         d = report.diagnosis
         params = d.final.parameters() if report.adopted else {}
