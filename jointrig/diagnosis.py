@@ -205,7 +205,9 @@ def _diagnosed(loaded, model, *, data, model_path, holdout, validate, zeroed, to
     """:func:`diagnose` on the runs as read (a line of bodies), validated in a rig of the user's
     model or of the file's bodies and drives."""
     from jointrig.measured.runs import RunsFileError
+    from jointrig.present.notes import note_text
     from jointrig.rig.chain import rig_of_bodies
+    from jointrig.studies.notes import RelativeAngle
     from jointrig.studies.chain_validate import MIN_PERIODS_TO_SPLIT, MIN_RUNS_TO_HOLD_OUT, run_train_diagnosis, written_of
 
     N = loaded.records[0].n_flywheels
@@ -242,23 +244,16 @@ def _diagnosed(loaded, model, *, data, model_path, holdout, validate, zeroed, to
                                 f"runs (some held out for validation), runs of at least {MIN_PERIODS_TO_SPLIT} "
                                 f"steady periods (the later half held out), or a separate validation record "
                                 f"(--validate OTHER)")
-    if relative:
-        s = loaded.torque_share
-        loaded = replace(loaded, notes=loaded.notes + (
-            f"the relative angle alone ('phi'): the joint's twist moves as one body of inertia J1 J2/(J1 + J2) "
-            f"(J1 below) tied to the frame by the joint's law (ground1_* below are the joint's), driven by "
-            f"{s:g} of the torque (--torque-share: the undriven flywheel's J over J1 + J2"
-            + (", from your model" if model is not None else "") + "); bearing drag and the angle sensors' "
-            "zero offset are not sought: they need both angles",))
-    for n in loaded.notes:
+    notes = (RelativeAngle(loaded.torque_share, model is not None),) if relative else ()
+    for n in (*loaded.notes, *notes):
         if progress is not None:
-            progress(f"note: {n}")
+            progress(f"note: {note_text(n)}")
     rig = model if model is not None else rig_of_bodies(N, driven, loaded.kind)
     written = written_of(model) if model is not None else ()
     report = run_train_diagnosis(loaded.records, run_ids=ids, rig=rig, holdout=held, written=written, band=band,
                                  alpha=alpha, fidelity=fidelity, max_causes=max_causes, zeroed=zeroed,
                                  progress=progress, form="relative" if relative else "train")
-    return Diagnosis(report, loaded, str(data), torque_on)
+    return Diagnosis(replace(report, notes=notes + report.notes), loaded, str(data), torque_on)
 
 
 def _refuse_long_periods(data: PathLike, ids: list, records) -> None:

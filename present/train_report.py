@@ -18,6 +18,7 @@ from jointrig.studies.chain_validate import TrainReport
 
 from .diagnosis_json import DiagnosisJson, FitJson, RunJson, ValidationJson
 from .formatting import quantity_of, sig, sig_or, unit_of, with_se
+from .notes import note_text
 from .summary import NO_GAIN, compare_written, steps_after, wrong_sentence
 from .text import (ValidationRow, ambiguity_lines, causes_lines, head_lines, notes_lines, on_bound_lines, parameter_lines,
                    ruled_out_lines, validation_lines)
@@ -25,6 +26,11 @@ from .text import (ValidationRow, ambiguity_lines, causes_lines, head_lines, not
 
 __all__ = ["format_train_report", "plain_train_verdict", "train_report_json", "train_figure",
            "write_train_html"]
+
+
+def _notes(notes: Sequence, report: TrainReport) -> list[str]:
+    """The reader's notes, then the diagnosis's, in words (:func:`present.notes.note_text`)."""
+    return [note_text(n) for n in (*notes, *report.notes)]
 
 
 def _written(report: TrainReport) -> tuple:
@@ -371,7 +377,7 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
                              for k, x in d.noise_std.items()))
     lines.append(f"  model fidelity (added to each row's noise variance): "
                  f"{fidelity_statement(d.fidelity, report.run_ids if report.held_out_periods else fit_ids)}")
-    all_notes = list(notes) + list(report.notes)
+    all_notes = _notes(notes, report)
     if all_notes:
         lines.append(f"  {len(all_notes)} note(s) on the data: at the end")
     lines += ["", f"Nominal model: chi2/dof = {d.reduced_chi2(d.nominal):.3g} (about 1 when only noise is left)"]
@@ -454,7 +460,7 @@ def train_report_json(report: TrainReport, *, source: str = "", notes: Sequence[
         adopted=tuple(s.label for s in d.steps) if report.adopted else (), extended=FitJson.of(d.final, nm, _taken(report)),
         ambiguities=tuple(d.ambiguities),
         as_written={nm(w.name): w.as_json() for w in _written(report)},
-        validation=validation, notes=tuple(notes) + tuple(report.notes), name=nm,
+        validation=validation, notes=tuple(_notes(notes, report)), name=nm,
         plausibility=tuple(report.kind.words(t) for t in d.plausibility),
         misfit_character=report.misfit.as_json() if report.misfit is not None else None,
         misfit_surface=report.misfit.surface.as_json() if report.misfit is not None else None,
@@ -618,7 +624,7 @@ def write_train_html(path, report: TrainReport, text: str, *, title: str, source
               f"{quantity_of(nm(s.magnitude[0]))} = {with_se(s.magnitude[1], s.magnitude[2])} {unit_of(nm(s.magnitude[0]))}",
               report.kind.words(s.note)]) for s in d.first_round]))
     parts.append("</details>")
-    all_notes = list(notes) + list(report.notes)
+    all_notes = _notes(notes, report)
     if all_notes:
         parts.append(f"<details class='section'><summary>Notes on the data ({len(all_notes)})</summary><ul>"
                      + "".join(f"<li class='note'>{html.escape(n)}</li>" for n in all_notes) + "</ul></details>")

@@ -34,6 +34,7 @@ from jointrig.identify.defaults import (DEFAULT_ALPHA, DEFAULT_FIDELITY, DEFAULT
                                        MAX_REPLAY_STEPS_PER_PERIOD, REPLAY_MAX_STEP_S)
 from jointrig.identify.verdict import CHI2_PER_DOF_OK, RIG_FIDELITY, Verdict, judge
 
+from .notes import BandCut, BodyRests, FixedFidelity, JointSticks, NoSpringToFrame, Spanned
 from .holdout import MIN_PERIODS_TO_SPLIT, MIN_RUNS_TO_HOLD_OUT, generalisation_kind, holdout_of_another_kind
 from jointrig.vocab.records import RecordError
 from jointrig.rig.simulate import SimulationConfig, SimulationError, SteadyStateNotReached
@@ -74,7 +75,7 @@ class ChainValidation:
     #: per held-out run: (measured record, nominal simulation, extended simulation), for plots
     records: tuple = field(default=(), repr=False, compare=False)
     #: the replays compared over the record's own span from its measured state, no steady state
-    #: reached in the rig (which model, which run, why), in words
+    #: reached in the rig (:class:`studies.notes.Spanned`: which model, which run, why)
     spanned: tuple = ()
     #: the method's bias on the judged model's parameters: ``(name, refitted - fitted, standard
     #: error)`` for each, its structure refitted on its own noise-free replay of the fitted runs
@@ -554,9 +555,7 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
                 failed[name] = str(err)
                 continue
             if spans[name]:
-                spanned.append(f"the {name} model under the drive of {meas.source} (no periodic steady state in the rig "
-                               f"within {cfg.max_periods} periods" + (f" or {cfg.max_wall_s:g} s" if cfg.max_wall_s else "")
-                               + ")")
+                spanned.append(Spanned(name, meas.source, cfg.max_periods, cfg.max_wall_s or None))
             sims[name] = sim
             e, d = twist_error(sim, meas, top)
             num[name] += e
@@ -707,6 +706,10 @@ def rig_replay(rig: ChainRig, runs: Sequence, band: int, *, backend: str = "auto
 #: repeats (two sufficed on every bench: the floor's model, then its own fidelity's).
 FIDELITY_PASSES = 2
 
+#: Why a chi-square cannot test a model (:func:`measured_diagnosis`'s ``exact``): records without
+#: noise (the rig's own), or a noise estimate of two periods.
+NOISE_FREE, TWO_PERIODS = "noise-free", "two periods"
+
 
 def noise_free(runs: Sequence) -> bool:
     """Whether every channel of every run has a noise per sample below :data:`RIG_FIDELITY` of its
@@ -722,7 +725,7 @@ def noise_free(runs: Sequence) -> bool:
     return True
 
 
-def measured_diagnosis(diagnosed, replay, say=lambda msg: None, exact=False) -> tuple:
+def measured_diagnosis(diagnosed, replay, say=lambda msg: None, exact: Optional[str] = None) -> tuple:
     """The diagnosis whose fidelity is its own model's: first with the fixed floor
     (:data:`identify.defaults.DEFAULT_FIDELITY`), then again with the balance's misfit measured on
     the noise-free replay of the model it adopted (:func:`identify.chain_diagnose.balance_fidelity`;
@@ -731,11 +734,11 @@ def measured_diagnosis(diagnosed, replay, say=lambda msg: None, exact=False) -> 
     even the best model above the verdict's chi2/dof bound, the records hold a misfit that neither
     the noise nor the method explains: that diagnosis stands, and its verdict says so (the fixed
     floor would hide the misfit and inflate every standard error), unless the records are
-    noise-free (``exact`` True, :func:`noise_free`: the rig's own, where the misfit is the
-    integrators' difference) or their chi-square cannot test a model (``exact`` a reason in words:
-    a noise estimate of two periods); the fixed floor's diagnosis stands then. ``diagnosed(fidelity)`` runs one
+    noise-free (``exact`` :data:`NOISE_FREE`, :func:`noise_free`: the rig's own, where the misfit is
+    the integrators' difference) or their chi-square cannot test a model (``exact``
+    :data:`TWO_PERIODS`: a noise estimate of two periods); the fixed floor's diagnosis stands then. ``diagnosed(fidelity)`` runs one
     diagnosis; ``replay(fit)`` is :func:`rig_replay`'s. Returns the diagnosis and notes (why the
-    fidelity stayed fixed, if it did)."""
+    fidelity stayed fixed, if it did: :class:`studies.notes.FixedFidelity`)."""
     from jointrig.identify.chain_diagnose import balance_fidelity, model_kind
 
     d = diagnosed(DEFAULT_FIDELITY)
@@ -744,8 +747,7 @@ def measured_diagnosis(diagnosed, replay, say=lambda msg: None, exact=False) -> 
         say(f"measuring the balance's fidelity on the noise-free replay of {label}")
         got = replay(d.final)
         if isinstance(got, str):
-            return d, (f"the model fidelity is fixed at {DEFAULT_FIDELITY:g} of each run's largest balanced torque: "
-                       f"{label} could not be replayed to measure it ({got})",)
+            return d, (FixedFidelity(DEFAULT_FIDELITY, label, failure=got),)
         fid = balance_fidelity(got, d.final, d.n_harmonics, d.masked, d.merging, label)
         again = diagnosed(fid)
         if exact and again.reduced_chi2(again.final) > CHI2_PER_DOF_OK:
@@ -753,10 +755,10 @@ def measured_diagnosis(diagnosed, replay, say=lambda msg: None, exact=False) -> 
             # reads the two integrators' difference as a misfit of every model; or a noise estimate
             # of two periods (one degree of freedom per line and part), whose weights give a
             # chi-square without a finite expectation: it cannot test a model
-            why = (f"the records are noise-free (below {RIG_FIDELITY:g} of every channel)" if exact is True else exact)
-            return d, (f"the model fidelity is fixed at {DEFAULT_FIDELITY:g} of each run's largest balanced torque: "
-                       f"{why}, and measured on the replay of {label} ({fid.relative:.2g} of the balanced torque) it "
-                       f"left the best model at chi2/dof {again.reduced_chi2(again.final):.3g}",)
+            return d, (FixedFidelity(DEFAULT_FIDELITY, label, measured=fid.relative,
+                                     chi2_per_dof=again.reduced_chi2(again.final),
+                                     noise_free_below=RIG_FIDELITY if exact == NOISE_FREE else None,
+                                     two_periods=exact == TWO_PERIODS),)
         same = model_kind(again.final.spec) == model_kind(d.final.spec)
         d = again
         if same:
@@ -815,6 +817,8 @@ class TrainReport:
     generalisation: str
     written: tuple = ()
     model_path: Optional[str] = None
+    #: what the diagnosis notes about the data and how it treated them (:mod:`studies.notes`; in
+    #: words: :func:`present.notes.note_text`)
     notes: tuple = ()
     #: the held-out data are each run's later periods (fewer than 4 runs), not whole runs
     held_out_periods: bool = False
@@ -951,8 +955,7 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
     top = min(max_harmonic(r.samples_per_period) for r in records)
     if top < band:
         worst = min(range(len(records)), key=lambda i: records[i].samples_per_period)
-        notes.append(f"harmonics 1..{top} fitted, not 1..{band}: run {run_ids[worst]} holds "
-                     f"{records[worst].samples_per_period} samples per period, enough for {top}")
+        notes.append(BandCut(top, band, run_ids[worst], records[worst].samples_per_period))
         band = top
     runs = prepare_chain_runs(fit_recs, band=band)
     nominal = rig.plant.spec() if written else (nominal_spec(1, twist=True) if form == "relative" else None)
@@ -966,25 +969,14 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
         d = diagnosed(fidelity)
     else:
         few = min(r.n_periods for r in runs) <= 2
-        d, why = measured_diagnosis(diagnosed, replay, say, exact=noise_free(runs) or (
-            "a run's noise comes from two periods alone (one degree of freedom per line: its weights give a "
-            "chi-square without a finite expectation)" if few else False))
+        d, why = measured_diagnosis(diagnosed, replay, say, exact=NOISE_FREE if noise_free(runs) else
+                                    TWO_PERIODS if few else None)
         notes += list(why)
     fit_ids = run_ids if split else [run_ids[i] for i in range(len(records)) if i not in held]
     for k, body, rest, masked in d.rests:
-        notes.append(f"run {fit_ids[k]}: body {body} rests {rest:.0%} of its period (its rate below "
-                     f"{REST_RATE_FRACTION:.0%} of its peak; it may stick, held by whatever force its dry friction "
-                     f"supplies there, not the law's): its equation is balanced only where its rate exceeds "
-                     f"{STICK_RATE_FRACTION:.0%} of its peak ({masked:.0%} of the period left out, in every model "
-                     f"compared)")
+        notes.append(BodyRests(fit_ids[k], body, rest, masked, REST_RATE_FRACTION, STICK_RATE_FRACTION))
     for k, joint, rest, resolved, left_out in d.stuck_joints:
-        how = (f"its twist rests {rest:.0%} of its period (its twist rate below {REST_RATE_FRACTION:.0%} of its peak)"
-               if resolved else "its twist is not resolved above the noise (stuck the whole period, or nearly)")
-        own = (f", and one of them on its own where the joint slides (its twist rate above {STICK_RATE_FRACTION:.0%} "
-               f"of its peak; {left_out:.0%} of the period left out)" if left_out < 1.0 else " alone")
-        notes.append(f"run {fit_ids[k]}: joint {joint} may stick: {how}; while it sticks its torque is whatever holds "
-                     f"it, not its law's, so its two bodies' equations are balanced as their sum{own} in this run "
-                     f"(in every model compared)")
+        notes.append(JointSticks(fit_ids[k], joint, rest, resolved, left_out, REST_RATE_FRACTION, STICK_RATE_FRACTION))
     say("replaying the held-out runs' drives on the nominal and the extended model in the rig")
     v = validate_chain(rig, d, held_recs, backend=backend, noise_std=d.noise_std, alpha=alpha,
                        refit=lambda fit: _refitted(replay, fit, d))
@@ -999,13 +991,8 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
     verdict = train_verdict(d, v, held_out_periods=split)
     free = drifting_bodies(d.final if d.steps else d.nominal)
     if free:
-        notes.append(f"body {', '.join(str(i + 1) for i in free)} has no spring to the frame: under the measured "
-                     f"drive alone a replay would walk off by whatever mean drive the fit misses, so every replay in "
-                     f"the rig adds the constant load that leaves it without drift, as its position controller (or the "
-                     f"bench) held it, and compares the motion about its mean")
-    for what in v.spanned:
-        notes.append(f"{what}: compared over the record's own periods from its measured state instead of a steady "
-                     f"state (a model that settles slowly, or never, in the rig may still follow the record)")
+        notes.append(NoSpringToFrame(tuple(i + 1 for i in free)))
+    notes += list(v.spanned)
     misfit = None
     if verdict.verdict == "unexplained":
         say("describing the misfit: the residual torque at every joint along every run's measured motion")

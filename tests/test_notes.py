@@ -1,0 +1,55 @@
+"""The diagnosis's notes are values (studies.notes) and their sentences are made in one place
+(present.notes.note_text): every kind of note has its words, and the words carry the values."""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+
+import pytest
+
+from jointrig.present.notes import note_text
+from jointrig.studies import notes
+from jointrig.studies.notes import (BandCut, BodyRests, FixedFidelity, JointSticks, NoSpringToFrame, RelativeAngle,
+                                    Spanned)
+
+KINDS = [c for _, c in inspect.getmembers(notes, inspect.isclass)
+         if dataclasses.is_dataclass(c) and c.__module__ == notes.__name__]
+
+
+def test_every_kind_of_note_has_its_words_and_nothing_else_does():
+    assert {c.__name__ for c in KINDS} == {"BandCut", "FixedFidelity", "BodyRests", "JointSticks", "NoSpringToFrame",
+                                           "Spanned", "RelativeAngle"}
+    for kind in KINDS:
+        assert kind in note_text.registry, kind
+    assert note_text("a reader's note, in words already") == "a reader's note, in words already"
+    with pytest.raises(TypeError, match="no words for a note of type int"):
+        note_text(3)
+
+
+def test_a_notes_words_carry_its_values():
+    assert note_text(BandCut(7, 20, "run3", 16)) == ("harmonics 1..7 fitted, not 1..20: run run3 holds 16 samples per "
+                                                     "period, enough for 7")
+    stuck = JointSticks("a", 2, 0.62, True, 0.7, 0.05, 0.1)
+    assert note_text(stuck).startswith("run a: joint 2 may stick: its twist rests 62% of its period (its twist rate "
+                                       "below 5% of its peak)")
+    assert "and one of them on its own where the joint slides (its twist rate above 10% of its peak; 70% of the " \
+           "period left out)" in note_text(stuck)
+    whole = dataclasses.replace(stuck, resolved=False, left_out=1.0)
+    assert "not resolved above the noise" in note_text(whole) and "as their sum alone in this run" in note_text(whole)
+    rests = note_text(BodyRests("0", 1, 0.4, 0.3, 0.05, 0.1))
+    assert rests.startswith("run 0: body 1 rests 40% of its period (its rate below 5% of its peak") and "30% of the " \
+        "period left out" in rests
+    assert note_text(NoSpringToFrame((1, 3))).startswith("body 1, 3 has no spring to the frame")
+    assert note_text(Spanned("extended", "f.csv run 2", 115)).startswith(
+        "the extended model under the drive of f.csv run 2 (no periodic steady state in the rig within 115 periods): ")
+    assert "within 115 periods or 30 s)" in note_text(Spanned("nominal", "r", 115, 30.0))
+    failed = note_text(FixedFidelity(1e-3, "the nominal model", failure="it diverged"))
+    assert failed == ("the model fidelity is fixed at 0.001 of each run's largest balanced torque: the nominal model "
+                      "could not be replayed to measure it (it diverged)")
+    clean = note_text(FixedFidelity(1e-3, "the nominal model", measured=2.5e-5, chi2_per_dof=7.25, noise_free_below=1e-6))
+    assert "the records are noise-free (below 1e-06 of every channel), and measured on the replay of the nominal " \
+           "model (2.5e-05 of the balanced torque) it left the best model at chi2/dof 7.25" in clean
+    assert "two periods alone" in note_text(FixedFidelity(1e-3, "m", measured=1e-4, chi2_per_dof=3.0, two_periods=True))
+    assert "driven by 0.25 of the torque" in note_text(RelativeAngle(0.25))
+    assert ", from your model)" in note_text(RelativeAngle(0.5, True))
