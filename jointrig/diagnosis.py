@@ -171,25 +171,25 @@ def diagnose(data: PathLike, *, model: Optional[PathLike] = None, holdout: Optio
     Raises :class:`DiagnosisInputError` or :class:`measured.runs.RunsFileError` (bad input) and
     ``rig.simulate.SimulationError`` (a simulation that failed)."""
     from jointrig.identify.chain import ChainIdentifiabilityError
-    from jointrig.rig.chain import relative_chain
+    from jointrig.measured.runs import TORQUE_ON
+    from jointrig.rig.chain import relative_chain, torque_share as share_of
     from jointrig.rig.model import RigModelError
 
     if validate is not None and holdout:
         raise DiagnosisInputError("--validate holds out every run of another record and --holdout some of this one's: "
                                   "give one of them")
-    if torque_on not in ("flywheel1", "flywheel2", "shaft"):
-        raise DiagnosisInputError(f"--torque-on must be flywheel1, flywheel2 or shaft, got {torque_on!r}")
+    if torque_on not in TORQUE_ON:
+        raise DiagnosisInputError(f"--torque-on must be {', '.join(TORQUE_ON[:-1])} or {TORQUE_ON[-1]}, got {torque_on!r}")
     rig_model = load_model(model, torque_on) if model is not None else None
     if rig_model is not None and rig_model.n_flywheels == 2:  # the relative angle's share, from the model
-        J1, J2 = rig_model.inertias_kgm2
-        torque_share = (J1 if torque_on == "flywheel2" else J2) / (J1 + J2)
+        torque_share = share_of(rig_model, torque_on)
     loaded = read_data(data, validate=validate, columns=columns, units=units, zero_per_run=zero_per_run,
                        torque_on=torque_on, torque_share=torque_share)
     if before is not None:
         before(loaded)
     if loaded.torque_share is not None and rig_model is not None:
         try:  # the model's relative-angle form
-            rig_model, _ = relative_chain(rig_model, torque_on)
+            rig_model = relative_chain(rig_model)
         except RigModelError as err:
             raise DiagnosisInputError(f"--model: {err}") from None
     try:

@@ -304,11 +304,18 @@ def load_model(path: Union[str, os.PathLike], driven: Sequence[int] = (1,)) -> C
     return load_chain(path) if is_chain_model(path) else chain_of_two_flywheels(load_rig(path), driven)
 
 
-def relative_chain(rig: ChainRig, torque_on: str = "flywheel1") -> tuple[ChainRig, float]:
+def torque_share(rig: ChainRig, torque_on: str = "flywheel1") -> float:
+    """The share of two flywheels' drive that twists their joint: the undriven flywheel's inertia
+    over both (``torque_on`` says which is driven)."""
+    J1, J2 = rig.inertias_kgm2
+    return (J1 if torque_on == "flywheel2" else J2) / (J1 + J2)
+
+
+def relative_chain(rig: ChainRig) -> ChainRig:
     """Two flywheels' model as its relative-angle form (:mod:`measured.runs`): one body of inertia
-    ``J1 J2/(J1 + J2)`` tied to the frame by the joint's law, driven on body 1, and the share of
-    the drive that twists the joint (the undriven flywheel's inertia over both, for
-    ``torque_on``); exact without bearing drag, which the relative angle alone cannot hold."""
+    ``J1 J2/(J1 + J2)`` tied to the frame by the joint's law, driven on body 1 (by
+    :func:`torque_share` of the drive); exact without bearing drag, which the relative angle alone
+    cannot hold."""
     p = rig.plant
     if rig.n_flywheels != 2:
         raise RigModelError(f"{rig.path}: {rig.n_flywheels} bodies; the relative angle alone ('phi') is the twist of "
@@ -317,10 +324,8 @@ def relative_chain(rig: ChainRig, torque_on: str = "flywheel1") -> tuple[ChainRi
         raise RigModelError(f"{rig.path}: bearing drag to ground (jointrig_bearing*): the relative angle alone ('phi') "
                             f"moves as one body only without it; give both angles (phi1, phi2) to diagnose this model")
     J1, J2 = rig.inertias_kgm2
-    share = (J1 if torque_on == "flywheel2" else J2) / (J1 + J2)
-    one = _compiled(ChainPlant((), (0.0,), (p.laws[0],), p.drive_delay_s), (J1 * J2 / (J1 + J2),), (1,),
-                    rig.path.name, source=rig)
-    return one, share
+    return _compiled(ChainPlant((), (0.0,), (p.laws[0],), p.drive_delay_s), (J1 * J2 / (J1 + J2),), (1,),
+                     rig.path.name, source=rig)
 
 
 def two_flywheels_of_relative(plant: ChainPlant, J_kgm2: float, share: float, torque_on: str) -> tuple:
