@@ -101,7 +101,7 @@ class Cause:
     #: ``degenerate(value, limits)``: why a fitted nonlinear parameter means the cause is another
     #: or nothing (a slip angle below the angle resolution is dry friction), None if it stands
     #: (:class:`Limits` says what the data resolve)
-    degenerate: Optional[Callable[[float, "Limits"], Optional[str]]] = None
+    degenerate: Optional[Callable[[float, "Limits"], Optional["Rejection"]]] = None
     #: ``trials(runs)``: independent values the profile search in effect tries (None: 1, a
     #: parameter whose chi-square has one basin or a few): a free frequency tries one per
     #: oscillation of chi-square over its range, and its best drop is the largest of that many;
@@ -170,21 +170,68 @@ class Limits:
     friction: str = "coulomb_friction"
 
 
-def _below_resolution(what: str, then: str) -> Callable[[float, Limits], Optional[str]]:
-    """A rule for a slip angle or a free play: below the resolution it is ``then``."""
-    def rule(h: float, lim: Limits) -> Optional[str]:
+@dataclass(frozen=True)
+class Unphysical:
+    """A rejection: a cause that only takes energy out fitted with a negative size."""
+
+    #: the size parameter (the project's, a hinge's, name)
+    name: str
+    value: float
+
+
+@dataclass(frozen=True)
+class FeedsEnergy:
+    """A rejection: the extended model would hold a dissipative parameter significantly below
+    zero (more than two standard errors, or with none): it would feed energy in."""
+
+    name: str
+    value: float
+    std_error: float
+
+
+@dataclass(frozen=True)
+class BelowResolution:
+    """A rejection: a cause's profiled size below the smallest motion the runs resolve there. A
+    free play is then none; an element that slips (``slips``) and never sticks is dry friction at
+    its place (``friction``, that cause's label)."""
+
+    #: which size, as the catalogue names it ("half gap", "slip angle")
+    size: str
+    #: the size and the resolution, in the coordinate's unit (rad; m on a slide)
+    value: float
+    resolution: float
+    #: the element that never sticks below it ("a Jenkins element"); "" for a free play
+    slips: str = ""
+    friction: str = "coulomb_friction"
+
+
+@dataclass(frozen=True)
+class NoFalloff:
+    """A rejection: a Stribeck rate above every run's rate amplitude: the friction does not fall off
+    within the data; it is dry friction (``friction``, that cause's label)."""
+
+    velocity: float
+    rate_top: float
+    friction: str = "coulomb_friction"
+
+
+#: Why a cause the evidence calls significant is rejected all the same (its score's ``note``; in
+#: words: :func:`present.notes.rejection_text`).
+Rejection = Unphysical | FeedsEnergy | BelowResolution | NoFalloff
+
+
+def _below_resolution(size: str, slips: str = "") -> Callable[[float, Limits], Optional[BelowResolution]]:
+    """A rule for a slip angle or a free play: below the resolution it is dry friction (an element
+    that ``slips``) or nothing (a free play)."""
+    def rule(h: float, lim: Limits) -> Optional[BelowResolution]:
         if not h < lim.resolution_rad:
             return None
-        return f"its {what} {h:.3g} rad is below the angle resolution {lim.resolution_rad:.2g} rad: " + \
-            then.format(friction=lim.friction)
+        return BelowResolution(size, h, lim.resolution_rad, slips, lim.friction)
     return rule
 
 
-def _stribeck_degenerate(v: float, lim: Limits) -> Optional[str]:
-    if not v > lim.rate_top_rad_s:
-        return None
-    return (f"its Stribeck rate {v:.3g} rad/s is above every run's rate amplitude (at most {lim.rate_top_rad_s:.3g} "
-            f"rad/s): the friction does not fall off within the data; it is dry friction (see {lim.friction})")
+def _stribeck_degenerate(v: float, lim: Limits) -> Optional[NoFalloff]:
+    return NoFalloff(v, lim.rate_top_rad_s, lim.friction) if v > lim.rate_top_rad_s else None
 
 
 def _amplitude(runs) -> float:
@@ -302,12 +349,12 @@ CATALOGUE: tuple[Cause, ...] = (
           plain="dry friction"),
     Cause("backlash", "free play in the elastic element: no stiffness within +-half gap",
           _with_gap, "backlash_half_gap_rad", 0, bounds=_gap_bounds,
-          profiled="backlash_half_gap_rad", degenerate=_below_resolution("half gap", "no free play is resolved"),
+          profiled="backlash_half_gap_rad", degenerate=_below_resolution("half gap"),
           plain="free play"),
     Cause("contact_damping", "free play whose element damps only in contact: no stiffness and no damping within "
           "+-half gap (a rubber insert with play; a lubricated play, which damps within it too, is backlash)",
           _with_contact_damping, "backlash_half_gap_rad", 0, bounds=_gap_bounds, profiled="backlash_half_gap_rad",
-          degenerate=_below_resolution("half gap", "no free play is resolved"),
+          degenerate=_below_resolution("half gap"),
           plain="free play with damping only in contact"),
     Cause("asymmetric_stiffness", "an even stiffness term a phi^2 (an asymmetric restoring force): even harmonics",
           lambda s, h: _with_terms(s, (Power(2),)), "a_Nm_per_rad2", 1, nonnegative=False,
@@ -316,14 +363,13 @@ CATALOGUE: tuple[Cause, ...] = (
           _with_jenkins, "hysteresis_slip_torque_Nm", 1,
           bounds=lambda runs: (1e-3 * _amplitude(runs), 0.9 * _amplitude(runs)), log_scale=True,
           profiled="hysteresis_slip_angle_rad",
-          degenerate=_below_resolution("slip angle", "a Jenkins element that never sticks is dry friction (see {friction})"),
+          degenerate=_below_resolution("slip angle", "a Jenkins element"),
           plain="hysteresis (a Jenkins element)"),
     Cause("micro_slip", "micro-slip: an Iwan element (Segalman's four-parameter distribution of Jenkins elements, "
           f"chi = {IWAN_CHI}, beta = {IWAN_BETA}), as in bolted and clamped joints",
           _with_iwan, "iwan_slip_torque_Nm", 1,
           bounds=lambda runs: (1e-3 * _amplitude(runs), 2.0 * _largest_amplitude(runs)), log_scale=True,
-          profiled="iwan_slip_angle_rad", degenerate=_below_resolution(
-              "largest slip angle", "an Iwan element that never sticks is dry friction (see {friction})"),
+          profiled="iwan_slip_angle_rad", degenerate=_below_resolution("largest slip angle", "an Iwan element"),
           plain="micro-slip (an Iwan element)"),
     Cause("stribeck_friction", "dry friction with a Stribeck peak: static friction above the sliding one, falling "
           "off with the rate (velocity weakening)",
@@ -589,7 +635,8 @@ class CauseScore:
     fit: object
     magnitude: tuple
     signature: dict = field(default_factory=dict)
-    note: str = ""
+    #: why a rule rejected it although the evidence is significant (:data:`Rejection`), or None
+    note: Optional[Rejection] = None
     where: Optional[Place] = None
     #: the degrees of freedom of each row group's weight, and the drop's (:func:`effective_dof`;
     #: inf: weights taken as known)
@@ -615,13 +662,14 @@ class CauseScore:
 
     def as_json(self) -> dict:
         """The score in a diagnosis's JSON (``present.diagnosis_json.CAUSE_KEYS``): ``place`` is
-        ``{"kind", "number"}`` in a train, null on the two-flywheel joint."""
+        ``{"kind", "number"}`` in a train, null on the two-flywheel joint; ``note`` is null here, its
+        words are the report's (:func:`present.diagnosis_json.cause_json`)."""
         return {"label": self.label, "effect": self.effect,
                 "place": None if self.where is None else {"kind": self.where.kind, "number": self.where.number},
                 "score": self.score, "significant": self.significant, "delta_chi2": self.delta_chi2,
                 "n_params": self.n_params, "p_value": self.p_value,
                 "magnitude": {"name": self.magnitude[0], "value": self.magnitude[1], "std_error": self.magnitude[2]},
-                "signature": dict(self.signature), "note": self.note,
+                "signature": dict(self.signature), "note": None,
                 "parameters": self.fit.parameters() if self.fit is not None else {}}
 
 

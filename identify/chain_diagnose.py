@@ -59,7 +59,8 @@ from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpe
                     masked_noise_covariance, noise_cross_covariance,
                     ground_laws, ground_prefix, identifiability, inertia_name, joint_prefix, solve_banded, rest_share,
                     rests, stick_mask, sticks_to_ground, jumps_at_rest)
-from .causes import (CATALOGUE, Ambiguity, Cause, CauseScore, effective_dof, Limits, ModelSpec, Place, Profiled, at, by_name,
+from .causes import (CATALOGUE, Ambiguity, Cause, CauseScore, FeedsEnergy, Limits, ModelSpec, Place, Profiled, Rejection,
+                     Unphysical, at, by_name, effective_dof,
                      detection_limit, evidence, forward_select,
                      fundamental_quadrature, harmonic_shares, on_search_bound, parsimonious, profile)
 from .defaults import DEFAULT_ALPHA, DEFAULT_FIDELITY
@@ -1162,15 +1163,15 @@ def _dissipative(fit: ChainFit) -> list[str]:
     return names + [bearing_name(i) for i in fit.spec.bearings]
 
 
-def _rejection(problem: _Problem, cand: Candidate, ext: ChainFit, mag: tuple) -> Optional[str]:
-    """Why a candidate the evidence calls significant is rejected all the same, in words (its
-    score's ``note``), or None where nothing rejects it."""
+def _rejection(problem: _Problem, cand: Candidate, ext: ChainFit, mag: tuple) -> Optional[Rejection]:
+    """Why a candidate the evidence calls significant is rejected all the same (its score's
+    ``note``), or None where nothing rejects it."""
     if cand.cause.nonnegative and mag[1] < 0:
-        return f"fitted with an unphysical negative {mag[0]} = {mag[1]:.4g}: rejected"
+        return Unphysical(mag[0], mag[1])
     for name in _dissipative(ext):
         v, se = ext.as_dict()[name], ext.std_error(name)
         if v < 0 and (not math.isfinite(se) or -v > 2 * se):
-            return f"the extended model would hold a negative {name} = {v:.4g} +- {se:.2g}: it would feed energy in"
+            return FeedsEnergy(name, v, se)
     if cand.cause.degenerate is not None:
         h = ext.parameters().get(cand.profiled_name(), math.nan)
         at_place = f"joint {cand.place}" if cand.at_joint else f"body {cand.place}"
@@ -1203,7 +1204,7 @@ def score(problem: _Problem, cand: Candidate, base: ChainFit, weights: np.ndarra
     if rejected is not None:
         significant = False
     return CauseScore(cand.cause.name, float(delta), q, float(bic), p, significant, ext, mag,
-                      _signature(problem, cand, base, ext), note=rejected or "", where=cand.where, nu=nu, nu_eff=nu_eff)
+                      _signature(problem, cand, base, ext), note=rejected, where=cand.where, nu=nu, nu_eff=nu_eff)
 
 
 def _drop_dof(problem: _Problem, base: ChainFit, ext: ChainFit, weights: np.ndarray) -> float:
@@ -1270,7 +1271,8 @@ class ChainDiagnosis:
     n_harmonics: int
     noise_std: dict
     nu: float
-    #: what in the nominal fit says the file may be read wrong (:func:`implausible_train_fit`)
+    #: what in the nominal fit says the file may be read wrong (:func:`implausible_train_fit`:
+    #: :class:`ReadWrong`, :class:`UndeterminedInertia`; in words: :func:`present.notes.plausibility_text`)
     plausibility: tuple = ()
     #: ``(run index among the fitted runs, body number, share of the period it rests, share
     #: masked out of its equation)`` for every run where a body that may stick rests
@@ -1544,22 +1546,40 @@ def _reduced(problem: _Problem, structure: ChainSpec, adopted: list, steps: list
 IMPLAUSIBLE_SE = 2.0
 
 
-def implausible_train_fit(f: ChainFit, kept: Optional[ChainFit] = None) -> tuple[str, ...]:
-    """What a train's fitted model says about how the data were read (pure): an inertia
-    significantly below zero is no body's, and a joint whose fitted stiffness or damping is
-    significantly negative would feed energy in. Their likely cause is named: position columns out
-    of the bodies' order along the line (two swapped give both), a drive column on another body
-    than its number says, or other units than the file says. An inertia within its errors of zero,
-    with nothing else read wrong, is not determined by the runs: at too few frequencies an inertia
-    and a stiffness act alike on a sine; ``kept`` (default ``f``): the model whose inertias that is
-    judged on (the extended one: a dry friction the nominal model lacks can hide a carriage's
-    mass, 25 kg read as -2 +- 15). Parameter names in the hinge's units (a slide's are named
-    at the edges)."""
+@dataclass(frozen=True)
+class ReadWrong:
+    """A train's fit that says its file was read wrong: inertias that are no body's and joints whose
+    stiffness or damping is significantly negative (they would feed energy in). Likely causes:
+    position columns out of the bodies' order (two swapped give both), a drive column on another
+    body than its number says, or other units than the file says."""
+
+    #: ``(body, inertia, standard error)`` of each inertia that is no body's (1-based bodies)
+    bodies: tuple = ()
+    #: the joints (1-based) with a negative stiffness or damping
+    joints: tuple = ()
+
+
+@dataclass(frozen=True)
+class UndeterminedInertia:
+    """Inertias within two standard errors of zero, with nothing else read wrong: the runs do not
+    determine them (at too few drive frequencies an inertia and a stiffness act alike on a sine)."""
+
+    #: ``(body, inertia, standard error)`` (1-based bodies)
+    bodies: tuple
+
+
+def implausible_train_fit(f: ChainFit, kept: Optional[ChainFit] = None) -> tuple:
+    """What a train's fitted model says about how the data were read (pure): a :class:`ReadWrong`
+    where an inertia is significantly below zero (no body's) or a joint's stiffness or damping is
+    (it would feed energy in), and an :class:`UndeterminedInertia` where an inertia is within its
+    errors of zero with nothing else read wrong; () where the fit is plausible. ``kept`` (default
+    ``f``): the model whose inertias that is judged on (the extended one: a dry friction the
+    nominal model lacks can hide a carriage's mass, 25 kg read as -2 +- 15)."""
     p = f.as_dict()
     N = f.spec.n_flywheels
 
-    def listed(bodies):
-        return ", ".join(f"J{i} = {p[inertia_name(i)]:.3g} +- {f.std_error(inertia_name(i)):.2g}" for i in bodies)
+    def listed(fit, bodies):
+        return tuple((i, fit.as_dict()[inertia_name(i)], fit.std_error(inertia_name(i))) for i in bodies)
 
     lows = [i for i in range(1, N + 1) if not p[inertia_name(i)] > IMPLAUSIBLE_SE * f.std_error(inertia_name(i))]
     negative = [i for i in lows if p[inertia_name(i)] < -IMPLAUSIBLE_SE * f.std_error(inertia_name(i))]
@@ -1575,19 +1595,11 @@ def implausible_train_fit(f: ChainFit, kept: Optional[ChainFit] = None) -> tuple
         f, p = kept, kept.as_dict()
         lows = [i for i in range(1, N + 1) if not p[inertia_name(i)] > IMPLAUSIBLE_SE * f.std_error(inertia_name(i))]
     bodies, unknown = (lows, []) if negative or joints else ([], lows)
-    out = []
+    out: list = []
     if bodies or joints:
-        said = ([f"the fitted inertia of body(ies) {', '.join(map(str, bodies))} ({listed(bodies)}) is no body's"]
-                if bodies else []) + (
-            [f"joint(s) {', '.join(map(str, joints))} come out with a negative stiffness or damping (they would feed "
-             f"energy in)"] if joints else [])
-        out.append(" and ".join(said) + ": check that the position columns (phi1..phiN, x1..xN) are the bodies in "
-                   "their order along the line (two swapped give this), that each drive column torque<i> (force<i>) "
-                   "acts on body i, and the units (angles in rad, not deg; torques in N m, not N mm)")
+        out.append(ReadWrong(listed(f, bodies), tuple(joints)))
     if unknown:
-        out.append(f"the inertia of body(ies) {', '.join(map(str, unknown))} ({listed(unknown)}) is not determined by "
-                   f"these runs (within two standard errors of zero): at too few drive frequencies an inertia and a "
-                   f"stiffness act alike on a sine; runs at more frequencies tell them apart")
+        out.append(UndeterminedInertia(listed(f, unknown)))
     return tuple(out)
 
 

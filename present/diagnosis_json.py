@@ -14,6 +14,9 @@ from typing import Callable, Mapping, Optional, Sequence
 
 from jointrig.identify.causes import Ambiguity, CauseScore
 from jointrig.identify.verdict import Verdict
+from jointrig.vocab.params import Coordinate
+
+from .notes import rejection_text
 
 __all__ = ["SCHEMA", "KEYS", "FIDELITY_KEYS", "RULED_OUT_KEYS", "PRELOAD_KEYS", "FIT_KEYS", "VALIDATION_KEYS", "RIGHT_KEYS", "RUN_KEYS", "CAUSE_KEYS", "FitJson", "RunJson",
            "ValidationJson", "DiagnosisJson", "finite", "schema_problems"]
@@ -127,11 +130,13 @@ class ValidationJson:
                 "note": self.note, "per_run": [r.as_json() for r in self.per_run]}
 
 
-def _cause(s: CauseScore, name: Callable[[str], str]) -> dict:
-    """A cause's score (:meth:`CauseScore.as_json`) with its parameters named for the bench."""
+def cause_json(s: CauseScore, kind: Coordinate) -> dict:
+    """A cause's score (:meth:`CauseScore.as_json`) with its parameters named for the bench and
+    why it was rejected, if it was, in words (:func:`present.notes.rejection_text`)."""
     out = s.as_json()
-    out["magnitude"] = {**out["magnitude"], "name": name(out["magnitude"]["name"])}
-    out["parameters"] = {name(n): v for n, v in out["parameters"].items()}
+    out["magnitude"] = {**out["magnitude"], "name": kind.name(out["magnitude"]["name"])}
+    out["note"] = rejection_text(s.note, kind) if s.note is not None else ""
+    out["parameters"] = {kind.name(n): v for n, v in out["parameters"].items()}
     return out
 
 
@@ -143,8 +148,9 @@ class DiagnosisJson:
     source: str
     input_sha256: str
     units: str
-    #: "hinge" (rad, N m, kg m^2) or "slide" (m, N, kg)
-    kind: str
+    #: how the bodies move, with the words and units that go with it: hinge (rad, N m, kg m^2) or
+    #: slide (m, N, kg); every parameter is named for it (:meth:`vocab.params.Coordinate.name`)
+    kind: Coordinate
     n_bodies: int
     #: which runs were fitted: "train" (every body's position) or "relative" (the relative angle alone)
     form: str
@@ -168,8 +174,6 @@ class DiagnosisJson:
     misfit_character: Optional[dict] = None
     misfit_surface: Optional[dict] = None
     next_measurements: tuple[str, ...] = ()
-    #: a parameter's name for the user's bench (a slide's: :func:`vocab.params.linear_name`)
-    name: Callable[[str], str] = str
     #: the fidelity the final model's weights carry (:data:`FIDELITY_KEYS`)
     fidelity: Optional[dict] = None
     #: what the runs rule out (:data:`RULED_OUT_KEYS`), one object per cause not adopted
@@ -188,10 +192,10 @@ class DiagnosisJson:
                                                   "statement": ""}),
                "fit_runs": list(self.fit_runs),
                "held_out_runs": list(self.held_out_runs), "noise_std_per_sample": dict(self.noise_std_per_sample),
-               "nominal": self.nominal.as_json(), "causes": [_cause(s, self.name) for s in self.causes],
+               "nominal": self.nominal.as_json(), "causes": [cause_json(s, self.kind) for s in self.causes],
                "extended": {"effects": list(self.adopted), "tried": [s.label for s in self.steps],
-                            "steps": [_cause(s, self.name) for s in self.steps], **self.extended.as_json(),
-                            "on_search_bound": [{"parameter": self.name(p), "side": side, "bound": bound}
+                            "steps": [cause_json(s, self.kind) for s in self.steps], **self.extended.as_json(),
+                            "on_search_bound": [{"parameter": self.kind.name(p), "side": side, "bound": bound}
                                                 for p, side, bound in self.on_bounds]},
                "ruled_out": [dict(r) for r in self.ruled_out], "preloads": [dict(r) for r in self.preloads],
                "ambiguities": [a.as_json() for a in self.ambiguities], "as_written": dict(self.as_written),

@@ -1,12 +1,21 @@
-"""The sentences of the diagnosis's notes (:mod:`studies.notes`), made in one place: the text
-report, the JSON and the HTML report all read them from :func:`note_text`."""
+"""The sentences of the diagnosis's values, made in one place: its notes (:mod:`studies.notes`,
+:func:`note_text`), why a significant cause was rejected (:data:`identify.causes.Rejection`,
+:func:`rejection_text`) and what a fit says about how the file was read
+(:func:`plausibility_text`). The text report, the JSON and the HTML report all read them here,
+each parameter named and each size in the units of the user's bench (a slide's: N, m, kg)."""
 
 from __future__ import annotations
 
 from functools import singledispatch
 
+from jointrig.identify.causes import BelowResolution, FeedsEnergy, NoFalloff, Unphysical
+from jointrig.identify.chain import inertia_name
+from jointrig.identify.chain_diagnose import ReadWrong, UndeterminedInertia
 from jointrig.studies.notes import (BandCut, BodyRests, FixedFidelity, JointSticks, NoSpringToFrame, RelativeAngle,
                                     Spanned)
+from jointrig.vocab.params import HINGE, Coordinate
+
+from .formatting import quantity_of
 
 
 @singledispatch
@@ -82,3 +91,62 @@ def _(note: RelativeAngle) -> str:
             f"of the torque (--torque-share: the undriven flywheel's J over J1 + J2"
             + (", from your model" if note.from_model else "") + "); bearing drag and the angle sensors' zero offset "
             "are not sought: they need both angles")
+
+
+@singledispatch
+def rejection_text(rejection, kind: Coordinate = HINGE) -> str:
+    """Why a significant cause was rejected, in words, on a bench of ``kind``."""
+    raise TypeError(f"no words for a rejection of type {type(rejection).__name__}")
+
+
+@rejection_text.register
+def _(r: Unphysical, kind: Coordinate = HINGE) -> str:
+    return f"fitted with an unphysical negative {kind.name(r.name)} = {r.value:.4g}: rejected"
+
+
+@rejection_text.register
+def _(r: FeedsEnergy, kind: Coordinate = HINGE) -> str:
+    return (f"the extended model would hold a negative {kind.name(r.name)} = {r.value:.4g} +- {r.std_error:.2g}: it "
+            f"would feed energy in")
+
+
+@rejection_text.register
+def _(r: BelowResolution, kind: Coordinate = HINGE) -> str:
+    then = f"{r.slips} that never sticks is dry friction (see {r.friction})" if r.slips else "no free play is resolved"
+    return (f"its {r.size} {r.value:.3g} {kind.unit} is below the {kind.sensor} resolution {r.resolution:.2g} "
+            f"{kind.unit}: {then}")
+
+
+@rejection_text.register
+def _(r: NoFalloff, kind: Coordinate = HINGE) -> str:
+    return (f"its Stribeck rate {r.velocity:.3g} {kind.unit}/s is above every run's rate amplitude (at most "
+            f"{r.rate_top:.3g} {kind.unit}/s): the friction does not fall off within the data; it is dry friction (see "
+            f"{r.friction})")
+
+
+def _inertias(bodies, kind: Coordinate) -> str:
+    return ", ".join(f"{quantity_of(kind.name(inertia_name(i)))} = {v:.3g} +- {se:.2g}" for i, v, se in bodies)
+
+
+@singledispatch
+def plausibility_text(finding, kind: Coordinate = HINGE) -> str:
+    """What a train's fit says about how its file was read, in words, on a bench of ``kind``."""
+    raise TypeError(f"no words for a finding of type {type(finding).__name__}")
+
+
+@plausibility_text.register
+def _(f: ReadWrong, kind: Coordinate = HINGE) -> str:
+    said = ([f"the fitted inertia of body(ies) {', '.join(str(i) for i, _, _ in f.bodies)} "
+             f"({_inertias(f.bodies, kind)}) is no body's"] if f.bodies else []) + (
+        [f"joint(s) {', '.join(map(str, f.joints))} come out with a negative stiffness or damping (they would feed "
+         f"energy in)"] if f.joints else [])
+    return (" and ".join(said) + ": check that the position columns (phi1..phiN, x1..xN) are the bodies in their order "
+            "along the line (two swapped give this), that each drive column torque<i> (force<i>) acts on body i, and "
+            "the units (angles in rad, not deg; torques in N m, not N mm)")
+
+
+@plausibility_text.register
+def _(f: UndeterminedInertia, kind: Coordinate = HINGE) -> str:
+    return (f"the inertia of body(ies) {', '.join(str(i) for i, _, _ in f.bodies)} ({_inertias(f.bodies, kind)}) is "
+            f"not determined by these runs (within two standard errors of zero): at too few drive frequencies an "
+            f"inertia and a stiffness act alike on a sine; runs at more frequencies tell them apart")

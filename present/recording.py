@@ -28,6 +28,7 @@ import rerun as rr
 
 from jointrig.vocab.law import JointLaw
 from jointrig.identify.harmonics import fourier_coefficients
+from jointrig.vocab.params import HINGE, Coordinate
 from jointrig.vocab.records import SteadyStateRecord
 
 __all__ = ["open_recording", "run_label", "log_run", "log_restoring_force", "log_harmonics", "log_parameter_table",
@@ -426,13 +427,15 @@ def log_chain_laws(rec: rr.RecordingStream, true_laws, identified_laws, records,
 
 
 def log_chain_diagnosis(rec: rr.RecordingStream, diagnosis, validation, n_flywheels: int, misfit=None,
-                        text: str = "") -> None:
+                        text: str = "", kind: Coordinate = HINGE) -> None:
     """A chain diagnosis: the verdict and the report (``text``, the console's), where (the best
     score at every joint and flywheel, and the ranked candidates as a table), the held-out runs
     (the found joint's twist, measured against the nominal and the extended model, and each
     model's departure from the measurement), and an unexplained ``misfit``
     (:class:`identify.chain_diagnose.TrainMisfit`) as a restoring-force surface, with its blueprint."""
     import rerun.blueprint as rrb
+
+    from .notes import rejection_text
 
     places = [f"joint {j}" for j in range(1, n_flywheels)] + [f"flywheel {i}" for i in range(1, n_flywheels + 1)]
     if any(s.where is not None and s.where.at_drive for s in diagnosis.first_round):
@@ -448,7 +451,7 @@ def log_chain_diagnosis(rec: rr.RecordingStream, diagnosis, validation, n_flywhe
     lines = ["| candidate | BIC score | p | magnitude | note |", "|---|---|---|---|---|"]
     for s in diagnosis.first_round:
         lines.append(f"| {s.label} | {s.score:.1f} | {s.p_value:.2g} | {s.magnitude[0]} = {s.magnitude[1]:.4g} +- "
-                     f"{s.magnitude[2]:.2g} | {s.note} |")
+                     f"{s.magnitude[2]:.2g} | {rejection_text(s.note, kind) if s.note else ''} |")
     found = "; ".join(f"**{s.label}**: {s.magnitude[0]} = {s.magnitude[1]:.4g} +- {s.magnitude[2]:.2g}"
                       for s in diagnosis.steps) or "nothing significant"
     gain = "" if validation is None else (f"\n\nHeld-out runs: twist error nominal {validation.nominal_error:.3g}, "

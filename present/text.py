@@ -12,8 +12,10 @@ from dataclasses import dataclass
 from typing import Callable, Mapping, Sequence
 
 from jointrig.identify.causes import Ambiguity, CauseScore
+from jointrig.vocab.params import HINGE, Coordinate
 
 from .formatting import quantity_of, sig, unit_of, with_se
+from .notes import rejection_text
 from .summary import WRITTEN_SE, WRITTEN_SHARE
 
 __all__ = ["ValidationRow", "head_lines", "parameter_lines", "causes_lines", "ambiguity_lines", "validation_lines",
@@ -58,10 +60,11 @@ def _where(signature: dict) -> str:
     return out
 
 
-def causes_lines(scores: Sequence[CauseScore], *, name: Callable[[str], str] = str,
-                 note: Callable[[str], str] = str, shown: int = 0, sought: str = "") -> list[str]:
-    """The causes ranked by evidence, as a table: every one, or the significant ones and the best
-    ``shown`` (the rest counted; all of them are in the JSON); ``sought``: where they were sought."""
+def causes_lines(scores: Sequence[CauseScore], *, kind: Coordinate = HINGE, shown: int = 0,
+                 sought: str = "") -> list[str]:
+    """The causes ranked by evidence, as a table, named for a bench of ``kind``: every one, or the
+    significant ones and the best ``shown`` (the rest counted; all of them are in the JSON), each
+    rejected one with why (:func:`present.notes.rejection_text`); ``sought``: where they were sought."""
     keep = [i for i, s in enumerate(scores) if not shown or i < shown or s.significant]
     width = max([22] + [len(scores[i].label) for i in keep])
     lines = [f"Causes ranked by evidence ({f'{sought}; ' if sought else ''}score = drop in chi2 - n_params "
@@ -70,11 +73,11 @@ def causes_lines(scores: Sequence[CauseScore], *, name: Callable[[str], str] = s
              f"magnitude; where the improvement is (mean/fund./even/odd>=3); dissipative share"]
     for i in keep:
         c = scores[i]
-        q = name(c.magnitude[0])
+        q = kind.name(c.magnitude[0])
         mag = f"{quantity_of(q)} = {with_se(c.magnitude[1], c.magnitude[2])} {unit_of(q)}"
         lines.append(f"  {i + 1:<4d} {c.label:{width}s} {c.score:12.4g} {c.delta_chi2:12.4g} {c.n_params:2d} "
                      f"{c.p_value:9.2g} {'yes' if c.significant else 'no':>4s}  {mag}; {_where(c.signature)}"
-                     + (f"  [{note(c.note)}]" if c.note else ""))
+                     + (f"  [{rejection_text(c.note, kind)}]" if c.note else ""))
     if len(keep) < len(scores):
         lines.append(f"  ... and {len(scores) - len(keep)} more, none significant (every one is in --json)")
     return lines

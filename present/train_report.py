@@ -18,7 +18,7 @@ from jointrig.studies.chain_validate import TrainReport
 
 from .diagnosis_json import DiagnosisJson, FitJson, RunJson, ValidationJson
 from .formatting import quantity_of, sig, sig_or, unit_of, with_se
-from .notes import note_text
+from .notes import note_text, plausibility_text, rejection_text
 from .summary import NO_GAIN, compare_written, steps_after, wrong_sentence
 from .text import (ValidationRow, ambiguity_lines, causes_lines, head_lines, notes_lines, on_bound_lines, parameter_lines,
                    ruled_out_lines, validation_lines)
@@ -340,6 +340,11 @@ def offset_readings(report: TrainReport) -> tuple[str, ...]:
     return tuple(out)
 
 
+def _plausibility(report: TrainReport) -> tuple[str, ...]:
+    """What the nominal fit says about how the file was read, in words (:func:`present.notes.plausibility_text`)."""
+    return tuple(plausibility_text(f, report.kind) for f in report.diagnosis.plausibility)
+
+
 def _cell(error: float) -> str:
     return sig_or(error, "no steady")
 
@@ -354,10 +359,10 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
     held_ids = [report.run_ids[i] for i in report.held_out]
     m = report.misfit
     if v.verdict != "unexplained":
-        steps = d.plausibility + offset_readings(report) + method_bias_steps(report) + steps_after(
+        steps = _plausibility(report) + offset_readings(report) + method_bias_steps(report) + steps_after(
             v.verdict, d.ambiguities, report.held_out_periods)
     else:  # no cause mends a file read wrong: that comes first
-        steps = d.plausibility + offset_readings(report) + (m.next_measurements if m is not None else ())
+        steps = _plausibility(report) + offset_readings(report) + (m.next_measurements if m is not None else ())
     misfit = ([f"Where the misfit is: {m.describe_places()}",
                f"What the misfit looks like there: {m.describe()[0]}",
                f"Its restoring-force surface: {m.describe()[1]}"] if m is not None else [])
@@ -383,7 +388,7 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
     lines += ["", f"Nominal model: chi2/dof = {d.reduced_chi2(d.nominal):.3g} (about 1 when only noise is left)"]
     lines += parameter_lines(reported_values(d.nominal, report), nm)
     lines.append("")
-    lines += causes_lines(d.first_round, name=nm, note=report.kind.words, shown=shown, sought=_sought(report))
+    lines += causes_lines(d.first_round, kind=report.kind, shown=shown, sought=_sought(report))
     lines.append("")
     if d.steps:
         lines.append(f"Extended model: {' + '.join(s.label for s in d.steps)}; chi2/dof = {d.reduced_chi2(d.final):.3g}")
@@ -413,7 +418,7 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
             summary=f"nominal {_cell(val.nominal_error)}, extended {_cell(val.extended_error)}, a right model "
                     f"{_cell(val.expected_error)} (relative){_right_parts(val)}; gain {sig_or(val.gain, NO_GAIN)}",
             statement=("validation" if report.held_out_periods else "generalisation", report.generalisation),
-            failures=[report.kind.words(val.note)] if val.note else [])
+            failures=[val.note] if val.note else [])
     lines += notes_lines(all_notes)
     return "\n".join(lines)
 
@@ -460,8 +465,8 @@ def train_report_json(report: TrainReport, *, source: str = "", notes: Sequence[
         adopted=tuple(s.label for s in d.steps) if report.adopted else (), extended=FitJson.of(d.final, nm, _taken(report)),
         ambiguities=tuple(d.ambiguities),
         as_written={nm(w.name): w.as_json() for w in _written(report)},
-        validation=validation, notes=tuple(_notes(notes, report)), name=nm,
-        plausibility=tuple(report.kind.words(t) for t in d.plausibility),
+        validation=validation, notes=tuple(_notes(notes, report)),
+        plausibility=_plausibility(report),
         misfit_character=report.misfit.as_json() if report.misfit is not None else None,
         misfit_surface=report.misfit.surface.as_json() if report.misfit is not None else None,
         next_measurements=tuple(report.misfit.next_measurements) if report.misfit is not None else (),
@@ -622,7 +627,7 @@ def write_train_html(path, report: TrainReport, text: str, *, title: str, source
     parts.append(table(["candidate", "BIC score", "p", "size", "note"], [
         row([s.label, (f"{s.score:.1f}", "num"), (f"{s.p_value:.2g}", "num"),
               f"{quantity_of(nm(s.magnitude[0]))} = {with_se(s.magnitude[1], s.magnitude[2])} {unit_of(nm(s.magnitude[0]))}",
-              report.kind.words(s.note)]) for s in d.first_round]))
+              rejection_text(s.note, report.kind) if s.note else ""]) for s in d.first_round]))
     parts.append("</details>")
     all_notes = _notes(notes, report)
     if all_notes:

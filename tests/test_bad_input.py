@@ -32,13 +32,16 @@ def _script(name):
     return importlib.import_module(f"jointrig.commands.{name}")
 
 
-def _good_rows(n_periods=3, N=64, *, run="0", t0=0.0, omega=W, phi1_extra=None):
+def _good_rows(n_periods=3, N=64, *, run="0", t0=0.0, omega=W, phi1_extra=None, torque_extra=None, rigid=False):
+    """Rows of a two-flywheel run; ``rigid``: both flywheels move alike (no twist)."""
     dt = 2 * math.pi / omega / N
     rows = []
     for k in range(n_periods * N):
         t = t0 + k * dt
         p1 = 0.3 * math.cos(omega * t - 0.5) + (phi1_extra(t) if phi1_extra else 0.0)
-        rows.append(f"{run},{t!r},{1000 * math.cos(omega * t)!r},{p1!r},{0.1 * math.cos(omega * t - 1.5)!r}")
+        p2 = p1 if rigid else 0.1 * math.cos(omega * t - 1.5)
+        torque = 1000 * math.cos(omega * t) + (torque_extra(t) if torque_extra else 0.0)
+        rows.append(f"{run},{t!r},{torque!r},{p1!r},{p2!r}")
     return rows
 
 
@@ -95,6 +98,11 @@ LOADER = {
     "omega negative": ("run,time,torque,phi1,phi2,omega\n" + "\n".join(f"{r},-60" for r in _good_rows()) + "\n",
                        "one positive value per run"),
     "slipping encoder": (good_csv(n_periods=4, phi1_extra=lambda t: 0.2 * t), "drifts"),
+    # the twist's unit is the angle's, the torque's N m
+    "drifting amplifier": (good_csv(n_periods=4, torque_extra=lambda t: 2000.0 * t),
+                           r"run 0: column 'torque' drifts by [0-9.e+-]+ N m over the record \([0-9.e+-]+ N m/s"),
+    # both flywheels turn alike: the joint never twists, whatever each angle does
+    "no twist": (good_csv(rigid=True), r"run 0: column 'phi1 - phi2' does not vary \(spread 0 rad\)"),
     "no drive": ("run,time,torque,phi1,phi2\n" + "\n".join(
         f"0,{k * 1e-3!r},5.0,{math.sin(k * 0.06)!r},0.0" for k in range(300)) + "\n", "does not vary"),
     "unknown unit": (good_csv().replace("phi1,", "phi1 [furlong],", 1), "unit 'furlong'.*expected one of rad"),
@@ -763,3 +771,20 @@ def test_periods_the_rig_would_replay_for_minutes_are_refused(tmp_path, capsys):
     assert code == 2 and "Traceback" not in err, err
     assert "run(s) 0 (0.025 rad/s)" in err and "expected periods of at most 10 s (omega >= 0.628 rad/s)" in err, err
     assert "--units time=ms" in err
+
+
+def test_a_relative_angles_mean_that_follows_the_drives_mean_is_read_as_a_preload(tmp_path):
+    # The relative angle alone, two runs: the second under a mean drive of 300 N m (its share on the
+    # joint, 150) and its mean angle 6 mrad further: a preload that changes between runs, said of
+    # the relative angle (not of a joint's twist), not refused as encoders zeroed per run.
+    def rows(run, mean_torque, mean_phi, omega=60.0, N=64, periods=4):
+        dt = 2 * math.pi / omega / N
+        return [f"{run},{k * dt!r},{mean_torque + 1000 * math.cos(omega * k * dt)!r},"
+                f"{mean_phi + 0.01 * math.cos(omega * k * dt - 0.4)!r}" for k in range(N * periods)]
+
+    path = tmp_path / "relative_loads.csv"
+    path.write_text("run,time,torque,phi\n" + "\n".join(rows("a", 0.0, 0.0) + rows("b", 300.0, 0.006)) + "\n")
+    said = [n for n in read_runs(path).notes if "preload" in n]
+    assert said == ["the relative angle's mean differs between runs by 0.006 rad, as the drives' mean does (by 150): "
+                    "read as a preload that changes between runs (each run's replay holds its own), not as encoders "
+                    "zeroed per run"]

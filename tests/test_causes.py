@@ -333,21 +333,46 @@ def test_a_magnitude_is_a_parameter_a_vector_length_or_the_largest_part():
 
 
 def test_a_slip_angle_or_free_play_below_the_resolution_and_a_stribeck_rate_above_every_rate_degenerate():
-    from jointrig.identify.causes import Limits
+    # The rules return values (the limit, the size, where the dry friction is); their words are the
+    # report's, in the units of the bench (present.notes.rejection_text).
+    from jointrig.identify.causes import BelowResolution, Limits, NoFalloff
+    from jointrig.present.notes import rejection_text
+    from jointrig.vocab.params import SLIDE
 
     lim = Limits(resolution_rad=1e-3, rate_top_rad_s=2.0, friction="coulomb_friction at joint 2")
     jenkins, iwan, gap, stribeck = (by_name(n).degenerate for n in ("hysteresis", "micro_slip", "backlash",
                                                                       "stribeck_friction"))
-    assert jenkins(9.9e-4, lim) == ("its slip angle 0.00099 rad is below the angle resolution 0.001 rad: a Jenkins "
-                                    "element that never sticks is dry friction (see coulomb_friction at joint 2)")
+    assert jenkins(9.9e-4, lim) == BelowResolution("slip angle", 9.9e-4, 1e-3, "a Jenkins element",
+                                                   "coulomb_friction at joint 2")
+    assert rejection_text(jenkins(9.9e-4, lim)) == (
+        "its slip angle 0.00099 rad is below the angle resolution 0.001 rad: a Jenkins element that never sticks is "
+        "dry friction (see coulomb_friction at joint 2)")
     assert jenkins(1e-3, lim) is None and iwan(1e-3, lim) is None and gap(1e-3, lim) is None
-    assert "largest slip angle" in iwan(5e-4, lim) and "an Iwan element" in iwan(5e-4, lim)
-    assert gap(5e-4, lim).endswith("no free play is resolved")
+    assert "largest slip angle" in rejection_text(iwan(5e-4, lim)) and "an Iwan element" in rejection_text(iwan(5e-4, lim))
+    assert rejection_text(gap(5e-4, lim)).endswith("no free play is resolved")
+    assert rejection_text(gap(5e-4, lim), SLIDE).startswith(
+        "its half gap 0.0005 m is below the position resolution 0.001 m")
     assert stribeck(2.0, lim) is None and stribeck(1.0, lim) is None
-    assert stribeck(2.5, lim) == ("its Stribeck rate 2.5 rad/s is above every run's rate amplitude (at most 2 rad/s): "
-                                  "the friction does not fall off within the data; it is dry friction (see "
-                                  "coulomb_friction at joint 2)")
+    assert stribeck(2.5, lim) == NoFalloff(2.5, 2.0, "coulomb_friction at joint 2")
+    assert rejection_text(stribeck(2.5, lim)) == (
+        "its Stribeck rate 2.5 rad/s is above every run's rate amplitude (at most 2 rad/s): the friction does not fall "
+        "off within the data; it is dry friction (see coulomb_friction at joint 2)")
+    assert "(at most 2 m/s)" in rejection_text(stribeck(2.5, lim), SLIDE)
     assert by_name("coulomb_friction").degenerate is None and by_name("cogging").degenerate is None
+
+
+def test_a_rejection_is_said_with_the_benchs_names():
+    from jointrig.identify.causes import FeedsEnergy, Unphysical
+    from jointrig.present.notes import rejection_text
+    from jointrig.vocab.params import SLIDE
+
+    neg = Unphysical("ground1_quadratic_damping_Nms2_per_rad2", -82.0)
+    assert rejection_text(neg) == "fitted with an unphysical negative ground1_quadratic_damping_Nms2_per_rad2 = -82: rejected"
+    assert rejection_text(neg, SLIDE) == "fitted with an unphysical negative ground1_quadratic_damping_Ns2_per_m2 = -82: rejected"
+    assert rejection_text(FeedsEnergy("joint1_c_Nms_per_rad", -71.1, 5.0)) == (
+        "the extended model would hold a negative joint1_c_Nms_per_rad = -71.1 +- 5: it would feed energy in")
+    with pytest.raises(TypeError, match="no words for a rejection of type str"):
+        rejection_text("rejected")
 
 
 def test_the_cogging_search_spans_its_orders_on_a_grid_finer_than_chi_squares_oscillation():

@@ -202,7 +202,7 @@ def test_the_drives_lag_on_data_without_one_stays_at_zero_and_is_no_place_to_dri
     problem, (nominal, w) = _linear_problem()
     lag = [c for c in candidates(4) if c.at_drive][0]
     s = score(problem, lag, nominal, w, 10, 1e-3)
-    assert s.magnitude[0] == "drive_delay_s" and s.magnitude[1] == 0.0 and not s.significant and s.note == ""
+    assert s.magnitude[0] == "drive_delay_s" and s.magnitude[1] == 0.0 and not s.significant and s.note is None
     friction = next(c for c in JOINT_CAUSES if c.name == "coulomb_friction")
     a, b = Candidate(friction, Place("joint", 1)), Candidate(friction, Place("joint", 3))
     sa, sb = (score(problem, x, nominal, w, 10, 1e-3) for x in (a, b))
@@ -286,9 +286,13 @@ def test_a_train_read_wrong_says_which_joint_feeds_energy_in():
         v = np.array([values[n] for n in names])
         return ChainFit(spec, names, v, np.full(v.size, 0.1), 1.0, 100, np.zeros(100))
 
+    from jointrig.identify.chain_diagnose import ReadWrong
+    from jointrig.present.notes import plausibility_text
+
     assert implausible_train_fit(fit(good)) == ()
     said = implausible_train_fit(fit(bad))
-    assert len(said) == 1 and said[0].startswith("joint(s) 2 come out with a negative stiffness")
+    assert said == (ReadWrong((), (2,)),)
+    assert plausibility_text(said[0]).startswith("joint(s) 2 come out with a negative stiffness")
 
 
 def test_weights_from_the_periods_spread_give_a_right_model_the_noises_chi_square():
@@ -775,13 +779,22 @@ def test_the_last_bodys_inertia_is_checked_for_plausibility_too():
     def fit(values):
         return ChainFit(spec, names, np.array(values, float), np.full(len(names), 0.01), 10.0, 100,
                         np.zeros(100))
+    from jointrig.identify.chain_diagnose import ReadWrong, UndeterminedInertia
+    from jointrig.present.notes import plausibility_text
+    from jointrig.vocab.params import SLIDE
+
     assert implausible_train_fit(fit([1.0, 1e4, 1.0, 1e4, 1.0])) == ()
     said = implausible_train_fit(fit([1.0, 1e4, 1.0, 1e4, -0.5]))
-    assert said and "body(ies) 3" in said[0] and "J3 = -0.5" in said[0] and "position columns" in said[0]
+    assert said == (ReadWrong(((3, -0.5, 0.01),), ()),)
+    text = plausibility_text(said[0])
+    assert "body(ies) 3" in text and "J3 = -0.5 +- 0.01" in text and "position columns" in text
+    assert "m3 = -0.5 +- 0.01" in plausibility_text(said[0], SLIDE)  # a carriage's mass by its name
     # within two standard errors of zero (either side) it is not determined, not read wrong
     for J3 in (-0.015, 0.015):
         (said,) = implausible_train_fit(fit([1.0, 1e4, 1.0, 1e4, J3]))
-        assert "body(ies) 3" in said and "not determined by these runs" in said and "position columns" not in said
+        assert said == UndeterminedInertia(((3, J3, 0.01),))
+        text = plausibility_text(said)
+        assert "body(ies) 3" in text and "not determined by these runs" in text and "position columns" not in text
 
 
 def test_a_joint_cards_runs_read_its_twist():

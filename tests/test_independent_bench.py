@@ -185,7 +185,7 @@ def _accept(report, joint: str, case: str, relative: bool = False) -> None:
     offset = {c.name for c in CATALOGUE if c.reads_as_offset} if relative else set()
     dynamic = [s.effect for s in d.steps if KIND[s.effect] == "dynamic" and s.effect not in offset]
     ranked = [c.effect for c in d.first_round if KIND[c.effect] == "dynamic"]
-    table = [(c.label, round(c.score), c.significant, c.note[:40]) for c in d.first_round]
+    table = [(c.label, round(c.score), c.significant, c.note) for c in d.first_round]
     if case == "none":
         assert dynamic == [], table
         assert report.verdict.verdict == "no_misfit", report.verdict

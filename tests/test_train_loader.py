@@ -247,8 +247,6 @@ def test_how_the_bodies_move_knows_its_names_units_and_words():
         assert SLIDE.project_name(SLIDE.name(name)) == name
     assert [SLIDE.name(n) for n in ("J1_kgm2", "joint2_k_Nm_per_rad", "bearing3_damping_Nms_per_rad")] == \
         ["m1_kg", "joint2_k_N_per_m", "guide3_damping_Ns_per_m"]
-    said = "set ground1_coulomb_torque_Nm to 3 (J1_kgm2 is 2)"
-    assert HINGE.words(said) == said and SLIDE.words(said) == "set ground1_coulomb_force_N to 3 (m1_kg is 2)"
     assert (SLIDE.channel("torque1"), SLIDE.channel("phi2"), HINGE.channel("phi2")) == ("force1", "x2", "phi2")
     assert (HINGE.in_degrees(0.5), SLIDE.in_degrees(0.5)) == (" (28.6 deg)", "")
     assert (HINGE.bodies(4), SLIDE.bodies(3)) == ("a train of 4 bodies", "3 bodies on slides")

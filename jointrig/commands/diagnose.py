@@ -173,7 +173,7 @@ def _main(args: argparse.Namespace) -> int:
 
         with open_recording(args.rrd) as rec:
             log_chain_diagnosis(rec, report.diagnosis, report.validation, report.diagnosis.nominal.spec.n_flywheels,
-                                report.misfit, text=text)
+                                report.misfit, text=text, kind=report.kind)
         log.info("wrote %s", args.rrd)
     if args.mjcf:
         from jointrig import __version__

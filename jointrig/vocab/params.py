@@ -171,10 +171,6 @@ class Coordinate(str):
         """The project's (a hinge's) name of a parameter named as this bench's user reads it."""
         return _translate(name, self._to_project)
 
-    def words(self, text: str) -> str:
-        """Every parameter name in a sentence as this bench's user reads it."""
-        return re.sub(r"\b\w+_\w+\b", lambda m: self.name(m.group()), text) if self._to_user else text
-
     def channel(self, project_channel: str) -> str:
         """A channel's name on this bench (``torque1`` -> ``force1``, ``phi2`` -> ``x2`` on a slide)."""
         return project_channel.replace("torque", self.drive).replace("phi", self.position)
