@@ -297,9 +297,11 @@ def _instrumental(runs: Sequence[_Run], halves: Sequence[tuple[_Run, _Run]], the
 
 
 def scaled_ls_start(runs: Sequence[_Run]) -> np.ndarray:
-    """Start: least squares with each run's rows scaled by its rhs size (columns equilibrated)."""
-    A = np.vstack([r.A / max(np.linalg.norm(r.F), 1e-300) for r in runs])
-    F = np.concatenate([r.F / max(np.linalg.norm(r.F), 1e-300) for r in runs])
+    """Start: least squares with each run's rows scaled by its rhs size (columns equilibrated); a
+    run whose rhs is zero (no drive reached it) is kept unscaled."""
+    size = [float(np.linalg.norm(r.F)) or 1.0 for r in runs]
+    A = np.vstack([r.A / s for r, s in zip(runs, size)])
+    F = np.concatenate([r.F / s for r, s in zip(runs, size)])
     d = 1 / np.where(np.linalg.norm(A, axis=0) > 0, np.linalg.norm(A, axis=0), 1)
     return np.linalg.lstsq(A * d, F, rcond=None)[0] * d
 

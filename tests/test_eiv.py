@@ -385,3 +385,21 @@ def test_the_ml_estimate_is_the_likelihoods_minimum_and_a_torque_share_of_0_is_r
         assert cost(theta + step) - cost(theta) == pytest.approx(expected, rel=0.3), i
     with pytest.raises(ValueError, match=r"torque_share must be in \(0, 1\]"):
         ml_identify(recs, rig.law.terms, n_harmonics=9, torque_share=0.0)
+
+
+def test_the_scaled_start_takes_a_run_without_drive_as_it_is():
+    # Each run's rows are scaled by its torque's size; a run whose balanced torque is zero (no
+    # drive reached it) is kept unscaled rather than divided by zero, and the start is the other
+    # runs' exact solution (their rows hold theta = (2, -3) exactly).
+    from types import SimpleNamespace
+
+    from jointrig.identify.eiv import scaled_ls_start
+
+    theta = np.array([2.0, -3.0])
+    A1 = np.array([[1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
+    A0 = np.array([[0.5, 0.2], [0.1, 0.3]])
+    runs = [SimpleNamespace(A=A1, F=A1 @ theta), SimpleNamespace(A=A0, F=np.zeros(2))]
+    start = scaled_ls_start(runs[:1])
+    assert np.allclose(start, theta, rtol=1e-12)
+    both = scaled_ls_start(runs)
+    assert np.all(np.isfinite(both))
