@@ -135,8 +135,18 @@ _EFFECTS = [c for c in CASES["paper"] if c.endswith("/1")]
 SUITE = [(j, "none") for j in CASES] + [("paper" if k % 2 == 0 else "light", c) for k, c in enumerate(_EFFECTS)]
 
 
+#: Cases the diagnosis gets wrong today, each with what is wrong and its issue: the test is
+#: expected to fail on them, and strictly (it fails the run when one passes, so the mark goes).
+KNOWN_MISSES = {
+    ("light", "stribeck_friction/1"): "issue 48: the Stribeck excess reads 15.47 +- 1.48 N m against the bench's 20 "
+                                      "(3.07 standard errors; the Stribeck law's coverage is open)",
+}
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("joint, case", SUITE)
+@pytest.mark.parametrize("joint, case", [
+    pytest.param(j, c, marks=pytest.mark.xfail(strict=True, reason=KNOWN_MISSES[(j, c)])) if (j, c) in KNOWN_MISSES
+    else (j, c) for j, c in SUITE])
 def test_independent_bench_effect_is_found_sized_and_pays_off(tmp_path, joint, case):
     _accept(_diagnose(tmp_path, joint, case), joint, case)
 
