@@ -15,8 +15,10 @@ found: the Jacobian of the balance's residual over the linear parameters and the
 (``A`` and ``dA/dh theta``, central difference), and each period's own score ``J_k' W r_k`` (the
 run's periods are independent draws of the noise, so their scores' spread is the score's
 covariance, every correlation between rows included, across harmonics too). The sandwich
-``B Q B`` (``B = (J'WJ)^-1``) gives the profiled parameter's standard error from the data alone.
-It prints, per profile: the profile's standard error, the sandwich's, and their ratio; and, per
+``B Q B`` (``B = (J'WJ)^-1``) gives the profiled parameter's standard error from the data alone;
+for a cause at a joint, again with the joint's twist zero free beside it (the diagnosis profiles
+the two in turn, each given the other). It prints, per profile: the profile's standard error, the
+sandwich's, and their ratio; and, per
 seed, the final value of the profiled parameter against the truth, in the profile's standard
 errors. A ratio near 1 where the truth lies several standard errors off rules the candidate out.
 
@@ -42,28 +44,44 @@ sys.path[:0] = [str(ROOT / "scripts"), str(ROOT / "tests")]
 os.environ["JOINTRIG_WORKERS"] = "1"
 
 
-def period_scores_se(problem, cand, base, weights, fit, value: float, lo: float, hi: float) -> tuple[float, float]:
-    """The profiled parameter's standard error from the periods' own scores, and from ``(J'WJ)^-1``
-    alone, at ``value`` (the linear parameters at ``fit``'s)."""
-    dh = max(1e-3 * abs(value), 1e-6 * (hi - lo))
-    spec, below, above = (cand.extend(base, x) for x in (value, value - dh, value + dh))
+def period_scores_se(problem, profiled, base, weights, fit, lo: float, hi: float) -> tuple[np.ndarray, np.ndarray]:
+    """The standard errors of the profiled parameters ``profiled`` (``(candidate, value)`` each, the
+    first the one profiled) from the periods' own scores, and from ``(J'WJ)^-1`` alone, at their
+    values in ``base`` (the linear parameters at ``fit``'s): every one of them free together."""
+    theta = np.asarray(fit.values, dtype=float)
+
+    def at(shifts):
+        spec = base
+        for (cand, value), d in zip(profiled, shifts):
+            spec = cand.extend(spec, value + d)
+        return spec
+
+    steps = [max(1e-3 * abs(v), 1e-6 * (hi - lo)) for _, v in profiled]
+    zero = [0.0] * len(profiled)
+    spec = at(zero)
     jumps = problem.jumps(spec, fit.as_dict())
     banded = problem.system(spec, jumps)
-    theta = np.asarray(fit.values, dtype=float)
-    slope = (problem.system(above, jumps).system.A - problem.system(below, jumps).system.A) @ theta / (2 * dh)
-    J = np.column_stack([banded.system.A, slope])
+    moved = []  # (below, above, step) per profiled parameter
+    for k, d in enumerate(steps):
+        moved.append(tuple(at([(s if i == k else 0.0) for i in range(len(profiled))]) for s in (-d, d)) + (d,))
+    cols = [(problem.system(up, jumps).system.A - problem.system(down, jumps).system.A) @ theta / (2 * d)
+            for down, up, d in moved]
+    J = np.column_stack([banded.system.A] + cols)
     B = np.linalg.pinv(J.T @ (J * weights[:, None]))
     Q = np.zeros_like(B)
-    for (rows, As, Fs, _, _), (_, Am, _, _, _), (_, Ap, _, _, _) in zip(
-            problem.period_systems(spec, banded, jumps), problem.period_systems(below, banded, jumps),
-            problem.period_systems(above, banded, jumps)):
+    per = [list(problem.period_systems(spec, banded, jumps))] + [
+        (list(problem.period_systems(down, banded, jumps)), list(problem.period_systems(up, banded, jumps)), d)
+        for down, up, d in moved]
+    for i, (rows, As, Fs, _, _) in enumerate(per[0]):
         P = As.shape[0]
-        Jk = np.concatenate([As, ((Ap - Am) @ theta / (2 * dh))[:, :, None]], axis=2)
+        extra = [((m[1][i][1] - m[0][i][1]) @ theta / (2 * m[2]))[:, :, None] for m in per[1:]]
+        Jk = np.concatenate([As] + extra, axis=2)
         g = np.einsum("kmi,m,km->ki", Jk, weights[rows], Fs - As @ theta)
         dg = g - g.mean(axis=0)
         Q += dg.T @ dg / (P * (P - 1))
     cov = B @ Q @ B
-    return math.sqrt(max(cov[-1, -1], 0.0)), math.sqrt(max(B[-1, -1], 0.0))
+    n = len(profiled)
+    return (np.sqrt(np.clip(np.diag(cov)[-n:], 0.0, None)), np.sqrt(np.clip(np.diag(B)[-n:], 0.0, None)))
 
 
 def _diagnosis(db: float, seed: int, effect: str, tmp: Path, omega_given: bool):
@@ -116,11 +134,17 @@ def main(argv=None) -> int:
         name, value, se = fit.profiled[0]
         if math.isfinite(se) and value != 0:
             _, lo, hi = cd._search_range(problem, cand)
-            scores, plain = period_scores_se(problem, cand, base, weights, fit, value, lo, hi)
-            print(f"  profile {name} = {value:.6g} +- {se:.3g}: the periods' scores give {scores:.3g}",
-                  file=sys.stderr)
+            scores, plain = (x[0] for x in period_scores_se(problem, [(cand, value)], base, weights, fit, lo, hi))
+            together = math.nan
+            if cand.at_joint and cand.cause.name != cd.TWIST_ZERO.name:  # the joint's zero free beside it
+                zero = cd.Candidate(cd.TWIST_ZERO, cand.where)
+                both = period_scores_se(problem, [(cand, value), (zero, base.offsets_rad[cand.place - 1])],
+                                        base, weights, fit, lo, hi)[0]
+                together = float(both[0])
+            print(f"  profile {name} = {value:.6g} +- {se:.3g}: the periods' scores give {scores:.3g}, with the "
+                  f"joint's zero free {together:.3g}", file=sys.stderr)
             seen.append({"parameter": name, "value": value, "se_profile": se, "se_scores": scores,
-                         "se_plain": plain, "ratio": scores / se})
+                         "se_plain": plain, "ratio": scores / se, "se_scores_zero_free": together})
         return fit
 
     cd._profile = wrapped
@@ -140,8 +164,11 @@ def main(argv=None) -> int:
                        "truth": truth, "z": (value - truth) / se if truth is not None and se > 0 else None}
                 rows.append(row)
                 z = "" if row["z"] is None else f", truth {truth:.4g}: z {row['z']:+.2f}"
+                free = last["se_scores_zero_free"]
                 print(f"seed {seed}: {name} = {value:.5g} +- {se:.3g} (profile); the periods' scores give "
-                      f"{last['se_scores']:.3g}, ratio {last['ratio']:.2f}{z}")
+                      f"{last['se_scores']:.3g}, ratio {last['ratio']:.2f}"
+                      + (f"; with the joint's zero free {free:.3g}, ratio {free / se:.2f}" if math.isfinite(free) else "")
+                      + z)
     finally:
         cd._profile = original
     if args.json:
