@@ -788,3 +788,13 @@ def test_a_relative_angles_mean_that_follows_the_drives_mean_is_read_as_a_preloa
     assert said == ["the relative angle's mean differs between runs by 0.006 rad, as the drives' mean does (by 150): "
                     "read as a preload that changes between runs (each run's replay holds its own), not as encoders "
                     "zeroed per run"]
+
+
+def test_a_forgotten_unit_is_named_on_encoders_with_their_own_zeros(tmp_path):
+    # The same forgotten unit on encoders that each read their own zero (30 and -20 deg): the twist
+    # read in degrees has one mean in every run, 0.87 rad off zero, which is a zero, not a
+    # re-zeroing per run: the advice still names phi2's unit.
+    path = _bench_file(tmp_path, lambda first, a, b: (math.degrees(a) + 30.0, math.degrees(b) - 20.0))
+    path.write_text(path.read_text().replace("run,time,torque,phi1,phi2", "run,time,torque,phi1 [deg],phi2", 1))
+    with pytest.raises(RunsFileError, match=r"phi2 has no unit stated.*--units phi2=deg"):
+        read_runs(path)

@@ -254,3 +254,25 @@ def test_how_the_bodies_move_knows_its_names_units_and_words():
             HINGE.bare_position_is_one_body) == ("m", "N", "x", "phi", True, False)
     back = pickle.loads(pickle.dumps(SLIDE))
     assert back == SLIDE and back.unit == "m" and back.name("J1_kgm2") == "m1_kg"
+
+
+def test_a_trains_position_that_does_not_vary_is_named_by_its_column(tmp_path):
+    # phi1 held constant (a disconnected encoder): the message names phi1, not another body's column.
+    rows = [r[:3] + [0.25] + r[4:] for r in _rows()]
+    with pytest.raises(RunsFileError, match=r"run 0: column 'phi1' does not vary \(spread 0 rad\)"):
+        read_runs(_train_csv(tmp_path / "c.csv", ["run", "time", "torque1", "phi1", "phi2", "phi3"], rows))
+
+
+def test_a_stated_omega_that_is_the_records_own_period_is_taken_as_stated(tmp_path):
+    # 100 samples per period at 1 kHz: the record repeats at 2 pi 10 rad/s. A stated omega that
+    # agrees to round-off (1e-9) is the run's, exactly as written, without a note; one 1e-6 off is
+    # noted and the record's own period is taken.
+    w = 2 * math.pi * 10
+    for stated, noted in ((w, False), (w * (1 + 1e-6), True)):
+        rows = [r + [stated] for r in _rows()]
+        loaded = read_runs(_train_csv(tmp_path / "w.csv", ["run", "time", "torque1", "phi1", "phi2", "phi3", "omega"],
+                                      rows))
+        written = float(f"{stated:.9g}")  # the file's nine digits
+        assert loaded.records[0].omega_rad_s == pytest.approx(w, rel=1e-8)
+        assert (loaded.records[0].omega_rad_s == written) == (not noted)
+        assert any("column 'omega'" in n for n in loaded.notes) == noted, loaded.notes
