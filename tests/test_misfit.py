@@ -248,6 +248,9 @@ def test_the_measurements_asked_for_start_above_their_thresholds():
     assert asks("stepped sine", replace(c, phase_span_deg=PHASE_SPAN_RESONANT_DEG + 1e-9))
     assert not asks("preload", replace(c, even_share=0.6))
     assert asks("preload", replace(c, even_share=0.6 + 1e-9))
+    # a surface that is not point-symmetric asks for them too, below its threshold ("less than")
+    assert not asks("preload", surface=replace(s, symmetric_share=0.3))
+    assert asks("preload", surface=replace(s, symmetric_share=0.3 - 1e-9))
     # the description's words share the threshold: at 0.6 a residual is "both odd and even"
     assert "both odd and even" in replace(c, even_share=0.6).describe()
     assert "(an asymmetry)" in replace(c, even_share=0.6 + 1e-9).describe()
@@ -280,3 +283,12 @@ def test_of_equal_changes_between_repeated_runs_the_first_pair_is_named():
     c = _run("c", 25.0, 1.0, lambda th, p, v: 10.0 * np.cos(3 * th))
     ch = misfit_character([a, b, c], 10)
     assert ch.repeat_change == pytest.approx(math.sqrt(2), rel=1e-9) and ch.repeat_runs == ("a", "b")
+
+
+def test_a_run_whose_residual_is_not_on_the_fundamental_turns_no_axis():
+    # A third run whose residual is 20 times larger on harmonic 3 than on its fundamental (share 1/401
+    # there) has no axis worth a phase: the span stays the 30 deg of the two runs on the fundamental.
+    a = _run("a", 20.0, 1.0, lambda th, p, v: 50.0 * np.cos(th))
+    b = _run("b", 40.0, 1.0, lambda th, p, v: 50.0 * np.cos(th - math.radians(30)))
+    c = _run("c", 60.0, 1.0, lambda th, p, v: 2.5 * np.cos(th - math.radians(80)) + 50.0 * np.cos(3 * th))
+    assert misfit_character([a, b, c], 10).phase_span_deg == pytest.approx(30.0, rel=1e-9)
