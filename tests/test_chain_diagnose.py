@@ -321,8 +321,13 @@ def test_a_drag_that_would_feed_energy_in_rejects_the_extension():
         v = np.array([drag if n.startswith("bearing") else 1.0 for n in names])
         return ChainFit(spec, names, v, np.full(v.size, 0.1), 1.0, 100, np.zeros(100))
 
+    from jointrig.identify.causes import FeedsEnergy
+    from jointrig.present.notes import rejection_text
+
     cand = Candidate(by_name("quadratic_damping"), Place("joint", 1))
-    assert "would feed energy in" in _rejection(problem, cand, fit(-0.5), ("x", 1.0, 0.1))
+    said = _rejection(problem, cand, fit(-0.5), ("x", 1.0, 0.1))
+    assert said == FeedsEnergy("bearing2_damping_Nms_per_rad", -0.5, 0.1)
+    assert rejection_text(said).endswith("would feed energy in")
     assert _rejection(problem, cand, fit(-0.15), ("x", 1.0, 0.1)) is None
 
 
