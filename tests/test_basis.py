@@ -342,3 +342,33 @@ def test_damping_in_contact_acts_beyond_the_free_play_and_its_samples_carry_thei
         law_terms_from_fields({"contact_c_Nms_per_rad": [-3.0], "backlash_half_gap_rad": [0.1]})
     with pytest.raises(ValueError, match="gap_rad"):
         ContactDamping(0.0)
+
+
+def test_upsampling_keeps_the_top_line_of_an_odd_record_and_drops_an_even_ones_nyquist():
+    # 7 samples hold harmonics 0..3, the top one whole: upsampled twice it is the same cosine on 14.
+    # 8 samples: harmonic 4 is the Nyquist line, whose sine is lost, so it is dropped.
+    from jointrig.identify.balance import upsample
+
+    k7, k14 = np.arange(7), np.arange(14)
+    np.testing.assert_allclose(upsample(np.cos(2 * np.pi * 3 * k7 / 7 + 0.4), 2), np.cos(2 * np.pi * 3 * k14 / 14 + 0.4),
+                               rtol=0, atol=1e-14)
+    k8, k16 = np.arange(8), np.arange(16)
+    x = np.cos(2 * np.pi * k8 / 8) + np.cos(np.pi * k8)
+    np.testing.assert_allclose(upsample(x, 2), np.cos(2 * np.pi * k16 / 16), rtol=0, atol=1e-14)
+
+
+def test_a_law_oversampled_without_a_weight_is_balanced_and_a_weight_needs_the_plain_grid():
+    # A linear term's coefficients are the same on the twice finer grid (its samples interpolate
+    # exactly); a weight (a body's stick mask) is defined on the record's own samples only.
+    from jointrig.identify.balance import law_rows, upsample
+    from jointrig.identify.harmonics import fourier_coefficients
+    from jointrig.vocab.law import Power
+
+    n = 32
+    phi = np.cos(2 * np.pi * np.arange(n) / n) * 0.01
+    phi.setflags(write=False)
+    rows = law_rows((Power(1),), (phi, np.zeros(n)), (None, None), lambda: upsample(phi, 2),
+                    lambda: upsample(np.zeros(n), 2), 1, 3, 2)
+    np.testing.assert_allclose(rows[0], fourier_coefficients(phi, 1, 3), rtol=0, atol=1e-15)
+    with pytest.raises(ValueError, match="a weight needs oversample 1"):
+        law_rows((Power(1),), (phi, np.zeros(n)), (None, None), lambda: phi, lambda: phi, 1, 3, 2, weight=np.ones(n))

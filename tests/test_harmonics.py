@@ -90,3 +90,36 @@ def test_synthesize_puts_a_nyquist_harmonic_on_the_alternating_line():
     np.testing.assert_allclose(synthesize(c, 8), 0.75 * (-1.0) ** k, atol=1e-14)
     with pytest.raises(ValueError, match="need more than 8 samples"):
         synthesize(np.ones(6), 8)  # harmonic 5 over 8 samples would fold
+
+
+def test_two_periods_up_to_the_nyquist_line_round_trip_and_one_more_harmonic_is_refused():
+    # 16 samples over 2 periods: harmonic 4 of the period sits on the Nyquist bin (8 of 16), which
+    # holds the cosine alone; harmonic 5 has no bin. A signal with lines 0..4 (the Nyquist one a
+    # cosine) is synthesised from its coefficients exactly, and its lines below the Nyquist one
+    # are read back (fourier_coefficients stops below it).
+    from jointrig.identify.harmonics import fourier_coefficients, synthesize
+
+    n, periods = 16, 2
+    t = np.arange(n) / n * periods  # in periods
+    x = 0.5 + np.cos(2 * np.pi * t + 0.3) + 0.25 * np.sin(2 * np.pi * 3 * t) + 0.125 * np.cos(2 * np.pi * 4 * t)
+    C = np.array([0.5, np.exp(0.3j), 0.0, 0.25 * np.exp(-0.5j * np.pi), 0.125])
+    np.testing.assert_allclose(synthesize(C, n, periods), x, rtol=0, atol=1e-14)
+    below = x - 0.125 * np.cos(2 * np.pi * 4 * t)
+    np.testing.assert_allclose(fourier_coefficients(below, periods, 3), C[:4], rtol=0, atol=1e-14)
+    with pytest.raises(ValueError, match="5 harmonics over 2 period"):
+        synthesize(np.zeros(6), n, periods)
+
+
+def test_a_shift_moves_each_record_by_its_own_frequency():
+    # Two records of two periods each, with their own frequencies (shape (2, 1)): each moved 1 ms
+    # later is itself at t - 1 ms, to round-off.
+    from jointrig.identify.harmonics import shift_periodic
+
+    w = np.array([[20.0], [35.0]])
+    n = 64
+    t = np.arange(n)[None, :] * (2 * 2 * np.pi / w / n)  # two periods of each
+
+    def x(s):
+        return np.cos(w * s) + 0.3 * np.sin(3 * w * s - 0.2)
+
+    np.testing.assert_allclose(shift_periodic(x(t), 2, w, 1e-3), x(t - 1e-3), rtol=0, atol=1e-13)
