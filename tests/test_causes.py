@@ -662,3 +662,26 @@ def test_a_profile_on_an_end_of_its_search_is_told_and_said():
     (line,) = on_bound_lines((("ground1_stribeck_velocity_rad_s", "lower", lo),))
     assert "lies on the lower end of its search (0.0674 rad/s)" in line and "a smaller value" in line, line
     assert "one-sided" in line and on_bound_lines(()) == []
+
+
+def test_the_detection_limit_is_the_size_whose_drop_passes_the_test_with_its_power():
+    # One parameter, weights taken as known, 100 rows: the threshold is chi-square(1)'s 1e-3
+    # quantile (10.83, above the BIC's ln 100 = 4.6), and the size found with probability 0.95 is
+    # SE (sqrt(10.83) + z_0.95), in closed form (to scipy's quantiles, 1e-12). A score without a
+    # standard error above zero rules nothing out.
+    import math
+    from dataclasses import replace
+
+    from scipy.stats import chi2, norm
+
+    from jointrig.identify.causes import CauseScore, detection_limit
+
+    s = CauseScore("coulomb_friction", 0.0, 1, 0.0, 1.0, False, None, ("coulomb_torque_Nm", 0.3, 2.0))
+    want = 2.0 * (math.sqrt(chi2.isf(1e-3, 1)) + norm.isf(0.05))
+    assert detection_limit(s, 100, 1e-3) == pytest.approx(want, rel=1e-12)
+    assert detection_limit(s, 100, 1e-3, n_causes=10) == pytest.approx(2.0 * (math.sqrt(chi2.isf(1e-4, 1))
+                                                                               + norm.isf(0.05)), rel=1e-12)
+    # over a million rows the BIC's ln(1e6) = 13.8 is the larger threshold
+    assert detection_limit(s, 1_000_000, 1e-3) == pytest.approx(2.0 * (math.sqrt(math.log(1e6)) + norm.isf(0.05)),
+                                                                 rel=1e-12)
+    assert math.isnan(detection_limit(replace(s, magnitude=("coulomb_torque_Nm", 0.3, 0.0)), 100, 1e-3))

@@ -59,3 +59,37 @@ def test_non_finite_numbers_become_null():
 def test_a_fits_chi2_per_dof_is_chi2_over_its_degrees_of_freedom():
     assert dj.FitJson(12.0, 4, {}, {}).as_json()["chi2_per_dof"] == 3.0
     assert dj.FitJson(12.0, 0, {}, {}).as_json()["chi2_per_dof"] == 12.0  # no degree of freedom: chi2 itself
+
+
+def test_a_causes_entry_names_its_parameters_and_its_rejection_for_the_bench():
+    # On a slide the magnitude, the parameters and a rejection's words are the slide's; a cause
+    # nothing rejected carries an empty note.
+    from dataclasses import replace
+
+    from jointrig.identify.causes import CauseScore, Unphysical
+    from jointrig.vocab.params import HINGE, SLIDE
+
+    name = "ground1_quadratic_damping_Nms2_per_rad2"
+    s = CauseScore("quadratic_damping", 1.0, 1, 0.5, 0.1, False, None, (name, -82.0, 2.6),
+                   note=Unphysical(name, -82.0))
+    got = dj.cause_json(s, SLIDE)
+    assert got["magnitude"]["name"] == "ground1_quadratic_damping_Ns2_per_m2"
+    assert got["note"] == "fitted with an unphysical negative ground1_quadratic_damping_Ns2_per_m2 = -82: rejected"
+    assert dj.cause_json(replace(s, note=None), HINGE)["note"] == ""
+
+
+def test_a_fits_entry_adds_only_the_constants_it_is_given():
+    # A twist's zero carries the mean taken out before the fit; every other parameter is the fit's.
+    class Fit:
+        chi2, dof = 4.0, 2
+
+        @staticmethod
+        def parameters():
+            return {"J1_kgm2": 2.0, "joint1_angle_offset_rad": 0.01}
+
+        @staticmethod
+        def std_error(n):
+            return 0.1
+
+    got = dj.FitJson.of(Fit(), added={"joint1_angle_offset_rad": 0.5})
+    assert got.parameters == {"J1_kgm2": 2.0, "joint1_angle_offset_rad": 0.51}
