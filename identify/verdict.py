@@ -7,11 +7,12 @@ are live here.
 
 from __future__ import annotations
 
+import enum
 import math
 from dataclasses import dataclass
 from typing import Sequence
 
-__all__ = ["CHI2_PER_DOF_OK", "RIG_FIDELITY", "Verdict", "judge"]
+__all__ = ["CHI2_PER_DOF_OK", "RIG_FIDELITY", "Grounds", "Verdict", "judge"]
 
 #: A model explains the data to the noise when its chi-square per degree of freedom is at most
 #: this (a right model reads 0.7-1.5 with the measured fidelity at 20-80 dB on the independent
@@ -25,14 +26,56 @@ CHI2_PER_DOF_OK = 2.0
 #: runs show the misfit the extension removes.
 
 
+class Grounds(enum.Enum):
+    """Why a verdict is what it is: the branch of :func:`judge` (or of the caller that could not
+    judge) it came from."""
+
+    #: no_misfit: the nominal model explains the data to the noise
+    NOMINAL_FITS = "nominal_fits"
+    #: unexplained: no catalogued cause is significant, but the nominal model does not fit
+    NOMINAL_MISFITS = "nominal_misfits"
+    #: explained: the extension fits, and the nominal model's held-out error is beyond its bound
+    CONFIRMED = "confirmed"
+    #: explained: the extension fits, and the nominal model reaches no steady state where it does
+    NOMINAL_LOST = "nominal_lost"
+    #: explained: the held-out runs cannot tell the two apart but lean the extension's way
+    FIT_EVIDENCE = "fit_evidence"
+    #: unexplained: the extension fits, but the nominal model predicts the held-out runs as well
+    NOT_CONFIRMED = "not_confirmed"
+    #: unexplained: the extension fits the runs worse than the noise, or misses the held-out ones
+    FAILS_VALIDATION = "fails_validation"
+    #: unexplained: the judged model could not be checked on held-out runs (:attr:`Verdict.unchecked`)
+    UNCHECKED = "unchecked"
+
+
 @dataclass(frozen=True)
 class Verdict:
     """``verdict``: "no_misfit" (the nominal model explains the data to the noise), "explained"
     (an extension of catalogued causes does, confirmed on held-out runs) or "unexplained" (a
-    significant misfit remains that no catalogued cause explains); ``reason`` says why."""
+    significant misfit remains that no catalogued cause explains); ``grounds`` and the figures
+    say why (their words: :func:`present.notes.verdict_text`)."""
 
     verdict: str
-    reason: str
+    grounds: Grounds
+    #: the judged extension's causes (labels; empty: the nominal model is judged)
+    causes: tuple = ()
+    #: the judged model's chi-square per degree of freedom, against :data:`CHI2_PER_DOF_OK`
+    chi2_per_dof: float = math.nan
+    #: the judged model's held-out error over what a right model misses there, and its bound
+    error_ratio: float = math.nan
+    bound: float = math.nan
+    #: the nominal model's held-out error over what it would miss were it right, and its bound
+    nominal_ratio: float = math.nan
+    nominal_bound: float = math.nan
+    #: the nominal model's held-out error over the extended one's
+    gain: float = math.nan
+    #: the held-out data are each run's later periods, not whole runs
+    later_periods: bool = False
+    #: held-out runs (labels) where the nominal model reaches no periodic steady state
+    nominal_lost: tuple = ()
+    #: why the judged model could not be checked on held-out runs (with :attr:`Grounds.UNCHECKED`:
+    #: the validation's failed replays, :class:`studies.notes.NoReplay`; empty: no held-out run)
+    unchecked: tuple = ()
 
 
 #: The rig's own fidelity in a held-out comparison, relative to the RMS of the compared motion:
@@ -46,47 +89,37 @@ RIG_FIDELITY = 1e-5
 
 
 def judge(causes: Sequence[str], chi2_per_dof: float, error_ratio: float, nominal_ratio: float, bound: float, *,
-          held: str = "held-out error", nominal_lost: str = "", nominal_bound: float = math.nan,
+          later_periods: bool = False, nominal_lost: Sequence[str] = (), nominal_bound: float = math.nan,
           gain: float = math.nan) -> Verdict:
     """The verdict of a model that reached a steady state (or followed the record) on every
     held-out run (a caller says otherwise itself, naming the runs): ``causes`` the extension's
     (none: the nominal model is judged), ``error_ratio`` the judged model's held-out error over
     what a right model misses there, ``nominal_ratio`` the nominal model's over what it would
-    miss were it right (NaN if it has no steady state in held-out run(s) ``nominal_lost``),
+    miss were it right (NaN if it has no steady state in the held-out runs ``nominal_lost``),
     ``bound`` and ``nominal_bound`` (default ``bound``) the most a right model's ratio reaches at
     the false-alarm rate, ``gain`` the nominal's held-out error over the extended's (where both are
     within their bounds, the extension stands on the fit's evidence if the held-out runs lean its
-    way), ``held`` what the held-out data are, in words."""
+    way), ``later_periods`` whether the held-out data are each run's later periods."""
     nominal_bound = bound if math.isnan(nominal_bound) else nominal_bound
     fits = chi2_per_dof <= CHI2_PER_DOF_OK and error_ratio <= bound
-    figures = (f"chi2/dof {chi2_per_dof:.3g} (at most {CHI2_PER_DOF_OK:g}), {held} {error_ratio:.3g} times what a "
-               f"right model misses (at most {bound:.3g})")
+    causes, lost = tuple(causes), tuple(nominal_lost)
+    figures = dict(causes=causes, chi2_per_dof=chi2_per_dof, error_ratio=error_ratio, bound=bound,
+                   nominal_ratio=nominal_ratio, nominal_bound=nominal_bound, gain=gain, later_periods=later_periods,
+                   nominal_lost=lost)
     if not causes:
         if fits:
-            return Verdict("no_misfit", f"the nominal model explains the data to the noise: {figures}")
-        return Verdict("unexplained", f"no catalogued cause is significant, but the nominal model does not explain "
-                                      f"the data: {figures}")
-    names = " + ".join(causes)
-    verb = "explains" if len(causes) == 1 else "explain"
+            return Verdict("no_misfit", Grounds.NOMINAL_FITS, **figures)
+        return Verdict("unexplained", Grounds.NOMINAL_MISFITS, **figures)
     if fits and nominal_ratio > nominal_bound:
-        return Verdict("explained", f"{names} {verb} the data: {figures}; the nominal model's {held} is "
-                                    f"{nominal_ratio:.3g} times what it would miss were it right (at most "
-                                    f"{nominal_bound:.3g}): the held-out runs confirm the extension")
-    if fits and nominal_lost:
+        return Verdict("explained", Grounds.CONFIRMED, **figures)
+    if fits and lost:
         # The nominal model has no steady state where the extension predicts the runs: an
         # infinite gain, stated in words.
-        return Verdict("explained", f"{names} {verb} the data: {figures}; the nominal model reaches no periodic steady "
-                                    f"state in held-out run(s) {nominal_lost}, the extended model does")
+        return Verdict("explained", Grounds.NOMINAL_LOST, **figures)
     if fits and gain > 1:
         # the held-out runs cannot tell the two apart (the nominal model's parameters leave it as
         # uncertain there as its misfit): they do not contradict the fit's evidence, which decides
-        return Verdict("explained", f"{names} {verb} the data: {figures}; the held-out runs do not resolve it (the "
-                                    f"nominal model's {held} is {nominal_ratio:.3g} times what it would miss were it "
-                                    f"right, at most {nominal_bound:.3g}; gain {gain:.3g}): adopted on the fit's "
-                                    f"evidence")
+        return Verdict("explained", Grounds.FIT_EVIDENCE, **figures)
     if fits:
-        return Verdict("unexplained", f"the best extension ({names}) is not confirmed: {figures}, but the nominal "
-                                      f"model predicts the held-out runs as well ({held} {nominal_ratio:.3g} times "
-                                      f"what it would miss were it right, at most {nominal_bound:.3g}; gain "
-                                      f"{gain:.3g}); nothing is adopted")
-    return Verdict("unexplained", f"the best extension ({names}) fails validation: {figures}; nothing is adopted")
+        return Verdict("unexplained", Grounds.NOT_CONFIRMED, **figures)
+    return Verdict("unexplained", Grounds.FAILS_VALIDATION, **figures)

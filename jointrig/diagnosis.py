@@ -6,6 +6,7 @@
     d = diagnose("examples/bench_dry_friction.csv")
     print(d.text())                       # the report the command prints
     d.verdict                             # "no_misfit", "explained" or "unexplained"
+    d.reason                              # why, in words
     d.parameters()                        # the adopted model's parameters by name (SI units in the names)
     d.std_errors()                        # their standard errors
     d.json()                              # the command's --json, as a dict
@@ -44,7 +45,7 @@ class Diagnosis:
       report: the diagnosis of the fitted runs, the held-out runs' validation in the rig and the
         verdict (:class:`studies.chain_validate.TrainReport`: ``report.diagnosis`` holds the
         nominal and final fits, the causes scored and adopted; ``report.validation`` the
-        held-out errors; ``report.verdict`` the verdict and its reason).
+        held-out errors; ``report.verdict`` the verdict with its grounds and figures, :class:`identify.verdict.Verdict`).
       runs: the runs as read (:class:`measured.runs.LoadedRuns`: run labels, records in SI units,
         the reader's notes, the input's SHA-256).
       source: the data's path, as given.
@@ -58,8 +59,17 @@ class Diagnosis:
 
     @property
     def verdict(self) -> str:
-        """``no_misfit``, ``explained`` or ``unexplained`` (``report.verdict.reason`` says why)."""
+        """``no_misfit``, ``explained`` or ``unexplained`` (:attr:`reason` says why in words;
+        ``report.verdict`` holds the grounds and figures as values)."""
         return self.report.verdict.verdict
+
+    @property
+    def reason(self) -> str:
+        """Why the verdict is what it is, in words: the figures against their bounds (the report's
+        first line after the verdict)."""
+        from jointrig.present.notes import verdict_text
+
+        return verdict_text(self.report.verdict)
 
     @property
     def relative(self) -> bool:

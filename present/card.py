@@ -13,8 +13,9 @@ from jointrig.identify.card import MASING_FIDELITY, JointCard, MasingCheck
 from jointrig.studies.joint_card import CardReport
 
 from .formatting import sig, with_se, with_se_or
+from .notes import verdict_text
 
-__all__ = ["format_card", "masing_text", "card_json", "card_png", "point_cells", "slope_text"]
+__all__ = ["format_card", "card_warning", "masing_text", "card_json", "card_png", "point_cells", "slope_text"]
 
 
 def point_cells(p) -> tuple[str, str, str, str]:
@@ -43,7 +44,8 @@ def format_card(card) -> str:
 
     a_unit, k_unit = card.units
     inertia = "kg" if a_unit == "m" else "kg m^2"
-    lines = ([f"WARNING: {card.warning}"] if card.warning else []) + [
+    warning = card_warning(card)
+    lines = ([f"WARNING: {warning}"] if warning else []) + [
              f"Joint card{f' of {card.place}' if card.place else ''} ({card.model_name}; {card.mode}, Je = "
              f"{sig(card.model.inertia_kgm2, 4)} {inertia}); runs at their drive frequency omega (measured with "
              f"{card.runs_inertias} inertias), the model there and on its backbone (omega = omega_n):",
@@ -62,6 +64,14 @@ def format_card(card) -> str:
                  f"dry friction 1 and 0, micro-slip 3 + chi)")
     lines.append("  " + masing_text(card.masing))
     return "\n".join(lines)
+
+
+def card_warning(card) -> str:
+    """Why the card's model may not be the joint, in words ("" when the diagnosis adopted it)."""
+    if card.unadopted is None:
+        return ""
+    return (f"this card describes the nominal model, which the diagnosis did NOT adopt: the verdict is unexplained "
+            f"({verdict_text(card.unadopted)}). Compare the rows from the runs with the model's before using it.")
 
 
 def masing_text(check: MasingCheck) -> str:
@@ -89,7 +99,7 @@ def card_json(card: CardReport, *, source: str = "", input_sha256: str = "") -> 
                  for p, r in zip(card.model_at_runs.points, card.runs.points)]
               + [{"source": "model", **p.as_json()} for p in card.model.points])
     out = {"source": source, "input_sha256": input_sha256, "model": card.model_name,
-            "model_adopted": not card.warning, "warning": card.warning or None,
+            "model_adopted": card.unadopted is None, "warning": card_warning(card) or None,
             "runs_inertias": card.runs_inertias,
             "units": "SI: rad, rad/s, N m/rad, N m s/rad, J per cycle; damping ratio dimensionless",
             "what": "amplitude-dependent joint card: secant stiffness, natural frequency and damping ratio of the "

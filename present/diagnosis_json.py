@@ -16,19 +16,21 @@ from jointrig.identify.causes import Ambiguity, CauseScore
 from jointrig.identify.verdict import Verdict
 from jointrig.vocab.params import Coordinate
 
-from .notes import rejection_text
+from .notes import rejection_text, verdict_text
 
-__all__ = ["SCHEMA", "KEYS", "FIDELITY_KEYS", "RULED_OUT_KEYS", "PRELOAD_KEYS", "FIT_KEYS", "VALIDATION_KEYS", "RIGHT_KEYS", "RUN_KEYS", "CAUSE_KEYS", "FitJson", "RunJson",
+__all__ = ["SCHEMA", "KEYS", "VERDICT_KEYS", "FIDELITY_KEYS", "RULED_OUT_KEYS", "PRELOAD_KEYS", "FIT_KEYS", "VALIDATION_KEYS", "RIGHT_KEYS", "RUN_KEYS", "CAUSE_KEYS", "FitJson", "RunJson",
            "ValidationJson", "DiagnosisJson", "finite", "schema_problems"]
 
 #: The document's name and version: a script checks it before it reads the keys.
-SCHEMA = "jointrig-diagnosis/6"
+SCHEMA = "jointrig-diagnosis/7"
 #: The top-level keys, in the order written (the demo ``jointrig diagnose-chain`` adds ``demo``
 #: last: its truth model and settings).
 KEYS = ("schema", "source", "input_sha256", "units", "bench", "verdict", "band_harmonics", "fidelity", "fit_runs",
         "held_out_runs", "noise_std_per_sample", "nominal", "causes", "extended", "ruled_out", "preloads", "ambiguities", "as_written",
         "validation", "plausibility", "misfit_character", "misfit_surface", "next_measurements", "notes")
 BENCH_KEYS = ("kind", "n_bodies", "form", "model")
+#: ``grounds``: the value of :class:`identify.verdict.Grounds` the verdict comes from
+VERDICT_KEYS = ("verdict", "reason", "grounds")
 FIDELITY_KEYS = ("how", "relative_misfit", "replayed_model", "fixed_runs", "statement")
 RULED_OUT_KEYS = ("label", "effect", "place", "magnitude_name", "limit", "std_error", "detection_probability")
 PRELOAD_KEYS = ("joint", "mean", "std_error", "per_run", "unit")
@@ -186,7 +188,8 @@ class DiagnosisJson:
     def as_json(self) -> dict:
         out = {"schema": SCHEMA, "source": self.source, "input_sha256": self.input_sha256, "units": self.units,
                "bench": {"kind": self.kind, "n_bodies": self.n_bodies, "form": self.form, "model": self.model},
-               "verdict": {"verdict": self.verdict.verdict, "reason": self.verdict.reason},
+               "verdict": {"verdict": self.verdict.verdict, "reason": verdict_text(self.verdict),
+                           "grounds": self.verdict.grounds.value},
                "band_harmonics": self.band_harmonics,
                "fidelity": dict(self.fidelity or {"how": None, "relative_misfit": None, "replayed_model": None,
                                                   "statement": ""}),
@@ -222,6 +225,7 @@ def schema_problems(doc: dict) -> list[str]:
     if doc["schema"] != SCHEMA:
         problems.append(f"schema: {doc['schema']!r}, expected {SCHEMA!r}")
     keys("bench", doc["bench"], BENCH_KEYS)
+    keys("verdict", doc["verdict"], VERDICT_KEYS)
     keys("fidelity", doc["fidelity"], FIDELITY_KEYS)
     for i, r in enumerate(doc["ruled_out"] if isinstance(doc["ruled_out"], list) else []):
         keys(f"ruled_out[{i}]", r, RULED_OUT_KEYS)

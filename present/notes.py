@@ -1,7 +1,7 @@
 """The sentences of the diagnosis's values, made in one place: its notes (:mod:`studies.notes`,
 :func:`note_text`), why a significant cause was rejected (:data:`identify.causes.Rejection`,
 :func:`rejection_text`) and what a fit says about how the file was read
-(:func:`plausibility_text`). The text report, the JSON and the HTML report all read them here,
+(:func:`plausibility_text`), and why the verdict is what it is (:func:`verdict_text`). The text report, the JSON and the HTML report all read them here,
 each parameter named and each size in the units of the user's bench (a slide's: N, m, kg)."""
 
 from __future__ import annotations
@@ -11,7 +11,9 @@ from functools import singledispatch
 from jointrig.identify.causes import BelowResolution, FeedsEnergy, NoFalloff, Unphysical
 from jointrig.identify.chain import inertia_name
 from jointrig.identify.chain_diagnose import ReadWrong, UndeterminedInertia
-from jointrig.studies.notes import (BandCut, BodyRests, FixedFidelity, JointSticks, NoSpringToFrame, RelativeAngle,
+from jointrig.identify.verdict import CHI2_PER_DOF_OK, Grounds, Verdict
+from jointrig.studies.notes import (NO_INERTIA, NO_STEADY_STATE, NOR_SPANNED, NOT_FOLLOWED, BandCut, BiasUnmeasured,
+                                    BodyRests, FixedFidelity, JointSticks, NoReplay, NoSpringToFrame, RelativeAngle,
                                     Spanned)
 from jointrig.vocab.params import HINGE, Coordinate
 
@@ -40,7 +42,7 @@ def _(note: BandCut) -> str:
 def _(note: FixedFidelity) -> str:
     head = f"the model fidelity is fixed at {note.fidelity:g} of each run's largest balanced torque: "
     if note.failure is not None:
-        return head + f"{note.model} could not be replayed to measure it ({note.failure})"
+        return head + f"{note.model} could not be replayed to measure it ({failures_text(note.failure)})"
     why = (f"the records are noise-free (below {note.noise_free_below:g} of every channel)"
            if note.noise_free_below is not None else
            "a run's noise comes from two periods alone (one degree of freedom per line: its weights give a "
@@ -150,3 +152,70 @@ def _(f: UndeterminedInertia, kind: Coordinate = HINGE) -> str:
     return (f"the inertia of body(ies) {', '.join(str(i) for i, _, _ in f.bodies)} ({_inertias(f.bodies, kind)}) is "
             f"not determined by these runs (within two standard errors of zero): at too few drive frequencies an "
             f"inertia and a stiffness act alike on a sine; runs at more frequencies tell them apart")
+
+
+def no_replay_text(f: NoReplay) -> str:
+    """Why a model could not be simulated under a run's drive, in words."""
+    if f.why == NO_INERTIA:
+        bad = ", ".join(f"J{i} = {v:.3g}" for i, v in f.inertias)
+        if not f.model:
+            return "a fitted inertia is no body's"
+        return f"the {f.model} model has no body's inertia ({bad} kg m^2): it cannot be simulated"
+    if not f.model:  # the fidelity's replay of the fitted runs: its model is named where it is quoted
+        return f"no periodic steady state under the drive of {f.run}: {f.detail}"
+    if f.why == NOT_FOLLOWED:
+        return f"the {f.model} model does not follow the measured drive of {f.run}: {f.detail}"
+    head = f"the {f.model} model reaches no periodic steady state under the measured drive of {f.run}"
+    if f.why == NOR_SPANNED:
+        return head + f", nor follows it over its {f.periods} periods: {f.detail}"
+    if f.why == NO_STEADY_STATE:
+        return head + (f": {f.detail}" if f.detail else "")
+    raise ValueError(f"no words for a replay that failed by {f.why!r}")
+
+
+def failures_text(failures) -> str:
+    """The replays that failed (:class:`studies.notes.NoReplay`), in words, one after the other."""
+    return "; ".join(no_replay_text(f) for f in failures)
+
+
+def bias_unmeasured_text(why: BiasUnmeasured) -> str:
+    """Why the method's bias on a model was not measured, in words."""
+    if why.smooth:
+        return "the nominal law is smooth: not measured"
+    if why.failures:
+        return f"the model could not be replayed on the fitted runs ({failures_text(why.failures)})"
+    return "no replay of the fitted runs was made"
+
+
+def verdict_text(v: Verdict) -> str:
+    """Why the verdict is what it is, in words: its figures against their bounds and what the
+    held-out data say (the verdict's reason in the text, the JSON and the HTML report)."""
+    if v.grounds is Grounds.UNCHECKED:
+        why = failures_text(v.unchecked) or "no held-out run"
+        if not v.causes:
+            return f"the nominal model could not be checked on held-out runs: {why}; it cannot be the train"
+        return f"the best extension ({' + '.join(v.causes)}) is not adopted: {why}"
+    held = "error on the held-out later periods" if v.later_periods else "held-out error"
+    figures = (f"chi2/dof {v.chi2_per_dof:.3g} (at most {CHI2_PER_DOF_OK:g}), {held} {v.error_ratio:.3g} times what a "
+               f"right model misses (at most {v.bound:.3g})")
+    names = " + ".join(v.causes)
+    verb = "explains" if len(v.causes) == 1 else "explain"
+    nominal = (f"{v.nominal_ratio:.3g} times what it would miss were it right, at most {v.nominal_bound:.3g}; "
+               f"gain {v.gain:.3g}")
+    return {
+        Grounds.NOMINAL_FITS: lambda: f"the nominal model explains the data to the noise: {figures}",
+        Grounds.NOMINAL_MISFITS: lambda: ("no catalogued cause is significant, but the nominal model does not explain "
+                                          f"the data: {figures}"),
+        Grounds.CONFIRMED: lambda: (f"{names} {verb} the data: {figures}; the nominal model's {held} is "
+                                    f"{v.nominal_ratio:.3g} times what it would miss were it right (at most "
+                                    f"{v.nominal_bound:.3g}): the held-out runs confirm the extension"),
+        Grounds.NOMINAL_LOST: lambda: (f"{names} {verb} the data: {figures}; the nominal model reaches no periodic "
+                                       f"steady state in held-out run(s) {', '.join(v.nominal_lost)}, the extended "
+                                       f"model does"),
+        Grounds.FIT_EVIDENCE: lambda: (f"{names} {verb} the data: {figures}; the held-out runs do not resolve it (the "
+                                       f"nominal model's {held} is {nominal}): adopted on the fit's evidence"),
+        Grounds.NOT_CONFIRMED: lambda: (f"the best extension ({names}) is not confirmed: {figures}, but the nominal "
+                                        f"model predicts the held-out runs as well ({held} {nominal}); nothing is adopted"),
+        Grounds.FAILS_VALIDATION: lambda: (f"the best extension ({names}) fails validation: {figures}; nothing is "
+                                           f"adopted"),
+    }[v.grounds]()

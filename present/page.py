@@ -88,7 +88,7 @@ def table(head: Sequence[str], rows: Sequence[str]) -> str:
 def card_section(card, png_bytes: bytes) -> list[str]:
     """The joint card (studies/joint_card.py): runs beside the model at the same amplitude and
     frequency, the slopes, and the card's figure (``png_bytes``, :func:`present.card.card_png`)."""
-    from .card import masing_text, point_cells, slope_text as slope
+    from .card import card_warning, masing_text, point_cells, slope_text as slope
 
     rows = []
     for p, m in zip(card.runs.points, card.model_at_runs.points):
@@ -97,7 +97,7 @@ def card_section(card, png_bytes: bytes) -> list[str]:
                               *[(c, "num") for c in point_cells(q)]], cls))
 
     png = base64.b64encode(png_bytes).decode("ascii")
-    warning = [f"<p class='warning'><b>Warning:</b> {html.escape(card.warning)}</p>"] if card.warning else []
+    warning = [f"<p class='warning'><b>Warning:</b> {html.escape(card_warning(card))}</p>"] if card.unadopted else []
     a_unit, k_unit = card.units
     place = f" of {card.place}" if card.place else ""
     return [f"<h2>Joint card{html.escape(place)} ({html.escape(card.model_name)})</h2>"] + warning + [
@@ -130,6 +130,8 @@ def page_top(title: str, verdict, words: str, input_sha256: str = "") -> list[st
 
     from jointrig.version import __version__
 
+    from .notes import verdict_text
+
     colour = {"no_misfit": "#2e7d32", "explained": "#1565c0", "unexplained": "#c62828"}[verdict.verdict]
     stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     provenance = f"jointrig {__version__}, {stamp}" + (f"; input SHA-256 {input_sha256}" if input_sha256 else "")
@@ -138,4 +140,4 @@ def page_top(title: str, verdict, words: str, input_sha256: str = "") -> list[st
             f"<style>{_CSS}</style></head><body>",
             f"<h1>{html.escape(title)}</h1>", f"<p class='prov'>{html.escape(provenance)}</p>",
             f"<div class='verdict' style='--c:{colour}'><p><b>{html.escape(verdict.verdict.replace('_', ' ').upper())}"
-            f"</b>: {html.escape(words)}</p><p class='why'>{html.escape(verdict.reason)}</p></div>"]
+            f"</b>: {html.escape(words)}</p><p class='why'>{html.escape(verdict_text(verdict))}</p></div>"]

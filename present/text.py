@@ -15,7 +15,7 @@ from jointrig.identify.causes import Ambiguity, CauseScore
 from jointrig.vocab.params import HINGE, Coordinate
 
 from .formatting import quantity_of, sig, unit_of, with_se
-from .notes import rejection_text
+from .notes import rejection_text, verdict_text
 from .summary import WRITTEN_SE, WRITTEN_SHARE
 
 __all__ = ["ValidationRow", "head_lines", "parameter_lines", "causes_lines", "ambiguity_lines", "validation_lines",
@@ -27,7 +27,7 @@ def head_lines(verdict, words: str, steps: Sequence[str], *, written: Sequence =
     """The answer first: the verdict with its figures, in words; the user's model as written
     against the data (``written``: ``present.summary.WrittenRow``); what the misfit looks like
     (``misfit``, when unexplained); and what to do next."""
-    lines = [f"VERDICT: {verdict.verdict.upper().replace('_', ' ')}: {verdict.reason}", f"  In words: {words}"]
+    lines = [f"VERDICT: {verdict.verdict.upper().replace('_', ' ')}: {verdict_text(verdict)}", f"  In words: {words}"]
     if written:
         provisional = any(w.provisional for w in written)
         lines.append(f"  Your model as written{f' ({model})' if model else ''} against the data (differs: more than "

@@ -18,7 +18,7 @@ from jointrig.studies.chain_validate import TrainReport
 
 from .diagnosis_json import DiagnosisJson, FitJson, RunJson, ValidationJson
 from .formatting import quantity_of, sig, sig_or, unit_of, with_se
-from .notes import note_text, plausibility_text, rejection_text
+from .notes import bias_unmeasured_text, failures_text, note_text, plausibility_text, rejection_text
 from .summary import NO_GAIN, compare_written, steps_after, wrong_sentence
 from .text import (ValidationRow, ambiguity_lines, causes_lines, head_lines, notes_lines, on_bound_lines, parameter_lines,
                    ruled_out_lines, validation_lines)
@@ -105,8 +105,8 @@ def _right_parts(val) -> str:
     r = val.right
     if r is None:
         return ""
-    method = (f"the method's bias {sig(math.sqrt(r.method), 2)}" if not r.unmeasured else
-              f"the method's bias not measured: {r.unmeasured}")
+    method = (f"the method's bias {sig(math.sqrt(r.method), 2)}" if r.unmeasured is None else
+              f"the method's bias not measured: {bias_unmeasured_text(r.unmeasured)}")
     return (f": the noise {sig(math.sqrt(r.noise), 2)}, the parameters' and the drive's uncertainty "
             f"{sig(math.sqrt(r.propagated), 2)} ({r.directions} directions, {r.draws} draws of the drive), {method}; a right model stays within "
             f"{r.bound:.3g} times it but with probability {r.alpha:g} ({r.dof:.3g} components, estimated with "
@@ -418,7 +418,7 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
             summary=f"nominal {_cell(val.nominal_error)}, extended {_cell(val.extended_error)}, a right model "
                     f"{_cell(val.expected_error)} (relative){_right_parts(val)}; gain {sig_or(val.gain, NO_GAIN)}",
             statement=("validation" if report.held_out_periods else "generalisation", report.generalisation),
-            failures=[val.note] if val.note else [])
+            failures=[failures_text(val.failures)] if val.failures else [])
     lines += notes_lines(all_notes)
     return "\n".join(lines)
 
@@ -448,13 +448,13 @@ def train_report_json(report: TrainReport, *, source: str = "", notes: Sequence[
         "error": r.relative, "bound": r.bound, "noise": r.noise, "propagated": r.propagated, "method": r.method,
         "rig": r.rig, "dof": r.dof, "estimate_dof": r.estimate_dof, "alpha": r.alpha, "directions": r.directions,
         "draws": r.draws,
-        "method_unmeasured": r.unmeasured}
+        "method_unmeasured": bias_unmeasured_text(r.unmeasured) if r.unmeasured is not None else ""}
     validation = ValidationJson(
         HELD_OUT_PERIODS if report.held_out_periods else HELD_OUT_RUNS, report.generalisation, report.generalisation,
         f"relative RMS error of every joint's twist (a single body: its position), harmonics 1..{v.band if v else 0} "
         f"of the period average, over the held-out data: sqrt(sum |sim - meas|^2 / sum |meas|^2)", "1",
         v.nominal_error if v else math.nan, v.extended_error if v else math.nan, v.noise_floor if v else math.nan,
-        v.gain if v else math.nan, tuple(per_run), v.note if v else "no held-out run", right)
+        v.gain if v else math.nan, tuple(per_run), failures_text(v.failures) if v else "no held-out run", right)
     units = "SI; parameter names carry their units" + report.kind.units_note
     return DiagnosisJson(
         source=source, input_sha256=input_sha256, units=units, kind=report.kind,

@@ -32,9 +32,10 @@ from jointrig.parallel import fork_map
 
 from jointrig.identify.defaults import (DEFAULT_ALPHA, DEFAULT_FIDELITY, DEFAULT_MAX_CAUSES, FIDELITY_STEP_SHARE,
                                        MAX_REPLAY_STEPS_PER_PERIOD, REPLAY_MAX_STEP_S)
-from jointrig.identify.verdict import CHI2_PER_DOF_OK, RIG_FIDELITY, Verdict, judge
+from jointrig.identify.verdict import CHI2_PER_DOF_OK, RIG_FIDELITY, Grounds, Verdict, judge
 
-from .notes import BandCut, BodyRests, FixedFidelity, JointSticks, NoSpringToFrame, Spanned
+from .notes import (NO_INERTIA, NO_STEADY_STATE, NOR_SPANNED, NOT_FOLLOWED, BandCut, BiasUnmeasured, BodyRests,
+                    FixedFidelity, JointSticks, NoReplay, NoSpringToFrame, Spanned)
 from .holdout import MIN_PERIODS_TO_SPLIT, MIN_RUNS_TO_HOLD_OUT, generalisation_kind, holdout_of_another_kind
 from jointrig.vocab.records import RecordError
 from jointrig.rig.simulate import SimulationConfig, SimulationError, SteadyStateNotReached
@@ -55,7 +56,7 @@ class ChainValidation:
         (:data:`identify.verdict.RIG_FIDELITY`) in quadrature.
       per_run: ``(label, nominal error, extended error, noise floor, a right model's error)`` per
         held-out run (the last :attr:`RightModelError.relative` of that run alone; NaN unmeasured).
-      note: what kept a model from being simulated, if anything.
+      failures: what kept a model from being simulated (:class:`studies.notes.NoReplay`), if anything.
       right: what a right model would miss here (:class:`RightModelError`): the noise, its own
         parameters' uncertainty and the method's bias; None where the judged model was not
         simulated (the verdict is then "unexplained" for that reason).
@@ -65,7 +66,7 @@ class ChainValidation:
     extended_error: float
     noise_floor: float
     per_run: tuple
-    note: str = ""
+    failures: tuple = ()
     right: Optional["RightModelError"] = None
     #: what the nominal model would miss here were it right (where a cause was adopted): the
     #: yardstick of the test that the held-out runs show the nominal model wrong
@@ -84,7 +85,7 @@ class ChainValidation:
 
     @property
     def gain(self) -> float:
-        """nominal / extended error; NaN where a model was not simulated (``note`` says why), infinite
+        """nominal / extended error; NaN where a model was not simulated (``failures`` say why), infinite
         where only the nominal model reaches no steady state."""
         if not math.isfinite(self.extended_error) or math.isnan(self.nominal_error):
             return math.nan
@@ -130,7 +131,7 @@ class RightModelError:
       alpha: the false-alarm rate of :attr:`bound`.
       draws: how many draws of the drive's noise (b) was estimated from.
       directions: how many directions of the parameters' covariance were replayed for (b).
-      unmeasured: why (c) is 0, in words ("" where it was measured).
+      unmeasured: why (c) is 0 (:class:`studies.notes.BiasUnmeasured`; None where it was measured).
     """
 
     noise: float
@@ -140,7 +141,7 @@ class RightModelError:
     dof: float
     alpha: float
     draws: int
-    unmeasured: str = ""
+    unmeasured: Optional[BiasUnmeasured] = None
     estimate_dof: float = math.inf
     directions: int = 0
 
@@ -336,7 +337,11 @@ def without_drift(simulate, loads: tuple, bodies: Sequence[int], scale: Sequence
 
 
 class _NoReplay(Exception):
-    """A model that could not be simulated under a held-out run's drive (the reason, in words)."""
+    """A model that could not be simulated under a held-out run's drive (why: ``failure``)."""
+
+    def __init__(self, failure: NoReplay):
+        super().__init__(failure)
+        self.failure = failure
 
 
 def _held_coefficients(meas: ChainRecord, n_harmonics: int) -> dict:
@@ -393,9 +398,9 @@ def _replayed(rig: ChainRig, fit, read, meas: ChainRecord, drives: dict, cfg: Si
     True or False forces one of the two. Returns (simulated record, whether spanned); raises
     :class:`_NoReplay` with the reason."""
     plant, J = plant_and_inertias(fit)
-    bad = [f"J{i} = {v:.3g}" for i, v in enumerate(J, start=1) if not (math.isfinite(v) and v > 0)]
+    bad = tuple((i, float(v)) for i, v in enumerate(J, start=1) if not (math.isfinite(v) and v > 0))
     if bad:  # no body's (a file read wrong): nothing to simulate
-        raise _NoReplay(f"the {name} model has no body's inertia ({', '.join(bad)} kg m^2): it cannot be simulated")
+        raise _NoReplay(NoReplay(name, meas.source, NO_INERTIA, inertias=bad))
     start, loads = start_of(meas, top, read.offsets_rad), held_means(fit, meas)
     spanned_cfg = replace(cfg, settle=False, n_periods=meas.n_periods)
 
@@ -410,21 +415,18 @@ def _replayed(rig: ChainRig, fit, read, meas: ChainRecord, drives: dict, cfg: Si
         try:
             return run(spanned_cfg), True
         except SimulationError as err:
-            raise _NoReplay(f"the {name} model does not follow the measured drive of {meas.source}: {err}") from err
+            raise _NoReplay(NoReplay(name, meas.source, NOT_FOLLOWED, str(err))) from err
     try:
         return run(cfg), False
     except SteadyStateNotReached:
         if span is False:
-            raise _NoReplay(f"the {name} model reaches no periodic steady state under the measured drive of "
-                            f"{meas.source}") from None
+            raise _NoReplay(NoReplay(name, meas.source, NO_STEADY_STATE)) from None
         try:
             return run(spanned_cfg), True
         except SimulationError as again:
-            raise _NoReplay(f"the {name} model reaches no periodic steady state under the measured drive of "
-                            f"{meas.source}, nor follows it over its {meas.n_periods} periods: {again}") from again
+            raise _NoReplay(NoReplay(name, meas.source, NOR_SPANNED, str(again), periods=meas.n_periods)) from again
     except SimulationError as err:  # a divergence: a reason, not a crash
-        raise _NoReplay(f"the {name} model reaches no periodic steady state under the measured drive of "
-                        f"{meas.source}: {err}") from err
+        raise _NoReplay(NoReplay(name, meas.source, NO_STEADY_STATE, str(err))) from err
 
 
 #: Draws of the held-out drive's noise whose replays estimate what it costs a held-out prediction
@@ -513,8 +515,8 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
     What a right model misses here is measured for the model the verdict judges (the extended
     one, or the nominal without a cause): :class:`RightModelError` at false-alarm rate ``alpha``,
     from one replay per direction of its parameters' covariance, ``draws`` of the drive's noise, and ``refit(fit)`` (the fit's structure refitted on its own
-    noise-free replay of the fitted runs, or a reason in words why not; None: no method bias
-    measured)."""
+    noise-free replay of the fitted runs, or why not, :class:`studies.notes.BiasUnmeasured`; None:
+    no method bias measured)."""
     cfg = replace(config, absolute_angles_periodic=False, max_wall_s=max_wall_s, n_periods=1)
     # a sensor's skew or scale is not simulated: the simulated angles are read as its channel reads
     fits = {"nominal": diagnosis.nominal}
@@ -535,8 +537,8 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
     for name in rated:
         cov = right_covariance(fits[name])
         moved[name] = (_directions(fits[name], cov) if cov is not None else []) + _profiled_moves(fits[name])
-    got = refit(fits[judged]) if refit is not None else "no replay of the fitted runs was made"
-    refitted, why_not = (got, "") if not isinstance(got, str) else (None, got)
+    got = refit(fits[judged]) if refit is not None else BiasUnmeasured()
+    refitted, why_not = (got, None) if not isinstance(got, BiasUnmeasured) else (None, got)
     bias = () if refitted is None else tuple(
         (n, float(a - b), float(e)) for n, a, b, e in zip(fits[judged].names, refitted.values, fits[judged].values,
                                                           fits[judged].std_errors))
@@ -552,7 +554,7 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
             try:
                 sim, spans[name] = _replayed(rig, fit, fit.spec, meas, drives, cfg, top, backend, name)
             except _NoReplay as err:
-                failed[name] = str(err)
+                failed[name] = err.failure
                 continue
             if spans[name]:
                 spanned.append(Spanned(name, meas.source, cfg.max_periods, cfg.max_wall_s or None))
@@ -606,10 +608,10 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
         spread = sum(size ** 2 / m for size, m in t["estimates"] if size > 0)
         m_eff = float(np.sum(lam) ** 2 / spread) if spread > 0 else math.inf
         right[name] = RightModelError(noise / den, t["propagated"] / den, t["method"] / den, RIG_FIDELITY ** 2, dof,
-                                      alpha, draws, why_not if name == judged else "the nominal law is smooth: not measured",
+                                      alpha, draws, why_not if name == judged else BiasUnmeasured(smooth=True),
                                       m_eff, len(moved[name]))
     return ChainValidation(error["nominal"], error["extended"], _floor(noise, den), tuple(per_run),
-                           note="; ".join(failed.values()), band=band, records=tuple(records), spanned=tuple(spanned),
+                           failures=tuple(failed.values()), band=band, records=tuple(records), spanned=tuple(spanned),
                            right=right.get(judged), nominal_right=right.get("nominal") if diagnosis.steps else None,
                            method_bias=bias)
 
@@ -659,7 +661,7 @@ def rig_replay(rig: ChainRig, runs: Sequence, band: int, *, backend: str = "auto
     (:class:`identify.chain_diagnose.BalanceFidelity`). A replay that has not settled in
     ``max_wall_s`` seconds of a run is given up: a fidelity is not worth a long wait (that run's
     replay is None, its rows borrow the replayed runs' misfit, :meth:`BalanceFidelity.borrowed`;
-    every run's: why, in words). Settled to 1e-7 of
+    every run's: why, :class:`studies.notes.NoReplay` per run). Settled to 1e-7 of
     each channel's swing: a variance estimate, at most 80 dB below the signal, needs no more. The
     rig steps at :func:`fidelity_step_s`: at the replay step its own error at a stick-slip kink
     outweighs the balance's misfit."""
@@ -667,8 +669,9 @@ def rig_replay(rig: ChainRig, runs: Sequence, band: int, *, backend: str = "auto
 
     def replay(fit):
         plant, J = plant_and_inertias(fit)
-        if not all(math.isfinite(v) and v > 0 for v in J):
-            return "a fitted inertia is no body's"
+        bad = tuple((i, float(v)) for i, v in enumerate(J, start=1) if not (math.isfinite(v) and v > 0))
+        if bad:
+            return (NoReplay("", "", NO_INERTIA, inertias=bad),)
         constants = constant_loads(fit.as_dict(), fit.spec)
         out, why = [], []
         for run in runs:
@@ -688,14 +691,14 @@ def rig_replay(rig: ChainRig, runs: Sequence, band: int, *, backend: str = "auto
                 sim, used = without_drift(once, held_means(fit, rec), drifting_bodies(fit), _drive_scale(rec))
             except SimulationError as err:
                 out.append(None)
-                why.append(f"no periodic steady state under the drive of {rec.source}: {err}")
+                why.append(NoReplay("", rec.source, NO_STEADY_STATE, str(err)))
                 continue
             if any(constants):  # the cell's mean, which the drive dropped: the load held plus the constant
                 sim = replace(sim, torques_Nm=tuple(t + u + k if t is not None and k else t
                                                     for t, u, k in zip(sim.torques_Nm, used, constants)))
             out.append(prepare_chain_runs([channel_corrected(sim, fit.spec, read=True)], band=band)[0])
         if all(r is None for r in out):
-            return "; ".join(why)
+            return tuple(why)
         return out
 
     return replay
@@ -746,7 +749,7 @@ def measured_diagnosis(diagnosed, replay, say=lambda msg: None, exact: Optional[
         label = " + ".join(s.label for s in d.steps) or "the nominal model"
         say(f"measuring the balance's fidelity on the noise-free replay of {label}")
         got = replay(d.final)
-        if isinstance(got, str):
+        if isinstance(got, tuple):  # why no run could be replayed
             return d, (FixedFidelity(DEFAULT_FIDELITY, label, failure=got),)
         fid = balance_fidelity(got, d.final, d.n_harmonics, d.masked, d.merging, label)
         again = diagnosed(fid)
@@ -777,25 +780,21 @@ def train_verdict(diagnosis: ChainDiagnosis, validation: Optional[ChainValidatio
     out data are each run's later periods."""
     d, v = diagnosis, validation
     f = d.final if d.steps else d.nominal
-    causes = " + ".join(s.label for s in d.steps)
+    causes = tuple(s.label for s in d.steps)
     if v is None or not math.isfinite(v.extended_error):
-        why = v.note if v is not None else "no held-out run"
-        if not d.steps:
-            return Verdict("unexplained", f"the nominal model could not be checked on held-out runs: {why}; it "
-                                          f"cannot be the train")
-        return Verdict("unexplained", f"the best extension ({causes}) is not adopted: {why}")
+        return Verdict("unexplained", Grounds.UNCHECKED, causes, later_periods=held_out_periods,
+                       unchecked=v.failures if v is not None else ())
     c2 = f.chi2 / max(f.dof, 1)
     err = v.extended_error if d.steps else v.nominal_error
     right = v.expected_error
     ratio = err / right if right > 0 else math.inf
-    lost = ""
+    lost = ()
     if math.isinf(v.nominal_error):  # the nominal model failed where the extension did not
-        lost = ", ".join(lab for lab, nom, *_ in v.per_run if not math.isfinite(nom))
+        lost = tuple(lab for lab, nom, *_ in v.per_run if not math.isfinite(nom))
     own = v.nominal_right if d.steps and v.nominal_right is not None else v.right
     nominal = (v.nominal_error / own.relative if own is not None and own.relative > 0 and math.isfinite(v.nominal_error)
                else math.nan)
-    held = "error on the held-out later periods" if held_out_periods else "held-out error"
-    return judge([s.label for s in d.steps], c2, ratio, nominal, v.bound, held=held, nominal_lost=lost,
+    return judge(causes, c2, ratio, nominal, v.bound, later_periods=held_out_periods, nominal_lost=lost,
                  nominal_bound=own.bound if own is not None else v.bound, gain=v.gain)
 
 
@@ -897,12 +896,12 @@ def train_setting(rec: ChainRecord) -> tuple[float, float, int]:
 
 def _refitted(replay, fit, d: ChainDiagnosis):
     """``fit``'s structure refitted on its own noise-free replay of the fitted runs
-    (:func:`identify.chain_diagnose.refit_on_replay`), or why not, in words."""
+    (:func:`identify.chain_diagnose.refit_on_replay`), or why not (:class:`studies.notes.BiasUnmeasured`)."""
     from jointrig.identify.chain_diagnose import refit_on_replay
 
     got = replay(fit)
-    if isinstance(got, str):
-        return f"the model could not be replayed on the fitted runs ({got})"
+    if isinstance(got, tuple):
+        return BiasUnmeasured(failures=got)
     return refit_on_replay(got, fit, d.n_harmonics, d.masked, d.merging)
 
 

@@ -12,10 +12,12 @@ values. The model's curves span the amplitudes the runs reached: a card is not a
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import Optional
 
 import numpy as np
 
 from jointrig.identify.card import JointCard, MasingCheck, law_card
+from jointrig.identify.verdict import Verdict
 from jointrig.vocab.law import Power
 from jointrig.vocab.params import unit_of
 
@@ -34,9 +36,10 @@ class CardReport:
     model_name: str
     model_at_runs: JointCard  # the model at each run's amplitude and drive frequency  # e.g. "extended: coulomb_friction + backlash" or "nominal (paper eq. 11)"
     masing: MasingCheck  # do the runs' loops follow from one backbone (Masing's rule)?
-    #: why the card's model may not be the joint ("" when the diagnosis adopted it): shown in the
-    #: text, the JSON and the report
-    warning: str = ""
+    #: the diagnosis's verdict where it adopted no model, so the card's (the nominal one) may not be
+    #: the joint (None when it adopted one): the warning of the text, the JSON and the report
+    #: (:func:`present.card.card_warning`)
+    unadopted: Optional[Verdict] = None
     #: which fit's inertias the runs' rows use (the adopted model's)
     runs_inertias: str = ""
     #: where in a train (``"joint 2"``, ``"body 1 to ground"``); empty for two flywheels' one joint
@@ -66,9 +69,7 @@ def cards_of_train(report, records) -> tuple[CardReport, ...]:
     masing_runs = [[replace(jr, phi=jr.phi[:, :top], torque=jr.torque[:, :top]) for jr in runs] for runs in places]
     name = (f"extended: {' + '.join(s.label for s in d.steps)}" if report.adopted and d.steps
             else f"nominal (verdict {report.verdict.verdict})")
-    warning = "" if report.verdict.verdict != "unexplained" else (
-        f"this card describes the nominal model, which the diagnosis did NOT adopt: the verdict is unexplained "
-        f"({report.verdict.reason}). Compare the rows from the runs with the model's before using it.")
+    unadopted = report.verdict if report.verdict.verdict == "unexplained" else None
     N = d.nominal.spec.n_flywheels
     out = []
     for k, (runs, mruns) in enumerate(zip(places, masing_runs)):
@@ -84,6 +85,6 @@ def cards_of_train(report, records) -> tuple[CardReport, ...]:
         mode = (f"mode of the body on what holds it to the frame, its {report.kind.inertia}" if N == 1 else
                 f"mode of bodies {k + 1} and {k + 2} on joint {k + 1} alone, J{k + 1} J{k + 2} / (J{k + 1} + J{k + 2})")
         units = (report.kind.unit, unit_of(report.kind.name(Power(1).name)))
-        out.append(CardReport(model, card, name, at_runs, joint_masing_check(mruns), warning,
+        out.append(CardReport(model, card, name, at_runs, joint_masing_check(mruns), unadopted,
                               "the adopted model's", place, mode, units))
     return tuple(out)

@@ -8,6 +8,39 @@ from dataclasses import dataclass
 from typing import Optional
 
 
+#: Why a model could not be replayed (:attr:`NoReplay.why`): a model with no body's inertia; a replay
+#: over the record's own span that does not follow it; no periodic steady state (a divergence: the
+#: rig's ``detail``); neither a steady state nor the record's span followed.
+NO_INERTIA, NOT_FOLLOWED, NO_STEADY_STATE, NOR_SPANNED = "no_inertia", "not_followed", "no_steady_state", "nor_spanned"
+
+
+@dataclass(frozen=True)
+class NoReplay:
+    """A model that could not be simulated under the measured drive of run ``run``: ``model`` is
+    "nominal" or "extended" (empty: the model whose replay measures the fidelity, named by its
+    :class:`FixedFidelity`), ``why`` one of :data:`NO_INERTIA`, :data:`NOT_FOLLOWED`,
+    :data:`NO_STEADY_STATE`, :data:`NOR_SPANNED`, ``detail`` the rig's own message ("" where
+    none), ``inertias`` ``(body, value)`` of each inertia that is no body's, ``periods`` the
+    record's periods (what a replay over its span had to follow)."""
+
+    model: str
+    run: str
+    why: str
+    detail: str = ""
+    inertias: tuple = ()
+    periods: int = 0
+
+
+@dataclass(frozen=True)
+class BiasUnmeasured:
+    """Why the method's bias on a model was not measured: the nominal law is smooth (``smooth``:
+    the balance has no kink to miss), its replays of the fitted runs failed (``failures``,
+    :class:`NoReplay`), or no replay of them was made (neither)."""
+
+    smooth: bool = False
+    failures: tuple = ()
+
+
 @dataclass(frozen=True)
 class BandCut:
     """The band fitted is narrower than asked: run ``run`` holds ``samples_per_period`` samples per
@@ -24,14 +57,14 @@ class FixedFidelity:
     """The model fidelity stayed at the fixed ``fidelity`` (of each run's largest balanced torque).
 
     ``model``: the model whose replay would have measured it. Either the replay failed
-    (``failure``: the rig's reason), or it was measured (``measured``: its share of the balanced
+    (``failure``: why, per run, :class:`NoReplay`), or it was measured (``measured``: its share of the balanced
     torque) and left the best model at ``chi2_per_dof`` on records whose chi-square cannot test a
     model: ``noise_free_below`` (records noise-free below that share of every channel) or
     ``two_periods`` (a noise estimate of two periods)."""
 
     fidelity: float
     model: str
-    failure: Optional[str] = None
+    failure: Optional[tuple] = None
     measured: float = float("nan")
     chi2_per_dof: float = float("nan")
     noise_free_below: Optional[float] = None

@@ -17,6 +17,7 @@ def _document() -> dict:
     run = {k: None for k in dj.RUN_KEYS}
     cause = lambda: {k: None for k in dj.CAUSE_KEYS}  # noqa: E731  (one object per place)
     doc = {k: None for k in dj.KEYS} | {"schema": dj.SCHEMA, "bench": {k: None for k in dj.BENCH_KEYS},
+                                       "verdict": {k: None for k in dj.VERDICT_KEYS},
                                        "fidelity": {k: None for k in dj.FIDELITY_KEYS},
                                        "ruled_out": [{k: None for k in dj.RULED_OUT_KEYS}],
                                        "nominal": fit, "causes": [cause()],
@@ -34,22 +35,28 @@ def test_the_check_names_what_departs_from_the_schema():
     swapped = dict(reversed(list(doc.items())))
     assert dj.schema_problems(swapped)  # the order is part of the schema: a diff of two files lines up
     assert dj.schema_problems(doc | {"schema": "jointrig-diagnosis/1"}) == [
-        "schema: 'jointrig-diagnosis/1', expected 'jointrig-diagnosis/6'"]
+        "schema: 'jointrig-diagnosis/1', expected 'jointrig-diagnosis/7'"]
     bad_run = _document()
     del bad_run["validation"]["per_run"][0]["noise_floor"]
     assert dj.schema_problems(bad_run)[0].startswith("validation.per_run[0]: keys")
     bad_cause = _document()
     bad_cause["extended"]["steps"][0]["candidate"] = "x"
     assert dj.schema_problems(bad_cause)[0].startswith("extended.steps[0]: keys")
+    no_grounds = _document()
+    del no_grounds["verdict"]["grounds"]
+    assert dj.schema_problems(no_grounds)[0].startswith("verdict: keys")
 
 
 def test_the_docs_page_describes_every_key():
     text = DOC.read_text()
     named = set(re.findall(r"`([a-z_0-9]+)`", text))
-    keys = set(dj.KEYS + dj.BENCH_KEYS + dj.FIDELITY_KEYS + dj.RULED_OUT_KEYS + dj.FIT_KEYS + dj.EXTENDED_KEYS + dj.VALIDATION_KEYS + dj.RUN_KEYS
+    keys = set(dj.KEYS + dj.BENCH_KEYS + dj.VERDICT_KEYS + dj.FIDELITY_KEYS + dj.RULED_OUT_KEYS + dj.FIT_KEYS + dj.EXTENDED_KEYS + dj.VALIDATION_KEYS + dj.RUN_KEYS
                + dj.CAUSE_KEYS + dj.RIGHT_KEYS)
     assert keys - named == set()
     assert dj.SCHEMA in text
+    from jointrig.identify.verdict import Grounds
+
+    assert {g.value for g in Grounds} - named == set()  # every value a script may branch on
 
 
 def test_non_finite_numbers_become_null():

@@ -8,13 +8,16 @@ import inspect
 
 import pytest
 
-from jointrig.present.notes import note_text
+from jointrig.present.notes import bias_unmeasured_text, failures_text, no_replay_text, note_text
 from jointrig.studies import notes
-from jointrig.studies.notes import (BandCut, BodyRests, FixedFidelity, JointSticks, NoSpringToFrame, RelativeAngle,
+from jointrig.studies.notes import (NO_INERTIA, NO_STEADY_STATE, NOR_SPANNED, NOT_FOLLOWED, BandCut, BiasUnmeasured,
+                                    BodyRests, FixedFidelity, JointSticks, NoReplay, NoSpringToFrame, RelativeAngle,
                                     Spanned)
 
+#: the values a note quotes (why a replay failed, why a bias was not measured): words of their own
+PARTS = {NoReplay, BiasUnmeasured}
 KINDS = [c for _, c in inspect.getmembers(notes, inspect.isclass)
-         if dataclasses.is_dataclass(c) and c.__module__ == notes.__name__]
+         if dataclasses.is_dataclass(c) and c.__module__ == notes.__name__ and c not in PARTS]
 
 
 def test_every_kind_of_note_has_its_words_and_nothing_else_does():
@@ -44,12 +47,41 @@ def test_a_notes_words_carry_its_values():
     assert note_text(Spanned("extended", "f.csv run 2", 115)).startswith(
         "the extended model under the drive of f.csv run 2 (no periodic steady state in the rig within 115 periods): ")
     assert "within 115 periods or 30 s)" in note_text(Spanned("nominal", "r", 115, 30.0))
-    failed = note_text(FixedFidelity(1e-3, "the nominal model", failure="it diverged"))
+    failed = note_text(FixedFidelity(1e-3, "the nominal model", failure=(NoReplay("", "run 2", NO_STEADY_STATE,
+                                                                                   "it diverged"),)))
     assert failed == ("the model fidelity is fixed at 0.001 of each run's largest balanced torque: the nominal model "
-                      "could not be replayed to measure it (it diverged)")
+                      "could not be replayed to measure it (no periodic steady state under the drive of run 2: it "
+                      "diverged)")
     clean = note_text(FixedFidelity(1e-3, "the nominal model", measured=2.5e-5, chi2_per_dof=7.25, noise_free_below=1e-6))
     assert "the records are noise-free (below 1e-06 of every channel), and measured on the replay of the nominal " \
            "model (2.5e-05 of the balanced torque) it left the best model at chi2/dof 7.25" in clean
     assert "two periods alone" in note_text(FixedFidelity(1e-3, "m", measured=1e-4, chi2_per_dof=3.0, two_periods=True))
     assert "driven by 0.25 of the torque" in note_text(RelativeAngle(0.25))
     assert ", from your model)" in note_text(RelativeAngle(0.5, True))
+
+
+@pytest.mark.parametrize("failure, words", [
+    (NoReplay("extended", "f.csv run 3", NO_INERTIA, inertias=((1, -0.5), (2, float("nan")))),
+     "the extended model has no body's inertia (J1 = -0.5, J2 = nan kg m^2): it cannot be simulated"),
+    (NoReplay("", "", NO_INERTIA, inertias=((1, -0.5),)), "a fitted inertia is no body's"),
+    (NoReplay("nominal", "r1", NOT_FOLLOWED, "diverged"),
+     "the nominal model does not follow the measured drive of r1: diverged"),
+    (NoReplay("nominal", "r1", NO_STEADY_STATE), "the nominal model reaches no periodic steady state under the "
+                                                 "measured drive of r1"),
+    (NoReplay("extended", "r1", NO_STEADY_STATE, "MuJoCo warned"),
+     "the extended model reaches no periodic steady state under the measured drive of r1: MuJoCo warned"),
+    (NoReplay("extended", "r1", NOR_SPANNED, "diverged", periods=4), "the extended model reaches no periodic steady "
+     "state under the measured drive of r1, nor follows it over its 4 periods: diverged"),
+])
+def test_a_failed_replays_words_carry_its_model_run_and_the_rigs_reason(failure, words):
+    assert no_replay_text(failure) == words
+    assert failures_text((failure, failure)) == words + "; " + words
+    with pytest.raises(ValueError, match="no words for a replay that failed by 'x'"):
+        no_replay_text(dataclasses.replace(failure, model="nominal", why="x"))
+
+
+def test_why_a_bias_was_not_measured_in_words():
+    assert bias_unmeasured_text(BiasUnmeasured(smooth=True)) == "the nominal law is smooth: not measured"
+    assert bias_unmeasured_text(BiasUnmeasured()) == "no replay of the fitted runs was made"
+    assert bias_unmeasured_text(BiasUnmeasured(failures=(NoReplay("", "", NO_INERTIA),))) == (
+        "the model could not be replayed on the fitted runs (a fitted inertia is no body's)")

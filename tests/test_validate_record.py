@@ -190,7 +190,7 @@ def test_a_replay_that_reaches_no_steady_state_is_compared_over_the_records_own_
     settled = validate_chain(rig, d, held, config=RIG_CONFIG)
     capped = validate_chain(rig, d, held, config=_replace(RIG_CONFIG, max_periods=3, accelerate=False))
     assert settled.spanned == () and len(capped.spanned) == len(held), capped.spanned
-    assert capped.spanned[0].model == "nominal" and capped.note == ""
+    assert capped.spanned[0].model == "nominal" and capped.failures == ()
     for v in (settled, capped):
         assert v.nominal_error <= 3 * v.noise_floor, (v.nominal_error, v.noise_floor)
 

@@ -24,6 +24,8 @@ import pytest
 
 from bench_sim import JOINTS, POINTS, measure, with_effect
 from jointrig.identify.causes import CATALOGUE, CauseScore, parsimonious
+from jointrig.identify.verdict import Grounds
+from jointrig.present.notes import verdict_text
 from jointrig.measured.runs import read_runs
 from jointrig.rig.chain import rig_of_bodies
 from jointrig.studies.chain_validate import run_train_diagnosis
@@ -96,7 +98,8 @@ def test_a_diverging_candidate_is_rejected_with_its_reason(tmp_path, monkeypatch
     report = _train(loaded)
     v = report.verdict
     assert v.verdict == "unexplained" and not report.adopted
-    assert "is not adopted" in v.reason and "diverged" in v.reason, v
+    assert v.grounds is Grounds.UNCHECKED and v.causes == ("coulomb_friction at joint 1",), v
+    assert "is not adopted" in verdict_text(v) and "diverged" in verdict_text(v), v
     text = format_train_report(report)
     assert not re.search(r"\b(inf|nan)\b", text, re.IGNORECASE), text
     assert "diverged" in text
@@ -108,9 +111,11 @@ def test_a_diverging_candidate_is_rejected_with_its_reason(tmp_path, monkeypatch
     from jointrig.studies.joint_card import cards_of_train
 
     (card,) = cards_of_train(report, loaded.records)
-    assert "did NOT adopt" in card.warning and "unexplained" in card.warning
+    from jointrig.present.card import card_warning
+
+    assert card.unadopted == v and "did NOT adopt" in card_warning(card) and "unexplained" in card_warning(card)
     cj = card_json(card)
-    assert cj["model_adopted"] is False and cj["warning"] == card.warning
+    assert cj["model_adopted"] is False and cj["warning"] == card_warning(card)
     json.dumps(cj, allow_nan=False)
 
 
@@ -165,7 +170,7 @@ def test_one_or_two_runs_are_diagnosed_on_their_later_periods(tmp_path, points):
     report = _train(loaded)
     assert report.held_out_periods
     assert report.verdict.verdict == "explained" and _dynamic(report) == ["coulomb_friction"], report.verdict
-    assert "held-out later periods" in report.verdict.reason
+    assert report.verdict.later_periods and "held-out later periods" in verdict_text(report.verdict)
     js = train_report_json(report)
     assert js["validation"]["kind"] == "held_out_periods"
     assert "later periods" in format_train_report(report)
@@ -216,7 +221,7 @@ def _issue_case(name: str) -> str:
     named = _dynamic(r)
     ok = (v == "explained" and named == [right]) or (v == "unexplained" and not r.adopted)
     found = "+".join(s.label for s in r.diagnosis.steps) if r.adopted else "-"
-    return f"{name:46s} {v:12s} {found:40s} {'right' if ok else 'WRONG':6s} {r.verdict.reason}"
+    return f"{name:46s} {v:12s} {found:40s} {'right' if ok else 'WRONG':6s} {verdict_text(r.verdict)}"
 
 
 @pytest.mark.slow  # slow: a whole diagnosis of a file in a command of its own (about 30 s on 2 cores)
@@ -439,14 +444,15 @@ def test_the_users_model_is_compared_only_provisionally_when_nothing_explains_th
     import json
     from dataclasses import replace
 
-    from jointrig.identify.verdict import Verdict
+    from jointrig.identify.verdict import Grounds, Verdict
     from jointrig.present.train_report import format_train_report, train_report_json, write_train_html
 
     path = measure(JOINTS["paper"], _points("paper"), tmp_path / "bench.csv", seed=2, fs_Hz=2000.0, n_periods=6.5)
     report = replace(_train(read_runs(path)), written=(("joint1_k_Nm_per_rad", 2500.0), ("J1_kgm2", 2.0)))
     firm = format_train_report(report)
     assert "As written, your model has joint1_k = 2500" in firm and "PROVISIONAL" not in firm, firm[:1500]
-    lead = replace(report, verdict=Verdict("unexplained", "a misfit no catalogued cause explains"))
+    lead = replace(report, verdict=Verdict("unexplained", Grounds.NOMINAL_MISFITS, chi2_per_dof=5.0,
+                                                  error_ratio=3.0, bound=1.5))
     text = format_train_report(lead)
     assert "Provisionally (no model explains the data" in text and "PROVISIONAL" in text, text[:1500]
     assert "may differ, 20% lower" in text and "DIFFERS" not in text

@@ -13,7 +13,9 @@ import math
 import numpy as np
 import pytest
 
-from jointrig.identify.verdict import CHI2_PER_DOF_OK, RIG_FIDELITY, judge
+from jointrig.identify.verdict import CHI2_PER_DOF_OK, RIG_FIDELITY, Grounds, Verdict, judge
+from jointrig.present.notes import verdict_text
+from jointrig.studies.notes import NO_STEADY_STATE, NoReplay
 from jointrig.studies.chain_validate import RightModelError
 
 BOUND = 1.4  # a bound as the comparisons give it (1.4-1.6 on the independent bench)
@@ -28,40 +30,49 @@ BOUND = 1.4  # a bound as the comparisons give it (1.4-1.6 on the independent be
 def test_the_nominal_model_explains_the_data_only_within_both_bounds(c2, ratio, verdict):
     v = judge((), c2, ratio, ratio, BOUND)
     assert v.verdict == verdict, v
-    assert f"at most {CHI2_PER_DOF_OK:g}" in v.reason and f"at most {BOUND:.3g}" in v.reason
+    assert v.grounds is (Grounds.NOMINAL_FITS if verdict == "no_misfit" else Grounds.NOMINAL_MISFITS)
+    reason = verdict_text(v)
+    assert f"at most {CHI2_PER_DOF_OK:g}" in reason and f"at most {BOUND:.3g}" in reason
     if verdict == "unexplained":
-        assert v.reason.startswith("no catalogued cause is significant, but the nominal model does not explain")
+        assert reason.startswith("no catalogued cause is significant, but the nominal model does not explain")
 
 
 @pytest.mark.parametrize("c2,ratio,nominal,lost,verdict", [
-    (1.0, BOUND, BOUND * 1.001, "", "explained"),       # inclusive for the extension, strict for the nominal
-    (1.0, BOUND * 1.001, 50.0, "", "unexplained"),      # beyond what a right model misses
-    (1.0, 1.0, BOUND, "", "explained"),                 # not resolved there, but leaning its way: the fit decides
-    (1.0, 1.2, 1.1, "", "unexplained"),                 # not resolved, and the nominal predicts better
-    (1.0, 1.0, 1.0, "", "unexplained"),                 # not resolved, and the nominal predicts as well (gain 1)
-    (CHI2_PER_DOF_OK * 1.001, 1.0, 50.0, "", "unexplained"),
-    (1.0, 1.0, math.nan, "3, 7", "explained"),          # the nominal has no steady state there
-    (1.0, 1.0, math.nan, "", "unexplained"),
-    (3.0, 1.0, math.nan, "3", "unexplained"),           # a lost nominal does not excuse a misfit
+    (1.0, BOUND, BOUND * 1.001, (), "explained"),       # inclusive for the extension, strict for the nominal
+    (1.0, BOUND * 1.001, 50.0, (), "unexplained"),      # beyond what a right model misses
+    (1.0, 1.0, BOUND, (), "explained"),                 # not resolved there, but leaning its way: the fit decides
+    (1.0, 1.2, 1.1, (), "unexplained"),                 # not resolved, and the nominal predicts better
+    (1.0, 1.0, 1.0, (), "unexplained"),                 # not resolved, and the nominal predicts as well (gain 1)
+    (CHI2_PER_DOF_OK * 1.001, 1.0, 50.0, (), "unexplained"),
+    (1.0, 1.0, math.nan, ("3", "7"), "explained"),      # the nominal has no steady state there
+    (1.0, 1.0, math.nan, (), "unexplained"),
+    (3.0, 1.0, math.nan, ("3",), "unexplained"),        # a lost nominal does not excuse a misfit
 ])
 def test_an_extension_is_adopted_only_when_it_predicts_like_a_right_model_and_the_nominal_does_not(
         c2, ratio, nominal, lost, verdict):
     gain = nominal / ratio if math.isfinite(nominal) else math.nan  # the errors' ratio, as the caller's
     v = judge(("coulomb_friction",), c2, ratio, nominal, BOUND, nominal_lost=lost, gain=gain)
     assert v.verdict == verdict, v
+    reason = verdict_text(v)
     if verdict == "explained" and lost:
-        assert f"no periodic steady state in held-out run(s) {lost}, the extended model does" in v.reason
+        assert v.grounds is Grounds.NOMINAL_LOST
+        assert f"no periodic steady state in held-out run(s) {', '.join(lost)}, the extended model does" in reason
     elif verdict == "explained" and nominal > BOUND:
+        assert v.grounds is Grounds.CONFIRMED
         assert (f"the nominal model's held-out error is {nominal:.3g} times what it would miss were it right (at most "
-                f"{BOUND:.3g}): the held-out runs confirm") in v.reason
+                f"{BOUND:.3g}): the held-out runs confirm") in reason
     elif verdict == "explained":
-        assert "the held-out runs do not resolve it" in v.reason and v.reason.endswith("adopted on the fit's evidence")
+        assert v.grounds is Grounds.FIT_EVIDENCE
+        assert "the held-out runs do not resolve it (the nominal model's held-out error is" in reason and \
+            reason.endswith("adopted on the fit's evidence")
     elif c2 <= CHI2_PER_DOF_OK and ratio <= BOUND:
-        assert v.reason.startswith("the best extension (coulomb_friction) is not confirmed") and \
-            v.reason.endswith("nothing is adopted")
+        assert v.grounds is Grounds.NOT_CONFIRMED
+        assert reason.startswith("the best extension (coulomb_friction) is not confirmed") and \
+            "predicts the held-out runs as well (held-out error" in reason and reason.endswith("nothing is adopted")
     else:
-        assert v.reason.startswith("the best extension (coulomb_friction) fails validation") and \
-            v.reason.endswith("nothing is adopted")
+        assert v.grounds is Grounds.FAILS_VALIDATION
+        assert reason.startswith("the best extension (coulomb_friction) fails validation") and \
+            reason.endswith("nothing is adopted")
 
 
 def test_the_nominal_model_is_judged_against_its_own_bound_where_given():
@@ -73,10 +84,37 @@ def test_the_nominal_model_is_judged_against_its_own_bound_where_given():
 
 def test_the_words_follow_the_causes_and_the_held_out_data():
     one = judge(("backlash",), 1.0, 1.2, 10.0, BOUND)
-    two = judge(("coulomb_friction", "backlash"), 1.0, 1.2, 10.0, BOUND, held="error on the held-out later periods")
-    assert one.reason.startswith("backlash explains the data: chi2/dof 1 (at most 2), held-out error 1.2 times what")
-    assert two.reason.startswith("coulomb_friction + backlash explain the data")
-    assert "error on the held-out later periods 1.2 times what a right model misses (at most 1.4)" in two.reason
+    two = judge(("coulomb_friction", "backlash"), 1.0, 1.2, 10.0, BOUND, later_periods=True)
+    assert verdict_text(one).startswith("backlash explains the data: chi2/dof 1 (at most 2), held-out error 1.2 times "
+                                        "what")
+    assert verdict_text(two).startswith("coulomb_friction + backlash explain the data")
+    assert "error on the held-out later periods 1.2 times what a right model misses (at most 1.4)" in verdict_text(two)
+    assert two.later_periods and two.causes == ("coulomb_friction", "backlash") and not one.later_periods
+
+
+DIVERGED = NoReplay("extended", "run 3", NO_STEADY_STATE, "diverged")
+WHY = "the extended model reaches no periodic steady state under the measured drive of run 3: diverged"
+
+
+@pytest.mark.parametrize("causes, failures, words", [
+    ((), (DIVERGED,), f"the nominal model could not be checked on held-out runs: {WHY}; it cannot be the train"),
+    (("backlash at joint 1",), (DIVERGED,), f"the best extension (backlash at joint 1) is not adopted: {WHY}"),
+    (("backlash at joint 1",), (), "the best extension (backlash at joint 1) is not adopted: no held-out run"),
+])
+def test_a_model_that_could_not_be_checked_is_unexplained_with_the_validations_reasons(causes, failures, words):
+    # why no replay could be compared (the validation's failed replays) is quoted, after the model judged
+    v = Verdict("unexplained", Grounds.UNCHECKED, causes, unchecked=failures)
+    assert verdict_text(v) == words
+
+
+def test_every_grounds_has_words_and_a_json_value():
+    # every branch has its sentence (none raises, none leaves a figure unformatted as a field name)
+    for g in Grounds:
+        v = Verdict("unexplained", g, ("backlash",), 1.0, 1.2, 1.4, 3.0, 1.5, 2.5, nominal_lost=("3",),
+                    unchecked=(DIVERGED,))
+        text = verdict_text(v)
+        assert text and "{" not in text and "Grounds" not in text, (g, text)
+        assert g.value == g.name.lower()
 
 
 def test_the_chi_square_bound_and_the_rigs_fidelity_are_the_stated_ones():

@@ -181,7 +181,7 @@ def _main(args: argparse.Namespace) -> int:
 
         what = "extended" if report.adopted else "nominal"
         header = (f"jointrig {__version__}: the {what} train identified from {args.data} (SHA-256 {loaded.sha256}).\n"
-                  f"Verdict: {report.verdict.verdict}: {report.verdict.reason}")
+                  f"Verdict: {report.verdict.verdict}: {d.reason}")
 
         def write(tmp):
             tmp.write_text(d.model_xml(header), encoding="utf-8")
