@@ -673,19 +673,24 @@ class CauseScore:
                 "parameters": self.fit.parameters() if self.fit is not None else {}}
 
 
+#: Why no drive is named to tell two causes apart (:attr:`Ambiguity.unplaced`): one is a body's
+#: law to ground (no linearised drive information for it), or a channel's lag or scale (not a
+#: place on the line).
+TO_GROUND, AT_CHANNEL = "to_ground", "at_channel"
+
+
 @dataclass(frozen=True)
 class Ambiguity:
     """Two causes (in a train: causes at places) the data cannot tell apart, and what would:
-    ``excitation`` in words, and in a train ``separating_drive``, the body whose drive tells
-    them apart best (None where no such figure is computed)."""
+    ``separating_drive``, the body whose drive tells them apart best, with ``information``
+    ``((body, Fisher information per run), ...)`` best first; or, where no drive is computed,
+    why (``unplaced``: :data:`TO_GROUND`, :data:`AT_CHANNEL`). Its words:
+    :func:`present.text.separation_text`."""
 
     effects: tuple
-    excitation: str
     separating_drive: Optional[int] = None
-
-    def as_json(self) -> dict:
-        return {"effects": list(self.effects), "excitation": self.excitation,
-                "separating_drive_body": self.separating_drive}
+    information: tuple = ()
+    unplaced: str = ""
 
 
 Base = TypeVar("Base")

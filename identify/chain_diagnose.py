@@ -1468,8 +1468,7 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
             rival_fit, wr = problem.fit(rival.fit.spec)
             b_given_r = score(problem, by_label[best.label], rival_fit, wr, len(pool), alpha)
             if not r_given_b.significant and not b_given_r.significant:
-                drive, why = separating_drive(problem, by_label[best.label], by_label[rival.label], best, rival)
-                ambiguous.append(Ambiguity((best.label, rival.label), why, drive))
+                ambiguous.append(separating_drive(problem, by_label[best.label], by_label[rival.label], best, rival))
 
     chosen = forward_select((nominal, w), pool, rank=rank, adopt=adopt, after=rivals_of,
                             max_effects=max_effects, name_of=lambda s: s.label)
@@ -1660,20 +1659,19 @@ def drive_information(J_kgm2, c_Nms_per_rad, k_Nm_per_rad, omegas_rad_s, torque_
     return out
 
 
-def separating_drive(problem: _Problem, a: Candidate, b: Candidate, sa: CauseScore, sb: CauseScore
-                     ) -> tuple[Optional[int], str]:
+def separating_drive(problem: _Problem, a: Candidate, b: Candidate, sa: CauseScore, sb: CauseScore) -> Ambiguity:
     """Which flywheel to drive so that two candidates at different places tell apart:
     :func:`drive_information` with the nominal fit's linear chain, the measured runs'
     frequencies and median drive torque, the torque noise, and each candidate's fitted effect.
-    Returns (flywheel, explanation)."""
+    Returns their :class:`identify.causes.Ambiguity`."""
+    from .causes import AT_CHANNEL, TO_GROUND
+
     N = problem.runs[0].average.n_flywheels
+    effects = (sa.label, sb.label)
     if a.ground or b.ground:
-        return None, (f"{a.label} and {b.label}: no linearised drive information for a law to ground; runs at "
-                      f"other levels would tell them apart")
+        return Ambiguity(effects, unplaced=TO_GROUND)
     if a.at_drive or b.at_drive or a.at_channel or b.at_channel:
-        return None, (f"{a.label} and {b.label}: a channel's lag or scale is not a place on the line; runs at "
-                      f"several frequencies at one level tell a lag (its phase grows with the frequency) from a law, "
-                      f"a static reading against a reference a channel's scale")
+        return Ambiguity(effects, unplaced=AT_CHANNEL)
     base = problem.fit(nominal_spec(N))[0].as_dict()
     J = [base[inertia_name(i)] for i in range(1, N + 1)]
     c = [base[joint_prefix(j) + "c_Nms_per_rad"] for j in range(1, N)]
@@ -1690,9 +1688,7 @@ def separating_drive(problem: _Problem, a: Candidate, b: Candidate, sa: CauseSco
     infos = drive_information(J, c, k, [r.average.omega_rad_s for r in runs], torque, sigma, effect(a, sa),
                               effect(b, sb))
     best = max(infos, key=infos.get)
-    ranked = ", ".join(f"flywheel {d}: {v:.3g}" for d, v in sorted(infos.items(), key=lambda x: -x[1]))
-    return best, (f"driving flywheel {best} separates {a.label} from {b.label} best (Fisher information per run "
-                  f"at the measured frequencies and torque, linearised: {ranked})")
+    return Ambiguity(effects, best, tuple(sorted(infos.items(), key=lambda x: -x[1])))
 
 
 @dataclass(frozen=True)
@@ -1814,6 +1810,9 @@ class TrainMisfit:
       where: the place it is largest at: ``"joint j"``, or ``"body 1 to ground"`` for a single body.
       by_place: per place, the residual's RMS over the measured torque's, over all runs together.
       character, surface, next_measurements: at ``where`` (:mod:`identify.misfit`).
+      kind, single: how the bodies move (a :class:`vocab.params.Coordinate`) and whether the place
+        is a single body's law to the frame: the words of its quantities
+        (:func:`present.misfit_words.words_of`).
     """
 
     where: str
@@ -1821,26 +1820,10 @@ class TrainMisfit:
     character: object
     surface: object
     next_measurements: tuple
-    #: the place's quantities in words and units (:class:`identify.surface.Words`)
-    words: object = None
+    kind: Coordinate = HINGE
+    single: bool = False
     #: the residual at every sample of every run there (:class:`identify.misfit.ResidualSamples`)
     samples: object = field(default=None, repr=False)
-
-    def describe(self) -> tuple[str, str]:
-        """The character and the surface in words."""
-        return self.character.describe(self.words), self.surface.describe(self.words)
-
-    def describe_places(self) -> str:
-        if len(self.by_place) == 1:
-            return f"at {self.where}"
-        rest = ", ".join(f"{p} {r:.2g}" for p, r in self.by_place if p != self.where)
-        top = dict(self.by_place)[self.where]
-        return (f"at {self.where}, where the residual torque is largest ({top:.2g} of the torque there; {rest}: a "
-                f"misfit at a joint shows beyond it too when the fit has moved an inertia or a drag to absorb it)")
-
-    def as_json(self) -> dict:
-        return {"where": self.where, "by_place": {p: r for p, r in self.by_place}, **self.character.as_json(),
-                "description": self.describe()[0]}
 
 
 def train_misfit(runs: Sequence[ChainRun], run_ids: Sequence[str], amplitudes: Sequence[float],
@@ -1853,7 +1836,6 @@ def train_misfit(runs: Sequence[ChainRun], run_ids: Sequence[str], amplitudes: S
     from .balance import spectral_rate
     from .harmonics import synthesize
     from .misfit import ResidualRun, misfit_character, next_measurements, residual_samples, residual_surface
-    from .surface import PLACE_WORDS
 
     plant, J = plant_and_inertias(fit)
     N = len(J)
@@ -1875,13 +1857,12 @@ def train_misfit(runs: Sequence[ChainRun], run_ids: Sequence[str], amplitudes: S
                 model = np.asarray(plant.laws[k].torque(motion, v[k] - v[k + 1]), float)
             per_place[k].append(ResidualRun(rid, w, amp, motion, measured, _same_mean(model, measured)))
     names = ["body 1 to ground"] if N == 1 else [f"joint {j}" for j in range(1, N)]
-    words = PLACE_WORDS[(Coordinate(kind), N == 1)]
     chars = [misfit_character(rs, band) for rs in per_place]
     by_place = tuple((n, _overall(c)) for n, c in zip(names, chars))
     k = int(np.argmax([r for _, r in by_place]))
     surface = residual_surface(per_place[k])
-    return TrainMisfit(names[k], by_place, chars[k], surface, next_measurements(chars[k], surface, per_place[k], words),
-                       words, residual_samples(per_place[k]))
+    return TrainMisfit(names[k], by_place, chars[k], surface, next_measurements(chars[k], surface, per_place[k]),
+                       Coordinate(kind), N == 1, residual_samples(per_place[k]))
 
 
 # --------------------------------------------------------------------------------------------

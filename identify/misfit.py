@@ -17,11 +17,11 @@ import numpy as np
 
 from .balance import spectral_rate
 from .harmonics import fourier_coefficients
-from .surface import JOINT_WORDS, RestoringSurface, Words, restoring_surface
+from .surface import RestoringSurface, restoring_surface
 
 __all__ = ["ResidualRun", "MisfitCharacter", "misfit_character", "next_measurements", "ResidualSamples",
            "residual_samples", "residual_surface", "distinct_settings", "same_setting", "PHASE_SPAN_RESONANT_DEG",
-           "HIGH_SHARE", "REPEAT_CHANGE", "Words", "JOINT_WORDS"]
+           "HIGH_SHARE", "REPEAT_CHANGE", "NextMeasurement"]
 
 
 @dataclass(frozen=True)
@@ -98,37 +98,6 @@ class MisfitCharacter:
     repeat_change: float = math.nan
     repeat_runs: tuple[str, ...] = ()
 
-    def describe(self, words: Words = JOINT_WORDS) -> str:
-        w = words
-        parity = (f"even in {w.angle} (an asymmetry)" if self.even_share > 0.6 else
-                  f"odd in {w.angle} (symmetric)" if self.even_share < 0.4 else "both odd and even")
-        kind = ("dissipative" if self.dissipative_share > 0.6 else
-                "conservative (elastic)" if self.dissipative_share < 0.4 else "partly dissipative")
-        f = ("grows with frequency" if self.frequency_slope > 0.5 else
-             "falls with frequency" if self.frequency_slope < -0.5 else "about independent of frequency")
-        a = ("grows faster than the drive" if self.amplitude_slope > 1.5 else
-             "grows with the drive" if self.amplitude_slope > 0.5 else "about independent of the drive level")
-        return (f"the residual {w.torque} is {max(self.relative):.2g} of the {w.torque} at most; it is {parity}, "
-                f"{kind} at the fundamental (share {self.dissipative_share:.2f}), sits mostly on harmonics "
-                f"{', '.join(map(str, self.top_harmonics))}, {f} (slope {self.frequency_slope:.2g}) and "
-                f"{a} (slope {self.amplitude_slope:.2g}); largest in runs {', '.join(self.worst_runs)}"
-                + (f"; {self.high_share:.0%} of it on harmonics 4 and up" if self.high_share > HIGH_SHARE else "")
-                + (f"; at one drive level its axis at the fundamental turns by {self.phase_span_deg:.0f} deg between "
-                   f"frequencies (towards or away from quadrature with the {w.motion}: a frequency-dependent stiffness "
-                   f"and damping)"
-                   if self.phase_span_deg > PHASE_SPAN_RESONANT_DEG else "")
-                + self._order_text())
-
-    def _order_text(self) -> str:
-        if not math.isfinite(self.repeat_change):
-            return "; no run repeats a setting, so a dependence on run order or time cannot be told apart"
-        a, b = self.repeat_runs
-        if self.repeat_change > REPEAT_CHANGE:
-            return (f"; between runs {a} and {b}, which repeat one setting, it changes by {self.repeat_change:.2g} "
-                    f"of its size: it depends on run order or time (wear, temperature, drift)")
-        return (f"; between runs {a} and {b}, which repeat one setting, it changes by {self.repeat_change:.2g} "
-                f"of its size: no sign of run order or time")
-
     def as_json(self) -> dict:
         return {"rms_Nm": list(self.rms_Nm), "relative": list(self.relative), "even_share": self.even_share,
                 "dissipative_share": self.dissipative_share, "top_harmonics": list(self.top_harmonics),
@@ -136,8 +105,7 @@ class MisfitCharacter:
                 "worst_runs": list(self.worst_runs), "phase_deg": list(self.phase_deg),
                 "phase_span_deg": self.phase_span_deg, "high_share": self.high_share,
                 "repeat_change": self.repeat_change if math.isfinite(self.repeat_change) else None,
-                "repeat_runs": list(self.repeat_runs),
-                "description": self.describe()}
+                "repeat_runs": list(self.repeat_runs)}
 
 
 #: A residual whose axis at the fundamental turns by more than this across frequencies at one
@@ -182,8 +150,28 @@ def _phase_span(omegas, amplitudes, phases_deg, on_fundamental) -> float:
     return span
 
 
+#: Measurements that would tell more about a misfit (:attr:`NextMeasurement.kind`): a stepped
+#: sine over more frequencies; a quasi-static ramp of the motion; a static calibration of the
+#: sensors; runs with a preload and a check of the zero; runs at more drive levels; a setting
+#: repeated with the temperature logged; one run repeated at the start and the end.
+(MORE_FREQUENCIES, QUASI_STATIC_RAMP, SENSOR_CALIBRATION, PRELOAD_AND_ZERO, MORE_LEVELS, REPEAT_WITH_TEMPERATURE,
+ REPEAT_START_END) = ("more_frequencies", "quasi_static_ramp", "sensor_calibration", "preload_and_zero", "more_levels",
+                      "repeat_with_temperature", "repeat_start_end")
+
+
+@dataclass(frozen=True)
+class NextMeasurement:
+    """A measurement that would tell more about a misfit: ``kind`` (:data:`MORE_FREQUENCIES`, ...),
+    ``count`` the frequencies or drive levels the runs hold (more frequencies, more levels), and
+    ``runs`` the two runs of one setting whose misfit changed (a setting repeated)."""
+
+    kind: str
+    count: int = 0
+    runs: tuple = ()
+
+
 def next_measurements(character: "MisfitCharacter", surface: RestoringSurface,
-                      runs: Sequence["ResidualRun"], words: Words = JOINT_WORDS) -> tuple[str, ...]:
+                      runs: Sequence["ResidualRun"]) -> tuple[NextMeasurement, ...]:
     """Which measurements would tell more about an unexplained misfit (pure; from its character
     and the runs' plan, naming no cause)."""
     out = []
@@ -191,30 +179,19 @@ def next_measurements(character: "MisfitCharacter", surface: RestoringSurface,
     freqs = len(distinct_settings([r.omega_rad_s for r in runs]))
     if ((0.3 <= surface.elastic_share <= 0.7 and abs(character.frequency_slope) > 0.5)
             or character.phase_span_deg > PHASE_SPAN_RESONANT_DEG):
-        out.append(f"a stepped sine at one drive level over more frequencies (the runs hold {freqs}): a "
-                   "stiffness and damping that change with frequency at equal amplitude (a viscoelastic element "
-                   "with its own time constant) show as a turning phase of the residual")
+        out.append(NextMeasurement(MORE_FREQUENCIES, count=freqs))
     if character.high_share > HIGH_SHARE and surface.elastic_share > 0.7:
-        out.append(f"a slow, quasi-static ramp of the {words.motion} with the {words.torque} measured: a "
-                   f"{words.torque} that repeats at a fixed pitch of the {words.motion} (cogging, a detent, a damaged "
-                   f"tooth) shows as ripple in the stiffness section against the {words.motion}")
+        out.append(NextMeasurement(QUASI_STATIC_RAMP))
     if character.amplitude_slope > 1.5 and character.even_share < 0.4:
-        out.append(f"a static calibration of the {words.load} cell and the {words.encoders} against a reference over "
-                   "their range: a misfit that grows faster than the drive on odd harmonics can be the joint's law or a "
-                   "sensor's nonlinearity, and only a reference tells them apart")
+        out.append(NextMeasurement(SENSOR_CALIBRATION))
     if character.even_share > 0.6 or surface.symmetric_share < 0.3:
-        out.append(f"runs with a mean (preload) {words.load} and a check of the {words.sensors} zero: an even misfit "
-                   f"is an asymmetry or an offset")
+        out.append(NextMeasurement(PRELOAD_AND_ZERO))
     if levels < 3:
-        out.append(f"runs at more drive levels (the runs hold {levels}): how the misfit scales with the drive "
-                   "tells a law of the motion (it grows faster) from a linear one (it scales with the drive)")
+        out.append(NextMeasurement(MORE_LEVELS, count=levels))
     if math.isfinite(character.repeat_change) and character.repeat_change > REPEAT_CHANGE:
-        out.append(f"the misfit changed between runs {' and '.join(character.repeat_runs)} of one setting: repeat "
-                   "that setting through the test with the joint's temperature logged (wear, temperature or "
-                   "drift is not a law a model of the joint can hold)")
+        out.append(NextMeasurement(REPEAT_WITH_TEMPERATURE, runs=tuple(character.repeat_runs)))
     elif not math.isfinite(character.repeat_change):
-        out.append("one run repeated at the start and the end of the test: a misfit that changes with run order is "
-                   "wear, temperature or drift, not a law")
+        out.append(NextMeasurement(REPEAT_START_END))
     return tuple(out)
 
 

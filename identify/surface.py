@@ -24,7 +24,6 @@ from typing import Sequence
 import numpy as np
 
 from jointrig.vocab.law import hat_matrix
-from jointrig.vocab.params import HINGE, SLIDE
 
 __all__ = ["RestoringSurface", "restoring_surface"]
 
@@ -37,36 +36,6 @@ N_RATE_KNOTS = 21
 PENALTY = 1e-3
 #: A knot is supported when its hat functions carry at least this many samples' weight.
 SUPPORT = 2.0
-
-
-@dataclass(frozen=True)
-class Words:
-    """How a misfit's description names its place's quantities: a joint's torque over its relative
-    angle (the default), or a body's force to ground over its position on a slide."""
-
-    torque: str = "joint torque"
-    angle: str = "phi"
-    motion: str = "joint angle"
-    torque_unit: str = "N m"
-    angle_unit: str = "rad"
-    load: str = "torque"
-    sensors: str = "angle sensors'"
-    encoders: str = "angle encoders"
-
-
-#: A joint between two bodies on hinges (two flywheels, a train's joint).
-JOINT_WORDS = Words()
-
-#: ``(coordinate, single body) -> Words``: a joint between two bodies, or what holds a single
-#: body to the frame, on hinges and on slides.
-PLACE_WORDS = {
-    (HINGE, False): JOINT_WORDS,
-    (HINGE, True): Words("torque to ground", "phi", "angle", "N m", "rad", "torque", "angle encoder's", "angle encoder"),
-    (SLIDE, False): Words("joint force", "x", "joint's stretch", "N", "m", "force", "position encoders'",
-                          "position encoders"),
-    (SLIDE, True): Words("force to ground", "x", "position", "N", "m", "force", "position encoder's",
-                         "position encoder"),
-}
 
 
 @dataclass(frozen=True)
@@ -112,34 +81,11 @@ class RestoringSurface:
         return np.einsum("ni,ij,nj->n", hat_matrix(phi_rad, self.phi_knots_rad), self.torque_Nm,
                          hat_matrix(rate_rad_s, self.rate_knots_rad_s))
 
-    def describe(self, words: Words = JOINT_WORDS) -> str:
-        kind = (f"a {words.torque} of the {words.motion} (elastic)" if self.elastic_share > 0.7 else
-                f"a {words.torque} of the rate (dissipative)" if self.elastic_share < 0.3 else
-                "both elastic and dissipative")
-        sym = ("point-symmetric (a symmetric law)" if self.symmetric_share > 0.7 else
-               "not point-symmetric (an asymmetry, or an offset)" if self.symmetric_share < 0.3 else
-               "partly point-symmetric")
-        phi, s = self.stiffness_section
-        v, d = self.damping_section
-        tiny = 1e-9 * self.rms_Nm  # round-off of the solve, not torque
-        s, d = np.where(np.abs(s) < tiny, 0.0, s), np.where(np.abs(d) < tiny, 0.0, d)
-        w = words
-        parts = [f"as a surface over ({w.angle}, {w.angle}') it is {kind}, share even in the rate {self.elastic_share:.2f}, "
-                 f"and {sym}, share {self.symmetric_share:.2f}; the surface carries "
-                 f"{1 - (self.fit_rms_Nm / self.rms_Nm) ** 2 if self.rms_Nm > 0 else 0:.0%} of the residual's power"]
-        if phi.size >= 2:
-            parts.append(f"its stiffness section S({w.angle}, 0) spans {s.min():.3g} to {s.max():.3g} {w.torque_unit} "
-                         f"over {w.angle} {phi.min():.3g} to {phi.max():.3g} {w.angle_unit}")
-        if v.size >= 2:
-            parts.append(f"its damping section S(0, {w.angle}') spans {d.min():.3g} to {d.max():.3g} {w.torque_unit} "
-                         f"over {w.angle}' {v.min():.3g} to {v.max():.3g} {w.angle_unit}/s")
-        return "; ".join(parts)
-
     def as_json(self) -> dict:
         return {"phi_knots_rad": self.phi_knots_rad.tolist(), "rate_knots_rad_s": self.rate_knots_rad_s.tolist(),
                 "torque_Nm": np.where(self.supported, self.torque_Nm, np.nan).tolist(),
                 "rms_Nm": self.rms_Nm, "fit_rms_Nm": self.fit_rms_Nm, "elastic_share": self.elastic_share,
-                "symmetric_share": self.symmetric_share, "description": self.describe()}
+                "symmetric_share": self.symmetric_share}
 
 
 def _share(part: np.ndarray, whole: np.ndarray) -> float:

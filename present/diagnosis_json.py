@@ -16,7 +16,7 @@ from jointrig.identify.causes import Ambiguity, CauseScore
 from jointrig.identify.verdict import Verdict
 from jointrig.vocab.params import Coordinate
 
-from .notes import rejection_text, verdict_text
+from .notes import rejection_text, separation_text, verdict_text
 
 __all__ = ["SCHEMA", "KEYS", "VERDICT_KEYS", "FIDELITY_KEYS", "RULED_OUT_KEYS", "PRELOAD_KEYS", "FIT_KEYS", "VALIDATION_KEYS", "RIGHT_KEYS", "RUN_KEYS", "CAUSE_KEYS", "FitJson", "RunJson",
            "ValidationJson", "DiagnosisJson", "finite", "schema_problems"]
@@ -201,11 +201,17 @@ class DiagnosisJson:
                             "on_search_bound": [{"parameter": self.kind.name(p), "side": side, "bound": bound}
                                                 for p, side, bound in self.on_bounds]},
                "ruled_out": [dict(r) for r in self.ruled_out], "preloads": [dict(r) for r in self.preloads],
-               "ambiguities": [a.as_json() for a in self.ambiguities], "as_written": dict(self.as_written),
+               "ambiguities": [ambiguity_json(a) for a in self.ambiguities], "as_written": dict(self.as_written),
                "validation": self.validation.as_json(), "plausibility": list(self.plausibility),
                "misfit_character": self.misfit_character, "misfit_surface": self.misfit_surface,
                "next_measurements": list(self.next_measurements), "notes": list(self.notes)}
         return finite(out)
+
+
+def ambiguity_json(a: Ambiguity) -> dict:
+    """An ambiguity in the diagnosis document: the two causes, what would separate them in words,
+    and the separating drive's body (null where none is named)."""
+    return {"effects": list(a.effects), "excitation": separation_text(a), "separating_drive_body": a.separating_drive}
 
 
 def schema_problems(doc: dict) -> list[str]:

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from functools import singledispatch
 
-from jointrig.identify.causes import BelowResolution, FeedsEnergy, NoFalloff, Unphysical
+from jointrig.identify.causes import AT_CHANNEL, TO_GROUND, Ambiguity, BelowResolution, FeedsEnergy, NoFalloff, Unphysical
 from jointrig.identify.chain import inertia_name
 from jointrig.identify.chain_diagnose import ReadWrong, UndeterminedInertia
 from jointrig.identify.verdict import CHI2_PER_DOF_OK, Grounds, Verdict
@@ -219,3 +219,21 @@ def verdict_text(v: Verdict) -> str:
         Grounds.FAILS_VALIDATION: lambda: (f"the best extension ({names}) fails validation: {figures}; nothing is "
                                            f"adopted"),
     }[v.grounds]()
+
+
+def separation_text(a: Ambiguity) -> str:
+    """What would tell two causes apart, in words: the drive that separates them best (with the
+    Fisher information per run of every drive), or the runs that would where no drive is named."""
+    one, two = a.effects
+    if a.unplaced == TO_GROUND:
+        return (f"{one} and {two}: no linearised drive information for a law to ground; runs at other levels would "
+                f"tell them apart")
+    if a.unplaced == AT_CHANNEL:
+        return (f"{one} and {two}: a channel's lag or scale is not a place on the line; runs at several frequencies "
+                f"at one level tell a lag (its phase grows with the frequency) from a law, a static reading against a "
+                f"reference a channel's scale")
+    if a.separating_drive is None:
+        raise ValueError(f"an ambiguity of {one} and {two} names neither a drive nor why not")
+    ranked = ", ".join(f"flywheel {d}: {v:.3g}" for d, v in a.information)
+    return (f"driving flywheel {a.separating_drive} separates {one} from {two} best (Fisher information per run at "
+            f"the measured frequencies and torque, linearised: {ranked})")

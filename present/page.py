@@ -19,8 +19,8 @@ def surface_figure(srf, smp, words=None) -> str:
     """Three panels: the surface ``srf`` where the data support it, under the residual samples
     ``smp`` along the runs' loops (the classic restoring-force plot); the samples against the
     angle with the stiffness section, and against the rate with the damping section. ``words``:
-    the place's quantities (:class:`identify.surface.Words`; a joint's by default)."""
-    from jointrig.identify.surface import JOINT_WORDS
+    the place's quantities (:class:`present.misfit_words.Words`; a joint's by default)."""
+    from .misfit_words import JOINT_WORDS
 
     from . import svg
 

@@ -338,7 +338,7 @@ def misfit_tab(base: str = "diagnosis/misfit", words=None, name: str = "Unexplai
     """The blueprint tab of :func:`log_misfit`'s entities."""
     import rerun.blueprint as rrb
 
-    from jointrig.identify.surface import JOINT_WORDS
+    from .misfit_words import JOINT_WORDS
 
     w = words or JOINT_WORDS
     axis = rrb.TimeAxis(view_range=rrb.TimeRange(start=rrb.TimeRangeBoundary.infinite(),
@@ -491,11 +491,14 @@ def log_chain_diagnosis(rec: rr.RecordingStream, diagnosis, validation, n_flywhe
         rec.log("verdict", rr.TextDocument(text, media_type=rr.MediaType.TEXT), static=True)
         tabs.insert(0, rrb.TextDocumentView(origin="verdict", name="Verdict and report"))
     if misfit is not None:
-        character, surface = misfit.describe()
+        from .misfit_words import measurement_text, misfit_texts, places_text, words_of
+
+        character, surface = misfit_texts(misfit)
+        words = words_of(misfit)
         log_misfit(rec, misfit.surface, misfit.samples,
-                   f"**Where:** {misfit.describe_places()}.\n\n" + misfit_text(character, surface,
-                                                                              misfit.next_measurements),
-                   base="misfit", words=misfit.words)
-        tabs.insert(1, misfit_tab("misfit", misfit.words, name=f"Unexplained misfit at {misfit.where}"))
+                   f"**Where:** {places_text(misfit)}.\n\n" + misfit_text(
+                       character, surface, [measurement_text(n, words) for n in misfit.next_measurements]),
+                   base="misfit", words=words)
+        tabs.insert(1, misfit_tab("misfit", words, name=f"Unexplained misfit at {misfit.where}"))
     rec.send_blueprint(rrb.Blueprint(rrb.Tabs(*tabs), rrb.TimePanel(timeline="t_s", state="collapsed"),
                                      collapse_panels=True))

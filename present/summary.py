@@ -9,6 +9,7 @@ import math
 from dataclasses import dataclass
 
 from .formatting import quantity_of, unit_of, with_se
+from .notes import separation_text
 
 __all__ = ["NO_GAIN", "WRITTEN_SE", "WRITTEN_SHARE", "WrittenRow", "compare_written", "wrong_sentence", "steps_after"]
 
@@ -92,8 +93,8 @@ def steps_after(verdict: str, ambiguities, later_periods_only: bool) -> tuple[st
     """What to do next after a diagnosis that is not unexplained, on every bench: tell apart what
     the data cannot, test on another excitation when only later periods were held out, and put
     an adopted cause into the model."""
-    out = [f"{a.effects[0]} and {a.effects[1]} explain the same part of the data; to tell them apart: {a.excitation}"
-           for a in ambiguities]
+    out = [f"{a.effects[0]} and {a.effects[1]} explain the same part of the data; to tell them apart: "
+           f"{separation_text(a)}" for a in ambiguities]
     if later_periods_only:
         out.append("runs at other drive levels or frequencies: the model was checked only on later periods of the "
                    "same runs")

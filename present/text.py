@@ -15,7 +15,7 @@ from jointrig.identify.causes import Ambiguity, CauseScore
 from jointrig.vocab.params import HINGE, Coordinate
 
 from .formatting import quantity_of, sig, unit_of, with_se
-from .notes import rejection_text, verdict_text
+from .notes import rejection_text, separation_text, verdict_text
 from .summary import WRITTEN_SE, WRITTEN_SHARE
 
 __all__ = ["ValidationRow", "head_lines", "parameter_lines", "causes_lines", "ambiguity_lines", "validation_lines",
@@ -117,7 +117,7 @@ def ruled_out_lines(limits: Sequence[tuple], *, name: Callable[[str], str] = str
 
 def ambiguity_lines(ambiguities: Sequence[Ambiguity]) -> list[str]:
     return [f"  CANNOT TELL APART: {a.effects[0]} and {a.effects[1]} explain the same part of the data (neither is "
-            f"significant given the other). To separate them: {a.excitation}." for a in ambiguities]
+            f"significant given the other). To separate them: {separation_text(a)}." for a in ambiguities]
 
 
 @dataclass(frozen=True)

@@ -18,6 +18,7 @@ from jointrig.studies.chain_validate import TrainReport
 
 from .diagnosis_json import DiagnosisJson, FitJson, RunJson, ValidationJson
 from .formatting import quantity_of, sig, sig_or, unit_of, with_se
+from .misfit_words import character_json, measurement_text, misfit_texts, places_text, surface_json, words_of
 from .notes import bias_unmeasured_text, failures_text, note_text, plausibility_text, rejection_text
 from .summary import NO_GAIN, compare_written, steps_after, wrong_sentence
 from .text import (ValidationRow, ambiguity_lines, causes_lines, head_lines, notes_lines, on_bound_lines, parameter_lines,
@@ -68,6 +69,11 @@ def plain_label(step, form: str = "train") -> str:
     if form == "relative" and step.where.to_ground:
         return f"{plain} in the joint"
     return f"{plain} {step.where.describe()}"
+
+
+def _measurements(misfit) -> tuple[str, ...]:
+    """The measurements that would tell more about a train's misfit, in its place's words."""
+    return tuple(measurement_text(n, words_of(misfit)) for n in misfit.next_measurements)
 
 
 def plain_train_verdict(report: TrainReport) -> str:
@@ -362,10 +368,10 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
         steps = _plausibility(report) + offset_readings(report) + method_bias_steps(report) + steps_after(
             v.verdict, d.ambiguities, report.held_out_periods)
     else:  # no cause mends a file read wrong: that comes first
-        steps = _plausibility(report) + offset_readings(report) + (m.next_measurements if m is not None else ())
-    misfit = ([f"Where the misfit is: {m.describe_places()}",
-               f"What the misfit looks like there: {m.describe()[0]}",
-               f"Its restoring-force surface: {m.describe()[1]}"] if m is not None else [])
+        steps = _plausibility(report) + offset_readings(report) + (_measurements(m) if m is not None else ())
+    misfit = ([f"Where the misfit is: {places_text(m)}",
+               f"What the misfit looks like there: {misfit_texts(m)[0]}",
+               f"Its restoring-force surface: {misfit_texts(m)[1]}"] if m is not None else [])
     lines = head_lines(v, plain_train_verdict(report), steps, name=nm, model=report.model_path or "",
                        written=_written(report), misfit=misfit)
     kind = report.kind
@@ -467,9 +473,9 @@ def train_report_json(report: TrainReport, *, source: str = "", notes: Sequence[
         as_written={nm(w.name): w.as_json() for w in _written(report)},
         validation=validation, notes=tuple(_notes(notes, report)),
         plausibility=_plausibility(report),
-        misfit_character=report.misfit.as_json() if report.misfit is not None else None,
-        misfit_surface=report.misfit.surface.as_json() if report.misfit is not None else None,
-        next_measurements=tuple(report.misfit.next_measurements) if report.misfit is not None else (),
+        misfit_character=character_json(report.misfit) if report.misfit is not None else None,
+        misfit_surface=surface_json(report.misfit) if report.misfit is not None else None,
+        next_measurements=_measurements(report.misfit) if report.misfit is not None else (),
         fidelity=fidelity_json(d.fidelity, fit_ids),
         ruled_out=tuple({"label": s.label, "effect": s.effect, "place": s.as_json()["place"],
                          "magnitude_name": nm(s.magnitude[0]), "limit": lim, "std_error": s.magnitude[2],
@@ -600,16 +606,16 @@ def write_train_html(path, report: TrainReport, text: str, *, title: str, source
             for w in written]))
     m = report.misfit
     if m is not None:
-        character, surface = m.describe()
+        character, surface = misfit_texts(m)
         parts.append("<h2>What the misfit looks like</h2>")
-        parts.append(f"<p>Where: {html.escape(m.describe_places())}.</p><p>{html.escape(character[:1].upper() + character[1:])}."
+        parts.append(f"<p>Where: {html.escape(places_text(m))}.</p><p>{html.escape(character[:1].upper() + character[1:])}."
                      f"</p><p>{html.escape(surface[:1].upper() + surface[1:])}.</p>")
         if m.next_measurements:
             parts.append("<p>Measurements that would tell more:</p><ul>"
-                         + "".join(f"<li>{html.escape(t)}</li>" for t in m.next_measurements) + "</ul>")
-        parts.append(svg_figure_html(f"The nominal model's residual {m.words.torque} at {m.where} as a restoring-force "
-                                     f"surface, over every run's measured motion", surface_figure(m.surface, m.samples,
-                                                                                                   m.words)))
+                         + "".join(f"<li>{html.escape(t)}</li>" for t in _measurements(m)) + "</ul>")
+        parts.append(svg_figure_html(f"The nominal model's residual {words_of(m).torque} at {m.where} as a "
+                                     f"restoring-force surface, over every run's measured motion",
+                                     surface_figure(m.surface, m.samples, words_of(m))))
     image = train_figure(report)
     if image:
         parts.append(svg_figure_html(f"Held-out data ({report.generalisation}): measured, and simulated in the rig "

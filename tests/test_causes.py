@@ -425,10 +425,22 @@ def test_a_score_says_where_and_reads_the_same_in_json_for_two_flywheels_and_a_t
     two = CauseScore("backlash", 90.0, 1, 84.0, 1e-20, True, None, mag)
     assert two.label == "backlash" and two.place is None and two.at_joint and not two.ground
     assert two.as_json()["place"] is None and two.as_json()["label"] == "backlash"
-    a = Ambiguity(("backlash at joint 2", "coulomb_friction at joint 3"), "drive body 4", 4)
-    assert a.as_json() == {"effects": ["backlash at joint 2", "coulomb_friction at joint 3"],
-                           "excitation": "drive body 4", "separating_drive_body": 4}
-    assert Ambiguity(("a", "b"), "x").as_json()["separating_drive_body"] is None
+    from jointrig.identify.causes import AT_CHANNEL, TO_GROUND
+    from jointrig.present.diagnosis_json import ambiguity_json
+    from jointrig.present.notes import separation_text
+
+    a = Ambiguity(("backlash at joint 2", "coulomb_friction at joint 3"), 4, ((4, 12.5), (1, 3.25)))
+    words = ("driving flywheel 4 separates backlash at joint 2 from coulomb_friction at joint 3 best (Fisher "
+             "information per run at the measured frequencies and torque, linearised: flywheel 4: 12.5, flywheel 1: "
+             "3.25)")
+    assert separation_text(a) == words
+    assert ambiguity_json(a) == {"effects": ["backlash at joint 2", "coulomb_friction at joint 3"],
+                                 "excitation": words, "separating_drive_body": 4}
+    ground = Ambiguity(("a", "b"), unplaced=TO_GROUND)
+    assert ambiguity_json(ground)["separating_drive_body"] is None and "for a law to ground" in separation_text(ground)
+    assert "a channel's lag or scale" in separation_text(Ambiguity(("a", "b"), unplaced=AT_CHANNEL))
+    with pytest.raises(ValueError, match="names neither a drive nor why not"):
+        separation_text(Ambiguity(("a", "b")))
 
 
 def test_the_profile_search_below_a_vertex_outside_its_range_takes_the_one_sided_curvature():

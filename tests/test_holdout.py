@@ -96,18 +96,19 @@ def _residual(run_id, omega, amplitude, residual_scale, *, n=256):
 
 def test_run_order_is_judged_only_from_repeated_settings():
     from jointrig.identify.misfit import misfit_character, next_measurements, residual_surface
+    from jointrig.present.misfit_words import character_text, measurement_text
 
     sweep = [("0", 25.0, 1500.0), ("1", 40.0, 1500.0), ("2", 55.0, 1500.0)]
     # no repeat: said to be undecidable, and a repeated run is suggested
     ch = misfit_character([_residual(i, w, a, 20.0) for i, w, a in sweep], 20)
-    assert np.isnan(ch.repeat_change) and "cannot be told apart" in ch.describe()
+    assert np.isnan(ch.repeat_change) and "cannot be told apart" in character_text(ch)
     # the first setting repeated at the end with the same residual: no sign of run order
     same = [_residual(i, w, a, 20.0) for i, w, a in sweep] + [_residual("3", 25.0, 1502.0, 20.0)]
     ch = misfit_character(same, 20)
     assert ch.repeat_change == pytest.approx(0.0, abs=1e-12) and ch.repeat_runs == ("0", "3")
-    assert "no sign of run order or time" in ch.describe()
+    assert "no sign of run order or time" in character_text(ch)
     # ... with the residual doubled (a joint that wears during the test): changes by 0.5 of its size
     worn = [_residual(i, w, a, 20.0) for i, w, a in sweep] + [_residual("3", 25.0, 1502.0, 40.0)]
     ch = misfit_character(worn, 20)
-    assert ch.repeat_change == pytest.approx(0.5, rel=1e-9) and "depends on run order or time" in ch.describe()
-    assert any("changed between runs 0 and 3" in m for m in next_measurements(ch, residual_surface(worn), worn))
+    assert ch.repeat_change == pytest.approx(0.5, rel=1e-9) and "depends on run order or time" in character_text(ch)
+    assert any("changed between runs 0 and 3" in measurement_text(m) for m in next_measurements(ch, residual_surface(worn), worn))

@@ -14,8 +14,15 @@ import math
 import numpy as np
 import pytest
 
-from jointrig.identify.misfit import (HIGH_SHARE, JOINT_WORDS, ResidualRun, Words, distinct_settings, misfit_character,
-                                      next_measurements, residual_samples, residual_surface, same_setting)
+from jointrig.identify.misfit import (HIGH_SHARE, ResidualRun, distinct_settings, misfit_character,
+                                      residual_samples, residual_surface, same_setting)
+from jointrig.identify.misfit import next_measurements as measurement_values
+from jointrig.present.misfit_words import JOINT_WORDS, Words, character_text, measurement_text, surface_text
+
+
+def next_measurements(c, surface, runs, words=JOINT_WORDS):
+    """The measurements that would tell more, in words."""
+    return tuple(measurement_text(m, words) for m in measurement_values(c, surface, runs))
 
 N = 256
 
@@ -38,7 +45,7 @@ def test_an_elastic_odd_residual_on_the_fundamental():
     assert c.even_share == pytest.approx(0.0, abs=1e-12) and c.dissipative_share == pytest.approx(0.0, abs=1e-12)
     assert c.top_harmonics[0] == 1 and c.high_share == pytest.approx(0.0, abs=1e-12)
     assert c.phase_deg == pytest.approx((0.0, 0.0, 0.0), abs=1e-9)
-    assert "odd in phi (symmetric)" in c.describe() and "conservative (elastic)" in c.describe()
+    assert "odd in phi (symmetric)" in character_text(c) and "conservative (elastic)" in character_text(c)
 
 
 def test_a_dissipative_residual_is_in_quadrature():
@@ -48,7 +55,7 @@ def test_a_dissipative_residual_is_in_quadrature():
     assert [abs(p) for p in c.phase_deg] == pytest.approx([90.0] * 3, rel=1e-9)
     # its size grows with the frequency at one level: slope 1 against omega, 0 against the level
     assert c.frequency_slope == pytest.approx(1.0, abs=1e-9) and c.amplitude_slope == pytest.approx(0.0, abs=1e-9)
-    assert "dissipative at the fundamental" in c.describe() and "grows with frequency" in c.describe()
+    assert "dissipative at the fundamental" in character_text(c) and "grows with frequency" in character_text(c)
 
 
 def test_an_even_residual_and_its_measurements():
@@ -68,7 +75,7 @@ def test_a_ripple_calls_for_a_quasi_static_ramp_and_a_few_levels_for_more():
     runs = [_run(i, w, 1.0, lambda th, p, v: 5.0 * np.cos(6 * th)) for i, w in enumerate((20.0, 30.0))]
     c = misfit_character(runs, 10)
     assert c.top_harmonics[0] == 6 and c.high_share == pytest.approx(1.0, rel=1e-12) and c.high_share > HIGH_SHARE
-    assert "100% of it on harmonics 4 and up" in c.describe()
+    assert "100% of it on harmonics 4 and up" in character_text(c)
     steps = next_measurements(c, residual_surface(runs), runs)
     assert any(s.startswith("a slow, quasi-static ramp of the joint angle") for s in steps)
     assert any(s.startswith("runs at more drive levels (the runs hold 1)") for s in steps)
@@ -80,7 +87,7 @@ def test_a_turning_phase_between_frequencies_at_one_level():
     b = _run("b", 40.0, 1.0, lambda th, p, v: 50.0 * np.cos(th - math.radians(60)))
     c = misfit_character([a, b], 10)
     assert c.phase_span_deg == pytest.approx(60.0, rel=1e-9)
-    assert "turns by 60 deg between frequencies" in c.describe()
+    assert "turns by 60 deg between frequencies" in character_text(c)
     # at different levels the turn is no evidence (the axis may move with the amplitude)
     b2 = _run("b", 40.0, 2.0, lambda th, p, v: 50.0 * np.cos(th - math.radians(60)))
     assert misfit_character([a, b2], 10).phase_span_deg == 0.0
@@ -91,10 +98,10 @@ def test_the_worst_runs_and_the_words_of_a_slide():
     c = misfit_character(runs, 10)
     assert c.worst_runs == ("1", "2")
     slide = Words("force to ground", "x", "position", "N", "m", "force", "position encoder's", "position encoder")
-    text = c.describe(slide)
+    text = character_text(c, slide)
     assert "the residual force to ground is 0.23 of the force to ground at most" in text  # 300 / 1300 and "odd in x" in text
-    assert c.describe(JOINT_WORDS) == c.describe()
-    surface = residual_surface(runs).describe(slide)
+    assert character_text(c, JOINT_WORDS) == character_text(c)
+    surface = surface_text(residual_surface(runs), slide)
     assert "over (x, x')" in surface and " N over x " in surface and "N m" not in surface
 
 
@@ -179,11 +186,11 @@ def test_how_the_misfit_scales_with_the_drive_is_put_in_words():
     # the amplitude slope's words: above 1.5 faster than the drive, above 0.5 with it
     runs = [_run(i, 30.0, a, lambda th, p, v: 100.0 * p) for i, a in enumerate((1.0, 2.0, 4.0))]
     c = misfit_character(runs, 10)
-    assert c.amplitude_slope == pytest.approx(1.0, abs=1e-9) and "grows with the drive (slope 1)" in c.describe()
+    assert c.amplitude_slope == pytest.approx(1.0, abs=1e-9) and "grows with the drive (slope 1)" in character_text(c)
     from dataclasses import replace
 
-    assert "grows faster than the drive" in replace(c, amplitude_slope=2.0).describe()
-    assert "about independent of the drive level" in replace(c, amplitude_slope=0.4).describe()
+    assert "grows faster than the drive" in character_text(replace(c, amplitude_slope=2.0))
+    assert "about independent of the drive level" in character_text(replace(c, amplitude_slope=0.4))
 
 
 def test_a_misfit_partly_elastic_that_grows_with_frequency_asks_for_a_stepped_sine():
@@ -252,8 +259,8 @@ def test_the_measurements_asked_for_start_above_their_thresholds():
     assert not asks("preload", surface=replace(s, symmetric_share=0.3))
     assert asks("preload", surface=replace(s, symmetric_share=0.3 - 1e-9))
     # the description's words share the threshold: at 0.6 a residual is "both odd and even"
-    assert "both odd and even" in replace(c, even_share=0.6).describe()
-    assert "(an asymmetry)" in replace(c, even_share=0.6 + 1e-9).describe()
+    assert "both odd and even" in character_text(replace(c, even_share=0.6))
+    assert "(an asymmetry)" in character_text(replace(c, even_share=0.6 + 1e-9))
     # every even harmonic counts as even: a residual on harmonic 4 alone is even through and through
     four = [_run(i, w, 1.0, lambda th, p, v: 10.0 * np.cos(4 * th)) for i, w in enumerate((20.0, 30.0))]
     assert misfit_character(four, 10).even_share == pytest.approx(1.0, rel=1e-12)
@@ -292,3 +299,27 @@ def test_a_run_whose_residual_is_not_on_the_fundamental_turns_no_axis():
     b = _run("b", 40.0, 1.0, lambda th, p, v: 50.0 * np.cos(th - math.radians(30)))
     c = _run("c", 60.0, 1.0, lambda th, p, v: 2.5 * np.cos(th - math.radians(80)) + 50.0 * np.cos(3 * th))
     assert misfit_character([a, b, c], 10).phase_span_deg == pytest.approx(30.0, rel=1e-9)
+
+
+def test_the_measurements_asked_for_are_values_with_words_in_the_places_units():
+    # what to measure next is a value (its kind and the runs' own counts); the words are made in
+    # present/misfit_words.py, in the place's quantities
+    from jointrig.identify import misfit as mf
+    from jointrig.present.misfit_words import PLACE_WORDS
+    from jointrig.vocab.params import SLIDE
+
+    runs = [_run(i, 30.0, a, lambda th, p, v: 5e9 * p**3) for i, a in enumerate((1.0, 2.0))]
+    got = measurement_values(misfit_character(runs, 10), residual_surface(runs), runs)
+    assert mf.NextMeasurement(mf.MORE_LEVELS, count=2) in got and mf.NextMeasurement(mf.REPEAT_START_END) in got
+    kinds = (mf.MORE_FREQUENCIES, mf.QUASI_STATIC_RAMP, mf.SENSOR_CALIBRATION, mf.PRELOAD_AND_ZERO, mf.MORE_LEVELS,
+             mf.REPEAT_WITH_TEMPERATURE, mf.REPEAT_START_END)
+    slide = PLACE_WORDS[(SLIDE, True)]
+    for k in kinds:
+        text = measurement_text(mf.NextMeasurement(k, count=4, runs=("a", "b")), slide)
+        assert text and "joint torque" not in text and "angle encoder" not in text, (k, text)
+    assert "the runs hold 4" in measurement_text(mf.NextMeasurement(mf.MORE_LEVELS, count=4))
+    assert "between runs a and b" in measurement_text(mf.NextMeasurement(mf.REPEAT_WITH_TEMPERATURE, runs=("a", "b")))
+    assert "ramp of the position with the force to ground" in measurement_text(
+        mf.NextMeasurement(mf.QUASI_STATIC_RAMP), slide)
+    with pytest.raises(ValueError, match="no words for a measurement of kind 'x'"):
+        measurement_text(mf.NextMeasurement("x"))

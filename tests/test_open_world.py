@@ -27,6 +27,7 @@ import pytest
 from bench_sim import (JOINTS, POINTS, cogging, late_channel, maxwell, measure, scaled_channel, torque_calibration,
                        with_effect)
 from jointrig.measured.runs import read_runs
+from jointrig.present.misfit_words import measurement_text, misfit_texts
 from jointrig.rig.chain import rig_of_bodies
 from jointrig.studies.chain_validate import run_train_diagnosis
 
@@ -77,9 +78,9 @@ def _report(tmp_path, joint, case):
 def test_an_effect_outside_the_catalogue_is_unexplained_and_described(tmp_path, joint, case):
     report = _report(tmp_path, joint, case)
     v, m = report.verdict, report.misfit
-    info = (v, [s.label for s in report.diagnosis.steps], m.describe() if m is not None else None)
+    info = (v, [s.label for s in report.diagnosis.steps], misfit_texts(m) if m is not None else None)
     assert v.verdict == "unexplained" and not report.adopted, info
-    ch, surface, nxt = m.character, m.surface, " | ".join(m.next_measurements)
+    ch, surface, nxt = m.character, m.surface, " | ".join(measurement_text(n) for n in m.next_measurements)
     assert m.where == "joint 1", info
     # The restoring-force surface follows the residual (measured: it carries 82-100% of its power)
     assert surface.fit_rms_Nm < 0.7 * surface.rms_Nm, info
@@ -118,7 +119,7 @@ def _check_shown(report, tmp_path, hint):
     assert out["verdict"]["verdict"] == "unexplained"
     assert out["misfit_surface"]["elastic_share"] == m.surface.elastic_share
     assert len(out["misfit_surface"]["torque_Nm"]) == m.surface.phi_knots_rad.size
-    assert out["next_measurements"] == list(m.next_measurements)
+    assert out["next_measurements"] == [measurement_text(n) for n in m.next_measurements]
     page = write_train_html(tmp_path / "r.html", report, text, title="t").read_text()
     assert "What the misfit looks like" in page and "restoring-force surface" in page
     with open_recording(tmp_path / "r.rrd") as rec:
@@ -186,8 +187,8 @@ def _figures(case):
            f"gain {v.gain:6.3g} chi2/dof {d.reduced_chi2(d.final):6.3g} held-out/floor "
            f"{v.extended_error / v.noise_floor:6.3g}\n")
     if r.misfit is not None:
-        out += "".join(f"    {t}\n" for t in r.misfit.describe()) + "".join(f"    next: {t}\n"
-                                                                              for t in r.misfit.next_measurements)
+        out += "".join(f"    {t}\n" for t in misfit_texts(r.misfit)) + "".join(
+            f"    next: {measurement_text(t)}\n" for t in r.misfit.next_measurements)
     return out
 
 

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from jointrig.identify.surface import restoring_surface
+from jointrig.present.misfit_words import surface_text
 
 T = np.linspace(0, 2 * np.pi, 256, endpoint=False)
 #: (amplitude rad, omega rad/s) of each loop; each carries a third harmonic of 5% in phase
@@ -62,7 +63,7 @@ def test_a_viscoelastic_misfit_is_both_elastic_and_dissipative():
     loops = _loops()
     s = restoring_surface([p for p, _ in loops], [v for _, v in loops], [100 * p + 2 * v for p, v in loops])
     assert 0.3 < s.elastic_share < 0.7 and s.symmetric_share > 0.99
-    assert "both elastic and dissipative" in s.describe()
+    assert "both elastic and dissipative" in surface_text(s)
 
 
 def test_bad_input_is_named():

@@ -67,7 +67,9 @@ def test_a_single_bodys_residual_is_its_missing_drag_in_its_own_units():
     assert m.where == "body 1 to ground"
     rate = -A * W * np.sin(W * np.linspace(0, 2 * math.pi / W, m.samples.residual_Nm[0].size, endpoint=False))
     assert np.max(np.abs(m.samples.residual_Nm[0] - C * rate)) < 1e-9 * C * A * W
-    character, surface = m.describe()
+    from jointrig.present.misfit_words import misfit_texts
+
+    character, surface = misfit_texts(m)
     assert "residual force to ground" in character and "dissipative at the fundamental" in character
     assert " N over x " in surface and " m/s" in surface and "N m" not in surface
 
