@@ -119,6 +119,7 @@ def read_data(data: PathLike, *, validate: Optional[PathLike] = None, columns: O
               torque_share: float = 0.5):
     """The runs of ``data`` (a file or a folder), then, labelled ``validate:<run>``, those of
     ``validate`` (the same bench's), as :class:`measured.runs.LoadedRuns`."""
+    from jointrig.measured.notes import FromValidate
     from jointrig.measured.runs import read_runs
 
     kw = dict(columns=columns, units=units, zero_per_run=zero_per_run, torque_on=torque_on, torque_share=torque_share)
@@ -131,7 +132,7 @@ def read_data(data: PathLike, *, validate: Optional[PathLike] = None, columns: O
         raise DiagnosisInputError(f"--validate {validate}: its columns are another bench's than {data}'s "
                                   f"(expected the same angles and drives)")
     ids = tuple(VALIDATE_PREFIX + r for r in other.run_ids)
-    notes = tuple(f"{validate} (--validate): {n}" for n in other.notes)
+    notes = tuple(FromValidate(str(validate), n) for n in other.notes)
     return replace(loaded, run_ids=loaded.run_ids + ids, records=loaded.records + other.records,
                    notes=loaded.notes + notes)
 

@@ -60,6 +60,9 @@ from jointrig.vocab.params import HINGE, SLIDE, Coordinate
 from jointrig.vocab.records import MAX_SI_VALUE, RecordError
 
 from .formats import SUFFIXES, FormatError, RawTable, read_tables
+from .notes import (ClockJitter, CommonMotion, EpochTime, IgnoredColumns, IncompletePeriod, LaterFundamental,
+                    LeastSquaresPeriods, NamesFrom, NoUnits, OmegaDisagrees, OmegaFromPeriod, PreloadChanges, Resampled,
+                    TransientCut, ZeroPerRun)
 
 __all__ = ["RunsFileError", "LoadedRuns", "read_runs", "write_runs", "estimate_omega", "COLUMNS", "UNITS",
            "parse_mapping", "REPEAT_THRESHOLD", "TORQUE_ON"]
@@ -128,7 +131,9 @@ class LoadedRuns:
     path: Path
     run_ids: tuple[str, ...]
     records: tuple[ChainRecord, ...]
-    notes: tuple[str, ...]
+    #: what the reader noted about the file and how it read it (:mod:`measured.notes`; in words:
+    #: :func:`present.notes.note_text`)
+    notes: tuple
     sha256: str = ""
     #: how the bodies move: "hinge" (rad, N m, kg m^2) or "slide" (m, N, kg; held in the records'
     #: angle and torque fields, which are the project's generic coordinate and drive)
@@ -220,8 +225,7 @@ def _resolve(table: RawTable, columns: dict, units: dict, notes: list) -> tuple[
     used = set(found.values())
     extra = [c for c in table.columns if c not in used]
     if extra:
-        notes.append(f"{where}: column(s) {extra} ignored (the diagnosis uses run, time, torque, phi1, phi2 or phi, "
-                     f"omega; a drive train's phi1..phi{MAX_BODIES} and torque1..torque{MAX_BODIES})")
+        notes.append(IgnoredColumns(str(where), tuple(extra), MAX_BODIES))
     out, stated = {}, {}
     for canon, src in found.items():
         col = np.asarray(table.columns[src])
@@ -373,10 +377,8 @@ def _steady_fundamental(tu: np.ndarray, drive: np.ndarray, best, run: str, notes
     se = math.hypot(best.std_error_rad_s, later.std_error_rad_s)
     if not abs(later.omega_rad_s - best.omega_rad_s) > STEADY_FUNDAMENTAL_SE * se:
         return best
-    notes.append(f"run {run}: its fundamental over the whole record, {best.omega_rad_s:.9g} +- "
-                 f"{best.std_error_rad_s:.2g} rad/s, differs from that after its first period, {later.omega_rad_s:.9g} "
-                 f"+- {later.std_error_rad_s:.2g} rad/s (a transient at its start: a record from rest): the later one "
-                 f"is used")
+    notes.append(LaterFundamental(run, best.omega_rad_s, best.std_error_rad_s, later.omega_rad_s,
+                                  later.std_error_rad_s))
     return later
 
 
@@ -389,8 +391,7 @@ def _whole_periods(where: str, run: str, t: np.ndarray, chans: dict, drive: str,
     # Epoch stamps (1.7e9 s) keep their spacing's precision only as differences (a period's
     # samples would otherwise round to 2e-7 s): such a run's time counts from its first stamp.
     if n and abs(t[0]) > MAX_TIME_ORIGIN_S:
-        notes.append(f"run {run}: time stamps count from {t[0]:.10g} s (absolute, as an epoch time): the run's time "
-                     f"is taken from its first stamp")
+        notes.append(EpochTime(run, float(t[0])))
         t = t - t[0]
     if n < 16:
         raise RunsFileError(f"{where}: run {run}: {n} samples is too short; expected at least 16 (2 whole periods "
@@ -406,8 +407,7 @@ def _whole_periods(where: str, run: str, t: np.ndarray, chans: dict, drive: str,
             f"{clock.max_deviation:.3g} steps off the uniform clock t0 + k * {clock.dt_s:.6g} s (a gap, a missing "
             f"sample or a restart?); expected a uniform clock (deviations below {MAX_CLOCK_DEVIATION} steps)")
     if clock.max_deviation > 1e-6:
-        notes.append(f"run {run}: time stamps deviate up to {clock.max_deviation:.2g} steps from a uniform clock "
-                     f"of {clock.dt_s:.9g} s (rounding or jitter); the uniform clock is used")
+        notes.append(ClockJitter(run, clock.max_deviation, clock.dt_s))
     dt = clock.dt_s
     tu = clock.times(n)
     torque, phi = chans[drive], rel
@@ -441,20 +441,16 @@ def _whole_periods(where: str, run: str, t: np.ndarray, chans: dict, drive: str,
         if omega is not None and abs(omega / w_rec - 1) < 1e-9:
             w_rec = omega  # the stated value and the record's own period agree to round-off
         elif omega is not None:
-            notes.append(f"run {run}: column 'omega' ({omega:.9g} rad/s) and the record's own period of {N} samples "
-                         f"({w_rec:.9g} rad/s) differ by {abs(omega / w_rec - 1):.2g}; the record's value is used")
+            notes.append(OmegaDisagrees(run, omega, N, w_rec))
         elif samples_per_period is None:
-            notes.append(f"run {run}: no 'omega' column; the record repeats every {N} samples: omega = "
-                         f"{w_rec:.9g} rad/s (the {drive}'s line alone gives {best.omega_rad_s:.9g} +- "
-                         f"{best.std_error_rad_s:.2g})")
+            notes.append(OmegaFromPeriod(run, N, w_rec, drive, best.omega_rad_s, best.std_error_rad_s))
         P = n // N
         if P < 2:
             raise RunsFileError(f"{where}: run {run}: holds {n / N:.3g} periods of omega = {w_rec:.6g} rad/s; "
                                 f"expected at least 2 whole periods (the noise is estimated from period-to-period "
                                 f"variation)")
         if P * N != n:
-            notes.append(f"run {run}: {n} samples hold {n / N:.4g} periods; the last {n - P * N} samples (an "
-                         f"incomplete period) are not used")
+            notes.append(IncompletePeriod(run, n, N, P))
         per_out = N
         data = [c[: P * N] for c in cols]
         t_rec = clock.t0_s + np.arange(P * N) * (2 * math.pi / (w_rec * N))
@@ -462,7 +458,7 @@ def _whole_periods(where: str, run: str, t: np.ndarray, chans: dict, drive: str,
             fit = periods_by_least_squares(t_rec, np.array(data), w_rec, samples_per_period=samples_per_period)
             data, per_out = list(fit.samples), samples_per_period
             t_rec = clock.t0_s + np.arange(P * per_out) * (2 * math.pi / (w_rec * per_out))
-            notes.append(f"run {run}: resampled from {N} to {per_out} samples per period (harmonics 0..{fit.harmonics})")
+            notes.append(Resampled(run, N, per_out, fit.harmonics))
     else:
         w_rec = omega if omega is not None else best.omega_rad_s
         per = 2 * math.pi / (w_rec * dt)
@@ -480,17 +476,10 @@ def _whole_periods(where: str, run: str, t: np.ndarray, chans: dict, drive: str,
         data = list(fit.samples)
         t_rec = clock.t0_s + np.arange(P * per_out) * (2 * math.pi / (w_rec * per_out))
         used = int(round(P * per))
-        src = ("the 'omega' column" if omega is not None else
-               f"the {drive}'s line, +- {best.std_error_rad_s:.2g}")
         rms = [float(np.std(c)) or 1.0 for c in cols]
-        share = ", ".join(f"{name} {r / s:.2%}" for name, r, s in
-                          zip(chans, fit.residual_rms, rms))
-        notes.append(f"run {run}: {per:.6g} samples per period at omega = {w_rec:.9g} rad/s (from {src}) is not a "
-                     f"whole number (a fixed sample rate): harmonics 0..{fit.harmonics} of each of {P} whole "
-                     f"periods estimated by least squares on its own samples and synthesised at {per_out} samples "
-                     f"per period; residual RMS relative to each channel's RMS (noise plus content above harmonic "
-                     f"{fit.harmonics}): {share}"
-                     + (f"; the last {n - used} samples (an incomplete period) are not used" if n - used > 0 else ""))
+        shares = tuple((name, float(r / s)) for name, r, s in zip(chans, fit.residual_rms, rms))
+        notes.append(LeastSquaresPeriods(run, per, w_rec, drive, best.std_error_rad_s, fit.harmonics, P, per_out,
+                                         shares, n - used, omega_column=omega is not None))
     angles = [np.asarray(d) for name, d in zip(chans, data) if name.startswith(("phi", "x"))]
     # every joint's twist (a free train may turn as a whole, its angles ramping); one body's own angle
     twists = [a - b for a, b in zip(angles, angles[1:])]
@@ -498,9 +487,7 @@ def _whole_periods(where: str, run: str, t: np.ndarray, chans: dict, drive: str,
     if cut:  # a record from rest: its transient is not a steady state
         n_cut = cut * (len(t_rec) // P)
         data, t_rec = [np.asarray(d)[n_cut:] for d in data], t_rec[n_cut:]
-        notes.append(f"run {run}: its first {cut} period(s) are a transient (they depart from its last period by more "
-                     f"than {TRANSIENT_FACTOR:g} times its last two periods' own difference: a record from rest, or a "
-                     f"drive just switched on): left out, the {P - cut} steady period(s) after them kept")
+        notes.append(TransientCut(run, cut, P - cut, TRANSIENT_FACTOR))
         P -= cut
     return w_rec, t_rec, P, dict(zip(chans, data))
 
@@ -559,9 +546,7 @@ def _check_drift(where: str, run: str, t: np.ndarray, data: dict, omega: float, 
             tc = t - t[0]
             data["phi1"] = data["phi1"] - slope * tc
             data["phi2"] = data["phi2"] - slope * tc
-            notes.append(f"run {run}: both flywheels rotate steadily at {slope:.4g} rad/s on top of the vibration; "
-                         f"that common rotation is removed (it loads the joint with nothing; a bearing drag at that "
-                         f"speed would show as a constant torque)")
+            notes.append(CommonMotion(run, float(slope)))
     # With two angles, phi1 is checked after any common rotation is removed; phi2 then follows
     # from the relative angle, already checked. With one, phi1 holds the relative angle.
     for name in ("torque", "phi1"):
@@ -606,8 +591,7 @@ def _to_train_record(where: str, run: str, t: np.ndarray, torques: dict, angles:
         slope = float(np.mean([d.slope for d in ds]))
         for i in range(1, N + 1):
             data[f"{pos}{i}"] = data[f"{pos}{i}"] - slope * (t_rec - t_rec[0])
-        notes.append(f"run {run}: the whole {kind.line} moves steadily at "
-                     f"{slope:.4g} {unit}/s on top of the vibration; that common motion is removed")
+        notes.append(CommonMotion(run, slope, unit, kind.line))
     for i in torques:
         d = drift(data[f"{drv}{i}"])
         if _drifts(data[f"{drv}{i}"], d):
@@ -720,7 +704,7 @@ def _plausible_angles(path: Path, run_ids: Sequence[str], records: Sequence,
     twists = [_twists(r, relative) for r in records]
     if not twists[0]:  # a single body: its position's zero is its own affair
         if zero_per_run:
-            notes.append("each run's position taken about its own mean (--zero-per-run)")
+            notes.append(ZeroPerRun(single=True))
             return [_centred(r) for r in records]
         return list(records)
     joint = "the relative angle" if len(twists[0]) == 1 else "a joint's twist"
@@ -736,9 +720,7 @@ def _plausible_angles(path: Path, run_ids: Sequence[str], records: Sequence,
             f"(+-{math.radians(amps[worst]):.3g} rad)? State the unit in the header ('phi1 [deg]') or with "
             f"--units phi1=deg,phi2=deg")
     if zero_per_run:
-        notes.append("each run's angles taken about their own mean (--zero-per-run): the joint's zero is each run's "
-                     "mean relative angle, right for a symmetric joint; an asymmetric joint's shift of the mean with "
-                     "the level is lost")
+        notes.append(ZeroPerRun(single=False))
         return [_centred(r) for r in records]
     drive = np.array([_drive_means(r) for r in records])
     spread = [float(np.ptp(c[np.isfinite(c)])) for c in drive.T if np.isfinite(c).any()]
@@ -746,10 +728,8 @@ def _plausible_angles(path: Path, run_ids: Sequence[str], records: Sequence,
     for j in range(len(twists[0])):
         means = [float(np.mean(tw[j])) for tw in twists]
         if len(records) >= 2 and max(means) - min(means) > ZERO_SPREAD * max(amps) and loads:
-            what = "the relative angle's mean" if len(twists[0]) == 1 else f"joint {j + 1}'s mean twist"
-            notes.append(f"{what} differs between runs by {max(means) - min(means):.3g} rad, as the drives' mean does "
-                         f"(by {max(spread):.4g}): read as a preload that changes between runs "
-                         f"(each run's replay holds its own), not as encoders zeroed per run")
+            notes.append(PreloadChanges(0 if len(twists[0]) == 1 else j + 1, float(max(means) - min(means)),
+                                        float(max(spread))))
             continue
         if len(records) >= 2 and max(means) - min(means) > ZERO_SPREAD * max(amps):
             lo, hi = int(np.argmin(means)), int(np.argmax(means))
@@ -885,9 +865,9 @@ def read_runs(path: Union[str, os.PathLike], *, samples_per_period: Optional[int
             _unit_factor("units", k, v)
     files = _files(path)
     side, side_cols, side_units = _sidecar(path)
-    notes: list[str] = []
+    notes: list = []
     if side is not None:
-        notes.append(f"column names and units from {side}")
+        notes.append(NamesFrom(str(side)))
     columns = {**side_cols, **columns}
     units = {**side_units, **units}
     tables: list[tuple[Path, RawTable]] = []
@@ -997,8 +977,7 @@ def read_runs(path: Union[str, os.PathLike], *, samples_per_period: Optional[int
                                       share))
             run_ids.append(rid)
     if not any_units:
-        notes.insert(0, "no units stated in the file or the options: SI assumed (time s, torque N m, angles rad, "
-                        "omega rad/s); state others with --units, e.g. phi1=deg,time=ms")
+        notes.insert(0, NoUnits())
     relative = relatives[0]
     records = _plausible_angles(path, run_ids, records, angles_stated, zero_per_run, notes,
                                 unstated if angles_stated else set(), relative)

@@ -1,4 +1,5 @@
-"""The sentences of the diagnosis's values, made in one place: its notes (:mod:`studies.notes`,
+"""The sentences of the diagnosis's values, made in one place: its notes and the reader's
+(:mod:`studies.notes`, :mod:`measured.notes`,
 :func:`note_text`), why a significant cause was rejected (:data:`identify.causes.Rejection`,
 :func:`rejection_text`) and what a fit says about how the file was read
 (:func:`plausibility_text`), and why the verdict is what it is (:func:`verdict_text`). The text report, the JSON and the HTML report all read them here,
@@ -12,6 +13,10 @@ from jointrig.identify.causes import AT_CHANNEL, TO_GROUND, Ambiguity, BelowReso
 from jointrig.identify.chain import inertia_name
 from jointrig.identify.chain_diagnose import ReadWrong, UndeterminedInertia
 from jointrig.identify.verdict import CHI2_PER_DOF_OK, Grounds, Verdict
+from jointrig.measured.notes import (ClockJitter, CommonMotion, EpochTime, FromValidate, IgnoredColumns,
+                                     IncompletePeriod, LaterFundamental, LeastSquaresPeriods, NamesFrom, NoUnits,
+                                     OmegaDisagrees, OmegaFromPeriod, PreloadChanges, Resampled, TransientCut,
+                                     ZeroPerRun)
 from jointrig.studies.notes import (NO_INERTIA, NO_STEADY_STATE, NOR_SPANNED, NOT_FOLLOWED, BandCut, BiasUnmeasured,
                                     BodyRests, FixedFidelity, JointSticks, NoReplay, NoSpringToFrame, RelativeAngle,
                                     Spanned)
@@ -22,14 +27,121 @@ from .formatting import quantity_of
 
 @singledispatch
 def note_text(note) -> str:
-    """A note in words. The reader's notes (:attr:`measured.runs.LoadedRuns.notes`) come as words
-    already, made where the file is read, and are passed as they are."""
+    """A note in words: the reader's (:mod:`measured.notes`) and the diagnosis's (:mod:`studies.notes`)."""
     raise TypeError(f"no words for a note of type {type(note).__name__}")
 
 
 @note_text.register
-def _(note: str) -> str:
-    return note
+def _(note: NoUnits) -> str:
+    return ("no units stated in the file or the options: SI assumed (time s, torque N m, angles rad, omega rad/s); "
+            "state others with --units, e.g. phi1=deg,time=ms")
+
+
+@note_text.register
+def _(note: NamesFrom) -> str:
+    return f"column names and units from {note.side}"
+
+
+@note_text.register
+def _(note: IgnoredColumns) -> str:
+    return (f"{note.where}: column(s) {list(note.columns)} ignored (the diagnosis uses run, time, torque, phi1, phi2 or "
+            f"phi, omega; a drive train's phi1..phi{note.max_bodies} and torque1..torque{note.max_bodies})")
+
+
+@note_text.register
+def _(note: EpochTime) -> str:
+    return (f"run {note.run}: time stamps count from {note.t0_s:.10g} s (absolute, as an epoch time): the run's time "
+            f"is taken from its first stamp")
+
+
+@note_text.register
+def _(note: ClockJitter) -> str:
+    return (f"run {note.run}: time stamps deviate up to {note.max_deviation:.2g} steps from a uniform clock "
+            f"of {note.dt_s:.9g} s (rounding or jitter); the uniform clock is used")
+
+
+@note_text.register
+def _(note: LaterFundamental) -> str:
+    return (f"run {note.run}: its fundamental over the whole record, {note.whole:.9g} +- {note.whole_se:.2g} rad/s, "
+            f"differs from that after its first period, {note.later:.9g} +- {note.later_se:.2g} rad/s (a transient "
+            f"at its start: a record from rest): the later one is used")
+
+
+@note_text.register
+def _(note: OmegaDisagrees) -> str:
+    return (f"run {note.run}: column 'omega' ({note.omega:.9g} rad/s) and the record's own period of {note.samples} "
+            f"samples ({note.record_omega:.9g} rad/s) differ by {abs(note.omega / note.record_omega - 1):.2g}; the "
+            f"record's value is used")
+
+
+@note_text.register
+def _(note: OmegaFromPeriod) -> str:
+    return (f"run {note.run}: no 'omega' column; the record repeats every {note.samples} samples: omega = "
+            f"{note.omega:.9g} rad/s (the {note.drive}'s line alone gives {note.line_omega:.9g} +- {note.line_se:.2g})")
+
+
+@note_text.register
+def _(note: IncompletePeriod) -> str:
+    n, N, P = note.samples, note.per_period, note.periods
+    return f"run {note.run}: {n} samples hold {n / N:.4g} periods; the last {n - P * N} samples (an incomplete period) " \
+           f"are not used"
+
+
+@note_text.register
+def _(note: Resampled) -> str:
+    return (f"run {note.run}: resampled from {note.from_samples} to {note.to_samples} samples per period (harmonics "
+            f"0..{note.harmonics})")
+
+
+@note_text.register
+def _(note: LeastSquaresPeriods) -> str:
+    src = "the 'omega' column" if note.omega_column else f"the {note.drive}'s line, +- {note.source_se:.2g}"
+    share = ", ".join(f"{name} {r:.2%}" for name, r in note.shares)
+    return (f"run {note.run}: {note.per_period:.6g} samples per period at omega = {note.omega:.9g} rad/s (from {src}) "
+            f"is not a whole number (a fixed sample rate): harmonics 0..{note.harmonics} of each of {note.periods} "
+            f"whole periods estimated by least squares on its own samples and synthesised at {note.samples} samples "
+            f"per period; residual RMS relative to each channel's RMS (noise plus content above harmonic "
+            f"{note.harmonics}): {share}"
+            + (f"; the last {note.unused} samples (an incomplete period) are not used" if note.unused > 0 else ""))
+
+
+@note_text.register
+def _(note: TransientCut) -> str:
+    return (f"run {note.run}: its first {note.cut} period(s) are a transient (they depart from its last period by more "
+            f"than {note.factor:g} times its last two periods' own difference: a record from rest, or a drive just "
+            f"switched on): left out, the {note.kept} steady period(s) after them kept")
+
+
+@note_text.register
+def _(note: CommonMotion) -> str:
+    if not note.line:
+        return (f"run {note.run}: both flywheels rotate steadily at {note.slope:.4g} rad/s on top of the vibration; "
+                f"that common rotation is removed (it loads the joint with nothing; a bearing drag at that speed would "
+                f"show as a constant torque)")
+    return (f"run {note.run}: the whole {note.line} moves steadily at {note.slope:.4g} {note.unit}/s on top of the "
+            f"vibration; that common motion is removed")
+
+
+@note_text.register
+def _(note: ZeroPerRun) -> str:
+    if note.single:
+        return "each run's position taken about its own mean (--zero-per-run)"
+    return ("each run's angles taken about their own mean (--zero-per-run): the joint's zero is each run's mean "
+            "relative angle, right for a symmetric joint; an asymmetric joint's shift of the mean with the level is "
+            "lost")
+
+
+@note_text.register
+def _(note: PreloadChanges) -> str:
+    what = "the relative angle's mean" if note.joint == 0 else f"joint {note.joint}'s mean twist"
+    return (f"{what} differs between runs by {note.spread_rad:.3g} rad, as the drives' mean does (by "
+            f"{note.drive_spread:.4g}): read as a preload that changes between runs (each run's replay holds its "
+            f"own), not as encoders zeroed per run")
+
+
+@note_text.register
+def _(note: FromValidate) -> str:
+    return f"{note.path} (--validate): {note_text(note.note)}"
 
 
 @note_text.register

@@ -169,3 +169,10 @@ def pytest_collection_modifyitems(config, items):
             except ImportError:  # pytest 8: xdist's own suffix works
                 continue
             item._id = coerce_node_id(new)
+
+
+def note_words(notes) -> list[str]:
+    """Notes (the reader's, the diagnosis's) in the words the user reads (present.notes.note_text)."""
+    from jointrig.present.notes import note_text
+
+    return [note_text(n) for n in notes]

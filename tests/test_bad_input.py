@@ -23,6 +23,7 @@ from jointrig.vocab.law import JointLaw, Viscous
 from jointrig.vocab.records import RecordError, SteadyStateRecord
 from jointrig.measured.runs import RunsFileError, read_runs
 from jointrig.rig import RigModelError, load_rig
+from conftest import note_words
 
 ROOT = Path(__file__).resolve().parent.parent
 W = 60.0
@@ -490,7 +491,7 @@ def test_encoders_zeroed_per_recording_are_refused_or_centred(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "zeroed at the start of each recording" in err and "--zero-per-run" in err, err
     loaded = read_runs(path, zero_per_run=True)
-    assert any("--zero-per-run" in n for n in loaded.notes)
+    assert any("--zero-per-run" in n for n in note_words(loaded.notes))
     for r in loaded.records:
         assert abs(float(np.mean(r.angles_rad[0] - r.angles_rad[1]))) < 1e-9
 
@@ -784,7 +785,7 @@ def test_a_relative_angles_mean_that_follows_the_drives_mean_is_read_as_a_preloa
 
     path = tmp_path / "relative_loads.csv"
     path.write_text("run,time,torque,phi\n" + "\n".join(rows("a", 0.0, 0.0) + rows("b", 300.0, 0.006)) + "\n")
-    said = [n for n in read_runs(path).notes if "preload" in n]
+    said = [n for n in note_words(read_runs(path).notes) if "preload" in n]
     assert said == ["the relative angle's mean differs between runs by 0.006 rad, as the drives' mean does (by 150): "
                     "read as a preload that changes between runs (each run's replay holds its own), not as encoders "
                     "zeroed per run"]

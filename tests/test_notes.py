@@ -14,6 +14,12 @@ from jointrig.studies.notes import (NO_INERTIA, NO_STEADY_STATE, NOR_SPANNED, NO
                                     BodyRests, FixedFidelity, JointSticks, NoReplay, NoSpringToFrame, RelativeAngle,
                                     Spanned)
 
+from jointrig.measured import notes as reader  # noqa: E402
+
+#: the reader's notes (measured.notes): the same words function
+READER = [c for _, c in inspect.getmembers(reader, inspect.isclass)
+          if dataclasses.is_dataclass(c) and c.__module__ == reader.__name__]
+
 #: the values a note quotes (why a replay failed, why a bias was not measured): words of their own
 PARTS = {NoReplay, BiasUnmeasured}
 KINDS = [c for _, c in inspect.getmembers(notes, inspect.isclass)
@@ -23,11 +29,12 @@ KINDS = [c for _, c in inspect.getmembers(notes, inspect.isclass)
 def test_every_kind_of_note_has_its_words_and_nothing_else_does():
     assert {c.__name__ for c in KINDS} == {"BandCut", "FixedFidelity", "BodyRests", "JointSticks", "NoSpringToFrame",
                                            "Spanned", "RelativeAngle"}
-    for kind in KINDS:
+    for kind in KINDS + READER:
         assert kind in note_text.registry, kind
-    assert note_text("a reader's note, in words already") == "a reader's note, in words already"
     with pytest.raises(TypeError, match="no words for a note of type int"):
         note_text(3)
+    with pytest.raises(TypeError, match="no words for a note of type str"):  # a sentence made elsewhere
+        note_text("a reader's note, in words already")
 
 
 def test_a_notes_words_carry_its_values():
@@ -85,3 +92,29 @@ def test_why_a_bias_was_not_measured_in_words():
     assert bias_unmeasured_text(BiasUnmeasured()) == "no replay of the fitted runs was made"
     assert bias_unmeasured_text(BiasUnmeasured(failures=(NoReplay("", "", NO_INERTIA),))) == (
         "the model could not be replayed on the fitted runs (a fitted inertia is no body's)")
+
+
+def test_the_readers_notes_carry_their_values_into_their_words():
+    assert note_text(reader.IncompletePeriod("3", 1100, 256, 4)) == (
+        "run 3: 1100 samples hold 4.297 periods; the last 76 samples (an incomplete period) are not used")
+    ls = reader.LeastSquaresPeriods("0", 114.239, 55.0002008, "torque", 0.00059, 45, 4, 92,
+                                    (("torque", 0.0008), ("phi1", 0.0009)), 57)
+    assert note_text(ls) == (
+        "run 0: 114.239 samples per period at omega = 55.0002008 rad/s (from the torque's line, +- 0.00059) is not a "
+        "whole number (a fixed sample rate): harmonics 0..45 of each of 4 whole periods estimated by least squares on "
+        "its own samples and synthesised at 92 samples per period; residual RMS relative to each channel's RMS (noise "
+        "plus content above harmonic 45): torque 0.08%, phi1 0.09%; the last 57 samples (an incomplete period) are "
+        "not used")
+    assert "(from the 'omega' column)" in note_text(dataclasses.replace(ls, omega_column=True, unused=0))
+    assert not note_text(dataclasses.replace(ls, unused=0)).endswith("not used")
+    assert note_text(reader.CommonMotion("1", 3.0)).startswith("run 1: both flywheels rotate steadily at 3 rad/s")
+    assert note_text(reader.CommonMotion("1", 0.002, "m", "carriage line")) == (
+        "run 1: the whole carriage line moves steadily at 0.002 m/s on top of the vibration; that common motion is "
+        "removed")
+    assert note_text(reader.PreloadChanges(2, 0.0123, 45.5)).startswith("joint 2's mean twist differs between runs "
+                                                                        "by 0.0123 rad, as the drives' mean does (by 45.5)")
+    assert note_text(reader.PreloadChanges(0, 0.1, 1.0)).startswith("the relative angle's mean differs")
+    assert note_text(reader.IgnoredColumns("f.csv", ("temp", "rpm"), 8)).startswith(
+        "f.csv: column(s) ['temp', 'rpm'] ignored (the diagnosis uses run, time")
+    assert note_text(reader.FromValidate("pulses.csv", reader.ZeroPerRun(True))) == (
+        "pulses.csv (--validate): each run's position taken about its own mean (--zero-per-run)")

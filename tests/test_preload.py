@@ -22,6 +22,7 @@ from jointrig.measured.runs import read_runs
 from jointrig.present.train_report import format_train_report, train_report_json
 from jointrig.rig.chain import rig_of_bodies
 from jointrig.studies.chain_validate import run_train_diagnosis
+from conftest import note_words
 
 #: The motor's mean torque, carried by every coupling to the pump (N m): the elastomer coupling
 #: (k 25000 N m/rad, gamma 1.25e7 N m/rad^3) runs 8 mrad off its zero, where its local stiffness
@@ -90,7 +91,7 @@ def test_a_preload_that_changes_between_runs_is_held_run_by_run(tmp_path):
     loads = [(PRELOAD_NM, 0.0, 0.0, -PRELOAD_NM) if o else (0.0, 0.0, 0.0, 0.0) for o in on]
     path = daq_file(PUMP_TRAIN, POINTS, tmp_path / "changing.csv", offsets_rad=zeros, seed=11, loads_by_run=loads)
     loaded = read_runs(path, columns={"time": "t"})
-    assert any("a preload that changes between runs" in n for n in loaded.notes), loaded.notes
+    assert any("a preload that changes between runs" in n for n in note_words(loaded.notes)), loaded.notes
     rep = run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(4, [1]))
     assert rep.verdict.verdict == "no_misfit", rep.verdict
     (j, q, se, by_run), = rep.preloads

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from jointrig.measured.runs import RunsFileError, estimate_omega, read_runs, write_runs
+from conftest import note_words
 
 W = 60.0  # rad/s
 
@@ -59,8 +60,8 @@ def test_whole_periods_without_omega_define_their_fundamental(tmp_path):
     loaded = read_runs(path)
     rec = loaded.records[0]
     assert rec.omega_rad_s == pytest.approx(W, rel=1e-9) and rec.n_periods == 4 and rec.samples_per_period == 512
-    assert any("repeats every 512 samples" in n for n in loaded.notes)
-    assert any("the last 256 samples" in n for n in loaded.notes)
+    assert any("repeats every 512 samples" in n for n in note_words(loaded.notes))
+    assert any("the last 256 samples" in n for n in note_words(loaded.notes))
     assert rec.time_s[0] == pytest.approx(0.37, abs=1e-9)
     # the values are the file's own (the clock is the only change): measured 4e-11 of the
     # swing, the 1 ns stamps' rounding averaged by the clock fit; 1e-9 leaves 25x
@@ -78,7 +79,7 @@ def test_fixed_rate_record_keeps_every_period_by_least_squares(tmp_path):
     rec = loaded.records[0]
     assert rec.omega_rad_s == pytest.approx(W, rel=1e-9)
     assert rec.n_periods == int(1.0 * W / (2 * math.pi)) == 9
-    assert any("not a whole number (a fixed sample rate)" in n and "9 whole periods" in n for n in loaded.notes)
+    assert any("not a whole number (a fixed sample rate)" in n and "9 whole periods" in n for n in note_words(loaded.notes))
     # time stamps rounded to 1e-7 s (5e-4 of a step): the clock fit averages it out; measured
     # 4e-14 of the swing (least squares is exact for these 3-harmonic signals); 1e-11 leaves 250x
     check_columns(rec, 1e-11)
@@ -136,9 +137,9 @@ def test_lab_dialects_give_the_same_record(tmp_path, variant):
     # time written to 9 decimals (of s, or of ms): measured 1.5e-10 of the swing at most; 1e-8
     check_columns(rec, 1e-8)
     if variant == "mapping":
-        assert any("temperature" in n and "ignored" in n for n in loaded.notes)
+        assert any("temperature" in n and "ignored" in n for n in note_words(loaded.notes))
     if variant in ("units_in_header", "units_row"):
-        assert not any("SI assumed" in n for n in loaded.notes)
+        assert not any("SI assumed" in n for n in note_words(loaded.notes))
 
 
 def test_units_option_and_sidecar(tmp_path):
@@ -151,7 +152,7 @@ def test_units_option_and_sidecar(tmp_path):
     (tmp_path / "deg.csv.meta.json").write_text('{"units": {"time": "ms", "phi1": "deg", "phi2": "deg"}}')
     loaded = read_runs(path)
     check_columns(loaded.records[0], 1e-11)
-    assert any("meta.json" in n for n in loaded.notes)
+    assert any("meta.json" in n for n in note_words(loaded.notes))
 
 
 def test_relative_angle_only(tmp_path):
@@ -301,7 +302,7 @@ def test_drift_refused_and_common_rotation_removed(tmp_path):
                                          f"{float(phi2(ti) + 3 * ti)!r}" for ti in t]
     (tmp_path / "spin.csv").write_text("\n".join(lines) + "\n")
     loaded = read_runs(tmp_path / "spin.csv")
-    assert any("rotate steadily at 3 rad/s" in n for n in loaded.notes)
+    assert any("rotate steadily at 3 rad/s" in n for n in note_words(loaded.notes))
     check_columns(loaded.records[0], 1e-12)  # the rotation removed by its fitted slope: measured 9e-15
 
 
@@ -512,9 +513,9 @@ def test_an_incomplete_last_period_is_named_in_a_note_and_a_clean_clock_in_none(
     loaded = read_runs(_one_run_csv(tmp_path, 2 * 64 + 10, omega=W))
     assert loaded.records[0].n_periods == 2
     assert any("138 samples hold 2.156 periods; the last 10 samples (an incomplete period) are not used" in n
-               for n in loaded.notes), loaded.notes
+               for n in note_words(loaded.notes)), loaded.notes
     # The clock was written to 1e-9 s: far inside a uniform clock, so no jitter note.
-    assert not any("deviate" in n for n in loaded.notes), loaded.notes
+    assert not any("deviate" in n for n in note_words(loaded.notes)), loaded.notes
 
 
 def test_an_empty_column_mapping_is_refused(tmp_path):
@@ -753,7 +754,7 @@ def test_a_common_rotation_is_removed_when_only_the_quieter_angle_shows_it(tmp_p
                                          for a, b, c in zip(t, p1, p2)]
     (tmp_path / "spin.csv").write_text("\n".join(lines) + "\n")
     loaded = read_runs(tmp_path / "spin.csv")
-    assert any("rotate steadily at 0.0005 rad/s" in n for n in loaded.notes), loaded.notes
+    assert any("rotate steadily at 0.0005 rad/s" in n for n in note_words(loaded.notes)), loaded.notes
     rec = loaded.records[0]
     np.testing.assert_allclose(rec.angles_rad[0], 0.01 * np.cos(W * rec.time_s - 0.5) + 0.005 * np.cos(3 * W * rec.time_s),
                                atol=1e-12)
@@ -848,7 +849,7 @@ def test_a_fixed_sample_rate_record_names_its_unused_tail_and_keeps_every_harmon
         return read_runs(tmp_path / name)
 
     loaded = write(432, "tail.csv")
-    note = next(n for n in loaded.notes if "is not a whole number" in n)
+    note = next(n for n in note_words(loaded.notes) if "is not a whole number" in n)
     H = int(note.split("harmonics 0..")[1].split()[0])
     assert loaded.records[0].n_periods == 4 and f"synthesised at {2 * (H + 1)} samples per period" in note
     assert note.endswith("; the last 30 samples (an incomplete period) are not used"), note

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from jointrig.measured.runs import RunsFileError, read_runs, write_runs
+from conftest import note_words
 
 
 def _train_csv(path, header, rows):
@@ -130,7 +131,7 @@ def test_a_slides_file_is_read_in_m_and_N(tmp_path):
     # (tolerances as in the test above: 9 digits written; a sampled peak 1e-3)
     assert np.max(np.abs(r.torques_Nm[0])) == pytest.approx(50.0, rel=1e-6)
     assert np.ptp(r.angles_rad[0]) / 2 == pytest.approx(0.020, rel=1e-3) and r.angles_rad[0].mean() == pytest.approx(0.3512)
-    assert not any("phi" in n or "torque" in n for n in loaded.notes), loaded.notes  # the file's names
+    assert not any("phi" in n or "torque" in n for n in note_words(loaded.notes)), loaded.notes  # the file's names
 
 
 @pytest.mark.parametrize("column,match", [
@@ -160,7 +161,7 @@ def test_a_trains_common_rotation_is_removed_with_a_note(tmp_path):
             r[k] += 2.0 * r[1]
     loaded = read_runs(_train_csv(tmp_path / "c.csv", ["run", "time", "torque1", "phi1", "phi2", "phi3"], rows))
     a = loaded.records[0].angles_rad
-    assert any("moves steadily at 2 rad/s" in n for n in loaded.notes), loaded.notes
+    assert any("moves steadily at 2 rad/s" in n for n in note_words(loaded.notes)), loaded.notes
     # what is left is the vibration's own least-squares slope over 6 periods (1.7e-4 rad/s)
     assert abs(np.polyfit(loaded.records[0].time_s, a[0], 1)[0]) < 1e-3
 
@@ -275,4 +276,4 @@ def test_a_stated_omega_that_is_the_records_own_period_is_taken_as_stated(tmp_pa
         written = float(f"{stated:.9g}")  # the file's nine digits
         assert loaded.records[0].omega_rad_s == pytest.approx(w, rel=1e-8)
         assert (loaded.records[0].omega_rad_s == written) == (not noted)
-        assert any("column 'omega'" in n for n in loaded.notes) == noted, loaded.notes
+        assert any("column 'omega'" in n for n in note_words(loaded.notes)) == noted, loaded.notes
