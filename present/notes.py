@@ -17,6 +17,7 @@ from jointrig.measured.notes import (ClockJitter, CommonMotion, EpochTime, FromV
                                      IncompletePeriod, LaterFundamental, LeastSquaresPeriods, NamesFrom, NoUnits,
                                      OmegaDisagrees, OmegaFromPeriod, PreloadChanges, Resampled, TransientCut,
                                      ZeroPerRun)
+from jointrig.studies.holdout import Generalisation
 from jointrig.studies.notes import (NO_INERTIA, NO_STEADY_STATE, NOR_SPANNED, NOT_FOLLOWED, BandCut, BiasUnmeasured,
                                     BodyRests, FixedFidelity, JointSticks, NoReplay, NoSpringToFrame, RelativeAngle,
                                     Spanned)
@@ -349,3 +350,33 @@ def separation_text(a: Ambiguity) -> str:
     ranked = ", ".join(f"flywheel {d}: {v:.3g}" for d, v in a.information)
     return (f"driving flywheel {a.separating_drive} separates {one} from {two} best (Fisher information per run at "
             f"the measured frequencies and torque, linearised: {ranked})")
+
+
+def generalisation_text(g: Generalisation, kind: Coordinate = HINGE) -> str:
+    """What the held-out data ask of the model, in words, drive levels in the bench's units."""
+    if g.later_periods:
+        return (f"the later {', '.join(str(p) for p in g.later_periods)} period(s) of the same run(s), fitted on their "
+                f"earlier periods: with {g.runs} run(s) no run of another level or frequency can be held out, so this "
+                f"checks the steady state, not a new excitation")
+    unit = kind.drive_unit
+
+    def distinct(values):
+        return ", ".join(f"{v:.4g}" for v in values)
+
+    kinds = []
+    if g.another_excitation is not None:
+        kinds.append("another excitation (held-out drives with "
+                     + ("several lines, the fit's sines)" if g.another_excitation else "one line, the fit's several)"))
+    if g.levels_outside:
+        kinds.append(f"extrapolation in drive level ({distinct(g.levels_outside)} {unit}, outside the "
+                     f"fitted {g.level_range[0]:.4g}-{g.level_range[1]:.4g} {unit})")
+    if g.omegas_outside:
+        kinds.append(f"extrapolation in frequency ({distinct(g.omegas_outside)} rad/s, outside the "
+                     f"fitted {g.omega_range[0]:.4g}-{g.omega_range[1]:.4g} rad/s)")
+    if g.new_omegas:
+        kinds.append(f"frequencies the fit did not see ({distinct(g.new_omegas)} rad/s, inside its range)")
+    if g.new_levels:
+        kinds.append(f"drive levels between the fitted ones ({distinct(g.new_levels)} {unit})")
+    if not kinds:
+        return "the held-out runs repeat frequencies and drive levels of the fit (another realisation only)"
+    return "the held-out runs test " + "; ".join(kinds)

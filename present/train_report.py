@@ -19,7 +19,7 @@ from jointrig.studies.chain_validate import TrainReport
 from .diagnosis_json import DiagnosisJson, FitJson, RunJson, ValidationJson
 from .formatting import quantity_of, sig, sig_or, unit_of, with_se
 from .misfit_words import character_json, measurement_text, misfit_texts, places_text, surface_json, words_of
-from .notes import bias_unmeasured_text, failures_text, note_text, plausibility_text, rejection_text
+from .notes import bias_unmeasured_text, failures_text, generalisation_text, note_text, plausibility_text, rejection_text
 from .summary import NO_GAIN, compare_written, steps_after, wrong_sentence
 from .text import (ValidationRow, ambiguity_lines, causes_lines, head_lines, notes_lines, on_bound_lines, parameter_lines,
                    ruled_out_lines, validation_lines)
@@ -423,7 +423,8 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
             drive=kind.drive_symbol,
             summary=f"nominal {_cell(val.nominal_error)}, extended {_cell(val.extended_error)}, a right model "
                     f"{_cell(val.expected_error)} (relative){_right_parts(val)}; gain {sig_or(val.gain, NO_GAIN)}",
-            statement=("validation" if report.held_out_periods else "generalisation", report.generalisation),
+            statement=("validation" if report.held_out_periods else "generalisation",
+                       generalisation_text(report.generalisation, report.kind)),
             failures=[failures_text(val.failures)] if val.failures else [])
     lines += notes_lines(all_notes)
     return "\n".join(lines)
@@ -456,7 +457,8 @@ def train_report_json(report: TrainReport, *, source: str = "", notes: Sequence[
         "draws": r.draws,
         "method_unmeasured": bias_unmeasured_text(r.unmeasured) if r.unmeasured is not None else ""}
     validation = ValidationJson(
-        HELD_OUT_PERIODS if report.held_out_periods else HELD_OUT_RUNS, report.generalisation, report.generalisation,
+        HELD_OUT_PERIODS if report.held_out_periods else HELD_OUT_RUNS, generalisation_text(report.generalisation, report.kind),
+        generalisation_text(report.generalisation, report.kind),
         f"relative RMS error of every joint's twist (a single body: its position), harmonics 1..{v.band if v else 0} "
         f"of the period average, over the held-out data: sqrt(sum |sim - meas|^2 / sum |meas|^2)", "1",
         v.nominal_error if v else math.nan, v.extended_error if v else math.nan, v.noise_floor if v else math.nan,
@@ -618,7 +620,7 @@ def write_train_html(path, report: TrainReport, text: str, *, title: str, source
                                      surface_figure(m.surface, m.samples, words_of(m))))
     image = train_figure(report)
     if image:
-        parts.append(svg_figure_html(f"Held-out data ({report.generalisation}): measured, and simulated in the rig "
+        parts.append(svg_figure_html(f"Held-out data ({generalisation_text(report.generalisation, report.kind)}): measured, and simulated in the rig "
                                      f"with the nominal and the extended model", image))
     parts.append(f"<h2>{'Extended' if report.adopted else 'Nominal'} model</h2>")
     parts.append(table(["parameter", "value ± standard error", "unit"], [

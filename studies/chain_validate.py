@@ -36,7 +36,8 @@ from jointrig.identify.verdict import CHI2_PER_DOF_OK, RIG_FIDELITY, Grounds, Ve
 
 from .notes import (NO_INERTIA, NO_STEADY_STATE, NOR_SPANNED, NOT_FOLLOWED, BandCut, BiasUnmeasured, BodyRests,
                     FixedFidelity, JointSticks, NoReplay, NoSpringToFrame, Spanned)
-from .holdout import MIN_PERIODS_TO_SPLIT, MIN_RUNS_TO_HOLD_OUT, generalisation_kind, holdout_of_another_kind
+from .holdout import (MIN_PERIODS_TO_SPLIT, MIN_RUNS_TO_HOLD_OUT, Generalisation, generalisation_kind,
+                      holdout_of_another_kind)
 from jointrig.vocab.records import RecordError
 from jointrig.rig.simulate import SimulationConfig, SimulationError, SteadyStateNotReached
 
@@ -813,7 +814,8 @@ class TrainReport:
     diagnosis: ChainDiagnosis
     validation: Optional[ChainValidation]
     verdict: Verdict
-    generalisation: str
+    #: what the held-out data ask of the model (:class:`studies.holdout.Generalisation`)
+    generalisation: Generalisation
     written: tuple = ()
     model_path: Optional[str] = None
     #: what the diagnosis notes about the data and how it treated them (:mod:`studies.notes`; in
@@ -980,13 +982,10 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
     v = validate_chain(rig, d, held_recs, backend=backend, noise_std=d.noise_std, alpha=alpha,
                        refit=lambda fit: _refitted(replay, fit, d))
     if split:
-        general = (f"the later {', '.join(str(r.n_periods) for r in held_recs)} period(s) of the same run(s), fitted "
-                   f"on their earlier periods: with {len(records)} run(s) no run of another level or frequency can be "
-                   f"held out, so this checks the steady state, not a new excitation")
+        general = Generalisation(later_periods=tuple(r.n_periods for r in held_recs), runs=len(records))
     else:
         general = generalisation_kind([settings[i] for i in range(len(records)) if i not in held],
                                       [settings[i] for i in held])
-        general = general.replace(" N m", " " + rig.kind.drive_unit)  # a slide's drive levels are forces
     verdict = train_verdict(d, v, held_out_periods=split)
     free = drifting_bodies(d.final if d.steps else d.nominal)
     if free:

@@ -7,13 +7,14 @@ later periods are held out (:func:`studies.chain_validate.split_chain_periods`).
 
 from __future__ import annotations
 
-from typing import Sequence
+from dataclasses import dataclass
+from typing import Optional, Sequence
 
 import numpy as np
 
 from jointrig.identify.misfit import distinct_settings, same_setting
 
-__all__ = ["MIN_RUNS_TO_HOLD_OUT", "MIN_PERIODS_TO_SPLIT", "HELD_OUT_RUNS", "HELD_OUT_PERIODS", "default_holdout",
+__all__ = ["Generalisation", "MIN_RUNS_TO_HOLD_OUT", "MIN_PERIODS_TO_SPLIT", "HELD_OUT_RUNS", "HELD_OUT_PERIODS", "default_holdout",
            "holdout_of_another_kind", "generalisation_kind"]
 
 
@@ -76,39 +77,50 @@ def holdout_of_another_kind(settings: Sequence[tuple[float, float, int]]) -> tup
     return default_holdout(n)
 
 
-def generalisation_kind(fit: Sequence[tuple[float, float, int]], held: Sequence[tuple[float, float, int]]) -> str:
+@dataclass(frozen=True)
+class Generalisation:
+    """What the held-out data ask of a model fitted on the rest (its words:
+    :func:`present.notes.generalisation_text`). ``later_periods``: the held-out data are the later
+    periods (their counts, per run) of the ``runs`` runs fitted on their earlier ones. Else what
+    the held-out runs test: ``another_excitation`` (True: held-out drives of several lines against
+    the fit's sines; False: the reverse; None: the same kind), drive levels (N m; N on a slide) and
+    frequencies (rad/s) outside the fitted ``level_range`` and ``omega_range`` (extrapolation),
+    frequencies the fit did not see inside its range, drive levels between the fitted ones; none
+    of them: another realisation only."""
+
+    later_periods: tuple = ()
+    runs: int = 0
+    another_excitation: Optional[bool] = None
+    levels_outside: tuple = ()
+    level_range: tuple = ()
+    omegas_outside: tuple = ()
+    omega_range: tuple = ()
+    new_omegas: tuple = ()
+    new_levels: tuple = ()
+
+
+def generalisation_kind(fit: Sequence[tuple[float, float, int]], held: Sequence[tuple[float, float, int]]
+                        ) -> Generalisation:
     """What the held-out runs ``(omega rad/s, drive level N m, extra drive lines)`` ask of a model
     fitted on ``fit``: another excitation (a multi-line drive against sines, or the reverse),
     drive levels or frequencies outside the fitted range (extrapolation), frequencies the fit did
     not see inside its range, or only interpolation between fitted levels at fitted frequencies.
-    Frequencies and levels count as equal within 1%."""
+    Frequencies and levels count as equal within 1%; each list holds the distinct settings."""
     def close(a, values):
         return any(same_setting(a, v, 0.01) for v in values)
 
     def distinct(values):
-        return ", ".join(f"{v:.4g}" for v in distinct_settings(values, 0.01))
+        return tuple(distinct_settings(values, 0.01))
 
-    kinds = []
+    other = None
     if {e > 0 for *_, e in held} - {e > 0 for *_, e in fit}:
-        kinds.append("another excitation (held-out drives with "
-                     + ("several lines, the fit's sines)" if any(e > 0 for *_, e in held) else "one line, the fit's several)"))
+        other = any(e > 0 for *_, e in held)
     fw, fl = [w for w, _, _ in fit], [a for _, a, _ in fit]
     hw, hl = [w for w, _, _ in held], [a for _, a, _ in held]
     out_l = [a for a in hl if (a < min(fl) and not close(a, fl)) or (a > max(fl) and not close(a, fl))]
     out_w = [w for w in hw if (w < min(fw) and not close(w, fw)) or (w > max(fw) and not close(w, fw))]
     new_w = [w for w in hw if w not in out_w and not close(w, fw)]
     new_l = [a for a in hl if a not in out_l and not close(a, fl)]
-    if out_l:
-        kinds.append(f"extrapolation in drive level ({distinct(out_l)} N m, outside the "
-                     f"fitted {min(fl):.4g}-{max(fl):.4g} N m)")
-    if out_w:
-        kinds.append(f"extrapolation in frequency ({distinct(out_w)} rad/s, outside the "
-                     f"fitted {min(fw):.4g}-{max(fw):.4g} rad/s)")
-    if new_w:
-        kinds.append(f"frequencies the fit did not see ({distinct(new_w)} rad/s, inside "
-                     f"its range)")
-    if new_l:
-        kinds.append(f"drive levels between the fitted ones ({distinct(new_l)} N m)")
-    if not kinds:
-        return "the held-out runs repeat frequencies and drive levels of the fit (another realisation only)"
-    return "the held-out runs test " + "; ".join(kinds)
+    return Generalisation(another_excitation=other, levels_outside=distinct(out_l), level_range=(min(fl), max(fl)),
+                          omegas_outside=distinct(out_w), omega_range=(min(fw), max(fw)), new_omegas=distinct(new_w),
+                          new_levels=distinct(new_l))

@@ -77,8 +77,11 @@ def test_the_diagnosis_holds_out_multisines_and_says_so(rig):
     assert lines[:5] == [0] * 5 and min(lines[5:]) >= 3, lines
     report = run_train_diagnosis(train, run_ids=[str(i) for i in range(7)], rig=chain_of_two_flywheels(rig, (1,)))
     assert report.held_out == (5, 6)
-    assert report.generalisation.startswith("the held-out runs test another excitation (held-out drives with "
-                                            "several lines"), report.generalisation
+    from jointrig.present.notes import generalisation_text
+
+    words = generalisation_text(report.generalisation)
+    assert report.generalisation.another_excitation is True and words.startswith(
+        "the held-out runs test another excitation (held-out drives with several lines"), words
     assert report.verdict.verdict == "no_misfit", (report.verdict, [s.label for s in report.diagnosis.steps])
 
 
@@ -112,3 +115,28 @@ def test_run_order_is_judged_only_from_repeated_settings():
     ch = misfit_character(worn, 20)
     assert ch.repeat_change == pytest.approx(0.5, rel=1e-9) and "depends on run order or time" in character_text(ch)
     assert any("changed between runs 0 and 3" in measurement_text(m) for m in next_measurements(ch, residual_surface(worn), worn))
+
+
+def test_what_the_held_out_runs_test_is_a_value_with_words_in_the_benchs_units():
+    # fitted at 20 and 40 rad/s, 100-300 N m with sines; held out: 60 rad/s (outside), 30 rad/s
+    # (inside, unseen), 500 N m (outside) and 200 N m (between), a multisine (another excitation)
+    from jointrig.present.notes import generalisation_text
+    from jointrig.studies.holdout import Generalisation, generalisation_kind
+    from jointrig.vocab.params import SLIDE
+
+    fit = [(20.0, 100.0, 0), (40.0, 300.0, 0), (20.0, 300.0, 0)]
+    g = generalisation_kind(fit, [(60.0, 500.0, 3), (30.0, 200.0, 0)])
+    assert g == Generalisation(another_excitation=True, levels_outside=(500.0,), level_range=(100.0, 300.0),
+                               omegas_outside=(60.0,), omega_range=(20.0, 40.0), new_omegas=(30.0,),
+                               new_levels=(200.0,))
+    words = generalisation_text(g, SLIDE)
+    assert words == ("the held-out runs test another excitation (held-out drives with several lines, the fit's sines); "
+                     "extrapolation in drive level (500 N, outside the fitted 100-300 N); extrapolation in frequency "
+                     "(60 rad/s, outside the fitted 20-40 rad/s); frequencies the fit did not see (30 rad/s, inside its "
+                     "range); drive levels between the fitted ones (200 N)")
+    assert "500 N m" in generalisation_text(g)
+    again = generalisation_kind(fit, [(20.2, 100.5, 0)])  # within 1%: the same setting
+    assert generalisation_text(again) == ("the held-out runs repeat frequencies and drive levels of the fit (another "
+                                          "realisation only)")
+    assert generalisation_text(Generalisation(later_periods=(3, 4), runs=2)).startswith(
+        "the later 3, 4 period(s) of the same run(s), fitted on their earlier periods: with 2 run(s)")
