@@ -173,7 +173,9 @@ def card_png(card: CardReport, title: str = "joint card") -> bytes:
                ylabel=label, xscale="log")
         _amplitude_ticks(ax, np.concatenate([am, ar]))
         if key == "dissipation_J_per_cycle":
-            ax.set_yscale("log")
+            every = np.concatenate([y, yr, ym])
+            if np.any(np.isfinite(every) & (every > 0)):  # a law that dissipates nothing has no log scale
+                ax.set_yscale("log")
             ax.set_title(f"slope d lnE/d lnA: runs {_slope(card.runs)}, model at runs {_slope(card.model_at_runs)}, "
                          f"backbone {_slope(card.model)}", fontsize=8)
         ax.grid(alpha=0.3, which="both")

@@ -337,3 +337,18 @@ def test_card_amplitude_tick_labels_never_overlap(lo, hi):
     assert len(boxes) >= 2, boxes
     boxes.sort(key=lambda b: b.x0)
     assert all(a.x1 <= b.x0 for a, b in zip(boxes, boxes[1:])), [(b.x0, b.x1) for b in boxes]
+
+
+def test_the_cards_figure_of_a_law_that_dissipates_nothing_draws_without_a_warning():
+    # the dissipation panel is on a log scale only where some value is positive: a purely elastic
+    # law (a nominal fit whose damping is nil) drew with matplotlib's "no positive values"
+    # warning on the user's console (an error here: filterwarnings = error)
+    from jointrig.identify.card import MasingCheck, law_card
+    from jointrig.present.card import card_png
+    from jointrig.studies.joint_card import CardReport
+    from jointrig.vocab.law import JointLaw, Power
+
+    card = law_card(JointLaw((Power(1),), (2000.0,)), 1.0, [0.01, 0.02, 0.05])
+    assert all(p.dissipation_J_per_cycle == 0 for p in card.points)
+    png = card_png(CardReport(card, card, "nominal", card, MasingCheck((), math.nan, math.nan, ("", ""), None)))
+    assert png.startswith(b"\x89PNG")
