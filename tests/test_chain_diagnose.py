@@ -206,10 +206,15 @@ def test_the_drives_lag_on_data_without_one_stays_at_zero_and_is_no_place_to_dri
     friction = next(c for c in JOINT_CAUSES if c.name == "coulomb_friction")
     a, b = Candidate(friction, Place("joint", 1)), Candidate(friction, Place("joint", 3))
     sa, sb = (score(problem, x, nominal, w, 10, 1e-3) for x in (a, b))
-    body, why = separating_drive(problem, a, b, sa, sb)
-    assert body in (1, 2, 3, 4) and why.startswith(f"driving flywheel {body} separates")
-    body, why = separating_drive(problem, a, lag, sa, s)
-    assert body is None and "lag" in why
+    from jointrig.identify.causes import AT_CHANNEL
+    from jointrig.present.notes import separation_text
+
+    amb = separating_drive(problem, a, b, sa, sb)
+    body, why = amb.separating_drive, separation_text(amb)
+    assert body in (1, 2, 3, 4) and why.startswith(f"driving flywheel {body} separates") and amb.effects == (
+        sa.label, sb.label)
+    amb = separating_drive(problem, a, lag, sa, s)
+    assert amb.separating_drive is None and amb.unplaced == AT_CHANNEL and "lag" in separation_text(amb)
 
 
 def test_a_fitted_free_play_is_among_the_fits_parameters():
@@ -715,8 +720,12 @@ def test_the_separating_drive_takes_a_joints_law_and_a_bodys_drag_as_each_is(mon
     joint = Candidate(by_name("quadratic_damping"), Place("joint", 2))
     drag = Candidate(by_name("bearing_friction"), Place("flywheel", 3))
     sj, sd = (score(problem, c, nominal, w, 32, 1e-3) for c in (joint, drag))
-    drive, why = separating_drive(problem, joint, drag, sj, sd)
+    from jointrig.present.notes import separation_text
+
+    amb = separating_drive(problem, joint, drag, sj, sd)
+    drive, why = amb.separating_drive, separation_text(amb)
     assert drive in (1, 2, 3, 4) and f"driving flywheel {drive} separates" in why
+    assert [d for d, _ in amb.information][0] == drive and sorted(d for d, _ in amb.information) == [1, 2, 3, 4]
     assert all(f"flywheel {i}:" in why for i in range(1, 5))
     (_, _, _, omegas, torque, sigma, *_), = seen
     assert torque == pytest.approx(60.0, rel=1e-2) and omegas == pytest.approx([150.0, 300.0, 600.0, 1200.0, 2000.0])
@@ -868,8 +877,11 @@ def test_no_drive_is_named_to_tell_a_law_to_ground_from_a_joint():
     joint = Candidate(by_name("coulomb_friction"), Place("joint", 2))
     sg, sj = (score(problem, c, nominal, w, 10, 1e-3) for c in (ground, joint))
     for pair in ((ground, joint, sg, sj), (joint, ground, sj, sg)):
-        drive, why = separating_drive(problem, *pair)
-        assert drive is None and "no linearised drive information for a law to ground" in why
+        from jointrig.present.notes import separation_text
+
+        amb = separating_drive(problem, *pair)
+        assert amb.separating_drive is None and "no linearised drive information for a law to ground" in \
+            separation_text(amb)
 
 
 def _one_body_problem(terms=None):

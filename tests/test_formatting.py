@@ -87,8 +87,6 @@ def test_the_thresholds_of_differs_are_three_standard_errors_and_one_percent():
 
 
 def test_the_sentence_names_only_what_differs_and_what_to_do_next_follows_the_verdict():
-    from types import SimpleNamespace
-
     from jointrig.present.summary import steps_after, wrong_sentence
 
     rows = list(_rows({"k_Nm_per_rad": (1600.0, 40.0), "c_Nms_per_rad": (100.0, 1.0)},
@@ -96,9 +94,12 @@ def test_the_sentence_names_only_what_differs_and_what_to_do_next_follows_the_ve
     text = wrong_sentence(rows)
     assert text.startswith("As written, your model has k = 2000 N m/rad") and "20% lower" in text and "c =" not in text
     assert wrong_sentence([r for r in rows if not r.differs]) == ""
-    both = SimpleNamespace(effects=("backlash at joint 1", "cogging at joint 1"), excitation="runs at two levels")
+    from jointrig.identify.causes import TO_GROUND, Ambiguity
+
+    both = Ambiguity(("backlash at joint 1", "cogging to ground at body 1"), unplaced=TO_GROUND)
     steps = steps_after("explained", [both], later_periods_only=True)
-    assert steps[0] == ("backlash at joint 1 and cogging at joint 1 explain the same part of the data; to tell them "
-                        "apart: runs at two levels")
+    assert steps[0] == ("backlash at joint 1 and cogging to ground at body 1 explain the same part of the data; to tell "
+                        "them apart: backlash at joint 1 and cogging to ground at body 1: no linearised drive "
+                        "information for a law to ground; runs at other levels would tell them apart")
     assert "later periods" in steps[1] and steps[2].startswith("put the adopted cause into your model")
     assert steps_after("no_misfit", [], later_periods_only=False) == ()
