@@ -853,3 +853,55 @@ def test_a_fixed_sample_rate_record_names_its_unused_tail_and_keeps_every_harmon
     H = int(note.split("harmonics 0..")[1].split()[0])
     assert loaded.records[0].n_periods == 4 and f"synthesised at {2 * (H + 1)} samples per period" in note
     assert note.endswith("; the last 30 samples (an incomplete period) are not used"), note
+
+
+def test_a_coarse_fixed_rate_record_is_synthesised_at_sixteen_samples_a_period_at_least(tmp_path):
+    # 13.3 samples per period at a bench's fixed rate: 5 harmonics are estimated per period, which
+    # 12 samples would hold; the record is synthesised at 16 (the least that the balance's rows
+    # and the rate's spectrum are built on), every column still the signal at its own times
+    dt = 2 * math.pi / W / 13.3
+    t = np.arange(int(12 * 13.3)) * dt
+    (tmp_path / "coarse.csv").write_text(csv_text(t))
+    rec = read_runs(tmp_path / "coarse.csv").records[0]
+    assert rec.samples_per_period == 16 and rec.n_periods == 11  # 159 samples: 11.96 periods
+    check_columns(rec, 1e-8)  # the fundamental estimated to 5e-11 of itself moves the samples by 2e-9 of the swing
+
+
+def test_a_slow_axis_states_an_omega_below_one_rad_per_second(tmp_path):
+    # a positioning axis's reference of a 12.6 s period: an 'omega' column of 0.5 rad/s is one
+    # positive value per run, as any other
+    w = 0.5
+    t = np.arange(3 * 64) * (2 * math.pi / w / 64)
+    rows = ["run,time,torque,phi1,phi2,omega"] + [
+        f"0,{float(ti)!r},{1000.0 * math.cos(w * ti)!r},{0.3 * math.cos(w * ti - 0.5)!r},{0.1 * math.cos(w * ti - 1.5)!r},"
+        f"{w!r}" for ti in t]
+    (tmp_path / "slow.csv").write_text("\n".join(rows) + "\n")
+    rec = read_runs(tmp_path / "slow.csv").records[0]
+    assert rec.omega_rad_s == pytest.approx(w, rel=1e-12) and rec.n_periods == 3
+
+
+def test_a_fundamental_is_taken_after_the_first_period_only_beyond_its_bound():
+    # measured.runs._steady_fundamental replaces the whole record's fundamental by the one after
+    # its first period where the two differ by more than 5 combined standard errors (the bound its
+    # docs state, STEADY_FUNDAMENTAL_SE): at 0.9 of it the whole record's stands, at 1.1 the later
+    # one (with its note)
+    from dataclasses import replace
+
+    from jointrig.identify.periods import estimate_fundamental
+    from jointrig.measured.runs import CHECK_HARMONICS, _steady_fundamental
+
+    STEADY_FUNDAMENTAL_SE = 5.0
+
+    rng = np.random.default_rng(3)
+    t = np.arange(6 * 128) * (2 * math.pi / W / 128)
+    drive = torque(t) + rng.normal(0.0, 1.0, t.size)
+    later = estimate_fundamental(t[128:], drive[128:], harmonics=CHECK_HARMONICS)
+    se = later.std_error_rad_s
+    for share, replaced in ((0.9, False), (1.1, True)):
+        # the whole record's estimate, with the later one's standard error: their combined one is se sqrt(2)
+        whole = replace(later, omega_rad_s=later.omega_rad_s + share * STEADY_FUNDAMENTAL_SE * se * math.sqrt(2))
+        notes = []
+        got = _steady_fundamental(t, drive, whole, "0", notes)
+        assert (got is not whole) == replaced and len(notes) == replaced, (share, got, notes)
+        if replaced:
+            assert got.omega_rad_s == later.omega_rad_s
