@@ -255,6 +255,11 @@ def test_the_measurements_asked_for_start_above_their_thresholds():
     assert asks("stepped sine", replace(c, phase_span_deg=PHASE_SPAN_RESONANT_DEG + 1e-9))
     assert not asks("preload", replace(c, even_share=0.6))
     assert asks("preload", replace(c, even_share=0.6 + 1e-9))
+    # a misfit that grows faster than the drive (slope above 1.5) on odd harmonics asks for a
+    # sensor calibration
+    assert not asks("static calibration", replace(c, amplitude_slope=1.5))
+    assert asks("static calibration", replace(c, amplitude_slope=1.5 + 1e-9))
+    assert asks("static calibration", replace(c, amplitude_slope=2.0))
     # a surface that is not point-symmetric asks for them too, below its threshold ("less than")
     assert not asks("preload", surface=replace(s, symmetric_share=0.3))
     assert asks("preload", surface=replace(s, symmetric_share=0.3 - 1e-9))

@@ -115,6 +115,9 @@ def test_every_grounds_has_words_and_a_json_value():
         text = verdict_text(v)
         assert text and "{" not in text and "Grounds" not in text, (g, text)
         assert g.value == g.name.lower()
+    # a verdict says "later periods" only when told the held-out data are later periods
+    plain = verdict_text(Verdict("no_misfit", Grounds.NOMINAL_FITS, (), 1.0, 1.0, 1.4))
+    assert "held-out error 1 times" in plain and "later periods" not in plain
 
 
 def test_the_chi_square_bound_and_the_rigs_fidelity_are_the_stated_ones():
