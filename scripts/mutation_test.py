@@ -69,6 +69,10 @@ MODULES = {
     # what an unexplained misfit looks like, on every bench, and the one JSON document
     "jointrig.identify.misfit": ("identify/misfit.py", ["tests/test_misfit.py", "tests/test_train_misfit.py"]),
     "jointrig.present.diagnosis_json": ("present/diagnosis_json.py", ["tests/test_diagnosis_json.py"]),
+    # the sentences of the notes, rejections, verdict and failed replays, and of a misfit
+    "jointrig.present.notes": ("present/notes.py", ["tests/test_notes.py", "tests/test_verdict_judge.py",
+                                                    "tests/test_causes.py", "tests/test_holdout.py"]),
+    "jointrig.present.misfit_words": ("present/misfit_words.py", ["tests/test_misfit.py", "tests/test_train_misfit.py"]),
     # the user's model as written beside the data
     "jointrig.present.summary": ("present/summary.py", ["tests/test_formatting.py"]),
     # the replay of held-out runs: what a right model misses there (fast tests first), its start,

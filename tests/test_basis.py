@@ -372,3 +372,33 @@ def test_a_law_oversampled_without_a_weight_is_balanced_and_a_weight_needs_the_p
     np.testing.assert_allclose(rows[0], fourier_coefficients(phi, 1, 3), rtol=0, atol=1e-15)
     with pytest.raises(ValueError, match="a weight needs oversample 1"):
         law_rows((Power(1),), (phi, np.zeros(n)), (None, None), lambda: phi, lambda: phi, 1, 3, 2, weight=np.ones(n))
+
+
+def test_a_weighted_law_row_needs_the_records_own_samples():
+    # a weight multiplies each sample of the law's torque: on an oversampled grid it has no
+    # samples to multiply, and law_rows says so
+    from jointrig.identify.balance import law_rows
+    from jointrig.identify.harmonics import fourier_coefficients
+    from jointrig.vocab.law import Power
+
+    phi = np.cos(np.arange(16) / 16 * 2 * np.pi)
+    with pytest.raises(ValueError, match="a weight needs oversample 1"):
+        law_rows((Power(1),), (phi, np.zeros(16)), (None, None), lambda: phi, lambda: phi, 1, 3, 2,
+                 weight=np.ones(16))
+    # on the record's own samples the weight multiplies the torque: half of each sample here
+    half = law_rows((Power(1),), (phi, np.zeros(16)), (None, None), lambda: phi, lambda: phi, 1, 3, 1,
+                    weight=np.full(16, 0.5))
+    np.testing.assert_allclose(half[0], 0.5 * fourier_coefficients(phi, 1, 3), atol=1e-15)
+
+
+def test_a_single_dof_systems_law_rows_are_taken_at_the_records_own_samples():
+    # single_dof_system balances the samples it is given: a dry friction's column is its torque's
+    # Fourier coefficients at those samples (as the same rows of the sign of the rate itself
+    # given as the forcing), not on a finer grid, where the sign's jumps alias otherwise
+    from jointrig.identify.balance import single_dof_system
+
+    t = np.arange(16) / 16 * 2 * np.pi + 0.1
+    x, rate = np.cos(t), -np.sin(t)
+    s = single_dof_system(omega_rad_s=1.0, n_periods=1, x=x, rate=rate, forcing=np.sign(rate), terms=(Coulomb(),),
+                          n_harmonics=5)
+    np.testing.assert_allclose(s.A[:, list(s.names).index(Coulomb().name)], s.F, rtol=0, atol=1e-14)

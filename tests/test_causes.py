@@ -284,6 +284,10 @@ def test_a_richer_cause_without_its_own_evidence_goes_right_after_the_simpler_on
         "hysteresis", "coulomb_friction", "stribeck_friction", "quadratic_damping"]
     ranked[0] = _Score("stribeck_friction", 1020.0, 3)
     assert names(parsimonious(ranked, catalogue, 100, 1e-3))[0] == "stribeck_friction"
+    # 15 more: above chi2(2)'s 13.8, below chi2(4)'s 18.5 at 1e-3: the nested test's degrees of
+    # freedom are the difference of the two parameter counts (2), not their sum
+    ranked[0] = _Score("stribeck_friction", 1015.0, 3)
+    assert names(parsimonious(ranked, catalogue, 100, 1e-3))[0] == "stribeck_friction"
     # an insignificant simpler cause does not demote it, nor does one at another place
     ranked[0], ranked[2] = _Score("stribeck_friction", 1012.0, 3), _Score("coulomb_friction", 1000.0, 1, False)
     assert names(parsimonious(ranked, catalogue, 100, 1e-3))[0] == "stribeck_friction"
@@ -452,6 +456,24 @@ def test_the_profile_search_below_a_vertex_outside_its_range_takes_the_one_sided
 
     found = profile(lambda h: _Fit(50.0 + ((h - 0.25) / 0.01) ** 2), by_name("backlash"), 0.3, 1.0)
     assert found.value == pytest.approx(0.3, abs=1e-6) and found.std_error == pytest.approx(0.01, rel=1e-6)
+
+
+def test_the_profiles_standard_error_stops_when_two_passes_agree():
+    # chi2 = 50 + ((h - 0.5) / 0.01)^2 on [0, 1]: the curvature at 1e-3 of the value and again
+    # over +-1 standard error agree exactly (a parabola), so the search stops after that one pass:
+    # two trials for the first difference, two for the pass (not the three passes of a profile
+    # whose passes disagree)
+    from jointrig.identify.causes import profile
+
+    aside = []
+
+    def solve_aside(h):
+        aside.append(h)
+        return _Fit(50.0 + ((h - 0.5) / 0.01) ** 2)
+
+    found = profile(lambda h: _Fit(50.0 + ((h - 0.5) / 0.01) ** 2), by_name("backlash"), 0.0, 1.0,
+                    solve_aside=solve_aside)
+    assert found.std_error == pytest.approx(0.01, rel=1e-6) and len(aside) == 4, aside
 
 
 def test_a_causes_improvement_is_shared_by_harmonic_class():

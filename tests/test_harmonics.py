@@ -123,3 +123,13 @@ def test_a_shift_moves_each_record_by_its_own_frequency():
         return np.cos(w * s) + 0.3 * np.sin(3 * w * s - 0.2)
 
     np.testing.assert_allclose(shift_periodic(x(t), 2, w, 1e-3), x(t - 1e-3), rtol=0, atol=1e-13)
+
+
+def test_an_odd_records_top_line_keeps_its_phase():
+    # 7 samples a period hold harmonics 0..3, and the third is a full complex line (only an even
+    # record's top bin is a Nyquist line, which holds a cosine alone): a sine there comes back
+    from jointrig.identify.harmonics import fourier_coefficients, synthesize
+
+    t = np.arange(7) / 7 * 2 * np.pi
+    x = 0.3 + np.cos(t) + 0.5 * np.sin(3 * t + 0.4)
+    np.testing.assert_allclose(synthesize(fourier_coefficients(x, 1, 3), 7), x, atol=1e-12)
