@@ -328,3 +328,61 @@ def test_the_measurements_asked_for_are_values_with_words_in_the_places_units():
         mf.NextMeasurement(mf.QUASI_STATIC_RAMP), slide)
     with pytest.raises(ValueError, match="no words for a measurement of kind 'x'"):
         measurement_text(mf.NextMeasurement("x"))
+
+
+def _surface(**kw):
+    """A hand-made restoring surface on a 3 x 3 grid (the middle knots at 0), every knot supported."""
+    from jointrig.identify.surface import RestoringSurface
+
+    base = dict(phi_knots_rad=np.array([-0.1, 0.0, 0.1]), rate_knots_rad_s=np.array([-2.0, 0.0, 2.0]),
+                torque_Nm=np.array([[-5.0, -4.0, -3.0], [-1.0, 0.0, 1.0], [3.0, 4.0, 5.0]]),
+                supported=np.ones((3, 3), bool), rms_Nm=4.0, fit_rms_Nm=0.4, elastic_share=0.9, symmetric_share=0.9)
+    return RestoringSurface(**(base | kw))
+
+
+def test_a_surfaces_words_follow_its_shares_and_its_supported_sections():
+    s = _surface()
+    text = surface_text(s)
+    assert "a joint torque of the joint angle (elastic)" in text and "point-symmetric (a symmetric law)" in text
+    assert "carries 99% of the residual's power" in text
+    assert "its stiffness section S(phi, 0) spans -4 to 4 N m over phi -0.1 to 0.1 rad" in text
+    assert "its damping section S(0, phi') spans -1 to 1 N m over phi' -2 to 2 rad/s" in text
+    # the shares' bounds: more than 0.7 symmetric, less than 0.3 not, in between partly
+    assert "partly point-symmetric" in surface_text(_surface(symmetric_share=0.7))
+    assert "not point-symmetric" in surface_text(_surface(symmetric_share=0.3 - 1e-9))
+    assert "both elastic and dissipative" in surface_text(_surface(elastic_share=0.7))
+    assert "of the rate (dissipative)" in surface_text(_surface(elastic_share=0.3 - 1e-9))
+    # round-off of the solve (1e-9 of the residual's RMS) reads as 0
+    tiny = _surface(torque_Nm=np.array([[-5.0, 1e-12, -3.0], [-1.0, 2.0, 1.0], [3.0, 4.0, 5.0]]))
+    assert "spans 0 to 4 N m over phi" in surface_text(tiny)
+    # a section with one supported knot is no section
+    one = np.ones((3, 3), bool)
+    one[0, 1] = one[2, 1] = False
+    assert "stiffness section" not in surface_text(_surface(supported=one))
+
+
+def test_a_repeated_settings_change_at_its_bound_is_no_sign_of_run_order():
+    runs = [_run(i, 30.0, a, lambda th, p, v: 5e9 * p**3) for i, a in enumerate((1.0, 2.0, 4.0))]
+    c = misfit_character(runs, 10)
+    from dataclasses import replace
+
+    from jointrig.identify.misfit import REPEAT_CHANGE
+
+    at = replace(c, repeat_change=REPEAT_CHANGE, repeat_runs=("0", "1"))
+    assert "no sign of run order or time" in character_text(at)
+    assert "depends on run order or time" in character_text(replace(at, repeat_change=REPEAT_CHANGE + 1e-9))
+
+
+def test_a_places_words_and_where_a_trains_misfit_is():
+    from types import SimpleNamespace
+
+    from jointrig.present.misfit_words import PLACE_WORDS, places_text, words_of
+    from jointrig.vocab.params import HINGE, SLIDE
+
+    assert set(PLACE_WORDS) == {(HINGE, False), (HINGE, True), (SLIDE, False), (SLIDE, True)}
+    assert words_of(SimpleNamespace(kind=HINGE, single=False)) == JOINT_WORDS
+    assert words_of(SimpleNamespace(kind=HINGE, single=True)).torque == "torque to ground"
+    assert words_of(SimpleNamespace(kind=SLIDE, single=False)).torque == "joint force"
+    assert places_text(SimpleNamespace(where="joint 1", by_place=(("joint 1", 0.2),))) == "at joint 1"
+    two = places_text(SimpleNamespace(where="joint 2", by_place=(("joint 1", 0.05), ("joint 2", 0.2))))
+    assert two.startswith("at joint 2, where the residual torque is largest (0.2 of the torque there; joint 1 0.05")
