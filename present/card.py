@@ -15,7 +15,7 @@ from jointrig.studies.joint_card import CardReport
 from .formatting import sig, with_se, with_se_or
 from .notes import verdict_text
 
-__all__ = ["format_card", "card_warning", "masing_text", "card_json", "card_png", "point_cells", "slope_text"]
+__all__ = ["format_card", "card_warning", "model_name", "mode_text", "RUNS_INERTIAS", "masing_text", "card_json", "card_png", "point_cells", "slope_text"]
 
 
 def point_cells(p) -> tuple[str, str, str, str]:
@@ -46,9 +46,9 @@ def format_card(card) -> str:
     inertia = "kg" if a_unit == "m" else "kg m^2"
     warning = card_warning(card)
     lines = ([f"WARNING: {warning}"] if warning else []) + [
-             f"Joint card{f' of {card.place}' if card.place else ''} ({card.model_name}; {card.mode}, Je = "
+             f"Joint card{f' of {card.place}' if card.place else ''} ({model_name(card)}; {mode_text(card)}, Je = "
              f"{sig(card.model.inertia_kgm2, 4)} {inertia}); runs at their drive frequency omega (measured with "
-             f"{card.runs_inertias} inertias), the model there and on its backbone (omega = omega_n):",
+             f"{RUNS_INERTIAS} inertias), the model there and on its backbone (omega = omega_n):",
              f"  {'source':13s} {'run':>4s} {f'A [{a_unit}]':>9s} {'omega':>7s} {f'k_sec [{k_unit}]':>18s} "
              f"{'omega_n [rad/s]':>18s} {'damping ratio':>20s} {'E per cycle [J]':>18s}"]
     for p, m in zip(card.runs.points, card.model_at_runs.points):
@@ -64,6 +64,26 @@ def format_card(card) -> str:
                  f"dry friction 1 and 0, micro-slip 3 + chi)")
     lines.append("  " + masing_text(card.masing))
     return "\n".join(lines)
+
+
+#: Whose inertias the runs' rows of a card are measured with.
+RUNS_INERTIAS = "the adopted model's"
+
+
+def model_name(card: CardReport) -> str:
+    """Which model the card describes: the extended one with its causes, or the nominal one and why."""
+    if card.causes:
+        return f"extended: {' + '.join(card.causes)}"
+    return f"nominal (verdict {card.verdict.verdict})" if card.verdict is not None else "nominal"
+
+
+def mode_text(card: CardReport) -> str:
+    """What the card's mode is, in words: a body on what holds it to the frame, or a joint's two
+    bodies on the joint alone."""
+    if card.joint == 0:
+        return f"mode of the body on what holds it to the frame, its {card.kind.inertia}"
+    j = card.joint
+    return f"mode of bodies {j} and {j + 1} on joint {j} alone, J{j} J{j + 1} / (J{j} + J{j + 1})"
 
 
 def card_warning(card) -> str:
@@ -98,9 +118,9 @@ def card_json(card: CardReport, *, source: str = "", input_sha256: str = "") -> 
               + [{"source": "model_at_runs", **p.as_json(), "run": r.run}
                  for p, r in zip(card.model_at_runs.points, card.runs.points)]
               + [{"source": "model", **p.as_json()} for p in card.model.points])
-    out = {"source": source, "input_sha256": input_sha256, "model": card.model_name,
+    out = {"source": source, "input_sha256": input_sha256, "model": model_name(card),
             "model_adopted": card.unadopted is None, "warning": card_warning(card) or None,
-            "runs_inertias": card.runs_inertias,
+            "runs_inertias": RUNS_INERTIAS,
             "units": "SI: rad, rad/s, N m/rad, N m s/rad, J per cycle; damping ratio dimensionless",
             "what": "amplitude-dependent joint card: secant stiffness, natural frequency and damping ratio of the "
                     "joint's mode (relative coordinate, inertia Je), dissipation per cycle; model by the "
@@ -119,7 +139,7 @@ def card_json(card: CardReport, *, source: str = "", input_sha256: str = "") -> 
             "runs_card": card.runs.as_json(), "model_card": card.model.as_json(),
             "model_at_runs_card": card.model_at_runs.as_json()}
     if card.place:
-        out = {"place": card.place, "mode": card.mode, **out}
+        out = {"place": card.place, "mode": mode_text(card), **out}
     if card.units[0] == "m":  # a slide's: the amplitude in m, the stiffness in N/m, the damping in N s/m
         out = _renamed(out, {"amplitude_rad": "amplitude_m", "amplitude_rad_std": "amplitude_m_std",
                              "secant_stiffness_Nm_per_rad": "secant_stiffness_N_per_m",
@@ -160,7 +180,7 @@ def card_png(card: CardReport, title: str = "joint card") -> bytes:
     for ax, (key, label) in zip(axes.flat, panels):
         y = np.array([getattr(p, key) for p in m])
         s = np.array([getattr(p, key + "_std") for p in m])
-        ax.plot(am, y, color="tab:blue", label=f"model backbone ({card.model_name})")
+        ax.plot(am, y, color="tab:blue", label=f"model backbone ({model_name(card)})")
         if np.all(np.isfinite(s)):
             ax.fill_between(am, y - 2 * s, y + 2 * s, color="tab:blue", alpha=0.2, lw=0, label="model +-2 s.e.")
         yr = np.array([getattr(p, key) for p in r])

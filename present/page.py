@@ -88,7 +88,7 @@ def table(head: Sequence[str], rows: Sequence[str]) -> str:
 def card_section(card, png_bytes: bytes) -> list[str]:
     """The joint card (studies/joint_card.py): runs beside the model at the same amplitude and
     frequency, the slopes, and the card's figure (``png_bytes``, :func:`present.card.card_png`)."""
-    from .card import card_warning, masing_text, point_cells, slope_text as slope
+    from .card import RUNS_INERTIAS, card_warning, masing_text, mode_text, model_name, point_cells, slope_text as slope
 
     rows = []
     for p, m in zip(card.runs.points, card.model_at_runs.points):
@@ -100,10 +100,10 @@ def card_section(card, png_bytes: bytes) -> list[str]:
     warning = [f"<p class='warning'><b>Warning:</b> {html.escape(card_warning(card))}</p>"] if card.unadopted else []
     a_unit, k_unit = card.units
     place = f" of {card.place}" if card.place else ""
-    return [f"<h2>Joint card{html.escape(place)} ({html.escape(card.model_name)})</h2>"] + warning + [
-            f"<p class='note'>The {html.escape(card.mode)} (inertia Je = {sig(card.model.inertia_kgm2, 4)} "
+    return [f"<h2>Joint card{html.escape(place)} ({html.escape(model_name(card))})</h2>"] + warning + [
+            f"<p class='note'>The {html.escape(mode_text(card))} (inertia Je = {sig(card.model.inertia_kgm2, 4)} "
             f"{'kg' if a_unit == 'm' else 'kg m²'}): each run beside the model at the same amplitude and drive "
-            f"frequency (the runs' rows measured with {html.escape(card.runs_inertias)} inertias); damping ratio = "
+            f"frequency (the runs' rows measured with {html.escape(RUNS_INERTIAS)} inertias); damping ratio = "
             "E / (2 pi k A²), half the loss factor.</p>",
             table(["run", f"A [{a_unit}]", "omega [rad/s]", f"k_sec [{k_unit}]", "omega_n [rad/s]", "damping ratio",
                     "E per cycle [J]"], rows),

@@ -19,7 +19,7 @@ import numpy as np
 from jointrig.identify.card import JointCard, MasingCheck, law_card
 from jointrig.identify.verdict import Verdict
 from jointrig.vocab.law import Power
-from jointrig.vocab.params import unit_of
+from jointrig.vocab.params import HINGE, Coordinate, unit_of
 
 __all__ = ["CardReport", "cards_of_train"]
 
@@ -29,25 +29,39 @@ N_CURVE_POINTS = 25
 
 @dataclass(frozen=True)
 class CardReport:
-    """The model's card, the runs' card, and which model it is."""
+    """The model's card, the runs' card, and which model it is (its words:
+    :func:`present.card.model_name`, :func:`present.card.mode_text`)."""
 
     model: JointCard  # the backbone: each amplitude at its natural frequency
     runs: JointCard
-    model_name: str
-    model_at_runs: JointCard  # the model at each run's amplitude and drive frequency  # e.g. "extended: coulomb_friction + backlash" or "nominal (paper eq. 11)"
+    model_at_runs: JointCard  # the model at each run's amplitude and drive frequency
     masing: MasingCheck  # do the runs' loops follow from one backbone (Masing's rule)?
-    #: the diagnosis's verdict where it adopted no model, so the card's (the nominal one) may not be
-    #: the joint (None when it adopted one): the warning of the text, the JSON and the report
-    #: (:func:`present.card.card_warning`)
-    unadopted: Optional[Verdict] = None
-    #: which fit's inertias the runs' rows use (the adopted model's)
-    runs_inertias: str = ""
-    #: where in a train (``"joint 2"``, ``"body 1 to ground"``); empty for two flywheels' one joint
-    place: str = ""
-    #: what the mode's inertia is, in words
-    mode: str = "mode of the relative angle"
-    #: units of the amplitude and the secant stiffness: a hinge's, or a slide's ("m", "N/m")
-    units: tuple = ("rad", "N m/rad")
+    #: the diagnosis's verdict: the card's model is the extended one (``causes``) where it is
+    #: "explained", else the nominal one (None: no verdict was given)
+    verdict: Optional[Verdict] = None
+    #: the adopted causes (labels) the card's model holds; empty: the nominal model
+    causes: tuple = ()
+    #: the place: joint ``joint`` (1-based), or 0 for a single body's law to the frame
+    joint: int = 1
+    #: how the bodies move (hinges: rad, N m/rad; slides: m, N/m)
+    kind: Coordinate = HINGE
+
+    @property
+    def unadopted(self) -> Optional[Verdict]:
+        """The verdict where the diagnosis adopted no model, so the card's (the nominal one) may
+        not be the joint: the warning of the text, the JSON and the report
+        (:func:`present.card.card_warning`)."""
+        return self.verdict if self.verdict is not None and self.verdict.verdict == "unexplained" else None
+
+    @property
+    def place(self) -> str:
+        """The place's label (``"joint 2"``, ``"body 1 to ground"``), as file names carry it."""
+        return "body 1 to ground" if self.joint == 0 else f"joint {self.joint}"
+
+    @property
+    def units(self) -> tuple:
+        """The amplitude's and the secant stiffness's units."""
+        return self.kind.unit, unit_of(self.kind.name(Power(1).name))
 
 
 def cards_of_train(report, records) -> tuple[CardReport, ...]:
@@ -67,9 +81,7 @@ def cards_of_train(report, records) -> tuple[CardReport, ...]:
     # the Masing check's loops: the same coefficients up to its harmonics (each is the band's own)
     top = min(band, MASING_HARMONICS) + 1
     masing_runs = [[replace(jr, phi=jr.phi[:, :top], torque=jr.torque[:, :top]) for jr in runs] for runs in places]
-    name = (f"extended: {' + '.join(s.label for s in d.steps)}" if report.adopted and d.steps
-            else f"nominal (verdict {report.verdict.verdict})")
-    unadopted = report.verdict if report.verdict.verdict == "unexplained" else None
+    causes = tuple(s.label for s in d.steps) if report.adopted else ()
     N = d.nominal.spec.n_flywheels
     out = []
     for k, (runs, mruns) in enumerate(zip(places, masing_runs)):
@@ -81,10 +93,6 @@ def cards_of_train(report, records) -> tuple[CardReport, ...]:
         model = law_card(law, je, grid, covariance=cov, inertia_index=0)
         at_runs = law_card(law, je, amps, covariance=cov, inertia_index=0,
                            omegas_rad_s=[q.omega_rad_s for q in card.points])
-        place = "body 1 to ground" if N == 1 else f"joint {k + 1}"
-        mode = (f"mode of the body on what holds it to the frame, its {report.kind.inertia}" if N == 1 else
-                f"mode of bodies {k + 1} and {k + 2} on joint {k + 1} alone, J{k + 1} J{k + 2} / (J{k + 1} + J{k + 2})")
-        units = (report.kind.unit, unit_of(report.kind.name(Power(1).name)))
-        out.append(CardReport(model, card, name, at_runs, joint_masing_check(mruns), unadopted,
-                              "the adopted model's", place, mode, units))
+        out.append(CardReport(model, card, at_runs, joint_masing_check(mruns), report.verdict, causes,
+                              0 if N == 1 else k + 1, report.kind))
     return tuple(out)

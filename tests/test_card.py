@@ -350,5 +350,5 @@ def test_the_cards_figure_of_a_law_that_dissipates_nothing_draws_without_a_warni
 
     card = law_card(JointLaw((Power(1),), (2000.0,)), 1.0, [0.01, 0.02, 0.05])
     assert all(p.dissipation_J_per_cycle == 0 for p in card.points)
-    png = card_png(CardReport(card, card, "nominal", card, MasingCheck((), math.nan, math.nan, ("", ""), None)))
+    png = card_png(CardReport(card, card, card, MasingCheck((), math.nan, math.nan, ("", ""), None)))
     assert png.startswith(b"\x89PNG")

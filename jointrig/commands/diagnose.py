@@ -205,7 +205,7 @@ def write_train_cards(args, loaded, report) -> tuple:
     (``OUT-joint<j>.png``; a single body's: ``OUT.png``). Returns ``(card, its PNG)`` per place
     (the PNG drawn once, for the report too)."""
     from jointrig.files import write_atomic, write_json_atomic
-    from jointrig.present.card import card_json, card_png, format_card
+    from jointrig.present.card import card_json, card_png, format_card, model_name
     from jointrig.studies.joint_card import cards_of_train
 
     log.info("computing the joint cards")
@@ -216,7 +216,7 @@ def write_train_cards(args, loaded, report) -> tuple:
         write_json_atomic(args.card, {"source": str(args.data), "input_sha256": loaded.sha256,
                                       "cards": [card_json(c) for c in cards]})
         log.info("wrote %s", args.card)
-    pngs = [card_png(c, title=f"joint card of {args.data.name}, {c.place}: {c.model_name}")
+    pngs = [card_png(c, title=f"joint card of {args.data.name}, {c.place}: {model_name(c)}")
             if args.card_png or args.report else b"" for c in cards]
     if args.card_png:
         for c, png in zip(cards, pngs):
