@@ -403,3 +403,15 @@ def test_the_scaled_start_takes_a_run_without_drive_as_it_is():
     assert np.allclose(start, theta, rtol=1e-12)
     both = scaled_ls_start(runs)
     assert np.all(np.isfinite(both))
+
+
+def test_a_rate_terms_column_is_debiased_by_the_rates_noise_alone():
+    # 2 b(x) - E[b(x + n)] for b = rate^3 with the rate's noise variance 0.5 (rad/s)^2 and no angle
+    # noise: E[(v + n)^3] = v^3 + 3 s^2 v, so the column is v^3 - 1.5 v (exact: the rule is
+    # exact for a cube); a variance below 1 is noise all the same
+    from jointrig.identify.eiv import _debiased
+    from jointrig.vocab.law import Monomial
+
+    v = np.linspace(-2.0, 2.0, 9)
+    col = _debiased(Monomial(0, 3), np.zeros_like(v), v, 0.0, 0.5)
+    np.testing.assert_allclose(col, v**3 - 1.5 * v, atol=1e-12)
