@@ -42,6 +42,9 @@ def test_the_check_names_what_departs_from_the_schema():
     bad_cause = _document()
     bad_cause["extended"]["steps"][0]["candidate"] = "x"
     assert dj.schema_problems(bad_cause)[0].startswith("extended.steps[0]: keys")
+    bad_limit = _document()
+    del bad_limit["ruled_out"][0]["limit"]
+    assert dj.schema_problems(bad_limit)[0].startswith("ruled_out[0]: keys")
     no_grounds = _document()
     del no_grounds["verdict"]["grounds"]
     assert dj.schema_problems(no_grounds)[0].startswith("verdict: keys")

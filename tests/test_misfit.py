@@ -386,3 +386,22 @@ def test_a_places_words_and_where_a_trains_misfit_is():
     assert places_text(SimpleNamespace(where="joint 1", by_place=(("joint 1", 0.2),))) == "at joint 1"
     two = places_text(SimpleNamespace(where="joint 2", by_place=(("joint 1", 0.05), ("joint 2", 0.2))))
     assert two.startswith("at joint 2, where the residual torque is largest (0.2 of the torque there; joint 1 0.05")
+
+
+def test_a_characters_words_at_its_bounds():
+    # dissipative above a share of 0.6 (partly between 0.4 and 0.6); faster than the drive above a
+    # slope of 1.5, not at it; the share on harmonics 4 and up said only above 0.3
+    from dataclasses import replace
+
+    runs = [_run(i, 30.0, a, lambda th, p, v: 5e9 * p**3) for i, a in enumerate((1.0, 2.0, 4.0))]
+    c = misfit_character(runs, 10)
+    assert ", dissipative at the fundamental" in character_text(replace(c, dissipative_share=0.7))
+    assert "partly dissipative" in character_text(replace(c, dissipative_share=0.6))
+    assert "grows with the drive (slope 1.5)" in character_text(replace(c, amplitude_slope=1.5))
+    assert "harmonics 4 and up" not in character_text(replace(c, high_share=0.1))
+    assert "40% of it on harmonics 4 and up" in character_text(replace(c, high_share=0.4))
+
+
+def test_a_damping_sections_round_off_reads_as_zero():
+    tiny = _surface(torque_Nm=np.array([[-5.0, -4.0, -3.0], [1e-12, 2.0, 1.0], [3.0, 4.0, 5.0]]))
+    assert "its damping section S(0, phi') spans 0 to 2 N m" in surface_text(tiny)

@@ -905,3 +905,13 @@ def test_a_fundamental_is_taken_after_the_first_period_only_beyond_its_bound():
         assert (got is not whole) == replaced and len(notes) == replaced, (share, got, notes)
         if replaced:
             assert got.omega_rad_s == later.omega_rad_s
+
+
+def test_a_steady_record_has_no_transient_cut(tmp_path):
+    # a record that is steady from its first sample keeps every period, and says nothing of a transient
+    from jointrig.measured.notes import TransientCut
+
+    t = np.arange(4 * 256) * (2 * math.pi / W / 256)
+    (tmp_path / "steady.csv").write_text(csv_text(t))
+    loaded = read_runs(tmp_path / "steady.csv")
+    assert loaded.records[0].n_periods == 4 and not any(isinstance(n, TransientCut) for n in loaded.notes)
