@@ -54,12 +54,41 @@ EXAMPLE = Path(__file__).resolve().parent.parent / "examples" / "bench_dry_frict
 
 
 @pytest.fixture(scope="session")
-def example_diagnosis():
-    """``jointrig.diagnose`` of the README's example, once per worker: the tests that read it
-    carry ``pytest.mark.xdist_group("example")``, so one worker computes it (about 15 s)."""
-    import jointrig
+def example_outputs(tmp_path_factory):
+    """The README's example diagnosed by ``jointrig diagnose`` once per worker, with every output
+    the command writes, and the result object it made: ``(folder, Diagnosis)``. The folder holds
+    ``d.json``, ``d.rrd``, ``d.html``, ``card.json``, ``card.png`` and ``identified.xml``. The
+    command calls ``jointrig.diagnose`` with the same defaults as the Python API, so the object is
+    what ``jointrig.diagnose(EXAMPLE)`` returns. Two workers, as on a user's machine (this
+    session sets one): the causes are scored in forked processes and the recording and report
+    come from the writer process (``jointrig.parallel.WarmProcess``). The tests that read it carry
+    ``pytest.mark.xdist_group("example")``, so one worker computes it (about 40 s)."""
+    import jointrig.diagnosis
+    from jointrig.commands import diagnose
 
-    return jointrig.diagnose(EXAMPLE)
+    out = tmp_path_factory.mktemp("example")
+    made = []
+    real = jointrig.diagnosis.diagnose
+
+    def keep(*args, **kwargs):
+        made.append(real(*args, **kwargs))
+        return made[-1]
+
+    argv = [str(EXAMPLE), "--json", str(out / "d.json"), "--rrd", str(out / "d.rrd"), "--report", str(out / "d.html"),
+            "--card", str(out / "card.json"), "--card-png", str(out / "card.png"), "--mjcf",
+            str(out / "identified.xml"), "-q"]
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("JOINTRIG_WORKERS", "2")
+        mp.setattr(jointrig.diagnosis, "diagnose", keep)
+        assert diagnose.main(argv) == 0
+    assert len(made) == 1
+    return out, made[0]
+
+
+@pytest.fixture(scope="session")
+def example_diagnosis(example_outputs):
+    """``jointrig.diagnose`` of the README's example (:func:`example_outputs`'s object)."""
+    return example_outputs[1]
 
 
 @pytest.fixture

@@ -513,6 +513,7 @@ def test_a_joint_may_stick_where_the_nominal_law_or_significant_evidence_gives_i
     assert _joints_that_may_stick(problem, replace(spec, joints=tuple(joints)), pool, 1e-3) == (False, True, False)
 
 
+@pytest.mark.slow  # slow: two whole diagnoses of a 3-body train (about 75 s on one core)
 def test_a_clean_train_gets_no_cause_and_a_bodys_drag_is_named_at_its_body():
     # The whole diagnosis on exact steady states of the linear train (60 dB): without any effect,
     # no candidate of the 38 (9 causes at 3 joints, drag at 4 bodies, the drives' lag, the skew
@@ -548,6 +549,7 @@ def test_a_clean_train_gets_no_cause_and_a_bodys_drag_is_named_at_its_body():
         assert abs(fitted[name] - truth) < 3 * d.final.std_error(name), (name, fitted[name])
 
 
+@pytest.mark.slow  # slow: a whole diagnosis of a train (about 25 s on one core)
 def test_the_drives_lag_is_a_candidate_from_two_frequencies_on():
     # A lag only turns every harmonic by a fixed angle at one frequency, where a law can do the
     # same: it is scored once the runs hold two frequencies (apart by more than 1e-3), whatever

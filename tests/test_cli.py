@@ -74,6 +74,7 @@ def test_help_answers_without_loading_the_numerical_stack(name, heavy):
     assert out.splitlines()[-1] == "loaded:", f"{name} --help {out.splitlines()[-1]}"
 
 
+@pytest.mark.slow  # slow: a whole diagnosis of the README's example in a process of its own (about 55 s): a claim about the command's start-up cost
 def test_the_diagnosis_imports_neither_a_gl_backend_nor_matplotlib(tmp_path):
     # MuJoCo's OpenGL backend (GLFW) would cost 0.05 s, and no command renders with MuJoCo
     # (jointrig.cli sets MUJOCO_GL=disable unless the user set it). The report's figures are SVG

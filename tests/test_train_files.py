@@ -362,6 +362,7 @@ def test_runs_that_stick_and_runs_that_slide_through_rest_give_one_dry_friction(
     assert j["validation"]["gain"] >= 3
 
 
+@pytest.mark.slow  # slow: a whole diagnosis of a worn train (about 40 s on one core)
 def test_two_runs_of_a_worn_train_whose_nominal_inertias_are_ill_determined_are_judged_on_later_periods(
         tmp_path, capsys):
     # Two runs of the worn pump train, both driven at the motor: the nominal fit's inertias are

@@ -81,6 +81,7 @@ def _whichever_run(tmp_path, joint: str) -> None:
         assert abs(value - friction_Nm) <= 3 * se, (held, value, se)
 
 
+@pytest.mark.slow  # slow: a whole diagnosis of a file (about 20 s on one core)
 def test_a_diverging_candidate_is_rejected_with_its_reason(tmp_path, monkeypatch):
     from jointrig.present.train_report import format_train_report, train_report_json
     from jointrig.studies import chain_validate
@@ -158,6 +159,7 @@ def test_large_free_play_is_found_with_its_stiffness(tmp_path, joint, gap_rad):
         assert abs(value - true) <= 2 * se, (name, value, se, true)
 
 
+@pytest.mark.slow  # slow: a whole diagnosis of a file each (20-30 s on one core)
 @pytest.mark.parametrize("points", [[(40.0, 2500.0)], [(25.0, 1500.0), (55.0, 3500.0)]], ids=["one run", "two runs"])
 def test_one_or_two_runs_are_diagnosed_on_their_later_periods(tmp_path, points):
     # A bench's single long record (or two): no run can be held out, so each run's first half of
@@ -274,6 +276,7 @@ def _model_with(tmp_path, **fields) -> str:
     return str(path)
 
 
+@pytest.mark.slow  # slow: two whole diagnoses of the README's example (about 90 s on one core)
 def test_the_users_model_as_written_is_held_against_the_data(tmp_path, capsys):
     # issue 36: `jointrig diagnose DATA --model MY.xml` starts from the user's model and shows
     # each parameter as written beside the data's, with the difference's significance. A
@@ -318,6 +321,7 @@ def test_a_bad_model_file_is_refused_before_the_work(tmp_path, capsys):
     assert "--model: " in capsys.readouterr().err
 
 
+@pytest.mark.slow  # slow: a whole diagnosis of the README's example, swapped (about 50 s on one core)
 @pytest.mark.xdist_group("example")
 def test_where_the_torque_acts_is_an_option(tmp_path, capsys, example_diagnosis):
     # issue 37: `torque` is the drive on flywheel 1; a bench that drives flywheel 2 says so with
@@ -356,6 +360,7 @@ def test_where_the_torque_acts_is_an_option(tmp_path, capsys, example_diagnosis)
     assert "the joint's own torque, not a drive" in capsys.readouterr().err
 
 
+@pytest.mark.slow  # slow: a whole diagnosis of a file (about 25 s on one core)
 def test_a_constant_zero_offset_is_named_as_such(tmp_path):
     # issue 37: a constant 0.05 rad offset of the relative angle was taken for an asymmetric
     # stiffness (a = 3 gamma 0.05) with only a hint. On the stiff cubic joint of the independent
@@ -437,6 +442,7 @@ if __name__ == "__main__":
         print(f"{joint}: dry friction adopted whichever run is held out, within 3 standard errors")
 
 
+@pytest.mark.slow  # slow: a whole diagnosis of a file (about 20 s on one core)
 def test_the_users_model_is_compared_only_provisionally_when_nothing_explains_the_data(tmp_path):
     # issue 49: where the verdict is unexplained, the fit the data's values come from may itself be
     # wrong, so a parameter that differs from the user's model is a lead, not a finding: the first
