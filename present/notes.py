@@ -18,7 +18,7 @@ from jointrig.measured.notes import (ClockJitter, CommonMotion, EpochTime, FromV
                                      OmegaDisagrees, OmegaFromPeriod, PreloadChanges, Resampled, TransientCut,
                                      ZeroPerRun)
 from jointrig.studies.holdout import Generalisation
-from jointrig.studies.notes import (NO_INERTIA, NO_STEADY_STATE, NOR_SPANNED, NOT_FOLLOWED, BandCut, BiasUnmeasured,
+from jointrig.studies.notes import (DIVERGED, NO_INERTIA, NO_STEADY_STATE, NOR_SPANNED, NOT_FOLLOWED, BandCut, BiasUnmeasured,
                                     BodyRests, FixedFidelity, JointSticks, NoReplay, NoSpringToFrame, RelativeAngle,
                                     Spanned)
 from jointrig.vocab.params import HINGE, Coordinate
@@ -274,6 +274,10 @@ def no_replay_text(f: NoReplay) -> str:
         if not f.model:
             return "a fitted inertia is no body's"
         return f"the {f.model} model has no body's inertia ({bad} kg m^2): it cannot be simulated"
+    if f.why == DIVERGED:  # a fitted model's instability: no step size of the user's to change
+        who = f"the {f.model} model" if f.model else "the fitted model"
+        return (f"{who} diverges in the rig under the {'measured ' if f.model else ''}drive of {f.run} (MuJoCo "
+                f"warned: {f.detail}): a fitted value makes it unstable")
     if not f.model:  # the fidelity's replay of the fitted runs: its model is named where it is quoted
         return f"no periodic steady state under the drive of {f.run}: {f.detail}"
     if f.why == NOT_FOLLOWED:

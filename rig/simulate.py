@@ -82,6 +82,17 @@ class SteadyStateNotReached(SimulationError):
     """The period-to-period change did not fall below the tolerance in time."""
 
 
+class Diverged(SimulationError):
+    """MuJoCo warned while the rig stepped: the simulation diverged or is invalid. ``warnings``
+    names each warning with its count and last info (``"mjWARN_BADQACC x1 (info 0)"``). The
+    message advises the rig's own user (a smaller ``max_step_s`` or drive); a diagnosis that
+    replays a fitted model words it as that model's instability (present.notes.no_replay_text)."""
+
+    def __init__(self, message: str, warnings: str):
+        super().__init__(message)
+        self.warnings = warnings
+
+
 @dataclass(frozen=True)
 class SimulationConfig:
     """How the rig integrates and logs.
@@ -518,8 +529,8 @@ def _check_warnings(d: mujoco.MjData, where: str) -> None:
               if w.number > 0]
     if raised:
         desc = ", ".join(f"{name} x{n} (info {info})" for name, n, info in raised)
-        raise SimulationError(f"{where}: MuJoCo warned: {desc}; the simulation diverged or is "
-                              f"invalid (reduce max_step_s or the drive amplitude)")
+        raise Diverged(f"{where}: MuJoCo warned: {desc}; the simulation diverged or is "
+                       f"invalid (reduce max_step_s or the drive amplitude)", desc)
 
 
 def simulate_steady_state(

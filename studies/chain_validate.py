@@ -34,12 +34,12 @@ from jointrig.identify.defaults import (DEFAULT_ALPHA, DEFAULT_FIDELITY, DEFAULT
                                        MAX_REPLAY_STEPS_PER_PERIOD, REPLAY_MAX_STEP_S)
 from jointrig.identify.verdict import CHI2_PER_DOF_OK, RIG_FIDELITY, Grounds, Verdict, judge
 
-from .notes import (NO_INERTIA, NO_STEADY_STATE, NOR_SPANNED, NOT_FOLLOWED, BandCut, BiasUnmeasured, BodyRests,
+from .notes import (DIVERGED, NO_INERTIA, NO_STEADY_STATE, NOR_SPANNED, NOT_FOLLOWED, BandCut, BiasUnmeasured, BodyRests,
                     FixedFidelity, JointSticks, NoReplay, NoSpringToFrame, Spanned)
 from .holdout import (MIN_PERIODS_TO_SPLIT, MIN_RUNS_TO_HOLD_OUT, Generalisation, generalisation_kind,
                       holdout_of_another_kind)
 from jointrig.vocab.records import RecordError
-from jointrig.rig.simulate import SimulationConfig, SimulationError, SteadyStateNotReached
+from jointrig.rig.simulate import Diverged, SimulationConfig, SimulationError, SteadyStateNotReached
 
 __all__ = ["ChainValidation", "RightModelError", "validate_chain", "twist_error", "found_motion", "departure", "TrainReport", "train_verdict", "run_train_diagnosis",
            "written_of", "held_means"]
@@ -415,15 +415,21 @@ def _replayed(rig: ChainRig, fit, read, meas: ChainRecord, drives: dict, cfg: Si
     if span:
         try:
             return run(spanned_cfg), True
+        except Diverged as err:
+            raise _NoReplay(NoReplay(name, meas.source, DIVERGED, err.warnings)) from err
         except SimulationError as err:
             raise _NoReplay(NoReplay(name, meas.source, NOT_FOLLOWED, str(err))) from err
     try:
         return run(cfg), False
+    except Diverged as err:  # a fitted value makes the model unstable: a reason, not a crash
+        raise _NoReplay(NoReplay(name, meas.source, DIVERGED, err.warnings)) from err
     except SteadyStateNotReached:
         if span is False:
             raise _NoReplay(NoReplay(name, meas.source, NO_STEADY_STATE)) from None
         try:
             return run(spanned_cfg), True
+        except Diverged as again:
+            raise _NoReplay(NoReplay(name, meas.source, DIVERGED, again.warnings)) from again
         except SimulationError as again:
             raise _NoReplay(NoReplay(name, meas.source, NOR_SPANNED, str(again), periods=meas.n_periods)) from again
     except SimulationError as err:  # a divergence: a reason, not a crash
@@ -692,7 +698,8 @@ def rig_replay(rig: ChainRig, runs: Sequence, band: int, *, backend: str = "auto
                 sim, used = without_drift(once, held_means(fit, rec), drifting_bodies(fit), _drive_scale(rec))
             except SimulationError as err:
                 out.append(None)
-                why.append(NoReplay("", rec.source, NO_STEADY_STATE, str(err)))
+                why.append(NoReplay("", rec.source, DIVERGED, err.warnings) if isinstance(err, Diverged)
+                           else NoReplay("", rec.source, NO_STEADY_STATE, str(err)))
                 continue
             if any(constants):  # the cell's mean, which the drive dropped: the load held plus the constant
                 sim = replace(sim, torques_Nm=tuple(t + u + k if t is not None and k else t

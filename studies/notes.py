@@ -9,9 +9,11 @@ from typing import Optional
 
 
 #: Why a model could not be replayed (:attr:`NoReplay.why`): a model with no body's inertia; a replay
-#: over the record's own span that does not follow it; no periodic steady state (a divergence: the
-#: rig's ``detail``); neither a steady state nor the record's span followed.
+#: over the record's own span that does not follow it; no periodic steady state (the rig's
+#: ``detail``); neither a steady state nor the record's span followed; the model diverged in the
+#: rig (MuJoCo warned: ``detail`` names the warnings).
 NO_INERTIA, NOT_FOLLOWED, NO_STEADY_STATE, NOR_SPANNED = "no_inertia", "not_followed", "no_steady_state", "nor_spanned"
+DIVERGED = "diverged"
 
 
 @dataclass(frozen=True)
@@ -19,8 +21,8 @@ class NoReplay:
     """A model that could not be simulated under the measured drive of run ``run``: ``model`` is
     "nominal" or "extended" (empty: the model whose replay measures the fidelity, named by its
     :class:`FixedFidelity`), ``why`` one of :data:`NO_INERTIA`, :data:`NOT_FOLLOWED`,
-    :data:`NO_STEADY_STATE`, :data:`NOR_SPANNED`, ``detail`` the rig's own message ("" where
-    none), ``inertias`` ``(body, value)`` of each inertia that is no body's, ``periods`` the
+    :data:`NO_STEADY_STATE`, :data:`NOR_SPANNED`, :data:`DIVERGED`, ``detail`` the rig's own message
+    ("" where none; MuJoCo's warnings where it diverged), ``inertias`` ``(body, value)`` of each inertia that is no body's, ``periods`` the
     record's periods (what a replay over its span had to follow)."""
 
     model: str

@@ -10,7 +10,7 @@ import pytest
 
 from jointrig.present.notes import bias_unmeasured_text, failures_text, no_replay_text, note_text
 from jointrig.studies import notes
-from jointrig.studies.notes import (NO_INERTIA, NO_STEADY_STATE, NOR_SPANNED, NOT_FOLLOWED, BandCut, BiasUnmeasured,
+from jointrig.studies.notes import (DIVERGED, NO_INERTIA, NO_STEADY_STATE, NOR_SPANNED, NOT_FOLLOWED, BandCut, BiasUnmeasured,
                                     BodyRests, FixedFidelity, JointSticks, NoReplay, NoSpringToFrame, RelativeAngle,
                                     Spanned)
 
@@ -79,6 +79,12 @@ def test_a_notes_words_carry_its_values():
      "the extended model reaches no periodic steady state under the measured drive of r1: MuJoCo warned"),
     (NoReplay("extended", "r1", NOR_SPANNED, "diverged", periods=4), "the extended model reaches no periodic steady "
      "state under the measured drive of r1, nor follows it over its 4 periods: diverged"),
+    # a fitted model that diverges: its instability, not the rig's step, which a diagnosis's user
+    # does not set (the rig's own message advised "reduce max_step_s")
+    (NoReplay("extended", "r1", DIVERGED, "mjWARN_BADQACC x1 (info 0)"), "the extended model diverges in the rig "
+     "under the measured drive of r1 (MuJoCo warned: mjWARN_BADQACC x1 (info 0)): a fitted value makes it unstable"),
+    (NoReplay("", "r2", DIVERGED, "mjWARN_BADQACC x1 (info 0)"), "the fitted model diverges in the rig under the "
+     "drive of r2 (MuJoCo warned: mjWARN_BADQACC x1 (info 0)): a fitted value makes it unstable"),
 ])
 def test_a_failed_replays_words_carry_its_model_run_and_the_rigs_reason(failure, words):
     assert no_replay_text(failure) == words

@@ -162,6 +162,19 @@ def test_diverging_simulation_raises(rig):
     assert mujoco.get_mjcb_passive() is None
 
 
+def test_a_mujoco_warning_is_a_divergence_that_names_the_warnings(rig):
+    # A diagnosis words a fitted model's divergence from the warnings alone (studies.notes.DIVERGED),
+    # not from the rig's advice to its own user (a smaller max_step_s, which diagnose does not take).
+    from jointrig.rig.simulate import Diverged, _check_warnings
+
+    d = mujoco.MjData(rig.model)
+    _check_warnings(d, "quiet")  # no warning: nothing raised
+    d.warning[int(mujoco.mjtWarning.mjWARN_BADQACC)].number = 2
+    with pytest.raises(Diverged, match="reduce max_step_s") as got:
+        _check_warnings(d, "r1")
+    assert got.value.warnings == "mjWARN_BADQACC x2 (info 0)" and isinstance(got.value, SimulationError)
+
+
 def test_determinism(rig):
     a, _ = simulate_steady_state(rig, 45.0, 4000.0, SimulationConfig())
     b, _ = simulate_steady_state(rig, 45.0, 4000.0, SimulationConfig())
