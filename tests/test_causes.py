@@ -719,3 +719,17 @@ def test_the_detection_limit_is_the_size_whose_drop_passes_the_test_with_its_pow
     assert detection_limit(s, 1_000_000, 1e-3) == pytest.approx(2.0 * (math.sqrt(math.log(1e6)) + norm.isf(0.05)),
                                                                  rel=1e-12)
     assert math.isnan(detection_limit(replace(s, magnitude=("coulomb_torque_Nm", 0.3, 0.0)), 100, 1e-3))
+
+
+def test_a_size_is_resolved_beyond_the_tests_normal_quantile_of_its_standard_error():
+    # identify.causes.resolved: two-sided at alpha, 3.29 standard errors at 1e-3. The worn joint's
+    # six periods (make-data --periods 6 --seed 3) read a Stribeck excess of 25.5 +- 13.0 N m
+    # beside a sliding friction of 34.8 +- 12.9: not resolved, so the final model names dry
+    # friction (identify.chain_diagnose._reduced); the carriage's 4.75 +- 0.12 N is.
+    from jointrig.identify.causes import resolved
+
+    assert not resolved(25.5, 13.0, 1e-3) and resolved(4.75, 0.12, 1e-3)
+    assert resolved(3.3, 1.0, 1e-3) and not resolved(3.28, 1.0, 1e-3)  # the quantile, 3.2905
+    assert resolved(-3.3, 1.0, 1e-3)  # a size is told from zero on either side
+    assert resolved(2.6, 1.0, 1e-2) and not resolved(2.5, 1.0, 1e-2)  # 2.5758 at 1e-2
+    assert not resolved(5.0, float("nan")) and not resolved(float("nan"), 1.0)
