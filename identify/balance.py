@@ -197,7 +197,7 @@ def upsample(x: np.ndarray, factor: int) -> np.ndarray:
 
 
 def _term_coeffs(terms: Sequence[Term], phi: np.ndarray, rate: np.ndarray, n_periods: int,
-                 n_harmonics: int, oversample: int = 1) -> np.ndarray:
+                 n_harmonics: int, oversample: int) -> np.ndarray:
     """Fourier coefficients of every term along the record. ``oversample > 1`` evaluates the
     terms on a finer grid (trigonometric interpolation of phi and rate) first: a term with a
     jump or a kink (dry friction, free play, hysteresis) aliases with error O(1/N) on N

@@ -402,3 +402,16 @@ def test_a_single_dof_systems_law_rows_are_taken_at_the_records_own_samples():
     s = single_dof_system(omega_rad_s=1.0, n_periods=1, x=x, rate=rate, forcing=np.sign(rate), terms=(Coulomb(),),
                           n_harmonics=5)
     np.testing.assert_allclose(s.A[:, list(s.names).index(Coulomb().name)], s.F, rtol=0, atol=1e-14)
+
+
+def test_a_single_dof_systems_rows_belong_to_record_0_unless_told_and_to_equation_0():
+    # single_dof_system's rows carry the record they come from (the row_record a stacked
+    # system's standard errors and residuals are grouped by): 0 for a record balanced alone.
+    from jointrig.identify.balance import single_dof_system
+
+    t = np.arange(16) / 16 * 2 * np.pi
+    kw = dict(omega_rad_s=1.0, n_periods=1, x=np.cos(t), rate=-np.sin(t), forcing=np.cos(t), terms=(Coulomb(),),
+              n_harmonics=5)
+    alone = single_dof_system(**kw)
+    assert alone.F.size == 2 * 5 + 1 and set(alone.row_record) == {0} and set(alone.row_equation) == {0}
+    assert set(single_dof_system(**kw, record_index=3).row_record) == {3}

@@ -733,3 +733,63 @@ def test_a_size_is_resolved_beyond_the_tests_normal_quantile_of_its_standard_err
     assert resolved(-3.3, 1.0, 1e-3)  # a size is told from zero on either side
     assert resolved(2.6, 1.0, 1e-2) and not resolved(2.5, 1.0, 1e-2)  # 2.5758 at 1e-2
     assert not resolved(5.0, float("nan")) and not resolved(float("nan"), 1.0)
+
+
+class _Trial:
+    """A profile trial's fit: its chi-square and degrees of freedom (what profile reads)."""
+
+    def __init__(self, chi2: float, dof: int = 10):
+        self.chi2, self.dof = chi2, dof
+
+
+def test_a_profile_searches_a_basin_at_either_end_of_its_grid():
+    # identify.causes.profile over [0, 1] (17 grid points, 1/16 apart): the best value 0.03 lies
+    # inside the first grid interval (chi-square 0.09 at the grid's first point, 0.105 at its
+    # second: a local minimum at the end), and chi-square falls towards the other end (0.05 at 1,
+    # 0.06 at its neighbour). Both ends' basins are searched: the first holds the best fit.
+    from types import SimpleNamespace
+
+    from jointrig.identify.causes import profile
+
+    def chi2(h):
+        return min(100.0 * (h - 0.03) ** 2, 0.05 + 0.16 * (1.0 - h))
+
+    got = profile(lambda h: _Trial(chi2(h)), SimpleNamespace(log_scale=False), 0.0, 1.0)
+    assert got.value == pytest.approx(0.03, abs=1e-4) and got.fit.chi2 < 1e-6
+    # mirrored: the best value inside the last interval, the first end's basin shallower
+    got = profile(lambda h: _Trial(chi2(1.0 - h)), SimpleNamespace(log_scale=False), 0.0, 1.0)
+    assert got.value == pytest.approx(0.97, abs=1e-4)
+
+
+def test_a_profiled_errors_scale_with_a_fit_worse_than_its_noise():
+    # chi-square 40 + 100 (h - 0.15)^2 on 10 degrees of freedom: it rises by one at 0.1 from the
+    # best value, and the fit is 2 times worse than its noise in RMS (chi2/dof 4), so the error is
+    # scaled by 2 as the linear ones are: 0.2. The range [0.11, 0.19] leaves no room for a pass
+    # over +-1 standard error (of 0.2, nor of an unscaled 0.1 or a wrongly scaled 0.05), so the
+    # first curvature stands.
+    from types import SimpleNamespace
+
+    from jointrig.identify.causes import profile
+
+    got = profile(lambda h: _Trial(40.0 + 100.0 * (h - 0.15) ** 2), SimpleNamespace(log_scale=False), 0.11, 0.19)
+    assert got.value == pytest.approx(0.15, abs=1e-5) and got.std_error == pytest.approx(0.2, rel=1e-3)
+
+
+def test_a_profiled_parameters_uncertainty_widens_the_linear_ones_by_its_slope():
+    # Profiled.widened: cov + slope slope^T se^2; without a slope, a finite error or a covariance
+    # the fit is returned as it is.
+    from dataclasses import dataclass, field
+
+    from jointrig.identify.causes import Profiled
+
+    @dataclass(frozen=True)
+    class Fit:
+        covariance: object = None
+        std_errors: object = field(default_factory=lambda: np.array([1.0, 2.0]))
+
+    fit = Fit(np.diag([1.0, 4.0]))
+    wide = Profiled(0.5, fit, 0.1, np.array([10.0, 0.0])).widened()
+    assert np.allclose(wide.covariance, [[2.0, 0.0], [0.0, 4.0]]) and np.allclose(wide.std_errors, [math.sqrt(2), 2.0])
+    assert Profiled(0.5, fit, 0.1, None).widened() is fit
+    assert Profiled(0.5, fit, float("nan"), np.array([10.0, 0.0])).widened() is fit
+    assert Profiled(0.5, Fit(None), 0.1, np.array([10.0, 0.0])).widened().covariance is None

@@ -915,3 +915,21 @@ def test_a_steady_record_has_no_transient_cut(tmp_path):
     (tmp_path / "steady.csv").write_text(csv_text(t))
     loaded = read_runs(tmp_path / "steady.csv")
     assert loaded.records[0].n_periods == 4 and not any(isinstance(n, TransientCut) for n in loaded.notes)
+
+
+def test_a_fixed_rate_record_is_synthesised_at_twice_its_harmonics_plus_one_per_period():
+    # The README's example: 251.3 samples per period at 25 rad/s, 157.08 at 40, 114.24 at 55 (1 kHz): harmonics
+    # 0..H estimated by least squares and synthesised at 2 (H + 1) samples per period, the fewest
+    # that hold harmonic H with its sine and cosine (identify.harmonics.max_harmonic).
+    from pathlib import Path
+
+    from jointrig.identify.harmonics import max_harmonic
+    from jointrig.measured.notes import LeastSquaresPeriods
+
+    loaded = read_runs(Path(__file__).resolve().parent.parent / "examples" / "bench_dry_friction.csv")
+    ls = {n.run: n for n in loaded.notes if isinstance(n, LeastSquaresPeriods)}
+    assert set(ls) == set(loaded.run_ids)
+    for run, rec in zip(loaded.run_ids, loaded.records):
+        H = ls[run].harmonics
+        assert rec.samples_per_period == ls[run].samples == 2 * (H + 1) and max_harmonic(rec.samples_per_period) >= H
+    assert {ls[r].samples for r in ls} == {202, 126, 92}  # H 100 at 25 rad/s, 62 at 40, 45 at 55

@@ -277,3 +277,32 @@ def test_a_stated_omega_that_is_the_records_own_period_is_taken_as_stated(tmp_pa
         assert loaded.records[0].omega_rad_s == pytest.approx(w, rel=1e-8)
         assert (loaded.records[0].omega_rad_s == written) == (not noted)
         assert any("column 'omega'" in n for n in note_words(loaded.notes)) == noted, loaded.notes
+
+
+def test_a_line_of_carriages_reads_its_numbered_positions(tmp_path):
+    # The unnumbered 'x' is a single carriage's position, and only a file that holds it may not
+    # number others; two carriages numbered x1, x2 are a line of two bodies on slides.
+    rows = [r[1:] for r in _rows(angles=2)]
+    loaded = read_runs(_train_csv(tmp_path / "two.csv", ["time", "force1", "x1", "x2"], rows))
+    assert loaded.kind == "slide" and loaded.records[0].n_flywheels == 2
+
+
+def test_a_folder_of_trains_is_one_bench_and_another_line_in_it_is_refused(tmp_path):
+    folder = tmp_path / "runs"
+    folder.mkdir()
+    for name in ("a.csv", "b.csv", "c.csv"):  # three files of one 3-body train: its runs
+        _train_csv(folder / name, ["time", "torque1", "phi1", "phi2", "phi3"], [r[1:] for r in _rows()])
+    assert len(read_runs(folder).records) == 3
+    _train_csv(folder / "d.csv", ["time", "torque1", "phi1", "phi2", "phi3", "phi4"], [r[1:] for r in _rows(angles=4)])
+    with pytest.raises(RunsFileError, match="d.csv: 4 bodies on hinges, the files before it 3 on hinges"):
+        read_runs(folder)
+
+
+def test_a_single_bodys_positions_zeroed_per_run_are_centred_with_a_note_that_says_one_body(tmp_path):
+    from jointrig.measured.notes import ZeroPerRun
+
+    rows = [[k * 1.0, 0.05 * math.cos(2 * math.pi * 10 * k * 1e-3), 351.2 + 20 * math.cos(2 * math.pi * 10 * k * 1e-3)]
+            for k in range(400)]
+    loaded = read_runs(_train_csv(tmp_path / "axis.csv", ["time [ms]", "force [kN]", "x [mm]"], rows), zero_per_run=True)
+    assert ZeroPerRun(single=True) in loaded.notes
+    assert abs(loaded.records[0].angles_rad[0].mean()) < 1e-9  # centred: its own zero
