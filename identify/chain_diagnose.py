@@ -1519,11 +1519,10 @@ def _reduced(problem: _Problem, structure: ChainSpec, adopted: list, steps: list
     (:func:`identify.causes.resolved`). A Stribeck peak adopted first may only stand for free
     play found after it: on the worn two flywheels (60 N m of dry friction, +-0.03 rad of free
     play) its excess fell from 129 +- 77 to 1.8 +- 8.4 N m once the free play was in. From six
-    periods of the same joint the two extra parameters still lowered chi-square by 20.9 (p 6e-4
-    with the weights' 10 degrees of freedom) with an excess of 25.5 +- 13.0 N m beside a sliding
-    friction of 34.8 +- 12.9: a broad fall-off (7.9 rad/s) that the runs do not tell from level
-    friction, which was named a Stribeck peak. Returns the steps and the final fit with its
-    weights."""
+    periods of the same joint the extra parameters lower chi-square by 20.9 (p 6e-4 with the
+    weights' 10 degrees of freedom) with an excess of 25.5 +- 13.0 N m beside a sliding friction
+    of 34.8 +- 12.9: a broad fall-off (7.9 rad/s) the runs do not tell from level friction, so
+    dry friction is named. Returns the steps and the final fit with its weights."""
     current, weights = base
     for k, (cand, step) in enumerate(zip(list(adopted), list(steps))):
         simpler = next((s for s in rounds[k] if s.effect == cand.cause.reduces_to and s.where == step.where), None)
