@@ -405,6 +405,9 @@ def _replayed(rig: ChainRig, fit, read, meas: ChainRecord, drives: dict, cfg: Si
     start, loads = start_of(meas, top, read.offsets_rad), held_means(fit, meas)
     spanned_cfg = replace(cfg, settle=False, n_periods=meas.n_periods)
 
+    def diverged(err: Diverged) -> _NoReplay:  # a fitted value makes the model unstable: a reason, not a crash
+        return _NoReplay(NoReplay(name, meas.source, DIVERGED, err.warnings))
+
     def run(c):
         def once(held):
             return simulate_chain(rig.with_plant(plant), meas.omega_rad_s, drives, c, inertias_kgm2=J,
@@ -416,20 +419,20 @@ def _replayed(rig: ChainRig, fit, read, meas: ChainRecord, drives: dict, cfg: Si
         try:
             return run(spanned_cfg), True
         except Diverged as err:
-            raise _NoReplay(NoReplay(name, meas.source, DIVERGED, err.warnings)) from err
+            raise diverged(err) from err
         except SimulationError as err:
             raise _NoReplay(NoReplay(name, meas.source, NOT_FOLLOWED, str(err))) from err
     try:
         return run(cfg), False
-    except Diverged as err:  # a fitted value makes the model unstable: a reason, not a crash
-        raise _NoReplay(NoReplay(name, meas.source, DIVERGED, err.warnings)) from err
+    except Diverged as err:
+        raise diverged(err) from err
     except SteadyStateNotReached:
         if span is False:
             raise _NoReplay(NoReplay(name, meas.source, NO_STEADY_STATE)) from None
         try:
             return run(spanned_cfg), True
         except Diverged as again:
-            raise _NoReplay(NoReplay(name, meas.source, DIVERGED, again.warnings)) from again
+            raise diverged(again) from again
         except SimulationError as again:
             raise _NoReplay(NoReplay(name, meas.source, NOR_SPANNED, str(again), periods=meas.n_periods)) from again
     except SimulationError as err:  # a divergence: a reason, not a crash
