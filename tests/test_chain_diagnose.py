@@ -1087,3 +1087,33 @@ def test_an_adopted_causes_parameter_on_an_end_of_its_search_is_listed_with_that
     middle = math.sqrt(lo * hi)
     assert _on_bounds(problem, [dry, peak], replace(fit, profiled=((name, middle, 0.1 * lo),))) == ()
     assert _on_bounds(problem, [dry, peak], replace(fit, profiled=((name, hi, 0.1 * lo),))) == ((name, "upper", hi),)
+
+
+def test_a_profiled_error_carries_the_rows_correlations_as_a_linear_ones_does():
+    # A free play's half gap is profiled: its error is chi-square's curvature, every row weighted
+    # on its own. One encoder's noise enters both equations beside it, which the linear
+    # parameters' sandwich counts (_Problem.cross_covariance); _widened multiplies the profile's
+    # error by the same sandwich on the balance's Jacobian extended by the gap's own column
+    # (_correlated_rows). On the train the factor is not 1 (the rows beside joint 2 are
+    # correlated), and the reported error is the profile's times it, to round-off. The same
+    # factor multiplies the error that widens the linear parameters.
+    import math
+    from dataclasses import replace
+
+    import numpy as np
+
+    from jointrig.identify.causes import Place, by_name
+    from jointrig.identify.chain_diagnose import Candidate, _correlated_rows, _twist_runs, _widened
+
+    problem, (nominal, w) = _linear_problem(periods=6)
+    twist = min(float(np.ptp(r.average.angles_rad[1] - r.average.angles_rad[2])) / 2 for r in problem.runs)
+    cand = Candidate(by_name("backlash"), Place("joint", 2))
+    gap, se = 0.3 * twist, 0.01 * twist
+    fit, w = problem.fit(cand.extend(nominal.spec, gap))
+    fit = replace(fit, profiled=((cand.profiled_name(), gap, se),))
+    lo, hi = cand.cause.bounds(_twist_runs(problem, cand))
+    step = max(1e-3 * gap, 1e-6 * (hi - lo))
+    factor = _correlated_rows(problem, cand, fit, gap, step, w)
+    assert math.isfinite(factor) and abs(factor - 1.0) > 1e-3, factor  # 1.006 here
+    widened = _widened(problem, [cand], fit, w)
+    assert widened.profiled == ((cand.profiled_name(), gap, pytest.approx(se * factor, rel=1e-12)),)
