@@ -4,8 +4,9 @@
     python scripts/profile_scores.py [--effect backlash/1] [--db 40] [--seeds 3 6] [--json OUT]
 
 Why: on the independent bench's free play (tests/test_independent_bench.py's paper joint) the half
-gap and the stiffness scatter about 1.7 times their standard errors at 40 and 70 dB alike
-(docs/noisy-measurements.md). One candidate: a law whose stiffness changes along the cycle (none in
+gap and the stiffness scattered 1.27-1.29 times their standard errors over 100 seeds at 40 and 70
+dB alike before the profile's error carried the rows' correlations between equations (1.10-1.15
+with it; docs/noisy-measurements.md). One candidate: a law whose stiffness changes along the cycle (none in
 the play, k in contact) carries the twist's noise at one harmonic into its column at every
 harmonic, and the profile's chi-square (rows weighted one by one) would miss those correlations.
 
