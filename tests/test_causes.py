@@ -793,3 +793,27 @@ def test_a_profiled_parameters_uncertainty_widens_the_linear_ones_by_its_slope()
     assert Profiled(0.5, fit, 0.1, None).widened() is fit
     assert Profiled(0.5, fit, float("nan"), np.array([10.0, 0.0])).widened() is fit
     assert Profiled(0.5, Fit(None), 0.1, np.array([10.0, 0.0])).widened().covariance is None
+
+
+def test_an_oscillators_polynomial_causes_take_either_sign():
+    # The one-coordinate oscillator's extensions (the Silverbox: y'' + law(y, y') = u) are terms of
+    # a law, not dissipations: a quintic that softens, a damping that falls with the rate or with
+    # the amplitude are laws such a system has, so none is refused for its sign (survivor of
+    # mutation seed 20261210: the amplitude damping's flag).
+    names = {"quintic_stiffness", "cubic_damping", "amplitude_damping"}
+    assert names <= {c.name for c in OSCILLATOR_CAUSES}
+    assert not any(by_name(n).nonnegative for n in names)
+
+
+def test_a_drop_with_known_weights_is_not_rescaled():
+    # Weights known (nu infinite: no spread estimated them) leave a drop in chi-square as it is,
+    # whatever degrees of freedom the drop is given: scale 1, and the test is the F test at the
+    # drop's own nu_eff unscaled (survivor of mutation seed 20261210: the constant of the
+    # non-finite branch).
+    from scipy.stats import f
+
+    from jointrig.identify.causes import _drop_scale
+
+    assert _drop_scale(math.inf, 40.0) == 1.0 and _drop_scale(10.0, math.inf) == 1.0
+    _, p, _ = evidence(12.0, 2, 400, nu=math.inf, nu_eff=40.0)
+    assert p == pytest.approx(float(f.sf(12.0 / (2 * 38.0 / 40.0), 2, 40.0)), rel=1e-12)
