@@ -28,7 +28,7 @@ standard error comes from the profile's curvature, not from the linear fit's cov
 ``--given-structure`` fits the bench's own structure instead of diagnosing (the twist's zero and
 the effect's cause at joint 1 profiled, refined, compensated and widened as the diagnosis does its
 final model, :func:`given_structure`), on the fitted runs, with the balance's fidelity a fixed
-floor of 1e-6: the intervals given the right structure, about 3 s a seed instead of a minute, so
+floor of 1e-6: the intervals given the right structure, about 7 s a seed instead of a minute, so
 that 100 seeds at three levels take minutes. The structure a diagnosis adopts is measured without it.
 
 ``--bench slide``: the carriage on a guide instead (tests/bench_slide_sim.py: 12 kg, 40 N s/m,
@@ -137,18 +137,24 @@ def effect_names() -> list[str]:
     return [c for c in CASES["paper"] if c != "none"]
 
 
+def _flywheel_file(db: float, seed: int, friction_Nm: float, tmp: Path, effect: str | None = None) -> Path:
+    """The two flywheels' runs (with ``effect``, else ``friction_Nm`` of dry friction) written as a
+    DAQ does."""
+    bench = effect_case(effect)[0] if effect is not None else {"Fc": friction_Nm}  # (puts tests/ on the path)
+    from bench_sim import JOINTS, POINTS, measure, with_effect
+
+    points = [p for i, p in enumerate(POINTS["paper"]) if i % 3 != 1]
+    return measure(with_effect(JOINTS["paper"], **bench), points, tmp / "b.csv", seed=seed, fs_Hz=FS_HZ,
+                   n_periods=N_PERIODS, noise=noise_fraction(db))
+
+
 def _flywheel_diagnosis(db: float, seed: int, friction_Nm: float, tmp: Path, effect: str | None = None):
     """The two flywheels' runs written as a DAQ does, and their diagnosis."""
-    from bench_sim import JOINTS, POINTS, measure, with_effect
     from jointrig.measured.runs import read_runs
     from jointrig.rig.chain import rig_of_bodies
     from jointrig.studies.chain_validate import run_train_diagnosis
 
-    points = [p for i, p in enumerate(POINTS["paper"]) if i % 3 != 1]
-    bench = effect_case(effect)[0] if effect is not None else {"Fc": friction_Nm}
-    path = measure(with_effect(JOINTS["paper"], **bench), points, tmp / "b.csv", seed=seed, fs_Hz=FS_HZ,
-                   n_periods=N_PERIODS, noise=noise_fraction(db))
-    loaded = read_runs(path)
+    loaded = read_runs(_flywheel_file(db, seed, friction_Nm, tmp, effect))
     return run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(2, [1]), holdout=HOLDOUT)
 
 
@@ -166,8 +172,7 @@ def _slide_diagnosis(db: float, seed: int, friction_N: float, tmp: Path):
 
 
 def given_structure(db: float, seed: int, effect: str, tmp: Path) -> dict:
-    """The two flywheels' file with ``effect`` (as :func:`_flywheel_diagnosis` writes it), its
-    fitted runs read, and the bench's own structure fitted as the diagnosis fits its final model
+    """The two flywheels' file with ``effect`` (:func:`_flywheel_file`), its fitted runs read, and the bench's own structure fitted as the diagnosis fits its final model
     (``identify.chain_diagnose.diagnose_chain``: the twist's zero profiled on the nominal model,
     the effect's cause at joint 1 profiled beside it, both refined, the fit compensated and every
     linear error widened by the profiled ones), the fidelity a fixed floor of 1e-6 of each run's
@@ -175,15 +180,11 @@ def given_structure(db: float, seed: int, effect: str, tmp: Path) -> dict:
     twist's zero on the DAQ's own sensors (no mean is taken out) and ``chi2_per_dof``."""
     from dataclasses import replace
 
-    bench = effect_case(effect)[0]  # (puts tests/ on the path)
-    from bench_sim import JOINTS, POINTS, measure, with_effect
     from jointrig.identify import chain_diagnose as cd
     from jointrig.identify.causes import Place, by_name
     from jointrig.measured.runs import read_runs
 
-    points = [p for i, p in enumerate(POINTS["paper"]) if i % 3 != 1]
-    path = measure(with_effect(JOINTS["paper"], **bench), points, tmp / "b.csv", seed=seed,
-                   fs_Hz=FS_HZ, n_periods=N_PERIODS, noise=noise_fraction(db))
+    path = _flywheel_file(db, seed, 0.0, tmp, effect)
     records = [r for k, r in enumerate(read_runs(path).records) if k not in HOLDOUT]
     runs = tuple(cd.prepare_chain_runs(records))
     problem = cd._Problem(runs, 20, 2.0 * (min(r.n_periods for r in runs) - 1), 1e-6, (False, False), (False,))
@@ -227,26 +228,23 @@ def run_case(db: float, seed: int, out: str, friction_Nm: float = FRICTION_Nm, b
         if given:
             with tempfile.TemporaryDirectory() as tmp:
                 g = given_structure(db, seed, effect, Path(tmp))
+            values = g["values"]
             rec.update(verdict="given", steps=[f"{effect.split('/')[0]} at joint 1"], effects=[effect.split("/")[0]],
-                       chi2_per_dof=g["chi2_per_dof"], parameters={k: v for k, (v, _) in g["values"].items()},
-                       std_errors={k: e for k, (_, e) in g["values"].items()}, fidelity=1e-6, given_structure=True)
-            rec["wall_s"] = time.perf_counter() - t0
-            write_json_atomic(case_path(Path(out), db, seed, friction_Nm, bench, effect, given), rec)
-            return rec
-        with tempfile.TemporaryDirectory() as tmp:
-            r = (_slide_diagnosis(db, seed, friction_Nm, Path(tmp)) if bench == "slide" else
-                 _flywheel_diagnosis(db, seed, friction_Nm, Path(tmp), effect))
-        d = r.diagnosis
-        values = reported_values(d.final, r)  # as the JSON prints them: a twist's zero on the user's sensors
-        rec.update(verdict=r.verdict.verdict, steps=[s.label for s in d.steps], effects=[s.effect for s in d.steps],
-                   chi2_per_dof=float(d.reduced_chi2(d.final)),
-                   parameters={k: float(v) for k, (v, _) in values.items()},
-                   std_errors={k: float(e) for k, (_, e) in values.items()},
-                   fidelity=getattr(d.fidelity, "relative", None))
+                       chi2_per_dof=g["chi2_per_dof"], fidelity=1e-6, given_structure=True)
+        else:
+            with tempfile.TemporaryDirectory() as tmp:
+                r = (_slide_diagnosis(db, seed, friction_Nm, Path(tmp)) if bench == "slide" else
+                     _flywheel_diagnosis(db, seed, friction_Nm, Path(tmp), effect))
+            d = r.diagnosis
+            values = reported_values(d.final, r)  # as the JSON prints them: a twist's zero on the user's sensors
+            rec.update(verdict=r.verdict.verdict, steps=[s.label for s in d.steps], effects=[s.effect for s in d.steps],
+                       chi2_per_dof=float(d.reduced_chi2(d.final)), fidelity=getattr(d.fidelity, "relative", None))
+        rec.update(parameters={k: float(v) for k, (v, _) in values.items()},
+                   std_errors={k: float(e) for k, (_, e) in values.items()})
     except Exception as err:  # a failed case is recorded, counted and reported, not retried
         rec["error"] = f"{type(err).__name__}: {err}"
     rec["wall_s"] = time.perf_counter() - t0
-    write_json_atomic(case_path(Path(out), db, seed, friction_Nm, bench, effect), rec)
+    write_json_atomic(case_path(Path(out), db, seed, friction_Nm, bench, effect, given), rec)
     return rec
 
 
@@ -327,7 +325,7 @@ def parse(argv) -> argparse.Namespace:
                         "the friction (backlash/1, stribeck_friction/1, micro_slip/1, drive_delay/1, ...)")
     p.add_argument("--given-structure", action="store_true",
                    help="with --effect: fit the bench's own structure as the diagnosis fits its final model instead of "
-                        "diagnosing (the intervals given the right structure; about 3 s a seed)")
+                        "diagnosing (the intervals given the right structure; about 7 s a seed)")
     p.add_argument("--out", type=Path, default=ROOT / "runs" / "coverage",
                    help="folder of the per-case JSON files (default runs/coverage)")
     p.add_argument("--workers", type=int, default=2, help="processes (default 2)")
