@@ -1146,15 +1146,19 @@ def _correlated_rows(problem: _Problem, cand: Candidate, fit: ChainFit, h: float
     spec, theta = fit.spec, np.asarray(fit.values, dtype=float)
     jumps = problem.jumps(spec, fit.as_dict())
     banded = problem.system(spec, jumps)
+    # (the same columns at h +- step: _widened has checked that the fits there have them)
     below, above = (problem.system(cand.extend(spec, x), jumps).system.A for x in (h - step, h + step))
-    if below.shape != banded.system.A.shape or above.shape != below.shape:
-        return 1.0
     J = np.column_stack([banded.system.A, (above - below) @ theta / (2 * step)])
     Q = problem.cross_covariance(banded, spec, fit.as_dict(), weights, columns=J)
     if Q is None:
         return 1.0
-    B = np.linalg.pinv(J.T @ (J * weights[:, None]))
-    share = float((B @ Q @ B)[-1, -1] / B[-1, -1]) if B[-1, -1] > 0 else math.nan
+    # in columns of unit weighted norm (the ratio does not depend on their scales, and a gap's
+    # column and an inertia's differ by orders of magnitude)
+    n = np.sqrt(np.einsum("mi,m,mi->i", J, weights, J))
+    if not np.all(n > 0):
+        return 1.0
+    B = np.linalg.pinv((J / n).T @ ((J / n) * weights[:, None]))
+    share = float((B @ (Q / np.outer(n, n)) @ B)[-1, -1] / B[-1, -1]) if B[-1, -1] > 0 else math.nan
     return math.sqrt(1.0 + share) if math.isfinite(share) and share > -1.0 else 1.0
 
 

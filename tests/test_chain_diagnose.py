@@ -1114,6 +1114,22 @@ def test_a_profiled_error_carries_the_rows_correlations_as_a_linear_ones_does():
     lo, hi = cand.cause.bounds(_twist_runs(problem, cand))
     step = max(1e-3 * gap, 1e-6 * (hi - lo))
     factor = _correlated_rows(problem, cand, fit, gap, step, w)
-    assert math.isfinite(factor) and abs(factor - 1.0) > 1e-3, factor  # 1.006 here
+    assert math.isfinite(factor) and abs(factor - 1.0) > 1e-3, factor  # 1.00105 here (seed 0 of the noise, fixed)
     widened = _widened(problem, [cand], fit, w)
     assert widened.profiled == ((cand.profiled_name(), gap, pytest.approx(se * factor, rel=1e-12)),)
+    # and the stiffness the gap moves is widened by it (its error grows: a slope taken between
+    # h - step and h + step, not zero)
+    k = fit.names.index("joint2_k_Nm_per_rad")
+    assert widened.std_errors[k] > fit.std_errors[k] * (1 + 1e-6)
+    # The factor is the gap's own entry of the sandwich, wherever its column stands: the same with
+    # the gap's column first in the Jacobian instead of last.
+    import numpy as np
+
+    jumps = problem.jumps(fit.spec, fit.as_dict())
+    banded = problem.system(fit.spec, jumps)
+    below, above = (problem.system(cand.extend(fit.spec, x), jumps).system.A for x in (gap - step, gap + step))
+    J = np.column_stack([(above - below) @ np.asarray(fit.values) / (2 * step), banded.system.A])
+    Q = problem.cross_covariance(banded, fit.spec, fit.as_dict(), w, columns=J)
+    n = np.sqrt(np.einsum("mi,m,mi->i", J, w, J))  # (unit columns: the raw J'WJ is ill-conditioned)
+    B = np.linalg.inv((J / n).T @ ((J / n) * w[:, None]))
+    assert factor == pytest.approx(math.sqrt(1 + (B @ (Q / np.outer(n, n)) @ B)[0, 0] / B[0, 0]), rel=1e-9)  # round-off
