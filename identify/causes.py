@@ -810,19 +810,90 @@ class Profiled(Generic[T]):
     std_error: float
     #: d(linear parameters)/d(value) along the profile (the fits' ``values`` either side), for
     #: the linear parameters' standard errors with the profiled one's uncertainty carried in
-    #: (:meth:`widened`); None where the fits hold no ``values``
+    #: (:func:`widened`); None where the fits hold no ``values``
     slope: Optional[np.ndarray] = None
 
-    def widened(self) -> T:
-        """The fit with each linear parameter's variance (and covariance) widened by what the
-        profiled parameter's own uncertainty moves it: ``+ slope slope^T se^2`` (first order; at
-        a fixed profiled value the fit alone understates them: a Stribeck excess read 4.75 +- 0.12
-        N against a true 10 N)."""
-        f, g, se = self.fit, self.slope, self.std_error
-        if g is None or not math.isfinite(se) or getattr(f, "covariance", None) is None:
-            return f
-        cov = np.asarray(f.covariance) + np.outer(g, g) * se**2
-        return replace(f, covariance=cov, std_errors=np.sqrt(np.asarray(f.std_errors) ** 2 + (g * se) ** 2))
+
+
+def widened(fit: T, slopes: Sequence[np.ndarray], errors: Sequence[float], correlation: Optional[np.ndarray] = None
+            ) -> T:
+    """``fit`` with each linear parameter's variance (and covariance) widened by what the profiled
+    parameters' own uncertainty moves it (pure): ``+ G S G^T``, ``G`` the slopes
+    (:attr:`Profiled.slope`, one column each), ``S`` their covariance: ``errors`` and their
+    ``correlation`` (default none); first order. At fixed profiled values the fit alone
+    understates them: a Stribeck excess read 4.75 +- 0.12 N against a true 10 N. A parameter
+    without a finite error is left out; without a covariance the fit is returned as it is."""
+    keep = [k for k, e in enumerate(errors) if math.isfinite(e)]
+    if not keep or getattr(fit, "covariance", None) is None:
+        return fit
+    R = np.eye(len(errors)) if correlation is None else np.asarray(correlation, dtype=float)
+    GS = np.column_stack([slopes[k] for k in keep]) * np.array([errors[k] for k in keep])
+    extra = GS @ R[np.ix_(keep, keep)] @ GS.T
+    return replace(fit, covariance=np.asarray(fit.covariance) + extra,
+                   std_errors=np.sqrt(np.asarray(fit.std_errors) ** 2 + np.clip(np.diag(extra), 0.0, None)))
+
+
+#: Newton steps :func:`joint_minimum` takes at most on several profiled parameters together, and
+#: the share of each one's standard error below which a step ends the search.
+JOINT_STEPS = 3
+JOINT_STEP_TOL = 0.05
+
+
+@dataclass(frozen=True)
+class JointMinimum:
+    """Several profiled parameters together (:func:`joint_minimum`): their values at chi-square's
+    joint minimum, what each one's standard error (given the others) is multiplied by to be
+    marginal, and their correlation matrix."""
+
+    values: np.ndarray
+    widen: np.ndarray
+    correlation: np.ndarray
+
+
+def joint_minimum(chi2: Callable[[np.ndarray], float], values, errors, lo, hi) -> JointMinimum:
+    """Profiled parameters, each searched one at a time (:func:`profile`: ``values`` with their
+    ``errors``, chi-square's curvature along each alone), moved together to chi-square's joint
+    minimum within [lo, hi], and their errors made marginal (pure but for ``chi2``'s calls).
+    Searched one at a time, two parameters that chi-square couples stop short of the minimum,
+    and each one's error is its error given the others: two twist zeros of a 3-body train under
+    mean loads, correlated 0.97 through the equation of the body between them, stopped 8 and 9
+    of those errors off the truth (0.4 and 0.5 of the marginal errors at the joint minimum).
+    From chi-square over +-1 error of each parameter and each pair (the errors' own scale: a
+    law's kink makes chi-square rough on a smaller one): Newton steps (:data:`JOINT_STEPS`, each
+    kept only where chi-square falls), then each error times ``sqrt(H_ii (H^-1)_ii)``. Where the
+    Hessian is not positive definite the values stay and nothing is widened."""
+    h, e = np.array(values, dtype=float), np.array(errors, dtype=float)
+    lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+    p = h.size
+
+    def curvature(x):
+        c0 = chi2(x)
+        unit = np.eye(p) * e
+        plus, minus = np.array([chi2(x + u) for u in unit]), np.array([chi2(x - u) for u in unit])
+        H = np.diag((plus - 2 * c0 + minus) / e**2)
+        for i in range(p):
+            for j in range(i + 1, p):
+                c = [chi2(x + a * unit[i] + b * unit[j]) for a, b in ((1, 1), (1, -1), (-1, 1), (-1, -1))]
+                H[i, j] = H[j, i] = (c[0] - c[1] - c[2] + c[3]) / (4 * e[i] * e[j])
+        return c0, (plus - minus) / (2 * e), H
+
+    def definite(H) -> bool:
+        return bool(np.all(np.isfinite(H)) and np.all(np.linalg.eigvalsh(H) > 0))
+
+    c0, g, H = curvature(h)
+    for _ in range(JOINT_STEPS):
+        if not definite(H):
+            break
+        x = np.clip(h - np.linalg.solve(H, g), lo, hi)
+        if np.all(np.abs(x - h) < JOINT_STEP_TOL * e) or not chi2(x) < c0:
+            break
+        h = x
+        c0, g, H = curvature(h)
+    if not definite(H):
+        return JointMinimum(h, np.ones(p), np.eye(p))
+    inv = np.linalg.inv(H)
+    d = np.diag(inv)
+    return JointMinimum(h, np.sqrt(np.diag(H) * d), inv / np.sqrt(np.outer(d, d)))
 
 
 def profile(solve: Callable[[float], T], cause: "Cause", lo: float, hi: float, *,

@@ -59,10 +59,11 @@ from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpe
                     masked_noise_covariance, noise_cross_covariance,
                     ground_laws, ground_prefix, identifiability, inertia_name, joint_prefix, solve_banded, rest_share,
                     rests, stick_mask, sticks_to_ground, jumps_at_rest)
-from .causes import (CATALOGUE, Ambiguity, Cause, CauseScore, FeedsEnergy, Limits, ModelSpec, Place, Profiled, Rejection,
+from .causes import (CATALOGUE, Ambiguity, Cause, CauseScore, FeedsEnergy, Limits, ModelSpec, Place, Rejection,
                      Unphysical, at, by_name, effective_dof,
                      detection_limit, evidence, forward_select,
-                     fundamental_quadrature, harmonic_shares, on_search_bound, parsimonious, profile, resolved)
+                     fundamental_quadrature, harmonic_shares, joint_minimum, on_search_bound, parsimonious, profile,
+                     resolved, widened)
 from .defaults import DEFAULT_ALPHA, DEFAULT_FIDELITY
 from .kink import FINE_SAMPLES, KINK_RTOL, kink_corrected_rate, kink_first_pass
 from .harmonics import max_harmonic
@@ -216,6 +217,9 @@ class ChainFit(RowFit):
     row_group: Optional[np.ndarray] = field(default=None, repr=False, compare=False)
     #: each row's residual ``F - A theta`` at the least-squares values
     residual: Optional[np.ndarray] = field(default=None, repr=False, compare=False)
+    #: ``(name, name, correlation)`` of each pair of ``profiled`` parameters whose chi-square
+    #: couples them (:func:`_jointly`); a pair not listed is taken as uncorrelated
+    profiled_correlation: tuple = ()
 
     def _profiled_std_errors(self) -> dict[str, float]:
         return {n: se for n, _, se in self.profiled}
@@ -1059,8 +1063,9 @@ def _search_range(problem: _Problem, cand: Candidate) -> tuple[list, float, floa
     return (here, *cand.cause.bounds(here))
 
 
-def _profile(problem: _Problem, cand: Candidate, base: ChainSpec, weights) -> ChainFit:
-    """:func:`identify.causes.profile` over the candidate's bounds at its place."""
+def _profile_range(problem: _Problem, cand: Candidate, base: ChainSpec, weights) -> tuple[list, float, float]:
+    """:func:`_search_range`, a twist's zero widened where the joint's law or a mean load may
+    rest its twist's mean off it."""
     here, lo, hi = _search_range(problem, cand)
     if cand.cause.name == TWIST_ZERO.name and cand.at_joint:
         # a free play's rest is anywhere in its play: the twist's mean (what identify.zeros takes
@@ -1069,6 +1074,12 @@ def _profile(problem: _Problem, cand: Candidate, base: ChainSpec, weights) -> Ch
         # a joint under a preload rests its twist's mean off the law's zero by the preload's twist
         gap = max(gap, _preload_twist(problem, base, cand.place, weights))
         lo, hi = min(lo, -gap), max(hi, gap)
+    return here, lo, hi
+
+
+def _profile(problem: _Problem, cand: Candidate, base: ChainSpec, weights) -> ChainFit:
+    """:func:`identify.causes.profile` over the candidate's bounds at its place."""
+    here, lo, hi = _profile_range(problem, cand, base, weights)
     mag = cand.magnitude_name()
 
     def penalised(f: ChainFit) -> float:
@@ -1100,8 +1111,45 @@ def _refine(problem: _Problem, adopted: Sequence[Candidate], fit: ChainFit, weig
             name, value, se = again.profiled[0]
             fit = replace(again, profiled=tuple((n, v, e) if n != name else (name, value, se)
                                                 for n, v, e in fit.profiled))
-    refit, weights = problem.fit(fit.spec)
-    return replace(refit, profiled=fit.profiled), weights
+    spec, profiled, correlation = _jointly(problem, adopted, fit.spec, fit.profiled, weights)
+    refit, weights = problem.fit(spec)
+    return replace(refit, profiled=profiled, profiled_correlation=correlation), weights
+
+
+def _jointly(problem: _Problem, cands: Sequence[Candidate], spec: ChainSpec, profiled: tuple, weights
+             ) -> tuple[ChainSpec, tuple, tuple]:
+    """The profiled parameters of ``cands``, each profiled one at a time, moved together to
+    chi-square's joint minimum with marginal standard errors (:func:`identify.causes.joint_minimum`,
+    the weights held). Returns the structure, ``profiled`` with the new values and errors, and
+    their pairs' correlations (:attr:`ChainFit.profiled_correlation`). A parameter within one
+    error of its search range's end, or without a finite error, is held; with fewer than two
+    left, nothing changes."""
+    found = {n: (v, e) for n, v, e in profiled}
+    free = []
+    for cand in cands:
+        name = cand.profiled_name()
+        if cand.cause.bounds is None or name not in found or not (math.isfinite(found[name][1]) and found[name][1] > 0):
+            continue
+        _, lo, hi = _profile_range(problem, cand, spec, weights)
+        h, e = found[name]
+        if lo <= h - e and h + e <= hi:
+            free.append((cand, name, lo, hi))
+    if len(free) < 2:
+        return spec, profiled, ()
+
+    def at(x) -> ChainSpec:
+        out = spec
+        for (cand, *_), v in zip(free, x):
+            out = cand.extend(out, float(v))
+        return out
+
+    got = joint_minimum(lambda x: problem.solve(at(x), weights, covariance=False).chi2,
+                        [found[n][0] for _, n, _, _ in free], [found[n][1] for _, n, _, _ in free],
+                        [f[2] for f in free], [f[3] for f in free])
+    moved = {n: (float(v), found[n][1] * float(k)) for (_, n, _, _), v, k in zip(free, got.values, got.widen)}
+    pairs = tuple((free[i][1], free[j][1], float(got.correlation[i, j]))
+                  for i in range(len(free)) for j in range(i + 1, len(free)))
+    return at(got.values), tuple((n, *moved[n]) if n in moved else (n, v, e) for n, v, e in profiled), pairs
 
 
 #: A twist's zero as part of the nominal model: the angle-offset cause over its own range, a
@@ -1114,10 +1162,12 @@ TWIST_ZERO = by_name("angle_offset")
 
 
 def _widened(problem: _Problem, cands: Sequence[Candidate], fit: ChainFit, weights) -> ChainFit:
-    """``fit`` with every linear parameter's standard error (and covariance) carrying each profiled
-    parameter's own uncertainty (:meth:`identify.causes.Profiled.widened`): the fit's slope along
-    each profiled parameter by a central difference at its value, its variance from its profile."""
+    """``fit`` with every linear parameter's standard error (and covariance) carrying the profiled
+    parameters' own uncertainty (:func:`identify.causes.widened`): the fit's slope along each by a
+    central difference at its value, each one's error times :func:`_correlated_rows` (written
+    into ``profiled``), their correlations :attr:`ChainFit.profiled_correlation`."""
     found = {n: (v, e) for n, v, e in fit.profiled}
+    names, slopes, errors = [], [], []
     for cand in cands:
         if cand.cause.bounds is None or cand.profiled_name() not in found:
             continue
@@ -1127,11 +1177,15 @@ def _widened(problem: _Problem, cands: Sequence[Candidate], fit: ChainFit, weigh
         below, above = (problem.solve(cand.extend(fit.spec, x), weights, covariance=False) for x in (h - step, h + step))
         if np.shape(below.values) != np.shape(fit.values):
             continue
-        se *= _correlated_rows(problem, cand, fit, h, step, weights)
-        slope = (np.asarray(above.values) - np.asarray(below.values)) / (2 * step)
-        fit = replace(Profiled(h, fit, se, slope).widened(),
-                      profiled=tuple((n, v, se if n == cand.profiled_name() else e) for n, v, e in fit.profiled))
-    return fit
+        names.append(cand.profiled_name())
+        errors.append(se * _correlated_rows(problem, cand, fit, h, step, weights))
+        slopes.append((np.asarray(above.values) - np.asarray(below.values)) / (2 * step))
+    if not names:
+        return fit
+    rho = {frozenset((a, b)): r for a, b, r in fit.profiled_correlation}
+    R = np.array([[1.0 if a == b else rho.get(frozenset((a, b)), 0.0) for b in names] for a in names])
+    now = dict(zip(names, errors))
+    return replace(widened(fit, slopes, errors, R), profiled=tuple((n, v, now.get(n, e)) for n, v, e in fit.profiled))
 
 
 def _correlated_rows(problem: _Problem, cand: Candidate, fit: ChainFit, h: float, step: float, weights) -> float:
@@ -1177,16 +1231,18 @@ def zeroed_joints(spec: ChainSpec, slipping: Optional[Sequence] = None) -> list[
             if any(nonlinear(t) for t in terms) or (j in masked and any(t.elastic for t in terms))]
 
 
-def _twist_zeros(problem: _Problem, zeros: Sequence[Candidate], spec: ChainSpec, weights) -> tuple[ChainSpec, tuple]:
+def _twist_zeros(problem: _Problem, zeros: Sequence[Candidate], spec: ChainSpec, weights
+                 ) -> tuple[ChainSpec, tuple, tuple]:
     """Each joint's twist zero profiled in turn on the nominal structure (a pass per joint, then
-    once more beside the others'); returns the structure with them and their profiles."""
+    once more beside the others', then together: :func:`_jointly`); returns the structure with
+    them, their profiles and their correlations."""
     profiled = {}
     for _ in range(2 if len(zeros) > 1 else 1):
         for cand in zeros:
             f = _profile(problem, cand, spec, weights)
             spec = f.spec
             profiled.update({n: (n, v, e) for n, v, e in f.profiled})
-    return spec, tuple(profiled.values())
+    return _jointly(problem, zeros, spec, tuple(profiled.values()), weights)
 
 
 def _dissipative(fit: ChainFit) -> list[str]:
@@ -1453,9 +1509,9 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
     zeros = [Candidate(TWIST_ZERO, Place("joint", j)) for j in zeroed_joints(structure, problem.slipping())
              if any(p.cause.name == TWIST_ZERO.name and p.where == Place("joint", j) for p in pool)]
     if zeros:
-        structure, profiled = _twist_zeros(problem, zeros, structure, w)
+        structure, profiled, correlation = _twist_zeros(problem, zeros, structure, w)
         nominal, w = problem.fit(structure)
-        nominal = replace(nominal, profiled=profiled)
+        nominal = replace(nominal, profiled=profiled, profiled_correlation=correlation)
         pool = [c for c in pool if not any(c.cause.name == z.cause.name and c.where == z.where for z in zeros)]
     ambiguous: list[Ambiguity] = []
     by_label = {c.label: c for c in pool}
@@ -1484,7 +1540,7 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
         adopted.append(by_label[best.label])
         profiled = base[0].profiled + best.fit.profiled
         current, wcur = problem.fit(best.fit.spec)
-        current = replace(current, profiled=profiled)
+        current = replace(current, profiled=profiled, profiled_correlation=base[0].profiled_correlation)
         # (a twist's zero beside a joint balanced where it slides is profiled again too: there it
         # weighs the spring's whole torque, which the nominal fit had wrong without the friction)
         if sum(c.cause.bounds is not None for c in zeros + adopted) > 1 or (zeros and problem.slipping()):

@@ -191,7 +191,7 @@ def given_structure(db: float, seed: int, effect: str, tmp: Path) -> dict:
     zero = cd.Candidate(cd.TWIST_ZERO, Place("joint", 1))
     cause = cd.Candidate(by_name(effect.split("/")[0]), Place("joint", 1))
     nominal, w = problem.fit(cd.nominal_spec(2))
-    spec, zeroed = cd._twist_zeros(problem, [zero], nominal.spec, w)
+    spec, zeroed, _ = cd._twist_zeros(problem, [zero], nominal.spec, w)
     nominal, w = problem.fit(spec)
     found = cd._profile(problem, cause, nominal.spec, w) if cause.cause.bounds is not None else \
         problem.solve(cause.extend(nominal.spec, 0.0), w)

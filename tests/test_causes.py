@@ -776,11 +776,12 @@ def test_a_profiled_errors_scale_with_a_fit_worse_than_its_noise():
 
 
 def test_a_profiled_parameters_uncertainty_widens_the_linear_ones_by_its_slope():
-    # Profiled.widened: cov + slope slope^T se^2; without a slope, a finite error or a covariance
-    # the fit is returned as it is.
+    # widened: cov + G S G^T; a parameter without a finite error is left out, and without a
+    # covariance the fit is returned as it is. Two parameters that move the linear ones alike add
+    # up when their errors are positively correlated and cancel when fully anti-correlated.
     from dataclasses import dataclass, field
 
-    from jointrig.identify.causes import Profiled
+    from jointrig.identify.causes import widened
 
     @dataclass(frozen=True)
     class Fit:
@@ -788,11 +789,73 @@ def test_a_profiled_parameters_uncertainty_widens_the_linear_ones_by_its_slope()
         std_errors: object = field(default_factory=lambda: np.array([1.0, 2.0]))
 
     fit = Fit(np.diag([1.0, 4.0]))
-    wide = Profiled(0.5, fit, 0.1, np.array([10.0, 0.0])).widened()
+    g = np.array([10.0, 0.0])
+    wide = widened(fit, [g], [0.1])
     assert np.allclose(wide.covariance, [[2.0, 0.0], [0.0, 4.0]]) and np.allclose(wide.std_errors, [math.sqrt(2), 2.0])
-    assert Profiled(0.5, fit, 0.1, None).widened() is fit
-    assert Profiled(0.5, fit, float("nan"), np.array([10.0, 0.0])).widened() is fit
-    assert Profiled(0.5, Fit(None), 0.1, np.array([10.0, 0.0])).widened().covariance is None
+    assert widened(fit, [g], [float("nan")]) is fit
+    assert widened(Fit(None), [g], [0.1]).covariance is None
+    both = widened(fit, [g, g], [0.1, 0.1])  # uncorrelated: 1 + 1 + 1
+    assert both.covariance[0, 0] == pytest.approx(3.0)
+    together = widened(fit, [g, g], [0.1, 0.1], np.array([[1.0, 1.0], [1.0, 1.0]]))  # 1 + (1 + 1)^2
+    apart = widened(fit, [g, g], [0.1, 0.1], np.array([[1.0, -1.0], [-1.0, 1.0]]))
+    assert together.covariance[0, 0] == pytest.approx(5.0) and apart.covariance[0, 0] == pytest.approx(1.0)
+    assert np.allclose(apart.std_errors, [1.0, 2.0])
+    # a parameter without a finite error drops out with its row and column of the correlation
+    assert widened(fit, [g, g], [float("nan"), 0.1], np.array([[1.0, 1.0], [1.0, 1.0]])).covariance[0, 0] == \
+        pytest.approx(2.0)
+
+
+def _coupled_chi2(sigma, rho, truth, floor=5.0):
+    """chi-square of two parameters with errors ``sigma`` correlated ``rho`` (a quadratic) and the
+    errors a profile of each alone reads there: sqrt(2 / H_ii)."""
+    C = np.array([[sigma[0] ** 2, rho * sigma[0] * sigma[1]], [rho * sigma[0] * sigma[1], sigma[1] ** 2]])
+    Ci = np.linalg.inv(C)
+    calls = []
+
+    def chi2(x):
+        calls.append(np.array(x))
+        d = np.asarray(x, dtype=float) - truth
+        return float(d @ Ci @ d) + floor
+
+    return chi2, 1.0 / np.sqrt(np.diag(Ci)), calls
+
+
+def test_two_coupled_profiled_parameters_reach_their_joint_minimum_with_marginal_errors():
+    # Each profiled alone stops short of the joint minimum and reads its error given the other;
+    # joint_minimum moves both to the minimum (a quadratic: Newton's first step lands on it) and
+    # multiplies each error by sqrt(H_ii (H^-1)_ii) = 1 / sqrt(1 - rho^2) for two. Differences of
+    # a quadratic are exact: 1e-9 is rounding.
+    from jointrig.identify.causes import joint_minimum
+
+    truth = np.array([0.3, -0.2])
+    chi2, conditional, _ = _coupled_chi2((1.0, 2.0), 0.97, truth)
+    start = np.array([0.3 - 0.5, 0.0])  # where a pass of one at a time would leave them
+    got = joint_minimum(chi2, start, conditional, [-10, -10], [10, 10])
+    assert np.allclose(got.values, truth, atol=1e-9)
+    assert np.allclose(got.widen, 1 / math.sqrt(1 - 0.97 ** 2), rtol=1e-9)
+    assert np.allclose(conditional * got.widen, [1.0, 2.0], rtol=1e-9)  # the marginal errors
+    assert got.correlation[0, 1] == pytest.approx(0.97, abs=1e-9)
+    # uncoupled: nothing is widened
+    free, e, _ = _coupled_chi2((1.0, 2.0), 0.0, truth)
+    assert np.allclose(joint_minimum(free, start, e, [-10, -10], [10, 10]).widen, 1.0, atol=1e-9)
+
+
+def test_a_joint_step_stays_in_the_search_range_and_only_where_chi2_falls():
+    # The minimum beyond a range's end: the values stop on it. A chi-square that is not convex
+    # there (a saddle): the values stay and nothing is widened.
+    from jointrig.identify.causes import joint_minimum
+
+    chi2, e, _ = _coupled_chi2((1.0, 2.0), 0.9, np.array([3.0, 0.0]))
+    got = joint_minimum(chi2, [0.0, 0.0], e, [-1.0, -1.0], [1.0, 1.0])
+    assert got.values[0] == 1.0 and -1.0 <= got.values[1] <= 1.0
+    assert chi2(got.values) < chi2(np.zeros(2))
+
+    def saddle(x):
+        return float(x[0] ** 2 - x[1] ** 2)
+
+    flat = joint_minimum(saddle, [0.1, 0.1], [1.0, 1.0], [-5, -5], [5, 5])
+    assert np.allclose(flat.values, [0.1, 0.1]) and np.allclose(flat.widen, 1.0)
+    assert np.allclose(flat.correlation, np.eye(2))
 
 
 def test_an_oscillators_polynomial_causes_take_either_sign():
