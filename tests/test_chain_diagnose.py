@@ -1133,3 +1133,26 @@ def test_a_profiled_error_carries_the_rows_correlations_as_a_linear_ones_does():
     n = np.sqrt(np.einsum("mi,m,mi->i", J, w, J))  # (unit columns: the raw J'WJ is ill-conditioned)
     B = np.linalg.inv((J / n).T @ ((J / n) * w[:, None]))
     assert factor == pytest.approx(math.sqrt(1 + (B @ (Q / np.outer(n, n)) @ B)[0, 0] / B[0, 0]), rel=1e-9)  # round-off
+
+
+def test_a_linear_error_is_at_least_what_the_periods_own_scatter_gives_it():
+    # _Problem._period_scatter: each period's residual through the estimate's map, its sample
+    # covariance over the periods over P; a parameter's variance is raised to it where larger,
+    # the correlations kept, times chi2/dof above 1; periods that agree change nothing.
+    import numpy as np
+
+    from jointrig.identify.chain_diagnose import _Problem
+
+    cov = np.array([[1.0, 0.5], [0.5, 4.0]])  # correlation 0.25
+    An, n, w, M = np.eye(2), np.ones(2), np.ones(2), np.eye(2)  # residual rows are the scores
+    a = np.array([3.0, -3.0, 3.0, -3.0, 0.0])  # sample variance 9, over P = 5: 1.8 > 1
+    periods = [(np.arange(2), np.zeros((5, 2, 2)), np.column_stack([a, np.zeros(5)]), None, None)]
+    out = _Problem._period_scatter(cov, np.zeros(2), M, An, n, w, periods, 1.0)
+    assert out[0, 0] == pytest.approx(1.8) and out[1, 1] == pytest.approx(4.0)
+    assert out[0, 1] / math.sqrt(out[0, 0] * out[1, 1]) == pytest.approx(0.25)
+    assert _Problem._period_scatter(cov, np.zeros(2), M, An, n, w, periods, 2.0)[0, 0] == pytest.approx(3.6)
+    # scores in a column's own units: a column scaled by n = 10 reads a tenth of the scatter
+    scaled = _Problem._period_scatter(cov, np.zeros(2), M, An, np.array([10.0, 1.0]), w, periods, 1.0)
+    assert scaled[0, 0] == pytest.approx(1.0)
+    same = [(np.arange(2), np.zeros((5, 2, 2)), np.tile([0.7, 0.2], (5, 1)), None, None)]
+    assert np.array_equal(_Problem._period_scatter(cov, np.zeros(2), M, An, n, w, same, 1.0), cov)
