@@ -624,16 +624,16 @@ class _Problem:
         """``cov`` with each parameter's variance raised to what the periods' own scatter gives
         it where that is larger, its correlations kept (pure): each period's residual ``r_p``
         through the estimate's map, ``u_p = M^-1 A' W r_p`` (``M`` the normal matrix of the
-        columns ``An``, scaled by ``n`` to unit weighted norm), their sample covariance over each run's periods over ``P``, summed
-        over the runs, times chi2/dof where above 1 (a misfit the same in every period is not in
-        their scatter). It holds what the noise model leaves out, every correlation between rows
-        across harmonics and the noise of every column: dry friction's switch at a reversal moves
-        with the rate's noise, and that error is one pulse across every harmonic, at a twist's
-        extreme, so in the stiffness columns: on a 3-body train with dry friction at joint 1 its
-        k and gamma scattered 1.43 and 1.46 times their errors over 34 seeds, by the periods'
-        scatter 1.16 and 1.04 (21 seeds). The larger of the two, as a channel's mean
-        (:func:`identify.zeros.channel_mean`): the scatter of P periods alone has P - 1 degrees
-        of freedom a run."""
+        columns ``An``, scaled by ``n`` to unit weighted norm), their sample covariance over each
+        run's periods over ``P``, summed over the runs, times chi2/dof where above 1 (a misfit
+        the same in every period is not in their scatter). It holds what the noise model leaves
+        out, every correlation between rows across harmonics and the noise of every column: dry
+        friction's switch at a reversal moves with the rate's noise, and that error is one pulse
+        across every harmonic, at a twist's extreme, so in the stiffness columns: on a 3-body
+        train with dry friction at joint 1 its k and gamma scattered 1.43 and 1.46 times their
+        errors over 34 seeds, with this floor 1.15 and 1.04 (21 seeds). The larger of the two, as
+        a channel's mean (:func:`identify.zeros.channel_mean`): the scatter of P periods alone has
+        P - 1 degrees of freedom a run."""
         try:
             Minv = np.linalg.inv(M)
         except np.linalg.LinAlgError:
