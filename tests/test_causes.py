@@ -828,16 +828,39 @@ def test_two_coupled_profiled_parameters_reach_their_joint_minimum_with_marginal
     from jointrig.identify.causes import joint_minimum
 
     truth = np.array([0.3, -0.2])
-    chi2, conditional, _ = _coupled_chi2((1.0, 2.0), 0.97, truth)
+    chi2, conditional, calls = _coupled_chi2((1.0, 2.0), 0.97, truth)
     start = np.array([0.3 - 0.5, 0.0])  # where a pass of one at a time would leave them
     got = joint_minimum(chi2, start, conditional, [-10, -10], [10, 10])
     assert np.allclose(got.values, truth, atol=1e-9)
+    # chi-square's differences (9 calls for two parameters), one step tried and kept, the
+    # differences again, and a step below a twentieth of an error ends it untried: 19 calls
+    assert len(calls) == 19
+    # half an error off is still a step worth taking (a twentieth is not)
+    near = joint_minimum(chi2, truth + 0.5 * conditional * np.array([1.0, -1.0]), conditional, [-10, -10], [10, 10])
+    assert np.allclose(near.values, truth, atol=1e-9)
     assert np.allclose(got.widen, 1 / math.sqrt(1 - 0.97 ** 2), rtol=1e-9)
     assert np.allclose(conditional * got.widen, [1.0, 2.0], rtol=1e-9)  # the marginal errors
     assert got.correlation[0, 1] == pytest.approx(0.97, abs=1e-9)
     # uncoupled: nothing is widened
     free, e, _ = _coupled_chi2((1.0, 2.0), 0.0, truth)
     assert np.allclose(joint_minimum(free, start, e, [-10, -10], [10, 10]).widen, 1.0, atol=1e-9)
+
+
+def test_the_joint_search_takes_at_most_three_newton_steps():
+    # A quartic valley: each Newton step leaves two thirds of the way, chi-square falls every time,
+    # and the search stops after JOINT_STEPS = 3 kept steps (9 calls of differences before each
+    # and after the last, one trial each), short of the minimum.
+    from jointrig.identify.causes import joint_minimum
+
+    calls = []
+
+    def quartic(x):
+        calls.append(1)
+        return float(np.sum((np.asarray(x) - [1.0, -1.0]) ** 4))
+
+    got = joint_minimum(quartic, [-2.0, 2.0], [0.1, 0.1], [-10, -10], [10, 10])
+    assert len(calls) == 4 * 9 + 3
+    assert 0.05 < abs(got.values[0] - 1.0) < 3.0 and quartic(got.values) < quartic(np.array([-2.0, 2.0]))
 
 
 def test_a_joint_step_stays_in_the_search_range_and_only_where_chi2_falls():
