@@ -1151,8 +1151,38 @@ def test_a_linear_error_is_at_least_what_the_periods_own_scatter_gives_it():
     assert out[0, 0] == pytest.approx(1.8) and out[1, 1] == pytest.approx(4.0)
     assert out[0, 1] / math.sqrt(out[0, 0] * out[1, 1]) == pytest.approx(0.25)
     assert _Problem._period_scatter(cov, np.zeros(2), M, An, n, w, periods, 2.0)[0, 0] == pytest.approx(3.6)
+    # a fit better than its noise (chi2/dof below 1) does not shrink it
+    assert _Problem._period_scatter(cov, np.zeros(2), M, An, n, w, periods, 0.5)[0, 0] == pytest.approx(1.8)
     # scores in a column's own units: a column scaled by n = 10 reads a tenth of the scatter
     scaled = _Problem._period_scatter(cov, np.zeros(2), M, An, np.array([10.0, 1.0]), w, periods, 1.0)
     assert scaled[0, 0] == pytest.approx(1.0)
     same = [(np.arange(2), np.zeros((5, 2, 2)), np.tile([0.7, 0.2], (5, 1)), None, None)]
     assert np.array_equal(_Problem._period_scatter(cov, np.zeros(2), M, An, n, w, same, 1.0), cov)
+
+
+def test_the_periods_scatter_is_each_periods_weighted_residual_about_their_mean():
+    # The residual is F - A theta, weighted by each row's weight, taken about the periods' mean; a
+    # run of one period adds nothing; a parameter whose variance is 0 leaves the covariance as it
+    # is. By hand: row 0's residuals 1 + a_p - 0.5 A_p with A_p = 2 +- 0.2 (a column's own noise),
+    # weighted 2 (M = 1): scores 8, -4.2, 8.2, -4, 2, their sample variance 37.22.
+    import numpy as np
+
+    from jointrig.identify.chain_diagnose import _Problem
+
+    theta = np.array([0.5, 0.0])
+    a = np.array([4.0, -2.0, 4.0, -2.0, 1.0])  # mean 1, sample variance 9
+    As = np.zeros((5, 2, 2))
+    As[:, 0, 0] = [2.0, 2.2, 1.8, 2.0, 2.0]
+    Fs = np.column_stack([1.0 + a, np.zeros(5)])
+    periods = [(np.arange(2), As, Fs, None, None),
+               (np.arange(2), np.zeros((1, 2, 2)), np.array([[50.0, 0.0]]), None, None)]  # one period: nothing
+    cov = np.diag([0.5, 4.0])
+    out = _Problem._period_scatter(cov, theta, np.eye(2), np.eye(2), np.ones(2), np.array([2.0, 1.0]), periods, 1.0)
+    assert out[0, 0] == pytest.approx(148.88 / 4 / 5) and out[1, 1] == pytest.approx(4.0)
+    # two periods are enough for a scatter
+    two = [(np.arange(2), As[:2], Fs[:2], None, None)]
+    assert _Problem._period_scatter(cov, theta, np.eye(2), np.eye(2), np.ones(2), np.array([2.0, 1.0]), two,
+                                    1.0)[0, 0] == pytest.approx(6.1 ** 2 * 2 / 2)
+    flat = np.diag([0.0, 4.0])
+    assert np.array_equal(_Problem._period_scatter(flat, theta, np.eye(2), np.eye(2), np.ones(2), np.array([2.0, 1.0]),
+                                                   periods, 1.0), flat)
