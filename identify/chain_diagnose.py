@@ -718,7 +718,7 @@ class _Problem:
         Q = np.zeros((A.shape[1],) * 2)
         any_block = False
         for k, run in enumerate(self.runs):
-            sa = np.array([run.noise_std.get(f"phi{i}", 0.0) for i in range(1, N + 1)])
+            sa = np.array([run.noise_std[f"phi{i}"] for i in range(1, N + 1)])
             st = np.array([run.noise_std.get(f"torque{i}", 0.0) for i in range(1, N + 1)])
             per = 2.0 / (run.samples_per_period * run.n_periods)
             if (masks is not None and any(m is not None for m in masks[k])) or \

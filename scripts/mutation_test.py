@@ -86,9 +86,11 @@ MODULES = {
     "jointrig.identify.card": ("identify/card.py", ["tests/test_card.py"]),
     # a train's harmonic balance (stick masks, the drives' lag) and its diagnosis
     "jointrig.identify.chain": ("identify/chain.py", ["tests/test_calibration.py", "tests/test_chain.py"]),
+    # (test_preload.py: the final model's profiled parameters refined together under mean loads)
     "jointrig.identify.chain_diagnose": ("identify/chain_diagnose.py", ["tests/test_calibration.py",
                                                                        "tests/test_chain_diagnose.py",
-                                                                       "tests/test_train_misfit.py"]),
+                                                                       "tests/test_train_misfit.py",
+                                                                       "tests/test_preload.py"]),
 }
 #: tests that exercise other parts of the project and only cost time here
 DESELECT = "not killed_sweep_resumes and not truncated_store_point and not dask"
