@@ -83,19 +83,23 @@ def noise_fraction(db: float) -> float:
 SLIDE_FRICTION_N = 25.0
 SLIDE_TRUTH = {"J1_kgm2": 12.0, "bearing1_damping_Nms_per_rad": 40.0, "ground1_coulomb_torque_Nm": SLIDE_FRICTION_N}
 SLIDE_STEP = "coulomb_friction to ground at body 1"
+#: each channel's noise (torque, phi1, phi2) as a multiple of the level's: the level's on every one
+CHANNELS = (1.0, 1.0, 1.0)
 
 
 def case_path(out: Path, db: float, seed: int, friction_Nm: float = FRICTION_Nm, bench: str = "flywheels",
-              effect: str | None = None, given: bool = False) -> Path:
+              effect: str | None = None, given: bool = False, channels: tuple = CHANNELS) -> Path:
     """One case's record (the friction in the name where it is not the bench's default, the
-    effect where there is one, and whether its structure was given)."""
+    effect where there is one, whether its structure was given, and the channels' noise where it
+    is not the level's on every channel)."""
+    ch = "" if tuple(channels) == CHANNELS else "_ch" + "-".join(f"{c:g}" for c in channels)
     if effect is not None:
-        return out / f"db{db:g}_{effect.replace('/', '-')}{'_given' if given else ''}_seed{seed:04d}.json"
+        return out / f"db{db:g}_{effect.replace('/', '-')}{'_given' if given else ''}{ch}_seed{seed:04d}.json"
     if bench == "slide":
         fc = "" if friction_Nm == SLIDE_FRICTION_N else f"_fc{friction_Nm:g}"
         return out / f"slide_db{db:g}{fc}_seed{seed:04d}.json"
     fc = "" if friction_Nm == FRICTION_Nm else f"_fc{friction_Nm:g}"
-    return out / f"db{db:g}{fc}_seed{seed:04d}.json"
+    return out / f"db{db:g}{fc}{ch}_seed{seed:04d}.json"
 
 
 
@@ -137,24 +141,27 @@ def effect_names() -> list[str]:
     return [c for c in CASES["paper"] if c != "none"]
 
 
-def _flywheel_file(db: float, seed: int, friction_Nm: float, tmp: Path, effect: str | None = None) -> Path:
+def _flywheel_file(db: float, seed: int, friction_Nm: float, tmp: Path, effect: str | None = None,
+                   channels: tuple = CHANNELS) -> Path:
     """The two flywheels' runs (with ``effect``, else ``friction_Nm`` of dry friction) written as a
-    DAQ does."""
+    DAQ does, each channel's noise the level's times its entry of ``channels`` (torque, phi1,
+    phi2)."""
     bench = effect_case(effect)[0] if effect is not None else {"Fc": friction_Nm}  # (puts tests/ on the path)
     from bench_sim import JOINTS, POINTS, measure, with_effect
 
     points = [p for i, p in enumerate(POINTS["paper"]) if i % 3 != 1]
     return measure(with_effect(JOINTS["paper"], **bench), points, tmp / "b.csv", seed=seed, fs_Hz=FS_HZ,
-                   n_periods=N_PERIODS, noise=noise_fraction(db))
+                   n_periods=N_PERIODS, noise=tuple(noise_fraction(db) * c for c in channels))
 
 
-def _flywheel_diagnosis(db: float, seed: int, friction_Nm: float, tmp: Path, effect: str | None = None):
+def _flywheel_diagnosis(db: float, seed: int, friction_Nm: float, tmp: Path, effect: str | None = None,
+                        channels: tuple = CHANNELS):
     """The two flywheels' runs written as a DAQ does, and their diagnosis."""
     from jointrig.measured.runs import read_runs
     from jointrig.rig.chain import rig_of_bodies
     from jointrig.studies.chain_validate import run_train_diagnosis
 
-    loaded = read_runs(_flywheel_file(db, seed, friction_Nm, tmp, effect))
+    loaded = read_runs(_flywheel_file(db, seed, friction_Nm, tmp, effect, channels))
     return run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(2, [1]), holdout=HOLDOUT)
 
 
@@ -171,7 +178,7 @@ def _slide_diagnosis(db: float, seed: int, friction_N: float, tmp: Path):
     return run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(1, [1], "slide"))
 
 
-def given_structure(db: float, seed: int, effect: str, tmp: Path) -> dict:
+def given_structure(db: float, seed: int, effect: str, tmp: Path, channels: tuple = CHANNELS) -> dict:
     """The two flywheels' file with ``effect`` (:func:`_flywheel_file`), its fitted runs read, and the bench's own structure fitted as the diagnosis fits its final model
     (``identify.chain_diagnose.diagnose_chain``: the twist's zero profiled on the nominal model,
     the effect's cause at joint 1 profiled beside it, both refined, the fit compensated and every
@@ -184,7 +191,7 @@ def given_structure(db: float, seed: int, effect: str, tmp: Path) -> dict:
     from jointrig.identify.causes import Place, by_name
     from jointrig.measured.runs import read_runs
 
-    path = _flywheel_file(db, seed, 0.0, tmp, effect)
+    path = _flywheel_file(db, seed, 0.0, tmp, effect, channels)
     records = [r for k, r in enumerate(read_runs(path).records) if k not in HOLDOUT]
     runs = tuple(cd.prepare_chain_runs(records))
     problem = cd._Problem(runs, 20, 2.0 * (min(r.n_periods for r in runs) - 1), 1e-6, (False, False), (False,))
@@ -206,7 +213,7 @@ def given_structure(db: float, seed: int, effect: str, tmp: Path) -> dict:
 
 
 def run_case(db: float, seed: int, out: str, friction_Nm: float = FRICTION_Nm, bench: str = "flywheels",
-             effect: str | None = None, given: bool = False) -> dict:
+             effect: str | None = None, given: bool = False, channels: tuple = CHANNELS) -> dict:
     """One diagnosis (in a worker process); its record is written to ``out`` and returned."""
     os.environ["JOINTRIG_WORKERS"] = "1"  # one process per case: no forked scoring inside
     sys.path[:0] = [str(ROOT / "tests"), str(ROOT / "scripts")]
@@ -215,7 +222,8 @@ def run_case(db: float, seed: int, out: str, friction_Nm: float = FRICTION_Nm, b
 
     limit_threads()
     t0 = time.perf_counter()
-    rec = {"bench": bench, "db": db, "seed": seed, "noise_fraction": noise_fraction(db), "friction_Nm": friction_Nm}
+    rec = {"bench": bench, "db": db, "seed": seed, "noise_fraction": noise_fraction(db), "friction_Nm": friction_Nm,
+           "channel_noise": list(channels)}
     if effect is not None:
         rec.update(effect=effect, friction_Nm=0.0)
         truth = dict(effect_case(effect)[1], **{OFFSET: _twist_zero_rad(seed)})
@@ -227,14 +235,14 @@ def run_case(db: float, seed: int, out: str, friction_Nm: float = FRICTION_Nm, b
     try:
         if given:
             with tempfile.TemporaryDirectory() as tmp:
-                g = given_structure(db, seed, effect, Path(tmp))
+                g = given_structure(db, seed, effect, Path(tmp), channels)
             values = g["values"]
             rec.update(verdict="given", steps=[f"{effect.split('/')[0]} at joint 1"], effects=[effect.split("/")[0]],
                        chi2_per_dof=g["chi2_per_dof"], fidelity=1e-6, given_structure=True)
         else:
             with tempfile.TemporaryDirectory() as tmp:
                 r = (_slide_diagnosis(db, seed, friction_Nm, Path(tmp)) if bench == "slide" else
-                     _flywheel_diagnosis(db, seed, friction_Nm, Path(tmp), effect))
+                     _flywheel_diagnosis(db, seed, friction_Nm, Path(tmp), effect, channels))
             d = r.diagnosis
             values = reported_values(d.final, r)  # as the JSON prints them: a twist's zero on the user's sensors
             rec.update(verdict=r.verdict.verdict, steps=[s.label for s in d.steps], effects=[s.effect for s in d.steps],
@@ -244,7 +252,7 @@ def run_case(db: float, seed: int, out: str, friction_Nm: float = FRICTION_Nm, b
     except Exception as err:  # a failed case is recorded, counted and reported, not retried
         rec["error"] = f"{type(err).__name__}: {err}"
     rec["wall_s"] = time.perf_counter() - t0
-    write_json_atomic(case_path(Path(out), db, seed, friction_Nm, bench, effect, given), rec)
+    write_json_atomic(case_path(Path(out), db, seed, friction_Nm, bench, effect, given, channels), rec)
     return rec
 
 
@@ -326,6 +334,9 @@ def parse(argv) -> argparse.Namespace:
     p.add_argument("--given-structure", action="store_true",
                    help="with --effect: fit the bench's own structure as the diagnosis fits its final model instead of "
                         "diagnosing (the intervals given the right structure; about 7 s a seed)")
+    p.add_argument("--channel-noise", type=float, nargs=3, default=list(CHANNELS), metavar=("TORQUE", "PHI1", "PHI2"),
+                   help="two flywheels: each channel's noise as a multiple of the level's (default 1 1 1; "
+                        "0.01 1 1: the angles' noise alone, to tell which channel's noise moves an interval)")
     p.add_argument("--out", type=Path, default=ROOT / "runs" / "coverage",
                    help="folder of the per-case JSON files (default runs/coverage)")
     p.add_argument("--workers", type=int, default=2, help="processes (default 2)")
@@ -348,6 +359,12 @@ def parse(argv) -> argparse.Namespace:
     if args.given_structure and args.effect is None:
         p.exit(2, f"{p.prog}: error: --given-structure needs --effect (the structure given is the effect's cause "
                   f"at joint 1 with the twist's zero)\n")
+    if not all(math.isfinite(c) and c >= 0 for c in args.channel_noise) or not any(args.channel_noise):
+        p.exit(2, f"{p.prog}: error: --channel-noise takes three multiples >= 0, not all 0, got "
+                  f"{' '.join(f'{c:g}' for c in args.channel_noise)}\n")
+    if args.bench == "slide" and tuple(args.channel_noise) != CHANNELS:
+        p.exit(2, f"{p.prog}: error: --channel-noise is for the two flywheels' bench\n")
+    args.channel_noise = tuple(args.channel_noise)
     if args.friction is None:
         args.friction = SLIDE_FRICTION_N if args.bench == "slide" else FRICTION_Nm
     if not (math.isfinite(args.friction) and args.friction >= 0):
@@ -365,7 +382,8 @@ def main(argv=None) -> int:
     records, todo = [], []
     for seed in seeds:  # seed by seed across the levels: a run stopped early leaves every level alike
         for db in levels:
-            path = case_path(args.out, db, seed, args.friction, args.bench, args.effect, args.given_structure)
+            path = case_path(args.out, db, seed, args.friction, args.bench, args.effect, args.given_structure,
+                             args.channel_noise)
             if path.exists():
                 records.append(json.loads(path.read_text()))
             else:
@@ -376,7 +394,7 @@ def main(argv=None) -> int:
     if todo:
         with ProcessPoolExecutor(args.workers) as pool:
             futures = {pool.submit(run_case, db, seed, str(args.out), args.friction, args.bench, args.effect,
-                                   args.given_structure): (db, seed)
+                                   args.given_structure, args.channel_noise): (db, seed)
                        for db, seed in todo}
             for k, fut in enumerate(as_completed(futures), 1):
                 db, seed = futures[fut]

@@ -376,17 +376,23 @@ def record(joint: Joint, w: float, M0: float, *, fs_Hz: float, n_periods: float,
 
 def measure(joint: Joint, points, path: Path, *, noise: float = 0.002, seed: int = 0, fs_Hz: float = 5000.0,
             n_periods: float = 8.4, columns=("run", "Time [s]", "Torque [N m]", "phi1 [rad]", "phi2 [rad]"),
-            transform: Optional[Callable] = None, relative: bool = False, from_rest: bool = False) -> Path:
+            transform: Optional[Callable] = None, relative: bool = False, from_rest: bool = False,
+            noise_seed: Optional[int] = None) -> Path:
     """Simulate every (omega, M0) point and write one CSV as a DAQ would (module docstring).
 
-    ``noise``: standard deviation of each channel's white noise relative to its RMS.
+    ``noise``: standard deviation of each channel's white noise relative to its RMS (one for every
+    channel, or one per channel in the file's order: torque, then the angles).
     ``transform(t, torque, phi1, phi2) -> same``: a measurement artefact applied before the noise.
     ``relative``: one twist sensor across the joint instead of two encoders: the columns ``run,
     Time [s], Torque [N m], phi [rad]``, phi1 - phi2 with one channel's offset and noise.
     ``from_rest``: each run recorded from the drive's start with the flywheels at rest
     (:func:`record`).
+    ``noise_seed``: the noise from its own generator, so that one ``seed``'s runs (their start
+    phases and offsets) can be written with many draws of the noise; by default the noise is drawn
+    from ``seed``'s generator between the runs (another file than any ``noise_seed`` gives).
     """
     rng = np.random.default_rng(seed)
+    noise_rng = rng if noise_seed is None else np.random.default_rng(noise_seed)
     offsets = rng.uniform(-1, 1, 3) * np.array([0.5, 2e-3, 2e-3])  # N m, rad, rad
     lines = [",".join(columns[:4]) if relative else ",".join(columns)]
     if relative:
@@ -397,9 +403,9 @@ def measure(joint: Joint, points, path: Path, *, noise: float = 0.002, seed: int
         if transform is not None:
             t, T, p1, p2 = transform(t, T, p1, p2)
         chans = []
-        for x, off in zip((T, p1 - p2) if relative else (T, p1, p2), offsets):
+        for x, off, level in zip((T, p1 - p2) if relative else (T, p1, p2), offsets, np.broadcast_to(noise, (3,))):
             rms = float(np.std(x))
-            chans.append(x + off + noise * rms * rng.standard_normal(x.size))
+            chans.append(x + off + level * rms * noise_rng.standard_normal(x.size))
         for k in range(t.size):
             lines.append(f"{i},{t[k]:.7f},{chans[0][k]:.6f}," + ",".join(f"{c[k]:.9f}" for c in chans[1:]))
     path.write_text("\n".join(lines) + "\n")

@@ -52,6 +52,50 @@ def test_an_effect_the_bench_has_not_is_refused_before_the_work(tmp_path, capsys
     assert ex.value.code == 2 and what in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("argv, what", [(["--channel-noise", "0", "0", "0"], "not all 0"),
+                                        (["--channel-noise", "1", "-1", "1"], "multiples >= 0"),
+                                        (["--bench", "slide", "--channel-noise", "1", "0.01", "0.01"],
+                                         "two flywheels")])
+def test_a_channels_noise_is_a_multiple_of_the_level_on_the_flywheels_alone(tmp_path, capsys, argv, what):
+    cov = _script("coverage")
+    with pytest.raises(SystemExit) as ex:
+        cov.parse([*argv, "--out", str(tmp_path)])
+    assert ex.value.code == 2 and what in capsys.readouterr().err
+    args = cov.parse(["--channel-noise", "0.01", "1", "1", "--out", str(tmp_path)])
+    assert args.channel_noise == (0.01, 1.0, 1.0)
+    # each channel's noise in its own file; the level's on every channel keeps the names it had
+    assert cov.case_path(tmp_path, 40.0, 3, channels=(0.01, 1.0, 1.0)).name == "db40_ch0.01-1-1_seed0003.json"
+    assert cov.case_path(tmp_path, 40.0, 3).name == "db40_seed0003.json"
+
+
+def test_the_period_scatter_study_draws_the_noise_alone_and_refuses_bad_input(tmp_path, capsys):
+    # scripts/period_scatter.py writes one seed's runs with many draws of the noise: the bench's
+    # start phases and offsets (and so its twist's zero) are the seed's whatever the draw, the
+    # noise is not; --draws below 2 has no scatter and is refused before any work.
+    import numpy as np
+
+    from bench_sim import JOINTS, measure
+
+    ps = _script("period_scatter")
+    files = [measure(JOINTS["paper"], [(25.0, 1500.0)], tmp_path / f"{k}.csv", seed=5, fs_Hz=500.0, n_periods=2,
+                     noise=0.01, noise_seed=k) for k in (1, 1, 2)]
+    a, b, c = (np.loadtxt(f, delimiter=",", skiprows=1) for f in files)
+    assert np.array_equal(a, b) and not np.array_equal(a, c)
+    clean, again = (np.loadtxt(measure(JOINTS["paper"], [(25.0, 1500.0)], tmp_path / f"0{k}.csv", seed=5,
+                                       fs_Hz=500.0, n_periods=2, noise=0.0, noise_seed=k), delimiter=",", skiprows=1)
+                    for k in (9, 10))
+    assert np.array_equal(clean, again) and np.array_equal(a[:, :2], clean[:, :2])
+    # the encoders' offsets are the seed's: the twist's mean over two periods is its zero (to the
+    # law's own mean twist over them, 2.6e-4 rad of 0.26 here), not its opposite (1.2e-3 rad)
+    twist = np.mean(clean[:, 3] - clean[:, 4])
+    assert abs(twist - ps._twist_zero(5)) < 5e-4 < abs(twist + ps._twist_zero(5))
+    for argv in (["--draws", "1"], ["--channel-noise", "0", "0", "0"], ["--db", "0"]):
+        with pytest.raises(SystemExit) as ex:
+            ps.main(argv)
+        assert ex.value.code == 2
+    assert "--draws" in capsys.readouterr().err
+
+
 def _card_record(seed: int, zs: list[float], verdict: str = "no_misfit") -> dict:
     comps = [{"quantity": q, "identified_z": z, "runs_z": -z} for z in zs for q in ("damping_ratio",)]
     return {"case": "paper", "db": 40.0, "seed": seed, "verdict": verdict, "comparisons": comps}
