@@ -113,6 +113,28 @@ LINEAR_TRUTH = {**{f"J{i}_kgm2": v for i, v in enumerate(LINEAR_J, start=1)},
                 **{f"joint{j}_k_Nm_per_rad": v for j, v in enumerate(LINEAR_K, start=1)}}
 
 
+def _carriage_runs(car, levels_N=(150.0,), noise: float = 1e-2, P: int = 4, n: int = 1000) -> tuple:
+    """The independent bench's carriage (tests/bench_slide_sim.py: scipy, exact stick-slip events)
+    driven at 2 Hz by each force amplitude of ``levels_N`` in turn, P steady periods of n samples,
+    white noise of ``noise`` times each channel's RMS (one generator, seed 3, across the levels),
+    prepared as the diagnosis prepares runs (harmonics 1-20)."""
+    import numpy as np
+
+    from bench_slide_sim import _simulate, steady_state
+    from jointrig.identify.chain import ChainRecord
+    from jointrig.identify.chain_diagnose import prepare_chain_runs
+
+    w, rng, recs = 4 * math.pi, np.random.default_rng(3), []
+    for F0 in levels_N:
+        t0, y, mode = steady_state(car, w, F0)
+        t = t0 + np.arange(P * n) * (2 * math.pi / w) / n
+        ys, _, _ = _simulate(car, w, F0, t, y, mode, t0)
+        x = ys[:, 0] + rng.normal(0, noise * np.std(ys[:, 0]), t.size)
+        F = F0 * np.cos(w * t) + rng.normal(0, noise * F0 / math.sqrt(2), t.size)
+        recs.append(ChainRecord(w, t - t0, [F], [x], None, P))
+    return tuple(prepare_chain_runs(recs, band=20))
+
+
 def _linear_problem(seed: int = 0, fidelity: float = 1e-3, bearings=(0.0, 0.0, 0.0, 0.0), read=None, periods: int = 4,
                     noise: float = 1e-3):
     """A 4-body linear train's runs at five frequencies (exact steady states from its dynamic
@@ -353,22 +375,11 @@ def test_a_carriage_sliding_through_rest_is_fitted_with_its_kinks_restored():
     # chi-square below the fit at the band-limited rate's.
     import math
 
-    import numpy as np
-
-    from bench_slide_sim import Carriage, _simulate, steady_state
+    from bench_slide_sim import Carriage
     from jointrig.identify.causes import Place, by_name
-    from jointrig.identify.chain import ChainRecord
-    from jointrig.identify.chain_diagnose import Candidate, _Problem, nominal_spec, prepare_chain_runs
+    from jointrig.identify.chain_diagnose import Candidate, _Problem, nominal_spec
 
-    car, w, F0, P, n = Carriage(), 4 * math.pi, 150.0, 4, 1000
-    t0, y, mode = steady_state(car, w, F0)
-    t = t0 + np.arange(P * n) * (2 * math.pi / w) / n
-    ys, _, _ = _simulate(car, w, F0, t, y, mode, t0)
-    rng = np.random.default_rng(3)
-    x = ys[:, 0] + rng.normal(0, 1e-2 * np.std(ys[:, 0]), t.size)
-    F = F0 * np.cos(w * t) + rng.normal(0, 1e-2 * F0 / math.sqrt(2), t.size)
-    runs = prepare_chain_runs([ChainRecord(w, t - t0, [F], [x], None, P)], band=20)
-    problem = _Problem(tuple(runs), 20, 2.0 * (P - 1), 1e-3, (True,))
+    problem = _Problem(_carriage_runs(Carriage()), 20, 6.0, 1e-3, (True,))
     assert problem.masks() is None  # it slides through rest: nothing to mask
     spec = Candidate(by_name("coulomb_friction"), Place("ground", 1)).extend(nominal_spec(1), 0.0)
     f, wts = problem.fit(spec)
@@ -1207,24 +1218,13 @@ def test_a_carriage_that_rests_part_of_its_period_has_rows_correlated_across_har
     # covariance carries them (_Problem.cross_covariance's masked branch, with no joint to
     # merge): not None, symmetric, and the errors move beside the fit without them (by 3-12%
     # here; 1% is far above round-off). The friction is within 3 standard errors of the bench's.
-    import math
-
     import numpy as np
 
-    from bench_slide_sim import Carriage, _simulate, steady_state
+    from bench_slide_sim import Carriage
     from jointrig.identify.causes import Place, by_name
-    from jointrig.identify.chain import ChainRecord
-    from jointrig.identify.chain_diagnose import Candidate, _Problem, nominal_spec, prepare_chain_runs
+    from jointrig.identify.chain_diagnose import Candidate, _Problem, nominal_spec
 
-    car, w, F0, P, n = Carriage(Fc=90.0), 4 * math.pi, 150.0, 4, 1000
-    t0, y, mode = steady_state(car, w, F0)
-    t = t0 + np.arange(P * n) * (2 * math.pi / w) / n
-    ys, _, _ = _simulate(car, w, F0, t, y, mode, t0)
-    rng = np.random.default_rng(3)
-    x = ys[:, 0] + rng.normal(0, 1e-2 * np.std(ys[:, 0]), t.size)
-    F = F0 * np.cos(w * t) + rng.normal(0, 1e-2 * F0 / math.sqrt(2), t.size)
-    runs = prepare_chain_runs([ChainRecord(w, t - t0, [F], [x], None, P)], band=20)
-    problem = _Problem(tuple(runs), 20, 2.0 * (P - 1), 1e-3, (True,))
+    problem = _Problem(_carriage_runs(Carriage(Fc=90.0)), 20, 6.0, 1e-3, (True,))
     assert problem.masks() is not None and problem.slipping() is None
     spec = Candidate(by_name("coulomb_friction"), Place("ground", 1)).extend(nominal_spec(1), 0.0)
     fit, wts = problem.fit(spec)
@@ -1244,28 +1244,14 @@ def test_a_stribeck_law_gives_way_to_dry_friction_where_its_peak_is_not_told_fro
     # longer profiled, and the friction is the bench's within 3 standard errors. With a peak
     # (static 45 N, falling off at 0.02 m/s) the Stribeck law stays, its excess many standard
     # errors from zero (its size is issue 50's; only that it is told from zero is checked).
-    import math
     from dataclasses import replace
 
-    import numpy as np
-
-    from bench_slide_sim import Carriage, _simulate, steady_state
+    from bench_slide_sim import Carriage
     from jointrig.identify.causes import Place, by_name
-    from jointrig.identify.chain import ChainRecord
-    from jointrig.identify.chain_diagnose import (Candidate, _Problem, _reduced, nominal_spec, prepare_chain_runs,
-                                                  score, with_constants)
+    from jointrig.identify.chain_diagnose import Candidate, _Problem, _reduced, nominal_spec, score, with_constants
 
     def reduced(car):
-        w, P, n, rng = 4 * math.pi, 4, 1000, np.random.default_rng(3)
-        recs = []
-        for F0 in (60.0, 150.0):
-            t0, y, mode = steady_state(car, w, F0)
-            t = t0 + np.arange(P * n) * (2 * math.pi / w) / n
-            ys, _, _ = _simulate(car, w, F0, t, y, mode, t0)
-            x = ys[:, 0] + rng.normal(0, 1e-3 * np.std(ys[:, 0]), t.size)
-            F = F0 * np.cos(w * t) + rng.normal(0, 1e-3 * F0 / math.sqrt(2), t.size)
-            recs.append(ChainRecord(w, t - t0, [F], [x], None, P))
-        problem = _Problem(tuple(prepare_chain_runs(recs, band=20)), 20, 6.0, 1e-3, (True,))
+        problem = _Problem(_carriage_runs(car, (60.0, 150.0), noise=1e-3), 20, 6.0, 1e-3, (True,))
         structure = with_constants(nominal_spec(1), problem.masks())
         nominal, w8 = problem.fit(structure)
         dry, peak = (Candidate(by_name(c), Place("ground", 1)) for c in ("coulomb_friction", "stribeck_friction"))
