@@ -56,6 +56,22 @@ def test_the_residual_at_a_joint_is_what_its_law_misses():
     assert m.by_place[0][1] == pytest.approx(share, rel=1e-9)
 
 
+def test_a_constant_torque_that_a_laws_zero_gives_is_no_misfit():
+    # The model's twist zero 0.05 rad off: its law reads a constant -K_FIT * 0.05 more along the
+    # measured motion. The balance fits harmonics 1 and up, so the residual is the one without
+    # the offset, (K_TRUE - K_FIT) times the twist about its own mean, and has no mean of its own.
+    from dataclasses import replace
+
+    run = prepare_chain_runs([_record()], band=10)[0]
+    values = {"J1_kgm2": J[0], "joint1_c_Nms_per_rad": C, "joint1_k_Nm_per_rad": K_FIT,
+              "joint1_gamma_Nm_per_rad3": 0.0, "J2_kgm2": J[1]}
+    m = train_misfit([run], ["r"], [1.0], _fit(replace(nominal_spec(2), offsets_rad=(0.05,)), values), band=10)
+    twist, residual = m.samples.phi_rad[0], m.samples.residual_Nm[0]
+    expected = (K_TRUE - K_FIT) * (twist - np.mean(twist))
+    assert np.max(np.abs(residual - expected)) < 1e-9 * np.max(np.abs(K_TRUE * twist))
+    assert abs(np.mean(residual)) < 1e-9 * K_FIT * 0.05
+
+
 def test_a_single_bodys_residual_is_its_missing_drag_in_its_own_units():
     t = np.arange(3 * 256) * (2 * math.pi / W) / 256
     x = A * np.cos(W * t)
