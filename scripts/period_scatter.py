@@ -23,8 +23,8 @@ compensated, each linear error floored by the periods' own scatter
 
 Where the columns are linear in the data the two errors are one; a dry friction's column is the
 sign of a rate, which near a reversal crosses zero several times in a noisy period and once in
-the average, so the two part. A throwaway of nothing: it reads, fits and prints (``--json OUT``
-writes the table atomically); progress goes to stderr.
+the average, so the two part (docs/noisy-measurements.md). It prints its table (``--json OUT``
+writes it atomically); progress goes to stderr.
 """
 
 from __future__ import annotations
