@@ -863,6 +863,43 @@ def test_the_joint_search_takes_at_most_three_newton_steps():
     assert 0.05 < abs(got.values[0] - 1.0) < 3.0 and quartic(got.values) < quartic(np.array([-2.0, 2.0]))
 
 
+def test_a_direction_chi_square_does_not_see_moves_nothing():
+    # chi-square of the first parameter alone (the second one has no effect on the rows): its
+    # Hessian is singular, not positive definite, so neither moves and nothing is widened, rather
+    # than a Newton step through a singular matrix. Differences of a quadratic are exact.
+    from jointrig.identify.causes import joint_minimum
+
+    got = joint_minimum(lambda x: float((x[0] - 1.0) ** 2), [0.5, 0.2], [1.0, 1.0], [-10, -10], [10, 10])
+    assert np.array_equal(got.values, [0.5, 0.2]) and np.array_equal(got.widen, [1.0, 1.0])
+    assert np.array_equal(got.correlation, np.eye(2))
+
+
+def test_a_drop_whose_weights_have_two_degrees_of_freedom_or_fewer_is_tested_as_chi_square():
+    # The scaled F of estimated weights needs nu_eff > 2 (its scale q (nu_eff - 2) / nu_eff is 0
+    # at 2): at 2 and below, and with weights taken as known, the drop is chi-square(q).
+    from jointrig.identify.causes import chi2_survival, evidence
+
+    for nu_eff in (2.0, 1.5, math.inf):
+        assert evidence(3.0, 1, 100, 0.01, 1, 10.0, nu_eff)[1] == chi2_survival(3.0, 1)
+    assert evidence(3.0, 1, 100, 0.01, 1, 10.0, 2.5)[1] != chi2_survival(3.0, 1)  # above 2: the scaled F
+
+
+def test_a_negative_size_is_unphysical_for_friction_damping_and_delay_but_not_for_a_stiffness():
+    # Cause.nonnegative (default True): a fitted dry friction, damping or delay below zero is
+    # rejected as unphysical (identify.chain_diagnose._rejection); a stiffness term or an offset
+    # may have either sign.
+    from jointrig.identify.causes import Place, Unphysical, by_name
+    from jointrig.identify.chain_diagnose import Candidate, _rejection
+
+    for name in ("coulomb_friction", "quadratic_damping", "bearing_friction", "drive_delay"):
+        assert by_name(name).nonnegative, name
+    for name in ("asymmetric_stiffness", "angle_offset"):
+        assert not by_name(name).nonnegative, name
+    cand = Candidate(by_name("coulomb_friction"), Place("joint", 1))
+    assert _rejection(None, cand, None, ("joint1_coulomb_torque_Nm", -3.0, 1.0)) == \
+        Unphysical("joint1_coulomb_torque_Nm", -3.0)
+
+
 def test_a_joint_step_stays_in_the_search_range_and_only_where_chi2_falls():
     # The minimum beyond a range's end: the values stop on it. A chi-square that is not convex
     # there (a saddle): the values stay and nothing is widened.
