@@ -347,3 +347,20 @@ def test_the_fidelitys_replay_step_is_a_share_of_the_replay_step_unless_a_period
     assert fidelity_step_s(40.0) == FIDELITY_STEP_SHARE * REPLAY_MAX_STEP_S
     assert fidelity_step_s(2.0) == pytest.approx(math.pi / MAX_REPLAY_STEPS_PER_PERIOD, rel=1e-12)
     assert fidelity_step_s(0.5) == REPLAY_MAX_STEP_S
+
+
+def test_a_condition_number_does_not_depend_on_the_columns_units():
+    # identify.estimates.equilibrated_condition: each column scaled to unit norm, then the ratio of
+    # the largest to the smallest singular value (numpy's own 2-norm condition as reference); a
+    # column in kg m^2 beside one in N m/rad is no ill-conditioning. A zero column, or none, is
+    # inf. Round-off of one SVD: 1e-12.
+    from jointrig.identify.estimates import equilibrated_condition
+
+    B = np.array([[1.0, 0.5, 0.2], [0.0, 1.0, 0.4], [0.3, 0.0, 1.0], [0.1, 0.2, 0.3]])
+    want = np.linalg.cond(B / np.linalg.norm(B, axis=0))
+    assert 1.5 < want < 10.0
+    assert equilibrated_condition(B) == pytest.approx(want, rel=1e-12)
+    assert equilibrated_condition(B * [1e-3, 1.0, 2e4]) == pytest.approx(want, rel=1e-12)
+    assert equilibrated_condition(np.diag([1e-3, 1.0, 2e4])) == pytest.approx(1.0, rel=1e-12)
+    assert equilibrated_condition(np.column_stack([B[:, :2], np.zeros(4)])) == math.inf
+    assert equilibrated_condition(np.zeros((0, 3))) == math.inf
