@@ -142,16 +142,16 @@ def effect_names() -> list[str]:
 
 
 def _flywheel_file(db: float, seed: int, friction_Nm: float, tmp: Path, effect: str | None = None,
-                   channels: tuple = CHANNELS) -> Path:
+                   channels: tuple = CHANNELS, noise_seed: int | None = None) -> Path:
     """The two flywheels' runs (with ``effect``, else ``friction_Nm`` of dry friction) written as a
     DAQ does, each channel's noise the level's times its entry of ``channels`` (torque, phi1,
-    phi2)."""
+    phi2); ``noise_seed``: the noise drawn apart from ``seed``'s runs (``bench_sim.measure``)."""
     bench = effect_case(effect)[0] if effect is not None else {"Fc": friction_Nm}  # (puts tests/ on the path)
     from bench_sim import JOINTS, POINTS, measure, with_effect
 
     points = [p for i, p in enumerate(POINTS["paper"]) if i % 3 != 1]
     return measure(with_effect(JOINTS["paper"], **bench), points, tmp / "b.csv", seed=seed, fs_Hz=FS_HZ,
-                   n_periods=N_PERIODS, noise=tuple(noise_fraction(db) * c for c in channels))
+                   n_periods=N_PERIODS, noise=tuple(noise_fraction(db) * c for c in channels), noise_seed=noise_seed)
 
 
 def _flywheel_diagnosis(db: float, seed: int, friction_Nm: float, tmp: Path, effect: str | None = None,

@@ -47,35 +47,24 @@ EFFECT = "coulomb_friction/1"
 
 def _draw(seed: int, draw: int, db: float, channels: tuple, tmp: Path):
     """The fitted runs of ``seed``'s bench with noise draw ``draw``, prepared as the diagnosis does."""
-    from bench_sim import JOINTS, POINTS, measure, with_effect
-    from coverage import FS_HZ, HOLDOUT, N_PERIODS, effect_case, noise_fraction
+    from coverage import HOLDOUT, _flywheel_file
     from jointrig.identify.chain_diagnose import prepare_chain_runs
     from jointrig.measured.runs import read_runs
 
-    points = [p for i, p in enumerate(POINTS["paper"]) if i % 3 != 1]
-    path = measure(with_effect(JOINTS["paper"], **effect_case(EFFECT)[0]), points, tmp / "b.csv", seed=seed,
-                   fs_Hz=FS_HZ, n_periods=N_PERIODS, noise=tuple(noise_fraction(db) * c for c in channels),
-                   noise_seed=10_000 * seed + draw)
+    path = _flywheel_file(db, seed, 0.0, tmp, EFFECT, channels, noise_seed=10_000 * seed + draw)
     return tuple(prepare_chain_runs([r for k, r in enumerate(read_runs(path).records) if k not in HOLDOUT]))
-
-
-def _twist_zero(seed: int) -> float:
-    """The twist's zero the bench wrote (``bench_sim.measure``'s angle offsets, drawn before any
-    run: the same with every ``noise_seed``)."""
-    off = np.random.default_rng(seed).uniform(-1, 1, 3) * np.array([0.5, 2e-3, 2e-3])
-    return float(off[1] - off[2])
 
 
 def one_draw(seed: int, draw: int, db: float, channels: tuple, jackknife: bool) -> dict:
     """One draw's fit and the errors at the truth through its linear map (module docstring)."""
-    from coverage import effect_case
+    from coverage import _twist_zero_rad, effect_case
     from jointrig.identify import chain_diagnose as cd
     from jointrig.identify.causes import Place, by_name
 
     with tempfile.TemporaryDirectory() as tmp:
         runs = _draw(seed, draw, db, channels, Path(tmp))
     problem = cd._Problem(runs, 20, 2.0 * (min(r.n_periods for r in runs) - 1), 1e-6, (False, False), (False,))
-    spec = cd.Candidate(cd.TWIST_ZERO, Place("joint", 1)).extend(cd.nominal_spec(2), _twist_zero(seed))
+    spec = cd.Candidate(cd.TWIST_ZERO, Place("joint", 1)).extend(cd.nominal_spec(2), _twist_zero_rad(seed))
     spec = cd.Candidate(by_name("coulomb_friction"), Place("joint", 1)).extend(spec, 0.0)
     fit, w = problem.fit(spec)
     floored = problem.compensated(fit, w)
@@ -90,8 +79,7 @@ def one_draw(seed: int, draw: int, db: float, channels: tuple, jackknife: bool) 
         u = (Fs - As @ theta) @ G[:, rows].T
         e_periods += u.mean(axis=0)
         floor += u.var(axis=0, ddof=1) / u.shape[0]
-    out = {"error": fit.values - theta, "se_weights": fit.std_errors, "se_floored": floored.std_errors,
-           "floored_error": floored.values - theta, "e_average": G @ (F - A @ theta), "e_periods": e_periods,
+    out = {"se_weights": fit.std_errors, "se_floored": floored.std_errors, "floored_error": floored.values - theta, "e_average": G @ (F - A @ theta), "e_periods": e_periods,
            "floor": np.sqrt(floor)}
     if jackknife:
         var = np.zeros(len(theta))

@@ -76,7 +76,7 @@ def test_the_period_scatter_study_draws_the_noise_alone_and_refuses_bad_input(tm
 
     from bench_sim import JOINTS, measure
 
-    ps = _script("period_scatter")
+    ps, cov = _script("period_scatter"), _script("coverage")
     files = [measure(JOINTS["paper"], [(25.0, 1500.0)], tmp_path / f"{k}.csv", seed=5, fs_Hz=500.0, n_periods=2,
                      noise=0.01, noise_seed=k) for k in (1, 1, 2)]
     a, b, c = (np.loadtxt(f, delimiter=",", skiprows=1) for f in files)
@@ -88,7 +88,7 @@ def test_the_period_scatter_study_draws_the_noise_alone_and_refuses_bad_input(tm
     # the encoders' offsets are the seed's: the twist's mean over two periods is its zero (to the
     # law's own mean twist over them, 2.6e-4 rad of 0.26 here), not its opposite (1.2e-3 rad)
     twist = np.mean(clean[:, 3] - clean[:, 4])
-    assert abs(twist - ps._twist_zero(5)) < 5e-4 < abs(twist + ps._twist_zero(5))
+    assert abs(twist - cov._twist_zero_rad(5)) < 5e-4 < abs(twist + cov._twist_zero_rad(5))
     for argv in (["--draws", "1"], ["--channel-noise", "0", "0", "0"], ["--db", "0"]):
         with pytest.raises(SystemExit) as ex:
             ps.main(argv)
