@@ -1273,3 +1273,23 @@ def test_a_stribeck_law_gives_way_to_dry_friction_where_its_peak_is_not_told_fro
     assert steps == adopted == ["stribeck_friction to ground at body 1"]
     assert [p[0] for p in fit.profiled] == ["ground1_stribeck_velocity_rad_s"]
     assert fit.as_dict()["ground1_stribeck_torque_Nm"] > 5 * fit.std_error("ground1_stribeck_torque_Nm")
+
+
+def test_the_band_may_reach_the_highest_harmonic_a_period_resolves_and_no_further():
+    # 41 samples a period resolve harmonics 1..20 (strictly below Nyquist): a band of 20 is
+    # prepared, 21 is refused naming the band.
+    import numpy as np
+
+    from jointrig.identify.chain import ChainRecord
+    from jointrig.identify.chain_diagnose import prepare_chain_runs
+    from jointrig.vocab.records import RecordError
+
+    w, P, n = 10.0, 3, 41
+    t = np.arange(P * n) * (2 * math.pi / w) / n
+    rng = np.random.default_rng(0)
+    noisy = [a * f(w * t) + s * rng.standard_normal(t.size) for a, f, s in
+             ((1.0, np.cos, 1e-3), (1.0, np.sin, 1e-4), (0.5, np.sin, 1e-4))]
+    rec = ChainRecord(w, t, (noisy[0], None), (noisy[1], noisy[2]), None, P)
+    assert prepare_chain_runs([rec], band=20)[0].band == 20
+    with pytest.raises(RecordError, match="band is 21"):
+        prepare_chain_runs([rec], band=21)
