@@ -65,7 +65,8 @@ from .causes import (CATALOGUE, Ambiguity, Cause, CauseScore, FeedsEnergy, Limit
                      fundamental_quadrature, harmonic_shares, joint_minimum, on_search_bound, parsimonious, profile,
                      resolved, widened)
 from .defaults import DEFAULT_ALPHA, DEFAULT_FIDELITY
-from .kink import FINE_SAMPLES, KINK_RTOL, kink_corrected_rate, kink_first_pass
+from .kink import FINE_SAMPLES, KINK_RTOL, kink_corrected_rate, kink_first_pass, switch_shifts
+from .balance import harmonic_rows
 from .harmonics import max_harmonic
 from .periods import period_spectra, raw_noise_std
 from jointrig.vocab.records import RecordError, SteadyStateRecord
@@ -539,6 +540,48 @@ class _Problem:
                 order[np.flatnonzero(s.row_equation == eq)] = rows[sysl.row_equation[rows] == eq]
             yield order, np.array(As), np.array(Fs), s.row_harmonic, s.row_equation
 
+    def switched(self, spec: ChainSpec, like, jumps: Optional[Jumps], periods: list) -> list:
+        """``periods`` (:meth:`period_systems`) with every column that jumps at zero rate (dry
+        friction's, a Stribeck law's) taken as the average's, its switches moved by each period's
+        first-order shift (:func:`identify.kink.switch_shifts`): what that column's noise does to
+        the average's balance, which each period's own ``sign(rate)``, crossing zero several times
+        near a reversal, does not show. In each equation the shift is weighted as its bodies are
+        (a summed joint's cancels, a stick mask is read at the switch)."""
+        names = list(like.system.names)
+        places = [(j, names.index(joint_prefix(j + 1) + t.name), {j: 1.0, j + 1: -1.0}, t)
+                  for j, terms in enumerate(spec.joints) for t in terms if jumps_at_rest((t,))]
+        places += [(i, names.index(ground_prefix(i + 1) + t.name), {i: 1.0}, t)
+                   for i, terms in enumerate(spec.grounds) for t in terms if jumps_at_rest((t,))]
+        if not places:
+            return periods
+        averages, each = self.records(jumps, periods=False), self.records(jumps, periods=True)
+        zero = np.zeros(1)
+        out = []
+        for k, (rows, As, Fs, h, e) in enumerate(periods):
+            if As.shape[0] < 2:
+                out.append((rows, As, Fs, h, e))
+                continue
+            avg = channel_corrected(averages[k][0], spec)
+            pers = [channel_corrected(r, spec) for r in each[k]]
+            A = As.copy()
+            cols = sorted({c for _, c, _, _ in places})
+            A[:, :, cols] = like.system.A[rows][:, cols]
+            H = self.n_harmonics
+            for at, c, signs, term in places:
+                rate = (lambda r: r.rate(at) - r.rate(at + 1)) if len(signs) == 2 else (lambda r: r.rate(at))
+                shifts = switch_shifts(rate(avg), np.array([rate(r) for r in pers]), 2.0 * math.pi / avg.omega_rad_s)
+                jump = float(term(zero, zero + 1e-12)[0] - term(zero, zero - 1e-12)[0])
+                for eq in np.unique(e):
+                    coef = sum(signs[b] * shifts.coefficients(H, jump, m) for b, m in like.bodies[(k, int(eq))]
+                               if b in signs)
+                    if not np.any(coef):
+                        continue
+                    # each period's change as a column of its own: (rows, P)
+                    dA, _, harm, _ = harmonic_rows(coef, np.zeros(H + 1, dtype=complex), H)
+                    A[:, np.flatnonzero(e == eq), c] += dA[harm >= 1].T
+            out.append((rows, A, Fs, h, e))
+        return out
+
     def row_variance(self, spec: ChainSpec, theta: np.ndarray, like, jumps: Optional[Jumps] = None,
                      ) -> np.ndarray:
         """Every row's variance: its residual's period-to-period variance over P (a harmonic's
@@ -567,13 +610,14 @@ class _Problem:
     def compensated(self, fit: ChainFit, weights: np.ndarray) -> ChainFit:
         """``fit`` with the bias its regressors' own noise gives it taken out (compensated least
         squares), and each linear parameter's standard error at least what the periods' own
-        scatter gives it (:meth:`_period_scatter`).
+        scatter gives it (:meth:`_period_scatter`, on the same periods).
 
         The balance's matrix holds measured angles: in ``A'WA`` each row adds its
         noise's covariance ``C``, and where a harmonic carries noise alone that pulls every
         parameter towards zero (the linear train at four periods: -0.42 standard errors at
         bodies 3-4, ``scripts/coverage_periods.py``). ``C`` (and the covariance with the torque
-        ``c``) is estimated from the spread of each period's own balance, times ``nu / (nu - 2)``:
+        ``c``) is estimated from the spread of each period's own balance (its dry-friction columns
+        the average's with their switches moved to first order, :meth:`switched`), times ``nu / (nu - 2)``:
         the weights come from that spread too, and where a row's residual is its regressors'
         noise the two move together: ``E[w C_est]`` is about ``w C``, while the mean's noise,
         independent of the spread, adds ``E[w] C = nu / (nu - 2) w C`` to ``A'WA`` (without the
@@ -592,7 +636,7 @@ class _Problem:
         banded = self.system(spec, jumps)
         A = banded.system.A
         p = A.shape[1]
-        periods = list(self.period_systems(spec, banded, jumps))
+        periods = self.switched(spec, banded, jumps, list(self.period_systems(spec, banded, jumps)))
         C, c = np.zeros((p, p)), np.zeros(p)
         for rows, As, Fs, _, _ in periods:
             P = As.shape[0]

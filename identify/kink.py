@@ -18,7 +18,8 @@ import numpy as np
 
 from .balance import spectral_rate
 
-__all__ = ["FINE_SAMPLES", "KINK_RTOL", "KinkPass", "kink_corrected_rate", "kink_first_pass", "OVERSAMPLE"]
+__all__ = ["FINE_SAMPLES", "KINK_RTOL", "KinkPass", "kink_corrected_rate", "kink_first_pass", "OVERSAMPLE", "SwitchShifts",
+           "switch_shifts"]
 
 
 #: Law columns are evaluated on 16x the samples (trigonometric interpolation of the band-limited
@@ -190,3 +191,69 @@ def _kinked(first_pass: KinkPass, band: int, jump_rad_s2: float, iterations: int
 #: joint's Coulomb friction) to 1e-2 (a Stribeck law's excess) of itself, so a jump this close
 #: changes no fitted value beyond ~1e-8 of it.
 KINK_RTOL = 1e-6
+
+
+@dataclass(frozen=True)
+class SwitchShifts:
+    """Where a period's noise moves dry friction's switches, to first order about the periods'
+    average (:func:`switch_shifts`).
+
+    A column that jumps by ``J`` where the rate crosses zero (``sign(rate)``: ``J = 2``) changes,
+    when a crossing at ``t_c`` moves by ``tau``, by an impulse of area ``-J tau sign(rate')`` at
+    ``t_c``: with ``tau = -dr(t_c) / rate'(t_c)`` that is ``J dr(t_c) / |rate'(t_c)|`` whichever
+    way the rate crosses. In one noisy period the rate crosses zero several times near a reversal,
+    in the average once, and the sign of an average is not the average of the signs: the average's
+    switch moves with its noise by the periods' mean shift, which each period's own sign column
+    does not show (docs/noisy-measurements.md)."""
+    #: (C,) the average's crossings (s from the period's start)
+    at_s: np.ndarray
+    #: (P, C) per period and crossing: the moved switch's impulse per unit jump, ``dr / |rate'|`` (s)
+    area_s: np.ndarray
+    period_s: float
+
+    def coefficients(self, n_harmonics: int, jump: float = 2.0, weight: Optional[np.ndarray] = None) -> np.ndarray:
+        """``(P, H + 1)`` complex: each period's change of a column that jumps by ``jump`` at the
+        crossings, in :func:`identify.harmonics.fourier_coefficients`' convention (``C_0`` the
+        mean, ``C_h = 2/T * area * exp(-i h w t_c)``); ``weight``: samples of one period that
+        multiply the column (a stick mask), read at each crossing."""
+        T = self.period_s
+        h = np.arange(n_harmonics + 1)
+        E = np.exp(-2j * math.pi * np.outer(self.at_s / T, h)) * np.where(h == 0, 1.0, 2.0) / T  # (C, H + 1)
+        area = jump * self.area_s
+        if weight is not None and self.at_s.size:
+            w = np.asarray(weight, dtype=float)
+            M = w.size
+            x = self.at_s / T * M
+            n = np.floor(x).astype(int)
+            f = x - n
+            area = area * ((1.0 - f) * w[n % M] + f * w[(n + 1) % M])
+        return area @ E
+
+
+def switch_shifts(average_rate: np.ndarray, period_rates: np.ndarray, period_s: float) -> SwitchShifts:
+    """:class:`SwitchShifts` of the rate ``average_rate`` (one period, ``M`` samples) against each
+    of ``period_rates`` (``(P, M)``; their mean is the average). The slope at a crossing is read on
+    the side the switch moves to (dry friction kinks the rate there), its chord across the crossing
+    where that side's sample slope has the wrong sign; a shift is held within half the way to the
+    neighbouring crossing, beyond which no first order holds."""
+    v = np.asarray(average_rate, dtype=float)
+    d = np.atleast_2d(np.asarray(period_rates, dtype=float)) - v
+    M = v.size
+    dt = period_s / M
+    up = v > 0
+    i = np.flatnonzero(up != np.roll(up, -1))
+    if i.size == 0:
+        return SwitchShifts(np.zeros(0), np.zeros((d.shape[0], 0)), period_s)
+    now, nxt = v[i], v[(i + 1) % M]
+    frac = now / (now - nxt)
+    at = (i + frac) * dt
+    dr = (1.0 - frac) * d[:, i] + frac * d[:, (i + 1) % M]  # (P, C)
+    chord = (nxt - now) / dt
+    left = (v[i] - v[(i - 1) % M]) / dt
+    right = (v[(i + 2) % M] - v[(i + 1) % M]) / dt
+    side = np.where(dr * chord > 0, left, right)  # the switch moves earlier where dr and the slope agree
+    slope = np.abs(np.where(side * chord > 0, side, chord))
+    gap = np.diff(np.concatenate((at, [at[0] + period_s])))  # to the next crossing, cyclic
+    room = 0.5 * np.minimum(gap, np.roll(gap, 1))
+    area = np.clip(dr / slope, -room, room)
+    return SwitchShifts(at, area, period_s)

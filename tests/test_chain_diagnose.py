@@ -1293,3 +1293,45 @@ def test_the_band_may_reach_the_highest_harmonic_a_period_resolves_and_no_furthe
     assert prepare_chain_runs([rec], band=20)[0].band == 20
     with pytest.raises(RecordError, match="band is 21"):
         prepare_chain_runs([rec], band=21)
+
+
+@pytest.mark.parametrize("friction_N, rests", [(25.0, False), (90.0, True)])
+def test_a_dry_friction_columns_periods_are_the_averages_with_each_switch_moved(friction_N, rests):
+    # _Problem.switched: in each period's balance the dry friction's column is the average's, its
+    # switches moved by the period's own shift (identify.kink.switch_shifts); every other column
+    # is the period's own. The shifts are deviations from the average's, so over the periods they
+    # nearly cancel (not exactly: a switch that moves earlier runs along the slope before it, one
+    # that moves later along the slope after, measured here as 1-sample differences that differ by
+    # the rate's curvature). Sliding through rest (25 N) each period's column departs from the
+    # average's, their mean ten times less; resting (90 N) the body's equation is masked at its
+    # switches, and the mask read there leaves the average's column as it is.
+    import numpy as np
+
+    from bench_slide_sim import Carriage
+    from jointrig.identify.causes import Place, by_name
+    from jointrig.identify.chain_diagnose import Candidate, _Problem, nominal_spec
+
+    problem = _Problem(_carriage_runs(Carriage(Fc=friction_N)), 20, 6.0, 1e-3, (True,))
+    assert (problem.masks() is not None) == rests
+    spec = Candidate(by_name("coulomb_friction"), Place("ground", 1)).extend(nominal_spec(1), 0.0)
+    banded = problem.system(spec)
+    own = list(problem.period_systems(spec, banded))
+    moved = problem.switched(spec, banded, None, own)
+    c = list(banded.system.names).index("ground1_coulomb_torque_Nm")
+    (rows, A0, F0, h0, e0), (rows1, A1, F1, h1, e1) = own[0], moved[0]
+    assert np.array_equal(rows, rows1) and np.array_equal(F0, F1) and np.array_equal(e0, e1)
+    others = [k for k in range(A0.shape[2]) if k != c]
+    assert np.array_equal(A1[:, :, others], A0[:, :, others])
+    average = banded.system.A[rows, c]
+    scale = np.max(np.abs(average))
+    departs = np.max(np.abs(A1[:, :, c] - average), axis=1)
+    if rests:
+        assert np.all(departs <= 1e-12 * scale)
+    else:
+        assert np.min(departs) > 1e-4 * scale
+        assert np.max(np.abs(A1[:, :, c].mean(axis=0) - average)) < 0.1 * np.min(departs)
+    # a model without dry friction has nothing to move
+    plain = nominal_spec(1)
+    b = problem.system(plain)
+    periods = list(problem.period_systems(plain, b))
+    assert problem.switched(plain, b, None, periods) is periods
