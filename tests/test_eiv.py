@@ -415,3 +415,18 @@ def test_a_rate_terms_column_is_debiased_by_the_rates_noise_alone():
     v = np.linspace(-2.0, 2.0, 9)
     col = _debiased(Monomial(0, 3), np.zeros_like(v), v, 0.0, 0.5)
     np.testing.assert_allclose(col, v**3 - 1.5 * v, atol=1e-12)
+
+
+def test_records_of_two_or_three_periods_are_identified_without_the_halves_start(default_sweep, rig):
+    # Below 4 periods a record has no two halves to take instruments from: the ML search starts
+    # from generalised least squares alone, and the estimate is the right joint's all the same.
+    # 40 dB, a fixed seed: every parameter within 4 of its standard errors of the truth (measured:
+    # at most 2.1 over 8 seeds each of 2 and 3 periods; a right model's estimate is ~N(truth, SE)).
+    truth = np.array([rig.Je_kgm2, *rig.law.values])
+    for P in (2, 3):
+        rng = np.random.default_rng(3)
+        recs = [add_noise(repeat_periods(r, P), 40.0, rng) for r in default_sweep[3:6]]
+        res = ml_identify(recs, rig.law.terms, n_harmonics=9, torque_share=rig.torque_share)
+        assert res.success and res.n_runs == 3, res.message
+        z = (np.asarray(res.values) - truth) / np.asarray(res.std_errors)
+        assert np.all(np.abs(z) < 4), (P, z)
