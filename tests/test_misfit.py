@@ -119,6 +119,10 @@ def test_settings_within_a_tolerance_are_one():
     assert distinct_settings([100.0, 104.0, 106.0], rel=0.05) == [100.0, 106.0]
     assert same_setting(1500.0, 1502.0, 0.05) and not same_setting(1500.0, 1600.0, 0.05)
     assert same_setting(25.0, 25.2, 0.01) and not same_setting(25.0, 25.3, 0.01)
+    # "within" includes the tolerance itself, in both: 5 is 4 (1 + 0.25) and |5 - 4| is 0.2 of 5, exact
+    # in binary floating point
+    assert distinct_settings([4.0, 5.0], rel=0.25) == [4.0] and same_setting(4.0, 5.0, 0.2)
+    assert distinct_settings([4.0, 5.000001], rel=0.25) == [4.0, 5.000001] and not same_setting(4.0, 5.000001, 0.2)
 
 
 def test_a_cubic_residual_is_odd_and_its_phase_is_the_angles():
