@@ -401,6 +401,24 @@ def test_periods_by_least_squares_in_closed_form():
     assert extra.residual_rms[0] == pytest.approx(0.05 / math.sqrt(2), rel=0.05)
 
 
+def test_periods_by_least_squares_fits_a_record_of_one_whole_period():
+    # 1.6 periods at 37.3 samples a period hold one whole period: fitted, the three-harmonic
+    # signal resynthesised on 32 samples to round-off (1e-12, as above); 0.8 of a period is refused.
+    from jointrig.identify.periods import periods_by_least_squares
+
+    w = 5.0
+    dt = 2 * math.pi / w / 37.3
+    t = np.arange(int(1.6 * 37.3)) * dt
+    x = 1.0 + np.cos(w * t) - 0.3 * np.sin(2 * w * t) + 0.2 * np.cos(3 * w * t + 1)
+    fit = periods_by_least_squares(t, x, w, samples_per_period=32, harmonics=3)
+    assert (fit.n_periods, fit.samples_per_period) == (1, 32)
+    tt = np.arange(32) * (2 * math.pi / w / 32)
+    expect = 1.0 + np.cos(w * tt) - 0.3 * np.sin(2 * w * tt) + 0.2 * np.cos(3 * w * tt + 1)
+    np.testing.assert_allclose(fit.samples[0], expect, atol=1e-12)
+    with pytest.raises(ValueError, match="less than one period"):
+        periods_by_least_squares(t[: int(0.8 * 37.3)], x[: int(0.8 * 37.3)], w, samples_per_period=32)
+
+
 def test_estimate_fundamental_to_round_off_and_its_standard_error_is_the_crlb():
     from jointrig.identify.periods import estimate_fundamental
 

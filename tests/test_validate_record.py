@@ -90,6 +90,33 @@ def test_a_transient_is_told_from_steady_periods_by_their_lowest_harmonics():
     assert transient_periods([ramp], P, (True,)) == 0 and transient_periods([ramp], P) > 0
 
 
+def test_a_noise_free_transient_is_cut_above_the_floor_on_the_harmonics_compared():
+    # identify.periods.transient_periods on noise-free periods (the last two agree exactly, so the
+    # bound is TRANSIENT_FLOOR): the first period's fundamental off by eps of the swing departs by
+    # eps / 2 on one of the 11 coefficients compared (harmonics 0..10), an RMS of 0.15 eps: cut at
+    # eps = 1e-4 (15 times the floor), not at 2e-6 (0.3 of it).
+    from jointrig.identify.periods import TRANSIENT_FLOOR, TRANSIENT_HARMONICS, transient_periods
+
+    P, n = 8, 256
+    t = np.arange(P * n) / n  # in periods
+    steady = np.sin(2 * np.pi * t) + 0.3 * np.sin(6 * np.pi * t)
+    first = (t < 1).astype(float)
+    swing = float(np.ptp(steady))
+    assert 0.15 * 1e-4 > 10 * TRANSIENT_FLOOR and 0.15 * 2e-6 < 0.5 * TRANSIENT_FLOOR
+    assert transient_periods([steady + 1e-4 * swing * first * np.sin(2 * np.pi * t)], P) == 1
+    assert transient_periods([steady + 2e-6 * swing * first * np.sin(2 * np.pi * t)], P) == 0
+    # harmonics 0..TRANSIENT_HARMONICS are compared, and no higher: a departure of 1e-3 of the
+    # swing (far above the floor) on harmonic 10 alone is a transient, on harmonic 11 alone not
+    H = TRANSIENT_HARMONICS
+    assert transient_periods([steady + 1e-3 * swing * first * np.cos(2 * np.pi * H * t)], P) == 1
+    assert transient_periods([steady + 1e-3 * swing * first * np.cos(2 * np.pi * (H + 1) * t)], P) == 0
+    # fewer where a period holds fewer samples: 8 a period compare harmonics 0..3 (below the Nyquist
+    # line 4), so a departure on harmonic 3 alone is cut
+    t8 = np.arange(P * 8) / 8
+    x8 = np.sin(2 * np.pi * t8) + 1e-2 * (t8 < 1) * np.cos(2 * np.pi * 3 * t8 + 0.3)
+    assert transient_periods([x8], P) == 1
+
+
 def test_a_record_from_rest_takes_its_fundamental_from_after_its_first_period():
     # A servo carriage's force from rest (tests/bench_servo_sim.py, the sticky axis on an incline:
     # 3.5 periods of a 3.5 s reference, 1 kHz) read 1.78812 +- 0.00023 rad/s over the whole record,
