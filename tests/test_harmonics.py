@@ -133,3 +133,24 @@ def test_an_odd_records_top_line_keeps_its_phase():
     t = np.arange(7) / 7 * 2 * np.pi
     x = 0.3 + np.cos(t) + 0.5 * np.sin(3 * t + 0.4)
     np.testing.assert_allclose(synthesize(fourier_coefficients(x, 1, 3), 7), x, atol=1e-12)
+
+
+def test_a_single_record_and_a_stack_of_records_are_shifted_alike():
+    # shift_periodic reads the samples along the last axis: one record (n,) with a scalar omega,
+    # and records stacked by run and channel (2, 2, n) with one omega per run, each moved 1 ms
+    # later is itself at t - 1 ms, to round-off (1e-13, as above).
+    from jointrig.identify.harmonics import shift_periodic
+
+    n = 64
+
+    def x(w, s):
+        return np.cos(w * s) + 0.3 * np.sin(3 * w * s - 0.2)
+
+    w = 20.0
+    t = np.arange(n) * (2 * 2 * np.pi / w / n)  # two periods
+    np.testing.assert_allclose(shift_periodic(x(w, t), 2, w, 1e-3), x(w, t - 1e-3), rtol=0, atol=1e-13)
+    ws = np.array([20.0, 35.0])[:, None, None]
+    ts = np.arange(n)[None, None, :] * (2 * 2 * np.pi / ws / n)
+    stack = np.concatenate([x(ws, ts), 0.5 * x(ws, ts + 0.01)], axis=1)  # (2 runs, 2 channels, n)
+    moved = np.concatenate([x(ws, ts - 1e-3), 0.5 * x(ws, ts + 0.01 - 1e-3)], axis=1)
+    np.testing.assert_allclose(shift_periodic(stack, 2, ws, 1e-3), moved, rtol=0, atol=1e-13)
