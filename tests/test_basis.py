@@ -391,6 +391,22 @@ def test_a_weighted_law_row_needs_the_records_own_samples():
     np.testing.assert_allclose(half[0], 0.5 * fourier_coefficients(phi, 1, 3), atol=1e-15)
 
 
+def test_law_rows_of_one_motion_under_two_weights_are_each_their_own():
+    # A train's bodies stick at different samples: one motion balanced under two stick masks.
+    # The rows are memoised by the arrays they come from, the weight among them: the second
+    # mask's rows are its own torque's coefficients, not the first's from the memo (round-off).
+    from jointrig.identify.balance import law_rows
+    from jointrig.identify.harmonics import fourier_coefficients
+    from jointrig.vocab.law import Power
+
+    phi = np.cos(np.arange(16) / 16 * 2 * np.pi)
+    still = np.zeros(16)
+    first, second = (np.arange(16) < 8).astype(float), (np.arange(16) >= 8).astype(float)
+    for w in (first, second, first):
+        rows = law_rows((Power(1),), (phi, still), (None, None), lambda: phi, lambda: still, 1, 3, 1, weight=w)
+        np.testing.assert_allclose(rows[0], fourier_coefficients(phi * w, 1, 3), atol=1e-15)
+
+
 def test_a_single_dof_systems_law_rows_are_taken_at_the_records_own_samples():
     # single_dof_system balances the samples it is given: a dry friction's column is its torque's
     # Fourier coefficients at those samples (as the same rows of the sign of the rate itself
