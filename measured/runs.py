@@ -668,10 +668,11 @@ def _drive_swing(r) -> float:
 LOAD_SPREAD = 0.1
 
 
-def _in_degrees(path: Path, records: Sequence, unstated: set, what: str) -> None:
+def _in_degrees(path: Path, records: Sequence, unstated: set, what: str, per_run: bool = False) -> None:
     """Where some angles' units are stated and others' not, and reading the unstated ones in
     degrees makes every joint's twist plausible (a swing below :data:`MAX_TWIST_RAD`, one mean for
-    all runs), refuse naming the unit forgotten: the fix that applies, not a re-zeroing."""
+    all runs unless ``per_run``: each run's mean is taken as its zero), refuse naming the unit
+    forgotten: the fix that applies, not a re-zeroing."""
     bodies = sorted(unstated, key=lambda c: (len(c), c))
     index = {c: (int(c.lstrip("phix")) - 1 if c.lstrip("phix") else 0) for c in bodies}
     alt = []
@@ -683,12 +684,13 @@ def _in_degrees(path: Path, records: Sequence, unstated: set, what: str) -> None
     amps = [max(float(np.ptp(x)) / 2 for x in tw) for tw in alt]
     for j in range(len(alt[0])):
         means = [float(np.mean(tw[j])) for tw in alt]
-        if max(amps) > MAX_TWIST_RAD or (len(alt) >= 2 and max(means) - min(means) > ZERO_SPREAD * max(amps)):
+        if max(amps) > MAX_TWIST_RAD or (not per_run and len(alt) >= 2 and max(means) - min(means) > ZERO_SPREAD * max(amps)):
             return
     names = ", ".join(bodies)
     raise RunsFileError(
         f"{path}: {what}; {names} {'has' if len(bodies) == 1 else 'have'} no unit stated (read as rad) while the other "
-        f"angles' are stated, and read in degrees every joint's twist is plausible (one zero for all runs, a swing of "
+        f"angles' are stated, and read in degrees every joint's twist is plausible ("
+        f"{'each run on its own zero' if per_run else 'one zero for all runs'}, a swing of "
         f"+-{max(amps):.3g} rad): state the unit in the header ('{bodies[0]} [deg]') or with --units "
         + ",".join(f"{c}=deg" for c in bodies))
 
@@ -712,7 +714,7 @@ def _plausible_angles(path: Path, run_ids: Sequence[str], records: Sequence,
     worst = int(np.argmax(amps))
     if amps[worst] > MAX_TWIST_RAD and unstated:
         _in_degrees(path, records, unstated, f"run {run_ids[worst]}: {joint} swings by +-{amps[worst]:.3g} rad, more "
-                                             f"than any joint twists")
+                                             f"than any joint twists", per_run=zero_per_run)
     if amps[worst] > MAX_TWIST_RAD and not angles_stated:
         raise RunsFileError(
             f"{path}: run {run_ids[worst]}: {joint} swings by +-{amps[worst]:.3g} rad, more than any joint "

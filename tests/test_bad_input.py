@@ -829,3 +829,16 @@ def test_a_forgotten_unit_beside_encoders_zeroed_per_recording_is_not_called_pla
     with pytest.raises(RunsFileError) as err:
         read_runs(path)
     assert "read in degrees every joint's twist is plausible" not in str(err.value), err.value
+
+
+def test_a_forgotten_unit_is_named_under_zero_per_run_too(tmp_path):
+    # The file above, read with --zero-per-run as its refusal advises: each run then takes its own
+    # zero, and read in degrees every twist is plausible. It was accepted with phi2 read as rad
+    # (a twist of +-38 rad); it is refused naming the unit forgotten.
+    path = _bench_file(tmp_path, lambda first, a, b: (math.degrees(a - first[0]), math.degrees(b - first[1])))
+    path.write_text(path.read_text().replace("run,time,torque,phi1,phi2", "run,time,torque,phi1 [deg],phi2", 1))
+    with pytest.raises(RunsFileError, match=r"phi2 has no unit stated .*each run on its own zero.*--units phi2=deg"):
+        read_runs(path, zero_per_run=True)
+    # stated, the same file is read, each run centred
+    path.write_text(path.read_text().replace("phi1 [deg],phi2", "phi1 [deg],phi2 [deg]", 1))
+    assert read_runs(path, zero_per_run=True).records
