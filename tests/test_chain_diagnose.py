@@ -831,6 +831,12 @@ def test_the_last_bodys_inertia_is_checked_for_plausibility_too():
         assert said == UndeterminedInertia(((3, J3, 0.01),))
         text = plausibility_text(said)
         assert "body(ies) 3" in text and "not determined by these runs" in text and "position columns" not in text
+    # judged on the kept (extended) model: its last body undetermined, the first two not; the
+    # nominal fit's own inertias are all plausible (a dry friction can hide a carriage's mass)
+    kept = fit([1.0, 1e4, 1.0, 1e4, 0.015])
+    assert implausible_train_fit(fit([1.0, 1e4, 1.0, 1e4, 1.0]), kept) == (UndeterminedInertia(((3, 0.015, 0.01),)),)
+    kept = fit([0.015, 1e4, 1.0, 1e4, 1.0])
+    assert implausible_train_fit(fit([1.0, 1e4, 1.0, 1e4, 1.0]), kept) == (UndeterminedInertia(((1, 0.015, 0.01),)),)
 
 
 def test_a_joint_cards_runs_read_its_twist():
@@ -1335,3 +1341,31 @@ def test_a_dry_friction_columns_periods_are_the_averages_with_each_switch_moved(
     b = problem.system(plain)
     periods = list(problem.period_systems(plain, b))
     assert problem.switched(plain, b, None, periods) is periods
+
+
+def test_a_joints_mean_torque_carries_its_laws_error_and_its_zeros_own():
+    # mean_joint_torque: k (mean twist - zero) over the records, its error the law's covariance
+    # along that column, plus (dq/dzero * SE of the zero)^2 where the zero was profiled (a fit
+    # that profiled none adds nothing). Twist 0.3 + 0.05 sin, zero 0.05, k = 1000 +- 2:
+    # q = 250 N m, SE 0.25 * 2 = 0.5; with the zero's SE 0.01, sqrt(0.5^2 + (1000 * 0.01)^2).
+    import dataclasses
+
+    import numpy as np
+
+    from jointrig.identify.chain import ChainRecord, ChainSpec
+    from jointrig.identify.chain_diagnose import TWIST_ZERO, ChainFit, mean_joint_torque
+    from jointrig.vocab.law import Power
+
+    n, w = 64, 2 * math.pi
+    t = np.arange(n) / n
+    x1 = 0.3 + 0.1 * np.sin(w * t)
+    rec = ChainRecord(w, t, (np.cos(w * t), None), (x1, x1 - 0.3 - 0.05 * np.sin(w * t)), None, 1)
+    spec = ChainSpec(((Power(1),),), offsets_rad=(0.05,))
+    names = spec.names  # J1, joint1_k, J2
+    fit = ChainFit(spec, names, np.array([1.0, 1000.0, 1.0]), np.array([0.1, 2.0, 0.1]), 10.0, 100, np.zeros(100),
+                   covariance=np.diag([0.01, 4.0, 0.01]))
+    q, se = mean_joint_torque(fit, [rec], 1)
+    assert q == pytest.approx(250.0, rel=1e-12) and se == pytest.approx(0.5, rel=1e-9)
+    zeroed = dataclasses.replace(fit, profiled=(("joint1_" + TWIST_ZERO.profiled, 0.05, 0.01),))
+    assert mean_joint_torque(zeroed, [rec], 1)[1] == pytest.approx(math.sqrt(0.25 + 100.0), rel=1e-6)
+    assert math.isnan(mean_joint_torque(zeroed, [rec], 1, with_error=False)[1])
