@@ -381,40 +381,28 @@ def test_linear_drift_in_closed_form():
     assert abs(noisy.t_stat) < 4
 
 
-def test_periods_by_least_squares_in_closed_form():
+@pytest.mark.parametrize("length, whole", [(3.5, 3), (1.6, 1)])
+def test_periods_by_least_squares_in_closed_form(length, whole):
     from jointrig.identify.periods import periods_by_least_squares
 
-    # 3.5 periods of a three-harmonic signal at 37.3 samples per period: three whole periods,
-    # each resynthesised exactly on 32 samples, residual zero; with one more harmonic (7)
-    # than the fit keeps, the residual is its RMS.
+    # 3.5 (1.6) periods of a three-harmonic signal at 37.3 samples per period: three whole periods
+    # (one), each resynthesised exactly on 32 samples, residual zero; with one more harmonic (7)
+    # than the fit keeps, the residual is its RMS. Less than a period is refused.
     w = 5.0
     dt = 2 * math.pi / w / 37.3
-    t = np.arange(int(3.5 * 37.3)) * dt
-    x = 1.0 + np.cos(w * t) - 0.3 * np.sin(2 * w * t) + 0.2 * np.cos(3 * w * t + 1)
+
+    def signal(t):
+        return 1.0 + np.cos(w * t) - 0.3 * np.sin(2 * w * t) + 0.2 * np.cos(3 * w * t + 1)
+
+    t = np.arange(int(length * 37.3)) * dt
+    x = signal(t)
     fit = periods_by_least_squares(t, x, w, samples_per_period=32, harmonics=3)
-    assert (fit.n_periods, fit.samples_per_period, fit.harmonics) == (3, 32, 3)
-    tt = np.arange(3 * 32) * (2 * math.pi / w / 32)
-    expect = 1.0 + np.cos(w * tt) - 0.3 * np.sin(2 * w * tt) + 0.2 * np.cos(3 * w * tt + 1)
-    np.testing.assert_allclose(fit.samples[0], expect, atol=1e-12)
+    assert (fit.n_periods, fit.samples_per_period, fit.harmonics) == (whole, 32, 3)
+    tt = np.arange(whole * 32) * (2 * math.pi / w / 32)
+    np.testing.assert_allclose(fit.samples[0], signal(tt), atol=1e-12)
     assert fit.residual_rms[0] < 1e-12
     extra = periods_by_least_squares(t, x + 0.05 * np.cos(7 * w * t), w, samples_per_period=32, harmonics=3)
     assert extra.residual_rms[0] == pytest.approx(0.05 / math.sqrt(2), rel=0.05)
-
-
-def test_periods_by_least_squares_fits_a_record_of_one_whole_period():
-    # 1.6 periods at 37.3 samples a period hold one whole period: fitted, the three-harmonic
-    # signal resynthesised on 32 samples to round-off (1e-12, as above); 0.8 of a period is refused.
-    from jointrig.identify.periods import periods_by_least_squares
-
-    w = 5.0
-    dt = 2 * math.pi / w / 37.3
-    t = np.arange(int(1.6 * 37.3)) * dt
-    x = 1.0 + np.cos(w * t) - 0.3 * np.sin(2 * w * t) + 0.2 * np.cos(3 * w * t + 1)
-    fit = periods_by_least_squares(t, x, w, samples_per_period=32, harmonics=3)
-    assert (fit.n_periods, fit.samples_per_period) == (1, 32)
-    tt = np.arange(32) * (2 * math.pi / w / 32)
-    expect = 1.0 + np.cos(w * tt) - 0.3 * np.sin(2 * w * tt) + 0.2 * np.cos(3 * w * tt + 1)
-    np.testing.assert_allclose(fit.samples[0], expect, atol=1e-12)
     with pytest.raises(ValueError, match="less than one period"):
         periods_by_least_squares(t[: int(0.8 * 37.3)], x[: int(0.8 * 37.3)], w, samples_per_period=32)
 
