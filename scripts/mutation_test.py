@@ -56,6 +56,8 @@ MODULES = {
     "jointrig.identify.periods": ("identify/periods.py", ["tests/test_runs_file.py", "tests/test_bad_input.py",
                                                          "tests/test_validate_record.py"]),
     "jointrig.identify.zeros": ("identify/zeros.py", ["tests/test_sensor_zeros.py"]),
+    # dry friction's kinks restored in a band-limited rate, and its switches moved per period
+    "jointrig.identify.kink": ("identify/kink.py", ["tests/test_kink.py"]),
     "jointrig.measured.runs": ("measured/runs.py", ["tests/test_runs_file.py", "tests/test_train_loader.py",
                                                    "tests/test_bad_input.py"]),
     "jointrig.measured.formats": ("measured/formats.py", ["tests/test_runs_file.py", "tests/test_bad_input.py"]),
