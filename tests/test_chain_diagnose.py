@@ -1369,3 +1369,38 @@ def test_a_joints_mean_torque_carries_its_laws_error_and_its_zeros_own():
     zeroed = dataclasses.replace(fit, profiled=(("joint1_" + TWIST_ZERO.profiled, 0.05, 0.01),))
     assert mean_joint_torque(zeroed, [rec], 1)[1] == pytest.approx(math.sqrt(0.25 + 100.0), rel=1e-6)
     assert math.isnan(mean_joint_torque(zeroed, [rec], 1, with_error=False)[1])
+
+
+def test_a_joints_dry_friction_moves_its_switches_in_both_its_bodies_equations():
+    # _Problem.switched at a joint: the shift of its twist rate's switches (identify.kink.
+    # switch_shifts, a column that jumps by 2 at zero rate) enters body 2's equation with + and
+    # body 3's with - (joint 2 of the 4-body linear train), and no other equation. Exact: each
+    # period's departure from the average's column is the harmonic rows of the shifts'
+    # coefficients (round-off 1e-12 of the column).
+    import numpy as np
+
+    from jointrig.identify.balance import harmonic_rows
+    from jointrig.identify.causes import Place, by_name
+    from jointrig.identify.chain_diagnose import Candidate
+    from jointrig.identify.kink import switch_shifts
+
+    problem, (nominal, _) = _linear_problem(periods=4, noise=1e-2)
+    spec = Candidate(by_name("coulomb_friction"), Place("joint", 2)).extend(nominal.spec, 0.0)
+    banded = problem.system(spec)
+    own = list(problem.period_systems(spec, banded))
+    moved = problem.switched(spec, banded, None, own)
+    c = list(banded.system.names).index("joint2_coulomb_torque_Nm")
+    for k, ((rows, A0, _, _, e), (_, A1, _, _, _)) in enumerate(zip(own, moved)):
+        run = problem.runs[k]
+        departs = A1[:, :, c] - banded.system.A[rows, c]
+        scale = np.max(np.abs(banded.system.A[rows, c]))
+        avg, per = run.average, run.periods
+        twist = [r.rate(1) - r.rate(2) for r in per]
+        shifts = switch_shifts(avg.rate(1) - avg.rate(2), np.array(twist), 2 * np.pi / avg.omega_rad_s)
+        dA, _, harm, _ = harmonic_rows(shifts.coefficients(problem.n_harmonics, 2.0), np.zeros(problem.n_harmonics + 1),
+                                       problem.n_harmonics)
+        expect = dA[harm >= 1].T
+        np.testing.assert_allclose(departs[:, e == 1], expect, rtol=0, atol=1e-12 * scale)
+        np.testing.assert_allclose(departs[:, e == 2], -expect, rtol=0, atol=1e-12 * scale)
+        assert not np.any(departs[:, (e == 0) | (e == 3)])
+        assert np.abs(expect).max() > 1e-3 * scale
