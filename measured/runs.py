@@ -668,11 +668,11 @@ def _drive_swing(r) -> float:
 LOAD_SPREAD = 0.1
 
 
-def _in_degrees(path: Path, records: Sequence, unstated: set, what: str, per_run: bool = False) -> None:
+def _in_degrees(path: Path, records: Sequence, unstated: set, what: str, per_run: bool = False, then: str = "") -> None:
     """Where some angles' units are stated and others' not, and reading the unstated ones in
     degrees makes every joint's twist plausible (a swing below :data:`MAX_TWIST_RAD`, one mean for
     all runs unless ``per_run``: each run's mean is taken as its zero), refuse naming the unit
-    forgotten: the fix that applies, not a re-zeroing."""
+    forgotten: the fix that applies, not a re-zeroing alone (``then``: what else the fix needs)."""
     bodies = sorted(unstated, key=lambda c: (len(c), c))
     index = {c: (int(c.lstrip("phix")) - 1 if c.lstrip("phix") else 0) for c in bodies}
     alt = []
@@ -692,7 +692,7 @@ def _in_degrees(path: Path, records: Sequence, unstated: set, what: str, per_run
         f"angles' are stated, and read in degrees every joint's twist is plausible ("
         f"{'each run on its own zero' if per_run else 'one zero for all runs'}, a swing of "
         f"+-{max(amps):.3g} rad): state the unit in the header ('{bodies[0]} [deg]') or with --units "
-        + ",".join(f"{c}=deg" for c in bodies))
+        + ",".join(f"{c}=deg" for c in bodies) + then)
 
 
 def _plausible_angles(path: Path, run_ids: Sequence[str], records: Sequence,
@@ -737,8 +737,11 @@ def _plausible_angles(path: Path, run_ids: Sequence[str], records: Sequence,
             lo, hi = int(np.argmin(means)), int(np.argmax(means))
             what = "the relative angle's mean" if len(twists[0]) == 1 else f"joint {j + 1}'s mean twist"
             if unstated:
-                _in_degrees(path, records, unstated, f"{what} differs between runs by {max(means) - min(means):.3g} "
-                                                     f"rad")
+                differs = f"{what} differs between runs by {max(means) - min(means):.3g} rad"
+                _in_degrees(path, records, unstated, differs)
+                _in_degrees(path, records, unstated, differs, per_run=True,
+                            then=", and pass --zero-per-run: in degrees too the runs' mean twists differ, as from "
+                                 "sensors zeroed at the start of each recording")
             raise RunsFileError(
                 f"{path}: {what} differs between runs by {max(means) - min(means):.3g} rad (run "
                 f"{run_ids[lo]}: {means[lo]:.3g} rad, run {run_ids[hi]}: {means[hi]:.3g} rad), "

@@ -819,16 +819,18 @@ def test_a_forgotten_unit_is_named_when_the_shaft_turned_between_runs(tmp_path):
     assert len(read_runs(path, units="phi2=deg").records) == 6
 
 
-def test_a_forgotten_unit_beside_encoders_zeroed_per_recording_is_not_called_plausible_in_degrees(tmp_path):
+def test_a_forgotten_unit_beside_encoders_zeroed_per_recording_names_both_fixes(tmp_path):
     # phi2's unit forgotten and the encoders zeroed at the start of each recording: read in degrees
-    # the twist's mean still differs between runs, so degrees alone do not make the twists plausible
-    # and the refusal must not say that read in degrees every twist is plausible (today it names the
-    # re-zeroing alone; only the claim is pinned here).
+    # the twist's mean still differs between runs, so degrees alone do not make the twists
+    # plausible. The refusal names the unit forgotten and the re-zeroing both, so that one retry
+    # reads the file (it named the re-zeroing alone, and under --zero-per-run phi2 was read as rad).
     path = _bench_file(tmp_path, lambda first, a, b: (math.degrees(a - first[0]), math.degrees(b - first[1])))
     path.write_text(path.read_text().replace("run,time,torque,phi1,phi2", "run,time,torque,phi1 [deg],phi2", 1))
     with pytest.raises(RunsFileError) as err:
         read_runs(path)
-    assert "read in degrees every joint's twist is plausible" not in str(err.value), err.value
+    # not that degrees alone would do: both fixes are named, the unit and the zero per run
+    assert "one zero for all runs" not in str(err.value), err.value
+    assert "--units phi2=deg, and pass --zero-per-run" in str(err.value), err.value
 
 
 def test_a_forgotten_unit_is_named_under_zero_per_run_too(tmp_path):
