@@ -695,6 +695,11 @@ def _in_degrees(path: Path, records: Sequence, unstated: set, what: str, per_run
         + ",".join(f"{c}=deg" for c in bodies) + then)
 
 
+#: What a refusal naming a forgotten unit adds where the runs' mean twists differ in degrees too.
+_ZEROED_TOO = (", and pass --zero-per-run: in degrees too the runs' mean twists differ, as from sensors zeroed at "
+               "the start of each recording")
+
+
 def _plausible_angles(path: Path, run_ids: Sequence[str], records: Sequence,
                       angles_stated: bool, zero_per_run: bool, notes: list, unstated: set = frozenset(),
                       relative: bool = False) -> list:
@@ -713,8 +718,14 @@ def _plausible_angles(path: Path, run_ids: Sequence[str], records: Sequence,
     amps = [max(float(np.ptp(x)) / 2 for x in tw) for tw in twists]
     worst = int(np.argmax(amps))
     if amps[worst] > MAX_TWIST_RAD and unstated:
-        _in_degrees(path, records, unstated, f"run {run_ids[worst]}: {joint} swings by +-{amps[worst]:.3g} rad, more "
-                                             f"than any joint twists", per_run=zero_per_run)
+        swing = f"run {run_ids[worst]}: {joint} swings by +-{amps[worst]:.3g} rad, more than any joint twists"
+        _in_degrees(path, records, unstated, swing, per_run=zero_per_run)
+        if not zero_per_run:
+            _in_degrees(path, records, unstated, swing, per_run=True, then=_ZEROED_TOO)
+        names = sorted(unstated, key=lambda c: (len(c), c))
+        raise RunsFileError(
+            f"{path}: {swing}, and {', '.join(names)} {'has' if len(names) == 1 else 'have'} no unit stated (read as "
+            f"rad): state every angle's unit in the header ('{names[0]} [deg]') or with --units")
     if amps[worst] > MAX_TWIST_RAD and not angles_stated:
         raise RunsFileError(
             f"{path}: run {run_ids[worst]}: {joint} swings by +-{amps[worst]:.3g} rad, more than any joint "
@@ -739,9 +750,7 @@ def _plausible_angles(path: Path, run_ids: Sequence[str], records: Sequence,
             if unstated:
                 differs = f"{what} differs between runs by {max(means) - min(means):.3g} rad"
                 _in_degrees(path, records, unstated, differs)
-                _in_degrees(path, records, unstated, differs, per_run=True,
-                            then=", and pass --zero-per-run: in degrees too the runs' mean twists differ, as from "
-                                 "sensors zeroed at the start of each recording")
+                _in_degrees(path, records, unstated, differs, per_run=True, then=_ZEROED_TOO)
             raise RunsFileError(
                 f"{path}: {what} differs between runs by {max(means) - min(means):.3g} rad (run "
                 f"{run_ids[lo]}: {means[lo]:.3g} rad, run {run_ids[hi]}: {means[hi]:.3g} rad), "

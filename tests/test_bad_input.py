@@ -844,3 +844,22 @@ def test_a_forgotten_unit_is_named_under_zero_per_run_too(tmp_path):
     # stated, the same file is read, each run centred
     path.write_text(path.read_text().replace("phi1 [deg],phi2", "phi1 [deg],phi2 [deg]", 1))
     assert read_runs(path, zero_per_run=True).records
+
+
+def test_runs_whose_mean_twists_differ_by_a_fifth_of_the_swing_in_degrees_are_zeroed_per_recording(tmp_path):
+    # phi2's unit forgotten; read in degrees, the runs' mean twists differ by 0.2 rad against a
+    # swing of about +-0.6 rad: more than ZERO_SPREAD (0.2) of the swing, so one zero for all
+    # runs does not hold and the refusal names both fixes, not degrees alone. (This file was read,
+    # phi2 as rad and a twist of +-38 rad: its runs' mean drive torques differ, so the twists'
+    # differing means were taken for a preload that changes between runs.)
+    seen = {}
+
+    def edit(first, a, b):
+        k = seen.setdefault(first, len(seen))
+        return math.degrees(a), math.degrees(b + (0.0, 0.2, 0.1, 0.0, 0.2, 0.1)[k % 6])
+
+    path = _bench_file(tmp_path, edit)
+    path.write_text(path.read_text().replace("run,time,torque,phi1,phi2", "run,time,torque,phi1 [deg],phi2", 1))
+    with pytest.raises(RunsFileError) as err:
+        read_runs(path)
+    assert "each run on its own zero" in str(err.value) and "pass --zero-per-run" in str(err.value), err.value
