@@ -556,6 +556,9 @@ class _Problem:
             return periods
         averages, each = self.records(jumps, periods=False), self.records(jumps, periods=True)
         zero = np.zeros(1)
+        jumps_of = [float(t(zero, zero + 1e-12)[0] - t(zero, zero - 1e-12)[0]) for *_, t in places]
+        cols = sorted({c for _, c, _, _ in places})
+        H = self.n_harmonics
         out = []
         for k, (rows, As, Fs, h, e) in enumerate(periods):
             if As.shape[0] < 2:
@@ -564,13 +567,10 @@ class _Problem:
             avg = channel_corrected(averages[k][0], spec)
             pers = [channel_corrected(r, spec) for r in each[k]]
             A = As.copy()
-            cols = sorted({c for _, c, _, _ in places})
             A[:, :, cols] = like.system.A[rows][:, cols]
-            H = self.n_harmonics
-            for at, c, signs, term in places:
-                rate = (lambda r: r.rate(at) - r.rate(at + 1)) if len(signs) == 2 else (lambda r: r.rate(at))
+            for (at, c, signs, _), jump in zip(places, jumps_of):
+                rate = (lambda r: r.relative(at)[1]) if len(signs) == 2 else (lambda r: r.rate(at))
                 shifts = switch_shifts(rate(avg), np.array([rate(r) for r in pers]), 2.0 * math.pi / avg.omega_rad_s)
-                jump = float(term(zero, zero + 1e-12)[0] - term(zero, zero - 1e-12)[0])
                 for eq in np.unique(e):
                     coef = sum(signs[b] * shifts.coefficients(H, jump, m) for b, m in like.bodies[(k, int(eq))]
                                if b in signs)

@@ -245,8 +245,8 @@ def switch_shifts(average_rate: np.ndarray, period_rates: np.ndarray, period_s: 
     if i.size == 0:
         return SwitchShifts(np.zeros(0), np.zeros((d.shape[0], 0)), period_s)
     now, nxt = v[i], v[(i + 1) % M]
-    frac = now / (now - nxt)
-    at = (i + frac) * dt
+    at = _crossing_times(v[None, :], np.zeros(i.size, dtype=int), i, np.array([period_s]))
+    frac = at / dt - i
     dr = (1.0 - frac) * d[:, i] + frac * d[:, (i + 1) % M]  # (P, C)
     chord = (nxt - now) / dt
     left = (v[i] - v[(i - 1) % M]) / dt

@@ -668,11 +668,12 @@ def _drive_swing(r) -> float:
 LOAD_SPREAD = 0.1
 
 
-def _in_degrees(path: Path, records: Sequence, unstated: set, what: str, per_run: bool = False, then: str = "") -> None:
+def _in_degrees(path: Path, records: Sequence, unstated: set, what: str, zero_per_run: bool = False) -> None:
     """Where some angles' units are stated and others' not, and reading the unstated ones in
-    degrees makes every joint's twist plausible (a swing below :data:`MAX_TWIST_RAD`, one mean for
-    all runs unless ``per_run``: each run's mean is taken as its zero), refuse naming the unit
-    forgotten: the fix that applies, not a re-zeroing alone (``then``: what else the fix needs)."""
+    degrees makes every joint's twist swing plausibly (below :data:`MAX_TWIST_RAD`), refuse naming
+    the unit forgotten: the fix that applies, not a re-zeroing alone. Where the runs' mean twists
+    differ in degrees too (by more than :data:`ZERO_SPREAD` of the swing) and each run does not
+    already take its own zero (``zero_per_run``), the refusal names ``--zero-per-run`` as well."""
     bodies = sorted(unstated, key=lambda c: (len(c), c))
     index = {c: (int(c.lstrip("phix")) - 1 if c.lstrip("phix") else 0) for c in bodies}
     alt = []
@@ -682,22 +683,18 @@ def _in_degrees(path: Path, records: Sequence, unstated: set, what: str, per_run
             return
         alt.append([a[j] - a[j + 1] for j in range(len(a) - 1)])
     amps = [max(float(np.ptp(x)) / 2 for x in tw) for tw in alt]
-    for j in range(len(alt[0])):
-        means = [float(np.mean(tw[j])) for tw in alt]
-        if max(amps) > MAX_TWIST_RAD or (not per_run and len(alt) >= 2 and max(means) - min(means) > ZERO_SPREAD * max(amps)):
-            return
-    names = ", ".join(bodies)
+    if max(amps) > MAX_TWIST_RAD:
+        return
+    spread = max(max(m) - min(m) for m in ([float(np.mean(tw[j])) for tw in alt] for j in range(len(alt[0]))))
+    one_zero = not zero_per_run and (len(alt) < 2 or spread <= ZERO_SPREAD * max(amps))
     raise RunsFileError(
-        f"{path}: {what}; {names} {'has' if len(bodies) == 1 else 'have'} no unit stated (read as rad) while the other "
-        f"angles' are stated, and read in degrees every joint's twist is plausible ("
-        f"{'each run on its own zero' if per_run else 'one zero for all runs'}, a swing of "
+        f"{path}: {what}; {', '.join(bodies)} {'has' if len(bodies) == 1 else 'have'} no unit stated (read as rad) while "
+        f"the other angles' are stated, and read in degrees every joint's twist is plausible ("
+        f"{'one zero for all runs' if one_zero else 'each run on its own zero'}, a swing of "
         f"+-{max(amps):.3g} rad): state the unit in the header ('{bodies[0]} [deg]') or with --units "
-        + ",".join(f"{c}=deg" for c in bodies) + then)
-
-
-#: What a refusal naming a forgotten unit adds where the runs' mean twists differ in degrees too.
-_ZEROED_TOO = (", and pass --zero-per-run: in degrees too the runs' mean twists differ, as from sensors zeroed at "
-               "the start of each recording")
+        + ",".join(f"{c}=deg" for c in bodies)
+        + ("" if one_zero or zero_per_run else ", and pass --zero-per-run: in degrees too the runs' mean twists differ, "
+                                               "as from sensors zeroed at the start of each recording"))
 
 
 def _plausible_angles(path: Path, run_ids: Sequence[str], records: Sequence,
@@ -719,13 +716,10 @@ def _plausible_angles(path: Path, run_ids: Sequence[str], records: Sequence,
     worst = int(np.argmax(amps))
     if amps[worst] > MAX_TWIST_RAD and unstated:
         swing = f"run {run_ids[worst]}: {joint} swings by +-{amps[worst]:.3g} rad, more than any joint twists"
-        _in_degrees(path, records, unstated, swing, per_run=zero_per_run)
-        if not zero_per_run:
-            _in_degrees(path, records, unstated, swing, per_run=True, then=_ZEROED_TOO)
+        _in_degrees(path, records, unstated, swing, zero_per_run)
         names = sorted(unstated, key=lambda c: (len(c), c))
-        raise RunsFileError(
-            f"{path}: {swing}, and {', '.join(names)} {'has' if len(names) == 1 else 'have'} no unit stated (read as "
-            f"rad): state every angle's unit in the header ('{names[0]} [deg]') or with --units")
+        raise RunsFileError(f"{path}: {swing}, and {', '.join(names)} without a unit (read as rad): state every "
+                            f"angle's unit in the header ('{names[0]} [deg]') or with --units")
     if amps[worst] > MAX_TWIST_RAD and not angles_stated:
         raise RunsFileError(
             f"{path}: run {run_ids[worst]}: {joint} swings by +-{amps[worst]:.3g} rad, more than any joint "
@@ -748,9 +742,7 @@ def _plausible_angles(path: Path, run_ids: Sequence[str], records: Sequence,
             lo, hi = int(np.argmin(means)), int(np.argmax(means))
             what = "the relative angle's mean" if len(twists[0]) == 1 else f"joint {j + 1}'s mean twist"
             if unstated:
-                differs = f"{what} differs between runs by {max(means) - min(means):.3g} rad"
-                _in_degrees(path, records, unstated, differs)
-                _in_degrees(path, records, unstated, differs, per_run=True, then=_ZEROED_TOO)
+                _in_degrees(path, records, unstated, f"{what} differs between runs by {max(means) - min(means):.3g} rad")
             raise RunsFileError(
                 f"{path}: {what} differs between runs by {max(means) - min(means):.3g} rad (run "
                 f"{run_ids[lo]}: {means[lo]:.3g} rad, run {run_ids[hi]}: {means[hi]:.3g} rad), "

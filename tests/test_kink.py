@@ -79,7 +79,7 @@ def _sign_coefficients(v: np.ndarray, n_harmonics: int) -> np.ndarray:
     i = np.flatnonzero(up != np.roll(up, -1))
     t = (i + v[i] / (v[i] - v[(i + 1) % M])) / M  # in periods
     h = np.arange(1, n_harmonics + 1)
-    # sign(v) = s0 + sum of steps: d/dt sign = sum_c 2 s_c delta(t - t_c); C_h = (that's C_h) / (i h w)
+    # d/dt sign(v) = sum_c 2 s_c delta(t - t_c) (s_c the crossing's direction): C_h of sign is that over i h w
     s = np.sign(v[(i + 1) % M] - v[i])
     dC = (2.0 * s[:, None] * 2.0 * np.exp(-2j * np.pi * np.outer(t, h))).sum(axis=0)  # T * C_h of the derivative
     return dC / (2j * np.pi * h)
