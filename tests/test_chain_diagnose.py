@@ -1371,12 +1371,13 @@ def test_a_joints_mean_torque_carries_its_laws_error_and_its_zeros_own():
     assert math.isnan(mean_joint_torque(zeroed, [rec], 1, with_error=False)[1])
 
 
-def test_a_joints_dry_friction_moves_its_switches_in_both_its_bodies_equations():
+@pytest.mark.parametrize("periods", [2, 4])
+def test_a_joints_dry_friction_moves_its_switches_in_both_its_bodies_equations(periods):
     # _Problem.switched at a joint: the shift of its twist rate's switches (identify.kink.
     # switch_shifts, a column that jumps by 2 at zero rate) enters body 2's equation with + and
     # body 3's with - (joint 2 of the 4-body linear train), and no other equation. Exact: each
     # period's departure from the average's column is the harmonic rows of the shifts'
-    # coefficients (round-off 1e-12 of the column).
+    # coefficients (round-off 1e-12 of the column), from two periods a run on.
     import numpy as np
 
     from jointrig.identify.balance import harmonic_rows
@@ -1384,7 +1385,7 @@ def test_a_joints_dry_friction_moves_its_switches_in_both_its_bodies_equations()
     from jointrig.identify.chain_diagnose import Candidate
     from jointrig.identify.kink import switch_shifts
 
-    problem, (nominal, _) = _linear_problem(periods=4, noise=1e-2)
+    problem, (nominal, _) = _linear_problem(periods=periods, noise=1e-2)
     spec = Candidate(by_name("coulomb_friction"), Place("joint", 2)).extend(nominal.spec, 0.0)
     banded = problem.system(spec)
     own = list(problem.period_systems(spec, banded))
