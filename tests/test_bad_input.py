@@ -96,6 +96,10 @@ LOADER = {
                       "does not repeat at that period"),
     "omega varies in a run": ("run,time,torque,phi1,phi2,omega\n" + "\n".join(
         f"{r},{60 + (i > 100)}" for i, r in enumerate(_good_rows())) + "\n", "one positive value per run"),
+    # a run cut to its first row (a logger stopped at once) with an omega column: refused as a run
+    # (its angles cannot vary), not a crash on the omega column's check of its one value
+    "one-row run with omega": ("run,time,torque,phi1,phi2,omega\n" + "\n".join(
+        [f"{r},{W}" for r in _good_rows()] + [f"{_good_rows(run='1')[0]},{W}"]) + "\n", "run 1"),
     "omega negative": ("run,time,torque,phi1,phi2,omega\n" + "\n".join(f"{r},-60" for r in _good_rows()) + "\n",
                        "one positive value per run"),
     "slipping encoder": (good_csv(n_periods=4, phi1_extra=lambda t: 0.2 * t), "drifts"),

@@ -151,6 +151,13 @@ def test_the_residuals_axis_turns_modulo_half_a_turn():
     a = _run("a", 20.0, 1.0, lambda th, p, v: 50.0 * np.cos(th))
     b = _run("b", 40.0, 1.0, lambda th, p, v: 50.0 * np.cos(th - math.radians(150)))
     assert misfit_character([a, b], 10).phase_span_deg == pytest.approx(30.0, rel=1e-9)
+    # across the +-180 deg cut: phases +100 and -100 deg differ by 200 deg, an axis turned by 20 deg
+    # (round-off of the phases: 1e-9 relative)
+    a = _run("a", 20.0, 1.0, lambda th, p, v: 50.0 * np.cos(th + math.radians(100)))
+    b = _run("b", 40.0, 1.0, lambda th, p, v: 50.0 * np.cos(th - math.radians(100)))
+    c = misfit_character([a, b], 10)
+    assert c.phase_deg == pytest.approx((100.0, -100.0), rel=1e-9)
+    assert c.phase_span_deg == pytest.approx(20.0, rel=1e-9)
 
 
 def test_what_is_not_asked_for():

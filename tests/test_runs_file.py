@@ -443,6 +443,23 @@ def test_estimate_fundamental_to_round_off_and_its_standard_error_is_the_crlb():
     assert abs(float(np.mean(est)) - w) < 3 * crlb / math.sqrt(40) * 1.3
 
 
+def test_a_record_with_no_residual_degree_of_freedom_still_has_a_fundamental():
+    from jointrig.identify.periods import estimate_fundamental
+
+    # Four samples of a tone (0.75 of a period at 5.3 samples a period): harmonics 0..1 and omega
+    # are 4 parameters, no degree of freedom is left for the noise. The estimate is still returned
+    # (omega to round-off: 3e-15 measured, 1e-12 asked), its degrees of freedom counted as 1 (not
+    # 0: no division by zero) and its noise variance the round-off floor (1e-9 of the RMS, squared).
+    w = 7.0
+    t = 2.0 + np.arange(4) * (2 * math.pi / w / 5.3)
+    x = np.cos(w * t + 0.4)
+    f = estimate_fundamental(t, x)
+    assert (f.harmonics, f.dof) == (1, 1)
+    assert f.omega_rad_s == pytest.approx(w, rel=1e-12)
+    assert f.noise_var == pytest.approx((1e-9 * float(np.std(x))) ** 2, rel=1e-6)
+    assert math.isfinite(f.std_error_rad_s) and f.std_error_rad_s < 1e-6 * w
+
+
 def test_periodic_rss_is_the_residual_of_harmonics_only():
     from jointrig.identify.periods import periodic_rss
 

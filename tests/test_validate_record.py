@@ -115,6 +115,27 @@ def test_a_noise_free_transient_is_cut_above_the_floor_on_the_harmonics_compared
     t8 = np.arange(P * 8) / 8
     x8 = np.sin(2 * np.pi * t8) + 1e-2 * (t8 < 1) * np.cos(2 * np.pi * 3 * t8 + 0.3)
     assert transient_periods([x8], P) == 1
+    # the count is the documented one, harmonics 0..10 (TRANSIENT_FACTOR's false alarms of about
+    # 1e-8 are reckoned over 2 x 11 coefficients a channel): harmonic 11 alone is never a transient
+    assert transient_periods([steady + 1e-3 * swing * first * np.cos(2 * np.pi * 11 * t)], P) == 0
+
+
+def test_a_leading_period_is_compared_with_the_last_period_the_record_settles_to():
+    # identify.periods.transient_periods: the last period is the steady state a transient departs
+    # from, the last two periods' difference d (here 1e-3 of the swing on the fundamental) its
+    # noise scale. Three periods: a first period 4.5 d from the last (3.5 d from the middle one) is
+    # cut; one 3.5 d from the last (4.5 d from the middle one) is not. The margins, 0.5 d either
+    # side of TRANSIENT_FACTOR = 4, are far above round-off (the coefficients are exact to ~1e-16).
+    from jointrig.identify.periods import TRANSIENT_FACTOR, transient_periods
+
+    P, n = 3, 64
+    t = np.arange(P * n) / n  # in periods
+    steady = np.sin(2 * np.pi * t) + 0.3 * np.sin(6 * np.pi * t)
+    d = 1e-3 * float(np.ptp(steady)) * np.sin(2 * np.pi * t)
+    first, last = (t < 1).astype(float), (t >= 2).astype(float)
+    assert TRANSIENT_FACTOR == 4.0
+    assert transient_periods([steady + d * last - 3.5 * d * first], P) == 1  # 4.5 d from the last
+    assert transient_periods([steady + d * last + 4.5 * d * first], P) == 0  # 3.5 d from the last
 
 
 def test_a_record_from_rest_takes_its_fundamental_from_after_its_first_period():
