@@ -277,23 +277,19 @@ def law_rows(terms: Sequence[Term], angles: tuple, rates: tuple, fine_phi, fine_
 #: Gauss-Legendre points on each side of a rate's zero within each half of a sample cell, at
 #: which a column that jumps at zero rate is averaged (:func:`_switch_cells_averaged`) ...
 SWITCH_CELL_POINTS = 8
-#: ... and, for a peak over a rate (a Stribeck law's ``velocity_rad_s``), at every sample whose
-#: rate is within this many of those of rest: past it the peak is below exp(-25) of itself, so
-#: the column does not step where the set of samples averaged changes.
-SWITCH_CELL_PEAK = 5.0
-#: A peak wider than this many of the rate's largest change per sample is left on its samples:
-#: a cell's mean differs from its sample there by under 2e-5 of the peak.
-SWITCH_CELL_WIDE = 50.0
+#: ... at every sample where it changes by more than this share of its largest value to the
+#: next: averaged there, the column is continuous in the rate to that share (a peak's cells
+#: averaged and its tails' not would step as the set of samples changes).
+SWITCH_CELL_FLAT = 1e-9
 _NODES, _WEIGHTS = np.polynomial.legendre.leggauss(SWITCH_CELL_POINTS)
 _CELL_NODES = (0.5 * (_NODES + 1.0), 0.5 * _WEIGHTS)  # Gauss-Legendre on [0, 1]
 
 
 def _switch_cells_averaged(term: Term, phi: np.ndarray, rate: np.ndarray, sig: np.ndarray) -> np.ndarray:
     """``sig`` (the term on the samples of ``rate``, periodic along its last axis) with each sample
-    beside a change of sign, or on a peak (:data:`SWITCH_CELL_PEAK`), replaced by its mean over
-    its cell (+- half a sample, the rate linear between samples): where the rate crosses zero
-    in the cell, each half split there, :data:`SWITCH_CELL_POINTS` Gauss-Legendre points on each
-    piece; elsewhere Simpson's rule on the sample and the half-way rates. On samples
+    where the term changes to a neighbour's (:data:`SWITCH_CELL_FLAT`) replaced by its mean over
+    its cell (+- half a sample, the rate linear between samples; each half split where the rate
+    crosses zero, :data:`SWITCH_CELL_POINTS` Gauss-Legendre points on each piece). On samples
     alone a jump at zero rate moves only by whole samples as the crossing moves: its harmonics
     then step with it (a Stribeck excess fitted on a 1 Hz run of 4096 samples moved by 5 N per
     sample of a reversal, a third of itself), and a fit that places the crossing by its own
@@ -301,14 +297,11 @@ def _switch_cells_averaged(term: Term, phi: np.ndarray, rate: np.ndarray, sig: n
     the crossing continuously; it differs from the samples' Fourier coefficients below the band
     by ``1 - sinc(h / M)``, under 1e-4 at harmonic 20 of 4096 samples."""
     r = np.asarray(rate, dtype=float)
-    # the two samples beside each change of sign (cyclic), and a peak's (a Stribeck law's, over
-    # its rate) wherever it is not yet flat: within SWITCH_CELL_PEAK of its rates of rest
-    up = r > 0
-    flips = up != np.concatenate((up[..., 1:], up[..., :1]), axis=-1)
-    cells = flips | np.concatenate((flips[..., -1:], flips[..., :-1]), axis=-1)
-    width = getattr(term, "velocity_rad_s", None)
-    if width is not None and width < SWITCH_CELL_WIDE * float(np.abs(np.diff(r, axis=-1)).max(initial=0.0)):
-        cells |= np.abs(r) < SWITCH_CELL_PEAK * width
+    f = np.broadcast_to(np.asarray(sig, dtype=float), r.shape)
+    # every sample whose term differs from a neighbour's: a jump's two samples, and a peak's
+    # (a Stribeck law's) wherever it is not yet flat to SWITCH_CELL_FLAT of the column
+    varies = np.abs(np.roll(f, -1, axis=-1) - f) > SWITCH_CELL_FLAT * (float(np.max(np.abs(f))) if f.size else 0.0)
+    cells = varies | np.roll(varies, 1, axis=-1)
     if not cells.any():
         return sig
     M = r.shape[-1]
@@ -316,20 +309,9 @@ def _switch_cells_averaged(term: Term, phi: np.ndarray, rate: np.ndarray, sig: n
     lead, k = np.nonzero(cells.reshape(-1, M))
     here = flat[lead, k][:, None]
     ph = np.broadcast_to(np.asarray(phi, dtype=float), r.shape).reshape(-1, M)[lead, k][:, None]
-    sides = (flat[lead, (k - 1) % M][:, None], flat[lead, (k + 1) % M][:, None])
-    halfway = np.hstack([0.5 * (here + other) for other in sides])
-    switch = np.any(here * halfway < 0, axis=1)  # the rate crosses zero within the cell
-    out = np.array(sig, dtype=float).reshape(-1, M)
-    # a cell where the term only bends: Simpson's rule on its sample and the half-way rates
-    smooth = ~switch
-    ends = np.asarray(term(ph[smooth], halfway[smooth]), dtype=float)
-    out[lead[smooth], k[smooth]] = (4.0 * out[lead[smooth], k[smooth]] + np.broadcast_to(ends, halfway[smooth].shape).sum(
-        axis=1)) / 6.0
-    # a cell where it switches: each half split where the rate crosses zero, Gauss-Legendre on each piece
-    here, ph = here[switch], ph[switch]
     node, weight = _CELL_NODES
-    total = np.zeros(here.shape[0])
-    for other in (sides[0][switch], sides[1][switch]):
+    total = np.zeros(k.size)
+    for other in (flat[lead, (k - 1) % M][:, None], flat[lead, (k + 1) % M][:, None]):
         # the half cell from the sample (u = 0) halfway to its neighbour (u = 1/2): rate here + u (other - here)
         with np.errstate(divide="ignore", invalid="ignore"):
             zero = np.where(here * (here + 0.5 * (other - here)) < 0, -here / (other - here), 0.5)  # u where it crosses
@@ -339,7 +321,8 @@ def _switch_cells_averaged(term: Term, phi: np.ndarray, rate: np.ndarray, sig: n
             v = here + u * (other - here)
             val = np.broadcast_to(np.asarray(term(ph, v), dtype=float), v.shape)
             total += (b - a)[:, 0] * (val @ weight)
-    out[lead[switch], k[switch]] = total  # the two halves' integrals over a cell of length 1
+    out = np.array(sig, dtype=float).reshape(-1, M)
+    out[lead, k] = total  # the two halves' integrals over a cell of length 1
     return out.reshape(np.shape(sig))
 
 
