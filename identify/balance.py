@@ -281,8 +281,6 @@ SWITCH_CELL_POINTS = 8
 #: next: averaged there, the column is continuous in the rate to that share (a peak's cells
 #: averaged and its tails' not would step as the set of samples changes).
 SWITCH_CELL_FLAT = 1e-9
-_NODES, _WEIGHTS = np.polynomial.legendre.leggauss(SWITCH_CELL_POINTS)
-_CELL_NODES = (0.5 * (_NODES + 1.0), 0.5 * _WEIGHTS)  # Gauss-Legendre on [0, 1]
 
 
 def _switch_cells_averaged(term: Term, phi: np.ndarray, rate: np.ndarray, sig: np.ndarray) -> np.ndarray:
@@ -309,12 +307,14 @@ def _switch_cells_averaged(term: Term, phi: np.ndarray, rate: np.ndarray, sig: n
     lead, k = np.nonzero(cells.reshape(-1, M))
     here = flat[lead, k][:, None]
     ph = np.broadcast_to(np.asarray(phi, dtype=float), r.shape).reshape(-1, M)[lead, k][:, None]
-    node, weight = _CELL_NODES
+    node, weight = np.polynomial.legendre.leggauss(SWITCH_CELL_POINTS)
+    node, weight = 0.5 * (node + 1.0), 0.5 * weight  # on [0, 1]
     total = np.zeros(k.size)
     for other in (flat[lead, (k - 1) % M][:, None], flat[lead, (k + 1) % M][:, None]):
         # the half cell from the sample (u = 0) halfway to its neighbour (u = 1/2): rate here + u (other - here)
+        end = 0.5 * (other - here)
         with np.errstate(divide="ignore", invalid="ignore"):
-            zero = np.where(here * (here + 0.5 * (other - here)) < 0, -here / (other - here), 0.5)  # u where it crosses
+            zero = np.where(here * (here + end) < 0, -here / (other - here), 0.5)  # u where it crosses
         zero = np.clip(np.nan_to_num(zero, nan=0.5), 0.0, 0.5)
         for a, b in ((np.zeros_like(zero), zero), (zero, np.full_like(zero, 0.5))):
             u = a + (b - a) * node
