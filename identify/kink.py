@@ -3,11 +3,9 @@
 Dry friction makes the acceleration jump at every rate reversal, so the rate has kinks whose
 harmonics lie above the band a harmonic balance keeps: the band-limited rate crosses zero late
 and shifts every harmonic of the friction torque. :func:`kink_corrected_rate` adds the kinks'
-out-of-band part back from the crossing times and the jump (two passes converge), and a
-Stribeck peak's own jump where the peak is not crossed in a time short against a harmonic's
-period (:func:`peak_factor`; four passes); the diagnosis (:mod:`identify.chain_diagnose`)
-solves for the jumps its fit implies until they settle to :data:`KINK_RTOL`. Pure functions on
-arrays.
+out-of-band part back from the crossing times and the jump (two passes converge); the
+diagnosis (:mod:`identify.chain_diagnose`) refits with the jump its fit implies until the jump
+settles to :data:`KINK_RTOL`. Pure functions on arrays.
 """
 
 from __future__ import annotations
