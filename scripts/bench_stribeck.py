@@ -12,16 +12,14 @@ passes the peak in 1-4 ms at a reversal.
 
 - Default: the scipy bench writes the runs as a DAQ does (10 kHz, white noise ``--db`` below
   each channel's RMS, the encoder's own zero); ``jointrig.diagnose`` reads them. One row per
-  parameter: fitted, its standard error, the truth and z. About 3 min on 2 cores.
+  parameter: fitted, its standard error, the truth and z. About 4 min on 2 cores.
 - ``--reference``: no diagnosis. The fitted runs' exact steady states (the scipy bench on 16
   times the diagnosis's samples) balanced at harmonics 1..20 with columns of mass, drag, dry
   friction and a Stribeck peak over a grid of Stribeck speeds, noise-free, the friction columns
   taken along (a) the exact rate, (b) the exact rate at the diagnosis's 4096 samples per period,
   (c) the rate the diagnosis builds: harmonics 1..20 of the position, the dry friction's kinks
-  and the peak's restored at the bench's friction (``identify.kink``); the friction's columns
-  averaged over their switch cells as the balance does (``identify.balance.law_rows``). What
-  harmonics 1..20 identify when the rate is right, and what the band-limited rate costs. About
-  10 s.
+  restored (``identify.kink``). What harmonics 1..20 identify when the rate is right, and what
+  the band-limited rate costs. About 10 s.
 """
 
 from __future__ import annotations
@@ -72,7 +70,6 @@ def diagnosis(db: float, seed: int) -> int:
 
 
 def reference() -> int:
-    from jointrig.identify.balance import law_rows
     from jointrig.identify.harmonics import fourier_coefficients, synthesize
     from jointrig.identify.kink import FINE_SAMPLES, kink_corrected_rate
     from jointrig.vocab.law import Coulomb, Stribeck
@@ -88,20 +85,17 @@ def reference() -> int:
         states, _, _ = _simulate(CARRIAGE, w, F0, te, y, mode, t)
         x = synthesize(fourier_coefficients(states[:, 0], 1, H), FINE_SAMPLES)  # band-limited, as the diagnosis keeps it
         runs.append((w, states[:, 1], F0 * np.cos(w * te), x))
-    # the acceleration's jumps at a reversal, as the diagnosis restores them: the sliding friction's,
-    # and the peak's over its speed (the trial's)
-    jump, peak = 2.0 * CARRIAGE.Fc / CARRIAGE.m, 2.0 * (CARRIAGE.Fs - CARRIAGE.Fc) / CARRIAGE.m
+    jump = 2.0 * CARRIAGE.Fs / CARRIAGE.m  # the acceleration's jump at a reversal, as the diagnosis restores it
 
-    rates = {"exact rate, fine grid": lambda w, v, x, vs: v,
-             f"exact rate, {FINE_SAMPLES} samples": lambda w, v, x, vs: v[:: v.size // FINE_SAMPLES],
-             "band 1..20, kinks restored": lambda w, v, x, vs: kink_corrected_rate(x, w, H, jump, peaks=((peak, vs),))}
+    rates = {"exact rate, fine grid": lambda w, v, x: v,
+             f"exact rate, {FINE_SAMPLES} samples": lambda w, v, x: v[:: v.size // FINE_SAMPLES],
+             "band 1..20, kinks restored": lambda w, v, x: kink_corrected_rate(x, w, H, jump)}
 
     def fit(rate_of, vs):
         rows, rhs = [], []
         for w, v, force, x in runs:
-            r = rate_of(w, v, x, vs)
-            z = np.zeros_like(r)  # the columns as the balance takes them (identify.balance.law_rows)
-            c = [law_rows((law,), (z,), (r,), lambda z=z: z, lambda r=r: r, 1, H, 1)[0][1:] for law in (Coulomb(), Stribeck(vs))]
+            r = rate_of(w, v, x)
+            c = [fourier_coefficients(law(None, r), 1, H)[1:] for law in (Coulomb(), Stribeck(vs))]
             acc, rate, drive = (fourier_coefficients(q, 1, H)[1:] for q in (v, v, force))
             A = np.column_stack([1j * w * np.arange(1, H + 1) * acc, rate, c[0], c[1]])
             rows.append(np.vstack([A.real, A.imag]))
