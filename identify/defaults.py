@@ -19,13 +19,11 @@ REPLAY_MAX_STEP_S = 5e-5
 #: measure what the balance misses (the fidelity, studies.chain_validate.rig_replay): at the
 #: replay step the rig's own error at a stick-slip kink (MuJoCo's friction constraint on the step
 #: grid) outweighs the balance's misfit it is meant to measure. On noise-free records of the
-#: paper's joint with 20 N m of dry friction (tests/bench_sim.py, 4 runs) the rig's replay at
-#: 5e-5 s reads 4.2e-5..1.1e-4 of each run's balanced torque, at a quarter of it 4.1e-6..4.0e-5,
-#: at a sixteenth 3.8e-6..2.5e-5, for 1.6, 6.3 and 25 s of replays. A quarter: most of the rig's
-#: error gone, for about 5 s more a pass on the README's example. The balance itself misses less
-#: on the records: 9.5e-6 overall with the friction's column a sign on the samples, 1.5e-6 since
-#: its switch cells are averaged, so at a quarter step the fidelity is the rig's error, 13 times
-#: the balance's (tests/test_calibration.py).
+#: paper's joint with 20 N m of dry friction (tests/bench_sim.py, 4 runs) the balance misses
+#: 1.3e-6..2.0e-5 of each run's balanced torque; the rig's replay at 5e-5 s reads 4.2e-5..1.1e-4
+#: (4 to 30 times that), at a quarter of it 4.1e-6..4.0e-5, at a sixteenth 3.8e-6..2.5e-5, for
+#: 1.6, 6.3 and 25 s of replays (7.2 and 2.5 times the records' misfit over all rows at the first two).
+#: A quarter: most of the rig's error gone, for about 5 s more a pass on the README's example.
 FIDELITY_STEP_SHARE = 0.25
 
 #: The most replay steps one period may take (periods up to 10 s at REPLAY_MAX_STEP_S; a slow

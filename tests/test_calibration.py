@@ -302,16 +302,12 @@ def test_the_measured_fidelity_is_the_balances_misfit_not_the_rigs(tmp_path, mon
     # What the fidelity stands for is what the balance misses on records of the fitted model. On
     # noise-free records of the independent bench (the paper's joint with 20 N m of dry friction,
     # event-driven stick-slip) that is measured directly: the records themselves balanced at the
-    # fit. Deterministic (no noise, a fixed seed):
-    # - the balance misses 1.5e-6 of the balanced torque overall (bound 3e-6; 9.5e-6 while a dry
-    #   friction's column was a sign on the samples, before its switch cells were averaged);
-    # - the rig's replay of the same fit, balanced alike, reads its own error at the kinks too:
-    #   6.9e-5 at the validation's step (FIDELITY_STEP_SHARE 1), 2.0e-5 at the fidelity's, which
-    #   must cut it by half at least (measured 3.5 times);
-    # - at the fidelity's step the replay reads 13 times the records' misfit (2.5 before the cells
-    #   were averaged; bound 30): the measured fidelity is then the rig's error, an upper bound on
-    #   the balance's, which widens the errors where it outweighs the noise (80 dB;
-    #   docs/noisy-measurements.md).
+    # fit. The rig's replay of the same fit, balanced alike, must read about as much, not its own
+    # error at the kinks: at the validation's step (FIDELITY_STEP_SHARE 1) it read 7.2 times the
+    # records' misfit overall (4-30 times run by run); at the fidelity's step it must stay within
+    # 3 times (measured 2.5; deterministic: no noise, a fixed seed). A misfit 3 times too large is
+    # a variance 9 times too large: standard errors up to 3 times too wide where it outweighs
+    # the noise (80 dB).
     from jointrig.identify import defaults
     from jointrig.identify.chain_diagnose import balance_fidelity, diagnose_chain, prepare_chain_runs
     from jointrig.identify.zeros import rezeroed, sensor_zeros
@@ -336,7 +332,7 @@ def test_the_measured_fidelity_is_the_balances_misfit_not_the_rigs(tmp_path, mon
     fine = on_replay()
     monkeypatch.setattr(chain_validate, "FIDELITY_STEP_SHARE", 1.0)
     coarse = on_replay()
-    assert 0 < on_records < 3e-6 and fine < coarse / 2 and fine < 30 * on_records, (on_records, fine, coarse)
+    assert 0 < on_records and fine < 3 * on_records < coarse, (on_records, fine, coarse)
     assert defaults.FIDELITY_STEP_SHARE < 1
 
 
