@@ -265,65 +265,11 @@ def law_rows(terms: Sequence[Term], angles: tuple, rates: tuple, fine_phi, fine_
             phi = memo_arrays(angles, ("fine_phi", oversample) + tag, fine_phi)
             rate = np.zeros_like(phi) if angle_only else memo_arrays(motion, ("fine_rate", oversample), fine_rate)
             sig = np.broadcast_to(np.asarray(term(phi, rate), dtype=float), phi.shape)
-            if not angle_only and term.dry_friction(1.0) is not None:
-                sig = _switch_cells_averaged(term, phi, rate, sig)
             return fourier_coefficients(sig if weight is None else sig * weight, n_periods, n_harmonics)
         return memo_arrays(angles if angle_only else motion, ("term", term, n_periods, n_harmonics, oversample) + tag,
                            compute)
 
     return np.vstack([row(t) for t in terms])
-
-
-#: Gauss-Legendre points on each side of a rate's zero within each half of a sample cell, at
-#: which a column that jumps at zero rate is averaged (:func:`_switch_cells_averaged`) ...
-SWITCH_CELL_POINTS = 8
-#: ... at every sample where it changes by more than this share of its largest value to the
-#: next: averaged there, the column is continuous in the rate to that share (a peak's cells
-#: averaged and its tails' not would step as the set of samples changes).
-SWITCH_CELL_FLAT = 1e-9
-
-
-def _switch_cells_averaged(term: Term, phi: np.ndarray, rate: np.ndarray, sig: np.ndarray) -> np.ndarray:
-    """``sig`` (the term on the samples of ``rate``, periodic along its last axis) with each sample
-    where the term changes to a neighbour's (:data:`SWITCH_CELL_FLAT`) replaced by its mean over
-    its cell (+- half a sample, the rate linear between samples; each half split where the rate
-    crosses zero, :data:`SWITCH_CELL_POINTS` Gauss-Legendre points on each piece). On samples
-    alone a jump at zero rate moves only by whole samples as the crossing moves: its harmonics
-    then step with it (a Stribeck excess fitted on a 1 Hz run of 4096 samples moved by 5 N per
-    sample of a reversal, a third of itself), and a fit that places the crossing by its own
-    friction (the kinks, :mod:`identify.kink`) found no fixed point. The cell's mean moves with
-    the crossing continuously; it differs from the samples' Fourier coefficients below the band
-    by ``1 - sinc(h / M)``, under 1e-4 at harmonic 20 of 4096 samples."""
-    r = np.asarray(rate, dtype=float)
-    f = np.broadcast_to(np.asarray(sig, dtype=float), r.shape)
-    # every sample whose term differs from a neighbour's: a jump's two samples, and a peak's
-    # (a Stribeck law's) wherever it is not yet flat to SWITCH_CELL_FLAT of the column
-    varies = np.abs(np.roll(f, -1, axis=-1) - f) > SWITCH_CELL_FLAT * (float(np.max(np.abs(f))) if f.size else 0.0)
-    cells = varies | np.roll(varies, 1, axis=-1)
-    if not cells.any():
-        return sig
-    M = r.shape[-1]
-    flat = r.reshape(-1, M)
-    lead, k = np.nonzero(cells.reshape(-1, M))
-    here = flat[lead, k][:, None]
-    ph = np.broadcast_to(np.asarray(phi, dtype=float), r.shape).reshape(-1, M)[lead, k][:, None]
-    node, weight = np.polynomial.legendre.leggauss(SWITCH_CELL_POINTS)
-    node, weight = 0.5 * (node + 1.0), 0.5 * weight  # on [0, 1]
-    total = np.zeros(k.size)
-    for other in (flat[lead, (k - 1) % M][:, None], flat[lead, (k + 1) % M][:, None]):
-        # the half cell from the sample (u = 0) halfway to its neighbour (u = 1/2): rate here + u (other - here)
-        end = 0.5 * (other - here)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            zero = np.where(here * (here + end) < 0, -here / (other - here), 0.5)  # u where it crosses
-        zero = np.clip(np.nan_to_num(zero, nan=0.5), 0.0, 0.5)
-        for a, b in ((np.zeros_like(zero), zero), (zero, np.full_like(zero, 0.5))):
-            u = a + (b - a) * node
-            v = here + u * (other - here)
-            val = np.broadcast_to(np.asarray(term(ph, v), dtype=float), v.shape)
-            total += (b - a)[:, 0] * (val @ weight)
-    out = np.array(sig, dtype=float).reshape(-1, M)
-    out[lead, k] = total  # the two halves' integrals over a cell of length 1
-    return out.reshape(np.shape(sig))
 
 
 def _record_term_coeffs(rec: SteadyStateRecord, terms: Sequence[Term], n_harmonics: int,

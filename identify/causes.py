@@ -377,7 +377,7 @@ CATALOGUE: tuple[Cause, ...] = (
           _with_stribeck, "stribeck_torque_Nm", 2,
           bounds=lambda runs: (0.02 * min(rate_amplitudes(runs)), 2.0 * max(rate_amplitudes(runs))), log_scale=True,
           profiled="stribeck_velocity_rad_s", reduces_to="coulomb_friction", places=_JOINT_GROUND,
-          degenerate=_stribeck_degenerate, plain="dry friction with a Stribeck peak", bounds_read_smallest=True),
+          degenerate=_stribeck_degenerate, plain="dry friction with a Stribeck peak"),
     Cause("quadratic_damping", "damping torque proportional to the rate squared",
           lambda s, h: _with_terms(s, (QuadraticDamping(),)), "quadratic_damping_Nms2_per_rad2", 1,
           places=_JOINT_GROUND, plain="quadratic damping"),

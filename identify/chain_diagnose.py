@@ -53,7 +53,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from jointrig.vocab.law import Constant, JointLaw, Power, Stribeck, Viscous, law_parameters
+from jointrig.vocab.law import Constant, JointLaw, Power, Viscous, law_parameters
 from jointrig.vocab.params import ANGLE2_DELAY, ANGLE2_GAIN, DRIVE_DELAY, HINGE, Coordinate, channel_name
 from .chain import (ChainIdentifiabilityError, ChainPlant, ChainRecord, ChainSpec, bearing_name, chain_system, channel_corrected,
                     masked_noise_covariance, noise_cross_covariance,
@@ -279,38 +279,13 @@ class Jumps:
 
     sizes: tuple = ()
     shares: tuple = ()
-    #: per body then joint: ``(jump, rate)`` of each Stribeck peak (:func:`identify.kink.peak_factor`);
-    #: ``sizes`` then hold the jump that stays past the peaks
-    peaks: tuple = ()
 
     def __bool__(self) -> bool:
-        return any(s > 0 for s in self.sizes) or any(d != 0 for p in self.peaks for d, _ in p)
-
-    def flat(self) -> list:
-        """Every jump: ``sizes``, then each peak's."""
-        return list(self.sizes) + [d for p in self.peaks for d, _ in p]
-
-    def with_flat(self, values) -> "Jumps":
-        """These jumps with :meth:`flat`'s values replaced by ``values``."""
-        values = [float(v) for v in values]
-        n = len(self.sizes)
-        peaks, k = [], n
-        for p in self.peaks:
-            peaks.append(tuple((values[k + q], v) for q, (_, v) in enumerate(p)))
-            k += len(p)
-        return replace(self, sizes=tuple(values[:n]), peaks=tuple(peaks))
+        return any(s > 0 for s in self.sizes)
 
     def settled(self, other: Optional["Jumps"]) -> bool:
         """Whether every jump is within ``KINK_RTOL`` of ``other``'s."""
-        return other is not None and all(abs(a - b) <= KINK_RTOL * abs(a) for a, b in zip(self.flat(), other.flat()))
-
-
-#: The most refits :meth:`_Problem.solve` makes to settle the jumps that restore a dry friction's
-#: kinks.
-KINK_REFITS = 8
-#: The relative step of the differences that give a Stribeck peak's jumps their Jacobian: wide
-#: enough to step over the sample grid's roughness of the crossings' interpolation.
-KINK_DIFFERENCE = 1e-2
+        return other is not None and all(abs(a - b) <= KINK_RTOL * a for a, b in zip(self.sizes, other.sizes))
 
 
 #: The least misfit a measured fidelity allows a row, relative to its run's largest balanced
@@ -475,27 +450,18 @@ class _Problem:
             return Jumps((0.0,) * (2 * N - 1))
 
         def static(terms, prefix) -> float:
-            return sum(t.dry_friction(values[prefix + t.name])[0] for t in terms
-                       if jumps_at_rest((t,)) and not isinstance(t, Stribeck))
-
-        def peaks(terms, prefix, inv) -> tuple:
-            # signed: a fit may read an excess below 0 on the way to its fixed point
-            return tuple((2.0 * values[prefix + t.name] * inv, t.velocity_rad_s) for t in terms
-                         if isinstance(t, Stribeck))
+            return sum(t.dry_friction(values[prefix + t.name])[0] for t in terms if jumps_at_rest((t,)))
 
         inverse = [1.0 / m if (m := values.get(inertia_name(i + 1), 0.0)) > 0 else 0.0 for i in range(N)]
         out = [max(2.0 * static(terms, ground_prefix(i + 1)) * inverse[i], 0.0) if sticks_to_ground(spec, i) else 0.0
                for i, terms in enumerate(spec.grounds)]
         out += [max(2.0 * static(terms, joint_prefix(j + 1)) * (inverse[j] + inverse[j + 1]), 0.0)
                 for j, terms in enumerate(spec.joints)]
-        pk = [peaks(terms, ground_prefix(i + 1), inverse[i]) if sticks_to_ground(spec, i) else ()
-              for i, terms in enumerate(spec.grounds)]
-        pk += [peaks(terms, joint_prefix(j + 1), inverse[j] + inverse[j + 1]) for j, terms in enumerate(spec.joints)]
         shares = tuple(inverse[j] / (inverse[j] + inverse[j + 1]) if inverse[j] + inverse[j + 1] > 0 else 0.5
                        for j in range(N - 1))
-        return Jumps(tuple(out), shares, tuple(pk))
+        return Jumps(tuple(out), shares)
 
-    def _kinked(self, k: int, i: int, jump: float, periods: bool, peaks: tuple = ()) -> tuple[np.ndarray, np.ndarray]:
+    def _kinked(self, k: int, i: int, jump: float, periods: bool) -> tuple[np.ndarray, np.ndarray]:
         """Run k's rate of body i (``i < N``) or twist rate of joint ``i - N`` (0-based), of its
         average ``(1, M)`` or of each period ``(P, M)``, with the kinks of a jump ``jump`` at its
         reversals restored, and the band-limited rate it corrects
@@ -512,8 +478,7 @@ class _Problem:
             x = np.vstack([angle(p) for p in run.periods] if periods else [angle(run.average)])
             self._first_pass[key] = (x, kink_first_pass(x, run.average.omega_rad_s, run.band))
         x, first = self._first_pass[key]
-        return (kink_corrected_rate(x, run.average.omega_rad_s, run.band, jump, first_pass=first, peaks=peaks),
-                first.rate_rad_s)
+        return kink_corrected_rate(x, run.average.omega_rad_s, run.band, jump, first_pass=first), first.rate_rad_s
 
     def records(self, jumps: Optional["Jumps"], periods: bool) -> list[list]:
         """Per run: its average (``periods`` False, a list of one) or each of its periods, with the
@@ -534,10 +499,9 @@ class _Problem:
             for i, jump in enumerate(jumps.sizes if jumps else ()):
                 skip = (masks is not None and masks[k][i] is not None) if i < N else \
                     (merged is not None and i - N in merged[k])
-                peaks = jumps.peaks[i] if jumps.peaks else ()
-                if (jump <= 0 and not any(d != 0 for d, _ in peaks)) or skip:
+                if jump <= 0 or skip:
                     continue
-                kinked, plain = self._kinked(k, i, jump, periods, peaks)
+                kinked, plain = self._kinked(k, i, jump, periods)
                 if i < N:
                     add(i, kinked - plain)
                 else:  # joint j between bodies j and j+1: each body's rate takes its share
@@ -735,53 +699,18 @@ class _Problem:
 
     def solve(self, spec: ChainSpec, weights: np.ndarray, covariance: bool = True) -> ChainFit:
         """Weighted fit of ``spec``; with dry friction to ground on a body, or in a joint, that
-        slides through rest, its rate's (twist rate's) kinks restored at the fitted friction: the
-        jumps are the fixed point of the jumps each fit implies, found by Broyden's steps from the
-        fit without kinks until they settle (to ``KINK_RTOL``, at most :data:`KINK_REFITS`
-        refits; :mod:`identify.kink`). A Coulomb friction's fit barely depends on its jumps
-        (plain steps settle in two). A Stribeck excess restores its own peak, and the excess its
-        fit then reads falls about as fast as the peak restored grows (slope -0.75 to -1.5 on the
-        carriage's slowest run), and hangs on the sliding friction's jump (a 1e-5 change of that
-        moved it 3e-4): refitting with the last fit's jumps swung between two values, so the
-        first refit restores the kinks alone and the Jacobian is taken there by differences
-        (:data:`KINK_DIFFERENCE`); settled in 6-8 refits. ``covariance`` False leaves the rows' cross-covariances out of the
-        fit's covariance (:meth:`cross_covariance`): a profile's trial or a reweighting pass reads
-        only chi-square and the values, and the sandwich was a fifth of a diagnosis's time."""
+        slides through rest, its rate's (twist rate's) kinks restored at the fitted friction and
+        refitted until the jumps settle (to ``KINK_RTOL``, at most two refits; :mod:`identify.kink`).
+        ``covariance`` False leaves the rows' cross-covariances out of the fit's covariance
+        (:meth:`cross_covariance`): a profile's trial or a reweighting pass reads only chi-square
+        and the values, and the sandwich was a fifth of a diagnosis's time."""
         jumps = None
         banded, res = self._solve_once(spec, weights, jumps)
-        x_old = g_old = B = None
-        for it in range(KINK_REFITS + 1):
+        for _ in range(2):
             new = self.jumps(spec, dict(zip(res.names, res.values)))
-            if not new or new.settled(jumps) or it == KINK_REFITS:
+            if not new or new.settled(jumps):
                 break
-            x = np.array(jumps.flat() if jumps else [0.0] * len(new.flat()))
-            g = np.array(new.flat()) - x  # what the fit implies, less what it used
-            n_sizes = len(new.sizes)
-            if jumps is None and x.size > n_sizes:
-                # a fit without kinks reads a Stribeck peak far off: the first refit restores the
-                # kinks alone, and the next steps are Newton's, its Jacobian by differences there
-                jumps = new.with_flat(np.concatenate([new.sizes, np.zeros(x.size - n_sizes)]))
-                banded, res = self._solve_once(spec, weights, jumps)
-                continue
-            if B is None:
-                B = -np.eye(x.size)  # as if a jump's fit did not depend on it: a Coulomb friction's barely does
-                if x.size > n_sizes:  # with a peak, each jump that acts by differences
-                    for j in np.flatnonzero((x != 0) | (g != 0)):
-                        d = KINK_DIFFERENCE * max(abs(x[j]), abs(g[j] + x[j]))
-                        moved = x.copy()
-                        moved[j] += d
-                        _, r = self._solve_once(spec, weights, new.with_flat(moved))
-                        B[:, j] = (np.array(self.jumps(spec, dict(zip(r.names, r.values))).flat()) - moved - g) / d
-            elif x_old is not None:  # Broyden's update from the last step
-                dx, dg = x - x_old, g - g_old
-                if dx @ dx > 0:
-                    B = B + np.outer(dg - B @ dx, dx) / (dx @ dx)
-            x_old, g_old = x, g
-            try:
-                step = -np.linalg.solve(B, g)
-            except np.linalg.LinAlgError:
-                step = g
-            jumps = new.with_flat(x + step)
+            jumps = new
             banded, res = self._solve_once(spec, weights, jumps)
         return self._fit_of(spec, weights, banded, res, jumps, covariance)
 

@@ -18,8 +18,8 @@ import numpy as np
 
 from .balance import spectral_rate
 
-__all__ = ["FINE_SAMPLES", "KINK_RTOL", "KinkPass", "kink_corrected_rate", "kink_first_pass", "OVERSAMPLE",
-           "peak_factor", "SwitchShifts", "switch_shifts"]
+__all__ = ["FINE_SAMPLES", "KINK_RTOL", "KinkPass", "kink_corrected_rate", "kink_first_pass", "OVERSAMPLE", "SwitchShifts",
+           "switch_shifts"]
 
 
 #: Law columns are evaluated on 16x the samples (trigonometric interpolation of the band-limited
@@ -32,8 +32,8 @@ FINE_SAMPLES = OVERSAMPLE * 256
 
 
 def kink_corrected_rate(phi_rad: np.ndarray, omega_rad_s, band: int, jump_rad_s2: float,
-                        iterations: Optional[int] = None, *, band_limited_rate: Optional[np.ndarray] = None,
-                        first_pass: Optional["KinkPass"] = None, peaks: tuple = ()) -> np.ndarray:
+                        iterations: int = 2, *, band_limited_rate: Optional[np.ndarray] = None,
+                        first_pass: Optional["KinkPass"] = None) -> np.ndarray:
     """The relative rate of one band-limited period with its dry-friction kinks restored.
 
     Dry friction makes the relative acceleration jump by ``jump_rad_s2`` (2 F_c / Je) each
@@ -56,77 +56,16 @@ def kink_corrected_rate(phi_rad: np.ndarray, omega_rad_s, band: int, jump_rad_s2
         pass locates the crossings of the band-limited rate, which do not depend on the jump,
         so its correction is the jump times a fixed one (a profile search reuses it for every
         trial; half of this function's time).
-      peaks: ``(jump rad/s^2, rate rad/s)`` per Stribeck peak: friction above the sliding one
-        that falls off over that rate (:func:`peak_factor`). ``jump_rad_s2`` is then the jump that
-        stays once the rate has left the peaks (the sliding friction's), and each peak adds its
-        own jump only at the harmonics it is not yet over at: a peak crossed in a time short
-        against a harmonic's period adds little there.
 
     A period whose rate does not cross zero an even, non-zero number of times keeps its
     band-limited rate.
     """
     phi = np.atleast_2d(phi_rad)
-    peaks = tuple((float(d), float(v)) for d, v in peaks if d != 0)
-    if iterations is None:
-        iterations = PEAK_PASSES if peaks else 2
-    if (jump_rad_s2 <= 0 and not peaks) or iterations < 1:
+    if jump_rad_s2 <= 0 or iterations < 1:
         return _band_limited_rate(phi, _omegas(omega_rad_s, phi.shape[0]), band_limited_rate).reshape(np.shape(phi_rad))
     if first_pass is None:
         first_pass = kink_first_pass(phi, omega_rad_s, band, band_limited_rate=band_limited_rate)
-    return _kinked(first_pass, band, max(jump_rad_s2, 0.0), iterations, peaks).reshape(np.shape(phi_rad))
-
-
-def peak_factor(omega_rad_s: np.ndarray, slope: np.ndarray, jump_rad_s2: float, peak_rad_s2: float,
-                velocity_rad_s: float) -> np.ndarray:
-    """A Stribeck peak's acceleration feature at a reversal over a step of the same jump, at
-    angular frequencies ``omega_rad_s`` (``(C, K)``, per crossing), complex.
-
-    While the rate ``v`` passes rest, friction that exceeds the sliding one by
-    ``F_x exp(-(v/v_s)^2)`` adds ``-/+ (F_x/m) exp(-(v/v_s)^2)`` to the acceleration before and
-    after the reversal: a jump ``peak_rad_s2 = 2 F_x / m`` that decays as the rate leaves the
-    peak. Taken as ``exp(-(t/tau)^2)`` on each side, its Fourier transform over the step's,
-    ``2 F_x / (m i w)``, is, with Dawson's function D,
-    ``w/2 (ta D(w ta/2) + tb D(w tb/2)) + i w/2 sqrt(pi)/2 (ta exp(-(w ta/2)^2) - tb exp(-(w tb/2)^2))``
-    (``tb``, ``ta``: tau before and after): 1 where the peak is crossed in a time long against
-    ``1/w``, ``(w tau)^2 / 2`` where short. Each tau gives the feature its true area: the rate
-    runs at ``|s| +- (jump/2 + peak/2 exp(-(v/v_s)^2))`` (``slope``: the band-limited rate's at
-    the crossing, ``(C,)``; ``jump_rad_s2``: the jump that stays past the peak), steepened on the
-    approach and slowed, most at rest, on the departure, so
-    ``tau = 2/sqrt(pi) v_s int_0^inf exp(-u^2) / (A -+ B exp(-u^2)) du``."""
-    from scipy.special import dawsn
-
-    s = np.abs(np.asarray(slope, dtype=float))
-    B = 0.5 * peak_rad_s2
-    tb = _peak_time(s + 0.5 * jump_rad_s2, -B, velocity_rad_s)[:, None]
-    ta = _peak_time(s - 0.5 * jump_rad_s2, B, velocity_rad_s)[:, None]
-    w = np.asarray(omega_rad_s, dtype=float)
-    ub, ua = 0.5 * w * tb, 0.5 * w * ta
-    return 0.5 * w * (ta * dawsn(ua) + tb * dawsn(ub)) + 0.5j * w * (0.5 * math.sqrt(math.pi)) * (
-        ta * np.exp(-ua * ua) - tb * np.exp(-ub * ub))
-
-
-_U = np.linspace(0.0, 6.0, 241)  # exp(-u^2) below 3e-16 past 6
-_G = np.exp(-_U * _U)
-
-
-def _peak_time(A: np.ndarray, B: float, velocity_rad_s: float) -> np.ndarray:
-    """``2/sqrt(pi) v_s int_0^inf exp(-u^2) / (A - B exp(-u^2)) du`` per entry of ``A`` (trapezoid
-    on u in [0, 6]); a rate that barely leaves rest (``A - B`` below :data:`PEAK_SLOPE_FLOOR` of
-    ``A + |B|``) is held at that floor."""
-    A = np.asarray(A, dtype=float)[:, None]
-    rate = np.maximum(A - B * _G, PEAK_SLOPE_FLOOR * (A + abs(B)))
-    return (2.0 / math.sqrt(math.pi)) * velocity_rad_s * np.trapezoid(_G / rate, _U, axis=1)
-
-
-#: Passes of :func:`kink_corrected_rate` with a Stribeck peak: the peak's time depends on the
-#: slope at the crossing, which moves with it. On the carriage's slowest run (1 Hz, 80 N, the
-#: departure at a quarter of the approach's slope) the rate near rest was off by 2.6 mm/s after
-#: two passes and 1.0 after four (the peak 10 mm/s wide; scripts/bench_stribeck.py's bench).
-PEAK_PASSES = 4
-
-#: A rate that leaves rest more slowly than this share of its approach is held there (the peak
-#: then reads as the whole static jump): a departure slope of 0 would make the peak's time infinite.
-PEAK_SLOPE_FLOOR = 1e-3
+    return _kinked(first_pass, band, jump_rad_s2, iterations).rate_rad_s.reshape(np.shape(phi_rad))
 
 
 @dataclass(frozen=True)
@@ -178,14 +117,10 @@ def _crossing_times(v: np.ndarray, rec: np.ndarray, idx: np.ndarray, T: np.ndarr
     return (idx + now / (now - nxt)) * T[rec] / M
 
 
-def _kink_pass(v: np.ndarray, omega: np.ndarray, band: int, kept: np.ndarray, peaks: tuple = (),
-               jump_rad_s2: float = 1.0, smooth: Optional[np.ndarray] = None) -> tuple[np.ndarray, _Crossings]:
+def _kink_pass(v: np.ndarray, omega: np.ndarray, band: int, kept: np.ndarray) -> tuple[np.ndarray, _Crossings]:
     """One pass: the out-of-band correction of the rate for a unit jump at the zero crossings of
     ``v`` (``(n, M)``), and those crossings, with ``kept`` narrowed to the periods whose crossings
-    are even and non-zero. With ``peaks`` (:func:`kink_corrected_rate`), the correction for the
-    jump ``jump_rad_s2`` and those peaks together, not per unit jump; a peak reads the slope at
-    each crossing from ``smooth`` (the band-limited rate, whose slope there is the mean of the
-    kinked rate's two sides and moves continuously with the crossing)."""
+    are even and non-zero."""
     n_rec, M = v.shape
     # Harmonics band+1 .. M/2-1 of sum_i d_i delta(t - t_i) / (i n w)^2, scaled for irfft:
     # (2/T) (M/2) / (i n w)^2 = -(M/T) / (n w)^2, real.
@@ -218,15 +153,6 @@ def _kink_pass(v: np.ndarray, omega: np.ndarray, band: int, kept: np.ndarray, pe
     high[:, 1:] = (low[:, -1] * z / low[:, 0])[:, None]  # z^B
     np.cumprod(high, axis=1, out=high)
     E = (high[:, :, None] * low[:, None, :]).reshape(rec.size, -1)[:, :K]
-    if peaks:
-        dt = T[rec] / M
-        u = v if smooth is None else smooth
-        d1 = (np.roll(u, -1, axis=1) - np.roll(u, 1, axis=1)) / (2.0 * (T / M)[:, None])  # central differences
-        frac = t / dt - i
-        slope = (1.0 - frac) * d1[rec, i] + frac * d1[rec, (i + 1) % M]
-        whole = jump_rad_s2 + sum(dj for dj, _ in peaks)
-        w_out = n_out[None, :] * omega[rec][:, None]
-        E = E * (jump_rad_s2 + sum(dj * peak_factor(w_out, slope, whole - dj, dj, vs) for dj, vs in peaks))
     # each period's sum over its own crossings, as a (periods x crossings) matrix of the jumps
     # times E (real, on E's real and imaginary parts side by side); zero for a period not kept
     S = np.zeros((n_rec, rec.size))
@@ -236,20 +162,28 @@ def _kink_pass(v: np.ndarray, omega: np.ndarray, band: int, kept: np.ndarray, pe
     return np.fft.irfft(V, n=M, axis=1), _Crossings(rec, i, t, kept)
 
 
-def _kinked(first_pass: KinkPass, band: int, jump_rad_s2: float, iterations: int = 2, peaks: tuple = ()) -> np.ndarray:
-    """:func:`kink_corrected_rate` for ``jump_rad_s2 > 0`` (or ``peaks``) and ``iterations >= 1``,
-    from its first pass."""
+@dataclass(frozen=True)
+class _Kinked:
+    """:func:`kink_corrected_rate`'s result with what its last pass saw: the rate it corrected
+    (``seen``, the band-limited rate plus the previous pass's correction), that rate's crossings,
+    and the largest magnitude of the last pass's unit-jump correction in every record (s)."""
+    rate_rad_s: np.ndarray
+    seen: np.ndarray
+    crossings: _Crossings
+    correction_max_s: np.ndarray
+
+
+def _kinked(first_pass: KinkPass, band: int, jump_rad_s2: float, iterations: int = 2) -> _Kinked:
+    """:func:`kink_corrected_rate` for ``jump_rad_s2 > 0`` and ``iterations >= 1``, from its first pass."""
     v_bl, kept = first_pass.rate_rad_s, first_pass.kept
-    if peaks:  # the first pass's crossings with the peaks' factors: the correction for the whole jump
-        correction, _ = _kink_pass(v_bl, first_pass.omega_rad_s, band, kept, peaks, jump_rad_s2, v_bl)
-        scale = 1.0
-    else:
-        correction, scale = first_pass.unit_correction, jump_rad_s2
+    correction = first_pass.unit_correction
+    seen, crossings = v_bl, None
     for _ in range(iterations - 1):
-        correction, crossings = _kink_pass(v_bl + scale * correction, first_pass.omega_rad_s, band, kept, peaks,
-                                           jump_rad_s2, v_bl)
+        seen = v_bl + jump_rad_s2 * correction
+        correction, crossings = _kink_pass(seen, first_pass.omega_rad_s, band, kept)
         kept = crossings.kept
-    return np.where(kept[:, None], v_bl + scale * correction, v_bl)
+    v = np.where(kept[:, None], v_bl + jump_rad_s2 * correction, v_bl)
+    return _Kinked(v, seen, crossings, np.abs(correction).max(axis=1))
 
 
 #: The kink iteration of a diagnosis's fit stops when the next jump is within this of the one
@@ -323,4 +257,3 @@ def switch_shifts(average_rate: np.ndarray, period_rates: np.ndarray, period_s: 
     room = 0.5 * np.minimum(gap, np.roll(gap, 1))
     area = np.clip(dr / slope, -room, room)
     return SwitchShifts(at, area, period_s)
-

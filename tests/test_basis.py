@@ -362,7 +362,6 @@ def test_a_law_oversampled_without_a_weight_is_balanced_and_a_weight_needs_the_p
     # exactly); a weight (a body's stick mask) is defined on the record's own samples only.
     from jointrig.identify.balance import law_rows, upsample
     from jointrig.identify.harmonics import fourier_coefficients
-    from jointrig.identify.harmonics import fourier_coefficients
     from jointrig.vocab.law import Power
 
     n = 32
@@ -379,7 +378,6 @@ def test_a_weighted_law_row_needs_the_records_own_samples():
     # a weight multiplies each sample of the law's torque: on an oversampled grid it has no
     # samples to multiply, and law_rows says so
     from jointrig.identify.balance import law_rows
-    from jointrig.identify.harmonics import fourier_coefficients
     from jointrig.identify.harmonics import fourier_coefficients
     from jointrig.vocab.law import Power
 
@@ -398,7 +396,6 @@ def test_law_rows_of_one_motion_under_two_weights_are_each_their_own():
     # The rows are memoised by the arrays they come from, the weight among them: the second
     # mask's rows are its own torque's coefficients, not the first's from the memo (round-off).
     from jointrig.identify.balance import law_rows
-    from jointrig.identify.harmonics import fourier_coefficients
     from jointrig.identify.harmonics import fourier_coefficients
     from jointrig.vocab.law import Power
 
@@ -434,53 +431,3 @@ def test_a_single_dof_systems_rows_belong_to_record_0_unless_told_and_to_equatio
     alone = single_dof_system(**kw)
     assert alone.F.size == 2 * 5 + 1 and set(alone.row_record) == {0} and set(alone.row_equation) == {0}
     assert set(single_dof_system(**kw, record_index=3).row_record) == {3}
-
-
-def test_a_column_that_jumps_at_rest_moves_with_its_crossing_between_samples():
-    # identify.balance.law_rows averages a dry friction's column over the cells where it changes
-    # (_switch_cells_averaged): its harmonics then follow a reversal that moves by a fraction of a
-    # sample. The sign of cos(theta) - c on 64 samples per period has the first harmonic
-    # 4 sin(arccos c) / pi; the cells' mean holds it to 1 - sinc(1/64) plus the rate's curvature
-    # within a cell (measured below 2e-4 of it over the sweep, bound 1e-3), the samples alone to
-    # about 1/64 of it (measured up to 0.13, bound: at least ten times the mean's error).
-    from jointrig.identify.balance import law_rows
-    from jointrig.identify.harmonics import fourier_coefficients
-    from jointrig.vocab.law import Coulomb
-
-    M = 64
-    theta = 2 * np.pi * np.arange(M) / M
-    cell, plain = [], []
-    for c in np.linspace(0.0, 0.2, 23):
-        rate = np.cos(theta) - c
-        phi = np.zeros(M)
-        got = law_rows((Coulomb(),), (phi,), (rate,), lambda: phi, lambda: rate, 1, 1, 1)[0, 1]
-        exact = 4 * np.sqrt(1 - c * c) / np.pi
-        cell.append(abs(got - exact) / exact)
-        plain.append(abs(fourier_coefficients(np.sign(rate), 1, 1)[1] - exact) / exact)
-    assert max(cell) < 1e-3
-    assert max(plain) > 10 * max(cell)
-
-
-def test_a_stribeck_column_averaged_in_its_cells_is_its_finely_sampled_mean():
-    # A Stribeck peak 3 samples wide on 1024 samples, its reversal moved across a sample: the
-    # cells' mean gives the harmonics 1..5 of the column sampled 256 times as finely
-    # (trigonometric interpolation is exact for this rate) to 1e-3 of a sign column's first
-    # harmonic (4/pi; measured 2e-5: the box filter's aliasing and the rate's curvature within a
-    # cell), where the samples alone miss by ten times that.
-    from jointrig.identify.balance import law_rows, upsample
-    from jointrig.identify.harmonics import fourier_coefficients
-    from jointrig.vocab.law import Stribeck
-
-    M, H = 1024, 5
-    theta = 2 * np.pi * np.arange(M) / M
-    law = Stribeck(3 * 2 * np.pi / M)
-    phi = np.zeros(M)
-    cell, plain = [], []
-    for c in np.linspace(0.0, 2 * np.pi / M, 7):
-        rate = np.cos(theta) - c
-        got = law_rows((law,), (phi,), (rate,), lambda: phi, lambda: rate, 1, H, 1)[0]
-        fine = fourier_coefficients(law(None, upsample(rate, 256)), 1, H)
-        cell.append(np.abs(got - fine).max())
-        plain.append(np.abs(fourier_coefficients(law(None, rate), 1, H) - fine).max())
-    assert max(cell) < 1e-3 * 4 / np.pi
-    assert max(plain) > 10 * max(cell)

@@ -137,7 +137,10 @@ SUITE = [(j, "none") for j in CASES] + [("paper" if k % 2 == 0 else "light", c) 
 
 #: Cases the diagnosis gets wrong today, each with what is wrong and its issue: the test is
 #: expected to fail on them, and strictly (it fails the run when one passes, so the mark goes).
-KNOWN_MISSES: dict = {}
+KNOWN_MISSES = {
+    ("light", "stribeck_friction/1"): "issue 48: the Stribeck excess reads 15.47 +- 1.48 N m against the bench's 20 "
+                                      "(3.07 standard errors; the Stribeck law's coverage is open)",
+}
 
 
 @pytest.mark.slow
