@@ -339,6 +339,18 @@ def estimate_omega(time_s: np.ndarray, torque_Nm: np.ndarray) -> float:
 MIN_SPREAD = 1e-100
 
 
+#: The fewest samples a run can hold: 2 whole periods of at least 8 samples.
+MIN_RUN_SAMPLES = 16
+
+
+def _check_length(where: str, run: str, n: int) -> None:
+    """Refuse a run too short to hold two periods, before its channels are judged (a one-row
+    run does not vary either, but its fault is its length)."""
+    if n < MIN_RUN_SAMPLES:
+        raise RunsFileError(f"{where}: run {run}: {n} samples is too short; expected at least {MIN_RUN_SAMPLES} "
+                            f"(2 whole periods of at least 8 samples)")
+
+
 def _check_varies(where: str, run: str, name: str, x: np.ndarray) -> None:
     """Refuse an angle channel that does not vary (a disconnected sensor, a wrong column)."""
     spread = float(np.max(x) - np.min(x))
@@ -393,9 +405,6 @@ def _whole_periods(where: str, run: str, t: np.ndarray, chans: dict, drive: str,
     if n and abs(t[0]) > MAX_TIME_ORIGIN_S:
         notes.append(EpochTime(run, float(t[0])))
         t = t - t[0]
-    if n < 16:
-        raise RunsFileError(f"{where}: run {run}: {n} samples is too short; expected at least 16 (2 whole periods "
-                            f"of at least 8 samples)")
     try:
         clock = uniform_clock(t)
     except ValueError as err:
@@ -497,6 +506,7 @@ def _to_record(where: str, run: str, t: np.ndarray, chans: dict, omega: Optional
     """One run of a two-flywheel bench (``torque``, ``phi1`` and ``phi2``, or ``phi``) as a line of
     bodies: both angles, two bodies with the torque on body ``driven``; the relative angle alone,
     one body driven by ``share`` times the torque (signed: negative on flywheel 2)."""
+    _check_length(where, run, t.size)
     phi = chans["phi1"] - chans["phi2"] if "phi2" in chans else chans["phi1"]
     for name in ("phi1", "phi2"):
         if name in chans:
@@ -567,6 +577,7 @@ def _to_train_record(where: str, run: str, t: np.ndarray, torques: dict, angles:
     (N >= 1; a slide's in m and N, held as the record's angles and torques)."""
     kind = layout.kind
     pos, drv, unit, drive_unit = kind.position, kind.drive, kind.unit, kind.drive_unit
+    _check_length(where, run, t.size)
     for i, a in enumerate(angles, start=1):
         _check_varies(where, run, layout.positions[i - 1], a)
     for j in range(1, len(angles)):

@@ -87,6 +87,8 @@ LOADER = {
     "phi and phi1": ("run,time,torque,phi,phi1\n0,0,1,2,3\n", "either 'phi' or"),
     "only phi1": ("run,time,torque,phi1\n0,0,1,2\n", r"missing column\(s\) phi2; expected"),
     "too short": ("run,time,torque,phi1,phi2\n" + "\n".join(_good_rows()[:10]) + "\n", "too short"),
+    # one row does not vary either, but what the user must fix is the run's length
+    "one row": ("run,time,torque,phi1,phi2\n" + _good_rows()[3] + "\n", r"run 0: 1 samples is too short; expected at least 16"),
     "one period and a half": ("run,time,torque,phi1,phi2\n" + "\n".join(_good_rows(n_periods=2, N=64)[:96]) + "\n",
                               "expected at least 2 whole periods"),
     "time not increasing": (good_csv().replace("\n0,0.0,", "\n0,5.0,", 1), "time must increase strictly"),
