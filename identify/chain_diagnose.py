@@ -1724,7 +1724,47 @@ def _reduced(problem: _Problem, structure: ChainSpec, adopted: list, steps: list
         current = replace(current, profiled=profiled)
         if any(c.cause.bounds is not None for c in adopted):  # profiled beside the richer cause: again
             current, weights = _refine(problem, adopted, current, weights)
+    tests = [max(len(r), 1) for r in rounds[:len(adopted)]]  # each adoption's candidates
+    while len(adopted) > 1:
+        weakest = _weakest(problem, structure, adopted, steps, tests, current, weights, alpha)
+        if weakest is None:
+            break
+        k, spec = weakest
+        profiled = tuple(p for p in current.profiled if p[0] != adopted[k].profiled_name())
+        del adopted[k], steps[k], tests[k]
+        current, weights = problem.fit(spec)
+        current = replace(current, profiled=profiled)
+        if any(c.cause.bounds is not None for c in adopted):
+            current, weights = _refine(problem, adopted, current, weights)
     return steps, (current, weights)
+
+
+def _weakest(problem: _Problem, structure: ChainSpec, adopted: Sequence, steps: Sequence, tests: Sequence,
+             current: ChainFit, weights: np.ndarray, alpha: float) -> Optional[tuple]:
+    """The adopted cause the final model can do without (``(index, the spec without it)``), or
+    None: each one's removal is tested as its adoption was (:func:`score`: the drop its refit
+    loses, at ``alpha`` over its round's candidates and its search's trials), and the one with the
+    largest p that is no longer significant goes, until every one left is (the nominal model's
+    own place is not tested: a single cause stays as its first round adopted it). A cause
+    adopted early may only stand for one found after it: a drag to ground taken before a
+    carriage's dry friction lowers chi-square by 6.8e4 against the nominal model, and nothing
+    beside it (``tests/test_chain_diagnose.py``)."""
+    values = {n: v for n, v, _ in current.profiled}
+    worst = None
+    for k, (cand, step) in enumerate(zip(adopted, steps)):
+        spec = structure
+        for c in adopted:
+            if c is not cand:
+                spec = c.extend(spec, values.get(c.profiled_name(), 0.0) if c.profiled_name() else 0.0)
+        alt = problem.solve(spec, weights)
+        nu_eff = _drop_dof(problem, alt, current, weights)
+        nu = problem.nu if math.isfinite(nu_eff) else math.inf
+        trials = cand.cause.n_trials(_twist_runs(problem, cand)) if cand.cause.trials is not None else 1.0
+        _, p, significant = evidence(alt.chi2 - current.chi2, step.n_params, current.n_rows, alpha, tests[k] * trials,
+                                     nu, nu_eff)
+        if not significant and (worst is None or p > worst[0]):
+            worst = (p, k, spec)
+    return None if worst is None else worst[1:]
 
 
 #: A fitted value this many standard errors on the wrong side of zero is no body's or joint's.
