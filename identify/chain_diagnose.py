@@ -1744,8 +1744,8 @@ def _weakest(problem: _Problem, structure: ChainSpec, adopted: Sequence, steps: 
     """The adopted cause the final model can do without (``(index, the spec without it)``), or
     None: each one's removal is tested as its adoption was (:func:`score`: the drop its refit
     loses, at ``alpha`` over its round's candidates and its search's trials), and the one with the
-    largest p that is no longer significant goes, until every one left is (the nominal model's
-    own place is not tested: a single cause stays as its first round adopted it). A cause
+    largest p that is no longer significant goes, until every one left is (a cause left alone
+    stays: its first round tested it against the nominal model already). A cause
     adopted early may only stand for one found after it: a drag to ground taken before a
     carriage's dry friction lowers chi-square by 6.8e4 against the nominal model, and nothing
     beside it (``tests/test_chain_diagnose.py``)."""
