@@ -1646,7 +1646,7 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
     chosen = forward_select((nominal, w), pool, rank=rank, adopt=adopt, after=rivals_of,
                             max_effects=max_effects, name_of=lambda s: s.label)
     steps, (current, wfinal) = _reduced(problem, structure, adopted, list(chosen.adopted), chosen.rounds, chosen.base,
-                                        alpha, by_label)
+                                        alpha, by_label, zeros)
     nominal = _widened(problem, zeros, problem.compensated(nominal, w), w)
     current = _widened(problem, zeros + adopted, problem.compensated(current, wfinal), wfinal) if steps else nominal
     first = chosen.rounds[0] if chosen.rounds else ()
@@ -1683,7 +1683,7 @@ def _on_bounds(problem: _Problem, adopted: Sequence[Candidate], fit: ChainFit) -
 
 
 def _reduced(problem: _Problem, structure: ChainSpec, adopted: list, steps: list, rounds: Sequence, base: tuple,
-             alpha: float, by_label: dict) -> tuple[list, tuple]:
+             alpha: float, by_label: dict, zeros: Sequence[Candidate] = ()) -> tuple[list, tuple]:
     """Parsimony in the final model: an adopted cause that reduces to a simpler one at its place
     (``Cause.reduces_to``: a Stribeck friction to dry friction) gives way to it where its extra
     parameters no longer lower chi-square significantly beside the other causes (the nested test
@@ -1695,17 +1695,25 @@ def _reduced(problem: _Problem, structure: ChainSpec, adopted: list, steps: list
     periods of the same joint the extra parameters lower chi-square by 20.9 (p 6e-4 with the
     weights' 10 degrees of freedom) with an excess of 25.5 +- 13.0 N m beside a sliding friction
     of 34.8 +- 12.9: a broad fall-off (7.9 rad/s) the runs do not tell from level friction, so
-    dry friction is named. Returns the steps and the final fit with its weights."""
+    dry friction is named. ``zeros``: the twists' zeros profiled beside the causes, kept at their
+    final values in every model compared and profiled again with the causes after a change.
+    Returns the steps and the final fit with its weights."""
     current, weights = base
+
+    def refit(spec, profiled):
+        fit, w = problem.fit(spec)
+        fit = replace(fit, profiled=profiled)
+        if any(c.cause.bounds is not None for c in list(zeros) + adopted):  # profiled beside the cause gone: again
+            fit, w = _refine(problem, list(zeros) + adopted, fit, w)
+        return fit, w
+
     for k, (cand, step) in enumerate(zip(list(adopted), list(steps))):
         simpler = next((s for s in rounds[k] if s.effect == cand.cause.reduces_to and s.where == step.where), None)
         if simpler is None:
             continue
         values = {n: v for n, v, _ in current.profiled}
         keep = [c if c is not cand else by_label[simpler.label] for c in adopted]
-        spec = structure
-        for c in keep:
-            spec = c.extend(spec, values.get(c.profiled_name(), 0.0) if c.profiled_name() else 0.0)
+        spec = _with_causes(structure, list(zeros) + keep, values)
         alt = problem.solve(spec, weights)
         # the drop tested as every cause's is (:func:`score`): with weights estimated from the
         # periods' spread it is heavier-tailed than chi-square
@@ -1719,27 +1727,29 @@ def _reduced(problem: _Problem, structure: ChainSpec, adopted: list, steps: list
             continue
         adopted[:] = keep
         steps[k] = simpler
-        profiled = tuple(p for p in current.profiled if p[0] != cand.profiled_name())
-        current, weights = problem.fit(spec)
-        current = replace(current, profiled=profiled)
-        if any(c.cause.bounds is not None for c in adopted):  # profiled beside the richer cause: again
-            current, weights = _refine(problem, adopted, current, weights)
+        current, weights = refit(spec, tuple(p for p in current.profiled if p[0] != cand.profiled_name()))
     tests = [max(len(r), 1) for r in rounds[:len(adopted)]]  # each adoption's candidates
     while len(adopted) > 1:
-        weakest = _weakest(problem, structure, adopted, steps, tests, current, weights, alpha)
+        weakest = _weakest(problem, structure, zeros, adopted, steps, tests, current, weights, alpha)
         if weakest is None:
             break
         k, spec = weakest
         profiled = tuple(p for p in current.profiled if p[0] != adopted[k].profiled_name())
         del adopted[k], steps[k], tests[k]
-        current, weights = problem.fit(spec)
-        current = replace(current, profiled=profiled)
-        if any(c.cause.bounds is not None for c in adopted):
-            current, weights = _refine(problem, adopted, current, weights)
+        current, weights = refit(spec, profiled)
     return steps, (current, weights)
 
 
-def _weakest(problem: _Problem, structure: ChainSpec, adopted: Sequence, steps: Sequence, tests: Sequence,
+def _with_causes(structure: ChainSpec, cands: Sequence[Candidate], values: dict) -> ChainSpec:
+    """``structure`` extended by ``cands``, each profiled parameter at its value in ``values``
+    (pure)."""
+    spec = structure
+    for c in cands:
+        spec = c.extend(spec, values.get(c.profiled_name(), 0.0) if c.profiled_name() else 0.0)
+    return spec
+
+
+def _weakest(problem: _Problem, structure: ChainSpec, zeros: Sequence, adopted: Sequence, steps: Sequence, tests: Sequence,
              current: ChainFit, weights: np.ndarray, alpha: float) -> Optional[tuple]:
     """The adopted cause the final model can do without (``(index, the spec without it)``), or
     None: each one's removal is tested as its adoption was (:func:`score`: the drop its refit
@@ -1752,10 +1762,7 @@ def _weakest(problem: _Problem, structure: ChainSpec, adopted: Sequence, steps: 
     values = {n: v for n, v, _ in current.profiled}
     worst = None
     for k, (cand, step) in enumerate(zip(adopted, steps)):
-        spec = structure
-        for c in adopted:
-            if c is not cand:
-                spec = c.extend(spec, values.get(c.profiled_name(), 0.0) if c.profiled_name() else 0.0)
+        spec = _with_causes(structure, list(zeros) + [c for c in adopted if c is not cand], values)
         alt = problem.solve(spec, weights)
         nu_eff = _drop_dof(problem, alt, current, weights)
         nu = problem.nu if math.isfinite(nu_eff) else math.inf
