@@ -473,6 +473,72 @@ def test_periodic_rss_is_the_residual_of_harmonics_only():
     assert periodic_rss(t, x, w, 3) == pytest.approx(float(r @ r), rel=1e-10) and float(r @ r) > 1.0
 
 
+def test_periodic_rss_of_a_third_of_a_period_is_the_least_squares_residual():
+    from jointrig.identify.periods import periodic_rss
+
+    # 20 samples at 60 a period, a third of a period, with harmonics 0..6: the columns are
+    # nearly dependent over so short a span (normal matrix condition 1e14 after column scaling),
+    # so the residual is the least squares one (computed here on explicit columns) only by SVD:
+    # 1e-8 relative asked (4e-10 measured over 30 noise draws, the round-off of two bases of
+    # condition 1e7; the normal equations miss by 1e-6, median).
+    w, t0, H = 7.0, 0.3, 6
+    t = t0 + np.arange(20) * (2 * math.pi / w / 60)
+    B = np.column_stack([np.ones_like(t)] + [f(n * w * (t - t0)) for n in range(1, H + 1) for f in (np.cos, np.sin)])
+    rng = np.random.default_rng(0)
+    for _ in range(10):
+        x = np.cos(w * t + 0.4) + 0.3 * np.sin(2 * w * t) + 0.01 * rng.standard_normal(t.size)
+        r = x - B @ np.linalg.lstsq(B, x, rcond=None)[0]
+        assert periodic_rss(t, x, w, H) == pytest.approx(float(r @ r), rel=1e-8)
+
+
+def test_the_fundamental_of_two_or_three_samples_has_a_nan_standard_error_where_its_rss_is_flat():
+    from jointrig.identify.periods import estimate_fundamental
+
+    # Two or three samples: harmonics 0..1 fit every sample at any frequency, so the RSS is
+    # round-off everywhere and its curvature, the standard error's denominator, is round-off of
+    # either sign or exactly 0 (about 3 records in 100 here). Where it is not positive the
+    # standard error is nan; it is never a division by zero. 300 seeded records, so that
+    # several land on an exact 0 (the chance that none does is about 1e-4).
+    rng = np.random.default_rng(0)
+    w = 7.0
+    for _ in range(300):
+        n, per_period, phase = int(rng.integers(2, 4)), rng.uniform(2.2, 30.0), rng.uniform(0.0, 2 * math.pi)
+        t = rng.uniform(0.0, 5.0) + np.arange(n) * (2 * math.pi / w / per_period)
+        f = estimate_fundamental(t, np.cos(w * t + phase))
+        assert math.isnan(f.std_error_rad_s) or f.std_error_rad_s > 0
+        assert f.rss < 1e-20  # every sample fitted: round-off (1e-30 measured)
+
+
+def test_periods_by_least_squares_fits_each_whole_period_on_its_own_samples_alone():
+    from jointrig.identify.periods import periods_by_least_squares
+
+    # 37 samples a period exactly, so a sample falls on every period boundary: it starts the
+    # next period and does not end the last. With noise (0.05) each period's fit is the least
+    # squares of its own 37 samples (computed here on explicit columns, then resynthesised on
+    # 32 samples a period) and the residual's RMS is over the 3 x 37 samples, each counted once:
+    # 1e-12 (round-off of well-conditioned 7-column fits; a boundary sample counted twice or
+    # not at all moves the fit by ~1e-3).
+    w, M, P = 5.0, 37, 3
+    T = 2 * math.pi / w
+    t = np.arange(P * M + 1) * (T / M)  # and the first sample of a fourth period
+    rng = np.random.default_rng(2)
+    x = np.cos(w * t) - 0.3 * np.sin(2 * w * t) + 0.05 * rng.standard_normal(t.size)
+    fit = periods_by_least_squares(t, x, w, samples_per_period=32, harmonics=3)
+    assert (fit.n_periods, fit.harmonics) == (P, 3)
+
+    def columns(tt):
+        return np.column_stack([np.ones_like(tt)] + [f(n * w * tt) for n in (1, 2, 3) for f in (np.cos, np.sin)])
+
+    ss = 0.0
+    for p in range(P):
+        own = slice(p * M, (p + 1) * M)
+        coef = np.linalg.lstsq(columns(t[own]), x[own], rcond=None)[0]
+        ss += float(np.sum((x[own] - columns(t[own]) @ coef) ** 2))
+        grid = p * T + np.arange(32) * (T / 32)
+        np.testing.assert_allclose(fit.samples[0, p * 32:(p + 1) * 32], columns(grid) @ coef, atol=1e-12)
+    assert fit.residual_rms[0] == pytest.approx(math.sqrt(ss / (P * M)), rel=1e-12)
+
+
 def test_periods_by_least_squares_lowers_its_harmonics_to_the_condition_asked():
     from jointrig.identify.periods import periods_by_least_squares
 
