@@ -469,3 +469,22 @@ def test_of_two_minima_the_ml_search_keeps_the_lower_cost(default_sweep, rig):
     gls_only = solve_penalised(runs, rig.law.terms, None)
     assert res.success and gls_only.success
     assert res.cost < gls_only.cost - 1.0, (gls_only.cost, res.cost)
+
+
+def test_the_cached_fourier_rows_and_derivatives_hold_their_values_and_are_read_only():
+    from jointrig.identify.eiv import _row_operator, _unit_derivative
+
+    # Both are cached and shared by every run prepared after: a caller writing into one would
+    # change every later fit, so they are read-only. Their values: the rows read C_0, Re C_n,
+    # Im C_n of x = Re sum C_n exp(i n theta), and the derivative of cos(2 theta) is
+    # -2 sin(2 theta); 1e-14 (sums of 8 products of numbers of order 1, round-off ~1e-15).
+    theta = 2 * np.pi * np.arange(8) / 8
+    M = _row_operator(8, 3)
+    np.testing.assert_allclose(M @ (2 + np.cos(theta) - 0.5 * np.sin(3 * theta)), [2, 1, 0, 0, 0, 0, 0.5],
+                               rtol=0, atol=1e-14)
+    D = _unit_derivative(8, 1, 3)
+    np.testing.assert_allclose(D @ np.cos(2 * theta), -2 * np.sin(2 * theta), rtol=0, atol=1e-14)
+    for cached in (M, D):
+        with pytest.raises(ValueError, match="read-only"):
+            cached[0, 0] = 1.0
+    assert _row_operator(8, 3) is M and M[0, 0] == pytest.approx(1 / 8)
