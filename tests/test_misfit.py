@@ -181,7 +181,8 @@ def test_a_small_ripple_is_still_a_ripple_and_no_residual_reads_as_none():
     # The shares are of the residual's own power, whatever its size against the torque: a ripple
     # of 1% of the torque on harmonics 5, 6, 7 and 1 is 3/4 on harmonics 4 and up, and the three
     # largest harmonics are named (the residual's relative power is far below 1 here). A model
-    # that leaves nothing has no share anywhere (0, not NaN: the JSON stays strict).
+    # that leaves nothing has no share anywhere (0, not NaN: the JSON stays strict) and no top
+    # harmonic (none holds any power).
     ripple = lambda th, p, v: 0.01 * (np.cos(5 * th) + 0.9 * np.cos(6 * th) + 0.8 * np.cos(7 * th)) + 0.02 * np.cos(th)  # noqa: E731
     runs = [_run(i, w, 1.0, ripple) for i, w in enumerate((20.0, 30.0))]
     c = misfit_character(runs, 10)
@@ -191,6 +192,7 @@ def test_a_small_ripple_is_still_a_ripple_and_no_residual_reads_as_none():
     none = [_run(i, w, 1.0, lambda th, p, v: 0.0 * th) for i, w in enumerate((20.0, 30.0))]
     c = misfit_character(none, 10)
     assert (c.even_share, c.high_share, c.dissipative_share) == (0.0, 0.0, 0.0)
+    assert c.top_harmonics == ()
 
 
 def test_how_the_misfit_scales_with_the_drive_is_put_in_words():
@@ -271,6 +273,9 @@ def test_the_measurements_asked_for_start_above_their_thresholds():
     assert not asks("static calibration", replace(c, amplitude_slope=1.5))
     assert asks("static calibration", replace(c, amplitude_slope=1.5 + 1e-9))
     assert asks("static calibration", replace(c, amplitude_slope=2.0))
+    # ... odd: an even share below 0.4 ("less than")
+    assert not asks("static calibration", replace(c, amplitude_slope=2.0, even_share=0.4))
+    assert asks("static calibration", replace(c, amplitude_slope=2.0, even_share=0.4 - 1e-9))
     # a surface that is not point-symmetric asks for them too, below its threshold ("less than")
     assert not asks("preload", surface=replace(s, symmetric_share=0.3))
     assert asks("preload", surface=replace(s, symmetric_share=0.3 - 1e-9))
