@@ -431,3 +431,41 @@ def test_a_single_dof_systems_rows_belong_to_record_0_unless_told_and_to_equatio
     alone = single_dof_system(**kw)
     assert alone.F.size == 2 * 5 + 1 and set(alone.row_record) == {0} and set(alone.row_equation) == {0}
     assert set(single_dof_system(**kw, record_index=3).row_record) == {3}
+
+
+def test_assemble_from_harmonic_1_lays_out_cosine_and_sine_rows_without_the_mean():
+    # first_harmonic=1 balances harmonics 1..H: per record and equation a cosine (real part) and
+    # a sine (imaginary part) row for each, the mean left out; the rows are the coefficients'
+    # parts themselves (exact copies). 0 keeps the mean's cosine row; nothing else is accepted.
+    from jointrig.identify.balance import assemble
+
+    C = np.array([[[5.0, 1 + 2j, 3 - 4j]], [[6.0, 7 + 8j, 9 - 1j]]])  # (2 records, 1 equation, H + 1 = 3)
+    F = np.array([[[0.5, 0.1 + 0.2j, 0.3 + 0.4j]], [[0.6, 0.7 - 0.8j, 0.9]]])
+    s = assemble(C[None], F, ("k",), first_harmonic=1)
+    np.testing.assert_array_equal(s.A[:, 0], [1, 2, 3, -4, 7, 8, 9, -1])
+    np.testing.assert_array_equal(s.F, [0.1, 0.2, 0.3, 0.4, 0.7, -0.8, 0.9, 0.0])
+    np.testing.assert_array_equal(s.row_harmonic, [1, 1, 2, 2] * 2)
+    np.testing.assert_array_equal(s.row_part, [0, 1] * 4)
+    np.testing.assert_array_equal(s.row_record, [0] * 4 + [1] * 4)
+    with_mean = assemble(C[None], F, ("k",), first_harmonic=0)
+    np.testing.assert_array_equal(with_mean.A[:, 0], [5, 1, 2, 3, -4, 6, 7, 8, 9, -1])
+    with pytest.raises(ValueError, match="first_harmonic must be 0 or 1"):
+        assemble(C[None], F, ("k",), first_harmonic=2)
+
+
+def test_the_equivalent_systems_rows_balance_equation_0_and_the_two_dof_forms_each_flywheels_own():
+    # row_equation: 0 is the relative coordinate (the equivalent one-degree-of-freedom form has no
+    # other) or flywheel 1, 1 is flywheel 2; per record the two-dof form lays out flywheel 1's
+    # rows (the mean, then harmonics 1..3: 7 rows), then flywheel 2's.
+    from jointrig.identify.balance import equivalent_system, two_dof_system
+    from jointrig.vocab.records import SteadyStateRecord
+
+    th = 2 * np.pi * np.arange(16) / 16
+    recs = [SteadyStateRecord(10.0 * k, th / (10.0 * k), 5.0 * np.cos(th), 0.02 * np.cos(th + 0.1),
+                              0.01 * np.cos(th + 0.3), n_periods=1) for k in (1, 2)]
+    eq = equivalent_system(recs, (Power(1),), n_harmonics=3, torque_share=0.5)
+    assert eq.F.size == 2 * 7
+    np.testing.assert_array_equal(eq.row_equation, 0)
+    np.testing.assert_array_equal(eq.row_record, [0] * 7 + [1] * 7)
+    two = two_dof_system(recs, (Power(1),), n_harmonics=3)
+    np.testing.assert_array_equal(two.row_equation, ([0] * 7 + [1] * 7) * 2)
