@@ -154,6 +154,9 @@ def test_solver_statistics_by_hand():
     np.testing.assert_allclose(res.std_errors, [3.0, 1.5], rtol=1e-14)  # sqrt(s2 diag((A'A)^-1))
     assert res.relative_residual == pytest.approx(3 / np.sqrt(14), rel=1e-14)
     assert not res.values.flags.writeable and not res.covariance.flags.writeable
+    # The relative residual is scale-free: F a tenth of that (|F| = 0.37, below 1) gives the same.
+    small = solve(_system([[1, 0], [0, 2], [0, 0]], [0.1, 0.2, 0.3]))
+    assert small.relative_residual == pytest.approx(3 / np.sqrt(14), rel=1e-14)
     # A square system: an exact solve, no degree of freedom left for the noise scale.
     sq = solve(_system([[2, 0], [0, 4]], [2, 4]))
     np.testing.assert_allclose(sq.values, [1.0, 1.0], rtol=1e-14)
@@ -171,9 +174,17 @@ def test_solver_condition_number_and_rank():
     # Two equal columns: rank 1, reported as such (no exception, success False).
     dup = solve(_system([[1.0, 1.0], [2.0, 2.0], [0.5, 0.5]], [1.0, 2.0, 0.5]))
     assert not dup.success and "rank-deficient: rank 1 < 2" in dup.message
-    # The warning threshold (1e8): a condition number of 2e7 is quiet, 2e9 warns.
+    # Two equal columns that are zero but in one row: the scaled matrix's second singular value is
+    # exactly 0 (not round-off), and it is dropped without dividing by it (no warning): the
+    # minimum-norm solution of x0 + x1 = 2, (1, 1), to round-off.
     import warnings
 
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        exact = solve(_system([[1.0, 1.0], [0.0, 0.0], [0.0, 0.0]], [2.0, 1.0, 1.0]))
+    assert not exact.success and "rank-deficient: rank 1 < 2" in exact.message
+    np.testing.assert_allclose(exact.values, [1.0, 1.0], rtol=1e-14)
+    # The warning threshold (1e8): a condition number of 2e7 is quiet, 2e9 warns.
     from jointrig.identify.solve import IllConditionedWarning
 
     with warnings.catch_warnings():
