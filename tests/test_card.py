@@ -84,6 +84,75 @@ def test_runs_of_a_linear_joint_give_its_stiffness_and_damping():
         assert q.equivalent_damping_Nms_per_rad == pytest.approx(c, rel=1e-9)
 
 
+def test_light_damping_beside_a_stiff_spring_is_kept_at_a_high_frequency():
+    # k = 1e6 N m/rad, c = 5e-4 N m s/rad at 1000 rad/s: the damping torque c A omega is 5e-7 of the
+    # spring's k A, far above the round-off floor (1e-12 of the torque) below which a harmonic is
+    # called none. The damping is the law's own c; rel 1e-6: the spring's part of the sine sum is
+    # round-off, k eps / omega ~ 1e-13 N m s/rad against c (2e-10 relative).
+    law = JointLaw((Viscous(), Power(1)), (5e-4, 1e6))
+    k, c = describing_function(law, 0.01, 1000.0)
+    assert k == pytest.approx(1e6, rel=1e-12)
+    assert c == pytest.approx(5e-4, rel=1e-6)
+
+
+def test_a_laws_card_at_given_frequencies_is_off_the_backbone():
+    # A linear viscous joint at the runs' own frequencies (omegas_rad_s): each point is evaluated
+    # at its omega, the natural frequency stays sqrt(k / Je), the dissipation is pi c omega A^2 and
+    # the damping ratio is the loss factor's half E / (2 pi k A^2) = c omega / (2 k), not the
+    # backbone's c / (2 Je omega_n). rel 1e-12: sums of trigonometric polynomials, exact to
+    # round-off.
+    c, k, je = 100.0, 2000.0, 0.5
+    amps, omegas = (0.01, 0.05), (20.0, 90.0)
+    card = law_card(JointLaw((Viscous(), Power(1)), (c, k)), je, amps, omegas_rad_s=omegas)
+    for p, a, w in zip(card.points, amps, omegas):
+        assert p.omega_rad_s == w
+        assert p.natural_frequency_rad_s == pytest.approx(math.sqrt(k / je), rel=1e-12)
+        assert p.dissipation_J_per_cycle == pytest.approx(math.pi * c * w * a * a, rel=1e-12)
+        assert p.damping_ratio == pytest.approx(c * w / (2 * k), rel=1e-12)
+        assert (p.secant_stiffness_Nm_per_rad, p.equivalent_damping_Nms_per_rad) == (
+            pytest.approx(k, rel=1e-12), pytest.approx(c, rel=1e-12))
+
+
+@pytest.mark.parametrize("omegas", [(20.0, 30.0, 40.0), (20.0,), (20.0, 0.0)],
+                         ids=["one_too_many", "one_too_few", "a_zero"])
+def test_a_laws_card_needs_one_positive_frequency_per_amplitude(omegas):
+    # Too many frequencies are not ignored, too few not an IndexError, a zero not left to the
+    # describing function: each is refused up front with what law_card needs.
+    law = JointLaw((Viscous(), Power(1)), (100.0, 2000.0))
+    with pytest.raises(ValueError, match="one frequency > 0 per amplitude"):
+        law_card(law, JE, (0.01, 0.05), omegas_rad_s=omegas)
+
+
+def test_runs_card_keeps_every_harmonic_below_nyquist_and_the_spread_of_the_periods():
+    # A linear viscous joint (Je = 1, share 1/2) driven so that its twist is
+    # A cos(th) + 0.1 A cos(7 th + 0.3), sampled 16 times a period: harmonics 1..7 lie below
+    # Nyquist (8) and all go into the loop area, E = pi c omega sum n^2 |Phi_n|^2 =
+    # pi c omega A^2 (1 + 49 / 100); without the 7th it would be a third smaller. The stiffness
+    # alternates +-1% over the 4 periods: the secant stiffness's standard error is
+    # 0.01 k / sqrt(P - 1) (the spread with P - 1 degrees of freedom over sqrt(P)), and the natural
+    # frequency's 0.5 omega_n se(k) / k. rel 1e-9: the exact signals' coefficients to round-off;
+    # the loop area and the stiffness do not depend on which period is stiffer.
+    from jointrig.vocab.records import SteadyStateRecord
+
+    c, k, w, a, n, P = 100.0, 2000.0, 30.0, 0.02, 16, 4
+    th = 2 * math.pi * np.arange(P * n) / n
+    phi = a * (np.cos(th) + 0.1 * np.cos(7 * th + 0.3))
+    rate = -a * w * (np.sin(th) + 0.7 * np.sin(7 * th + 0.3))
+    acc = -a * w * w * (np.cos(th) + 4.9 * np.cos(7 * th + 0.3))
+    kq = k * np.repeat(1.0 + 0.01 * np.array([1, -1, 1, -1]), n)
+    torque = 2.0 * (JE * acc + c * rate + kq * phi)  # share M = Je phi'' + c phi' + k phi
+    rec = SteadyStateRecord(w, th / w, torque, phi, None, n_periods=P)
+    (q,) = runs_card([rec], 2.0, 2.0).points
+    assert q.amplitude_rad == pytest.approx(a, rel=1e-9)
+    assert q.dissipation_J_per_cycle == pytest.approx(math.pi * c * w * a * a * 1.49, rel=1e-9)
+    assert q.secant_stiffness_Nm_per_rad == pytest.approx(k, rel=1e-9)
+    se_k = 0.01 * k / math.sqrt(P - 1)
+    assert q.secant_stiffness_Nm_per_rad_std == pytest.approx(se_k, rel=1e-9)
+    wn = math.sqrt(k / JE)
+    assert q.natural_frequency_rad_s == pytest.approx(wn, rel=1e-9)
+    assert q.natural_frequency_rad_s_std == pytest.approx(0.5 * wn * se_k / k, rel=1e-9)
+
+
 def test_cubic_stiffening_backbone():
     law = JointLaw((Viscous(), Power(1), Power(3)), (100.0, 2000.0, 2e5))
     for a in A:
