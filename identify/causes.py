@@ -461,12 +461,9 @@ def effective_dof(energies, nu: float) -> float:
     what the cause changes in those rows' fitted values (they sum to the drop). A drop in one
     group carries that group's ``nu`` alone; spread evenly over K groups, K nu. inf where
     nothing changes or ``nu`` is not finite."""
-    e = np.asarray(energies, dtype=float)
-    total = float(e.sum())
-    spread = float(np.sum(e ** 2)) / nu if nu > 0 and math.isfinite(nu) else 0.0
-    if not (total > 0 and spread > 0):
-        return math.inf
-    return max(total ** 2 / spread, float(nu))
+    from .estimates import satterthwaite
+
+    return max(satterthwaite(energies, nu), float(nu))
 
 
 def _drop_scale(nu: float, nu_eff: float) -> float:
@@ -822,15 +819,25 @@ def widened(fit: T, slopes: Sequence[np.ndarray], errors: Sequence[float], corre
     (:attr:`Profiled.slope`, one column each), ``S`` their covariance: ``errors`` and their
     ``correlation`` (default none); first order. At fixed profiled values the fit alone
     understates them: a Stribeck excess read 4.75 +- 0.12 N against a true 10 N. A parameter
-    without a finite error is left out; without a covariance the fit is returned as it is."""
+    without a finite error is left out; without a covariance the fit is returned as it is. A fit
+    with its errors' degrees of freedom (``std_error_dofs``) has them raised by the added part,
+    taken as known."""
     keep = [k for k, e in enumerate(errors) if math.isfinite(e)]
     if not keep or getattr(fit, "covariance", None) is None:
         return fit
     R = np.eye(len(errors)) if correlation is None else np.asarray(correlation, dtype=float)
     GS = np.column_stack([slopes[k] for k in keep]) * np.array([errors[k] for k in keep])
     extra = GS @ R[np.ix_(keep, keep)] @ GS.T
-    return replace(fit, covariance=np.asarray(fit.covariance) + extra,
-                   std_errors=np.sqrt(np.asarray(fit.std_errors) ** 2 + np.clip(np.diag(extra), 0.0, None)))
+    before = np.asarray(fit.std_errors, dtype=float) ** 2
+    after = before + np.clip(np.diag(extra), 0.0, None)
+    out = replace(fit, covariance=np.asarray(fit.covariance) + extra, std_errors=np.sqrt(after))
+    dofs = getattr(fit, "std_error_dofs", None)
+    if dofs is None:
+        return out
+    # the profiled errors' part taken as known (Welch-Satterthwaite): the estimated part's share
+    with np.errstate(divide="ignore", invalid="ignore"):
+        share = np.where(before > 0, after / before, 1.0)
+    return replace(out, std_error_dofs=np.asarray(dofs, dtype=float) * share ** 2)
 
 
 #: Newton steps :func:`joint_minimum` takes at most on several profiled parameters together, and

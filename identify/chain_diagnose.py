@@ -70,7 +70,7 @@ from .balance import harmonic_rows
 from .harmonics import max_harmonic
 from .periods import period_spectra, raw_noise_std
 from jointrig.vocab.records import RecordError, SteadyStateRecord
-from .estimates import RowFit, weighted_chi2
+from .estimates import RowFit, satterthwaite, weighted_chi2
 from .solve import IllConditionedWarning
 
 __all__ = ["ChainRun", "prepare_chain_runs", "ChainFit", "Candidate", "CauseScore", "ChainDiagnosis",
@@ -221,9 +221,17 @@ class ChainFit(RowFit):
     #: ``(name, name, correlation)`` of each pair of ``profiled`` parameters whose chi-square
     #: couples them (:func:`_jointly`); a pair not listed is taken as uncorrelated
     profiled_correlation: tuple = ()
+    #: each linear parameter's standard error's degrees of freedom (:meth:`_Problem.compensated`;
+    #: None: taken as known), for its interval (:meth:`Estimates.interval`)
+    std_error_dofs: Optional[np.ndarray] = field(default=None, repr=False, compare=False)
 
     def _profiled_std_errors(self) -> dict[str, float]:
         return {n: se for n, _, se in self.profiled}
+
+    def _std_error_dofs(self) -> dict[str, float]:
+        if self.std_error_dofs is None:
+            return {}
+        return dict(zip(self.names, (float(d) for d in self.std_error_dofs)))
 
     def parameters(self) -> dict[str, float]:
         """Every parameter by its chain name: the linear ones, then what each joint's terms imply
@@ -659,14 +667,18 @@ class _Problem:
                 cov, M = Tu @ cov @ Tu.T, G - Cn
         except np.linalg.LinAlgError:
             return fit
-        cov = self._period_scatter(cov, values, M, A / n, n, weights, periods, fit.chi2 / max(fit.dof, 1))
-        return replace(fit, values=values, std_errors=np.sqrt(np.clip(np.diag(cov), 0.0, None)), covariance=cov)
+        cov, dofs = self._period_scatter(cov, values, M, A / n, n, weights, periods, fit.chi2 / max(fit.dof, 1),
+                                         fit.row_group, self.nu)
+        return replace(fit, values=values, std_errors=np.sqrt(np.clip(np.diag(cov), 0.0, None)), covariance=cov,
+                       std_error_dofs=dofs)
 
     @staticmethod
     def _period_scatter(cov: np.ndarray, theta: np.ndarray, M: np.ndarray, An: np.ndarray, n: np.ndarray,
-                        weights: np.ndarray, periods: list, chi2_per_dof: float) -> np.ndarray:
+                        weights: np.ndarray, periods: list, chi2_per_dof: float, row_group=None,
+                        nu: float = math.inf) -> tuple[np.ndarray, Optional[np.ndarray]]:
         """``cov`` with each parameter's variance raised to what the periods' own scatter gives
-        it where that is larger, its correlations kept (pure): each period's residual ``r_p``
+        it where that is larger, its correlations kept, and each variance's degrees of freedom
+        (pure): each period's residual ``r_p``
         through the estimate's map, ``u_p = M^-1 A' W r_p`` (``M`` the normal matrix of the
         columns ``An``, scaled by ``n`` to unit weighted norm), their sample covariance over each
         run's periods over ``P``, summed over the runs, times chi2/dof where above 1 (a misfit
@@ -677,25 +689,45 @@ class _Problem:
         train with dry friction at joint 1 its k and gamma scattered 1.43 and 1.46 times their
         errors over 34 seeds, with this floor 1.15 and 1.04 (21 seeds). The larger of the two, as
         a channel's mean (:func:`identify.zeros.channel_mean`): the scatter of P periods alone has
-        P - 1 degrees of freedom a run."""
+        P - 1 degrees of freedom a run.
+
+        The degrees of freedom (Welch-Satterthwaite, :func:`identify.estimates.satterthwaite`):
+        where the scatter stands, of its runs' parts, ``P - 1`` each; elsewhere of the weights'
+        groups of rows (``row_group``, ``nu`` each: :func:`identify.causes.effective_dof`), each
+        group's part of the variance ``(M^-1 A_i')^2 w_i`` summed over its rows. None where
+        they cannot be read (no groups, a singular ``M``)."""
         try:
             Minv = np.linalg.inv(M)
         except np.linalg.LinAlgError:
-            return cov
+            return cov, None
         S = np.zeros_like(cov)
+        parts, part_dofs = [], []
         for rows, As, Fs, _, _ in periods:
             P = As.shape[0]
             if P < 2:
                 continue
             u = ((Fs - As @ theta) * weights[rows]) @ An[rows] @ Minv.T / n
             u = u - u.mean(axis=0)
-            S += u.T @ u / (P * (P - 1))
+            S_run = u.T @ u / (P * (P - 1))
+            S += S_run
+            parts.append(np.diag(S_run))
+            part_dofs.append(P - 1.0)
         S *= max(1.0, chi2_per_dof)
         var = np.diag(cov)
         if not (np.all(np.isfinite(S)) and np.all(var > 0)):
-            return cov
+            return cov, None
         k = np.sqrt(np.maximum(np.diag(S) / var, 1.0))
-        return cov * np.outer(k, k)
+        dofs = None
+        if row_group is not None and np.shape(row_group) == np.shape(weights):
+            from .causes import effective_dof
+
+            _, group = np.unique(row_group, return_inverse=True)
+            lever = (An @ Minv.T) ** 2 * weights[:, None]  # each row's part of each variance
+            dofs = np.array([effective_dof(np.bincount(group, weights=lever[:, j]), nu) for j in range(len(var))])
+            if parts:
+                scatter = np.array([satterthwaite([d[j] for d in parts], part_dofs) for j in range(len(var))])
+                dofs = np.where(k > 1.0, scatter, dofs)
+        return cov * np.outer(k, k), dofs
 
     def solve(self, spec: ChainSpec, weights: np.ndarray, covariance: bool = True) -> ChainFit:
         """Weighted fit of ``spec``; with dry friction to ground on a body, or in a joint, that

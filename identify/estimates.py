@@ -21,7 +21,37 @@ import numpy as np
 
 from jointrig.vocab.params import Param
 
-__all__ = ["Estimates", "RowFit", "weighted_chi2", "equilibrated_condition"]
+__all__ = ["Estimates", "RowFit", "weighted_chi2", "equilibrated_condition", "satterthwaite", "interval_factor"]
+
+#: The confidence of every interval the diagnosis reports (value +- half width).
+INTERVAL_LEVEL = 0.95
+
+
+def satterthwaite(sizes, dofs) -> float:
+    """The degrees of freedom of a sum of independent variance estimates (Welch-Satterthwaite):
+    ``(sum s)^2 / sum(s^2 / nu)`` over the parts ``sizes`` of ``dofs`` degrees of freedom each
+    (a scalar for all; inf: a part known exactly). inf where nothing is estimated (pure)."""
+    s = np.asarray(sizes, dtype=float)
+    nu = np.broadcast_to(np.asarray(dofs, dtype=float), s.shape)
+    est = np.isfinite(nu) & (nu > 0) & (s > 0)
+    spread = float(np.sum(s[est] ** 2 / nu[est]))
+    total = float(np.sum(s[s > 0]))
+    if not (total > 0 and spread > 0):
+        return math.inf
+    return total ** 2 / spread
+
+
+def interval_factor(dof: float, level: float = INTERVAL_LEVEL) -> float:
+    """What a standard error estimated with ``dof`` degrees of freedom is multiplied by for a
+    two-sided ``level`` interval: Student's t quantile (1.96 at 95% for a known error, 2.57 at
+    five degrees of freedom). A standard error read from a few periods' scatter is itself
+    uncertain, and 1.96 of it holds the truth less often than 95%."""
+    from scipy.special import ndtri, stdtrit
+
+    q = 0.5 + 0.5 * level
+    if not math.isfinite(dof) or dof > 1e7:
+        return float(ndtri(q))
+    return float(stdtrit(max(dof, 1.0), q))
 
 
 class Estimates:
@@ -61,6 +91,18 @@ class Estimates:
         return float(self._profiled_std_errors().get(name, math.nan))
 
     def _profiled_std_errors(self) -> dict[str, float]:
+        return {}
+
+    def std_error_dof(self, name: str) -> float:
+        """The degrees of freedom of ``name``'s standard error (inf: taken as known)."""
+        return float(self._std_error_dofs().get(name, math.inf))
+
+    def interval(self, name: str, level: float = INTERVAL_LEVEL) -> float:
+        """Half the width of ``name``'s two-sided ``level`` interval: its standard error times
+        :func:`interval_factor` of its degrees of freedom (NaN without a standard error)."""
+        return self.std_error(name) * interval_factor(self.std_error_dof(name), level)
+
+    def _std_error_dofs(self) -> dict[str, float]:
         return {}
 
 

@@ -86,6 +86,13 @@ class Diagnosis:
         f = self.report.adopted_fit
         return {k: float(f.std_error(k)) for k in f.parameters()}
 
+    def intervals(self) -> dict[str, float]:
+        """Half the width of each of :meth:`parameters`' 95% intervals: Student's t at its standard
+        error's degrees of freedom times the error (1.96 times it where the error is taken as known;
+        :meth:`identify.estimates.Estimates.interval`)."""
+        f = self.report.adopted_fit
+        return {k: float(f.interval(k)) for k in f.parameters()}
+
     def text(self) -> str:
         """The report ``jointrig diagnose`` prints."""
         from jointrig.present.train_report import format_train_report

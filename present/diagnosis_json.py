@@ -9,7 +9,7 @@ every file the same way. ``docs/diagnosis-json.md`` describes each key.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable, Mapping, Optional, Sequence
 
 from jointrig.identify.causes import Ambiguity, CauseScore
@@ -22,7 +22,7 @@ __all__ = ["SCHEMA", "KEYS", "VERDICT_KEYS", "FIDELITY_KEYS", "RULED_OUT_KEYS", 
            "ValidationJson", "DiagnosisJson", "finite", "schema_problems"]
 
 #: The document's name and version: a script checks it before it reads the keys.
-SCHEMA = "jointrig-diagnosis/7"
+SCHEMA = "jointrig-diagnosis/8"
 #: The top-level keys, in the order written (the demo ``jointrig diagnose-chain`` adds ``demo``
 #: last: its truth model and settings).
 KEYS = ("schema", "source", "input_sha256", "units", "bench", "verdict", "band_harmonics", "fidelity", "fit_runs",
@@ -34,7 +34,7 @@ VERDICT_KEYS = ("verdict", "reason", "grounds")
 FIDELITY_KEYS = ("how", "relative_misfit", "replayed_model", "fixed_runs", "statement")
 RULED_OUT_KEYS = ("label", "effect", "place", "magnitude_name", "limit", "std_error", "detection_probability")
 PRELOAD_KEYS = ("joint", "mean", "std_error", "per_run", "unit")
-FIT_KEYS = ("chi2", "dof", "chi2_per_dof", "parameters", "std_errors")
+FIT_KEYS = ("chi2", "dof", "chi2_per_dof", "parameters", "std_errors", "std_error_dofs", "intervals_95")
 EXTENDED_KEYS = ("effects", "tried", "steps") + FIT_KEYS + ("on_search_bound",)
 VALIDATION_KEYS = ("kind", "generalisation", "statement", "measure", "unit", "nominal_error", "extended_error",
                    "noise_floor", "right_model", "gain", "note", "per_run")
@@ -59,12 +59,15 @@ def finite(obj):
 
 @dataclass(frozen=True)
 class FitJson:
-    """One fitted model: chi-square, its degrees of freedom, the parameters with standard errors."""
+    """One fitted model: chi-square, its degrees of freedom, the parameters with standard errors,
+    each error's degrees of freedom (None: taken as known) and each 95% interval's half width."""
 
     chi2: float
     dof: int
     parameters: dict
     std_errors: dict
+    std_error_dofs: dict = field(default_factory=dict)
+    intervals_95: dict = field(default_factory=dict)
 
     @classmethod
     def of(cls, fit, name: Callable[[str], str] = str, added: Optional[Mapping[str, float]] = None) -> "FitJson":
@@ -72,12 +75,16 @@ class FitJson:
         for the user's bench (a slide's, :func:`vocab.params.linear_name`); ``added``: constants
         added to parameters (a twist's zero: the mean taken out before the fit)."""
         p = {n: v + (added or {}).get(n, 0.0) for n, v in fit.parameters().items()}
+        dofs = {name(n): fit.std_error_dof(n) for n in p}
         return cls(float(fit.chi2), int(fit.dof), {name(n): float(v) for n, v in p.items()},
-                   {name(n): fit.std_error(n) for n in p})
+                   {name(n): fit.std_error(n) for n in p},
+                   {n: (d if math.isfinite(d) else None) for n, d in dofs.items()},
+                   {name(n): fit.interval(n) for n in p})
 
     def as_json(self) -> dict:
         return {"chi2": self.chi2, "dof": self.dof, "chi2_per_dof": self.chi2 / max(self.dof, 1),
-                "parameters": dict(self.parameters), "std_errors": dict(self.std_errors)}
+                "parameters": dict(self.parameters), "std_errors": dict(self.std_errors),
+                "std_error_dofs": dict(self.std_error_dofs), "intervals_95": dict(self.intervals_95)}
 
 
 @dataclass(frozen=True)

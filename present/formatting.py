@@ -34,6 +34,16 @@ def with_se_or(value: float, se: float, words: str) -> str:
     return with_se(value, se) if math.isfinite(value) else words
 
 
+def interval_text(half_width: float, dof: float) -> str:
+    """A 95% interval's half width to two significant digits, with the degrees of freedom of the
+    standard error it is made from where they are finite ("± 7.4 (11 dof)"); "-" without one."""
+    if not (math.isfinite(half_width) and half_width > 0):
+        return "-"
+    x = float(f"{half_width:.2g}")
+    text = f"{x:.{max(0, 1 - math.floor(math.log10(x)))}f}" if 1e-3 <= x < 1e5 else f"{x:.2g}"
+    return f"± {text}" + (f" ({dof:.0f} dof)" if math.isfinite(dof) else "")
+
+
 def with_se(value: float, se: float) -> str:
     """``value ± se`` with the standard error to two significant digits and the value to the same
     decimal place (the digits beyond carry no information). A common power of ten is factored

@@ -8,13 +8,14 @@ the extended model; the validation in the rig; the notes on the data.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
-from typing import Callable, Mapping, Sequence
+from typing import Callable, Mapping, Optional, Sequence
 
 from jointrig.identify.causes import Ambiguity, CauseScore
 from jointrig.vocab.params import HINGE, Coordinate
 
-from .formatting import quantity_of, sig, unit_of, with_se
+from .formatting import interval_text, quantity_of, sig, unit_of, with_se
 from .notes import rejection_text, separation_text, verdict_text
 from .summary import WRITTEN_SE, WRITTEN_SHARE
 
@@ -45,10 +46,18 @@ def head_lines(verdict, words: str, steps: Sequence[str], *, written: Sequence =
     return lines
 
 
-def parameter_lines(values: Mapping[str, tuple[float, float]], name: Callable[[str], str] = str) -> list[str]:
+def parameter_lines(values: Mapping[str, tuple[float, float]], name: Callable[[str], str] = str,
+                    intervals: Optional[Mapping[str, tuple[float, float]]] = None) -> list[str]:
     """One line per parameter: its quantity, value +- standard error, unit (``name``: the
-    parameter's name on the user's bench)."""
-    return [f"  {quantity_of(name(n)):28s} {with_se(v, se):>24s} {unit_of(name(n))}" for n, (v, se) in values.items()]
+    parameter's name on the user's bench), and with ``intervals`` (name -> half width, degrees of
+    freedom) its 95% interval after a header that says how it is made."""
+    if intervals is None:
+        return [f"  {quantity_of(name(n)):28s} {with_se(v, se):>24s} {unit_of(name(n))}" for n, (v, se) in values.items()]
+    out = [f"  {'':28s} {'value ± standard error':>24s} {'unit':14s} 95% interval (the error's degrees of freedom)"]
+    for n, (v, se) in values.items():
+        half, dof = intervals.get(n, (math.nan, math.inf))
+        out.append(f"  {quantity_of(name(n)):28s} {with_se(v, se):>24s} {unit_of(name(n)):14s} {interval_text(half, dof)}")
+    return out
 
 
 def _where(signature: dict) -> str:

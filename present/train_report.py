@@ -17,7 +17,7 @@ from jointrig.studies.chain_validate import TrainReport
 
 
 from .diagnosis_json import DiagnosisJson, FitJson, RunJson, ValidationJson
-from .formatting import quantity_of, sig, sig_or, unit_of, with_se
+from .formatting import interval_text, quantity_of, sig, sig_or, unit_of, with_se
 from .misfit_words import character_json, measurement_text, misfit_texts, places_text, surface_json, words_of
 from .notes import bias_unmeasured_text, failures_text, generalisation_text, note_text, plausibility_text, rejection_text
 from .summary import NO_GAIN, compare_written, steps_after, wrong_sentence
@@ -55,6 +55,13 @@ def reported_values(fit, report: TrainReport) -> dict:
     each twist's zero as it reads on the user's sensors (:func:`_taken`)."""
     added = _taken(report)
     return {n: (v + added.get(n, 0.0), fit.std_error(n)) for n, v in fit.parameters().items()}
+
+
+def reported_intervals(fit) -> dict:
+    """Every parameter's 95% interval as :func:`reported_values` lists them: ``(half width,
+    degrees of freedom of its standard error)`` (:meth:`identify.estimates.Estimates.interval`;
+    inf where the error is taken as known)."""
+    return {n: (fit.interval(n), fit.std_error_dof(n)) for n in fit.parameters()}
 
 
 def plain_label(step, form: str = "train") -> str:
@@ -392,7 +399,7 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
     if all_notes:
         lines.append(f"  {len(all_notes)} note(s) on the data: at the end")
     lines += ["", f"Nominal model: chi2/dof = {d.reduced_chi2(d.nominal):.3g} (about 1 when only noise is left)"]
-    lines += parameter_lines(reported_values(d.nominal, report), nm)
+    lines += parameter_lines(reported_values(d.nominal, report), nm, reported_intervals(d.nominal))
     lines.append("")
     lines += causes_lines(d.first_round, kind=report.kind, shown=shown, sought=_sought(report))
     lines.append("")
@@ -401,7 +408,7 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
     else:
         lines.append("Extended model: none needed (no cause is significant at any joint or body; the nominal model "
                      "explains the data to the noise)")
-    lines += parameter_lines(reported_values(d.final, report), nm)
+    lines += parameter_lines(reported_values(d.final, report), nm, reported_intervals(d.final))
     lines += on_bound_lines(d.on_bounds, name=nm)
     ruled = ruled_out_lines(d.ruled_out(), name=nm)
     if ruled:
@@ -623,8 +630,10 @@ def write_train_html(path, report: TrainReport, text: str, *, title: str, source
         parts.append(svg_figure_html(f"Held-out data ({generalisation_text(report.generalisation, report.kind)}): measured, and simulated in the rig "
                                      f"with the nominal and the extended model", image))
     parts.append(f"<h2>{'Extended' if report.adopted else 'Nominal'} model</h2>")
-    parts.append(table(["parameter", "value ± standard error", "unit"], [
-        row([nm(n), (with_se(x, se), "num"), unit_of(nm(n))]) for n, (x, se) in reported_values(fit, report).items()]))
+    intervals = reported_intervals(fit)
+    parts.append(table(["parameter", "value ± standard error", "unit", "95% interval ±"], [
+        row([nm(n), (with_se(x, se), "num"), unit_of(nm(n)), (interval_text(*intervals.get(n, (math.nan, math.inf))), "num")])
+        for n, (x, se) in reported_values(fit, report).items()]))
     if report.adopted:  # a value on an end of its search, under the table that shows it
         parts += [f"<p class='note'>{html.escape(line.strip())}.</p>" for line in on_bound_lines(d.on_bounds, name=nm)]
     for card, png in cards:  # (card, its PNG) per place, with --card: folded, one per joint

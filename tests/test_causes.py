@@ -803,6 +803,14 @@ def test_a_profiled_parameters_uncertainty_widens_the_linear_ones_by_its_slope()
     # a parameter without a finite error drops out with its row and column of the correlation
     assert widened(fit, [g, g], [float("nan"), 0.1], np.array([[1.0, 1.0], [1.0, 1.0]])).covariance[0, 0] == \
         pytest.approx(2.0)
+    # errors with degrees of freedom: the added part is taken as known (Welch-Satterthwaite), so a
+    # variance doubled by it has four times the degrees of freedom; an untouched one keeps its own
+    @dataclass(frozen=True)
+    class Counted(Fit):
+        std_error_dofs: object = None
+
+    counted = widened(Counted(np.diag([1.0, 4.0]), std_error_dofs=np.array([5.0, 7.0])), [g], [0.1])
+    assert np.allclose(counted.std_error_dofs, [20.0, 7.0])
 
 
 def _coupled_chi2(sigma, rho, truth, floor=5.0):

@@ -1176,17 +1176,17 @@ def test_a_linear_error_is_at_least_what_the_periods_own_scatter_gives_it():
     An, n, w, M = np.eye(2), np.ones(2), np.ones(2), np.eye(2)  # residual rows are the scores
     a = np.array([3.0, -3.0, 3.0, -3.0, 0.0])  # sample variance 9, over P = 5: 1.8 > 1
     periods = [(np.arange(2), np.zeros((5, 2, 2)), np.column_stack([a, np.zeros(5)]), None, None)]
-    out = _Problem._period_scatter(cov, np.zeros(2), M, An, n, w, periods, 1.0)
+    out = _Problem._period_scatter(cov, np.zeros(2), M, An, n, w, periods, 1.0)[0]
     assert out[0, 0] == pytest.approx(1.8) and out[1, 1] == pytest.approx(4.0)
     assert out[0, 1] / math.sqrt(out[0, 0] * out[1, 1]) == pytest.approx(0.25)
-    assert _Problem._period_scatter(cov, np.zeros(2), M, An, n, w, periods, 2.0)[0, 0] == pytest.approx(3.6)
+    assert _Problem._period_scatter(cov, np.zeros(2), M, An, n, w, periods, 2.0)[0][0, 0] == pytest.approx(3.6)
     # a fit better than its noise (chi2/dof below 1) does not shrink it
-    assert _Problem._period_scatter(cov, np.zeros(2), M, An, n, w, periods, 0.5)[0, 0] == pytest.approx(1.8)
+    assert _Problem._period_scatter(cov, np.zeros(2), M, An, n, w, periods, 0.5)[0][0, 0] == pytest.approx(1.8)
     # scores in a column's own units: a column scaled by n = 10 reads a tenth of the scatter
-    scaled = _Problem._period_scatter(cov, np.zeros(2), M, An, np.array([10.0, 1.0]), w, periods, 1.0)
+    scaled = _Problem._period_scatter(cov, np.zeros(2), M, An, np.array([10.0, 1.0]), w, periods, 1.0)[0]
     assert scaled[0, 0] == pytest.approx(1.0)
     same = [(np.arange(2), np.zeros((5, 2, 2)), np.tile([0.7, 0.2], (5, 1)), None, None)]
-    assert np.array_equal(_Problem._period_scatter(cov, np.zeros(2), M, An, n, w, same, 1.0), cov)
+    assert np.array_equal(_Problem._period_scatter(cov, np.zeros(2), M, An, n, w, same, 1.0)[0], cov)
 
 
 def test_the_periods_scatter_is_each_periods_weighted_residual_about_their_mean():
@@ -1206,15 +1206,72 @@ def test_the_periods_scatter_is_each_periods_weighted_residual_about_their_mean(
     periods = [(np.arange(2), As, Fs, None, None),
                (np.arange(2), np.zeros((1, 2, 2)), np.array([[50.0, 0.0]]), None, None)]  # one period: nothing
     cov = np.diag([0.5, 4.0])
-    out = _Problem._period_scatter(cov, theta, np.eye(2), np.eye(2), np.ones(2), np.array([2.0, 1.0]), periods, 1.0)
+    out = _Problem._period_scatter(cov, theta, np.eye(2), np.eye(2), np.ones(2), np.array([2.0, 1.0]), periods, 1.0)[0]
     assert out[0, 0] == pytest.approx(148.88 / 4 / 5) and out[1, 1] == pytest.approx(4.0)
     # two periods are enough for a scatter
     two = [(np.arange(2), As[:2], Fs[:2], None, None)]
     assert _Problem._period_scatter(cov, theta, np.eye(2), np.eye(2), np.ones(2), np.array([2.0, 1.0]), two,
-                                    1.0)[0, 0] == pytest.approx(6.1 ** 2 * 2 / 2)
+                                    1.0)[0][0, 0] == pytest.approx(6.1 ** 2 * 2 / 2)
     flat = np.diag([0.0, 4.0])
     assert np.array_equal(_Problem._period_scatter(flat, theta, np.eye(2), np.eye(2), np.ones(2), np.array([2.0, 1.0]),
-                                                   periods, 1.0), flat)
+                                                   periods, 1.0)[0], flat)
+
+
+def test_an_errors_degrees_of_freedom_are_those_of_what_it_is_read_from():
+    # _Problem._period_scatter's second value: where the periods' scatter stands, the
+    # Welch-Satterthwaite count of its runs' parts (P - 1 each); elsewhere that of the weights'
+    # groups of rows (nu each, at least nu). By hand: two runs of 5 periods whose scores' sample
+    # variances are 9 and 1 (over P: 1.8, 0.2) give (2.0)^2 / (1.8^2/4 + 0.2^2/4) = 4.88 degrees
+    # of freedom, not 8: the error is mostly the first run's.
+    import numpy as np
+
+    from jointrig.identify.chain_diagnose import _Problem
+
+    An, n, w, M = np.eye(2), np.ones(2), np.ones(2), np.eye(2)
+    a = np.array([3.0, -3.0, 3.0, -3.0, 0.0])
+    runs = [(np.array([0, 1]), np.zeros((5, 2, 2)), np.column_stack([a, np.zeros(5)]), None, None),
+            (np.array([2, 3]), np.zeros((5, 2, 2)), np.column_stack([a / 3, np.zeros(5)]), None, None)]
+    A4 = np.array([[1.0, 0.0], [0.0, 1.0], [1.0, 0.0], [0.0, 1.0]])
+    cov = np.diag([0.1, 4.0])  # parameter 0: the scatter (2.0) stands; parameter 1: the model's
+    groups = np.array([0, 1, 2, 3])
+    out, dofs = _Problem._period_scatter(cov, np.zeros(2), M, A4, n, np.ones(4), runs, 1.0, groups, 8.0)
+    assert out[0, 0] == pytest.approx(2.0)
+    assert dofs[0] == pytest.approx(4.0 / (1.8 ** 2 / 4 + 0.2 ** 2 / 4))
+    # parameter 1's variance is its two groups' alike: 2 nu
+    assert dofs[1] == pytest.approx(16.0)
+    # without groups, no degrees of freedom (the errors are then taken as known)
+    assert _Problem._period_scatter(cov, np.zeros(2), M, A4, n, np.ones(4), runs, 1.0)[1] is None
+
+
+def test_a_t_interval_from_a_few_periods_scatter_covers_where_1_96_errors_do_not():
+    # One parameter read from the mean of P = 4 periods, its error from their scatter alone (3
+    # degrees of freedom): over 4000 draws value +- t SE holds the truth 95% of the time (binomial
+    # SE 0.35%: within 93.5-96.5%), value +- 1.96 SE about 86% (below 90%).
+    import numpy as np
+
+    from jointrig.identify.chain_diagnose import _Problem
+    from jointrig.identify.estimates import interval_factor
+
+    rng = np.random.default_rng(3)
+    P, m, theta = 4, 6, 1.5
+    A = rng.normal(size=(m, 1))
+    n = np.sqrt(np.sum(A ** 2, axis=0))
+    An = A / n
+    M = An.T @ An
+    t_hits = z_hits = 0
+    draws = 4000
+    for _ in range(draws):
+        Fs = A[:, 0] * theta + rng.normal(size=(P, m))
+        est = float(np.linalg.lstsq(A, Fs.mean(axis=0), rcond=None)[0][0])
+        periods = [(np.arange(m), np.tile(A, (P, 1, 1)), Fs, None, None)]
+        cov, dofs = _Problem._period_scatter(np.array([[1e-12]]), np.array([est]), M, An, n, np.ones(m), periods, 1.0,
+                                             np.zeros(m, dtype=int), 2.0 * (P - 1))
+        se = math.sqrt(cov[0, 0])
+        t_hits += abs(est - theta) <= interval_factor(dofs[0]) * se
+        z_hits += abs(est - theta) <= 1.96 * se
+    assert dofs[0] == pytest.approx(P - 1)
+    assert 0.935 <= t_hits / draws <= 0.965
+    assert z_hits / draws < 0.90
 
 
 def test_a_carriage_that_rests_part_of_its_period_has_rows_correlated_across_harmonics():

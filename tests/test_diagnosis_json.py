@@ -4,8 +4,11 @@ The documents of real diagnoses are checked where they are written: two flywheel
 tests/test_diagnose_script.py and tests/test_verdict.py, a train and a single axis in
 tests/test_train_files.py."""
 
+import math
 import re
 from pathlib import Path
+
+import pytest
 
 from jointrig.present import diagnosis_json as dj
 
@@ -35,7 +38,7 @@ def test_the_check_names_what_departs_from_the_schema():
     swapped = dict(reversed(list(doc.items())))
     assert dj.schema_problems(swapped)  # the order is part of the schema: a diff of two files lines up
     assert dj.schema_problems(doc | {"schema": "jointrig-diagnosis/1"}) == [
-        "schema: 'jointrig-diagnosis/1', expected 'jointrig-diagnosis/7'"]
+        "schema: 'jointrig-diagnosis/1', expected 'jointrig-diagnosis/8'"]
     bad_run = _document()
     del bad_run["validation"]["per_run"][0]["noise_floor"]
     assert dj.schema_problems(bad_run)[0].startswith("validation.per_run[0]: keys")
@@ -101,5 +104,15 @@ def test_a_fits_entry_adds_only_the_constants_it_is_given():
         def std_error(n):
             return 0.1
 
+        @staticmethod
+        def std_error_dof(n):
+            return 5.0 if n == "J1_kgm2" else math.inf
+
+        def interval(self, n):
+            return 0.1 * (2.5706 if n == "J1_kgm2" else 1.96)
+
     got = dj.FitJson.of(Fit(), added={"joint1_angle_offset_rad": 0.5})
     assert got.parameters == {"J1_kgm2": 2.0, "joint1_angle_offset_rad": 0.51}
+    # each error's degrees of freedom (None where known) and its interval, not moved by the constants
+    assert got.std_error_dofs == {"J1_kgm2": 5.0, "joint1_angle_offset_rad": None}
+    assert got.intervals_95 == pytest.approx({"J1_kgm2": 0.25706, "joint1_angle_offset_rad": 0.196})

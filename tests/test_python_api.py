@@ -26,8 +26,14 @@ def test_the_shipped_example_diagnosed_from_python_names_its_dry_friction(tmp_pa
     for name, true in (("J1_kgm2", 2.0), ("J2_kgm2", 2.0), ("joint1_coulomb_torque_Nm", 60.0)):
         assert math.isfinite(se[name]) and se[name] > 0, (name, se[name])
         assert abs(p[name] - true) <= 4 * se[name], (name, p[name], se[name])
+    # each 95% interval is at least 1.95996 errors wide (Student's t at the error's degrees of
+    # freedom, above 1.96 at any finite count), the JSON's the same figures
+    ci = d.intervals()
+    assert set(ci) == set(se) and all(ci[n] >= 1.95996 * se[n] for n in ci if math.isfinite(se[n]))
     j = d.json()
     assert schema_problems(j) == [] and j["verdict"]["verdict"] == "explained"
+    assert j["extended"]["intervals_95"]["joint1_k_Nm_per_rad"] == pytest.approx(ci["joint1_k_Nm_per_rad"], rel=1e-12)
+    assert j["extended"]["std_error_dofs"]["joint1_k_Nm_per_rad"] < 100  # read from the periods' scatter
     assert d.text().startswith("VERDICT: EXPLAINED: coulomb_friction at joint 1")
     xml = tmp_path / "identified.xml"
     xml.write_text(d.model_xml("from the test"), encoding="utf-8")
