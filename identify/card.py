@@ -190,7 +190,7 @@ def law_card(law: JointLaw, inertia_kgm2: float, amplitudes_rad: Sequence[float]
     for i, a in enumerate(amps):
         w, zeta, e, k, c = point(law, inertia_kgm2, a, i)
         std = [math.nan] * 4
-        if covariance is not None and math.isfinite(w):
+        if covariance is not None:  # (a row that is not finite, say where k <= 0, keeps no error)
             cov = np.asarray(covariance, dtype=float)
             full = np.zeros((base.size, base.size))
             if inertia_index == 0:

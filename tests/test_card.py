@@ -113,6 +113,22 @@ def test_a_laws_card_at_given_frequencies_is_off_the_backbone():
             pytest.approx(k, rel=1e-12), pytest.approx(c, rel=1e-12))
 
 
+def test_a_laws_card_off_the_backbone_without_stiffness_still_has_its_dissipations_error():
+    # Viscous damping and dry friction alone, at a run's frequency: the secant stiffness is 0, so
+    # there is no natural frequency (nor its error), but the dissipation per cycle,
+    # pi c omega A^2 + 4 F A, has an error from the law's covariance all the same:
+    # var E = (pi omega A^2)^2 var c + (4 A)^2 var F (rel 1e-6: the describing function's midpoint
+    # rule at dry friction's kink, about 1e-7, identify.card.N_THETA).
+    c, F, a, w = 100.0, 20.0, 0.01, 30.0
+    cov = np.diag([4.0, 0.25])
+    card = law_card(JointLaw((Viscous(), Coulomb()), (c, F)), JE, (a,), omegas_rad_s=(w,), covariance=cov)
+    p = card.points[0]
+    assert math.isnan(p.natural_frequency_rad_s) and math.isnan(p.natural_frequency_rad_s_std)
+    assert p.dissipation_J_per_cycle == pytest.approx(math.pi * c * w * a * a + 4 * F * a, rel=1e-6)
+    assert p.dissipation_J_per_cycle_std == pytest.approx(
+        math.hypot(math.pi * w * a * a * 2.0, 4 * a * 0.5), rel=1e-6)
+
+
 @pytest.mark.parametrize("omegas", [(20.0, 30.0, 40.0), (20.0,), (20.0, 0.0)],
                          ids=["one_too_many", "one_too_few", "a_zero"])
 def test_a_laws_card_needs_one_positive_frequency_per_amplitude(omegas):
