@@ -184,7 +184,7 @@ def _slide_diagnosis(db: float, seed: int, friction_N: float, tmp: Path):
 def given_structure(db: float, seed: int, effect: str, tmp: Path, channels: tuple = CHANNELS) -> dict:
     """The two flywheels' file with ``effect`` (:func:`_flywheel_file`), its fitted runs read, and the bench's own structure fitted as the diagnosis fits its final model
     (``identify.chain_diagnose.diagnose_chain``: the twist's zero profiled on the nominal model,
-    the effect's cause at joint 1 profiled beside it, both refined, the fit compensated and every
+    the effect's cause at joint 1 (a drive's lag at the drives) profiled beside it, both refined, the fit compensated and every
     linear error widened by the profiled ones), the fidelity a fixed floor of 1e-6 of each run's
     largest term (below the noise of every level here). Returns ``{name: (value, SE)}``, the
     twist's zero on the DAQ's own sensors (no mean is taken out) and ``chi2_per_dof``."""
@@ -199,7 +199,9 @@ def given_structure(db: float, seed: int, effect: str, tmp: Path, channels: tupl
     runs = tuple(cd.prepare_chain_runs(records))
     problem = cd._Problem(runs, 20, 2.0 * (min(r.n_periods for r in runs) - 1), 1e-6, (False, False), (False,))
     zero = cd.Candidate(cd.TWIST_ZERO, Place("joint", 1))
-    cause = cd.Candidate(by_name(effect.split("/")[0]), Place("joint", 1))
+    law = by_name(effect.split("/")[0])
+    at_drive = any(c.name == law.name for c in cd.DRIVE_CAUSES)  # a lag of the drives, not of the joint
+    cause = cd.Candidate(law, Place("drive", None) if at_drive else Place("joint", 1))
     nominal, w = problem.fit(cd.nominal_spec(2))
     spec, zeroed, _ = cd._twist_zeros(problem, [zero], nominal.spec, w)
     nominal, w = problem.fit(spec)
