@@ -160,12 +160,17 @@ def _unit_factor(where: str, column: str, unit: str) -> float:
 
 
 def parse_mapping(text: Optional[Union[str, Mapping[str, str]]], what: str) -> dict[str, str]:
-    """``"torque=M, phi1=enc1"`` (or a mapping) -> ``{"torque": "M", "phi1": "enc1"}``; keys must be
-    canonical column names."""
+    """``"torque=M, phi1=enc1"`` (or a mapping, or a list of ``NAME=VALUE`` strings) ->
+    ``{"torque": "M", "phi1": "enc1"}``; keys must be canonical column names."""
     if text is None:
         return {}
+    if isinstance(text, (list, tuple)) and all(isinstance(t, str) for t in text):
+        text = ",".join(text)
     if isinstance(text, Mapping):
         items = list(text.items())
+    elif not isinstance(text, str):
+        raise RunsFileError(f"{what}: expected NAME=VALUE pairs as a string ('torque=M_drive,phi1=enc1'), a list of "
+                            f"them or a mapping, got {type(text).__name__} {text!r}")
     else:
         items = []
         # Commas (or semicolons) separate the pairs; blanks may sit inside a unit ("N m").

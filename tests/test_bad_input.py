@@ -139,6 +139,10 @@ OPTION_CASES = {
     "units malformed": (dict(units="phi1deg"), "not NAME=VALUE"),
     "columns to a missing column": (dict(columns="torque=M_drive"), r"column 'M_drive' \(mapped to 'torque'\) is not"),
     "columns bad key": (dict(columns="moment=M"), "'moment' is not a column"),
+    # from Python a list of pairs is read as the command line's comma-separated ones; anything
+    # else that is not a string or a mapping is named as such, not quoted back as a column
+    "columns a list, bad key": (dict(columns=["time=t", "moment=M"]), "'moment' is not a column"),
+    "columns a number": (dict(columns=3), "expected NAME=VALUE pairs as a string"),
     "samples per period too few": (dict(samples_per_period=4), "samples_per_period must be an integer >= 16"),
 }
 

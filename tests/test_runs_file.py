@@ -1022,3 +1022,12 @@ def test_a_fixed_rate_record_is_synthesised_at_twice_its_harmonics_plus_one_per_
         H = ls[run].harmonics
         assert rec.samples_per_period == ls[run].samples == 2 * (H + 1) and max_harmonic(rec.samples_per_period) >= H
     assert {ls[r].samples for r in ls} == {202, 126, 92}  # H 100 at 25 rad/s, 62 at 40, 45 at 55
+
+
+def test_columns_given_from_python_as_a_list_of_pairs_read_as_the_command_lines(tmp_path):
+    # jointrig.diagnose(..., columns=["torque=M", "phi1=enc1"]) is the same as the command line's
+    # --columns "torque=M,phi1=enc1": the same records, sample for sample
+    from jointrig.measured.runs import parse_mapping
+
+    assert parse_mapping(["time=t", "torque = M"], "columns") == {"time": "t", "torque": "M"}
+    assert parse_mapping(("time=t",), "columns") == parse_mapping("time=t", "columns")
