@@ -539,6 +539,35 @@ def test_periods_by_least_squares_fits_each_whole_period_on_its_own_samples_alon
     assert fit.residual_rms[0] == pytest.approx(math.sqrt(ss / (P * M)), rel=1e-12)
 
 
+def test_a_sample_a_ten_thousandth_of_a_step_before_a_periods_end_is_that_periods_last():
+    from jointrig.identify.periods import periods_by_least_squares
+
+    # A millisecond clock and a period 37.0001 steps long: samples 37, 74 and 111 fall 1e-4,
+    # 2e-4 and 3e-4 of a step (1e-7 s and more) before a period's end, inside it. Each period's
+    # fit is the least squares of its own samples (38, 37 and 37 of them, computed here on
+    # explicit columns) and the residual's RMS is over all 112: 1e-12 relative (round-off of
+    # 7-column fits; a boundary sample dropped moves it by ~1e-2).
+    dt, M, P = 1e-3, 37.0001, 3
+    T = M * dt
+    w = 2 * math.pi / T
+    t = np.arange(112) * dt
+    rng = np.random.default_rng(5)
+    x = np.cos(w * t) - 0.3 * np.sin(2 * w * t) + 0.05 * rng.standard_normal(t.size)
+    fit = periods_by_least_squares(t, x, w, samples_per_period=32, harmonics=3)
+    assert (fit.n_periods, fit.harmonics) == (P, 3)
+
+    def columns(tt):
+        return np.column_stack([np.ones_like(tt)] + [f(n * w * tt) for n in (1, 2, 3) for f in (np.cos, np.sin)])
+
+    ss, bounds = 0.0, (0, 38, 75, 112)
+    for p in range(P):
+        own = slice(bounds[p], bounds[p + 1])
+        assert np.all((t[own] >= p * T) & (t[own] < (p + 1) * T))
+        coef = np.linalg.lstsq(columns(t[own]), x[own], rcond=None)[0]
+        ss += float(np.sum((x[own] - columns(t[own]) @ coef) ** 2))
+    assert fit.residual_rms[0] == pytest.approx(math.sqrt(ss / 112), rel=1e-12)
+
+
 def test_periods_by_least_squares_lowers_its_harmonics_to_the_condition_asked():
     from jointrig.identify.periods import periods_by_least_squares
 
