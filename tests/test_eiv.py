@@ -488,3 +488,26 @@ def test_the_cached_fourier_rows_and_derivatives_hold_their_values_and_are_read_
         with pytest.raises(ValueError, match="read-only"):
             cached[0, 0] = 1.0
     assert _row_operator(8, 3) is M and M[0, 0] == pytest.approx(1 / 8)
+
+
+def test_a_fit_with_one_degree_of_freedom_left_has_its_chi_square_p_value():
+    # One run of a joint that is a damper alone, balanced on harmonics 0..1: 3 rows (the mean,
+    # cos and sin of the fundamental) for 2 unknowns (Je in phase with the angle, c in
+    # quadrature), one degree of freedom left. The cost is then chi-square(1) under the model and
+    # its p-value is chi2.sf(cost, 1), a number in (0, 1], not nan (nan is for a fit with no
+    # degree of freedom, or a penalised one). 8 periods, noise 1e-3 of each channel's swing: the
+    # estimate within 4 standard errors of the truth. Same formula, so round-off: 1e-12 relative.
+    from jointrig.vocab.records import SteadyStateRecord
+
+    Je, c, s, M0, N, P, w = 1.0, 100.0, 0.5, 400.0, 64, 8, 30.0
+    X = s * M0 / (-Je * w * w + 1j * c * w)
+    t = np.arange(N * P) * (2 * math.pi / w / N)
+    rng = np.random.default_rng(4)
+    phi = (X * np.exp(1j * w * t)).real + 1e-3 * abs(X) * rng.standard_normal(t.size)
+    u = M0 * np.cos(w * t) + 1e-3 * M0 * rng.standard_normal(t.size)
+    res = ml_identify([SteadyStateRecord(w, t, u, phi, None, n_periods=P)], (Viscous(),), n_harmonics=1,
+                      torque_share=s)
+    assert res.success and (res.n_rows, res.dof) == (3, 1)
+    assert np.all(np.abs(res.values - [Je, c]) < 4 * res.std_errors), (res.values, res.std_errors)
+    assert 0 < res.p_value <= 1
+    assert res.p_value == pytest.approx(float(stats.chi2.sf(res.cost, 1)), rel=1e-12)

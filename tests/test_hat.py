@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -95,3 +97,25 @@ def test_damping_torque_on_rate_hats(kink):
     assert fit.band_f(np.array([0.0]))[0][0] == 0.0
     with pytest.raises(ValueError, match="odd"):
         fit_hat_law(noisy, n_knots=5, n_harmonics=9, torque_share=rig.torque_share, n_rate_knots=4)
+
+
+def test_a_knot_beyond_the_measured_range_is_the_penaltys_straight_extrapolation(kink):
+    # Knots given by hand may reach past the motion: here every run whose swing stays within
+    # +-0.39 rad (14 of 18), knots every 0.1 rad over +-0.4 and one more at 0.8 rad, whose hat
+    # function is zero at every sample (its data column is zero; the ML search must not scale
+    # that unknown by 1 / 0). Only the penalty's last second difference holds that knot, so the
+    # fit extends the last two inner values in a straight line, g_10 = 2 g_9 - g_8, and its
+    # (posterior) variance is that of 2 g_9 - g_8 plus the prior's own, finite. lam = 1e-4,
+    # light: 3e-15 relative measured, asked 1e-9 of the largest value (the search's tolerances
+    # are 1e-12).
+    rig, noisy, _ = kink
+    runs = [r for r in noisy if float(np.max(np.abs(r.phi_rad))) < 0.39]
+    assert len(runs) == 14
+    knots = np.r_[np.linspace(-0.4, 0.4, 9), 0.8]
+    fit = fit_hat_law(runs, n_knots=0, knots_rad=knots, n_harmonics=9, torque_share=rig.torque_share, lam=1e-4)
+    assert fit.result.success and np.all(np.isfinite(fit.g_Nm))
+    g, cov = fit.g_Nm, fit.covariance_Nm2
+    assert g[-1] == pytest.approx(2 * g[-2] - g[-3], abs=1e-9 * float(np.max(np.abs(g))))
+    line = np.zeros(g.size)
+    line[-2], line[-3] = 2.0, -1.0
+    assert math.isfinite(cov[-1, -1]) and cov[-1, -1] > float(line @ cov @ line) > 0
