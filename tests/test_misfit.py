@@ -289,6 +289,23 @@ def test_the_measurements_asked_for_start_above_their_thresholds():
     assert asks("runs at more drive levels (the runs hold 2)", misfit_character(two, 10), residual_surface(two), two)
 
 
+def test_a_stepped_sine_is_asked_above_a_frequency_slope_of_one_half_either_way():
+    # The frequency slope's threshold is "more than" too, on its size: a misfit partly elastic
+    # (the surface's elastic share 0.5) whose size goes as omega^0.5 exactly asks for no stepped
+    # sine, one just above (either sign: a size that falls with the frequency as fast) does. The
+    # base misfit (an odd stiffness at one frequency) has no axis turn to ask for it otherwise.
+    from dataclasses import replace
+
+    runs = [_run(i, 30.0, a, lambda th, p, v: 5e9 * p**3) for i, a in enumerate((1.0, 2.0, 4.0))]
+    c, s = misfit_character(runs, 10), replace(residual_surface(runs), elastic_share=0.5)
+    assert c.phase_span_deg == 0.0
+
+    def asks(slope):
+        return any("stepped sine" in m for m in next_measurements(replace(c, frequency_slope=slope), s, runs))
+
+    assert not asks(0.5) and not asks(-0.5)
+    assert asks(0.5 + 1e-9) and asks(-0.5 - 1e-9)
+
 def test_a_misfit_counts_against_the_torques_harmonics_not_its_mean_and_a_run_at_rest_stays_finite():
     # The relative misfit is its RMS over the measured torque's RMS on harmonics 1..band: a mean
     # torque (a preload, a cell's offset) does not shrink it (10 N m on the fundamental against a
