@@ -251,6 +251,19 @@ def test_spectral_rate_and_harmonic_range():
         equivalent_system([rec], (Viscous(), Power(1)), n_harmonics=3, torque_share=0.0)
 
 
+def test_spectral_rate_of_a_stack_of_records_each_at_its_own_frequency():
+    # Three records of 2 periods x 32 samples stacked (3, 64), one omega each as a column (3, 1)
+    # (the kink correction's call): each row is differentiated along its own samples, the last
+    # axis, at its own frequency: d/dt of cos(n w t + 0.3) exactly (harmonics 1..3, below Nyquist);
+    # round-off, 1e-12 absolute against rates of up to 3 x 9 = 27 rad/s.
+    w = np.array([[5.0], [7.0], [9.0]])
+    k = np.arange(2 * 32)
+    n = np.array([[1], [2], [3]])
+    t = k * 2 * np.pi / (w * 32)
+    rate = spectral_rate(np.cos(n * w * t + 0.3), w, 2)
+    assert rate.shape == (3, 64)
+    np.testing.assert_allclose(rate, -n * w * np.sin(n * w * t + 0.3), atol=1e-12)
+
 def test_two_dof_form_with_bearing_drag_in_closed_form():
     # Two flywheels, a linear joint and a viscous drag of each flywheel to ground, under M0 cos(w t)
     # on flywheel 1: the steady state from the 2 x 2 dynamic stiffness. The direct form with
