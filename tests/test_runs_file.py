@@ -1025,6 +1025,31 @@ def test_a_fundamental_is_taken_after_the_first_period_only_beyond_its_bound():
             assert got.omega_rad_s == later.omega_rad_s
 
 
+def test_a_fundamental_is_checked_after_the_first_period_from_exactly_three_periods_on():
+    # measured.runs._steady_fundamental checks "with 3 periods or more at the first estimate": a
+    # record of exactly 3 periods of 128 samples at the whole record's estimate (omega = W: 128.0
+    # samples a period to the last bit at this spacing) is checked, and the later estimate (the
+    # drive is at W + 0.02 rad/s, 9.1 combined standard errors off) is taken, with its note; 2.9
+    # periods (371 samples) are not checked, the whole record's estimate stands however far off
+    # (the later one would rest on less than 2 periods).
+    from dataclasses import replace
+
+    from jointrig.identify.periods import estimate_fundamental
+    from jointrig.measured.runs import CHECK_HARMONICS, _steady_fundamental
+
+    rng = np.random.default_rng(3)
+    t = np.arange(3 * 128) * (2 * math.pi / W / 128)
+    assert 2 * math.pi / (W * (t[1] - t[0])) == 128.0
+    drive = 1000.0 * np.cos((W + 0.02) * t) + rng.normal(0.0, 1.0, t.size)
+    later = estimate_fundamental(t[128:], drive[128:], harmonics=CHECK_HARMONICS)
+    whole = replace(later, omega_rad_s=W)
+    assert abs(later.omega_rad_s - W) > 5.0 * math.hypot(later.std_error_rad_s, whole.std_error_rad_s)
+    notes = []
+    got = _steady_fundamental(t, drive, whole, "0", notes)
+    assert got.omega_rad_s == later.omega_rad_s and len(notes) == 1
+    notes = []
+    assert _steady_fundamental(t[:371], drive[:371], whole, "0", notes) is whole and notes == []
+
 def test_a_steady_record_has_no_transient_cut(tmp_path):
     # a record that is steady from its first sample keeps every period, and says nothing of a transient
     from jointrig.measured.notes import TransientCut
