@@ -364,28 +364,3 @@ def test_a_condition_number_does_not_depend_on_the_columns_units():
     assert equilibrated_condition(np.diag([1e-3, 1.0, 2e4])) == pytest.approx(1.0, rel=1e-12)
     assert equilibrated_condition(np.column_stack([B[:, :2], np.zeros(4)])) == math.inf
     assert equilibrated_condition(np.zeros((0, 3))) == math.inf
-
-
-def test_a_fits_weights_are_taken_at_its_own_values_where_more_reweighting_lowers_chi_square(tmp_path):
-    # The pump train of the independent chain bench (tests/bench_chain_sim.py, 12 operating points,
-    # 20 kHz) at 10% noise on every channel (20 dB), its nominal model (the right one): two
-    # reweightings from equal weights left chi2/dof at 1.43 under weights taken at the first fit's
-    # values, 1.03 under its own; the fit reweights while that lowers chi-square by more than 1%.
-    # chi2/dof of a right model over 1523 degrees of freedom: 1 +- 0.04 (calibrated), so 0.9-1.15 holds it with
-    # room for the weights' own estimate; 1.43 is far outside. The returned weights are the last
-    # fit's, and the weights at its own values no longer lower its chi-square by 1%.
-    from bench_chain_sim import PUMP_POINTS, PUMP_TRAIN, daq_file
-    from jointrig.identify import chain_diagnose as cd
-    from jointrig.identify.estimates import weighted_chi2
-
-    path = daq_file(PUMP_TRAIN, PUMP_POINTS, tmp_path / "train.csv", snr_db=20, seed=1)
-    runs = tuple(cd.prepare_chain_runs(read_runs(path, columns="time=t").records, band=16))
-    nu = 2.0 * (min(r.n_periods for r in runs) - 1)
-    problem = cd._Problem(runs, 16, nu, 1e-6, (False,) * 4, (False,) * 3)
-    spec = cd.nominal_spec(4)
-    fit, w = problem.fit(spec)
-    assert 0.9 < fit.chi2 / fit.dof < 1.15
-    banded = problem.system(spec)
-    own = 1.0 / problem.row_variance(spec, fit.values, banded, problem.jumps(spec, fit.as_dict()))
-    assert weighted_chi2(fit.residual, own, nu, fit.dof)[1] >= (1 - cd.REWEIGHT_RTOL) * fit.chi2
-    assert weighted_chi2(fit.residual, w, nu, fit.dof)[1] == pytest.approx(fit.chi2, rel=1e-12)
