@@ -509,6 +509,15 @@ def test_the_fundamental_of_two_or_three_samples_has_a_nan_standard_error_where_
         assert f.rss < 1e-20  # every sample fitted: round-off (1e-30 measured)
 
 
+
+def _harmonic_columns(w: float, harmonics: int = 3):
+    """The least-squares columns of a period's fit at ``w`` rad/s: a constant, then the cosine and
+    sine of harmonics 1..``harmonics`` (as ``periods_by_least_squares`` fits each period)."""
+    def columns(tt):
+        return np.column_stack([np.ones_like(tt)] + [f(n * w * tt) for n in range(1, harmonics + 1)
+                                                      for f in (np.cos, np.sin)])
+    return columns
+
 def test_periods_by_least_squares_fits_each_whole_period_on_its_own_samples_alone():
     from jointrig.identify.periods import periods_by_least_squares
 
@@ -526,8 +535,7 @@ def test_periods_by_least_squares_fits_each_whole_period_on_its_own_samples_alon
     fit = periods_by_least_squares(t, x, w, samples_per_period=32, harmonics=3)
     assert (fit.n_periods, fit.harmonics) == (P, 3)
 
-    def columns(tt):
-        return np.column_stack([np.ones_like(tt)] + [f(n * w * tt) for n in (1, 2, 3) for f in (np.cos, np.sin)])
+    columns = _harmonic_columns(w)
 
     ss = 0.0
     for p in range(P):
@@ -556,8 +564,7 @@ def test_a_sample_a_ten_thousandth_of_a_step_before_a_periods_end_is_that_period
     fit = periods_by_least_squares(t, x, w, samples_per_period=32, harmonics=3)
     assert (fit.n_periods, fit.harmonics) == (P, 3)
 
-    def columns(tt):
-        return np.column_stack([np.ones_like(tt)] + [f(n * w * tt) for n in (1, 2, 3) for f in (np.cos, np.sin)])
+    columns = _harmonic_columns(w)
 
     ss, bounds = 0.0, (0, 38, 75, 112)
     for p in range(P):
