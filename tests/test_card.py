@@ -437,3 +437,53 @@ def test_the_cards_figure_of_a_law_that_dissipates_nothing_draws_without_a_warni
     assert all(p.dissipation_J_per_cycle == 0 for p in card.points)
     png = card_png(CardReport(card, card, card, MasingCheck((), math.nan, math.nan, ("", ""), None)))
     assert png.startswith(b"\x89PNG")
+
+
+@pytest.mark.parametrize("k", [0.0, -0.5], ids=["no_spring", "a_weak_negative_spring"])
+def test_a_law_without_positive_stiffness_has_no_backbone(k):
+    # Viscous damping alone (k = 0) or beside a weak negative spring (|k| < 1 N m/rad): there is
+    # no natural frequency, so the backbone's point is NaN throughout, not a square root of a
+    # negative stiffness nor a describing function at omega = 0. Exact: NaN is NaN.
+    card = law_card(JointLaw((Viscous(), Power(1)), (100.0, k)), JE, (0.01, 0.05))
+    for p in card.points:
+        assert all(math.isnan(v) for v in (p.natural_frequency_rad_s, p.damping_ratio, p.dissipation_J_per_cycle,
+                                           p.secant_stiffness_Nm_per_rad, p.equivalent_damping_Nms_per_rad))
+
+
+def test_the_dissipation_slope_of_two_weighted_points_is_their_errors_propagated():
+    # Two amplitudes with known relative errors leave no degree of freedom: the slope is the
+    # line through them, (ln E2 - ln E1) / (ln A2 - ln A1), and its standard error the points'
+    # relative errors propagated, hypot(r1, r2) / (ln A2 - ln A1), unscaled (there is no residual
+    # to scale by). rel 1e-12: a 2x2 weighted least-squares solve, exact to round-off.
+    from jointrig.identify.card import CardPoint, dissipation_slope
+
+    a1, a2, e1, e2, r1, r2 = 0.01, 0.04, 3.0, 50.0, 0.02, 0.05
+    pts = [CardPoint(a, 20.0, 20.0, 0.01, e, 1000.0, 1.0, dissipation_J_per_cycle_std=r * e)
+           for a, e, r in ((a1, e1, r1), (a2, e2, r2))]
+    slope, se, rate, rate_se = dissipation_slope(pts)
+    span = math.log(a2 / a1)
+    assert slope == pytest.approx(math.log(e2 / e1) / span, rel=1e-12)
+    assert se == pytest.approx(math.hypot(r1, r2) / span, rel=1e-12)
+    assert math.isnan(rate) and math.isnan(rate_se)
+
+
+@pytest.mark.parametrize("n", [15, 16])
+def test_masing_check_bands_a_coarsely_sampled_run_to_its_harmonics_below_nyquist(n):
+    # Runs sampled 15 or 16 times a period hold harmonics 1..7 below Nyquist, fewer than the
+    # check's default 8: each run's loop is band-limited to exactly 7 (an integer), the last one
+    # of an odd count included. A linear spring with light viscous damping, twist
+    # A cos(th) + 0.1 A cos(7 th + 0.3) at two amplitudes. The band is an integer count, exact.
+    from jointrig.identify.card import masing_check
+    from jointrig.vocab.records import SteadyStateRecord
+
+    c, k, w, P = 1.0, 2000.0, 30.0, 3
+    recs = []
+    for a in (0.02, 0.03):
+        th = 2 * math.pi * np.arange(P * n) / n
+        phi = a * (np.cos(th) + 0.1 * np.cos(7 * th + 0.3))
+        rate = -a * w * (np.sin(th) + 0.7 * np.sin(7 * th + 0.3))
+        acc = -a * w * w * (np.cos(th) + 4.9 * np.cos(7 * th + 0.3))
+        recs.append(SteadyStateRecord(w, th / w, 2.0 * (JE * acc + c * rate + k * phi), phi, None, n_periods=P))
+    check = masing_check(recs, 2.0, 2.0)
+    assert [r.highest_harmonic for r in check.runs] == [7, 7]
+    assert all(type(r.highest_harmonic) is int for r in check.runs)
