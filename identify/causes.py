@@ -24,6 +24,7 @@ from jointrig.vocab.params import BEARING1, BEARING2, DRIVE_DELAY
 
 from .balance import spectral_rate
 from .defaults import DEFAULT_ALPHA
+from .estimates import satterthwaite
 
 __all__ = ["ModelSpec", "NOMINAL", "Cause", "Limits", "Place", "CauseScore", "Ambiguity", "CATALOGUE",
            "OSCILLATOR_CAUSES", "at", "by_name", "evidence", "effective_dof", "chi2_survival", "detection_limit", "DETECTION_POWER",
@@ -461,8 +462,6 @@ def effective_dof(energies, nu: float) -> float:
     what the cause changes in those rows' fitted values (they sum to the drop). A drop in one
     group carries that group's ``nu`` alone; spread evenly over K groups, K nu. inf where
     nothing changes or ``nu`` is not finite."""
-    from .estimates import satterthwaite
-
     return max(satterthwaite(energies, nu), float(nu))
 
 

@@ -719,8 +719,6 @@ class _Problem:
         k = np.sqrt(np.maximum(np.diag(S) / var, 1.0))
         dofs = None
         if row_group is not None and np.shape(row_group) == np.shape(weights):
-            from .causes import effective_dof
-
             _, group = np.unique(row_group, return_inverse=True)
             lever = (An @ Minv.T) ** 2 * weights[:, None]  # each row's part of each variance
             dofs = np.array([effective_dof(np.bincount(group, weights=lever[:, j]), nu) for j in range(len(var))])

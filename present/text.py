@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Callable, Mapping, Optional, Sequence
+from typing import Callable, Mapping, Sequence
 
 from jointrig.identify.causes import Ambiguity, CauseScore
 from jointrig.vocab.params import HINGE, Coordinate
@@ -46,13 +46,11 @@ def head_lines(verdict, words: str, steps: Sequence[str], *, written: Sequence =
     return lines
 
 
-def parameter_lines(values: Mapping[str, tuple[float, float]], name: Callable[[str], str] = str,
-                    intervals: Optional[Mapping[str, tuple[float, float]]] = None) -> list[str]:
-    """One line per parameter: its quantity, value +- standard error, unit (``name``: the
-    parameter's name on the user's bench), and with ``intervals`` (name -> half width, degrees of
-    freedom) its 95% interval after a header that says how it is made."""
-    if intervals is None:
-        return [f"  {quantity_of(name(n)):28s} {with_se(v, se):>24s} {unit_of(name(n))}" for n, (v, se) in values.items()]
+def parameter_lines(values: Mapping[str, tuple[float, float]], intervals: Mapping[str, tuple[float, float]],
+                    name: Callable[[str], str] = str) -> list[str]:
+    """A header, then one line per parameter: its quantity, value +- standard error, unit
+    (``name``: the parameter's name on the user's bench) and its 95% interval (``intervals``:
+    name -> half width, degrees of freedom of the error)."""
     out = [f"  {'':28s} {'value ± standard error':>24s} {'unit':14s} 95% interval (the error's degrees of freedom)"]
     for n, (v, se) in values.items():
         half, dof = intervals.get(n, (math.nan, math.inf))

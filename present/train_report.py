@@ -399,7 +399,7 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
     if all_notes:
         lines.append(f"  {len(all_notes)} note(s) on the data: at the end")
     lines += ["", f"Nominal model: chi2/dof = {d.reduced_chi2(d.nominal):.3g} (about 1 when only noise is left)"]
-    lines += parameter_lines(reported_values(d.nominal, report), nm, reported_intervals(d.nominal))
+    lines += parameter_lines(reported_values(d.nominal, report), reported_intervals(d.nominal), nm)
     lines.append("")
     lines += causes_lines(d.first_round, kind=report.kind, shown=shown, sought=_sought(report))
     lines.append("")
@@ -408,7 +408,7 @@ def format_train_report(report: TrainReport, *, source: str = "", notes: Sequenc
     else:
         lines.append("Extended model: none needed (no cause is significant at any joint or body; the nominal model "
                      "explains the data to the noise)")
-    lines += parameter_lines(reported_values(d.final, report), nm, reported_intervals(d.final))
+    lines += parameter_lines(reported_values(d.final, report), reported_intervals(d.final), nm)
     lines += on_bound_lines(d.on_bounds, name=nm)
     ruled = ruled_out_lines(d.ruled_out(), name=nm)
     if ruled:
