@@ -1495,3 +1495,19 @@ def test_a_joints_dry_friction_moves_its_switches_in_both_its_bodies_equations(p
         np.testing.assert_allclose(departs[:, e == 2], -expect, rtol=0, atol=1e-12 * scale)
         assert not np.any(departs[:, (e == 0) | (e == 3)])
         assert np.abs(expect).max() > 1e-3 * scale
+
+
+def test_an_intervals_factor_is_students_t_at_the_errors_degrees_of_freedom():
+    # interval_factor: the two-sided 95% quantile of Student's t (tables: 12.706 at 1, 2.571 at 5,
+    # 2.086 at 20 degrees of freedom; to the tables' 4 digits), the normal 1.95996 for a known
+    # error (inf) and for a count so large the two agree; a count below 1 (a Satterthwaite figure
+    # of a tiny part) is read as 1, the widest interval, never a narrower one.
+    from jointrig.identify.estimates import interval_factor
+
+    assert interval_factor(1.0) == pytest.approx(12.706, abs=5e-4)
+    assert interval_factor(5.0) == pytest.approx(2.5706, abs=5e-5)
+    assert interval_factor(20.0) == pytest.approx(2.0860, abs=5e-5)
+    assert interval_factor(math.inf) == pytest.approx(1.959964, abs=1e-6)
+    assert interval_factor(1e9) == interval_factor(math.inf)
+    assert interval_factor(0.3) == interval_factor(1.0)
+    assert interval_factor(5.0, level=0.90) == pytest.approx(2.0150, abs=5e-5)
