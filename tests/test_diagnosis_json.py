@@ -51,6 +51,12 @@ def test_the_check_names_what_departs_from_the_schema():
     no_grounds = _document()
     del no_grounds["verdict"]["grounds"]
     assert dj.schema_problems(no_grounds)[0].startswith("verdict: keys")
+    # what a right model misses (schema 5) is checked where it is given, and null is allowed
+    right = _document()
+    right["validation"]["right_model"] = {k: None for k in dj.RIGHT_KEYS}
+    assert dj.schema_problems(right) == []
+    del right["validation"]["right_model"]["bound"]
+    assert dj.schema_problems(right)[0].startswith("validation.right_model: keys")
 
 
 def test_the_docs_page_describes_every_key():
