@@ -153,6 +153,10 @@ def _read_csv(path: Path) -> list[RawTable]:
             return [RawTable(str(path), {n: data[:, k].copy() for k, n in enumerate(names)}, units,
                              comments=comments)]
     body = parse(lines[first:])
+    if not decimal_comma and delim in (";", "\t", "|", None) and any("," in ln for ln in lines[first:]):
+        # The rows looked at above may all be whole numbers (a logger at rest writes "0"): a
+        # decimal comma further down decides as well.
+        decimal_comma = any(_DECIMAL_COMMA.match(v.strip()) for row in body for v in row)
     for i, row in enumerate(body, start=1):
         if len(row) != len(names):
             raise FormatError(f"{path}: data row {i} has {len(row)} fields, the header has {len(names)} "

@@ -142,6 +142,23 @@ def test_lab_dialects_give_the_same_record(tmp_path, variant):
         assert not any("SI assumed" in n for n in note_words(loaded.notes))
 
 
+@pytest.mark.parametrize("sep", [";", "\t", " "])
+def test_a_decimal_comma_first_written_below_the_twentieth_row_is_one(tmp_path, sep):
+    # A logger at rest writes whole numbers ("0", not "0,0"): its decimal commas show only further
+    # down. measured.formats looks at the first 20 data rows to choose numpy's reader; the rest
+    # decides too (the first comma in data row 26 was refused: "'25,5' is a non-number").
+    from jointrig.measured.formats import read_tables
+
+    rows = [sep.join([str(i), "0", "0", "0"]) for i in range(25)] + [sep.join(["25,5", "1,25", "-0,125", "2,5e-3"])]
+    path = tmp_path / "rest.txt"
+    path.write_text("\n".join([sep.join(["time", "torque", "phi1", "phi2"])] + rows) + "\n")
+    cols = read_tables(path)[0].columns
+    # the same decimal strings as the literals: equal exactly
+    assert cols["time"].tolist() == [*map(float, range(25)), 25.5]
+    assert [cols[c][-1] for c in ("torque", "phi1", "phi2")] == [1.25, -0.125, 2.5e-3]
+    assert not cols["torque"][:25].any()
+
+
 def test_units_option_and_sidecar(tmp_path):
     dt = 2 * math.pi / W / 128
     t = np.arange(2 * 128) * dt
