@@ -249,10 +249,16 @@ def schema_problems(doc: dict) -> list[str]:
     keys("validation", doc["validation"], VALIDATION_KEYS)
     if isinstance(doc["validation"], dict) and doc["validation"].get("right_model") is not None:
         keys("validation.right_model", doc["validation"]["right_model"], RIGHT_KEYS)
-    for i, r in enumerate(doc["validation"]["per_run"] if isinstance(doc["validation"], dict) else []):
+    for i, r in enumerate(_list_at(doc["validation"], "per_run")):
         keys(f"validation.per_run[{i}]", r, RUN_KEYS)
-    for where in ("causes", "extended.steps"):
-        items = doc["causes"] if where == "causes" else doc["extended"].get("steps", [])
-        for i, c in enumerate(items):
+    for where, items in (("causes", doc["causes"]), ("extended.steps", _list_at(doc["extended"], "steps"))):
+        for i, c in enumerate(items if isinstance(items, list) else []):
             keys(f"{where}[{i}]", c, CAUSE_KEYS)
     return problems
+
+
+def _list_at(obj, key: str) -> list:
+    """``obj[key]`` where ``obj`` is an object holding a list there, else empty (its absence or
+    type is already among the problems, from the object's keys)."""
+    value = obj.get(key) if isinstance(obj, dict) else None
+    return value if isinstance(value, list) else []

@@ -59,6 +59,19 @@ def test_the_check_names_what_departs_from_the_schema():
     assert dj.schema_problems(right)[0].startswith("validation.right_model: keys")
 
 
+def test_a_document_missing_a_list_or_an_object_is_listed_not_raised():
+    # a hand-edited or foreign file: the check names what departs, it does not fail on it
+    no_runs = _document()
+    del no_runs["validation"]["per_run"]
+    assert dj.schema_problems(no_runs) == [
+        f"validation: keys {list(no_runs['validation'])}, expected {list(dj.VALIDATION_KEYS)}"]
+    flat = _document() | {"extended": "x", "causes": None}
+    assert dj.schema_problems(flat) == ["extended: expected an object, got str"]
+    bad_steps = _document()
+    bad_steps["extended"]["steps"] = 3
+    assert dj.schema_problems(bad_steps) == []  # a value's type is not the schema's: its keys are
+
+
 def test_the_docs_page_describes_every_key():
     text = DOC.read_text()
     named = set(re.findall(r"`([a-z_0-9]+)`", text))
