@@ -22,6 +22,7 @@ from jointrig.identify.chain import (REST_RATE_FRACTION, STICK_RATE_FRACTION, Ch
 from jointrig.identify.chain_diagnose import ChainDiagnosis, plant_and_inertias
 from jointrig.identify.harmonics import fourier_coefficients, max_harmonic, synthesize
 from jointrig.identify.zeros import SensorZeros, rezeroed, sensor_zeros
+from jointrig.identify.estimates import satterthwaite
 from jointrig.identify.periods import RESOLVED_SIGMA, period_spectra, pooled_period_spectra
 from jointrig.vocab.law import Constant
 from jointrig.vocab.params import HINGE, Coordinate
@@ -615,8 +616,11 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
         t = tally[name]
         lam = np.asarray([c for c in t["components"] if c > 0] + [RIG_FIDELITY ** 2 * den])
         dof = float(np.sum(lam) ** 2 / np.sum(lam ** 2)) if lam.size else 1.0
-        spread = sum(size ** 2 / m for size, m in t["estimates"] if size > 0)
-        m_eff = float(np.sum(lam) ** 2 / spread) if spread > 0 else math.inf
+        # the estimate's degrees of freedom: its estimated parts beside what is known (the
+        # parameters' directions, the method's bias, the rig's fidelity)
+        est = [(size, m) for size, m in t["estimates"] if size > 0]
+        known = float(np.sum(lam)) - sum(size for size, _ in est)
+        m_eff = satterthwaite([size for size, _ in est] + [known], [m for _, m in est] + [math.inf])
         right[name] = RightModelError(noise / den, t["propagated"] / den, t["method"] / den, RIG_FIDELITY ** 2, dof,
                                       alpha, draws, why_not if name == judged else BiasUnmeasured(smooth=True),
                                       m_eff, len(moved[name]))
