@@ -2,7 +2,7 @@
 """Coverage of the diagnosis's 95% intervals over seeds, on files of the independent bench.
 
     python scripts/coverage.py [--bench flywheels|slide] [--seeds N] [--first-seed S] [--db 20 40 70]
-                               [--friction NM | --effect CASE [--given-structure]] [--out DIR] [--workers W]
+                               [--friction NM | --effect CASE [--given-structure [--measured-fidelity]]] [--out DIR] [--workers W]
                                [--json OUT]
 
 Why: a standard error is only worth printing if value +- 1.96 SE holds the truth 95% of the
@@ -31,7 +31,9 @@ standard error comes from the profile's curvature, not from the linear fit's cov
 the effect's cause at joint 1 profiled, refined, compensated and widened as the diagnosis does its
 final model, :func:`given_structure`), on the fitted runs, with the balance's fidelity a fixed
 floor of 1e-6: the intervals given the right structure, about 7 s a seed instead of a minute, so
-that 100 seeds at three levels take minutes. The structure a diagnosis adopts is measured without it.
+that 100 seeds at three levels take minutes; ``--measured-fidelity`` then fits it again with the
+fidelity measured on that fit's noise-free replay in the rig, as the diagnosis weighs its rows (a
+few seconds more a seed). The structure a diagnosis adopts is measured without it.
 
 ``--bench slide``: the carriage on a guide instead (tests/bench_slide_sim.py: 12 kg, 40 N s/m,
 25 N of dry friction by default, scipy with exact stick-slip events, positions in mm with the
@@ -91,13 +93,14 @@ CHANNELS = (1.0, 1.0, 1.0)
 
 
 def case_path(out: Path, db: float, seed: int, friction_Nm: float = FRICTION_Nm, bench: str = "flywheels",
-              effect: str | None = None, given: bool = False, channels: tuple = CHANNELS) -> Path:
+              effect: str | None = None, given: bool = False, channels: tuple = CHANNELS, measured: bool = False) -> Path:
     """One case's record (the friction in the name where it is not the bench's default, the
-    effect where there is one, whether its structure was given, and the channels' noise where it
-    is not the level's on every channel)."""
+    effect where there is one, whether its structure was given and with a measured fidelity, and
+    the channels' noise where it is not the level's on every channel)."""
     ch = "" if tuple(channels) == CHANNELS else "_ch" + "-".join(f"{c:g}" for c in channels)
     if effect is not None:
-        return out / f"db{db:g}_{effect.replace('/', '-')}{'_given' if given else ''}{ch}_seed{seed:04d}.json"
+        mode = ("_given_measured" if measured else "_given") if given else ""
+        return out / f"db{db:g}_{effect.replace('/', '-')}{mode}{ch}_seed{seed:04d}.json"
     if bench == "slide":
         fc = "" if friction_Nm == SLIDE_FRICTION_N else f"_fc{friction_Nm:g}"
         return out / f"slide_db{db:g}{fc}_seed{seed:04d}.json"
@@ -181,13 +184,18 @@ def _slide_diagnosis(db: float, seed: int, friction_N: float, tmp: Path):
     return run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(1, [1], "slide"))
 
 
-def given_structure(db: float, seed: int, effect: str, tmp: Path, channels: tuple = CHANNELS) -> dict:
+def given_structure(db: float, seed: int, effect: str, tmp: Path, channels: tuple = CHANNELS,
+                    measured: bool = False) -> dict:
     """The two flywheels' file with ``effect`` (:func:`_flywheel_file`), its fitted runs read, and the bench's own structure fitted as the diagnosis fits its final model
     (``identify.chain_diagnose.diagnose_chain``: the twist's zero profiled on the nominal model,
     the effect's cause at joint 1 (a drive's lag at the drives) profiled beside it, both refined, the fit compensated and every
     linear error widened by the profiled ones), the fidelity a fixed floor of 1e-6 of each run's
-    largest term (below the noise of every level here). Returns ``{name: (value, SE)}``, the
-    twist's zero on the DAQ's own sensors (no mean is taken out) and ``chi2_per_dof``."""
+    largest term (below the noise of every level here); ``measured``: then fitted again with the
+    fidelity measured as the diagnosis measures it, the balance's misfit on that fit's noise-free
+    replay in the rig (``studies.chain_validate.rig_replay``, ``balance_fidelity``; the fixed floor
+    where no run replays). Returns ``{name: (value, SE)}``, the twist's zero on the DAQ's own
+    sensors (no mean is taken out), ``chi2_per_dof`` and ``fidelity`` (the relative misfit, or the
+    floor)."""
     from dataclasses import replace
 
     from jointrig.identify import chain_diagnose as cd
@@ -197,29 +205,43 @@ def given_structure(db: float, seed: int, effect: str, tmp: Path, channels: tupl
     path = _flywheel_file(db, seed, 0.0, tmp, effect, channels)
     records = [r for k, r in enumerate(read_runs(path).records) if k not in HOLDOUT]
     runs = tuple(cd.prepare_chain_runs(records))
-    problem = cd._Problem(runs, 20, 2.0 * (min(r.n_periods for r in runs) - 1), 1e-6, (False, False), (False,))
+    nu = 2.0 * (min(r.n_periods for r in runs) - 1)
     zero = cd.Candidate(cd.TWIST_ZERO, Place("joint", 1))
     law = by_name(effect.split("/")[0])
     at_drive = any(c.name == law.name for c in cd.DRIVE_CAUSES)  # a lag of the drives, not of the joint
     cause = cd.Candidate(law, Place("drive", None) if at_drive else Place("joint", 1))
-    nominal, w = problem.fit(cd.nominal_spec(2))
-    spec, zeroed, _ = cd._twist_zeros(problem, [zero], nominal.spec, w)
-    nominal, w = problem.fit(spec)
-    found = cd._profile(problem, cause, nominal.spec, w) if cause.cause.bounds is not None else \
-        problem.solve(cause.extend(nominal.spec, 0.0), w)
-    fit, w = problem.fit(found.spec)
-    fit = replace(fit, profiled=zeroed + found.profiled)
-    adopted = [zero, cause] if cause.cause.bounds is not None else [zero]
-    fit, w = cd._refine(problem, adopted, fit, w)
-    fit = cd._widened(problem, adopted, problem.compensated(fit, w), w)
+
+    def fitted(fidelity):
+        problem = cd._Problem(runs, 20, nu, fidelity, (False, False), (False,))
+        nominal, w = problem.fit(cd.nominal_spec(2))
+        spec, zeroed, _ = cd._twist_zeros(problem, [zero], nominal.spec, w)
+        nominal, w = problem.fit(spec)
+        found = cd._profile(problem, cause, nominal.spec, w) if cause.cause.bounds is not None else \
+            problem.solve(cause.extend(nominal.spec, 0.0), w)
+        fit, w = problem.fit(found.spec)
+        fit = replace(fit, profiled=zeroed + found.profiled)
+        adopted = [zero, cause] if cause.cause.bounds is not None else [zero]
+        fit, w = cd._refine(problem, adopted, fit, w)
+        fit, w = problem.settled(fit, w)
+        return cd._widened(problem, adopted, problem.compensated(fit, w), w)
+
+    fit, fidelity = fitted(1e-6), 1e-6
+    if measured:
+        from jointrig.rig.chain import rig_of_bodies
+        from jointrig.studies.chain_validate import rig_replay
+
+        got = rig_replay(rig_of_bodies(2, [1]), runs, 20)(fit)
+        if not isinstance(got, tuple):  # (a tuple: why no run replayed; the floor stands)
+            table = cd.balance_fidelity(got, fit, 20, (False, False), (False,))
+            fit, fidelity = fitted(table), table.relative
     out = {n: (float(v), float(e)) for n, v, e in zip(fit.names, fit.values, fit.std_errors)}
     out.update({n: (float(v), float(e)) for n, v, e in fit.profiled})
     return {"values": out, "chi2_per_dof": fit.chi2 / max(fit.dof, 1),
-            "dofs": {n: fit.std_error_dof(n) for n in out}}
+            "dofs": {n: fit.std_error_dof(n) for n in out}, "fidelity": fidelity}
 
 
 def run_case(db: float, seed: int, out: str, friction_Nm: float = FRICTION_Nm, bench: str = "flywheels",
-             effect: str | None = None, given: bool = False, channels: tuple = CHANNELS) -> dict:
+             effect: str | None = None, given: bool = False, channels: tuple = CHANNELS, measured: bool = False) -> dict:
     """One diagnosis (in a worker process); its record is written to ``out`` and returned."""
     os.environ["JOINTRIG_WORKERS"] = "1"  # one process per case: no forked scoring inside
     sys.path[:0] = [str(ROOT / "tests"), str(ROOT / "scripts")]
@@ -241,10 +263,11 @@ def run_case(db: float, seed: int, out: str, friction_Nm: float = FRICTION_Nm, b
     try:
         if given:
             with tempfile.TemporaryDirectory() as tmp:
-                g = given_structure(db, seed, effect, Path(tmp), channels)
+                g = given_structure(db, seed, effect, Path(tmp), channels, measured)
             values, dofs = g["values"], g["dofs"]
             rec.update(verdict="given", steps=[f"{effect.split('/')[0]} at joint 1"], effects=[effect.split("/")[0]],
-                       chi2_per_dof=g["chi2_per_dof"], fidelity=1e-6, given_structure=True)
+                       chi2_per_dof=g["chi2_per_dof"], fidelity=g["fidelity"], given_structure=True,
+                       measured_fidelity=measured)
         else:
             with tempfile.TemporaryDirectory() as tmp:
                 r = (_slide_diagnosis(db, seed, friction_Nm, Path(tmp)) if bench == "slide" else
@@ -260,7 +283,7 @@ def run_case(db: float, seed: int, out: str, friction_Nm: float = FRICTION_Nm, b
     except Exception as err:  # a failed case is recorded, counted and reported, not retried
         rec["error"] = f"{type(err).__name__}: {err}"
     rec["wall_s"] = time.perf_counter() - t0
-    write_json_atomic(case_path(Path(out), db, seed, friction_Nm, bench, effect, given, channels), rec)
+    write_json_atomic(case_path(Path(out), db, seed, friction_Nm, bench, effect, given, channels, measured), rec)
     return rec
 
 
@@ -347,6 +370,9 @@ def parse(argv) -> argparse.Namespace:
     p.add_argument("--given-structure", action="store_true",
                    help="with --effect: fit the bench's own structure as the diagnosis fits its final model instead of "
                         "diagnosing (the intervals given the right structure; about 7 s a seed)")
+    p.add_argument("--measured-fidelity", action="store_true",
+                   help="with --given-structure: fit it again with the balance's fidelity measured on the fit's "
+                        "noise-free replay in the rig, as the diagnosis does (default: a fixed floor of 1e-6)")
     p.add_argument("--channel-noise", type=float, nargs=3, default=list(CHANNELS), metavar=("TORQUE", "PHI1", "PHI2"),
                    help="two flywheels: each channel's noise as a multiple of the level's (default 1 1 1; "
                         "0.01 1 1: the angles' noise alone, to tell which channel's noise moves an interval)")
@@ -372,6 +398,8 @@ def parse(argv) -> argparse.Namespace:
     if args.given_structure and args.effect is None:
         p.exit(2, f"{p.prog}: error: --given-structure needs --effect (the structure given is the effect's cause "
                   f"at joint 1 with the twist's zero)\n")
+    if args.measured_fidelity and not args.given_structure:
+        p.exit(2, f"{p.prog}: error: --measured-fidelity is for --given-structure (a diagnosis always measures it)\n")
     if not all(math.isfinite(c) and c >= 0 for c in args.channel_noise) or not any(args.channel_noise):
         p.exit(2, f"{p.prog}: error: --channel-noise takes three multiples >= 0, not all 0, got "
                   f"{' '.join(f'{c:g}' for c in args.channel_noise)}\n")
@@ -396,7 +424,7 @@ def main(argv=None) -> int:
     for seed in seeds:  # seed by seed across the levels: a run stopped early leaves every level alike
         for db in levels:
             path = case_path(args.out, db, seed, args.friction, args.bench, args.effect, args.given_structure,
-                             args.channel_noise)
+                             args.channel_noise, args.measured_fidelity)
             if path.exists():
                 records.append(json.loads(path.read_text()))
             else:
@@ -407,7 +435,7 @@ def main(argv=None) -> int:
     if todo:
         with ProcessPoolExecutor(args.workers) as pool:
             futures = {pool.submit(run_case, db, seed, str(args.out), args.friction, args.bench, args.effect,
-                                   args.given_structure, args.channel_noise): (db, seed)
+                                   args.given_structure, args.channel_noise, args.measured_fidelity): (db, seed)
                        for db, seed in todo}
             for k, fut in enumerate(as_completed(futures), 1):
                 db, seed = futures[fut]
@@ -423,7 +451,8 @@ def main(argv=None) -> int:
     what = (f"the carriage on a guide, 12 kg, 40 N s/m, {args.friction:g} N dry friction (tests/bench_slide_sim.py), "
             f"9 runs, the default hold-out" if args.bench == "slide" else
             f"two flywheels, paper joint with {args.effect} (tests/test_independent_bench.py), 6 runs, runs {HOLDOUT} "
-            f"held out" + (", the structure given" if args.given_structure else "") if args.effect is not None else
+            f"held out" + (", the structure given" if args.given_structure else "")
+            + (", the fidelity measured" if args.measured_fidelity else "") if args.effect is not None else
             f"two flywheels, paper joint, {args.friction:g} N m dry friction (tests/bench_sim.py), 6 runs, runs "
             f"{HOLDOUT} held out")
     print(f"Coverage of the 95% intervals (value +- t SE) over seeds {seeds.start}-{seeds.stop - 1}: {what}")

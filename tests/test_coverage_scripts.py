@@ -155,3 +155,21 @@ def test_a_drives_lag_given_as_the_structure_is_fitted_at_the_drives(tmp_path):
     value, se = got["values"]["drive_delay_s"]
     assert 0.7 < got["chi2_per_dof"] < 1.5
     assert abs(value - truth["drive_delay_s"]) <= 4 * se, (value, se)
+
+
+def test_a_given_structure_with_a_measured_fidelity_weighs_by_its_replays_misfit(tmp_path, capsys):
+    # --measured-fidelity fits the given structure again with the balance's misfit measured on its
+    # own noise-free replay (as the diagnosis weighs rows): the fidelity it reports is that table's
+    # relative misfit, not the fixed 1e-6, and the Iwan joint at 70 dB still fits to its noise
+    # (chi2/dof within the calibrated band 0.7-1.5). Its cases are filed apart from the floor's,
+    # and the option alone (without --given-structure) is refused.
+    cov = _script("coverage")
+    got = cov.given_structure(70.0, 0, "micro_slip/1", tmp_path, measured=True)
+    assert got["fidelity"] != 1e-6 and 0.0 < got["fidelity"] < 1e-2
+    assert 0.7 < got["chi2_per_dof"] < 1.5
+    assert cov.case_path(tmp_path, 70.0, 0, effect="micro_slip/1", given=True, measured=True).name == \
+        "db70_micro_slip-1_given_measured_seed0000.json"
+    assert cov.case_path(tmp_path, 70.0, 0, effect="micro_slip/1", given=True).name == "db70_micro_slip-1_given_seed0000.json"
+    with pytest.raises(SystemExit) as ex:
+        cov.parse(["--effect", "micro_slip/1", "--measured-fidelity", "--out", str(tmp_path / "o")])
+    assert ex.value.code == 2 and "--given-structure" in capsys.readouterr().err
