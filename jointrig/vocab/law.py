@@ -747,7 +747,7 @@ def _play_sum(x: np.ndarray, slip: np.ndarray, weight: np.ndarray, z0: np.ndarra
               runs: Optional[list[tuple[int, int, bool]]]) -> np.ndarray:
     """``sum_i weight_i (x - z_i)`` along ``x`` for the sliders ``z_i`` of :func:`_play_array`
     (slip angles ``slip`` and states ``z0``, shape (m,)), without forming them: an Iwan element's
-    torque at a ninth of the cost for its 33 sliders (round-off ~2e-14 of the torque).
+    torque at a fraction of the cost for its 129 sliders (round-off ~2e-14 of the torque).
 
     Within a monotone run the sliders that have started to slip stay slipping: rising from state
     z_i, slider i holds (``x - z_i``) while ``x <= z_i + s_i`` and slips (``s_i``) beyond; falling,
@@ -840,13 +840,19 @@ class Iwan(Term):
     >= 0`` (the share of the stiffness that slips last, all at once). The tangential
     stiffness is ``F_S (1 + beta) / (slip_rad (beta + (chi+1)/(chi+2)))``
     (:attr:`stiffness_per_torque`). Discretised by :func:`iwan_elements` into ``elements``
-    Jenkins elements (+1 for beta > 0); the rig keeps one slider per element.
+    Jenkins elements (+1 for beta > 0); the rig keeps one slider per element. 128: the
+    discretisation's backbone departs from the continuum's as ``1 / elements**2``, and fitted to
+    an exact continuum's steady state (the independent bench, noise-free) the slip angle read
+    +4.1e-4 of itself high at 32 elements, 1.0e-4 at 64 and 2.4e-5 at 128, against a standard
+    error of 5.8e-4 of it at 0.03% noise (70 dB): at 32 its 95% interval held the truth 74% of
+    the time. The rig's C step costs the same at 128; the balance's columns are read from
+    sorted thresholds (:func:`_play_sum`) and cost no more either.
     """
 
     slip_rad: float
     chi: float = -0.5
     beta: float = 0.1
-    elements: int = 32
+    elements: int = 128
 
     def __post_init__(self):
         slip, chi, beta = float(self.slip_rad), float(self.chi), float(self.beta)
