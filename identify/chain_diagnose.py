@@ -841,13 +841,13 @@ class _Problem:
         w = np.ones(banded.system.F.size)
         f = self.solve(spec, w, covariance=iterations == 0)
         for k in range(iterations):
-            w = self._weights_at(spec, f.values, banded)
+            w = self._weights_at(f, banded)
             f = self.solve(spec, w, covariance=k == iterations - 1)
         return f, w
 
-    def _weights_at(self, spec: ChainSpec, values: np.ndarray, banded=None) -> np.ndarray:
-        banded = self.system(spec) if banded is None else banded
-        return 1.0 / self.row_variance(spec, values, banded, self.jumps(spec, dict(zip(banded.system.names, values))))
+    def _weights_at(self, fit: ChainFit, banded) -> np.ndarray:
+        """Every row's weight at ``fit``'s values (``banded``: its structure's system)."""
+        return 1.0 / self.row_variance(fit.spec, fit.values, banded, self.jumps(fit.spec, fit.as_dict()))
 
     def settled(self, fit: ChainFit, weights: np.ndarray) -> tuple[ChainFit, np.ndarray]:
         """``fit`` (a model the search has chosen) refitted once under the weights at its own values,
@@ -861,16 +861,12 @@ class _Problem:
         does not settle; it is kept as fitted. Its profiled parameters are held."""
         if not np.all(np.isfinite(fit.values)):
             return fit, weights
-        spec = fit.spec
-        banded = self.system(spec)
-        w = self._weights_at(spec, fit.values, banded)
-        again = self.solve(spec, w)
+        banded = self.system(fit.spec)
+        w = self._weights_at(fit, banded)
+        again = self.solve(fit.spec, w)
         if not (np.all(np.isfinite(again.values)) and np.isfinite(again.chi2) and again.chi2 > 0):
             return fit, weights
-        nxt = self._weights_at(spec, again.values, banded)
-        if again.residual is None or nxt.shape != again.residual.shape:
-            return fit, weights
-        chi2_next = weighted_chi2(again.residual, nxt, self.nu, again.dof)[1]
+        chi2_next = weighted_chi2(again.residual, self._weights_at(again, banded), self.nu, again.dof)[1]
         if abs(chi2_next - again.chi2) > SETTLED_RTOL * again.chi2:
             return fit, weights
         return replace(again, profiled=fit.profiled, profiled_correlation=fit.profiled_correlation), w

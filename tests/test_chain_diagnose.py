@@ -1511,3 +1511,28 @@ def test_an_intervals_factor_is_students_t_at_the_errors_degrees_of_freedom():
     assert interval_factor(1e9) == interval_factor(math.inf)
     assert interval_factor(0.3) == interval_factor(1.0)
     assert interval_factor(5.0, level=0.90) == pytest.approx(2.0150, abs=5e-5)
+
+
+def test_a_chosen_model_is_refitted_under_its_own_values_weights_only_where_that_settles(monkeypatch):
+    # _Problem.settled: the linear train at 10% noise (20 dB), where the values still move between
+    # the search's two reweightings. The refit is kept where the weights at its values read its
+    # chi-square within SETTLED_RTOL (checked here against a direct recomputation), its profiled
+    # parameters held; with a tolerance of 0 nothing settles and the fit comes back as it was.
+    from dataclasses import replace
+
+    import numpy as np
+
+    from jointrig.identify import chain_diagnose as cd
+    from jointrig.identify.estimates import weighted_chi2
+
+    problem, (nominal, w) = _linear_problem(noise=0.1)
+    nominal = replace(nominal, profiled=(("joint1_angle_offset_rad", 0.0, 1.0),))
+    got, wg = problem.settled(nominal, w)
+    assert got is not nominal and got.profiled == nominal.profiled
+    banded = problem.system(got.spec)
+    own = 1.0 / problem.row_variance(got.spec, got.values, banded, problem.jumps(got.spec, got.as_dict()))
+    assert abs(weighted_chi2(got.residual, own, problem.nu, got.dof)[1] - got.chi2) <= cd.SETTLED_RTOL * got.chi2
+    assert not np.array_equal(wg, w)
+    monkeypatch.setattr(cd, "SETTLED_RTOL", 0.0)
+    same, ws = problem.settled(nominal, w)
+    assert same is nominal and ws is w
