@@ -1536,3 +1536,10 @@ def test_a_chosen_model_is_refitted_under_its_own_values_weights_only_where_that
     monkeypatch.setattr(cd, "SETTLED_RTOL", 0.0)
     same, ws = problem.settled(nominal, w)
     assert same is nominal and ws is w
+    # a refit that is not finite (a singular system) is no refit: the fit comes back as it was
+    monkeypatch.setattr(cd, "SETTLED_RTOL", 0.05)
+    solve = cd._Problem.solve
+    monkeypatch.setattr(cd._Problem, "solve", lambda self, spec, weights, covariance=True: replace(
+        solve(self, spec, weights, covariance), values=np.full(len(nominal.values), np.nan)))
+    same, ws = problem.settled(nominal, w)
+    assert same is nominal and ws is w
