@@ -124,9 +124,9 @@ def test_a_free_plays_half_gap_and_stiffness_scatter_as_their_standard_errors_sa
     # channel), its structure given (scripts/coverage.py --given-structure): over seeds 0-29 the
     # RMS of z = (value - truth) / SE of the half gap and of k stays within 3 of its own standard
     # errors of 1 (1 / sqrt(2 n) for calibrated Gaussian z: 1.39 at 30 seeds), and above 0.6 (an
-    # error inflated to hide a bias would read below it). Before the profile's error carried the
-    # rows' correlations (identify.chain_diagnose._correlated_rows) these seeds read 1.46 and
-    # 1.39; 100 seeds read 1.27 and 1.29 (docs/noisy-measurements.md).
+    # error inflated to hide a bias would read below it). Without the rows' correlations in the
+    # profile's error (identify.chain_diagnose._correlated_rows) these seeds read 1.46 and 1.39;
+    # 100 seeds with them, 1.11 and 1.15 (docs/noisy-measurements.md).
     import tempfile
 
     cov = _script("coverage")
