@@ -150,7 +150,7 @@ def _backbone(law: JointLaw, inertia: float, amplitude: float) -> tuple[float, .
 
 def law_card(law: JointLaw, inertia_kgm2: float, amplitudes_rad: Sequence[float], *,
              covariance: Optional[np.ndarray] = None, inertia_index: Optional[int] = None,
-             omegas_rad_s: Optional[Sequence[float]] = None) -> JointCard:
+             omegas_rad_s: Optional[Sequence[float]] = None, shapes: Sequence[tuple] = ()) -> JointCard:
     """The card of an identified law (module docstring): on the backbone (each amplitude at its
     natural frequency) or, with ``omegas_rad_s``, at given frequencies (the runs' drive
     frequencies, to compare with :func:`runs_card` point by point). Off the backbone the damping
@@ -161,7 +161,12 @@ def law_card(law: JointLaw, inertia_kgm2: float, amplitudes_rad: Sequence[float]
       inertia_kgm2: Je of the joint's mode.
       amplitudes_rad: relative amplitudes A > 0.
       covariance: ``(p, p)`` covariance of the law's values, or of ``(Je, values...)`` when
-        ``inertia_index`` is 0 (the equivalent form's parameter order); None: no standard errors.
+        ``inertia_index`` is 0 (the equivalent form's parameter order), followed by the
+        ``shapes``' parameters; None: no standard errors.
+      shapes: ``(terms below, terms above, step)`` per parameter that shapes the law's terms (a
+        slip angle, a free play), the law's terms at that parameter ``step`` below and above its
+        value (:func:`identify.chain_diagnose.place_uncertainty`): its column of the card's
+        Jacobian is their central difference at the law's values.
     """
     amps = [float(a) for a in amplitudes_rad]
     if not amps or not all(a > 0 and math.isfinite(a) for a in amps):
@@ -183,8 +188,8 @@ def law_card(law: JointLaw, inertia_kgm2: float, amplitudes_rad: Sequence[float]
         return (math.sqrt(k / je) if k > 0 else math.nan, e / (2 * math.pi * k * a * a) if k > 0 else math.nan,
                 e, k, c)
 
-    def evaluate(theta: np.ndarray, a: float, i: int) -> np.ndarray:
-        return np.array(point(JointLaw(law.terms, tuple(theta[1:])), float(theta[0]), a, i)[:4])
+    def evaluate(theta: np.ndarray, a: float, i: int, terms=law.terms) -> np.ndarray:
+        return np.array(point(JointLaw(terms, tuple(theta[1:])), float(theta[0]), a, i)[:4])
 
     points = []
     for i, a in enumerate(amps):
@@ -192,12 +197,12 @@ def law_card(law: JointLaw, inertia_kgm2: float, amplitudes_rad: Sequence[float]
         std = [math.nan] * 4
         if covariance is not None:  # (a row that is not finite, say where k <= 0, keeps no error)
             cov = np.asarray(covariance, dtype=float)
-            full = np.zeros((base.size, base.size))
+            full = np.zeros((base.size + len(shapes),) * 2)
             if inertia_index == 0:
                 full[:, :] = cov
             else:
                 full[1:, 1:] = cov
-            jac = np.empty((4, base.size))
+            jac = np.empty((4, full.shape[0]))
             for j in range(base.size):
                 h = 1e-6 * max(abs(base[j]), math.sqrt(max(full[j, j], 0.0)), 1e-12)
                 up = base.copy()
@@ -205,6 +210,8 @@ def law_card(law: JointLaw, inertia_kgm2: float, amplitudes_rad: Sequence[float]
                 dn = base.copy()
                 dn[j] -= h
                 jac[:, j] = (evaluate(up, a, i) - evaluate(dn, a, i)) / (2 * h)
+            for j, (below, above, step) in enumerate(shapes, start=base.size):
+                jac[:, j] = (evaluate(base, a, i, tuple(above)) - evaluate(base, a, i, tuple(below))) / (2 * step)
             var = np.einsum("ij,jk,ik->i", jac, full, jac)
             std = list(np.sqrt(np.clip(var, 0.0, None)))
         at = w if omegas is None else omegas[i]

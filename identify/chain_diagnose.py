@@ -73,7 +73,7 @@ from jointrig.vocab.records import RecordError, SteadyStateRecord
 from .estimates import RowFit, satterthwaite, weighted_chi2
 from .solve import IllConditionedWarning
 
-__all__ = ["ChainRun", "prepare_chain_runs", "ChainFit", "Candidate", "CauseScore", "ChainDiagnosis",
+__all__ = ["ChainRun", "prepare_chain_runs", "ChainFit", "ProfiledSpread", "Candidate", "CauseScore", "ChainDiagnosis",
            "diagnose_chain", "JOINT_CAUSES", "nominal_spec", "plant_and_inertias", "separating_drive",
            "drive_information", "zero_resolved", "mean_joint_torque"]
 
@@ -189,6 +189,23 @@ def prepare_chain_runs(records: Sequence[ChainRecord], *, band: int = 20) -> lis
 
 
 @dataclass(frozen=True)
+class ProfiledSpread:
+    """The profiled parameters' uncertainty beside the linear values' (:func:`_widened`), for a
+    quantity that depends on both (a joint card's model rows: :func:`place_uncertainty`).
+    ``below`` and ``above`` are the fit's structure (:class:`ChainSpec`) with each parameter
+    ``steps`` below and above its value; ``cross`` ``(values, m)`` is the values' covariance with
+    the parameters, ``G S`` (``G`` the fit's slopes along them, :attr:`identify.causes.Profiled.slope`),
+    ``covariance`` ``(m, m)`` theirs, ``S``."""
+
+    names: tuple
+    steps: tuple
+    below: tuple
+    above: tuple
+    cross: np.ndarray = field(repr=False)
+    covariance: np.ndarray = field(repr=False)
+
+
+@dataclass(frozen=True)
 class ChainFit(RowFit):
     """A weighted least-squares fit of one chain structure (chi-square corrected for the weights).
 
@@ -224,6 +241,9 @@ class ChainFit(RowFit):
     #: each linear parameter's standard error's degrees of freedom (:meth:`_Problem.compensated`;
     #: None: taken as known), for its interval (:meth:`Estimates.interval`)
     std_error_dofs: Optional[np.ndarray] = field(default=None, repr=False, compare=False)
+    #: the profiled parameters' covariance with the values (:func:`_widened`), for a joint card
+    #: (:func:`place_uncertainty`); None where nothing profiled widened the fit
+    profiled_spread: Optional[ProfiledSpread] = field(default=None, repr=False, compare=False)
 
     def _profiled_std_errors(self) -> dict[str, float]:
         return {n: se for n, _, se in self.profiled}
@@ -1312,25 +1332,36 @@ def _widened(problem: _Problem, cands: Sequence[Candidate], fit: ChainFit, weigh
     central difference at its value, each one's error times :func:`_correlated_rows` (written
     into ``profiled``), their correlations :attr:`ChainFit.profiled_correlation`."""
     found = {n: (v, e) for n, v, e in fit.profiled}
-    names, slopes, errors = [], [], []
+    names, slopes, errors, steps, specs = [], [], [], [], []
     for cand in cands:
         if cand.cause.bounds is None or cand.profiled_name() not in found:
             continue
         h, se = found[cand.profiled_name()]
         lo, hi = cand.cause.bounds(_twist_runs(problem, cand))
         step = max(1e-3 * abs(h), 1e-6 * (hi - lo))
-        below, above = (problem.solve(cand.extend(fit.spec, x), weights, covariance=False) for x in (h - step, h + step))
+        at = [cand.extend(fit.spec, x) for x in (h - step, h + step)]
+        below, above = (problem.solve(s, weights, covariance=False) for s in at)
         if np.shape(below.values) != np.shape(fit.values):
             continue
         names.append(cand.profiled_name())
         errors.append(se * _correlated_rows(problem, cand, fit, h, step, weights))
         slopes.append((np.asarray(above.values) - np.asarray(below.values)) / (2 * step))
+        steps.append(step)
+        specs.append(at)
     if not names:
         return fit
     rho = {frozenset((a, b)): r for a, b, r in fit.profiled_correlation}
     R = np.array([[1.0 if a == b else rho.get(frozenset((a, b)), 0.0) for b in names] for a in names])
     now = dict(zip(names, errors))
-    return replace(widened(fit, slopes, errors, R), profiled=tuple((n, v, now.get(n, e)) for n, v, e in fit.profiled))
+    out = replace(widened(fit, slopes, errors, R), profiled=tuple((n, v, now.get(n, e)) for n, v, e in fit.profiled))
+    ok = [k for k, e in enumerate(errors) if math.isfinite(e)]  # as widened() keeps them
+    if out.covariance is None or not ok:
+        return out
+    E = np.array([errors[k] for k in ok])
+    S = R[np.ix_(ok, ok)] * np.outer(E, E)
+    return replace(out, profiled_spread=ProfiledSpread(
+        tuple(names[k] for k in ok), tuple(steps[k] for k in ok), tuple(specs[k][0] for k in ok),
+        tuple(specs[k][1] for k in ok), np.column_stack([slopes[k] for k in ok]) @ S, S))
 
 
 def _correlated_rows(problem: _Problem, cand: Candidate, fit: ChainFit, h: float, step: float, weights) -> float:
@@ -2253,6 +2284,13 @@ def place_covariance(fit: ChainFit, place: int) -> Optional[np.ndarray]:
     when the fit has none. A drag clipped at 0 has no row."""
     if fit.covariance is None:
         return None
+    T = _place_map(fit, place)
+    return T @ fit.covariance @ T.T
+
+
+def _place_map(fit: ChainFit, place: int) -> np.ndarray:
+    """The first-order map from the fit's values to ``(inertia of the mode, law values)`` at a
+    place (:func:`place_covariance`)."""
     law, _ = place_law(fit, place)
     idx = {n: i for i, n in enumerate(fit.names)}
     vals = fit.as_dict()
@@ -2275,7 +2313,37 @@ def place_covariance(fit: ChainFit, place: int) -> Optional[np.ndarray]:
         for n in ns:
             if n in idx and (len(ns) > 1 or vals[n] == law.values[r]):  # a drag clipped at 0 is not the fit's value
                 T[1 + r, idx[n]] = 1.0
-    return T @ fit.covariance @ T.T
+    return T
+
+
+def place_uncertainty(fit: ChainFit, place: int) -> tuple[Optional[np.ndarray], tuple]:
+    """``(covariance, shapes)`` for a quantity of a place's law that depends on its profiled
+    parameters too (a joint card's model rows: :func:`identify.card.law_card`'s ``shapes``).
+
+    ``shapes`` holds ``(terms below, terms above, step)`` of each profiled parameter that shapes
+    the place's law (a slip angle, a free play, a Stribeck speed; not a twist's zero), its law's
+    terms at the value minus and plus ``step``; ``covariance`` is over ``(inertia of the mode, law
+    values, those parameters)``: :func:`place_covariance`'s, the values' covariance with them
+    (:attr:`ProfiledSpread.cross`) and theirs. With the widened values' covariance alone and the
+    law held at its profiled shape, a card row that the fit pins along the profile (the values
+    move to keep it) had its uncertainty counted where it cancels, and one that the shape sets
+    directly lost it. Without a spread (nothing profiled) it is :func:`place_covariance`'s."""
+    cov = place_covariance(fit, place)
+    spread = fit.profiled_spread
+    if cov is None or spread is None:
+        return cov, ()
+    law, _ = place_law(fit, place)
+    keep, shapes = [], []
+    for k, (below, above, step) in enumerate(zip(spread.below, spread.above, spread.steps)):
+        lb, la = (place_law(replace(fit, spec=s), place)[0] for s in (below, above))
+        if (lb.terms == law.terms and la.terms == law.terms) or not (len(lb.values) == len(la.values) == len(law.values)):
+            continue
+        keep.append(k)
+        shapes.append((lb.terms, la.terms, float(step)))
+    if not keep:
+        return cov, ()
+    cross = _place_map(fit, place) @ spread.cross[:, keep]
+    return np.block([[cov, cross], [cross.T, spread.covariance[np.ix_(keep, keep)]]]), tuple(shapes)
 
 
 def train_joint_runs(runs: Sequence[ChainRun], run_ids: Sequence[str], fit: ChainFit, band: int) -> list:

@@ -31,7 +31,7 @@ import numpy as np
 from jointrig.vocab.law import Iwan, Jenkins, JointLaw, Power, Viscous
 from jointrig.identify.card import JointCard, law_card, runs_card
 
-from jointrig.identify.chain_diagnose import place_covariance, place_law, plant_and_inertias
+from jointrig.identify.chain_diagnose import place_law, place_uncertainty, plant_and_inertias
 from jointrig.identify.chain import ChainRecord, inertia_name
 from jointrig.rig.chain import chain_of_two_flywheels
 from jointrig.rig.measurement import add_noise
@@ -146,7 +146,7 @@ def check_card(rig: RigModel, case: str, *, snr_db: float = 40.0, seed: int = 1,
                                  rig=chain_of_two_flywheels(rig, (1,)), progress=step)
     fit = report.adopted_fit
     id_law, je = place_law(fit, 0)
-    cov = place_covariance(fit, 0)
+    cov, shapes = place_uncertainty(fit, 0)
     adopted = tuple(s.effect for s in report.diagnosis.steps) if report.adopted else ()
     name = (f"extended: {' + '.join(adopted)}" if adopted
             else f"nominal (paper eq. 11; verdict {report.verdict.verdict})")
@@ -160,7 +160,7 @@ def check_card(rig: RigModel, case: str, *, snr_db: float = 40.0, seed: int = 1,
     say(f"{case}: measuring the {len(pr.points)} resonance points as a lab would ({n_periods} periods, "
         f"{snr_db:g} dB)")
     amps = [p.amplitude_rad for p in pr.points]
-    card = law_card(id_law, je, amps, covariance=cov, inertia_index=0)
+    card = law_card(id_law, je, amps, covariance=cov, inertia_index=0, shapes=shapes)
     true = law_card(law, rig.Je_kgm2, amps)
     # The lab's own runs: each phase-resonance point simulated again over n_periods and measured.
     levels = [float(p.run.split()[0]) for p in pr.points]

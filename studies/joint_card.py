@@ -70,9 +70,10 @@ def cards_of_train(report, records) -> tuple[CardReport, ...]:
     is the adopted one (the nominal one when nothing is adopted, with the warning); the runs'
     rows come from the equations of motion with its inertias and drags
     (:func:`identify.chain_diagnose.train_joint_runs`). The model's curves carry the standard
-    errors of its law and of its mode's inertia (:func:`identify.chain_diagnose.place_covariance`)."""
+    errors of its law, of its mode's inertia and of the profiled parameters that shape the law (a
+    slip angle, a free play: :func:`identify.chain_diagnose.place_uncertainty`)."""
     from jointrig.identify.card import MASING_HARMONICS, joint_masing_check, joint_runs_card
-    from jointrig.identify.chain_diagnose import place_covariance, place_law, prepare_chain_runs, train_joint_runs
+    from jointrig.identify.chain_diagnose import place_law, place_uncertainty, prepare_chain_runs, train_joint_runs
 
     d = report.diagnosis
     fit = report.adopted_fit
@@ -89,9 +90,9 @@ def cards_of_train(report, records) -> tuple[CardReport, ...]:
         card = joint_runs_card(runs, je)
         amps = [q.amplitude_rad for q in card.points]
         grid = np.geomspace(min(amps), max(amps), N_CURVE_POINTS) if max(amps) > min(amps) else np.array(amps[:1])
-        cov = place_covariance(fit, k)
-        model = law_card(law, je, grid, covariance=cov, inertia_index=0)
-        at_runs = law_card(law, je, amps, covariance=cov, inertia_index=0,
+        cov, shapes = place_uncertainty(fit, k)
+        model = law_card(law, je, grid, covariance=cov, inertia_index=0, shapes=shapes)
+        at_runs = law_card(law, je, amps, covariance=cov, inertia_index=0, shapes=shapes,
                            omegas_rad_s=[q.omega_rad_s for q in card.points])
         out.append(CardReport(model, card, at_runs, joint_masing_check(mruns), report.verdict, causes,
                               0 if N == 1 else k + 1, report.kind))

@@ -487,3 +487,39 @@ def test_masing_check_bands_a_coarsely_sampled_run_to_its_harmonics_below_nyquis
     check = masing_check(recs, 2.0, 2.0)
     assert [r.highest_harmonic for r in check.runs] == [7, 7]
     assert all(type(r.highest_harmonic) is int for r in check.runs)
+
+
+def test_a_cards_standard_errors_carry_a_profiled_shape_as_draws_of_the_whole_covariance_scatter():
+    # A Jenkins joint (c 5, k 500, slip torque 40 N m at a slip angle s = 0.02 rad, the card
+    # check's), its slip angle profiled: the fit's values move with s along its profile (slopes G),
+    # and their covariance is the widened C + G S G^T. Drawn 600 times from the joint covariance
+    # of (Je, c, k, F, s), the card's rows scatter as law_card's errors with the shape's column
+    # say (600 draws hold a standard deviation to 2.9%: within 10%, 3.4 of those), and not as the
+    # widened values' covariance alone with the law held at its profiled shape says (the joint
+    # card's model rows before: off by more than 25% in some row at these amplitudes).
+    c, k, F, s = 5.0, 500.0, 40.0, 0.02
+    terms = (Viscous(), Power(1), Jenkins(s))
+    C = np.diag([0.01, 0.2, 4.0, 0.5]) ** 2               # (Je, c, k, F) at a fixed slip angle
+    G = np.array([0.0, 40.0, -2.0e4, 2000.0])             # d(Je, c, k, F) / d s along the profile
+    S = np.array([[0.0005**2]])                           # the slip angle's own variance (2.5%: first order holds)
+    top = C + np.outer(G, G) * S[0, 0]
+    full = np.block([[top, (G * S[0, 0])[:, None]], [(G * S[0, 0])[None, :], S]])
+    h = 1e-3 * s
+    shapes = [((Viscous(), Power(1), Jenkins(s - h)), (Viscous(), Power(1), Jenkins(s + h)), h)]
+    amps = (0.01, 0.1)  # sticking and slipping
+    law = JointLaw(terms, (c, k, F))
+    new = law_card(law, JE, amps, covariance=full, inertia_index=0, shapes=shapes)
+    old = law_card(law, JE, amps, covariance=top, inertia_index=0)
+
+    rng = np.random.default_rng(5)
+    draws = rng.multivariate_normal(np.array([JE, c, k, F, s]), full, size=600)
+    rows = np.array([[(p.natural_frequency_rad_s, p.damping_ratio, p.dissipation_J_per_cycle)
+                      for p in law_card(JointLaw((Viscous(), Power(1), Jenkins(d[4])), tuple(d[1:4])), d[0], amps).points]
+                     for d in draws])
+    scatter = rows.std(axis=0, ddof=1)
+    said = np.array([[p.natural_frequency_rad_s_std, p.damping_ratio_std, p.dissipation_J_per_cycle_std]
+                     for p in new.points])
+    before = np.array([[p.natural_frequency_rad_s_std, p.damping_ratio_std, p.dissipation_J_per_cycle_std]
+                       for p in old.points])
+    np.testing.assert_allclose(said, scatter, rtol=0.10)
+    assert np.max(np.abs(before / scatter - 1)) > 0.25, before / scatter

@@ -12,6 +12,7 @@ joint and bearing drag at every flywheel (the table in the README; 25 of 25 pass
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import pytest
 
@@ -1543,3 +1544,47 @@ def test_a_chosen_model_is_refitted_under_its_own_values_weights_only_where_that
         solve(self, spec, weights, covariance), values=np.full(len(nominal.values), np.nan)))
     same, ws = problem.settled(nominal, w)
     assert same is nominal and ws is w
+
+
+def test_a_joint_cards_uncertainty_carries_the_profiled_parameters_that_shape_its_law():
+    # place_uncertainty on a fit made by hand: two bodies, a joint of viscous damping, a spring
+    # and a Jenkins element whose slip angle (0.02 rad) was profiled beside the twist's zero.
+    # The covariance is place_covariance's, bordered by the slip angle's covariance with the
+    # place's values (the fit's cross-covariance mapped as the values are: the mode's inertia
+    # from J1 and J2) and its own variance; its shape is the law's terms a step either side. The
+    # twist's zero moves no term of the law and is left out. Exact: selections and one product.
+    import numpy as np
+
+    from jointrig.identify.chain import ChainSpec
+    from jointrig.identify.chain_diagnose import ChainFit, ProfiledSpread, place_covariance, place_uncertainty
+    from jointrig.vocab.law import Jenkins, Power, Viscous
+
+    terms = (Viscous(), Power(1), Jenkins(0.02))
+    spec = ChainSpec((terms,), offsets_rad=(0.001,))
+    names = spec.names
+    values = np.array([2.0 if n.startswith("J") else 10.0 for n in names])
+    rng = np.random.default_rng(7)
+    a = rng.normal(size=(len(names), len(names)))
+    cross = rng.normal(size=(len(names), 2))
+    S = np.array([[4e-6, 1e-7], [1e-7, 9e-8]])
+    h = 2e-5
+    below = (replace(spec, joints=((Viscous(), Power(1), Jenkins(0.02 - h)),)), replace(spec, offsets_rad=(0.001 - 1e-6,)))
+    above = (replace(spec, joints=((Viscous(), Power(1), Jenkins(0.02 + h)),)), replace(spec, offsets_rad=(0.001 + 1e-6,)))
+    bare = ChainFit(spec, names, values, np.ones(len(names)), 0.0, 10, np.zeros(10), covariance=a @ a.T)
+    fit = replace(bare, profiled_spread=ProfiledSpread(("joint1_hysteresis_slip_angle_rad", "joint1_angle_offset_rad"),
+                                                        (h, 1e-6), below, above, cross, S))
+
+    cov0 = place_covariance(fit, 0)
+    assert place_uncertainty(bare, 0) == (pytest.approx(cov0, rel=1e-15), ())
+    cov, shapes = place_uncertainty(fit, 0)
+    assert shapes == (((Viscous(), Power(1), Jenkins(0.02 - h)), (Viscous(), Power(1), Jenkins(0.02 + h)), h),)
+    p = cov0.shape[0]
+    assert cov.shape == (p + 1, p + 1)
+    np.testing.assert_array_equal(cov[:p, :p], cov0)
+    T = np.zeros((p, len(names)))  # (Je, c, k, F): Je = J1 J2 / (J1 + J2) to first order
+    T[0, names.index("J1_kgm2")] = T[0, names.index("J2_kgm2")] = 0.25
+    for r, n in enumerate(("c_Nms_per_rad", "k_Nm_per_rad", "hysteresis_slip_torque_Nm"), start=1):
+        T[r, names.index("joint1_" + n)] = 1.0
+    np.testing.assert_allclose(cov[:p, p], T @ cross[:, 0], rtol=1e-12)
+    np.testing.assert_allclose(cov[p, :p], T @ cross[:, 0], rtol=1e-12)
+    assert cov[p, p] == S[0, 0]
