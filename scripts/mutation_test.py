@@ -84,6 +84,13 @@ MODULES = {
                                                                        "tests/test_validate_record.py",
                                                                        "tests/test_preload.py",
                                                                        "tests/test_calibration.py"]),
+    # the law's terms (their columns, model-file fields, C cases and sliders), in the basis tests
+    # and in the rig's trajectories (Python and C callbacks), the identification and the card
+    "jointrig.vocab.law": ("jointrig/vocab/law.py", ["tests/test_basis.py", "tests/test_effects_rig.py",
+                                                    "tests/test_rig.py", "tests/test_identify_rig.py",
+                                                    "tests/test_dry_friction_rig.py", "tests/test_eiv.py",
+                                                    "tests/test_native_callback.py", "tests/test_card.py",
+                                                    "tests/test_chain.py"]),
     # the joint card, of two flywheels and of every joint of a train
     "jointrig.identify.card": ("identify/card.py", ["tests/test_card.py"]),
     # a train's harmonic balance (stick masks, the drives' lag) and its diagnosis

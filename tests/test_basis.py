@@ -453,6 +453,26 @@ def test_assemble_from_harmonic_1_lays_out_cosine_and_sine_rows_without_the_mean
         assemble(C[None], F, ("k",), first_harmonic=2)
 
 
+def test_a_systems_row_layout_is_shared_by_every_system_of_its_shape_and_read_only():
+    # assemble's row layout (each row's record, harmonic, part and equation) is computed once per
+    # shape and shared by every system of that shape: a caller writing into one system's layout
+    # would relabel the rows of every later system, so it is read-only, and a later system of the
+    # same shape reads the layout as it is (exact small integers).
+    from jointrig.identify.balance import assemble
+
+    C = np.array([[[5.0, 1 + 2j, 3 - 4j]], [[6.0, 7 + 8j, 9 - 1j]]])  # (2 records, 1 equation, H + 1 = 3)
+    F = np.zeros((2, 1, 3), complex)
+    s = assemble(C[None], F, ("k",), first_harmonic=1)
+    for layout in (s.row_record, s.row_harmonic, s.row_part, s.row_equation):
+        with pytest.raises(ValueError, match="read-only"):
+            layout[0] = 7
+    later = assemble(2 * C[None], F, ("c",), first_harmonic=1)
+    np.testing.assert_array_equal(later.row_harmonic, [1, 1, 2, 2] * 2)
+    np.testing.assert_array_equal(later.row_part, [0, 1] * 4)
+    np.testing.assert_array_equal(later.row_record, [0] * 4 + [1] * 4)
+    np.testing.assert_array_equal(later.row_equation, [0] * 8)
+
+
 def test_the_equivalent_systems_rows_balance_equation_0_and_the_two_dof_forms_each_flywheels_own():
     # row_equation: 0 is the relative coordinate (the equivalent one-degree-of-freedom form has no
     # other) or flywheel 1, 1 is flywheel 2; per record the two-dof form lays out flywheel 1's

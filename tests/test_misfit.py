@@ -146,6 +146,22 @@ def test_a_repeated_setting_tells_run_order_and_a_near_one_does_not():
     assert math.isnan(misfit_character(base + [_run(3, 25.5, 1.0, cos3(40.0))], 10).repeat_change)
 
 
+def test_a_repeated_settings_change_is_relative_at_any_size_of_the_residual():
+    # The change between two runs of one setting is relative to their residuals' size: residuals of
+    # 0.02 and 0.04 N m on harmonic 3 (a slide's small forces, a joint of 10 N m/rad) change by
+    # half, as 20 and 40 N m do (the test above), and ask to repeat the runs (above REPEAT_CHANGE);
+    # exact to round-off (whole periods).
+    from jointrig.identify.misfit import REPEAT_CHANGE, REPEAT_WITH_TEMPERATURE, next_measurements as asked
+
+    cos3 = lambda s: (lambda th, p, v: s * np.cos(3 * th))  # noqa: E731
+    runs = [_run(0, 25.0, 1.0, cos3(0.02), K=10.0), _run(1, 40.0, 1.0, cos3(0.03), K=10.0),
+            _run(2, 25.0, 1.0, cos3(0.04), K=10.0)]
+    c = misfit_character(runs, 10)
+    assert c.repeat_change == pytest.approx(0.5, rel=1e-9) and c.repeat_runs == ("0", "2")
+    assert c.repeat_change > REPEAT_CHANGE
+    assert any(m.kind == REPEAT_WITH_TEMPERATURE and m.runs == ("0", "2") for m in asked(c, residual_surface(runs), runs))
+
+
 def test_the_residuals_axis_turns_modulo_half_a_turn():
     # 150 deg apart is an axis 30 deg apart: a residual and its negative lie on one axis
     a = _run("a", 20.0, 1.0, lambda th, p, v: 50.0 * np.cos(th))
@@ -305,6 +321,26 @@ def test_a_stepped_sine_is_asked_above_a_frequency_slope_of_one_half_either_way(
 
     assert not asks(0.5) and not asks(-0.5)
     assert asks(0.5 + 1e-9) and asks(-0.5 - 1e-9)
+
+
+def test_a_stepped_sine_is_asked_for_a_surface_partly_elastic_at_the_words_bounds():
+    # "Partly elastic" is the surface's words' middle: an elastic share of 0.3 and of 0.7 reads
+    # "both elastic and dissipative" (below 0.3 "of the rate", above 0.7 "elastic"), so a misfit
+    # growing with the frequency (slope 1) asks for a stepped sine at both bounds and not beyond.
+    from dataclasses import replace
+
+    runs = [_run(i, 30.0, a, lambda th, p, v: 5e9 * p**3) for i, a in enumerate((1.0, 2.0, 4.0))]
+    c = replace(misfit_character(runs, 10), frequency_slope=1.0)
+    s = residual_surface(runs)
+    assert c.phase_span_deg == 0.0
+
+    def asks(share):
+        return any("stepped sine" in m for m in next_measurements(c, replace(s, elastic_share=share), runs))
+
+    for share in (0.3, 0.7):
+        assert "both elastic and dissipative" in surface_text(_surface(elastic_share=share))
+        assert asks(share)
+    assert not asks(0.3 - 1e-9) and not asks(0.7 + 1e-9)
 
 def test_a_misfit_counts_against_the_torques_harmonics_not_its_mean_and_a_run_at_rest_stays_finite():
     # The relative misfit is its RMS over the measured torque's RMS on harmonics 1..band: a mean

@@ -865,6 +865,14 @@ def test_tdms_and_uff_edges(tmp_path):
                          for k, v in sig.items() if k != "time"])
     with pytest.raises(RunsFileError, match="wf_increment = 0.0; expected a positive sample step"):
         read_runs(tmp_path / "z.tdms")
+    # TDMS: waveform timing without a start offset starts at 0 s (NI's default for
+    # wf_start_offset): the time column is the increment's multiples, to round-off
+    with TdmsWriter(tmp_path / "w.tdms") as w:
+        w.write_segment([ChannelObject("run1", k, v, properties={"wf_increment": dt}) for k, v in sig.items()
+                         if k != "time"])
+    rec = read_runs(tmp_path / "w.tdms").records[0]
+    np.testing.assert_allclose(rec.time_s, t, rtol=0, atol=1e-12)
+    assert rec.omega_rad_s == pytest.approx(W, rel=1e-8)
     # UFF: a type-151 header set is skipped; no load case id: run "0"; units from the names
     # when the unit label is empty
     uff = pyuff.UFF(str(tmp_path / "e.uff"))
@@ -975,6 +983,9 @@ def test_a_matlab_files_settings_beside_the_channels_are_no_columns(tmp_path):
     scipy.io.savemat(tmp_path / "d.mat", {**sig, "omega": W, "fs_Hz": 1.0 / dt, "gain": 2.0})
     loaded = read_runs(tmp_path / "d.mat")
     assert loaded.run_ids == ("0",) and loaded.records[0].omega_rad_s == W
+    # the settings are no columns, so no column of theirs is "ignored" (as a struct's scalar field)
+    words = note_words(loaded.notes)
+    assert not any("gain" in n or "fs_Hz" in n for n in words), words
 
 
 def test_pooled_noise_is_a_moving_average_over_the_harmonics_and_leaves_the_mean():
