@@ -1440,9 +1440,10 @@ def _rejection(problem: _Problem, cand: Candidate, ext: ChainFit, mag: tuple) ->
             return FeedsEnergy(name, v, se)
     if cand.cause.degenerate is not None:
         h = ext.parameters().get(cand.profiled_name(), math.nan)
+        se = {n: e for n, _, e in ext.profiled}.get(cand.profiled_name(), math.nan)
         at_place = f"joint {cand.place}" if cand.at_joint else f"body {cand.place}"
         return cand.cause.degenerate(h, Limits(angle_resolution(problem, cand), _rate_amplitude(problem, cand),
-                                               f"coulomb_friction at {at_place}"))
+                                               f"coulomb_friction at {at_place}", se))
     return None
 
 

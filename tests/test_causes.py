@@ -363,6 +363,13 @@ def test_a_slip_angle_or_free_play_below_the_resolution_and_a_stribeck_rate_abov
         "off within the data; it is dry friction (see coulomb_friction at joint 2)")
     assert "(at most 2 m/s)" in rejection_text(stribeck(2.5, lim), SLIDE)
     assert by_name("coulomb_friction").degenerate is None and by_name("cogging").degenerate is None
+    # A free play that the whole fit tells from zero (beyond 3.29 of its standard errors at alpha
+    # 1e-3) stands below one sample's resolution; a slip angle does not (its element is dry
+    # friction there); a free play within 3.29 of its errors, or without one, is refused.
+    told = Limits(1e-3, 2.0, "coulomb_friction at joint 2", size_std_error=1e-4)
+    assert gap(5e-4, told) is None and gap(3.2e-4, told) is not None
+    assert jenkins(5e-4, told) is not None and iwan(5e-4, told) is not None
+    assert gap(5e-4, lim) is not None  # no standard error: one sample's resolution decides
 
 
 def test_a_rejection_is_said_with_the_benchs_names():
