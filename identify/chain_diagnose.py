@@ -25,8 +25,8 @@ elastic law), bearing drag at every flywheel:
    ``alpha / n_candidates`` (Bonferroni over every cause at every place) and its BIC score
    ``D - q ln(n_rows)`` is positive; causes with one nonlinear parameter are profiled. A
    friction or damping fitted negative, a slip angle or free play below the angle resolution
-   (then it is dry friction, or nothing) and a Stribeck rate above every run's rate are
-   rejected with the reason.
+   (then it is dry friction, or nothing; a free play the whole fit resolves stands) and a
+   Stribeck rate above every run's rate are rejected with the reason.
 5. **Extension**: the best significant candidate is adopted, the weights re-estimated, and
    the rest scored again on top of it, until nothing significant is left. A rival at another
    place that neither needs the other nor is needed by it (both ways not significant) makes
