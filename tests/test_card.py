@@ -523,3 +523,11 @@ def test_a_cards_standard_errors_carry_a_profiled_shape_as_draws_of_the_whole_co
                        for p in old.points])
     np.testing.assert_allclose(said, scatter, rtol=0.10)
     assert np.max(np.abs(before / scatter - 1)) > 0.25, before / scatter
+
+
+def test_a_describing_function_needs_both_an_amplitude_and_a_frequency():
+    # Either one at 0 (or below) is refused by name, not turned into a card row of NaN.
+    law = JointLaw((Viscous(), Power(1)), (100.0, 2000.0))
+    for a, w in ((0.0, 10.0), (0.01, 0.0), (-0.01, 10.0)):
+        with pytest.raises(ValueError, match="amplitude_rad > 0 and omega_rad_s > 0"):
+            describing_function(law, a, w)

@@ -588,6 +588,10 @@ def test_a_profile_whose_valley_is_flat_takes_its_error_from_where_chi_square_ri
     flat = {float(x): (0.0 if x < 1.0 else 4.0 * (x - 1.0) ** 2) for x in xs}
     assert _half_width(flat, 1.0, 1.0, 0.0, 2.0) == pytest.approx((1.5 - 0.0) / 2, rel=0.02)
     assert math.isnan(_half_width({float(x): 0.0 for x in xs}, 1.0, 1.0, 0.0, 2.0))  # not determined
+    # A valley linear between coarse trials (2 |x - 1| at steps of 0.4 from 1.0): the linear
+    # interpolation is exact there, the crossings at 0.5 and 1.5 to round-off.
+    vee = {1.0 + d: 2.0 * abs(d) for d in (-0.8, -0.4, 0.0, 0.4, 0.8)}
+    assert _half_width(vee, 1.0, 1.0, 0.0, 2.0) == pytest.approx(0.5, rel=1e-12)
 
 
 def test_a_profiles_slope_is_the_fits_values_per_unit_of_the_profiled_parameter():
