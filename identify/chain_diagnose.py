@@ -1429,9 +1429,11 @@ def _dissipative(fit: ChainFit) -> list[str]:
     return names + [bearing_name(i) for i in fit.spec.bearings]
 
 
-def _rejection(problem: _Problem, cand: Candidate, ext: ChainFit, mag: tuple) -> Optional[Rejection]:
+def _rejection(problem: _Problem, cand: Candidate, ext: ChainFit, mag: tuple, base: Optional[ChainSpec] = None,
+               weights: Optional[np.ndarray] = None) -> Optional[Rejection]:
     """Why a candidate the evidence calls significant is rejected all the same (its score's
-    ``note``), or None where nothing rejects it."""
+    ``note``), or None where nothing rejects it; ``ext`` extends ``base`` at ``weights`` (without
+    them a size below the resolution is not tested against its zero)."""
     if cand.cause.nonnegative and mag[1] < 0:
         return Unphysical(mag[0], mag[1])
     for name in _dissipative(ext):
@@ -1440,10 +1442,14 @@ def _rejection(problem: _Problem, cand: Candidate, ext: ChainFit, mag: tuple) ->
             return FeedsEnergy(name, v, se)
     if cand.cause.degenerate is not None:
         h = ext.parameters().get(cand.profiled_name(), math.nan)
-        se = {n: e for n, _, e in ext.profiled}.get(cand.profiled_name(), math.nan)
+        resolution, rise = angle_resolution(problem, cand), math.nan
+        if h < resolution and cand.cause.bounds is not None and base is not None:
+            # chi-square at the lower end of the search: the size's zero (no play, dry friction)
+            rise = problem.solve(cand.extend(base, _search_range(problem, cand)[1]), weights,
+                                 covariance=False).chi2 - ext.chi2
         at_place = f"joint {cand.place}" if cand.at_joint else f"body {cand.place}"
-        return cand.cause.degenerate(h, Limits(angle_resolution(problem, cand), _rate_amplitude(problem, cand),
-                                               f"coulomb_friction at {at_place}", se))
+        return cand.cause.degenerate(h, Limits(resolution, _rate_amplitude(problem, cand),
+                                               f"coulomb_friction at {at_place}", rise))
     return None
 
 
@@ -1467,7 +1473,8 @@ def score(problem: _Problem, cand: Candidate, base: ChainFit, weights: np.ndarra
         mag = cand.cause.magnitude_of(ext.parameters(), ext.std_error, cand.prefix)
     else:
         mag = (name, ext.parameters().get(name, math.nan), ext.std_error(name))
-    rejected = _rejection(problem, cand, ext, mag) if significant or (cand.cause.nonnegative and mag[1] < 0) else None
+    rejected = (_rejection(problem, cand, ext, mag, base.spec, weights)
+                if significant or (cand.cause.nonnegative and mag[1] < 0) else None)
     if rejected is not None:
         significant = False
     return CauseScore(cand.cause.name, float(delta), q, float(bic), p, significant, ext, mag,
@@ -1727,15 +1734,16 @@ def diagnose_chain(runs: Sequence[ChainRun], *, n_harmonics: int = 20, alpha: fl
     def rivals_of(base, best, scored, pool):
         current, wcur = base
         for rival in scored:
-            if rival is best or not rival.significant or rival.where == best.where:
+            if rival is best or not rival.significant or rival.score < 0.5 * best.score:
                 continue
-            if rival.score < 0.5 * best.score:
-                continue
-            r_given_b = score(problem, by_label[rival.label], current, wcur, len(pool), alpha)
+            a, b = by_label[best.label], by_label[rival.label]
+            if a.cause.reduces_to == b.cause.name or b.cause.reduces_to == a.cause.name:
+                continue  # nested at one place: parsimony (_reduced) decides between them
+            r_given_b = score(problem, b, current, wcur, len(pool), alpha)
             rival_fit, wr = problem.fit(rival.fit.spec)
-            b_given_r = score(problem, by_label[best.label], rival_fit, wr, len(pool), alpha)
+            b_given_r = score(problem, a, rival_fit, wr, len(pool), alpha)
             if not r_given_b.significant and not b_given_r.significant:
-                ambiguous.append(separating_drive(problem, by_label[best.label], by_label[rival.label], best, rival))
+                ambiguous.append(separating_drive(problem, a, b, best, rival))
 
     chosen = forward_select((nominal, w), pool, rank=rank, adopt=adopt, after=rivals_of,
                             max_effects=max_effects, name_of=lambda s: s.label)
@@ -1993,11 +2001,15 @@ def separating_drive(problem: _Problem, a: Candidate, b: Candidate, sa: CauseSco
     """Which flywheel to drive so that two candidates at different places tell apart:
     :func:`drive_information` with the nominal fit's linear chain, the measured runs'
     frequencies and median drive torque, the torque noise, and each candidate's fitted effect.
-    Returns their :class:`identify.causes.Ambiguity`."""
-    from .causes import AT_CHANNEL, TO_GROUND
+    Two causes at one place move alike under every drive: their ambiguity names the runs that
+    tell them apart instead (:func:`identify.causes.separating_excitation`). Returns their
+    :class:`identify.causes.Ambiguity`."""
+    from .causes import AT_CHANNEL, SAME_PLACE, TO_GROUND, separating_excitation
 
-    N = problem.runs[0].average.n_flywheels
     effects = (sa.label, sb.label)
+    if sa.where == sb.where:
+        return Ambiguity(effects, unplaced=SAME_PLACE, excitation=separating_excitation(a.cause.name, b.cause.name))
+    N = problem.runs[0].average.n_flywheels
     if a.ground or b.ground:
         return Ambiguity(effects, unplaced=TO_GROUND)
     if a.at_drive or b.at_drive or a.at_channel or b.at_channel:

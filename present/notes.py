@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from functools import singledispatch
 
-from jointrig.identify.causes import AT_CHANNEL, TO_GROUND, Ambiguity, BelowResolution, FeedsEnergy, NoFalloff, Unphysical
+from jointrig.identify.causes import AT_CHANNEL, SAME_PLACE, TO_GROUND, Ambiguity, BelowResolution, FeedsEnergy, NoFalloff, Unphysical
 from jointrig.identify.chain import inertia_name
 from jointrig.identify.chain_diagnose import ReadWrong, UndeterminedInertia
 from jointrig.identify.verdict import CHI2_PER_DOF_OK, Grounds, Verdict
@@ -349,6 +349,8 @@ def separation_text(a: Ambiguity) -> str:
         return (f"{one} and {two}: a channel's lag or scale is not a place on the line; runs at several frequencies "
                 f"at one level tell a lag (its phase grows with the frequency) from a law, a static reading against a "
                 f"reference a channel's scale")
+    if a.unplaced == SAME_PLACE:
+        return f"{one} and {two} act at the same place, so every drive moves them alike; {a.excitation} would"
     if a.separating_drive is None:
         raise ValueError(f"an ambiguity of {one} and {two} names neither a drive nor why not")
     ranked = ", ".join(f"flywheel {d}: {v:.3g}" for d, v in a.information)

@@ -2,8 +2,9 @@
 
 A study, not a step of the diagnosis: for a joint whose law is known (``CARD_CASES``),
 
-1. the rig simulates (native callback, bit-identical to the Python one) a stepped sine test (3 frequencies x 3 levels around the joint's mode,
-   ``n_periods`` each) and measures it at ``snr_db``;
+1. the rig simulates (native callback, the Python one's records to 1e-8 of their peak) a stepped
+   sine test (3 frequencies x 3 levels around the joint's mode, ``n_periods`` each) and measures
+   it at ``snr_db``;
 2. the diagnosis identifies the joint from those runs alone, as the train of two bodies
    (nominal model of the paper plus whatever cause it adopts), and
    :func:`identify.chain_diagnose.place_law` gives the law it stands behind, with its covariance;

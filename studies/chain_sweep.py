@@ -133,7 +133,7 @@ def run_chain_sweep(rig: ChainRig, points: Sequence[tuple], config: SimulationCo
                     scheduler: Optional[str] = None) -> list[ChainPoint]:
     """Simulate every ``(omega, amplitude, flywheel)`` point (loading those already in ``store``;
     ``backend``: ``"native"``, ``"python"`` or ``"auto"``, as :func:`rig.chain.simulate_chain`'s;
-    the records are bit-identical either way, so stored points serve any backend).
+    the records agree to 1e-8 of their peak either way, so stored points serve any backend).
 
     ``workers > 1`` simulates that many points at once in threads sharing one installed native
     callback (:func:`rig.native_callback.native_session`; needs the native backend: a Python callback

@@ -363,13 +363,13 @@ def test_a_slip_angle_or_free_play_below_the_resolution_and_a_stribeck_rate_abov
         "off within the data; it is dry friction (see coulomb_friction at joint 2)")
     assert "(at most 2 m/s)" in rejection_text(stribeck(2.5, lim), SLIDE)
     assert by_name("coulomb_friction").degenerate is None and by_name("cogging").degenerate is None
-    # A free play that the whole fit tells from zero (beyond 3.29 of its standard errors at alpha
-    # 1e-3) stands below one sample's resolution; a slip angle does not (its element is dry
-    # friction there); a free play within 3.29 of its errors, or without one, is refused.
-    told = Limits(1e-3, 2.0, "coulomb_friction at joint 2", size_std_error=1e-4)
-    assert gap(5e-4, told) is None and gap(3.2e-4, told) is not None
-    assert jenkins(5e-4, told) is not None and iwan(5e-4, told) is not None
-    assert gap(5e-4, lim) is not None  # no standard error: one sample's resolution decides
+    # A free play or a slip angle that the whole fit tells from its zero (chi-square rises by more
+    # than 10.83 toward it: one parameter's likelihood ratio at alpha 1e-3) stands below one
+    # sample's resolution; one whose zero is within that, or without a rise, is refused.
+    told, untold = (Limits(1e-3, 2.0, "coulomb_friction at joint 2", zero_rise=r) for r in (10.9, 10.8))
+    assert gap(5e-4, told) is None and jenkins(5e-4, told) is None and iwan(5e-4, told) is None
+    assert gap(5e-4, untold) is not None and jenkins(5e-4, untold) is not None and iwan(5e-4, untold) is not None
+    assert gap(5e-4, lim) is not None  # no rise computed: one sample's resolution decides
 
 
 def test_a_rejection_is_said_with_the_benchs_names():
@@ -452,6 +452,16 @@ def test_a_score_says_where_and_reads_the_same_in_json_for_two_flywheels_and_a_t
     assert "a channel's lag or scale" in separation_text(Ambiguity(("a", "b"), unplaced=AT_CHANNEL))
     with pytest.raises(ValueError, match="names neither a drive nor why not"):
         separation_text(Ambiguity(("a", "b")))
+    # Two causes at one place: no drive tells them apart; the runs that would are named.
+    from jointrig.identify.causes import SAME_PLACE, separating_excitation
+
+    same = Ambiguity(("micro_slip at joint 1", "hysteresis at joint 1"), unplaced=SAME_PLACE,
+                     excitation=separating_excitation("micro_slip", "hysteresis"))
+    assert separation_text(same).startswith("micro_slip at joint 1 and hysteresis at joint 1 act at the same place, "
+                                            "so every drive moves them alike; runs at several small amplitudes")
+    assert ambiguity_json(same)["separating_drive_body"] is None and separation_text(same).endswith(" would")
+    assert separating_excitation("hysteresis", "micro_slip") == separating_excitation("micro_slip", "hysteresis")
+    assert separating_excitation("cogging", "micro_slip").startswith("a sweep over amplitude at fixed frequency")
 
 
 def test_the_profile_search_below_a_vertex_outside_its_range_takes_the_one_sided_curvature():

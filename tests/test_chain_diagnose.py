@@ -757,6 +757,21 @@ def test_the_separating_drive_takes_a_joints_law_and_a_bodys_drag_as_each_is(mon
     assert sigma == pytest.approx(1e-3 * 60.0 / 2 ** 0.5, rel=0.2)
 
 
+def test_two_causes_at_one_place_are_told_apart_by_other_runs_not_by_a_drive():
+    # Every drive moves two causes at one joint alike, so no drive information is computed (the
+    # problem is not read); the ambiguity names the runs that separate the pair.
+    from jointrig.identify.causes import SAME_PLACE, CauseScore, Place, by_name, separating_excitation
+    from jointrig.identify.chain_diagnose import Candidate, separating_drive
+
+    here = Place("joint", 2)
+    a, b = Candidate(by_name("coulomb_friction"), here), Candidate(by_name("hysteresis"), here)
+    sa, sb = (CauseScore(c.cause.name, 50.0, 1, 40.0, 1e-9, True, None, ("m", 1.0, 0.1), where=here) for c in (a, b))
+    amb = separating_drive(None, a, b, sa, sb)
+    assert amb.effects == ("coulomb_friction at joint 2", "hysteresis at joint 2") and amb.separating_drive is None
+    assert amb.unplaced == SAME_PLACE and amb.excitation == separating_excitation("coulomb_friction", "hysteresis")
+    assert "add a low-amplitude run" in amb.excitation
+
+
 @pytest.mark.parametrize("delay_s, gain", [(2e-5, 0.0), (-2e-5, 0.0), (0.0, 0.02)])
 def test_a_channel_read_late_or_scaled_is_found_at_its_body_with_its_size(delay_s, gain):
     # Body 3's angle read 20 us late or early (the search reaches +-5% of the fastest run's

@@ -17,6 +17,7 @@ from jointrig.commands import add_quiet, command_parser
 from jointrig.rig import load_rig
 from jointrig.studies.hidden_effects import HIDDEN_EFFECTS, simulate_case
 from jointrig.files import write_json_atomic
+from jointrig.present.diagnosis_json import ambiguity_json
 from jointrig.identify.chain import ChainRecord
 from jointrig.rig.chain import chain_of_two_flywheels
 from jointrig.studies.chain_validate import run_train_diagnosis
@@ -55,10 +56,12 @@ def main(argv=None) -> int:
         gain = report.validation.gain if report.validation is not None else float("nan")
         print(f"{case:26s} {first:32s} {'+'.join(found) or 'none':50s} {mag_txt:44s} {gain:7.3g} "
               f"{time.perf_counter() - t0:5.1f}", flush=True)
+        for a in d.ambiguities:
+            print(f"{'':26s} cannot tell apart: {a.effects[0]} and {a.effects[1]}", flush=True)
         rows.append({"hidden": case, "ranked_first": first, "found": found, "verdict": report.verdict.verdict,
                      "magnitudes": {n: {"true": v, "found": f, "rel_error": (f - v) / v} for n, (v, f) in mags.items()},
                      "gain": gain, "peak_joint_torque_Nm": peak,
-                     "ambiguous": [a.as_json() for a in d.ambiguities]})
+                     "ambiguous": [ambiguity_json(a) for a in d.ambiguities]})
     if args.json:
         write_json_atomic(args.json, {"snr_db": args.snr_db, "cases": rows})
     return 0

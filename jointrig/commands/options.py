@@ -240,7 +240,8 @@ def progress_level(quiet: bool) -> int:
 
 def add_backend_option(parser) -> None:
     """``--backend {auto,native,python}`` (:data:`rig.native_callback.BACKENDS`; default auto:
-    the native C callback wherever it can run, bit-identical to the Python one), passed on as
+    the native C callback wherever it can run; its records are the Python one's to 1e-8 of their
+    peak), passed on as
     the simulations' ``backend``, and ``--native``, kept as its old spelling."""
     from jointrig.rig.native_callback import BACKENDS
 

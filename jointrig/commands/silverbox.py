@@ -87,7 +87,7 @@ def main(argv=None) -> int:
     check_output(args.json, "--json")
     check_output(args.rrd, "--rrd")
     from jointrig.vocab import Power, Viscous
-    from jointrig.identify.causes import DEFAULT_SEPARATION, SEPARATING_EXCITATION, by_name
+    from jointrig.identify.causes import by_name, separating_excitation
     from jointrig.identify.extend import (extend_model, indistinguishable, removable, residual_analysis,
                                          residual_spectrum, score_candidates)
     from jointrig.identify.output_error import (harmonic_balance_start, input_noise_rms, refine_output_error,
@@ -143,7 +143,7 @@ def main(argv=None) -> int:
               f"{by_name(s.effect).description}")
     tie = indistinguishable(scores)
     if tie is not None:
-        separation = SEPARATING_EXCITATION.get(frozenset(tie[:2]), DEFAULT_SEPARATION)
+        separation = separating_excitation(*tie[:2])
         print(f"  note: {tie[0]} and {tie[1]} explain nearly the same part of the residual "
               f"(within {100 * tie[2]:.0f}%): these data cannot tell "
               f"them apart; {separation} would")
