@@ -20,8 +20,7 @@ attributes, UFF axis labels, the rig writer's Parquet metadata). Accepted units:
 
 **Periods.** Each run must be a steady-state record of at least 2 whole periods. The loader
 finds the fundamental in the data (:mod:`identify.periods`): the time stamps define a uniform
-clock (their deviation measured; a gap refused); the frequency is estimated from the torque,
-sharpened by the twist's own (:func:`identify.periods.with_second_channel`);
+clock (their deviation measured; a gap refused); the frequency is estimated from the torque;
 an ``omega`` column, and the candidate period of a whole number N of samples, are accepted
 only if the data repeat at that period (the residual of a periodic model there is not
 significantly above its minimum; otherwise the record is refused with the mismatch shown).
@@ -55,7 +54,7 @@ import numpy as np
 
 from jointrig.identify.periods import (MAX_CLOCK_DEVIATION, TRANSIENT_FACTOR, estimate_fundamental, fit_at,
                                       linear_drift, ls_harmonics, periods_by_least_squares, repeat_statistic,
-                                      transient_periods, uniform_clock, with_second_channel)
+                                      transient_periods, uniform_clock)
 from jointrig.identify.chain import ChainRecord
 from jointrig.vocab.params import HINGE, SLIDE, Coordinate
 from jointrig.vocab.records import MAX_SI_VALUE, RecordError
@@ -431,10 +430,7 @@ def _whole_periods(where: str, run: str, t: np.ndarray, chans: dict, drive: str,
     except ValueError:
         raise RunsFileError(f"{where}: run {run}: column '{drive}' does not vary: no drive to identify from; "
                             f"expected a periodic drive torque") from None
-    first, best = best, _steady_fundamental(tu, torque, best, run, notes)
-    # the motion's own period sharpens the drive's (over the steady part the drive's was read on)
-    skip = 0 if best is first else int(math.ceil(2 * math.pi / (first.omega_rad_s * (tu[1] - tu[0]))))
-    best = with_second_channel(tu[skip:], torque[skip:], phi[skip:], best)
+    best = _steady_fundamental(tu, torque, best, run, notes)
     refs = [(torque, best), (phi, fit_at(tu, phi, best))]
 
     def stat(w: float) -> float:

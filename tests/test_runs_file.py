@@ -460,59 +460,6 @@ def test_estimate_fundamental_to_round_off_and_its_standard_error_is_the_crlb():
     assert abs(float(np.mean(est)) - w) < 3 * crlb / math.sqrt(40) * 1.3
 
 
-def test_a_precise_motion_channel_sharpens_a_noisy_drives_fundamental():
-    from jointrig.identify.periods import estimate_fundamental, with_second_channel
-
-    # A drive at 10% noise, the motion (another phase, a harmonic) at 0.1%: the combined
-    # frequency's error is the inverse-variance combination's, each estimate's Cramer-Rao bound
-    # (the test above) scaled by its amplitude: 100 times smaller than the drive's alone here.
-    # Over 40 noise seeds its spread within 30% of its standard error (the spread's own error
-    # ~11%), and the drive's fit is returned at the combined frequency.
-    w, fs, n = 7.0, 7.0 / (2 * math.pi) * 37.3, 2000
-    t = np.arange(n) / fs
-    rng = np.random.default_rng(5)
-    est, errs = [], []
-    for _ in range(40):
-        drive = np.cos(w * t) + 0.1 * rng.standard_normal(n)
-        motion = 0.5 * np.sin(w * t + 0.3) + 0.05 * np.cos(3 * w * t) + 5e-4 * rng.standard_normal(n)
-        alone = estimate_fundamental(t, drive, harmonics=3)
-        both = with_second_channel(t, drive, motion, alone)
-        assert both.std_error_rad_s < alone.std_error_rad_s / 50
-        assert both.rss == pytest.approx(float(np.sum((drive - np.mean(drive) - np.cos(w * t)) ** 2)), rel=0.02)
-        est.append(both.omega_rad_s)
-        errs.append(both.std_error_rad_s)
-    assert float(np.std(est, ddof=1)) == pytest.approx(float(np.mean(errs)), rel=0.3)
-    # A channel that repeats at another period (more than 4 combined errors away) is not
-    # combined; nor is one that does not vary.
-    other = np.sin(1.01 * w * t)
-    assert with_second_channel(t, drive, other, alone) == alone
-    assert with_second_channel(t, drive, np.zeros(n), alone) == alone
-
-
-def test_the_reader_reads_the_fundamental_from_the_motion_too(tmp_path):
-    # A DAQ's file at 2 kHz (not commensurate), the torque at 10% noise, the encoders at 0.1%:
-    # omega is read from the torque and the twist together. Alone, the torque's standard error
-    # here is about 5e-3 rad/s (its periodic fit, the test above's bound); with the twist, 20 times
-    # smaller, and over 10 seeds every omega within 4 of those of the truth (the old reader, the
-    # torque alone: 6.2e-3 off on seed 0).
-    from jointrig.identify.periods import estimate_fundamental
-
-    w, fs = 31.7, 2000.0
-    t = np.arange(int(6.4 * 2 * math.pi / w * fs)) / fs
-    for seed in range(10):
-        rng = np.random.default_rng(seed)
-        torque = 1500.0 * np.cos(w * t) + 106.0 * rng.standard_normal(t.size)
-        phi1 = 0.3 * np.sin(w * t + 0.2) + 0.02 * np.cos(3 * w * t) + 2e-4 * rng.standard_normal(t.size)
-        phi2 = 0.2 * np.sin(w * t - 0.4) + 1.5e-4 * rng.standard_normal(t.size)
-        path = tmp_path / f"daq{seed}.csv"
-        path.write_text("run,Time [s],Torque [N m],phi1 [rad],phi2 [rad]\n" + "".join(
-            f"0,{a:.7f},{b:.6f},{c:.9f},{d:.9f}\n" for a, b, c, d in zip(t, torque, phi1, phi2)))
-        got = read_runs(path).records[0].omega_rad_s
-        alone = estimate_fundamental(t, torque)
-        assert alone.std_error_rad_s > 4e-3
-        assert abs(got - w) < 4 * alone.std_error_rad_s / 20, (seed, got - w, alone.std_error_rad_s)
-
-
 def test_a_record_with_no_residual_degree_of_freedom_still_has_a_fundamental():
     from jointrig.identify.periods import estimate_fundamental
 
