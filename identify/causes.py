@@ -232,9 +232,7 @@ def told_from_zero(rise: float, alpha: float = DEFAULT_ALPHA) -> bool:
     1e-3) (pure). The profile's curvature at its minimum does not answer it: a Jenkins element
     fitted to dry friction at 10% noise read a slip angle of 0.00053 +- 0.00009 rad, 5.9 errors
     from zero, with chi-square no lower than dry friction's."""
-    from scipy.special import chdtrc
-
-    return bool(math.isfinite(rise) and chdtrc(1, rise) < alpha)
+    return bool(math.isfinite(rise) and chi2_survival(rise, 1) < alpha)
 
 
 def _below_resolution(size: str, slips: str = "") -> Callable[[float, Limits], Optional[BelowResolution]]:
