@@ -107,9 +107,20 @@ def plain_train_verdict(report: TrainReport) -> str:
                 if c2 < 1.5 else f"the model fits the runs to chi2/dof {c2:.2g} (about 1 when only noise is left)")
         return (wrong + f"Your model misses {found}. With {them}, {fits}, and simulated in the rig it predicts the "
                 f"{held} {better} (at {val.extended_error / val.expected_error:.2g} times what a right model misses "
-                f"there, at most {val.bound:.2g}).")
+                f"there, at most {val.bound:.2g})." + _untold(d))
     return wrong + ("A significant misfit remains that no catalogued cause at any joint or body explains; the "
                     "candidates below are ranked by evidence, none is adopted.")
+
+
+def _untold(d) -> str:
+    """What the verdict's name stands beside: each adopted cause the data cannot tell from
+    another (:attr:`ChainDiagnosis.ambiguities`), in a sentence ("" where there is none)."""
+    out = []
+    for step in d.steps:
+        others = [o for a in d.ambiguities if step.label in a.effects for o in a.effects if o != step.label]
+        if others:
+            out.append(f" These runs cannot tell {step.label} from {' or '.join(others)} (what would: below).")
+    return "".join(out)
 
 
 def _right_parts(val) -> str:

@@ -124,3 +124,22 @@ def test_the_readers_notes_carry_their_values_into_their_words():
         "f.csv: column(s) ['temp', 'rpm'] ignored (the diagnosis uses run, time")
     assert note_text(reader.FromValidate("pulses.csv", reader.ZeroPerRun(True))) == (
         "pulses.csv (--validate): each run's position taken about its own mean (--zero-per-run)")
+
+
+def test_the_verdicts_words_say_which_causes_the_runs_cannot_tell_the_adopted_one_from():
+    # The first screen names the adopted cause; where the data cannot tell it from another (an
+    # Iwan element from a Jenkins element at 10% noise) the same sentence says so, and says
+    # nothing of an ambiguity between two causes neither of which was adopted.
+    from types import SimpleNamespace
+
+    from jointrig.identify.causes import SAME_PLACE, Ambiguity
+    from jointrig.present.train_report import _untold
+
+    step = SimpleNamespace(label="micro_slip at joint 1")
+    amb = (Ambiguity(("micro_slip at joint 1", "hysteresis at joint 1"), unplaced=SAME_PLACE, excitation="x"),
+           Ambiguity(("cogging at joint 1", "micro_slip at joint 1"), unplaced=SAME_PLACE, excitation="y"),
+           Ambiguity(("backlash at joint 2", "cogging at joint 2"), unplaced=SAME_PLACE, excitation="z"))
+    assert _untold(SimpleNamespace(steps=(step,), ambiguities=amb)) == (
+        " These runs cannot tell micro_slip at joint 1 from hysteresis at joint 1 or cogging at joint 1 (what would: "
+        "below).")
+    assert _untold(SimpleNamespace(steps=(step,), ambiguities=amb[2:])) == ""
