@@ -1603,3 +1603,30 @@ def test_a_joint_cards_uncertainty_carries_the_profiled_parameters_that_shape_it
     np.testing.assert_allclose(cov[:p, p], T @ cross[:, 0], rtol=1e-12)
     np.testing.assert_allclose(cov[p, :p], T @ cross[:, 0], rtol=1e-12)
     assert cov[p, p] == S[0, 0]
+
+
+def test_a_free_play_below_resolution_stands_only_where_chi_square_tells_it_from_no_play():
+    # A half gap below one sample's resolution (identify.chain_diagnose._rejection): on the linear
+    # train, which has no play, a gap of half the resolution fits no better than none, so the
+    # rise to the search's lower end (no play) is not significant and the play is refused as below
+    # resolution; the same fit with chi-square 11 below its zero's (above 10.83, one parameter's
+    # likelihood ratio at 1e-3) stands, and one 10.7 below is refused.
+    from dataclasses import replace
+
+    from jointrig.identify.causes import BelowResolution, Place, by_name
+    from jointrig.identify.chain_diagnose import Candidate, _rejection, _search_range, angle_resolution
+
+    problem, (nominal, w) = _linear_problem()
+    cand = Candidate(by_name("backlash"), Place("joint", 2))
+    resolution = angle_resolution(problem, cand)
+    h = 0.5 * resolution
+    ext = problem.solve(cand.extend(nominal.spec, h), w)
+    mag = ("joint2_half_gap_rad", h, 0.1 * h)
+    said = _rejection(problem, cand, ext, mag, nominal.spec, w)
+    assert said == BelowResolution("half gap", h, resolution, "", "coulomb_friction at joint 2"), said
+    at_zero = problem.solve(cand.extend(nominal.spec, _search_range(problem, cand)[1]), w, covariance=False).chi2
+    assert _rejection(problem, cand, replace(ext, chi2=at_zero - 11.0), mag, nominal.spec, w) is None
+    assert isinstance(_rejection(problem, cand, replace(ext, chi2=at_zero - 10.7), mag, nominal.spec, w),
+                      BelowResolution)
+    # without the base the rise is not computed, and the size below resolution is refused
+    assert isinstance(_rejection(problem, cand, replace(ext, chi2=at_zero - 11.0), mag), BelowResolution)
