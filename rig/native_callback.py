@@ -39,7 +39,7 @@ __all__ = ["BACKENDS", "NativeLaw", "NativeChain", "NativeBuildError", "choose_n
            "session_active"]
 
 SOURCE = Path(__file__).resolve().parent / "native" / "jointrig_law.c"
-MAX_TERMS, MAX_KNOTS, MAX_HARM, MAX_SLIDERS = 64, 512, 64, 2048
+MAX_TERMS, MAX_KNOTS, MAX_HARM, MAX_SLIDERS = 64, 512, 256, 2048
 
 
 class NativeBuildError(RuntimeError):

@@ -85,6 +85,26 @@ def test_hat_law_and_a_replayed_multiharmonic_drive(rig):
                simulate_steady_state(hat, 30.0, 1000.0, SimulationConfig(), backend="native")[0])
 
 
+def test_a_drive_of_two_hundred_harmonics_is_replayed_natively_and_more_than_the_rig_takes_refused(rig):
+    # A fit at --band 100 replays drives of 100 harmonics, more where a record holds them:
+    # harmonics 0..200 run in C as in Python (to
+    # CALLBACK_RTOL, conftest); the rig's drive takes harmonics up to MAX_HARM - 1 (255), and a
+    # longer one is refused by name.
+    import numpy as np
+
+    from jointrig.rig.native_callback import MAX_HARM
+
+    rng = np.random.default_rng(1)
+    coeffs = (0, 1000.0) + tuple(complex(*(3.0 * rng.standard_normal(2))) for _ in range(199))
+    drive = PeriodicDrive(30.0, coeffs)
+    cfg = SimulationConfig(n_periods=1, max_step_s=5e-5)
+    _agree(simulate_steady_state(rig, 30.0, 1000.0, cfg, drive=drive, backend="python")[0],
+           simulate_steady_state(rig, 30.0, 1000.0, cfg, drive=drive, backend="native")[0])
+    too_long = PeriodicDrive(30.0, (0, 1000.0) + (1.0,) * (MAX_HARM - 1))
+    with pytest.raises(ValueError, match=f"harmonics up to {MAX_HARM - 1}"):
+        simulate_steady_state(rig, 30.0, 1000.0, cfg, drive=too_long, backend="native")
+
+
 def test_parallel_native_sweep_equals_the_serial_python_sweep(rig, tmp_path):
     # Threads share the one installed native callback, each simulation finding its own
     # parameters by its MjData; every point is independent, so the records are identical.

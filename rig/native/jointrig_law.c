@@ -13,7 +13,7 @@
 
 #define JR_MAX_TERMS 64
 #define JR_MAX_KNOTS 512
-#define JR_MAX_HARM 64
+#define JR_MAX_HARM 256
 #define JR_MAX_SLIDERS 2048
 
 enum { JR_VISCOUS = 0, JR_POWER = 1, JR_MONOMIAL = 2, JR_ANGLE_HAT = 3, JR_RATE_HAT = 4,
