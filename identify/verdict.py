@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import enum
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Sequence
 
 __all__ = ["CHI2_PER_DOF_OK", "RIG_FIDELITY", "Grounds", "Verdict", "judge"]
@@ -46,6 +46,8 @@ class Grounds(enum.Enum):
     FAILS_VALIDATION = "fails_validation"
     #: unexplained: the judged model could not be checked on held-out runs (:attr:`Verdict.unchecked`)
     UNCHECKED = "unchecked"
+    #: unexplained: no model is adopted under its own measured fidelity (:attr:`Verdict.cycle`)
+    FIDELITY_CYCLE = "fidelity_cycle"
 
 
 @dataclass(frozen=True)
@@ -76,6 +78,18 @@ class Verdict:
     #: why the judged model could not be checked on held-out runs (with :attr:`Grounds.UNCHECKED`:
     #: the validation's failed replays, :class:`studies.notes.NoReplay`; empty: no held-out run)
     unchecked: tuple = ()
+    #: with :attr:`Grounds.FIDELITY_CYCLE`: two models (their causes in words), the balance's
+    #: fidelity measured on each adopting the other (:class:`studies.notes.FidelityCycle`)
+    cycle: tuple = ()
+
+
+def unsettled(v: Verdict, one: str, other: str) -> Verdict:
+    """``v`` made unexplained where the measured fidelity cycles between the models ``one`` and
+    ``other`` (pure): a verdict that holds only under another model's fidelity is not one; an
+    unexplained verdict stands as it is."""
+    if v.verdict == "unexplained":
+        return v
+    return replace(v, verdict="unexplained", grounds=Grounds.FIDELITY_CYCLE, cycle=(one, other))
 
 
 #: The rig's own fidelity in a held-out comparison, relative to the RMS of the compared motion:

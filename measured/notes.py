@@ -86,7 +86,7 @@ class OmegaFromPeriod:
 @dataclass(frozen=True)
 class IncompletePeriod:
     """Run ``run``'s ``samples`` samples hold ``periods`` whole periods of ``per_period``
-    samples; the rest (an incomplete period) is not used."""
+    samples; the rest, at the start (an incomplete period), is not used."""
 
     run: str
     samples: int
@@ -111,7 +111,7 @@ class LeastSquaresPeriods:
     'omega' column, or the ``drive`` channel's line +- ``source_se``), not a whole number:
     harmonics 0..``harmonics`` of each of its ``periods`` whole periods estimated by least
     squares and synthesised at ``samples`` per period; ``shares`` ``(channel, residual RMS over
-    the channel's RMS)``; ``unused`` samples at the end (an incomplete period) not used."""
+    the channel's RMS)``; ``unused`` samples at the start (an incomplete period) not used."""
 
     run: str
     per_period: float

@@ -20,14 +20,14 @@ attributes, UFF axis labels, the rig writer's Parquet metadata). Accepted units:
 
 **Periods.** Each run must be a steady-state record of at least 2 whole periods. The loader
 finds the fundamental in the data (:mod:`identify.periods`): the time stamps define a uniform
-clock (their deviation measured; a gap refused); the frequency is estimated from the torque;
+clock (their deviation measured; a gap refused); the frequency is estimated from the torque,
+sharpened by the twist's own (:func:`identify.periods.with_second_channel`);
 an ``omega`` column, and the candidate period of a whole number N of samples, are accepted
 only if the data repeat at that period (the residual of a periodic model there is not
 significantly above its minimum; otherwise the record is refused with the mismatch shown).
-A record of N samples per period is cut to whole periods (the incomplete last period
-dropped); a record at a bench's fixed rate (not a whole number of samples per period) keeps
-every sample: each period's harmonics are estimated by least squares and synthesised on a
-uniform grid. An angle that drifts (a slipping encoder, an unsettled transient) is refused; a
+A record is cut to its latest whole periods (an incomplete period dropped from its start, where
+a record from rest settles); at a bench's fixed rate (not a whole number of samples per period)
+each period's harmonics are estimated by least squares and synthesised on a uniform grid. An angle that drifts (a slipping encoder, an unsettled transient) is refused; a
 rotation common to both flywheels is removed. Every change is said in
 :attr:`LoadedRuns.notes`.
 
@@ -54,7 +54,7 @@ import numpy as np
 
 from jointrig.identify.periods import (MAX_CLOCK_DEVIATION, TRANSIENT_FACTOR, estimate_fundamental, fit_at,
                                       linear_drift, ls_harmonics, periods_by_least_squares, repeat_statistic,
-                                      transient_periods, uniform_clock)
+                                      transient_periods, uniform_clock, with_second_channel)
 from jointrig.identify.chain import ChainRecord
 from jointrig.vocab.params import HINGE, SLIDE, Coordinate
 from jointrig.vocab.records import MAX_SI_VALUE, RecordError
@@ -430,7 +430,10 @@ def _whole_periods(where: str, run: str, t: np.ndarray, chans: dict, drive: str,
     except ValueError:
         raise RunsFileError(f"{where}: run {run}: column '{drive}' does not vary: no drive to identify from; "
                             f"expected a periodic drive torque") from None
-    best = _steady_fundamental(tu, torque, best, run, notes)
+    first, best = best, _steady_fundamental(tu, torque, best, run, notes)
+    # the motion's own period sharpens the drive's (over the steady part the drive's was read on)
+    skip = 0 if best is first else int(math.ceil(2 * math.pi / (first.omega_rad_s * (tu[1] - tu[0]))))
+    best = with_second_channel(tu[skip:], torque[skip:], phi[skip:], best)
     refs = [(torque, best), (phi, fit_at(tu, phi, best))]
 
     def stat(w: float) -> float:
@@ -466,8 +469,11 @@ def _whole_periods(where: str, run: str, t: np.ndarray, chans: dict, drive: str,
         if P * N != n:
             notes.append(IncompletePeriod(run, n, N, P))
         per_out = N
-        data = [c[: P * N] for c in cols]
-        t_rec = clock.t0_s + np.arange(P * N) * (2 * math.pi / (w_rec * N))
+        # the latest whole periods: a record's leftover samples go from its start, where a
+        # record from rest holds its transient, not from its settled end
+        start = n - P * N
+        data = [c[start:] for c in cols]
+        t_rec = clock.t0_s + start * dt + np.arange(P * N) * (2 * math.pi / (w_rec * N))
         if samples_per_period is not None and samples_per_period != N:
             fit = periods_by_least_squares(t_rec, np.array(data), w_rec, samples_per_period=samples_per_period)
             data, per_out = list(fit.samples), samples_per_period
@@ -478,8 +484,11 @@ def _whole_periods(where: str, run: str, t: np.ndarray, chans: dict, drive: str,
         per = 2 * math.pi / (w_rec * dt)
         H = ls_harmonics(per)
         per_out = samples_per_period or max(16, 2 * (H + 1))
+        # the latest whole periods (as above): the leftover samples from the start
+        start = max(0, n - int(math.ceil(math.floor(n / per + 1e-9) * per - 1e-9)))
         try:
-            fit = periods_by_least_squares(tu, np.array(cols), w_rec, samples_per_period=per_out, harmonics=H)
+            fit = periods_by_least_squares(tu[start:], np.array([c[start:] for c in cols]), w_rec,
+                                           samples_per_period=per_out, harmonics=H)
         except ValueError as err:
             raise RunsFileError(f"{where}: run {run}: {err}") from None
         P = fit.n_periods
@@ -488,7 +497,7 @@ def _whole_periods(where: str, run: str, t: np.ndarray, chans: dict, drive: str,
                                 f"expected at least 2 whole periods (the noise is estimated from period-to-period "
                                 f"variation)")
         data = list(fit.samples)
-        t_rec = clock.t0_s + np.arange(P * per_out) * (2 * math.pi / (w_rec * per_out))
+        t_rec = clock.t0_s + start * dt + np.arange(P * per_out) * (2 * math.pi / (w_rec * per_out))
         used = int(round(P * per))
         rms = [float(np.std(c)) or 1.0 for c in cols]
         shares = tuple((name, float(r / s)) for name, r, s in zip(chans, fit.residual_rms, rms))

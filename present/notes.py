@@ -19,7 +19,7 @@ from jointrig.measured.notes import (ClockJitter, CommonMotion, EpochTime, FromV
                                      ZeroPerRun)
 from jointrig.studies.holdout import Generalisation
 from jointrig.studies.notes import (DIVERGED, NO_INERTIA, NO_STEADY_STATE, NOR_SPANNED, NOT_FOLLOWED, BandCut, BiasUnmeasured,
-                                    BodyRests, FixedFidelity, JointSticks, NoReplay, NoSpringToFrame, RelativeAngle,
+                                    BodyRests, FidelityCycle, FixedFidelity, JointSticks, NoReplay, NoSpringToFrame, RelativeAngle,
                                     Spanned)
 from jointrig.vocab.params import HINGE, Coordinate
 
@@ -84,8 +84,8 @@ def _(note: OmegaFromPeriod) -> str:
 @note_text.register
 def _(note: IncompletePeriod) -> str:
     n, N, P = note.samples, note.per_period, note.periods
-    return f"run {note.run}: {n} samples hold {n / N:.4g} periods; the last {n - P * N} samples (an incomplete period) " \
-           f"are not used"
+    return f"run {note.run}: {n} samples hold {n / N:.4g} periods; the first {n - P * N} samples (an incomplete " \
+           f"period, where a record from rest settles) are not used"
 
 
 @note_text.register
@@ -103,7 +103,7 @@ def _(note: LeastSquaresPeriods) -> str:
             f"whole periods estimated by least squares on its own samples and synthesised at {note.samples} samples "
             f"per period; residual RMS relative to each channel's RMS (noise plus content above harmonic "
             f"{note.harmonics}): {share}"
-            + (f"; the last {note.unused} samples (an incomplete period) are not used" if note.unused > 0 else ""))
+            + (f"; the first {note.unused} samples (an incomplete period, where a record from rest settles) are not used" if note.unused > 0 else ""))
 
 
 @note_text.register
@@ -162,6 +162,12 @@ def _(note: FixedFidelity) -> str:
            "chi-square without a finite expectation)")
     return head + (f"{why}, and measured on the replay of {note.model} ({note.measured:.2g} of the balanced torque) it "
                    f"left the best model at chi2/dof {note.chi2_per_dof:.3g}")
+
+
+@note_text.register
+def _(note: FidelityCycle) -> str:
+    return (f"the measured fidelity does not settle: measured on the replay of {note.one} it adopts {note.other}, "
+            f"measured on {note.other}'s, {note.one}; the catalogue holds no model that its own fidelity keeps")
 
 
 @note_text.register
@@ -335,6 +341,10 @@ def verdict_text(v: Verdict) -> str:
                                         f"model predicts the held-out runs as well ({held} {nominal}); nothing is adopted"),
         Grounds.FAILS_VALIDATION: lambda: (f"the best extension ({names}) fails validation: {figures}; nothing is "
                                            f"adopted"),
+        Grounds.FIDELITY_CYCLE: lambda: (f"no model is adopted under its own fidelity: the balance's misfit measured "
+                                         f"on the replay of {v.cycle[0]} leads the diagnosis to {v.cycle[1]}, and "
+                                         f"measured on that model's replay, back to {v.cycle[0]}; the last ("
+                                         f"{names or 'the nominal model'}: {figures}) is not adopted"),
     }[v.grounds]()
 
 

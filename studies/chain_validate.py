@@ -29,14 +29,15 @@ from jointrig.vocab.params import HINGE, Coordinate
 from jointrig.vocab.plant import drive_of_record
 
 from jointrig.rig.chain import ChainRig, simulate_chain
+from jointrig.rig.native_callback import MAX_HARM
 from jointrig.parallel import fork_map
 
 from jointrig.identify.defaults import (DEFAULT_ALPHA, DEFAULT_FIDELITY, DEFAULT_MAX_CAUSES, FIDELITY_STEP_SHARE,
                                        MAX_REPLAY_STEPS_PER_PERIOD, REPLAY_MAX_STEP_S)
-from jointrig.identify.verdict import CHI2_PER_DOF_OK, RIG_FIDELITY, Grounds, Verdict, judge
+from jointrig.identify.verdict import CHI2_PER_DOF_OK, RIG_FIDELITY, Grounds, Verdict, judge, unsettled
 
 from .notes import (DIVERGED, NO_INERTIA, NO_STEADY_STATE, NOR_SPANNED, NOT_FOLLOWED, BandCut, BiasUnmeasured, BodyRests,
-                    FixedFidelity, JointSticks, NoReplay, NoSpringToFrame, Spanned)
+                    FidelityCycle, FixedFidelity, JointSticks, NoReplay, NoSpringToFrame, Spanned)
 from .holdout import (MIN_PERIODS_TO_SPLIT, MIN_RUNS_TO_HOLD_OUT, Generalisation, generalisation_kind,
                       holdout_of_another_kind)
 from jointrig.vocab.records import RecordError
@@ -346,10 +347,37 @@ class _NoReplay(Exception):
         self.failure = failure
 
 
-def _held_coefficients(meas: ChainRecord, n_harmonics: int) -> dict:
-    """A held-out run's drive torques' harmonics 0..the diagnosis's band (above them a record holds
-    only noise), by body (1-based)."""
-    lines = min(n_harmonics, max_harmonic(meas.samples_per_period))
+#: The most replay steps a cycle of a held-out drive's highest harmonic may span less than
+#: (:func:`held_drive_lines`): 8 keep the integrator's stages from folding it onto a lower one.
+STEPS_PER_DRIVE_CYCLE = 8
+
+
+def held_drive_lines(meas: ChainRecord, n_harmonics: int, step_s: float = REPLAY_MAX_STEP_S) -> int:
+    """The harmonics 0..H of a held-out run's drives its replay carries: the diagnosis's band, and
+    above it up to the highest harmonic where a drive's period average stands out of its noise
+    (:data:`identify.periods.RESOLVED_SIGMA`, pooled), within what the record resolves, the rig's
+    drive takes (:data:`rig.native_callback.MAX_HARM`) and the replay's step ``step_s`` follows
+    (:data:`STEPS_PER_DRIVE_CYCLE`). A controller's kinks or force pulses put drive far above the
+    band; replayed without it a position-controlled carriage (pulses of 0.04 s in a 3 s period)
+    moved 3.2 times what a right model misses at harmonics 0..40, 1.75 times with them."""
+    top = max_harmonic(meas.samples_per_period)
+    lines = min(n_harmonics, top)
+    if meas.n_periods < 2:
+        return lines  # no noise estimate: no line is known to stand out of it
+    cap = min(top, MAX_HARM - 1, int(2 * math.pi / (meas.omega_rad_s * step_s * STEPS_PER_DRIVE_CYCLE) + 1e-9))
+    for t in meas.torques_Nm:
+        if t is None:
+            continue
+        _, mean, var = pooled_period_spectra(t, meas.n_periods)
+        above = np.flatnonzero(np.abs(mean[lines + 1:cap + 1]) > RESOLVED_SIGMA * np.sqrt(var[lines + 1:cap + 1]))
+        if above.size:
+            lines = lines + 1 + int(above[-1])
+    return lines
+
+
+def _held_coefficients(meas: ChainRecord, n_harmonics: int, step_s: float = REPLAY_MAX_STEP_S) -> dict:
+    """A held-out run's drive torques' harmonics 0..:func:`held_drive_lines`, by body (1-based)."""
+    lines = held_drive_lines(meas, n_harmonics, step_s)
     return {i + 1: fourier_coefficients(t, meas.n_periods, lines) for i, t in enumerate(meas.torques_Nm)
             if t is not None}
 
@@ -556,7 +584,7 @@ def validate_chain(rig: ChainRig, diagnosis: ChainDiagnosis, held_out: Sequence[
     tally = {name: {"propagated": 0.0, "method": 0.0, "components": [], "estimates": []} for name in rated}
     for meas in held_out:
         top = min(band, max_harmonic(meas.samples_per_period))
-        coeffs = _held_coefficients(meas, diagnosis.n_harmonics)
+        coeffs = _held_coefficients(meas, diagnosis.n_harmonics, cfg.max_step_s)
         drives = _drives(meas, coeffs)
         errs, sims, spans = {}, {}, {}
         for name, fit in fits.items():
@@ -754,12 +782,17 @@ def measured_diagnosis(diagnosed, replay, say=lambda msg: None, exact: Optional[
     floor would hide the misfit and inflate every standard error), unless the records are
     noise-free (``exact`` :data:`NOISE_FREE`, :func:`noise_free`: the rig's own, where the misfit is
     the integrators' difference) or their chi-square cannot test a model (``exact``
-    :data:`TWO_PERIODS`: a noise estimate of two periods); the fixed floor's diagnosis stands then. ``diagnosed(fidelity)`` runs one
+    :data:`TWO_PERIODS`: a noise estimate of two periods); the fixed floor's diagnosis stands then.
+    Where the passes return to a kind of model whose own fidelity led elsewhere (one model's
+    fidelity adopts another, whose fidelity adopts the first), no model is adopted under its own
+    fidelity: the last diagnosis stands with a :class:`studies.notes.FidelityCycle` note, which
+    makes the verdict unexplained. ``diagnosed(fidelity)`` runs one
     diagnosis; ``replay(fit)`` is :func:`rig_replay`'s. Returns the diagnosis and notes (why the
-    fidelity stayed fixed, if it did: :class:`studies.notes.FixedFidelity`)."""
+    fidelity stayed fixed, if it did: :class:`studies.notes.FixedFidelity`; a cycle)."""
     from jointrig.identify.chain_diagnose import balance_fidelity, model_kind
 
     d = diagnosed(DEFAULT_FIDELITY)
+    led = {}  # a kind of model whose own fidelity was measured -> its causes in words
     for _ in range(FIDELITY_PASSES):
         label = " + ".join(s.label for s in d.steps) or "the nominal model"
         say(f"measuring the balance's fidelity on the noise-free replay of {label}")
@@ -777,10 +810,13 @@ def measured_diagnosis(diagnosed, replay, say=lambda msg: None, exact: Optional[
                                      chi2_per_dof=again.reduced_chi2(again.final),
                                      noise_free_below=RIG_FIDELITY if exact == NOISE_FREE else None,
                                      two_periods=exact == TWO_PERIODS),)
-        same = model_kind(again.final.spec) == model_kind(d.final.spec)
+        kind, now = model_kind(d.final.spec), model_kind(again.final.spec)
+        led[kind] = label
         d = again
-        if same:
+        if now == kind:
             break
+        if now in led:  # back to a model whose own fidelity adopted another
+            return d, (FidelityCycle(led[now], label),)
     return d, ()
 
 
@@ -1001,6 +1037,8 @@ def run_train_diagnosis(records: Sequence[ChainRecord], *, run_ids: Sequence[str
         general = generalisation_kind([settings[i] for i in range(len(records)) if i not in held],
                                       [settings[i] for i in held])
     verdict = train_verdict(d, v, held_out_periods=split)
+    for cycle in (n for n in notes if isinstance(n, FidelityCycle)):
+        verdict = unsettled(verdict, cycle.one, cycle.other)
     free = drifting_bodies(d.final if d.steps else d.nominal)
     if free:
         notes.append(NoSpringToFrame(tuple(i + 1 for i in free)))

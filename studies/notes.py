@@ -74,6 +74,17 @@ class FixedFidelity:
 
 
 @dataclass(frozen=True)
+class FidelityCycle:
+    """The measured fidelity does not settle on one model: the balance's misfit measured on the
+    replay of ``one`` (its causes in words) leads the diagnosis to adopt ``other``, and measured on
+    ``other``'s replay, back to ``one``. Neither model is adopted under its own fidelity, so
+    neither is: the verdict is unexplained (:class:`identify.verdict.Grounds.FIDELITY_CYCLE`)."""
+
+    one: str
+    other: str
+
+
+@dataclass(frozen=True)
 class BodyRests:
     """In run ``run``, body ``body`` rests ``rest`` of its period (its rate below ``rest_below`` of its
     peak): its equation is balanced only where its rate exceeds ``balanced_above`` of its peak

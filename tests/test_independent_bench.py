@@ -137,10 +137,11 @@ SUITE = [(j, "none") for j in CASES] + [("paper" if k % 2 == 0 else "light", c) 
 
 #: Cases the diagnosis gets wrong today, each with what is wrong and its issue: the test is
 #: expected to fail on them, and strictly (it fails the run when one passes, so the mark goes).
-KNOWN_MISSES = {
-    ("light", "stribeck_friction/1"): "issue 48: the Stribeck excess reads 15.47 +- 1.48 N m against the bench's 20 "
-                                      "(3.07 standard errors; the Stribeck law's coverage is open)",
-}
+#: None today: the light joint's Stribeck excess, which read 15.47 +- 1.48 N m against the
+#: bench's 20 with the fundamental read from the torque alone, reads 18.72 +- 1.05 with the
+#: twist's frequency combined in (its speed 1.054 +- 0.023 rad/s against 1; the Stribeck law's
+#: coverage over seeds is docs/noisy-measurements.md's).
+KNOWN_MISSES: dict = {}
 
 
 @pytest.mark.slow
@@ -188,21 +189,29 @@ def test_a_joint_that_sticks_most_of_its_cycle_is_explained_with_every_parameter
 @pytest.mark.slow
 def test_a_jenkins_element_below_one_samples_resolution_is_not_named_with_confidence(tmp_path):
     # At 10% noise on every channel (20 dB) the Jenkins element's slip angle (0.05 rad) reads
-    # below one sample's angle resolution (about 0.04 rad). It stands where chi-square tells it
-    # from its zero, dry friction (identify.causes.told_from_zero), and an Iwan element explains
-    # the runs as well (scores 41.6 and 41.6): whichever is adopted, the other is reported as not
-    # told apart, with the runs that would (several small amplitudes). Refused as dry friction, the
-    # Jenkins element was named an Iwan element with no word of doubt.
+    # below one sample's angle resolution (about 0.04 rad), and the element sits at the edge of
+    # detection: over the runs' last six periods its chi-square drop (27) gives p = 7.8e-5
+    # against the 1e-3 / 14 causes' 7.1e-5 (over the first six it passed). Either way no cause
+    # is named with confidence: where the element is significant, it stands (chi-square tells
+    # its slip angle from zero, dry friction: identify.causes.told_from_zero) and an Iwan element
+    # explains the runs as well, so whichever is adopted the other is reported as not told apart,
+    # with the runs that would (several small amplitudes); where it is not, nothing is adopted and
+    # the verdict names no cause. Refused as dry friction, the Jenkins element was once named an
+    # Iwan element with no word of doubt.
     params, _ = CASES["paper"]["hysteresis/1"]
     path = measure(with_effect(JOINTS["paper"], **params), _points("paper"), tmp_path / "bench.csv",
                    seed=sum(map(ord, "paperhysteresis/1")), fs_Hz=2000.0, n_periods=6.5, noise=0.1)
     loaded = read_runs(path)
-    d = run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(2, [1]),
-                            holdout=HOLDOUT).diagnosis
+    report = run_train_diagnosis(loaded.records, run_ids=loaded.run_ids, rig=rig_of_bodies(2, [1]), holdout=HOLDOUT)
+    d = report.diagnosis
     slips = {"hysteresis at joint 1", "micro_slip at joint 1"}
     jenkins = next(s for s in d.first_round if s.label == "hysteresis at joint 1")
-    assert jenkins.significant and jenkins.note is None, jenkins
+    assert jenkins.note is None, jenkins  # never refused as below resolution
     adopted = [s.label for s in d.steps]
+    if not jenkins.significant:
+        assert adopted == [] and report.verdict.causes == () and report.verdict.verdict != "explained", (
+            adopted, report.verdict)
+        return
     assert len(adopted) == 1 and adopted[0] in slips, adopted
     (other,) = slips - set(adopted)
     told = [a for a in d.ambiguities if set(a.effects) == {adopted[0], other}]

@@ -86,9 +86,10 @@ def test_hat_law_and_a_replayed_multiharmonic_drive(rig):
 
 
 def test_a_drive_of_two_hundred_harmonics_is_replayed_natively_and_more_than_the_rig_takes_refused(rig):
-    # A fit at --band 100 replays drives of 100 harmonics: harmonics 0..200 run in C as in Python
-    # (to CALLBACK_RTOL, conftest); the rig's drive takes harmonics up to MAX_HARM - 1 (255), and
-    # a longer one is refused by name.
+    # A fit at --band 100 replays drives of 100 harmonics, and a held-out record's drive with
+    # force pulses holds harmonics far above a fit's band (studies.chain_validate.held_drive_lines):
+    # harmonics 0..200 run in C as in Python (to CALLBACK_RTOL, conftest); the rig's drive takes
+    # harmonics up to MAX_HARM - 1 (255), and a longer one is refused by name.
     import numpy as np
 
     from jointrig.rig.native_callback import MAX_HARM

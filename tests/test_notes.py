@@ -11,7 +11,7 @@ import pytest
 from jointrig.present.notes import bias_unmeasured_text, failures_text, no_replay_text, note_text
 from jointrig.studies import notes
 from jointrig.studies.notes import (DIVERGED, NO_INERTIA, NO_STEADY_STATE, NOR_SPANNED, NOT_FOLLOWED, BandCut, BiasUnmeasured,
-                                    BodyRests, FixedFidelity, JointSticks, NoReplay, NoSpringToFrame, RelativeAngle,
+                                    BodyRests, FidelityCycle, FixedFidelity, JointSticks, NoReplay, NoSpringToFrame, RelativeAngle,
                                     Spanned)
 
 from jointrig.measured import notes as reader  # noqa: E402
@@ -27,7 +27,8 @@ KINDS = [c for _, c in inspect.getmembers(notes, inspect.isclass)
 
 
 def test_every_kind_of_note_has_its_words_and_nothing_else_does():
-    assert {c.__name__ for c in KINDS} == {"BandCut", "FixedFidelity", "BodyRests", "JointSticks", "NoSpringToFrame",
+    assert {c.__name__ for c in KINDS} == {"BandCut", "FixedFidelity", "FidelityCycle", "BodyRests", "JointSticks",
+                                           "NoSpringToFrame",
                                            "Spanned", "RelativeAngle"}
     for kind in KINDS + READER:
         assert kind in note_text.registry, kind
@@ -64,6 +65,9 @@ def test_a_notes_words_carry_its_values():
            "model (2.5e-05 of the balanced torque) it left the best model at chi2/dof 7.25" in clean
     assert "two periods alone" in note_text(FixedFidelity(1e-3, "m", measured=1e-4, chi2_per_dof=3.0, two_periods=True))
     assert "driven by 0.25 of the torque" in note_text(RelativeAngle(0.25))
+    assert note_text(FidelityCycle("a", "a + b")) == (
+        "the measured fidelity does not settle: measured on the replay of a it adopts a + b, measured on a + b's, a; "
+        "the catalogue holds no model that its own fidelity keeps")
     assert ", from your model)" in note_text(RelativeAngle(0.5, True))
 
 
@@ -102,15 +106,15 @@ def test_why_a_bias_was_not_measured_in_words():
 
 def test_the_readers_notes_carry_their_values_into_their_words():
     assert note_text(reader.IncompletePeriod("3", 1100, 256, 4)) == (
-        "run 3: 1100 samples hold 4.297 periods; the last 76 samples (an incomplete period) are not used")
+        "run 3: 1100 samples hold 4.297 periods; the first 76 samples (an incomplete period, where a record from rest settles) are not used")
     ls = reader.LeastSquaresPeriods("0", 114.239, 55.0002008, "torque", 0.00059, 45, 4, 92,
                                     (("torque", 0.0008), ("phi1", 0.0009)), 57)
     assert note_text(ls) == (
         "run 0: 114.239 samples per period at omega = 55.0002008 rad/s (from the torque's line, +- 0.00059) is not a "
         "whole number (a fixed sample rate): harmonics 0..45 of each of 4 whole periods estimated by least squares on "
         "its own samples and synthesised at 92 samples per period; residual RMS relative to each channel's RMS (noise "
-        "plus content above harmonic 45): torque 0.08%, phi1 0.09%; the last 57 samples (an incomplete period) are "
-        "not used")
+        "plus content above harmonic 45): torque 0.08%, phi1 0.09%; the first 57 samples (an incomplete period, where a "
+        "record from rest settles) are not used")
     assert "(from the 'omega' column)" in note_text(dataclasses.replace(ls, omega_column=True, unused=0))
     assert not note_text(dataclasses.replace(ls, unused=0)).endswith("not used")
     assert note_text(reader.CommonMotion("1", 3.0)).startswith("run 1: both flywheels rotate steadily at 3 rad/s")

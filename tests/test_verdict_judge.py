@@ -111,7 +111,7 @@ def test_every_grounds_has_words_and_a_json_value():
     # every branch has its sentence (none raises, none leaves a figure unformatted as a field name)
     for g in Grounds:
         v = Verdict("unexplained", g, ("backlash",), 1.0, 1.2, 1.4, 3.0, 1.5, 2.5, nominal_lost=("3",),
-                    unchecked=(DIVERGED,))
+                    unchecked=(DIVERGED,), cycle=("backlash", "backlash + hysteresis"))
         text = verdict_text(v)
         assert text and "{" not in text and "Grounds" not in text, (g, text)
         assert g.value == g.name.lower()
@@ -168,3 +168,22 @@ def test_the_bound_falls_with_more_components_and_a_lower_false_alarm_rate_raise
     # the parts add as variances
     r = RightModelError(4e-6, 3e-6, 2e-6, 1e-6, 10.0, 1e-3, 4)
     assert r.relative == pytest.approx(math.sqrt(1e-5), rel=1e-12)
+
+
+def test_a_verdict_held_only_under_another_models_fidelity_is_unexplained():
+    # studies.chain_validate.measured_diagnosis found a cycle: the fidelity measured on A adopts B,
+    # on B, A. An explained or no-misfit verdict becomes unexplained and says both models; an
+    # unexplained one stands with its own grounds.
+    from jointrig.identify.verdict import unsettled
+
+    explained = judge(("a",), 1.0, 1.0, 2 * BOUND, BOUND)
+    assert explained.verdict == "explained"
+    v = unsettled(explained, "a", "a + b")
+    assert (v.verdict, v.grounds, v.cycle, v.causes) == ("unexplained", Grounds.FIDELITY_CYCLE, ("a", "a + b"), ("a",))
+    reason = verdict_text(v)
+    assert reason.startswith("no model is adopted under its own fidelity") and "replay of a leads" in reason
+    assert "to a + b" in reason and "chi2/dof 1 (at most" in reason, reason
+    nominal = unsettled(judge((), 1.0, 1.0, 1.0, BOUND), "the nominal model", "a")
+    assert nominal.grounds is Grounds.FIDELITY_CYCLE and "the last (the nominal model:" in verdict_text(nominal)
+    failed = judge(("a",), 1.0, 2 * BOUND, 2 * BOUND, BOUND)
+    assert unsettled(failed, "a", "b") is failed
