@@ -58,6 +58,17 @@ def good_csv(**kw):
     return "run,time,torque,phi1,phi2\n" + "\n".join(_good_rows(**kw)) + "\n"
 
 
+def relative(text: str) -> str:
+    """A two-encoder file as a one-twist-sensor file (columns run, time, torque, phi = phi1 - phi2)."""
+    head, *rows = text.strip().splitlines()
+    assert head == "run,time,torque,phi1,phi2"
+    out = ["run,time,torque,phi"]
+    for row in rows:
+        run, t, torque, p1, p2 = row.split(",")
+        out.append(f"{run},{t},{torque},{float(p1) - float(p2)!r}")
+    return "\n".join(out) + "\n"
+
+
 def three_runs():
     return "run,time,torque,phi1,phi2\n" + "\n".join(
         sum((_good_rows(run=str(r), omega=W * (1 + 0.2 * r)) for r in range(3)), [])) + "\n"
@@ -108,6 +119,11 @@ LOADER = {
     # the twist's unit is the angle's, the torque's N m
     "drifting amplifier": (good_csv(n_periods=4, torque_extra=lambda t: 2000.0 * t),
                            r"run 0: column 'torque' drifts by [0-9.e+-]+ N m over the record \([0-9.e+-]+ N m/s"),
+    # one twist sensor: its column is named as the file names it, and the torque's as its own
+    "slipping twist sensor": (relative(good_csv(n_periods=4, phi1_extra=lambda t: 0.2 * t)),
+                              r"run 0: column 'phi' drifts by [0-9.e+-]+ rad over the record"),
+    "drifting amplifier, one twist sensor": (relative(good_csv(n_periods=4, torque_extra=lambda t: 2000.0 * t)),
+                                             r"run 0: column 'torque' drifts by [0-9.e+-]+ N m over the record"),
     # both flywheels turn alike: the joint never twists, whatever each angle does
     "no twist": (good_csv(rigid=True), r"run 0: column 'phi1 - phi2' does not vary \(spread 0 rad\)"),
     "no drive": ("run,time,torque,phi1,phi2\n" + "\n".join(

@@ -1213,3 +1213,42 @@ def test_columns_given_from_python_as_a_list_of_pairs_read_as_the_command_lines(
 
     assert parse_mapping(["time=t", "torque = M"], "columns") == {"time": "t", "torque": "M"}
     assert parse_mapping(("time=t",), "columns") == parse_mapping("time=t", "columns")
+
+
+def test_every_body_up_to_the_most_has_its_columns_and_si_units():
+    # A line of up to MAX_BODIES bodies: each one's angle or position and drive column is known by
+    # name with its SI unit (a train of 8 on slides names force8 [N]); one past it is not
+    from jointrig.measured.runs import COLUMNS, MAX_BODIES
+
+    for i in range(1, MAX_BODIES + 1):
+        assert (COLUMNS[f"phi{i}"], COLUMNS[f"torque{i}"], COLUMNS[f"x{i}"], COLUMNS[f"force{i}"]) == \
+            ("rad", "N m", "m", "N"), i
+    assert not {f"{c}{i}" for c in ("phi", "torque", "x", "force") for i in (0, MAX_BODIES + 1)} & set(COLUMNS)
+
+
+def test_a_column_mapped_in_another_case_than_the_header_is_found(tmp_path):
+    # --columns torque=TORQUE on a file whose header says "torque": found as the header's
+    # case-insensitive match (as header names are), the same record as without the mapping
+    path = _one_run_csv(tmp_path, 3 * 64)
+    plain, mapped = read_runs(path), read_runs(path, columns={"torque": "TORQUE", "phi2": "Phi2"})
+    np.testing.assert_array_equal(mapped.records[0].torques_Nm[0], plain.records[0].torques_Nm[0])
+    np.testing.assert_array_equal(mapped.records[0].angles_rad[1], plain.records[0].angles_rad[1])
+    with pytest.raises(RunsFileError, match=r"column 'Torque2' \(mapped to 'torque'\) is not in the file"):
+        read_runs(path, columns={"torque": "Torque2"})
+
+
+def test_a_file_without_units_says_first_that_si_is_assumed(tmp_path):
+    # no unit in the header, no sidecar, no --units: the first note says SI is assumed and how to
+    # state others; a header with units, or --units, says nothing of it
+    from jointrig.measured.notes import NoUnits
+
+    # two runs, each with an incomplete last period (a note each, made before the units' one)
+    t = np.arange(3 * 64 + 10) * (2 * math.pi / W / 64)
+    path = tmp_path / "r.csv"
+    path.write_text(csv_text(t) + csv_text(t, run="1").split("\n", 1)[1])
+    loaded = read_runs(path)
+    assert loaded.notes[0] == NoUnits() and len(loaded.notes) > 2, loaded.notes
+    assert "SI assumed (time s, torque N m, angles rad" in note_words(loaded.notes)[0]
+    assert NoUnits() not in read_runs(path, units={"torque": "N m"}).notes
+    (tmp_path / "u.csv").write_text(path.read_text().replace("torque,phi1", "torque [N m],phi1 [rad]", 1))
+    assert NoUnits() not in read_runs(tmp_path / "u.csv").notes
