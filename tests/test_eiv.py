@@ -511,3 +511,17 @@ def test_a_fit_with_one_degree_of_freedom_left_has_its_chi_square_p_value():
     assert np.all(np.abs(res.values - [Je, c]) < 4 * res.std_errors), (res.values, res.std_errors)
     assert 0 < res.p_value <= 1
     assert res.p_value == pytest.approx(float(stats.chi2.sf(res.cost, 1)), rel=1e-12)
+
+
+def test_the_spectral_derivative_keeps_harmonics_up_to_its_band_and_none_above():
+    # identify.eiv._derivative_operator: harmonics 1..band differentiated exactly (the band's
+    # own included), band + 1 removed; 64 samples a period resolve both
+    from jointrig.identify.eiv import _derivative_operator
+
+    N, w, band = 64, 30.0, 5
+    theta = 2 * math.pi * np.arange(N) / N
+    D = _derivative_operator(N, w, 1, band)
+    np.testing.assert_allclose(D @ np.cos(band * theta), -band * w * np.sin(band * theta), atol=1e-9)
+    np.testing.assert_allclose(D @ np.cos((band + 1) * theta), 0.0, atol=1e-9)
+    D2 = _derivative_operator(N, w, 2, band)
+    np.testing.assert_allclose(D2 @ np.sin(2 * theta), -(2 * w) ** 2 * np.sin(2 * theta), atol=1e-7)

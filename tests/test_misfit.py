@@ -58,6 +58,16 @@ def test_a_dissipative_residual_is_in_quadrature():
     assert "dissipative at the fundamental" in character_text(c) and "grows with frequency" in character_text(c)
 
 
+def test_two_runs_give_no_slope():
+    # three unknowns (a size, a slope against frequency, one against the level) need three runs:
+    # two give none (0, "about independent"), not the least-norm guess two equations would
+    runs = [_run(i, w, a, lambda th, p, v: 2.0 * v) for i, (w, a) in enumerate(((20.0, 1.0), (40.0, 2.0)))]
+    c = misfit_character(runs, 10)
+    assert (c.frequency_slope, c.amplitude_slope) == (0.0, 0.0)
+    assert misfit_character(runs + [_run(2, 30.0, 1.0, lambda th, p, v: 2.0 * v)], 10).frequency_slope == \
+        pytest.approx(1.0, abs=1e-9)
+
+
 def test_an_even_residual_and_its_measurements():
     # a phi^2 term: harmonic 2 alone (its mean is left out), even; the surface is not point-symmetric
     runs = [_run(i, 30.0, a, lambda th, p, v: 3e4 * p * p) for i, a in enumerate((1.0, 2.0, 4.0))]
