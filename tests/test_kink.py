@@ -148,3 +148,23 @@ def test_the_periods_scatter_of_switch_shifts_is_the_averages_switch_noise():
         estimated.append(shifts.area_s.var(axis=0, ddof=1) / P)
     assert np.allclose(np.var(moved, axis=0), truth, rtol=0.08)
     assert np.allclose(np.mean(estimated, axis=0), truth, rtol=0.08)
+
+
+def test_a_crossing_between_a_periods_last_and_first_sample_is_corrected_as_any_other():
+    # The period wraps round: a record's period may start anywhere, so a zero crossing of the rate
+    # can fall between its last sample and its first. The correction of a period rolled so that
+    # one does is the unrolled period's correction, rolled (to round-off); were that crossing
+    # missed, the period's count would be odd and it would keep its band-limited rate.
+    M, band, w = 1024, 20, 40.0
+    th = 2 * np.pi * np.arange(M) / M
+    phi = 0.2 * np.sin(th + 0.3) + 0.01 * np.sin(3 * th)
+    v = spectral_rate(phi, w, 1)
+    i0 = int(np.flatnonzero(np.sign(v[1:]) != np.sign(v[:-1]))[0]) + 1  # v changes sign between i0 - 1 and i0
+    for edge in (-1, 0, 1):  # the crossing between samples 0 and 1, the last and the first, M-2 and M-1
+        s = (edge - i0) % M
+        rolled = np.roll(phi, s)
+        vr = spectral_rate(rolled, w, 1)
+        assert np.sign(vr[edge - 1]) != np.sign(vr[edge]), edge
+        got, want = kink_corrected_rate(rolled, w, band, 300.0), np.roll(kink_corrected_rate(phi, w, band, 300.0), s)
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-9 * np.abs(want).max(), err_msg=str(edge))
+        assert np.abs(got - vr).max() > 1e-4 * np.abs(want).max()  # it did correct

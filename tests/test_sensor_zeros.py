@@ -190,6 +190,7 @@ def test_sensor_zeros_are_the_channels_means_with_their_spread_across_runs():
     assert z.torques[0] == pytest.approx(4.0) and z.torque_se[0] == pytest.approx(1.0)
     assert math.isnan(z.torques[1]) and not z.kept
     assert rezeroed(runs[0], z).angles_rad[0] == pytest.approx(s - 0.1)
+    assert rezeroed(runs[0], None) is runs[0]  # nothing to take out: the record itself
     one = sensor_zeros(runs[:1])
     assert math.isnan(one.angle_se[0]) and math.isnan(one.torque_se[0])
     blind = sensor_zeros([rec(1.0, 0.25, -2.0, 3.0, measured3=False)] * 2)
