@@ -467,6 +467,53 @@ def test_the_dissipation_slope_of_two_weighted_points_is_their_errors_propagated
     assert math.isnan(rate) and math.isnan(rate_se)
 
 
+def test_the_dissipation_slope_of_points_without_errors_is_ordinary_least_squares():
+    # Points whose dissipation carries no standard error: equal weights, the error scaled by the
+    # residual over n - 2 degrees of freedom, as scipy.stats.linregress gives it (rel 1e-9: two
+    # closed forms of one 5-point regression). Below that, a line through two points has no
+    # residual to scale by: NaN, not a number that looks measured.
+    from scipy import stats
+
+    from jointrig.identify.card import CardPoint, dissipation_slope
+
+    amps, energies = (0.01, 0.02, 0.03, 0.05, 0.08), (3.0, 11.0, 29.0, 70.0, 210.0)
+    pts = [CardPoint(a, 20.0, 20.0, 0.01, e, 1000.0, 1.0) for a, e in zip(amps, energies)]
+    slope, se, rate, _ = dissipation_slope(pts)
+    ref = stats.linregress(np.log(amps), np.log(energies))
+    assert slope == pytest.approx(ref.slope, rel=1e-9) and se == pytest.approx(ref.stderr, rel=1e-9)
+    assert math.isnan(rate)
+    assert math.isnan(dissipation_slope(pts[:2])[1])
+    three = stats.linregress(np.log(amps[:3]), np.log(energies[:3]))  # one degree of freedom
+    assert dissipation_slope(pts[:3])[1] == pytest.approx(three.stderr, rel=1e-9)
+
+
+@pytest.mark.parametrize("rel, scaled", [(0.01, True), (0.5, False)])
+def test_weighted_points_scale_their_error_by_the_residual_only_where_it_exceeds_them(rel, scaled):
+    # Weights 1 / rel^2 (relative errors on E are errors on ln E): the slope's error is the
+    # weighted fit's, times sqrt(chi2 / dof) where the points scatter more than their errors say
+    # (1% errors on points 10-30% off a line), and unscaled where less (50% errors); the reference
+    # is the same regression by scipy's lstsq on rows scaled by their weights (rel 1e-9)
+    from jointrig.identify.card import CardPoint, dissipation_slope
+
+    amps, energies = (0.01, 0.02, 0.03, 0.05, 0.08), (3.0, 11.0, 29.0, 70.0, 210.0)
+    pts = [CardPoint(a, 20.0, 20.0, 0.01, e, 1000.0, 1.0, dissipation_J_per_cycle_std=rel * e)
+           for a, e in zip(amps, energies)]
+    X = np.column_stack([np.ones(5), np.log(amps)]) / rel
+    y = np.log(energies) / rel
+    beta, chi2, *_ = np.linalg.lstsq(X, y, rcond=None)
+    cov = np.linalg.inv(X.T @ X)
+    scale = float(chi2[0]) / 3
+    assert (scale > 1) is scaled
+    slope, se, _, _ = dissipation_slope(pts)
+    assert slope == pytest.approx(beta[1], rel=1e-9)
+    assert se == pytest.approx(math.sqrt(cov[1, 1] * max(1.0, scale)), rel=1e-9)
+    # three points: one degree of freedom, scaled alike
+    _, chi2_3, *_ = np.linalg.lstsq(X[:3], y[:3], rcond=None)
+    cov3 = np.linalg.inv(X[:3].T @ X[:3])
+    assert dissipation_slope(pts[:3])[1] == pytest.approx(math.sqrt(cov3[1, 1] * max(1.0, float(chi2_3[0]))),
+                                                          rel=1e-9)
+
+
 @pytest.mark.parametrize("n", [15, 16])
 def test_masing_check_bands_a_coarsely_sampled_run_to_its_harmonics_below_nyquist(n):
     # Runs sampled 15 or 16 times a period hold harmonics 1..7 below Nyquist, fewer than the
