@@ -170,8 +170,6 @@ def estimate_fundamental(t: np.ndarray, x: np.ndarray, *, harmonics: int = 10) -
     dw = 2 * math.pi / (8 * n * dt)
     H = max(1, min(harmonics, int(math.pi / (w0 * dt)) - 1))
     lo = max(w0 - 2 * dw, 0.5 * w0)
-    from scipy.optimize import minimize_scalar
-
     return _least_squares_fundamental(t, x, H, lo, w0 + 2 * dw, dw)
 
 
